@@ -1,0 +1,31 @@
+# Complex modulus of asphalt concrete by NSCD: the reproducible workflow.
+# Run: `make run` (default config) or `snakemake --cores 2 --configfile config/smoke.yaml`.
+from snakemake.utils import min_version, validate
+
+min_version("9.0")
+
+
+configfile: "config/config.yaml"
+
+
+validate(config, "workflow/schemas/config.schema.yaml")
+
+
+report: "workflow/report/workflow.rst"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/lab_data.smk"
+include: "workflow/rules/rheology.smk"
+include: "workflow/rules/nscd.smk"
+include: "workflow/rules/sample.smk"
+include: "workflow/rules/simulation.smk"
+include: "workflow/rules/harmonic.smk"
+include: "workflow/rules/diagnosis.smk"
+include: "workflow/rules/report.smk"
+
+
+rule all:
+    input:
+        report_targets(),
+    default_target: True

@@ -1,0 +1,23 @@
+"""asphalt_nscd: NonSmooth Contact Dynamics modelling of the complex modulus of asphalt concrete.
+
+Reproduces and extends Quezada & Chazallon, "Complex modulus modeling of asphalt concrete
+mixes using the NonSmooth Contact Dynamics method", Computers and Geotechnics 117 (2020) 103255.
+
+Subpackages follow the workflow's chain:
+
+=============  ==============================================================
+``lab``        EN 12697-26 2PB reduction (Eqs. 1-5), measured-table ingestion
+``rheology``   Burger's and generalized Burger's laws, calibration (Eqs. 27-33, 8-11)
+``sample``     numerical sample preparation (Section 3.2.1)
+``nscd``       compiled NSCD core: Moreau-Jean, Delassus, nonlinear Gauss-Seidel
+``campaign``   numerical 2PB complex modulus test and sensitivity study
+``harmonic``   exact steady-state complex modulus of a bonded sample
+``diagnosis``  error budget, named causes, extended contact law
+``figures``    isotherms, Black diagram, Cole-Cole plane, paper figures
+=============  ==============================================================
+
+Units: SI inside the code (m, N, Pa, Pa s, kg, s, rad); MPa, degrees, Hz and degC at the
+edges (tables, figures, CLI), converted explicitly where read or written.
+"""
+
+__version__ = "0.1.0"

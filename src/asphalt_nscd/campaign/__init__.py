@@ -1,0 +1,1 @@
+"""campaign subpackage (see asphalt_nscd docstring)."""

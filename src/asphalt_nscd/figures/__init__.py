@@ -1,0 +1,1 @@
+"""figures subpackage (see asphalt_nscd docstring)."""

@@ -1,0 +1,1 @@
+"""harmonic subpackage (see asphalt_nscd docstring)."""

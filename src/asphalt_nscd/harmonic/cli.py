@@ -1,0 +1,5 @@
+"""Subcommands of the harmonic step (registered by asphalt_nscd.cli)."""
+
+
+def register(subparsers) -> None:
+    """Add this step's subcommands to the asphalt-nscd parser."""

@@ -1,0 +1,1 @@
+"""lab subpackage (see asphalt_nscd docstring)."""

@@ -1,0 +1,1 @@
+"""nscd subpackage (see asphalt_nscd docstring)."""

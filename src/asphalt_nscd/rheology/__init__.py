@@ -1,0 +1,1 @@
+"""rheology subpackage (see asphalt_nscd docstring)."""

@@ -1,0 +1,1 @@
+"""sample subpackage (see asphalt_nscd docstring)."""

@@ -1,0 +1,1 @@
+# Rules of the diagnosis step (see README).

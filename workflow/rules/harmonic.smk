@@ -1,0 +1,1 @@
+# Rules of the harmonic step (see README).

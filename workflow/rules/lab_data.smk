@@ -1,0 +1,1 @@
+# Rules of the lab_data step (see README).

@@ -1,0 +1,1 @@
+# Rules of the nscd step (see README).

@@ -1,0 +1,1 @@
+# Rules of the rheology step (see README).

@@ -1,0 +1,1 @@
+# Rules of the simulation step (see README).
