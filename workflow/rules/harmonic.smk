@@ -1,1 +1,251 @@
-# Rules of the harmonic step (see README).
+# Harmonic (frequency-domain) solver of the bonded samples: exact steady-state |E*|, Phi of
+# the discrete model per (T, f), for both parameter modes:
+#   paper    = the paper's Table 3 (results/calibration/paper_table3.csv) x harmonic.paper_frequencies_Hz
+#   measured = results/calibration/burgers_parameters.csv at the measured (T, f) of the lab summary
+# plus a dense frequency sweep (isotherms, Black, Cole-Cole beside the macro law and the
+# measured data), the network factor table (sample |E*| / macro |E*|), the sensitivity study
+# on a finer grid, the time-domain (NSCD) check and a benchmark.
+# Rerun one target: `snakemake --cores 1 results/harmonic/jobs/s1_paper.csv --forcerun harmonic_jobs`.
+
+HARM = config["harmonic"]
+HARMONIC_MODES = ["paper", "measured"]
+HARMONIC_PLOTS = ["isotherms-modulus", "isotherms-phase", "black", "cole-cole"]
+HARMONIC_PARAMETERS = {
+    "paper": "results/calibration/paper_table3.csv",
+    "measured": "results/calibration/burgers_parameters.csv",
+}
+# The sample of the single-sample studies (sensitivity, time-domain check): the first one.
+HARMONIC_SAMPLE = SAMPLES[0]
+
+
+def _harmonic_frequencies(wc, input):
+    """Frequency option of a mode: the paper's list, or the measured (T, f) of the lab summary."""
+    if wc.mode == "paper":
+        return "--frequency " + " ".join(str(f) for f in HARM["paper_frequencies_Hz"])
+    return f"--frequencies-from {input.summary}"
+
+
+def _solver_options():
+    return f"--inertia {HARM['inertia']} --solver {HARM['solver']} --rtol {HARM['rtol']}"
+
+
+rule harmonic_jobs:
+    input:
+        sample="results/samples/{sample}.h5",
+        parameters=lambda wc: HARMONIC_PARAMETERS[wc.mode],
+        summary="results/lab/measured_summary.csv",
+    output:
+        "results/harmonic/jobs/{sample}_{mode}.csv",
+    wildcard_constraints:
+        mode="paper|measured",
+    params:
+        frequencies=_harmonic_frequencies,
+        options=_solver_options(),
+    log:
+        "logs/harmonic/jobs_{sample}_{mode}.log",
+    benchmark:
+        "benchmarks/harmonic/jobs_{sample}_{mode}.tsv"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=10,
+    shell:
+        "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
+        "{params.frequencies} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
+
+
+rule harmonic_sweep:
+    input:
+        sample="results/samples/{sample}.h5",
+        parameters=lambda wc: HARMONIC_PARAMETERS[wc.mode],
+    output:
+        "results/harmonic/sweep/{sample}_{mode}.csv",
+    wildcard_constraints:
+        mode="paper|measured",
+    params:
+        sweep=f"{HARM['sweep']['fmin_Hz']} {HARM['sweep']['fmax_Hz']} {HARM['sweep']['points']}",
+        options=_solver_options(),
+    log:
+        "logs/harmonic/sweep_{sample}_{mode}.log",
+    benchmark:
+        "benchmarks/harmonic/sweep_{sample}_{mode}.tsv"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=30,
+    shell:
+        "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
+        "--sweep {params.sweep} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
+
+
+rule harmonic_figures:
+    input:
+        sweeps=expand("results/harmonic/sweep/{sample}_{{mode}}.csv", sample=SAMPLES),
+        summary="results/lab/measured_summary.csv",
+    output:
+        isotherms_modulus=report(
+            "results/harmonic/figures/{mode}_isotherms-modulus.png",
+            caption="../report/harmonic_isotherms.rst",
+            category="Harmonic solver",
+            subcategory="{mode} parameters",
+        ),
+        isotherms_phase=report(
+            "results/harmonic/figures/{mode}_isotherms-phase.png",
+            caption="../report/harmonic_isotherms.rst",
+            category="Harmonic solver",
+            subcategory="{mode} parameters",
+        ),
+        black=report(
+            "results/harmonic/figures/{mode}_black.png",
+            caption="../report/harmonic_black.rst",
+            category="Harmonic solver",
+            subcategory="{mode} parameters",
+        ),
+        cole_cole=report(
+            "results/harmonic/figures/{mode}_cole-cole.png",
+            caption="../report/harmonic_cole_cole.rst",
+            category="Harmonic solver",
+            subcategory="{mode} parameters",
+        ),
+    wildcard_constraints:
+        mode="paper|measured",
+    log:
+        "logs/harmonic/figures_{mode}.log",
+    benchmark:
+        "benchmarks/harmonic/figures_{mode}.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    shell:
+        "asphalt-nscd harmonic-plot --harmonic {input.sweeps} --measured {input.summary} "
+        "--title '{wildcards.mode} parameters' "
+        "--isotherms-modulus {output.isotherms_modulus} --isotherms-phase {output.isotherms_phase} "
+        "--black {output.black} --cole-cole {output.cole_cole} 2> {log}"
+
+
+rule harmonic_network_factor:
+    input:
+        expand("results/harmonic/jobs/{sample}_{mode}.csv", sample=SAMPLES, mode=HARMONIC_MODES),
+    output:
+        table=report(
+            "results/harmonic/network_factor.csv",
+            caption="../report/harmonic_network_factor.rst",
+            category="Harmonic solver",
+        ),
+        summary=report(
+            "results/harmonic/network_factor_summary.csv",
+            caption="../report/harmonic_network_factor.rst",
+            category="Harmonic solver",
+        ),
+    log:
+        "logs/harmonic/network_factor.log",
+    benchmark:
+        "benchmarks/harmonic/network_factor.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    shell:
+        "asphalt-nscd harmonic-network-factor {input} -o {output.table} --summary {output.summary} 2> {log}"
+
+
+rule harmonic_sensitivity:
+    input:
+        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
+        parameters=HARMONIC_PARAMETERS["paper"],
+    output:
+        table=report(
+            "results/harmonic/sensitivity.csv",
+            caption="../report/harmonic_sensitivity.rst",
+            category="Harmonic solver",
+        ),
+        figure=report(
+            "results/harmonic/sensitivity.png",
+            caption="../report/harmonic_sensitivity.rst",
+            category="Harmonic solver",
+        ),
+    params:
+        temperature=HARM["sensitivity"]["temperature_C"],
+        frequencies=" ".join(str(f) for f in HARM["sensitivity"]["frequencies_Hz"]),
+        levels=" ".join(str(p) for p in HARM["sensitivity"]["levels_percent"]),
+        inertia=HARM["inertia"],
+    log:
+        "logs/harmonic/sensitivity.log",
+    benchmark:
+        "benchmarks/harmonic/sensitivity.tsv"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=30,
+    shell:
+        "asphalt-nscd harmonic-sensitivity --sample {input.sample} --parameters {input.parameters} "
+        "--temperature {params.temperature} --frequency {params.frequencies} --levels {params.levels} "
+        "--inertia {params.inertia} -o {output.table} --figure {output.figure} 2> {log}"
+
+
+rule harmonic_compare:
+    input:
+        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
+        parameters=HARMONIC_PARAMETERS["paper"],
+    output:
+        table=report(
+            "results/harmonic/compare_time_domain.csv",
+            caption="../report/harmonic_compare.rst",
+            category="Harmonic solver",
+        ),
+        figure=report(
+            "results/harmonic/compare_time_domain.png",
+            caption="../report/harmonic_compare.rst",
+            category="Harmonic solver",
+        ),
+    params:
+        temperatures=" ".join(str(t) for t in HARM["compare"]["temperatures_C"]),
+        frequencies=" ".join(str(f) for f in HARM["compare"]["frequencies_Hz"]),
+        dts=" ".join(str(d) for d in HARM["compare"]["dt_s"]),
+        rtols=" ".join(str(r) for r in HARM["compare"]["rtol"]),
+        cycles=HARM["compare"]["cycles"],
+        settle=HARM["compare"]["settle_factor"],
+    log:
+        "logs/harmonic/compare_time_domain.log",
+    benchmark:
+        "benchmarks/harmonic/compare_time_domain.tsv"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=lambda wc: HARM["compare"]["runtime_min"],
+    shell:
+        "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters} "
+        "--temperature {params.temperatures} --frequency {params.frequencies} --dt {params.dts} "
+        "--rtol {params.rtols} --cycles {params.cycles} --settle-factor {params.settle} "
+        "-o {output.table} --figure {output.figure} 2> {log}"
+
+
+rule harmonic_bench:
+    output:
+        "results/harmonic/bench.json",
+    params:
+        n=HARM["bench"]["n_spheres"],
+        td_steps=HARM["bench"]["time_domain_steps"],
+    log:
+        "logs/harmonic/bench.log",
+    benchmark:
+        "benchmarks/harmonic/bench.tsv"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=15,
+    shell:
+        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} -o {output} 2> {log}"
+
+
+REPORT_FILES += expand("results/harmonic/figures/{mode}_{plot}.png", mode=HARMONIC_MODES, plot=HARMONIC_PLOTS)
+REPORT_FILES += [
+    "results/harmonic/network_factor.csv",
+    "results/harmonic/network_factor_summary.csv",
+    "results/harmonic/sensitivity.csv",
+    "results/harmonic/sensitivity.png",
+    "results/harmonic/compare_time_domain.csv",
+    "results/harmonic/compare_time_domain.png",
+    "results/harmonic/bench.json",
+]

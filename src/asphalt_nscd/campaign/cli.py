@@ -1,5 +1,321 @@
-"""Subcommands of the campaign step (registered by asphalt_nscd.cli)."""
+"""Subcommands of the campaign step (registered by asphalt_nscd.cli).
+
+``run-2pb``             one numerical 2PB complex modulus test: record (HDF5) + reduced row (CSV)
+``campaign-isotherms``  numerical isotherms, Table 4 analogue, Figs. 9-10 analogues of one mode
+``campaign-dt-study``   Fig. 6 analogue (time-step influence) and its table
+``campaign-last-cycle`` Figs. 7-8 analogues (last cycle, velocity profile) from one record
+``campaign-sensitivity`` sensitivity table and Figs. 11-14 analogues
+``campaign-units``      the Table 3 units question (Pa versus kPa reading)
+``campaign-dt-policy``  phase error of the time-step policy (bond law, phase_error_table)
+``campaign-bench``      time per step of the 2PB test and projected campaign time (JSON)
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def _settings_options(p):
+    p.add_argument("--settings-json", default="{}",
+                   help="the campaign.test config section as JSON (keys of TwoPBSettings)")
+    p.add_argument("--window-cycles", type=float, default=None,
+                   help="last cycles reduced (config lab.simulation_window_cycles)")
+
+
+def _parameter_options(p):
+    p.add_argument("--parameters", required=True,
+                   help="Burger's parameter table: calibrated CSV in MPa, or the paper's Table 3 as printed")
+    p.add_argument("--table3-units", choices=("Pa", "kPa"), default=None,
+                   help="read --parameters as the paper's Table 3 under this unit reading")
 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser("run-2pb", help="one numerical 2PB complex modulus test (record + reduced row)",
+                              description="Run (or resume from its checkpoint) the numerical 2PB test of a sample "
+                              "at one temperature and frequency, write the record (HDF5) and the row reduced by "
+                              "EN 12697-26 Eqs. 1-5 (CSV).")
+    p.add_argument("--sample", required=True, help="sample file (.h5)")
+    p.add_argument("--sample-name", default=None, help="sample name for the row (default: file stem)")
+    p.add_argument("--mode", default="paper", help="label of the parameter set (paper, measured, ...)")
+    _parameter_options(p)
+    p.add_argument("--temperature", type=float, required=True, help="temperature, degC")
+    p.add_argument("--frequency", type=float, required=True, help="loading frequency, Hz")
+    p.add_argument("--factor", action="append", default=[], metavar="NAME=X",
+                   help="multiply a Burger's parameter (Em, eta_m, Ek, eta_k) by X; repeatable")
+    p.add_argument("--dt", type=float, default=None, help="fixed time step, s (overrides the dt policy)")
+    _settings_options(p)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("-o", "--output", required=True, help="record (.h5)")
+    p.add_argument("--row", required=True, help="reduced row (.csv)")
+    p.set_defaults(func=_run)
+
+    p = subparsers.add_parser("campaign-isotherms", help="numerical isotherms, Table 4 analogue, Figs. 9-10")
+    p.add_argument("--rows", nargs="+", required=True, help="reduced rows (CSV) of one mode")
+    _parameter_options(p)
+    p.add_argument("--measured-summary", default=None,
+                   help="measured means per (T, f) (results/lab/measured_summary.csv); default reference: "
+                   "the Burger's isotherms of --parameters")
+    p.add_argument("--paper-table4", default=None, help="the paper's Table 4 to show beside (paper mode)")
+    p.add_argument("--fmin", type=float, default=0.05, help="lowest frequency of the model curves, Hz")
+    p.add_argument("--fmax", type=float, default=50.0, help="highest frequency of the model curves, Hz")
+    p.add_argument("--isotherms", required=True, help="output numerical isotherms CSV")
+    p.add_argument("--table4", required=True, help="output Table 4 analogue CSV")
+    p.add_argument("--figure-modulus", required=True, help="Fig. 9 analogue (png)")
+    p.add_argument("--figure-phase", required=True, help="Fig. 10 analogue (png)")
+    p.add_argument("--title", default="", help="figure title")
+    p.set_defaults(func=_isotherms)
+
+    p = subparsers.add_parser("campaign-dt-study", help="Fig. 6 analogue: influence of the time step")
+    p.add_argument("--records", nargs="+", required=True, help="records (.h5) at several dt")
+    p.add_argument("--rows", nargs="+", required=True, help="their reduced rows (CSV)")
+    _parameter_options(p)
+    p.add_argument("--table", required=True, help="output CSV")
+    p.add_argument("--figure", required=True, help="output png")
+    p.set_defaults(func=_dt_study)
+
+    p = subparsers.add_parser("campaign-last-cycle", help="Figs. 7-8 analogues from one record")
+    p.add_argument("--record", required=True, help="record (.h5)")
+    p.add_argument("--figure-cycle", required=True, help="Fig. 7 analogue (png)")
+    p.add_argument("--figure-profile", required=True, help="Fig. 8 analogue (png)")
+    p.set_defaults(func=_last_cycle)
+
+    p = subparsers.add_parser("campaign-sensitivity", help="sensitivity table and Figs. 11-14 analogues")
+    p.add_argument("--rows", nargs="+", required=True, help="reduced rows of the varied runs (CSV)")
+    p.add_argument("--baseline", nargs="+", required=True, help="reduced rows of the unvaried runs (CSV)")
+    _parameter_options(p)
+    p.add_argument("--temperature", type=float, default=20.0, help="temperature, degC")
+    p.add_argument("--table", required=True, help="output CSV")
+    p.add_argument("--figures", nargs=4, required=True, metavar="PNG",
+                   help="figures for Em, eta_m, Ek, eta_k (Figs. 11-14 analogues)")
+    p.set_defaults(func=_sensitivity)
+
+    p = subparsers.add_parser("campaign-units", help="the Table 3 units question, both readings")
+    p.add_argument("--table3", required=True, help="the paper's Table 3 as printed")
+    p.add_argument("--rows-pa", nargs="+", required=True, help="reduced rows of the Pa-reading runs")
+    p.add_argument("--rows-kpa", nargs="+", required=True, help="reduced rows of the kPa-reading runs")
+    p.add_argument("--sample", required=True, help="sample file of the runs (.h5)")
+    p.add_argument("--temperature", type=float, required=True, help="temperature of the runs, degC")
+    p.add_argument("--grain-mass-kg", type=float, default=2.86e-5, help="typical grain mass m_g, kg")
+    p.add_argument("--r-min-mm", type=float, default=1.0, help="r_min of the representative bond, mm")
+    p.add_argument("--l0-mm", type=float, default=2.0, help="l0 of the representative bond, mm")
+    p.add_argument("-o", "--output", required=True, help="output CSV")
+    p.set_defaults(func=_units)
+
+    p = subparsers.add_parser("campaign-dt-policy", help="phase error of the dt policy (one bond)")
+    _parameter_options(p)
+    p.add_argument("--temperature", type=float, required=True, help="temperature, degC")
+    p.add_argument("--frequencies", type=float, nargs="+", required=True, help="frequencies, Hz")
+    _settings_options(p)
+    p.add_argument("-o", "--output", required=True, help="output CSV")
+    p.set_defaults(func=_dt_policy)
+
+    p = subparsers.add_parser("campaign-bench", help="time per step of the 2PB test and projected campaign time",
+                              description="Time the 2PB test on a sample file or a bonded lattice sample and "
+                              "project the total time of the campaign of a config file (JSON output).")
+    p.add_argument("--sample", default=None, help="sample file (.h5); default: a lattice sample of --n-spheres")
+    p.add_argument("--n-spheres", type=int, default=2000, help="spheres of the lattice sample")
+    p.add_argument("--steps", type=int, default=200, help="timed steps")
+    p.add_argument("--config", action="append", default=[],
+                   help="workflow config (YAML) whose campaign is projected; repeatable")
+    p.add_argument("--overhead-s", type=float, default=3.0, help="start-up time of one job, s")
+    p.add_argument("-o", "--output", required=True, help="output JSON")
+    p.set_defaults(func=_bench)
+
+
+def _settings(args):
+    import json
+
+    from ..io import InputError
+    from .twopb import TwoPBSettings
+
+    try:
+        cfg = json.loads(args.settings_json)
+    except ValueError as exc:
+        raise InputError(f"--settings-json: not valid JSON ({exc})") from exc
+    if getattr(args, "window_cycles", None) is not None:
+        cfg["window_cycles"] = args.window_cycles
+    names = set(TwoPBSettings.__dataclass_fields__)
+    unknown = sorted(set(cfg) - names)
+    if unknown:
+        raise InputError(f"--settings-json: unknown key(s) {unknown}; expected some of {sorted(names)}")
+    try:
+        return TwoPBSettings(**cfg)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"--settings-json: {exc}") from exc
+
+
+def _read_rows(paths):
+    import pandas as pd
+
+    from ..io import InputError
+
+    try:
+        return pd.concat([pd.read_csv(p) for p in paths], ignore_index=True)
+    except FileNotFoundError as exc:
+        raise InputError(f"reduced row not found: {exc.filename}") from exc
+
+
+def _run(args) -> int:
+    import dataclasses
+    from pathlib import Path
+
+    import pandas as pd
+
+    from ..io import InputError, write_csv
+    from . import study, twopb
+
+    settings = _settings(args)
+    if args.dt is not None:
+        settings = dataclasses.replace(settings, dt_policy="fixed", dt_s=args.dt)
+    factors = {}
+    for item in args.factor:
+        name, _, value = item.partition("=")
+        try:
+            factors[name] = float(value)
+        except ValueError:
+            raise InputError(f"--factor {item!r}: expected NAME=number") from None
+    table = study.parameter_table(args.parameters, args.table3_units)
+    params = study.parameters_at(table, args.temperature, factors, where=args.parameters)
+    law = study.law_of(params)
+    name = args.sample_name or Path(args.sample).stem
+    meta = {"mode": args.mode, "sample": name, "temperature_C": args.temperature,
+            "table3_units": args.table3_units or "", "variant": ";".join(args.factor) or "base",
+            "parameter": ";".join(f.partition("=")[0] for f in args.factor) or "",
+            "factor": float(next(iter(factors.values()))) if len(factors) == 1 else 1.0,
+            **{k: v for k, v in params.items()}}
+    rec = twopb.run_test(args.sample, law, args.frequency, settings, args.output, meta=meta,
+                         progress=not args.no_progress)
+    row = twopb.reduce_test(rec, settings.window_cycles)
+    row.update({k: v for k, v in params.items()})
+    first = ["temperature_C", "frequency_Hz", "sample", "mode"]
+    frame = pd.DataFrame([row])
+    write_csv(frame[first + [c for c in frame.columns if c not in first]], args.row)
+    return 0
+
+
+def _isotherms(args) -> int:
+    import numpy as np
+    import pandas as pd
+
+    from ..io import savefig, write_csv
+    from ..rheology.calibration import burgers_curves
+    from . import figures, study
+
+    rows = _read_rows(args.rows)
+    table = study.parameter_table(args.parameters, args.table3_units)
+    temps = sorted(rows["temperature_C"].unique())
+    curves = burgers_curves(table[table["temperature_C"].isin(temps)],
+                            np.geomspace(args.fmin, args.fmax, 61))
+    points = None
+    if args.measured_summary:
+        summary = pd.read_csv(args.measured_summary)
+        ref = study.measured_reference(summary)
+        points = summary[summary["temperature_C"].isin(temps)]
+        label = "measured (mean ± sd)"
+    else:
+        ref = study.burgers_reference(table, rows["temperature_C"], rows["frequency_Hz"]).drop_duplicates()
+        label = "Burger's (Table 3)"
+    iso = study.numerical_isotherms(rows, ref)
+    write_csv(iso, args.isotherms)
+    paper4 = pd.read_csv(args.paper_table4) if args.paper_table4 else None
+    write_csv(study.table4(iso, paper4), args.table4)
+    fm, fp = figures.isotherm_figures(iso, curves, label, reference_points=points, title=args.title)
+    savefig(fm, args.figure_modulus)
+    savefig(fp, args.figure_phase)
+    return 0
+
+
+def _dt_study(args) -> int:
+    from ..io import savefig, write_csv
+    from . import figures, study, twopb
+
+    rows = _read_rows(args.rows)
+    recs = [twopb.read_record(p) for p in args.records]
+    table = study.parameter_table(args.parameters, args.table3_units)
+    T, f = float(rows["temperature_C"].iloc[0]), float(rows["frequency_Hz"].iloc[0])
+    ref = study.burgers_reference(table, [T], [f]).iloc[0]
+    rows = rows.assign(E_norm_MPa_ref=ref["E_norm_MPa_ref"], phase_deg_ref=ref["phase_deg_ref"])
+    keep = ["temperature_C", "frequency_Hz", "sample", "dt_s", "n_steps", "E_norm_MPa", "phase_deg",
+            "E_norm_MPa_other_reading", "phase_deg_other_reading", "E_norm_MPa_ref", "phase_deg_ref",
+            "n_nlgs_steps", "wall_time_s", "cpu_per_sphere_step_s"]
+    write_csv(rows[keep].sort_values(["sample", "dt_s"]), args.table)
+    fig = figures.dt_study_figure(recs, rows, (ref["E_norm_MPa_ref"], ref["phase_deg_ref"]))
+    savefig(fig, args.figure)
+    return 0
+
+
+def _last_cycle(args) -> int:
+    from ..io import savefig
+    from . import figures, twopb
+
+    rec = twopb.read_record(args.record)
+    savefig(figures.last_cycle_figure(rec), args.figure_cycle)
+    savefig(figures.velocity_profile_figure(rec), args.figure_profile)
+    return 0
+
+
+def _sensitivity(args) -> int:
+    import numpy as np
+
+    from ..io import savefig, write_csv
+    from ..rheology.calibration import burgers_isotherm
+    from . import figures, study
+
+    rows = _read_rows(args.rows)
+    base = _read_rows(args.baseline)
+    table = study.sensitivity_table(rows, base)
+    tab = study.parameter_table(args.parameters, args.table3_units)
+    f = np.geomspace(max(0.5 * table["frequency_Hz"].min(), 0.05), 2 * table["frequency_Hz"].max(), 41)
+    write_csv(table, args.table)
+    for name, path in zip(study.SENSITIVITY_PARAMETERS, args.figures):
+        curves = {}
+        for fac in table[table["parameter"] == name]["factor"].unique():
+            e, p = burgers_isotherm(study.parameters_at(tab, args.temperature, {name: fac}), f)
+            curves[fac] = {"frequency_Hz": f, "E_norm_MPa": e, "phase_deg": p}
+        savefig(figures.sensitivity_figure(table, name, curves, args.temperature), path)
+    return 0
+
+
+def _units(args) -> int:
+    from ..io import write_csv
+    from ..sample.store import read_sample
+    from . import study
+
+    micro = {"grain_mass_kg": args.grain_mass_kg, "r_min_mm": [args.r_min_mm], "l0_mm": [args.l0_mm]}
+    out = study.units_question(args.table3, {"Pa": _read_rows(args.rows_pa), "kPa": _read_rows(args.rows_kpa)},
+                               read_sample(args.sample), args.temperature, micro)
+    write_csv(out, args.output)
+    return 0
+
+
+def _dt_policy(args) -> int:
+    from ..io import write_csv
+    from . import study
+
+    table = study.parameter_table(args.parameters, args.table3_units)
+    out = study.dt_policy_phase_table(table, args.temperature, args.frequencies, _settings(args))
+    write_csv(out, args.output)
+    return 0
+
+
+def _bench(args) -> int:
+    import yaml
+
+    from ..io import InputError, write_json
+    from . import bench
+
+    cost = bench.measure_step_cost(args.sample, n_spheres=args.n_spheres, n_steps=args.steps)
+    out = {"measurement": cost, "projections": {}}
+    for path in args.config:
+        try:
+            cfg = yaml.safe_load(open(path))
+        except (OSError, yaml.YAMLError) as exc:
+            raise InputError(f"{path}: cannot read the config ({exc})") from exc
+        if "campaign" not in cfg:
+            raise InputError(f"{path}: no 'campaign' section")
+        n_total = len(cfg.get("sample", {}).get("seeds", [1]))
+        out["projections"][path] = bench.project_campaign(cfg["campaign"], n_total, cost["s_per_step"],
+                                                          overhead_s=args.overhead_s)
+    write_json(out, args.output)
+    return 0

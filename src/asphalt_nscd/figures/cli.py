@@ -19,6 +19,19 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, help="index file (Markdown)")
     p.set_defaults(func=_collect_report)
 
+    p = subparsers.add_parser(
+        "plot-rheology",
+        help="isotherms of |E*| and phase, Black diagram, Cole-Cole plane of named curve sets",
+    )
+    p.add_argument("--points", action="append", default=[], metavar="LABEL=CSV",
+                   help="a curve set drawn as markers (error bars from *_std columns); repeatable")
+    p.add_argument("--lines", action="append", default=[], metavar="LABEL=CSV",
+                   help="a curve set drawn as lines (e.g. model curves); repeatable")
+    p.add_argument("--title", default=None, help="figure title")
+    for plot in ("isotherms-modulus", "isotherms-phase", "black", "cole-cole"):
+        p.add_argument(f"--{plot}", type=Path, default=None, metavar="PNG", help=f"write the {plot} figure here")
+    p.set_defaults(func=_plot_rheology)
+
 
 def _collect_report(args) -> int:
     """Copy each file to OUT_DIR/<path below results/> and write a Markdown index."""
@@ -42,4 +55,50 @@ def _collect_report(args) -> int:
         else:
             lines.append(f"- [{link}]({link})")
     write_text("\n".join(lines) + "\n", args.output)
+    return 0
+
+
+def _parse_set(spec: str, kind: str):
+    import pandas as pd
+
+    from .rheology_plots import CurveSet
+
+    label, sep, path = spec.partition("=")
+    if not sep or not label or not path:
+        raise InputError(f"curve set {spec!r}: expected LABEL=PATH")
+    try:
+        frame = pd.read_csv(path)
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    try:
+        return CurveSet(label, frame, kind=kind)
+    except ValueError as exc:
+        raise InputError(f"{path}: {exc}") from None
+
+
+def _plot_rheology(args) -> int:
+    """Draw the requested rheology plots of the given curve sets (one PNG per plot)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io import savefig
+    from .rheology_plots import rheology_figure
+
+    sets = [_parse_set(s, "points") for s in args.points] + [_parse_set(s, "line") for s in args.lines]
+    if not sets:
+        raise InputError("plot-rheology: give at least one --points or --lines curve set")
+    outputs = {plot: getattr(args, plot.replace("-", "_")) for plot in
+               ("isotherms-modulus", "isotherms-phase", "black", "cole-cole")}
+    if not any(outputs.values()):
+        raise InputError("plot-rheology: give at least one output (--isotherms-modulus, --isotherms-phase, --black, --cole-cole)")
+    for plot, path in outputs.items():
+        if path is None:
+            continue
+        fig = rheology_figure(sets, plot, title=args.title)
+        savefig(fig, path)
+        plt.close(fig)
     return 0

@@ -1,5 +1,258 @@
-"""Subcommands of the harmonic step (registered by asphalt_nscd.cli)."""
+"""Subcommands of the harmonic step (registered by asphalt_nscd.cli).
+
+* ``harmonic``               — steady-state |E*|, Phi of a sample per (T, f) (Eqs. 1-5).
+* ``harmonic-compare``       — harmonic vs NSCD time-domain per (T, f, dt) and solver rtol.
+* ``harmonic-sensitivity``   — Burger's parameters at +-p % (Section 4.2, finer grid).
+* ``harmonic-network-factor``— sample |E*| / macro |E*| and phase difference tables.
+* ``harmonic-plot``          — isotherms, Black diagram, Cole-Cole: macro, sample, measured.
+* ``harmonic-bench``         — timing and peak memory on an N-sphere sample (JSON).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def _add_law_options(p, temperature_required: bool = False) -> None:
+    p.add_argument("--sample", type=Path, required=True, help="sample file results/samples/<s>.h5")
+    p.add_argument("--parameters", type=Path, required=True,
+                   help="Burger's parameters CSV: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, "
+                        "eta_k_MPa_s (e.g. results/calibration/paper_table3.csv)")
+    p.add_argument("--temperature", type=float, nargs="+" if not temperature_required else 1,
+                   required=temperature_required, default=[],
+                   help="temperatures, degC (default: every row of --parameters)")
+    p.add_argument("--amplitude-m", type=float, default=63e-6, help="head amplitude A, m (63e-6)")
+    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (0.35)")
 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser("harmonic", help="steady-state complex modulus of a bonded sample "
+                                               "(frequency domain, Eqs. 1-5)")
+    _add_law_options(p)
+    p.add_argument("--frequency", type=float, nargs="+", default=None, help="frequencies, Hz")
+    p.add_argument("--frequencies-from", type=Path, default=None,
+                   help="table with temperature_C, frequency_Hz (e.g. measured summary): its "
+                        "frequencies at each temperature")
+    p.add_argument("--sweep", type=float, nargs=3, default=None, metavar=("FMIN", "FMAX", "N"),
+                   help="N log-spaced frequencies from FMIN to FMAX, Hz")
+    p.add_argument("--inertia", choices=["full", "none"], default="full",
+                   help="full: sphere masses in the dynamics, head inertia in the force; none: "
+                        "quasi-static (see asphalt_nscd.harmonic.solver)")
+    p.add_argument("--solver", choices=["reuse", "direct"], default="reuse",
+                   help="reuse: one real LU of the reference stiffness per sample; direct: one "
+                        "complex LU per (T, f)")
+    p.add_argument("--rtol", type=float, default=1e-12, help="GMRES relative tolerance (reuse)")
+    p.add_argument("--mode", default="", help="label written in a 'mode' column (paper/measured)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="CSV: one reduced row per (T, f) + macro law + network factor")
+    p.set_defaults(func=_harmonic)
+
+    p = subparsers.add_parser("harmonic-compare",
+                              help="harmonic vs NSCD time-domain |E*|, Phi per (T, f, dt, rtol)")
+    _add_law_options(p)
+    p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
+    p.add_argument("--dt", type=float, nargs="+", required=True, help="time steps, s")
+    p.add_argument("--rtol", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8, 1e-10, 1e-12],
+                   help="harmonic GMRES tolerances to compare with the direct solution")
+    p.add_argument("--cycles", type=int, default=5, help="minimum loading cycles (5)")
+    p.add_argument("--settle-factor", type=float, default=6.0,
+                   help="minimum duration in units of max(eta_m/Em, eta_k/Ek) (6)")
+    p.add_argument("--theta", type=float, default=0.5, help="Moreau-Jean theta (0.5)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="CSV of differences")
+    p.add_argument("--figure", type=Path, default=None, help="PNG: difference vs dt and rtol")
+    p.set_defaults(func=_compare)
+
+    p = subparsers.add_parser("harmonic-sensitivity",
+                              help="harmonic |E*|, Phi with each Burger's parameter at +-p %%")
+    _add_law_options(p, temperature_required=True)
+    p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
+    p.add_argument("--levels", type=float, nargs="+", default=[10, 20, 30, 40, 50],
+                   help="parameter changes p, %% (each applied as -p and +p)")
+    p.add_argument("--inertia", choices=["full", "none"], default="full", help="see 'harmonic'")
+    p.add_argument("-o", "--output", type=Path, required=True, help="CSV")
+    p.add_argument("--figure", type=Path, default=None, help="PNG at the first frequency")
+    p.set_defaults(func=_sensitivity)
+
+    p = subparsers.add_parser("harmonic-network-factor",
+                              help="network factor tables from harmonic CSVs (sample, mode columns)")
+    p.add_argument("inputs", type=Path, nargs="+", help="outputs of 'harmonic' with --mode")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="CSV per (sample, mode, T, f): network_factor, phase_difference_deg")
+    p.add_argument("--summary", type=Path, required=True, help="CSV: mean and std over samples")
+    p.set_defaults(func=_network_factor)
+
+    p = subparsers.add_parser("harmonic-plot",
+                              help="isotherms, Black and Cole-Cole: macro law, sample, measured")
+    p.add_argument("--harmonic", type=Path, nargs="+", required=True,
+                   help="'harmonic' sweep CSVs (one per sample)")
+    p.add_argument("--measured", type=Path, default=None,
+                   help="measured summary (temperature_C, frequency_Hz, E_norm_MPa_mean, ...)")
+    p.add_argument("--title", default=None, help="figure title")
+    for name in ("isotherms-modulus", "isotherms-phase", "black", "cole-cole"):
+        p.add_argument(f"--{name}", type=Path, default=None, help=f"PNG of the {name} plot")
+    p.set_defaults(func=_plot)
+
+    p = subparsers.add_parser("harmonic-bench", help="benchmark the harmonic solver (JSON)")
+    p.add_argument("--n", type=int, default=12000, help="spheres of the generated lattice sample")
+    p.add_argument("--sample", type=Path, default=None,
+                   help="use this sample file instead of generating one")
+    p.add_argument("--seed", type=int, default=0, help="seed of the generated sample")
+    p.add_argument("--frequency", type=float, nargs="+", default=[10.0], help="frequencies, Hz")
+    p.add_argument("--td-steps", type=int, default=20, help="NSCD steps timed (0: skip)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="JSON")
+    p.set_defaults(func=_bench)
+
+
+def _load(args):
+    from ..io import InputError
+    from .network import read_sample
+    from .response import read_parameter_table, select_temperatures, specimen_geometry_mm
+    from .solver import HarmonicSystem
+
+    network = read_sample(args.sample)
+    try:
+        system = HarmonicSystem(network, nu=args.nu)
+    except ValueError as exc:
+        raise InputError(f"--nu: {exc}") from None
+    params = select_temperatures(read_parameter_table(args.parameters), args.temperature,
+                                 args.parameters)
+    return system, params, specimen_geometry_mm(args.sample)
+
+
+def _harmonic(args) -> int:
+    import pandas as pd
+
+    from ..io import write_csv
+    from .response import frequency_plan, harmonic_rows, law_of_row
+
+    system, params, geometry = _load(args)
+    plan = frequency_plan(params, args.frequency, args.frequencies_from, args.sweep)
+    rows = []
+    for prow, freqs in plan:
+        rows += harmonic_rows(system, law_of_row(prow), prow["temperature_C"], freqs, geometry,
+                              amplitude=args.amplitude_m, inertia=args.inertia,
+                              solver=args.solver, rtol=args.rtol)
+    frame = pd.DataFrame(rows)
+    frame.insert(0, "mode", args.mode)
+    frame.insert(0, "sample", system.network.name)
+    write_csv(frame, args.output)
+    return 0
+
+
+def _compare(args) -> int:
+    from ..io import savefig, write_csv
+    from .analysis import compare_time_domain, plot_compare
+
+    system, params, geometry = _load(args)
+    frame = compare_time_domain(args.sample, system, params, args.frequency, args.dt, args.rtol,
+                                geometry, amplitude=args.amplitude_m, n_cycles=args.cycles,
+                                settle_factor=args.settle_factor, theta=args.theta, nu=args.nu)
+    frame.insert(0, "sample", system.network.name)
+    write_csv(frame, args.output)
+    if args.figure:
+        import matplotlib.pyplot as plt
+
+        fig = plot_compare(frame)
+        savefig(fig, args.figure)
+        plt.close(fig)
+    return 0
+
+
+def _sensitivity(args) -> int:
+    from ..io import savefig, write_csv
+    from .analysis import plot_sensitivity, sensitivity_table
+
+    system, params, geometry = _load(args)
+    frame = sensitivity_table(system, params.iloc[0], args.frequency, args.levels, geometry,
+                              amplitude=args.amplitude_m, inertia=args.inertia)
+    frame.insert(0, "sample", system.network.name)
+    write_csv(frame, args.output)
+    if args.figure:
+        import matplotlib.pyplot as plt
+
+        fig = plot_sensitivity(frame, args.frequency[0])
+        savefig(fig, args.figure)
+        plt.close(fig)
+    return 0
+
+
+def _network_factor(args) -> int:
+    import pandas as pd
+
+    from ..io import InputError, write_csv
+    from .analysis import network_factor_table
+
+    frames = []
+    for path in args.inputs:
+        frame = pd.read_csv(path)
+        missing = {"sample", "mode", "network_factor", "phase_difference_deg"} - set(frame.columns)
+        if missing:
+            raise InputError(f"{path}: missing column(s) {sorted(missing)}; expected an output "
+                             "of 'asphalt-nscd harmonic'")
+        frames.append(frame)
+    table, summary = network_factor_table(frames)
+    write_csv(table, args.output)
+    write_csv(summary, args.summary)
+    return 0
+
+
+def _plot(args) -> int:
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from ..figures.rheology_plots import CurveSet, rheology_figure
+    from ..io import InputError, savefig
+
+    frames = [pd.read_csv(p) for p in args.harmonic]
+    sweep = pd.concat(frames, ignore_index=True)
+    if "macro_E_norm_MPa" not in sweep.columns:
+        raise InputError(f"{args.harmonic[0]}: not an output of 'asphalt-nscd harmonic'")
+    sets = []
+    macro = sweep.drop_duplicates(["temperature_C", "frequency_Hz"])[
+        ["temperature_C", "frequency_Hz", "macro_E_norm_MPa", "macro_phase_deg"]].rename(
+        columns={"macro_E_norm_MPa": "E_norm_MPa", "macro_phase_deg": "phase_deg"})
+    sets.append(CurveSet("macro Burger's model", macro, kind="line", linestyle="--"))
+    for name, g in sweep.groupby("sample"):
+        sets.append(CurveSet(f"sample {name} (harmonic)", g, kind="line", linestyle="-",
+                             style={"alpha": 0.8}))
+    if args.measured is not None:
+        temps = set(sweep["temperature_C"].round(6))
+        measured = pd.read_csv(args.measured)
+        measured = measured[measured["temperature_C"].round(6).isin(temps)]
+        if len(measured):
+            sets.append(CurveSet("measured", measured, kind="points"))
+    for name in ("isotherms-modulus", "isotherms-phase", "black", "cole-cole"):
+        target = getattr(args, name.replace("-", "_"))
+        if target is not None:
+            fig = rheology_figure(sets, name, title=args.title)
+            savefig(fig, target)
+            plt.close(fig)
+    return 0
+
+
+def _bench(args) -> int:
+    import tempfile
+
+    from ..io import write_json
+    from ..rheology.laws import GeneralizedBurgers
+    from .analysis import benchmark
+    from .network import lattice_sample, write_sample
+    from .response import specimen_geometry_mm
+
+    # Table 3 of the paper at 15 degC, read in Pa (docs: data/paper/table3_burgers.csv).
+    law = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
+    geometry = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = args.sample
+        if path is None:
+            path = Path(tmp) / f"lattice_{args.n}.h5"
+            write_sample(path, **lattice_sample(args.n, seed=args.seed))
+        if args.sample is not None:
+            geometry = specimen_geometry_mm(path)
+        result = benchmark(path, law, args.frequency, geometry, td_steps=args.td_steps)
+    result.update({"sample": str(args.sample) if args.sample else f"lattice n={args.n}",
+                   "law": "paper Table 3, 15 degC, Pa reading", "linear_solver":
+                   "scipy.sparse.linalg.splu (SuperLU), MMD(A^T+A), symmetric mode"})
+    write_json(result, args.output)
+    return 0

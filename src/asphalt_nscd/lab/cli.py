@@ -1,5 +1,69 @@
-"""Subcommands of the lab step (registered by asphalt_nscd.cli)."""
+"""Subcommands of the lab step (registered by asphalt_nscd.cli).
+
+* ``reduce``   — EN 12697-26 reduction of a force/displacement record (Eqs. 1-5).
+* ``measured`` — validate a measured complex-modulus table, write the tidy table and the
+  replicate summary.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser(
+        "reduce",
+        help="EN 12697-26 2PB reduction of a head displacement/force record to |E*|, phase (Eqs. 1-5)",
+    )
+    p.add_argument("record", type=Path, help="CSV with columns time_s, displacement_m, force_N")
+    p.add_argument("--meta", type=Path, required=True,
+                   help="JSON sidecar with b_mm, B_mm, e_mm, h_mm, M_kg, m_kg, temperature_C, frequency_Hz")
+    window = p.add_mutually_exclusive_group()
+    window.add_argument("--window-s", type=float, default=None,
+                        help="analyse the last WINDOW_S seconds (lab: 10; default: whole record)")
+    window.add_argument("--window-cycles", type=float, default=None,
+                        help="analyse the last WINDOW_CYCLES cycles (simulation: 1)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="one-row CSV of the reduced results")
+    p.set_defaults(func=_reduce)
+
+    p = subparsers.add_parser(
+        "measured",
+        help="validate a measured complex-modulus table; write the tidy table and the replicate summary",
+    )
+    p.add_argument("table", type=Path,
+                   help="CSV: specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg [, strain_microstrain, test_order, ...]")
+    p.add_argument("-o", "--output", type=Path, required=True, help="validated tidy table (CSV)")
+    p.add_argument("--summary", type=Path, required=True,
+                   help="replicate mean and std per (temperature_C, frequency_Hz) (CSV)")
+    p.set_defaults(func=_measured)
+
+
+def _reduce(args) -> int:
+    import pandas as pd
+
+    from ..io import InputError, write_csv
+    from .en12697 import read_record, reduce_record
+
+    columns, specimen, conditions = read_record(args.record, args.meta)
+    try:
+        row = reduce_record(
+            columns["time_s"], columns["displacement_m"], columns["force_N"], specimen,
+            conditions["frequency_Hz"], window_s=args.window_s, window_cycles=args.window_cycles,
+        )
+    except ValueError as exc:
+        raise InputError(f"{args.record}: {exc}") from None
+    row = {"record": args.record.stem, "temperature_C": conditions["temperature_C"], **row}
+    write_csv(pd.DataFrame([row]), args.output, float_format="%.10g")
+    return 0
+
+
+def _measured(args) -> int:
+    from ..io import write_csv
+    from .measured import load_measured, summarize
+
+    frame = load_measured(args.table)
+    summary = summarize(frame)
+    write_csv(frame, args.output)
+    write_csv(summary, args.summary, float_format="%.6g")
+    return 0

@@ -1,5 +1,144 @@
-"""Subcommands of the rheology step (registered by asphalt_nscd.cli)."""
+"""Subcommands of the rheology step (registered by asphalt_nscd.cli).
+
+* ``fit``            — Burger's calibration per temperature of a measured table (Eqs. 27-29).
+* ``table3``         — the paper's Table 3 converted to MPa under a unit reading (Pa / kPa).
+* ``burgers-curves`` — model isotherms of a parameter table on a log-spaced frequency grid.
+* ``refit-check``    — isotherms generated from a parameter table, fitted back (verification).
+* ``micro``          — bond parameters from r_min and l0 (Eqs. 30-33, 8-11).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def _add_fit_options(p) -> None:
+    p.add_argument("--weight-log-modulus", type=float, default=1.0,
+                   help="weight of the ln|E*| residuals (default 1)")
+    p.add_argument("--weight-phase", type=float, default=1.0,
+                   help="weight of the phase residuals in radians (default 1)")
+    p.add_argument("--n-starts", type=int, default=8,
+                   help="local least-squares runs from the best grid starting values (default 8)")
 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser("fit", help="fit a Burger's model per temperature to a measured table (Eqs. 27-29)")
+    p.add_argument("--measured", type=Path, required=True,
+                   help="measured table (specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg)")
+    p.add_argument("--model", choices=["burgers"], default="burgers", help="macro model (only 'burgers')")
+    _add_fit_options(p)
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="CSV, one row per temperature: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s, *_se, fit errors")
+    p.set_defaults(func=_fit)
+
+    p = subparsers.add_parser("table3", help="convert the paper's Table 3 (as printed) to MPa, MPa s")
+    p.add_argument("table", type=Path, help="data/paper/table3_burgers.csv")
+    p.add_argument("--units", choices=["Pa", "kPa"], default="Pa",
+                   help="reading of the printed values (default Pa, as printed; see data/paper/SOURCE.md)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="CSV in MPa, MPa s")
+    p.set_defaults(func=_table3)
+
+    p = subparsers.add_parser("burgers-curves", help="Burger's model isotherms of a parameter table")
+    p.add_argument("--parameters", type=Path, required=True,
+                   help="CSV: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s")
+    p.add_argument("--fmin", type=float, default=0.01, help="lowest frequency, Hz (default 0.01)")
+    p.add_argument("--fmax", type=float, default=100.0, help="highest frequency, Hz (default 100)")
+    p.add_argument("--points", type=int, default=61, help="log-spaced frequencies (default 61)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="CSV: temperature_C, frequency_Hz, E_norm_MPa, phase_deg, E1_MPa, E2_MPa")
+    p.set_defaults(func=_curves)
+
+    p = subparsers.add_parser("refit-check",
+                              help="generate isotherms from a parameter table and fit them back (verification)")
+    p.add_argument("--parameters", type=Path, required=True, help="CSV in MPa, MPa s (e.g. output of table3)")
+    p.add_argument("--frequencies", type=float, nargs="+", default=[3.0, 6.0, 10.0, 25.0, 40.0],
+                   help="frequencies of the generated isotherms, Hz (default: the paper's 3 6 10 25 40)")
+    _add_fit_options(p)
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="CSV: true and refitted parameters and relative errors per temperature")
+    p.set_defaults(func=_refit_check)
+
+    p = subparsers.add_parser("micro", help="bond parameters from macro Burger's parameters, r_min and l0 (Eqs. 30-33, 8-11)")
+    p.add_argument("--parameters", type=Path, required=True, help="CSV in MPa, MPa s")
+    p.add_argument("--r-min-mm", type=float, nargs="+", required=True, help="smaller radius of each bonded pair, mm")
+    p.add_argument("--l0-mm", type=float, nargs="+", required=True,
+                   help="initial barycentre distance of each bond, mm (same count as --r-min-mm, or one)")
+    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (default 0.35)")
+    p.add_argument("--grain-mass-kg", type=float, default=None,
+                   help="typical grain mass; adds dt_e_s = sqrt(m_g/Km) (paper: 2.86e-5 kg)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="CSV, one row per (temperature, bond)")
+    p.set_defaults(func=_micro)
+
+
+def _weights(args) -> dict:
+    return {"log_E": args.weight_log_modulus, "phase_rad": args.weight_phase}
+
+
+def _fit(args) -> int:
+    from ..io import InputError, write_csv
+    from ..lab.measured import load_measured
+    from .calibration import fit_table
+
+    measured = load_measured(args.measured)
+    try:
+        table = fit_table(measured, weights=_weights(args), n_starts=args.n_starts)
+    except InputError as exc:
+        raise InputError(f"{args.measured}: {exc}") from None
+    except ValueError as exc:  # bad weights
+        raise InputError(f"fit options: {exc}") from None
+    write_csv(table, args.output, float_format="%.8g")
+    return 0
+
+
+def _table3(args) -> int:
+    from ..io import write_csv
+    from .calibration import load_table3
+
+    table = load_table3(args.table, units=args.units)
+    table.insert(len(table.columns), "units_reading", args.units)
+    write_csv(table, args.output, float_format="%.8g")
+    return 0
+
+
+def _curves(args) -> int:
+    import numpy as np
+
+    from ..io import InputError, write_csv
+    from .calibration import burgers_curves, read_parameters
+
+    if not (0 < args.fmin < args.fmax) or args.points < 2:
+        raise InputError(f"burgers-curves: need 0 < fmin < fmax and points >= 2, got {args.fmin}, {args.fmax}, {args.points}")
+    table = read_parameters(args.parameters)
+    f = np.logspace(np.log10(args.fmin), np.log10(args.fmax), args.points)
+    write_csv(burgers_curves(table, f), args.output, float_format="%.8g")
+    return 0
+
+
+def _refit_check(args) -> int:
+    from ..io import write_csv
+    from .calibration import read_parameters, refit_check
+
+    table = read_parameters(args.parameters)
+    result = refit_check(table, args.frequencies, weights=_weights(args), n_starts=args.n_starts)
+    write_csv(result, args.output, float_format="%.10g")
+    return 0
+
+
+def _micro(args) -> int:
+    import numpy as np
+
+    from ..io import InputError, write_csv
+    from .calibration import micro_parameters, read_parameters
+
+    r = np.asarray(args.r_min_mm) * 1e-3
+    l0 = np.asarray(args.l0_mm) * 1e-3
+    if r.size != l0.size and 1 not in (r.size, l0.size):
+        raise InputError(f"micro: --r-min-mm has {r.size} values but --l0-mm has {l0.size}")
+    table = read_parameters(args.parameters)
+    try:
+        micro = micro_parameters(table, r, l0, nu=args.nu, grain_mass_kg=args.grain_mass_kg)
+    except ValueError as exc:
+        raise InputError(f"micro: {exc}") from None
+    write_csv(micro, args.output, float_format="%.8g")
+    return 0

@@ -1,5 +1,95 @@
-"""Subcommands of the sample step (registered by asphalt_nscd.cli)."""
+"""Subcommands of the sample step (registered by asphalt_nscd.cli).
+
+``prepare-sample``  one numerical sample (Section 3.2.1) from the ``sample`` config section
+``sample-table``    sphere counts per diameter beside the paper's Table 2
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def _add_config_options(p: argparse.ArgumentParser) -> None:
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--config", help="YAML/JSON file with the sample section (or a whole config with a 'sample' key)")
+    group.add_argument("--config-json", help="the sample section as a JSON string (used by the workflow)")
+
+
+def _load_config(args):
+    import json
+
+    from ..io import InputError
+    from . import settings
+
+    if args.config:
+        return settings.load(args.config)
+    if args.config_json:
+        try:
+            data = json.loads(args.config_json)
+        except ValueError as exc:
+            raise InputError(f"--config-json: not valid JSON ({exc})") from exc
+        if not isinstance(data, dict):
+            raise InputError("--config-json: expected a JSON object of sample settings")
+        return settings.merge(settings.DEFAULTS, data, "--config-json: sample")
+    return settings.merge(settings.DEFAULTS, {})
 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser(
+        "prepare-sample",
+        help="prepare one numerical sample (lattice, deposition, vibration, cut, flip, shrink, bonds)",
+        description="Prepare one numerical 2PB sample (paper Section 3.2.1) and write the HDF5 "
+        "sample file of docs/design.md. Without --config/--config-json the paper's full-scale values are used.",
+    )
+    _add_config_options(p)
+    p.add_argument("--seed", type=int, required=True, help="random seed of the lattice placement")
+    p.add_argument("-o", "--output", required=True, help="sample file (.h5)")
+    p.add_argument("--vtk-dir", help="directory for the ParaView files of each stage (.vtu)")
+    p.add_argument("--figure", help="Fig. 5-like picture of the stages (.png/.pdf)")
+    p.add_argument("--summary", help="summary JSON (counts, porosity, coordination, bonds per sphere)")
+    p.set_defaults(func=_prepare)
+
+    t = subparsers.add_parser(
+        "sample-table",
+        help="sphere counts per diameter beside Table 2",
+        description="Counts of the paper's rule (scale 1, cut 2 mm), of the configuration, and the mean "
+        "counts inside the prepared samples (from their summaries), beside Table 2.",
+    )
+    _add_config_options(t)
+    t.add_argument("--summaries", nargs="*", default=[], help="summary JSON files of prepared samples")
+    t.add_argument("-o", "--output", required=True, help="CSV table")
+    t.set_defaults(func=_table)
+
+
+def _prepare(args) -> int:
+    from ..io import savefig, write_json
+    from .prepare import prepare_sample, write_outputs
+
+    cfg = _load_config(args)
+    result = prepare_sample(cfg, args.seed)
+    write_outputs(result, args.output, vtk_dir=args.vtk_dir)
+    if args.summary:
+        write_json(result.summary, args.summary)
+    if args.figure:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from .figures import stages_figure
+
+        fig = stages_figure(result.stages, result.trapezoid)
+        fig.suptitle(f"sample s{args.seed}: {result.summary['n_spheres']} spheres, scale {cfg['scale']}", fontsize=10)
+        savefig(fig, args.figure)
+        plt.close(fig)
+    return 0
+
+
+def _table(args) -> int:
+    from ..io import write_csv
+    from .prepare import counts_table
+
+    cfg = _load_config(args)
+    write_csv(counts_table(cfg, args.summaries), args.output)
+    return 0

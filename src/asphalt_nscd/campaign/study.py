@@ -1,0 +1,255 @@
+"""Campaign tables: macro laws per job, numerical isotherms, Table 4 analogue, sensitivity,
+the Table 3 units question and the phase error of the time-step policy.
+
+Modes (config ``campaign.modes``)
+---------------------------------
+* ``paper``: the paper's Table 3 (read under ``calibration.table3_units``) at the paper's
+  temperatures and frequencies. The paper's lab data are not available, so the
+  "experimental" reference of the Table 4 analogue is the Burger's isotherm of Table 3 at the
+  same (T, f) (the paper's Table 4 compares with measurements the Burger's model fits within
+  a few per cent).
+* ``measured``: the Burger's parameters calibrated on the measured mix
+  (``results/calibration/burgers_parameters.csv``) at the measured temperatures and
+  frequencies; reference = the measured means (``results/lab/measured_summary.csv``).
+
+Mean relative error (Table 4 analogue), per temperature, over the frequencies f of the
+campaign, of the sample-mean numerical value x_num against the reference x_ref:
+MRE = mean_f |x_num - x_ref| / |x_ref| x 100 %, for |E*| and Phi.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from ..io import InputError
+
+#: Burger's parameters that the sensitivity study varies, with their table columns.
+SENSITIVITY_PARAMETERS = {"Em": "Em_MPa", "eta_m": "eta_m_MPa_s", "Ek": "Ek_MPa", "eta_k": "eta_k_MPa_s"}
+
+
+def parameter_table(path, table3_units: str | None = None) -> pd.DataFrame:
+    """Burger's parameters (MPa, MPa s) per temperature: the paper's Table 3 as printed read
+    under ``table3_units`` ('Pa' | 'kPa'), or a calibrated table in MPa when None."""
+    from ..rheology.calibration import load_table3, read_parameters
+
+    return load_table3(path, units=table3_units) if table3_units else read_parameters(path)
+
+
+def parameters_at(table: pd.DataFrame, temperature_C: float, factors: dict | None = None, where="") -> dict:
+    """Row of ``table`` at ``temperature_C`` (MPa, MPa s), each parameter of ``factors``
+    ({'Em': 1.5, ...}) multiplied by its factor.
+
+    Raises InputError if the temperature is not in the table or a factor name is unknown.
+    """
+    hit = table[np.isclose(table["temperature_C"].astype(float), float(temperature_C))]
+    if hit.empty:
+        raise InputError(f"{where}: no Burger's parameters at {temperature_C} degC; "
+                         f"available: {sorted(table['temperature_C'].astype(float))}")
+    row = {c: float(hit.iloc[0][c]) for c in SENSITIVITY_PARAMETERS.values()}
+    for name, factor in (factors or {}).items():
+        if name not in SENSITIVITY_PARAMETERS:
+            raise InputError(f"factor {name!r}: expected one of {list(SENSITIVITY_PARAMETERS)}")
+        row[SENSITIVITY_PARAMETERS[name]] *= float(factor)
+    return row
+
+
+def law_of(params: dict):
+    """GeneralizedBurgers (Pa, Pa s) of a parameter row in MPa, MPa s."""
+    from ..rheology.calibration import burgers_model
+
+    return burgers_model(params)
+
+
+def burgers_reference(table: pd.DataFrame, temperature_C, frequency_Hz) -> pd.DataFrame:
+    """Burger's |E*| (MPa) and Phi (deg) of ``table`` at each (T, f) pair (Eqs. 27-29)."""
+    from ..rheology.calibration import burgers_isotherm
+
+    rows = []
+    for T, f in zip(np.atleast_1d(temperature_C), np.atleast_1d(frequency_Hz)):
+        e, p = burgers_isotherm(parameters_at(table, T, where="reference"), float(f))
+        rows.append({"temperature_C": float(T), "frequency_Hz": float(f),
+                     "E_norm_MPa_ref": float(e), "phase_deg_ref": float(p)})
+    return pd.DataFrame(rows)
+
+
+def measured_reference(summary: pd.DataFrame) -> pd.DataFrame:
+    """Reference columns from results/lab/measured_summary.csv (means of the replicates)."""
+    need = ("temperature_C", "frequency_Hz", "E_norm_MPa_mean", "phase_deg_mean")
+    missing = [c for c in need if c not in summary.columns]
+    if missing:
+        raise InputError(f"measured summary: missing column(s) {missing}")
+    return summary.rename(columns={"E_norm_MPa_mean": "E_norm_MPa_ref", "phase_deg_mean": "phase_deg_ref"})[
+        ["temperature_C", "frequency_Hz", "E_norm_MPa_ref", "phase_deg_ref"]]
+
+
+def numerical_isotherms(rows: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFrame:
+    """Sample mean and standard deviation of the reduced rows per (T, f), beside the reference.
+
+    Parameters
+    ----------
+    rows : reduced rows (one per sample and (T, f)): temperature_C, frequency_Hz, sample,
+        E_norm_MPa, phase_deg, E1_MPa, E2_MPa.
+    reference : temperature_C, frequency_Hz, E_norm_MPa_ref, phase_deg_ref.
+
+    Returns
+    -------
+    DataFrame: temperature_C, frequency_Hz, n_samples, E_norm_MPa_mean, E_norm_MPa_std,
+    phase_deg_mean, phase_deg_std, E1_MPa, E2_MPa (means), E_norm_MPa_ref, phase_deg_ref,
+    rel_error_E_norm_pct, rel_error_phase_pct (of the sample means).
+
+    Raises InputError if a (T, f) of the rows has no reference.
+    """
+    g = rows.groupby(["temperature_C", "frequency_Hz"])
+    out = g.agg(n_samples=("E_norm_MPa", "size"), E_norm_MPa_mean=("E_norm_MPa", "mean"),
+                E_norm_MPa_std=("E_norm_MPa", "std"), phase_deg_mean=("phase_deg", "mean"),
+                phase_deg_std=("phase_deg", "std"), E1_MPa=("E1_MPa", "mean"),
+                E2_MPa=("E2_MPa", "mean")).reset_index()
+    out[["E_norm_MPa_std", "phase_deg_std"]] = out[["E_norm_MPa_std", "phase_deg_std"]].fillna(0.0)
+    ref = reference.copy()
+    for c in ("temperature_C", "frequency_Hz"):
+        ref[c] = ref[c].astype(float).round(6)
+        out[c] = out[c].astype(float).round(6)
+    out = out.merge(ref, on=["temperature_C", "frequency_Hz"], how="left")
+    miss = out[out["E_norm_MPa_ref"].isna()]
+    if not miss.empty:
+        raise InputError(f"no reference value at (T, f) = {list(zip(miss.temperature_C, miss.frequency_Hz))}")
+    out["rel_error_E_norm_pct"] = 100 * (out["E_norm_MPa_mean"] - out["E_norm_MPa_ref"]) / out["E_norm_MPa_ref"]
+    out["rel_error_phase_pct"] = 100 * (out["phase_deg_mean"] - out["phase_deg_ref"]) / out["phase_deg_ref"]
+    return out
+
+
+def table4(isotherms: pd.DataFrame, paper_table4: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Mean relative error per temperature (Table 4 analogue), %, from :func:`numerical_isotherms`;
+    with the paper's Table 4 (``mre_E_norm_pct, mre_phase_pct``) beside when given."""
+    out = isotherms.assign(a=isotherms["rel_error_E_norm_pct"].abs(), b=isotherms["rel_error_phase_pct"].abs()) \
+        .groupby("temperature_C").agg(n_frequencies=("a", "size"), mre_E_norm_pct=("a", "mean"),
+                                      mre_phase_pct=("b", "mean")).reset_index()
+    ratio = (isotherms["E_norm_MPa_mean"] / isotherms["E_norm_MPa_ref"]).groupby(isotherms["temperature_C"]).mean()
+    out["mean_ratio_E_norm"] = out["temperature_C"].map(ratio)
+    dphi = (isotherms["phase_deg_mean"] - isotherms["phase_deg_ref"]).groupby(isotherms["temperature_C"]).mean()
+    out["mean_phase_difference_deg"] = out["temperature_C"].map(dphi)
+    if paper_table4 is not None:
+        p = paper_table4.rename(columns={"mre_E_norm_pct": "paper_mre_E_norm_pct", "mre_phase_pct": "paper_mre_phase_pct"})
+        p["temperature_C"] = p["temperature_C"].astype(float)
+        out = out.merge(p, on="temperature_C", how="left")
+    return out
+
+
+def sensitivity_table(rows: pd.DataFrame, baseline: pd.DataFrame) -> pd.DataFrame:
+    """Sample means of the sensitivity runs (columns parameter, factor) and of the baseline
+    (factor 1, one row set shared by every parameter), per (parameter, factor, f), with the
+    change relative to the baseline (%, degrees)."""
+    base = baseline.groupby("frequency_Hz").agg(E0=("E_norm_MPa", "mean"), P0=("phase_deg", "mean")).reset_index()
+    parts = [rows]
+    for p in SENSITIVITY_PARAMETERS:
+        parts.append(baseline.assign(parameter=p, factor=1.0))
+    allr = pd.concat(parts, ignore_index=True)
+    out = allr.groupby(["parameter", "factor", "frequency_Hz"]).agg(
+        n_samples=("E_norm_MPa", "size"), E_norm_MPa_mean=("E_norm_MPa", "mean"),
+        E_norm_MPa_std=("E_norm_MPa", "std"), phase_deg_mean=("phase_deg", "mean"),
+        phase_deg_std=("phase_deg", "std")).reset_index().fillna({"E_norm_MPa_std": 0.0, "phase_deg_std": 0.0})
+    out = out.merge(base, on="frequency_Hz", how="left")
+    out["change_E_norm_pct"] = 100 * (out["E_norm_MPa_mean"] / out["E0"] - 1)
+    out["change_phase_deg"] = out["phase_deg_mean"] - out["P0"]
+    return out.drop(columns=["E0", "P0"])
+
+
+def first_resonance_Hz(stiffness_N_m: float, specimen) -> float:
+    """First bending resonance of sample + head, Hz: a cantilever with the EN 12697-26
+    lumped moving mass mu = 0.135 M + m (kg) on the head stiffness k (N/m):
+    f1 = sqrt(k / mu) / (2 pi)."""
+    return math.sqrt(stiffness_N_m / (specimen.mu_g * 1e-3)) / (2 * math.pi)
+
+
+def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: float,
+                   micro: dict, reference_frequency_Hz: float = 10.0) -> pd.DataFrame:
+    """One row per Table 3 reading ('Pa', 'kPa'): stiffness, time scales, resonance, agreement.
+
+    Parameters
+    ----------
+    table3_path : the paper's Table 3 as printed.
+    rows_by_reading : {'Pa': DataFrame, 'kPa': DataFrame} of reduced rows of the
+        units-question runs (same sample(s), temperature, frequencies) under each reading.
+    sample : SampleData of the first sample (bonds, masses, geometry).
+    temperature_C : temperature of the comparison, degC.
+    micro : ``grain_mass_kg, r_min_mm, l0_mm`` (config calibration.micro; first r_min/l0
+        used) for the paper-style dt_e.
+    reference_frequency_Hz : frequency of the Burger's |E*| quoted.
+
+    Returns
+    -------
+    DataFrame with, per reading: Em_MPa, Burgers_E_norm_MPa (at the reference frequency),
+    head_stiffness_Em_N_m = Em / gamma (glassy, static 2PB form factor),
+    head_stiffness_sim_N_m = F0/z0 of the run at the lowest frequency, dt_e_paper_s
+    (sqrt(m_g / Km), Km of the config's representative bond), dt_e_sample_s (median sphere
+    mass over the median normal Km of the sample's bonds), first_resonance_Em_Hz and
+    first_resonance_sim_Hz (:func:`first_resonance_Hz`), dt_s of the runs, mre_E_norm_pct,
+    mre_phase_pct (runs vs Burger's at the same (T, f)), frequencies_Hz, and
+    max_broken_bond_fraction (bonds broken at R_crit = 2.7 MPa pi r_min^2 by the end of a run).
+    """
+    from ..rheology.calibration import burgers_isotherm
+    from ..rheology.laws import bond_scale
+    from .twopb import specimen_of
+
+    spec = specimen_of(sample)
+    gamma = spec.gamma_per_mm
+    out = []
+    for reading, rows in rows_by_reading.items():
+        table = parameter_table(table3_path, reading)
+        p = parameters_at(table, temperature_C, where=str(table3_path))
+        Em = p["Em_MPa"] * 1e6
+        e_ref, _ = burgers_isotherm(p, reference_frequency_Hz)
+        k_em = p["Em_MPa"] / gamma * 1e3  # MPa / (1/mm) = N/mm -> N/m
+        km_paper = float(bond_scale(micro["r_min_mm"][0] * 1e-3, micro["l0_mm"][0] * 1e-3)) * Em
+        km_sample = float(np.median(bond_scale(sample.bonds["r_min"], sample.bonds["l0"]))) * Em
+        m_med = float(np.median(sample.mass))
+        r = rows.sort_values("frequency_Hz")
+        k_sim = float(r.iloc[0]["F0_N"] / r.iloc[0]["z0_m"]) if len(r) else math.nan
+        ref = burgers_reference(table, r["temperature_C"], r["frequency_Hz"])
+        rel_e = (r["E_norm_MPa"].to_numpy() - ref["E_norm_MPa_ref"].to_numpy()) / ref["E_norm_MPa_ref"].to_numpy()
+        rel_p = (r["phase_deg"].to_numpy() - ref["phase_deg_ref"].to_numpy()) / ref["phase_deg_ref"].to_numpy()
+        out.append({
+            "table3_units": reading, "temperature_C": temperature_C, "Em_MPa": p["Em_MPa"],
+            "Burgers_E_norm_MPa": float(e_ref), "reference_frequency_Hz": reference_frequency_Hz,
+            "gamma_per_mm": gamma, "mu_g": spec.mu_g,
+            "head_stiffness_Em_N_m": k_em, "head_stiffness_sim_N_m": k_sim,
+            "dt_e_paper_s": math.sqrt(micro["grain_mass_kg"] / km_paper),
+            "dt_e_sample_s": math.sqrt(m_med / km_sample),
+            "first_resonance_Em_Hz": first_resonance_Hz(k_em, spec),
+            "first_resonance_sim_Hz": first_resonance_Hz(k_sim, spec) if k_sim > 0 else math.nan,
+            "dt_s": ";".join(f"{v:.3g}" for v in sorted(set(r["dt_s"]))),
+            "frequencies_Hz": ";".join(f"{v:g}" for v in r["frequency_Hz"]),
+            "n_runs": len(r),
+            "mre_E_norm_pct": float(100 * np.mean(np.abs(rel_e))) if len(r) else math.nan,
+            "mre_phase_pct": float(100 * np.mean(np.abs(rel_p))) if len(r) else math.nan,
+            "mean_ratio_E_norm": float(np.mean(1 + rel_e)) if len(r) else math.nan,
+            "max_broken_bond_fraction": float((r["n_broken_total"] / r["n_bonds"]).max())
+            if {"n_broken_total", "n_bonds"} <= set(r.columns) and len(r) else math.nan,
+        })
+    return pd.DataFrame(out)
+
+
+def dt_policy_phase_table(table: pd.DataFrame, temperature_C: float, frequencies_Hz, settings,
+                          theta: float | None = None) -> pd.DataFrame:
+    """Phase and amplitude error of the time-discrete bond law at the policy's dt for each
+    frequency (:func:`asphalt_nscd.nscd.verify.phase_error_table`), beside the paper's fixed
+    5e-5 s where that costs under 2e5 steps."""
+    from ..nscd.verify import phase_error_table
+    from .twopb import time_step
+
+    law = law_of(parameters_at(table, temperature_C, where="dt policy"))
+    th = settings.theta if theta is None else theta
+    frames = []
+    for f in frequencies_Hz:
+        dts = {time_step(f, settings)}
+        if 2.0 / (f * 5e-5) < 2e5:
+            dts.add(5e-5)
+        t = phase_error_table(law, omegas=(2 * np.pi * f,), dts=tuple(sorted(dts)), thetas=(th,))
+        t["policy"] = [settings.dt_policy if d == time_step(f, settings) else "fixed 5e-5 s" for d in t["dt_s"]]
+        frames.append(t)
+    out = pd.concat(frames, ignore_index=True)
+    out.insert(0, "temperature_C", float(temperature_C))
+    return out

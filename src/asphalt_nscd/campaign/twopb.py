@@ -1,0 +1,377 @@
+"""The numerical two-point bending complex modulus test (paper Section 3.2.2).
+
+Set-up
+------
+The prepared sample (``results/samples/<sample>.h5``, docs/design.md) is loaded; the bottom
+plate is fixed and the top plate (mass ``plates/mass[1]``, 0.235 kg in the paper) is driven
+along x (the bending direction; the paper's "z") by u(t) = A sin(w t), A = 63e-6 m. Bonds
+are created with ``Bonds.create`` from the sample's bonded pairs and the macro Burger's law
+of the temperature (Eqs. 30-33, 8-11); their rest state is the stored (stabilised)
+configuration. The Moreau-Jean theta-method runs ``n_cycles`` loading cycles.
+
+Time step (``dt_policy``)
+-------------------------
+* ``fixed``: dt = ``dt_s`` for every frequency (paper: 5e-5 s; 3.33e4 steps for 5 cycles at
+  3 Hz). At the 0.1 Hz of the measured schedule that is 1e6 steps: unaffordable.
+* ``steps_per_cycle``: dt = 1 / (f N) capped by ``dt_max_s``, so every frequency costs about
+  the same. With N = 500 the 40 Hz step equals the paper's 5e-5 s. The phase error this
+  costs is measured by ``phase_error_table`` (table ``dt_policy_phase_error.csv``): at
+  theta = 0.5 it is O((w dt)^2), i.e. the same at every frequency for a given N.
+
+What is recorded (HDF5, one row per step)
+-----------------------------------------
+The forces of a Moreau-Jean step are means over the step, so every step is sampled at its
+mid-step time t - dt/2 together with the imposed displacement at that time (sampling at the
+end of the step would add a phase lag w dt/2). Two readings of the head force (x):
+
+* ``force_driver_N``: the core's ``StepStats.driver_force`` of the top plate, the force the
+  actuator applies including the plate inertia, whose acceleration is a second difference
+  of the imposed motion centred at the *start* of the step, i.e. half a step early;
+* ``force_bonds_N``: F = m a(t - dt/2) - plate_force_x, the reaction of the sample on the
+  head plus the exact inertia of the imposed head motion, a = -w^2 u.
+
+``force_reading`` (config ``campaign.test.force_reading``) chooses the one reduced;
+default ``bonds``, which converges at second order in dt where ``driver`` is first order
+(both are stored, and the reduced row carries the other reading's |E*| and Phi). Per-step
+solver statistics (iterations, residuals, convergence, contacts, bonds, dissipation, fast
+path) go to the group ``stats``; the mean particle velocity along x in height bins at
+``profile_instants`` instants of the last cycle to ``profile`` (Fig. 8).
+
+Reduction
+---------
+The last ``window_cycles`` cycles are reduced by the lab code
+(:func:`asphalt_nscd.lab.en12697.reduce_record`, Eqs. 1-5) with the specimen of the sample:
+geometry from the sample's root attributes ``b_m, B_m, e_m, h_m`` (scaled samples), else the
+EN 12697-26 trapezoid, and mu = 0.135 M + m with M = sum of the sphere masses and m the
+top-plate mass (EN 12697-26 Annex A applied to the numerical specimen).
+
+Gravity (``gravity``): the bonds' rest state is the stabilised configuration, so gravity
+loads them again from zero; with a Maxwell dashpot the sample then creeps downwards during
+the test. The creep is vertical and slow (the fit's drift term absorbs any trace of it in
+x), but at high temperature it can close contacts and switch steps from the linear fast
+path to Gauss-Seidel. Off by default at reduced scale, on in ``paper.yaml``.
+
+Checkpoint and resume: every ``checkpoint_every`` steps the recorded arrays are written to
+``<output>.partial.npz`` and then the core state to ``<output>.ckpt.h5`` (both atomic, in
+that order, so the arrays always cover the checkpoint); a rerun resumes from them when the
+run key (sample, law, f, dt, steps) matches. The record is written atomically and the
+checkpoint files are removed at the end. Progress: tqdm on stderr (the job log).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..io import InputError, atomic_path
+
+DT_POLICIES = ("fixed", "steps_per_cycle")
+FORCE_READINGS = ("bonds", "driver")
+#: per-step statistics stored under ``stats/``
+STAT_KEYS = ("iterations", "residual_quad", "residual_max", "converged", "n_contacts",
+             "n_active_contacts", "n_bonds", "n_broken_total", "dissipated", "linear")
+
+
+@dataclass
+class TwoPBSettings:
+    """Settings of the numerical 2PB test (config section ``campaign.test``).
+
+    amplitude_m : head displacement amplitude A, m (paper 63e-6).
+    n_cycles : loading cycles simulated (paper 5).
+    window_cycles : last cycles reduced (config ``lab.simulation_window_cycles``).
+    dt_policy : 'fixed' | 'steps_per_cycle' (module docstring); dt_s : s; steps_per_cycle : N;
+    dt_max_s : cap of the steps_per_cycle policy, s.
+    theta : Moreau-Jean theta; tolerance, max_iterations : NLGS; friction : Coulomb (0.7).
+    gravity : bool. nu : Poisson's ratio of Eqs. 8-11.
+    force_reading : 'bonds' | 'driver'. checkpoint_every : steps (0 = never).
+    profile_bins, profile_instants : height bins and instants of the velocity profile.
+    """
+
+    amplitude_m: float = 63e-6
+    n_cycles: float = 5.0
+    window_cycles: float = 1.0
+    dt_policy: str = "fixed"
+    dt_s: float = 5e-5
+    steps_per_cycle: int = 500
+    dt_max_s: float = 1e-3
+    theta: float = 0.5
+    tolerance: float = 1e-6
+    max_iterations: int = 500
+    friction: float = 0.7
+    gravity: bool = False
+    nu: float = 0.35
+    force_reading: str = "bonds"
+    checkpoint_every: int = 5000
+    profile_bins: int = 10
+    profile_instants: int = 8
+
+    def __post_init__(self):
+        if self.dt_policy not in DT_POLICIES:
+            raise ValueError(f"dt_policy must be one of {DT_POLICIES}, got {self.dt_policy!r}")
+        if self.force_reading not in FORCE_READINGS:
+            raise ValueError(f"force_reading must be one of {FORCE_READINGS}, got {self.force_reading!r}")
+        if not (self.amplitude_m > 0 and self.dt_s > 0 and self.dt_max_s > 0 and self.steps_per_cycle >= 8):
+            raise ValueError("amplitude_m, dt_s, dt_max_s > 0 and steps_per_cycle >= 8 required")
+        if not (0 < self.window_cycles <= self.n_cycles):
+            raise ValueError(f"window_cycles must lie in (0, n_cycles={self.n_cycles}], got {self.window_cycles}")
+
+
+def time_step(frequency_Hz: float, settings: TwoPBSettings) -> float:
+    """Time step (s) of a test at ``frequency_Hz`` under the settings' dt policy."""
+    if settings.dt_policy == "fixed":
+        return float(settings.dt_s)
+    return float(min(1.0 / (frequency_Hz * settings.steps_per_cycle), settings.dt_max_s))
+
+
+def n_steps_of(frequency_Hz: float, dt: float, settings: TwoPBSettings) -> int:
+    """Number of steps covering ``n_cycles`` periods at step ``dt``."""
+    return int(math.ceil(settings.n_cycles / (frequency_Hz * dt) - 1e-9))
+
+
+class HeadMotion:
+    """Imposed head displacement u(t) = (A sin(w t), 0, 0), m (picklable callable)."""
+
+    def __init__(self, amplitude_m: float, frequency_Hz: float):
+        self.amplitude = float(amplitude_m)
+        self.omega = 2.0 * math.pi * float(frequency_Hz)
+
+    def __call__(self, t: float) -> np.ndarray:
+        return np.array([self.amplitude * math.sin(self.omega * t), 0.0, 0.0])
+
+    def x(self, t):
+        return self.amplitude * np.sin(self.omega * np.asarray(t, float))
+
+
+def specimen_of(sample) -> "Specimen2PB":  # noqa: F821
+    """EN 12697-26 specimen of a sample: scaled geometry from the root attributes
+    ``b_m, B_m, e_m, h_m`` when present (else the standard trapezoid), M = sum of the sphere
+    masses, m = top-plate mass (kg)."""
+    from ..lab.en12697 import Specimen2PB
+
+    geo = {}
+    if all(k in sample.attrs for k in ("b_m", "B_m", "e_m", "h_m")):
+        geo = {f"{k[0]}_mm": float(sample.attrs[k]) * 1e3 for k in ("b_m", "B_m", "e_m", "h_m")}
+    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **geo)
+
+
+def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
+    """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
+    fixed, top plate driven by :class:`HeadMotion`, bonds with the macro ``law``
+    (GeneralizedBurgers, Pa, Pa s). Returns (Simulation, HeadMotion)."""
+    from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
+
+    spheres = Spheres(position=sample.position, radius=sample.radius, mass=sample.mass,
+                      inertia=sample.inertia)
+    motion = HeadMotion(settings.amplitude_m, frequency_Hz)
+    plates = Plates([
+        Plate(sample.plate_point[0], sample.plate_normal[0], mode="fixed"),
+        Plate(sample.plate_point[1], sample.plate_normal[1], mode="driven",
+              mass=float(sample.plate_mass[1]), displacement=motion),
+    ])
+    bonds = Bonds.create(spheres, plates, sample.bonds["i"], sample.bonds["j"], law, nu=settings.nu)
+    gravity = (0.0, 0.0, -9.81) if settings.gravity else (0.0, 0.0, 0.0)
+    params = NSCDParameters(dt=dt, theta=settings.theta, gravity=gravity, friction=settings.friction,
+                            tolerance=settings.tolerance, max_iterations=settings.max_iterations)
+    return Simulation(spheres, plates, bonds, params), motion
+
+
+def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
+    """Indices (0-based) of ``k`` steps evenly spread over the last period."""
+    start = n_steps - steps_per_period
+    return np.unique(np.clip(np.round(start + (np.arange(k) + 1) * steps_per_period / k).astype(int) - 1,
+                             0, n_steps - 1))
+
+
+def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, output,
+             meta: dict | None = None, progress: bool = True, stop_after: int | None = None):
+    """Run (or resume) the numerical 2PB test and write its record (HDF5) atomically.
+
+    Parameters
+    ----------
+    sample_path : sample file (docs/design.md).
+    law : GeneralizedBurgers, macro law (Pa, Pa s) of the temperature.
+    frequency_Hz : loading frequency f, Hz.
+    settings : TwoPBSettings.
+    output : record path (.h5); checkpoints live next to it.
+    meta : extra root attributes (temperature_C, sample, mode, ...), JSON-serialisable.
+    progress : tqdm progress bar on stderr.
+    stop_after : stop (after checkpointing) once this many steps are done in total;
+        used to test the resume path. None: run to the end.
+
+    Returns
+    -------
+    dict of the record (see :func:`read_record`), or None when stopped by ``stop_after``.
+
+    Raises
+    ------
+    InputError if the sample file is missing or malformed.
+    """
+    from ..nscd import Simulation
+    from ..sample.store import read_sample
+
+    output = Path(output)
+    sample = read_sample(sample_path)
+    dt = time_step(frequency_Hz, settings)
+    n_steps = n_steps_of(frequency_Hz, dt, settings)
+    specimen = specimen_of(sample)
+    ckpt = output.with_name(output.name + ".ckpt.h5")
+    partial = output.with_name(output.name + ".partial.npz")
+    key = json.dumps({"sample": str(sample_path), "law": law.as_dict(), "f": frequency_Hz, "dt": dt,
+                      "n_steps": n_steps, "settings": asdict(settings)}, sort_keys=True)
+    per_period = 1.0 / (frequency_Hz * dt)
+    prof_steps = _profile_steps(n_steps, per_period, settings.profile_instants)
+    z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
+    edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
+
+    sim = None
+    if ckpt.exists() and partial.exists():
+        with np.load(partial, allow_pickle=False) as z:
+            arrays = {k: z[k].copy() for k in z.files}
+        if str(arrays.pop("key")) == key:
+            motion = HeadMotion(settings.amplitude_m, frequency_Hz)
+            sim = Simulation.load_checkpoint(ckpt, drivers=[None, motion])
+            print(f"resuming from {ckpt} at step {sim.step_index} of {n_steps}", flush=True,
+                  file=__import__("sys").stderr)
+    if sim is None:
+        sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings)
+        arrays = {"t": np.zeros(n_steps), "plate_fx": np.zeros(n_steps), "driver_fx": np.zeros(n_steps),
+                  "profile_vx": np.zeros((len(prof_steps), settings.profile_bins)),
+                  "wall": np.zeros(1)}
+        for k in STAT_KEYS:
+            arrays[k] = np.zeros(n_steps)
+    zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
+    counts = np.bincount(zbin, minlength=settings.profile_bins)
+    prof_index = {int(s): n for n, s in enumerate(prof_steps)}
+
+    from tqdm import tqdm
+
+    bar = tqdm(total=n_steps, initial=sim.step_index, disable=not progress, mininterval=5.0,
+               desc=f"2PB f={frequency_Hz:g} Hz dt={dt:.3g} s", unit="step")
+    tic = time.perf_counter()
+    wall0 = float(arrays["wall"][0])
+    start = sim.step_index
+    for k in range(start, n_steps):
+        st = sim.step()
+        arrays["t"][k] = st.time - 0.5 * dt
+        arrays["plate_fx"][k] = st.plate_force[1, 0]
+        arrays["driver_fx"][k] = st.driver_force[1, 0]
+        for name in STAT_KEYS:
+            arrays[name][k] = (st.solver == "linear") if name == "linear" else getattr(st, name)
+        if k in prof_index:
+            pos = np.clip(np.digitize(sim.spheres.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
+            vx = np.bincount(pos, weights=sim.spheres.velocity[:, 0], minlength=settings.profile_bins)
+            arrays["profile_vx"][prof_index[k]] = vx / np.maximum(counts, 1)
+        bar.update(1)
+        done = k + 1
+        if settings.checkpoint_every and done % settings.checkpoint_every == 0 and done < n_steps or \
+                (stop_after is not None and done == stop_after):
+            arrays["wall"][0] = wall0 + time.perf_counter() - tic
+            with atomic_path(partial) as tmp:
+                with open(tmp, "wb") as fh:
+                    np.savez(fh, key=np.array(key), **arrays)
+            sim.save_checkpoint(ckpt)
+            if stop_after is not None and done == stop_after:
+                bar.close()
+                return None
+    bar.close()
+    wall = wall0 + time.perf_counter() - tic
+    t = arrays["t"]
+    x = motion.x(t)
+    m_head = float(sample.plate_mass[1])
+    force_bonds = -arrays["plate_fx"] - m_head * motion.omega**2 * x
+    record = {
+        "time_s": t, "displacement_m": x, "force_bonds_N": force_bonds,
+        "force_driver_N": arrays["driver_fx"].copy(),
+        "stats": {k: arrays[k] for k in STAT_KEYS},
+        "profile": {"time_s": t[prof_steps], "z_m": 0.5 * (edges[1:] + edges[:-1]),
+                    "vx_m_s": arrays["profile_vx"], "count": counts},
+        "attrs": {**(meta or {}), "frequency_Hz": float(frequency_Hz), "dt_s": dt, "n_steps": n_steps,
+                  "n_spheres": int(sample.position.shape[0]), "n_bonds": int(len(sample.bonds["i"])),
+                  "wall_time_s": wall, "cpu_per_sphere_step_s": wall / (n_steps * sample.position.shape[0]),
+                  "law": json.dumps(law.as_dict()), "settings": json.dumps(asdict(settings)),
+                  "specimen": json.dumps(specimen.as_dict()), "sample_file": str(sample_path),
+                  "head_mass_kg": m_head, "amplitude_m": settings.amplitude_m},
+    }
+    record["force_N"] = record[f"force_{settings.force_reading}_N"]
+    write_record(record, output)
+    ckpt.unlink(missing_ok=True)
+    partial.unlink(missing_ok=True)
+    return record
+
+
+def write_record(record: dict, path) -> None:
+    """Write a test record to HDF5 atomically (datasets of :func:`run_test`, SI units)."""
+    import h5py
+
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            for k in ("time_s", "displacement_m", "force_N", "force_bonds_N", "force_driver_N"):
+                f[k] = record[k]
+            for grp in ("stats", "profile"):
+                for k, v in record[grp].items():
+                    f[f"{grp}/{k}"] = np.asarray(v)
+            for k, v in record["attrs"].items():
+                f.attrs[k] = v
+
+
+def read_record(path) -> dict:
+    """Read a record written by :func:`write_record`.
+
+    Returns dict with ``time_s, displacement_m, force_N, force_bonds_N, force_driver_N``
+    (n,), ``stats`` and ``profile`` dicts of arrays and ``attrs``.
+
+    Raises InputError if the file is missing or is not a 2PB record.
+    """
+    import h5py
+
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: record file not found")
+    with h5py.File(path, "r") as f:
+        if "force_N" not in f or "time_s" not in f:
+            raise InputError(f"{path}: not a 2PB record (datasets time_s, force_N expected)")
+        rec = {k: f[k][()] for k in ("time_s", "displacement_m", "force_N", "force_bonds_N", "force_driver_N")}
+        rec["stats"] = {k: f[f"stats/{k}"][()] for k in f["stats"]}
+        rec["profile"] = {k: f[f"profile/{k}"][()] for k in f["profile"]}
+        rec["attrs"] = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
+    return rec
+
+
+def reduce_test(record: dict, window_cycles: float, force_reading: str | None = None) -> dict:
+    """Reduce a record by EN 12697-26 (Eqs. 1-5) over its last ``window_cycles`` cycles.
+
+    Returns the row of :func:`asphalt_nscd.lab.en12697.reduce_record` plus the record's
+    meta attributes, the other force reading's ``E_norm_MPa_other_reading,
+    phase_deg_other_reading`` and run statistics (``dt_s, n_steps, wall_time_s,
+    cpu_per_sphere_step_s, n_nlgs_steps, n_not_converged, max_iterations_used,
+    n_broken_total``).
+    """
+    from ..lab.en12697 import Specimen2PB, reduce_record
+
+    a = record["attrs"]
+    settings = json.loads(a["settings"])
+    reading = force_reading or settings["force_reading"]
+    other = "driver" if reading == "bonds" else "bonds"
+    spec = Specimen2PB(**json.loads(a["specimen"]))
+    f = float(a["frequency_Hz"])
+    args = dict(specimen=spec, frequency_Hz=f, window_cycles=window_cycles)
+    row = {k: a[k] for k in ("mode", "sample", "temperature_C", "variant", "parameter", "factor",
+                             "table3_units") if k in a}
+    row.update(reduce_record(record["time_s"], record["displacement_m"], record[f"force_{reading}_N"], **args))
+    alt = reduce_record(record["time_s"], record["displacement_m"], record[f"force_{other}_N"], **args)
+    s = record["stats"]
+    row.update({"force_reading": reading, "E_norm_MPa_other_reading": alt["E_norm_MPa"],
+                "phase_deg_other_reading": alt["phase_deg"], "dt_s": float(a["dt_s"]),
+                "n_steps": int(a["n_steps"]), "n_spheres": int(a["n_spheres"]), "n_bonds": int(a["n_bonds"]),
+                "wall_time_s": float(a["wall_time_s"]),
+                "cpu_per_sphere_step_s": float(a["cpu_per_sphere_step_s"]),
+                "n_nlgs_steps": int((s["linear"] == 0).sum()),
+                "n_not_converged": int((s["converged"] == 0).sum()),
+                "max_iterations_used": int(s["iterations"].max()),
+                "n_broken_total": int(s["n_broken_total"][-1])})
+    return row

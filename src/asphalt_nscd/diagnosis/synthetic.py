@@ -1,0 +1,193 @@
+"""Synthetic measured complex-modulus tables with known truth and planted artifacts.
+
+Truth: a 2S2P1D master curve with WLF shifts (Tref = 15 degC), parameters drawn uniformly
+(log-uniformly for scale parameters) in ranges published for asphalt mixes (Olard & Di
+Benedetto 2003; Mangiafico et al. 2015; Nguyen et al. 2009)::
+
+    E0 28-45 GPa, E00 30-300 MPa, delta 1.5-3.5, k 0.15-0.25, h 0.5-0.7,
+    beta 100-3000, tau(15 degC) 0.01-0.5 s, C1 20-35, C2 130-230 K.
+
+Replicates: each specimen has a log-normal |E*| factor (sigma 2-6 %) and a small constant
+phase offset (sigma 0.15 deg); every point has noise of ln|E*| (sigma 0.5-2 %) and of Phi
+(sigma 0.1-0.4 deg). Every table carries ``strain_microstrain`` (30-150 microstrain per
+point) and ``test_order`` (per specimen: temperatures ascending, frequencies descending
+within an isotherm, as in EN 12697-26 and AASHTO T 342).
+
+Planted effects (magnitudes drawn at random; the truth JSON uses the estimate keys of the
+diagnosis report):
+
+===================  =====================================================================
+time_lag             Phi_meas = Phi + 360 f dt; dt 0.2-1.5 ms (``time_lag_ms``)
+inertia_uncorrected  E1_meas = E1 - gamma 1e-6 dmu w^2 (2PB Eq. 1, paper geometry);
+                     dmu = +-(100-400) g (``mass_factor_g``; > 0: mass term missing),
+                     reduced if needed so that no E1 changes by more than 30 %
+temperature_offset   one isotherm generated at T + dT, labelled T; |dT| 1.5-4 degC
+                     (``temperature_C``, ``offset_C``)
+strain_nonlinearity  |E*| * exp(-b eps/100 microstrain); b 0.02-0.06
+                     (``modulus_drop_per_100_microstrain``)
+self_heating         the n-th test of an isotherm (n = 0, 1, ...) runs at T + n dT_h;
+                     dT_h 0.3-1 degC (``temperature_rise_C_per_test``)
+===================  =====================================================================
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..rheology.models import two_s2p1d_modulus
+from ..rheology.shift import wlf_log_shift
+
+#: Test schedules (temperatures degC, frequencies Hz in test order).
+SCHEDULES = {
+    "paper_2pb": ([-10.0, 0.0, 10.0, 15.0, 20.0, 30.0], [40.0, 25.0, 10.0, 6.0, 3.0]),
+    "aashto_t342": ([-10.0, 4.0, 21.0, 37.0, 54.0], [25.0, 10.0, 5.0, 1.0, 0.5, 0.1]),
+}
+#: Names of the effects the generator can plant.
+EFFECTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
+           "self_heating")
+T_REF_TRUTH_C = 15.0
+#: largest planted change of E1 by the inertia term, relative to the true E1
+INERTIA_MAX_FRACTION = 0.3
+
+
+def gamma_and_mu() -> tuple[float, float]:
+    """gamma (1/mm) and mu (g) of the paper's 2PB specimen (EN 12697-26, paper Eq. 3)."""
+    from ..lab.en12697 import Specimen2PB
+
+    spec = Specimen2PB()
+    return float(spec.gamma_per_mm), float(spec.mu_g)
+
+
+def random_truth(rng: np.random.Generator) -> dict:
+    """Draw 2S2P1D + WLF parameters (MPa, s, K) in the published ranges above."""
+    return {
+        "E0_MPa": float(rng.uniform(28e3, 45e3)),
+        "E00_MPa": float(np.exp(rng.uniform(np.log(30.0), np.log(300.0)))),
+        "delta": float(rng.uniform(1.5, 3.5)),
+        "k": float(rng.uniform(0.15, 0.25)),
+        "h": float(rng.uniform(0.5, 0.7)),
+        "beta": float(np.exp(rng.uniform(np.log(100.0), np.log(3000.0)))),
+        "tau_ref_s": float(np.exp(rng.uniform(np.log(0.01), np.log(0.5)))),
+        "C1": float(rng.uniform(20.0, 35.0)),
+        "C2_K": float(rng.uniform(130.0, 230.0)),
+        "T_ref_C": T_REF_TRUTH_C,
+    }
+
+
+def truth_modulus(truth: dict, frequency_Hz, temperature_C) -> np.ndarray:
+    """Complex modulus (MPa) of the truth at arrays of frequency (Hz) and temperature (degC)."""
+    tau = truth["tau_ref_s"] * 10.0 ** wlf_log_shift(temperature_C, truth["T_ref_C"], truth["C1"], truth["C2_K"])
+    return two_s2p1d_modulus(2 * np.pi * np.asarray(frequency_Hz, float), truth["E00_MPa"], truth["E0_MPa"],
+                             truth["delta"], truth["k"], truth["h"], truth["beta"], tau)
+
+
+def random_effect(name: str, rng: np.random.Generator, temperatures) -> dict:
+    """Random magnitude of one planted effect (keys as in the diagnosis estimates)."""
+    if name == "time_lag":
+        return {"time_lag_ms": float(np.exp(rng.uniform(np.log(0.2), np.log(1.5))))}
+    if name == "inertia_uncorrected":
+        sign = 1.0 if rng.random() < 0.7 else -1.0
+        return {"mass_factor_g": float(sign * rng.uniform(100.0, 400.0))}
+    if name == "temperature_offset":
+        return {"temperature_C": float(rng.choice(temperatures)),
+                "offset_C": float(rng.choice([-1.0, 1.0]) * rng.uniform(1.5, 4.0))}
+    if name == "strain_nonlinearity":
+        return {"modulus_drop_per_100_microstrain": float(rng.uniform(0.02, 0.06))}
+    if name == "self_heating":
+        return {"temperature_rise_C_per_test": float(rng.uniform(0.3, 1.0))}
+    raise ValueError(f"unknown effect '{name}'; expected one of {', '.join(EFFECTS)}")
+
+
+def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: int | None = None,
+             magnitudes: dict | None = None) -> tuple[pd.DataFrame, dict]:
+    """Generate a synthetic measured table and its truth.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the NumPy generator (everything is drawn from it).
+    effects : sequence of str
+        Planted effects (names of :data:`EFFECTS`), zero, one or more.
+    schedule : str, optional
+        Key of :data:`SCHEDULES`; default drawn at random.
+    n_specimens : int, optional
+        Number of replicates (1-4); default drawn in 2-4.
+    magnitudes : dict, optional
+        ``{effect: {key: value}}`` overriding the random magnitudes.
+
+    Returns
+    -------
+    (DataFrame, dict)
+        Table with the measured-table columns ``specimen, temperature_C, frequency_Hz,
+        E_norm_MPa, phase_deg, strain_microstrain, test_order``; truth with ``seed,
+        schedule, n_specimens, parameters, noise, effects``.
+
+    Raises
+    ------
+    ValueError
+        on an unknown effect or schedule, or n_specimens outside 1-4.
+    """
+    rng = np.random.default_rng(seed)
+    effects = list(dict.fromkeys(effects))
+    for e in effects:
+        if e not in EFFECTS:
+            raise ValueError(f"unknown effect '{e}'; expected one of {', '.join(EFFECTS)}")
+    if schedule is None:
+        schedule = str(rng.choice(sorted(SCHEDULES)))
+    if schedule not in SCHEDULES:
+        raise ValueError(f"unknown schedule '{schedule}'; expected one of {', '.join(SCHEDULES)}")
+    temps, freqs = SCHEDULES[schedule]
+    if n_specimens is None:
+        n_specimens = int(rng.integers(2, 5))
+    if not 1 <= n_specimens <= 4:
+        raise ValueError(f"n_specimens must lie in 1-4, got {n_specimens}")
+    truth = random_truth(rng)
+    noise = {"specimen_lnE_sigma": float(rng.uniform(0.02, 0.06)),
+             "specimen_phase_sigma_deg": 0.15,
+             "point_lnE_sigma": float(rng.uniform(0.005, 0.02)),
+             "point_phase_sigma_deg": float(rng.uniform(0.1, 0.4))}
+    planted = {e: random_effect(e, rng, temps) for e in effects}
+    for e, values in (magnitudes or {}).items():
+        if e in planted:
+            planted[e].update(values)
+    gamma, _ = gamma_and_mu()
+    if "inertia_uncorrected" in planted:
+        # a lab would not report E1 changed by more than INERTIA_MAX_FRACTION (phase near 90 deg)
+        TT, FF = np.meshgrid(temps, freqs)
+        E1 = truth_modulus(truth, FF, TT).real
+        dmu_max = INERTIA_MAX_FRACTION * np.min(E1 / (gamma * 1e-6 * (2 * np.pi * FF) ** 2))
+        dmu = planted["inertia_uncorrected"]["mass_factor_g"]
+        if abs(dmu) > dmu_max:
+            planted["inertia_uncorrected"]["mass_factor_g"] = float(np.sign(dmu) * dmu_max)
+
+    rows = []
+    for s in range(n_specimens):
+        c = rng.normal(0.0, noise["specimen_lnE_sigma"])
+        p0 = rng.normal(0.0, noise["specimen_phase_sigma_deg"])
+        order = 0
+        for T in temps:
+            for n, f in enumerate(freqs):
+                order += 1
+                T_eff = T
+                if "temperature_offset" in planted and T == planted["temperature_offset"]["temperature_C"]:
+                    T_eff += planted["temperature_offset"]["offset_C"]
+                if "self_heating" in planted:
+                    T_eff += n * planted["self_heating"]["temperature_rise_C_per_test"]
+                strain = rng.uniform(30.0, 150.0)
+                E = complex(truth_modulus(truth, f, T_eff)) * np.exp(c + 1j * np.radians(p0))
+                if "strain_nonlinearity" in planted:
+                    E *= np.exp(-planted["strain_nonlinearity"]["modulus_drop_per_100_microstrain"] * strain / 100.0)
+                if "inertia_uncorrected" in planted:
+                    E -= gamma * 1e-6 * planted["inertia_uncorrected"]["mass_factor_g"] * (2 * np.pi * f) ** 2
+                if "time_lag" in planted:
+                    E *= np.exp(1j * 2 * np.pi * f * planted["time_lag"]["time_lag_ms"] * 1e-3)
+                lnE = np.log(abs(E)) + rng.normal(0.0, noise["point_lnE_sigma"])
+                phase = np.degrees(np.angle(E)) + rng.normal(0.0, noise["point_phase_sigma_deg"])
+                rows.append({"specimen": f"S{s + 1}", "temperature_C": T, "frequency_Hz": f,
+                             "E_norm_MPa": float(np.exp(lnE)), "phase_deg": float(np.clip(phase, 0.01, 89.9)),
+                             "strain_microstrain": round(float(strain), 2), "test_order": order})
+    table = pd.DataFrame(rows).sort_values(["temperature_C", "frequency_Hz", "specimen"]).reset_index(drop=True)
+    info = {"seed": int(seed), "schedule": schedule, "n_specimens": n_specimens,
+            "parameters": truth, "noise": noise, "effects": planted}
+    return table, info

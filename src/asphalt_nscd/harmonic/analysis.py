@@ -1,0 +1,289 @@
+"""Studies built on the harmonic solver: sensitivity, time-domain comparison, network factor,
+benchmark, figures.
+
+* :func:`sensitivity_table` — the sensitivity study of Section 4.2 (each of Em, eta_m, Ek,
+  eta_k changed by +-p % at one temperature) on a finer grid of p, for the discrete sample
+  and the macro law.
+* :func:`compare_time_domain` — harmonic vs NSCD time-domain rows per (T, f, dt), with the
+  harmonic solution at several solver tolerances: separates the integrator's error (dt)
+  from the linear solver's (rtol) and from the model (the same for both).
+* :func:`network_factor_table` — per (sample, mode, T, f) ratio of the sample's |E*| to the
+  macro |E*| and phase difference, and its mean and spread over samples.
+* :func:`benchmark` — timing and peak memory of one (T, f) on an N-sphere sample.
+"""
+
+from __future__ import annotations
+
+import resource
+import time
+
+import numpy as np
+import pandas as pd
+
+from .response import PARAM_COLUMNS, harmonic_rows, law_of_row
+
+NETWORK_FACTOR_KEYS = ("sample", "mode", "temperature_C", "frequency_Hz")
+
+
+def sensitivity_table(system, row: pd.Series, frequencies_Hz, levels_percent, geometry_mm,
+                      **solve_kwargs) -> pd.DataFrame:
+    """Harmonic |E*|, Phi with each Burger's parameter scaled by (1 +- p/100).
+
+    Parameters
+    ----------
+    system : HarmonicSystem
+    row : parameter row (``temperature_C`` + Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s).
+    frequencies_Hz : sequence, Hz.  levels_percent : sequence of p > 0 (e.g. 10 ... 50).
+    geometry_mm : ``b_mm, B_mm, e_mm, h_mm``.  solve_kwargs : see ``harmonic_rows``.
+
+    Returns
+    -------
+    DataFrame: ``parameter`` ("reference" or a column name), ``change_percent`` (signed),
+    the harmonic rows, and ``dE_norm_percent, dphase_deg`` (sample, vs the reference) and
+    ``macro_dE_norm_percent, macro_dphase_deg`` (macro law).
+    """
+    if np.any(np.asarray(levels_percent, float) <= 0) or np.any(np.asarray(levels_percent) >= 100):
+        raise ValueError(f"levels must lie in (0, 100) %, got {levels_percent}")
+    cases = [("reference", 0.0)]
+    for name in PARAM_COLUMNS:
+        for p in sorted(levels_percent):
+            cases += [(name, -float(p)), (name, float(p))]
+    frames = []
+    for name, change in cases:
+        r = row.copy()
+        if name != "reference":
+            r[name] = float(r[name]) * (1.0 + change / 100.0)
+        rows = harmonic_rows(system, law_of_row(r), float(row["temperature_C"]), frequencies_Hz,
+                             geometry_mm, **solve_kwargs)
+        frame = pd.DataFrame(rows)
+        frame.insert(0, "change_percent", change)
+        frame.insert(0, "parameter", name)
+        frames.append(frame)
+    out = pd.concat(frames, ignore_index=True)
+    ref = out[out["parameter"] == "reference"].set_index("frequency_Hz")
+    f = out["frequency_Hz"]
+    out["dE_norm_percent"] = 100 * (out["E_norm_MPa"].to_numpy()
+                                    / ref.loc[f, "E_norm_MPa"].to_numpy() - 1)
+    out["dphase_deg"] = out["phase_deg"].to_numpy() - ref.loc[f, "phase_deg"].to_numpy()
+    out["macro_dE_norm_percent"] = 100 * (out["macro_E_norm_MPa"].to_numpy()
+                                          / ref.loc[f, "macro_E_norm_MPa"].to_numpy() - 1)
+    out["macro_dphase_deg"] = (out["macro_phase_deg"].to_numpy()
+                               - ref.loc[f, "macro_phase_deg"].to_numpy())
+    return out
+
+
+def compare_time_domain(sample_path, system, params: pd.DataFrame, frequencies_Hz, dts,
+                        rtols, geometry_mm, **td_kwargs) -> pd.DataFrame:
+    """Harmonic vs time-domain |E*| and Phi per (T, f, dt) and per harmonic rtol.
+
+    Both use inertia (the time-domain test has it). Rows with ``kind = "time-domain"``
+    (one per dt; rtol = the tightest) and ``kind = "harmonic-rtol"`` (one per rtol: the
+    harmonic GMRES solution at that tolerance vs the direct complex LU, dt = NaN).
+
+    Returns
+    -------
+    DataFrame: ``kind, temperature_C, frequency_Hz, dt_s, rtol, E_norm_MPa, phase_deg,
+    reference_E_norm_MPa, reference_phase_deg, dE_norm_percent, dphase_deg`` + run details
+    (``n_steps, wall_time_s, cpu_per_sphere_step_s, E_norm_MPa_other_reading,
+    phase_deg_other_reading``).
+    """
+    from .timedomain import time_domain_row
+
+    out = []
+    for _, prow in params.iterrows():
+        law = law_of_row(prow)
+        T = float(prow["temperature_C"])
+        for f in frequencies_Hz:
+            ref = harmonic_rows(system, law, T, [f], geometry_mm, inertia="full",
+                                solver="direct")[0]
+            base = {"temperature_C": T, "frequency_Hz": float(f),
+                    "reference_E_norm_MPa": ref["E_norm_MPa"],
+                    "reference_phase_deg": ref["phase_deg"]}
+            for rtol in rtols:
+                h = harmonic_rows(system, law, T, [f], geometry_mm, inertia="full",
+                                  solver="reuse", rtol=rtol)[0]
+                out.append({"kind": "harmonic-rtol", **base, "dt_s": np.nan, "rtol": rtol,
+                            "E_norm_MPa": h["E_norm_MPa"], "phase_deg": h["phase_deg"],
+                            "wall_time_s": h["solve_time_s"]})
+            for dt in dts:
+                td = time_domain_row(sample_path, law, float(f), geometry_mm, float(dt),
+                                     **td_kwargs)
+                out.append({"kind": "time-domain", **base, "dt_s": float(dt), "rtol": np.nan,
+                            "E_norm_MPa": td["E_norm_MPa"], "phase_deg": td["phase_deg"],
+                            "n_steps": td["n_steps"], "wall_time_s": td["wall_time_s"],
+                            "cpu_per_sphere_step_s": td["cpu_per_sphere_step_s"],
+                            "E_norm_MPa_other_reading": td["E_norm_MPa_other_reading"],
+                            "phase_deg_other_reading": td["phase_deg_other_reading"]})
+    frame = pd.DataFrame(out)
+    frame["dE_norm_percent"] = 100 * (frame["E_norm_MPa"] / frame["reference_E_norm_MPa"] - 1)
+    frame["dphase_deg"] = frame["phase_deg"] - frame["reference_phase_deg"]
+    return frame
+
+
+def network_factor_table(frames: list[pd.DataFrame]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Network factor per (sample, mode, T, f) and its summary over samples.
+
+    Parameters
+    ----------
+    frames : harmonic row tables with ``sample`` and ``mode`` columns.
+
+    Returns
+    -------
+    (table, summary): table has ``sample, mode, temperature_C, frequency_Hz, E_norm_MPa,
+    phase_deg, macro_E_norm_MPa, macro_phase_deg, network_factor, phase_difference_deg``;
+    summary per (mode, T, f): ``n_samples, network_factor_mean, network_factor_std,
+    phase_difference_deg_mean, phase_difference_deg_std``.
+    """
+    cols = [*NETWORK_FACTOR_KEYS, "inertia", "E_norm_MPa", "phase_deg", "macro_E_norm_MPa",
+            "macro_phase_deg", "network_factor", "phase_difference_deg"]
+    table = pd.concat([f[cols] for f in frames], ignore_index=True)
+    table = table.sort_values(list(NETWORK_FACTOR_KEYS)).reset_index(drop=True)
+    g = table.groupby(["mode", "inertia", "temperature_C", "frequency_Hz"])
+    summary = g.agg(n_samples=("sample", "nunique"),
+                    network_factor_mean=("network_factor", "mean"),
+                    network_factor_std=("network_factor", "std"),
+                    phase_difference_deg_mean=("phase_difference_deg", "mean"),
+                    phase_difference_deg_std=("phase_difference_deg", "std")).reset_index()
+    return table, summary
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process, MB (Linux ru_maxrss is in kB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
+              td_dt: float = 5e-5, td_cycles: int = 5) -> dict:
+    """Time one harmonic (T, f) on a sample, and the matching time-domain job by extrapolation.
+
+    Harmonic: reading + preparation, the one-off real factorisation, then per frequency the
+    ``reuse`` solve with and without inertia and the ``direct`` complex LU. Time-domain: the
+    mean wall time of ``td_steps`` NSCD steps of the same test, times the steps of a
+    ``td_cycles``-cycle job at ``td_dt`` (the paper's 5 cycles at 5e-5 s).
+
+    Returns
+    -------
+    dict (JSON-ready) with sizes, times in s, ``peak_rss_mb``.
+    """
+    from .network import read_sample
+    from .solver import HarmonicSystem
+
+    t0 = time.perf_counter()
+    network = read_sample(sample_path)
+    system = HarmonicSystem(network)
+    t_setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    system._reference()
+    t_factor = time.perf_counter() - t0
+    per_f = []
+    for f in frequencies_Hz:
+        entry = {"frequency_Hz": float(f)}
+        for solver, inertia in (("reuse", "none"), ("reuse", "full"), ("direct", "full")):
+            t0 = time.perf_counter()
+            row = harmonic_rows(system, law, 0.0, [f], geometry_mm, inertia=inertia,
+                                solver=solver)[0]
+            entry[f"{solver}_{inertia}_s"] = time.perf_counter() - t0
+            entry[f"{solver}_{inertia}_E_norm_MPa"] = row["E_norm_MPa"]
+        per_f.append(entry)
+    td = (_time_domain_step_time(sample_path, law, float(frequencies_Hz[0]), td_dt, td_steps)
+          if td_steps > 0 else float("nan"))
+    n_td = int(round(td_cycles / (float(frequencies_Hz[0]) * td_dt)))
+    first = per_f[0]
+    return {
+        "n_spheres": network.n_spheres, "n_bonds": network.n_bonds,
+        "n_free_dof": system.n_free, "n_load_free": system.n_load_free,
+        "setup_s": t_setup, "reference_factorisation_s": t_factor,
+        "per_frequency": per_f,
+        "first_TF_total_s": t_setup + t_factor + first["reuse_full_s"],
+        "direct_TF_total_s": t_setup + first["direct_full_s"],
+        "time_domain_step_s": td, "time_domain_steps": n_td,
+        "time_domain_job_s": td * n_td,
+        "time_domain_job": f"{td_cycles} cycles at {frequencies_Hz[0]} Hz, dt = {td_dt} s",
+        "peak_rss_mb": peak_rss_mb(),
+    }
+
+
+def _time_domain_step_time(sample_path, law, frequency_Hz, dt, n_steps) -> float:
+    import h5py
+
+    from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
+
+    with h5py.File(sample_path, "r") as h5:
+        m, r = h5["spheres/mass"][()], h5["spheres/radius"][()]
+        spheres = Spheres(position=h5["spheres/position"][()], radius=r, mass=m,
+                          inertia=0.4 * m * r**2)
+        point, normal = h5["plates/point"][()], h5["plates/normal"][()]
+        m_top = float(h5["plates/mass"][1])
+        bi, bj = h5["bonds/i"][()], h5["bonds/j"][()]
+    w = 2 * np.pi * frequency_Hz
+    plates = Plates([Plate(point[0], normal[0], mode="fixed"),
+                     Plate(point[1], normal[1], mode="driven", mass=m_top,
+                           displacement=lambda t: (63e-6 * np.sin(w * t), 0.0, 0.0))])
+    sim = Simulation(spheres, plates, Bonds.create(spheres, plates, bi, bj, law),
+                     NSCDParameters(dt=dt, gravity=(0.0, 0.0, 0.0)))
+    sim.step()  # JIT compilation and first factorisation excluded
+    t0 = time.perf_counter()
+    for _ in range(n_steps):
+        sim.step()
+    return (time.perf_counter() - t0) / n_steps
+
+
+# ----------------------------------------------------------------------------- figures
+def plot_compare(frame: pd.DataFrame):
+    """Figure: |d|E*|| (%) and |dPhi| (deg) vs dt per (T, f), and vs rtol (harmonic)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(9, 6.5))
+    td = frame[frame["kind"] == "time-domain"]
+    hr = frame[frame["kind"] == "harmonic-rtol"]
+    for (T, f), g in td.groupby(["temperature_C", "frequency_Hz"]):
+        g = g.sort_values("dt_s")
+        label = f"{T:g} °C, {f:g} Hz"
+        axes[0, 0].loglog(g["dt_s"], g["dE_norm_percent"].abs().clip(lower=1e-8), "o-", label=label)
+        axes[1, 0].loglog(g["dt_s"], g["dphase_deg"].abs().clip(lower=1e-8), "o-", label=label)
+    for (T, f), g in hr.groupby(["temperature_C", "frequency_Hz"]):
+        g = g.sort_values("rtol")
+        axes[0, 1].loglog(g["rtol"], g["dE_norm_percent"].abs().clip(lower=1e-14), "s-")
+        axes[1, 1].loglog(g["rtol"], g["dphase_deg"].abs().clip(lower=1e-14), "s-",
+                          label=f"{T:g} °C, {f:g} Hz")
+    for ax in axes[0]:
+        ax.axhline(0.5, color="k", ls=":", lw=0.8)
+    for ax in axes[1]:
+        ax.axhline(0.1, color="k", ls=":", lw=0.8)
+    axes[0, 0].set_ylabel("| |E*| time-domain / harmonic - 1 | (%)")
+    axes[1, 0].set_ylabel("| Φ time-domain - Φ harmonic | (°)")
+    axes[1, 0].set_xlabel("time step dt (s)")
+    axes[1, 1].set_xlabel("harmonic GMRES relative tolerance")
+    axes[0, 0].legend(fontsize=7)
+    for ax in axes.ravel():
+        ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_sensitivity(frame: pd.DataFrame, frequency_Hz: float):
+    """Figure: change of |E*| (%) and Phi (deg) vs parameter change, sample and macro law."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
+    sub = frame[np.isclose(frame["frequency_Hz"], frequency_Hz)]
+    for k, name in enumerate(PARAM_COLUMNS):
+        g = pd.concat([sub[sub["parameter"] == name], sub[sub["parameter"] == "reference"]])
+        g = g.sort_values("change_percent")
+        color = f"C{k}"
+        axes[0].plot(g["change_percent"], g["dE_norm_percent"], "o-", color=color,
+                     label=f"{name} (sample)")
+        axes[0].plot(g["change_percent"], g["macro_dE_norm_percent"], "--", color=color,
+                     label=f"{name} (macro)")
+        axes[1].plot(g["change_percent"], g["dphase_deg"], "o-", color=color)
+        axes[1].plot(g["change_percent"], g["macro_dphase_deg"], "--", color=color)
+    axes[0].set_ylabel("change of |E*| (%)")
+    axes[1].set_ylabel("change of Φ (°)")
+    for ax in axes:
+        ax.set_xlabel("parameter change (%)")
+        ax.grid(True, alpha=0.3)
+    T = float(sub["temperature_C"].iloc[0]) if len(sub) else float("nan")
+    fig.suptitle(f"Sensitivity at {T:g} °C, {frequency_Hz:g} Hz", fontsize=10)
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,177 @@
+"""Ingestion of measured complex-modulus tables (docs/design.md, "Measured tables").
+
+A measured table is a CSV with one row per (specimen, temperature, frequency):
+
+==================  ========  ===========================================
+column              unit      rule
+==================  ========  ===========================================
+specimen            –         required, non-empty text
+temperature_C       degC      required, finite number
+frequency_Hz        Hz        required, > 0
+E_norm_MPa          MPa       required, > 0 (norm of the complex modulus)
+phase_deg           degrees   required, in [0, 90)
+strain_microstrain  1e-6      optional, > 0
+test_order          –         optional, integer
+(any other)         –         carried along unchanged
+==================  ========  ===========================================
+
+(specimen, temperature_C, frequency_Hz) must be unique. Any violation raises
+:class:`asphalt_nscd.io.InputError` naming the file, the file line (the header is line 1)
+and the column; nothing is written by the callers in that case.
+
+``summarize`` gives the replicate mean and the sample standard deviation (ddof = 1; NaN
+for a single specimen) of |E*| and Phi per (temperature, frequency).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..io import InputError
+
+REQUIRED_COLUMNS = ("specimen", "temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg")
+OPTIONAL_COLUMNS = ("strain_microstrain", "test_order")
+KEY_COLUMNS = ("specimen", "temperature_C", "frequency_Hz")
+SUMMARY_COLUMNS = (
+    "temperature_C", "frequency_Hz", "n",
+    "E_norm_MPa_mean", "E_norm_MPa_std", "phase_deg_mean", "phase_deg_std",
+)
+
+#: column -> (check on finite float values, expectation in the error message)
+_RANGES = {
+    "temperature_C": (lambda v: np.ones_like(v, dtype=bool), "a finite temperature in degC"),
+    "frequency_Hz": (lambda v: v > 0, "a frequency > 0 Hz"),
+    "E_norm_MPa": (lambda v: v > 0, "|E*| > 0 MPa"),
+    "phase_deg": (lambda v: (v >= 0) & (v < 90), "a phase angle in [0, 90) degrees"),
+    "strain_microstrain": (lambda v: v > 0, "a strain amplitude > 0 microstrain"),
+    "test_order": (lambda v: v == np.round(v), "an integer test order"),
+}
+
+
+def _line(index: int) -> int:
+    """File line of data row ``index`` (0-based; header on line 1)."""
+    return int(index) + 2
+
+
+def load_measured(path) -> pd.DataFrame:
+    """Read and validate a measured complex-modulus table.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with the columns of the module docstring.
+
+    Returns
+    -------
+    DataFrame, shape (n_rows, n_columns)
+        Required columns first (specimen as str, the others float), optional ones next
+        (test_order as int), other columns carried along; rows sorted by temperature,
+        frequency and specimen.
+
+    Raises
+    ------
+    InputError
+        if the file is missing, empty, not a CSV text table, lacks a required column,
+        holds a non-numeric, NaN or out-of-range value, or repeats a
+        (specimen, temperature_C, frequency_Hz) key — naming file, line and column.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    if path.suffix.lower() != ".csv":
+        raise InputError(f"{path}: expected a .csv file, got suffix '{path.suffix}'")
+    raw = path.read_bytes()
+    if not raw.strip():
+        raise InputError(f"{path}: file is empty; expected a header line with columns {list(REQUIRED_COLUMNS)}")
+    if b"\x00" in raw:
+        raise InputError(f"{path}: not a CSV text file (binary content)")
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False)
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
+    if missing:
+        raise InputError(
+            f"{path}: line 1 (header): missing column(s) {missing}; "
+            f"found {list(frame.columns)}, expected at least {list(REQUIRED_COLUMNS)}"
+        )
+    dup_cols = frame.columns[frame.columns.duplicated()].tolist()
+    if dup_cols:
+        raise InputError(f"{path}: line 1 (header): duplicated column(s) {dup_cols}")
+    if len(frame) == 0:
+        raise InputError(f"{path}: no data rows after the header")
+
+    out = pd.DataFrame(index=frame.index)
+    spec = frame["specimen"].str.strip()
+    empty = np.flatnonzero((spec == "").to_numpy())
+    if empty.size:
+        raise InputError(f"{path}: line {_line(empty[0])}, column 'specimen': empty value (NaN); expected a specimen name")
+    out["specimen"] = spec
+    numeric = [c for c in (*REQUIRED_COLUMNS[1:], *OPTIONAL_COLUMNS) if c in frame.columns]
+    for column in numeric:
+        text = frame[column].str.strip()
+        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
+        check, expected = _RANGES[column]
+        for i in range(len(values)):
+            if not np.isfinite(values[i]):
+                kind = "missing value (NaN)" if text.iloc[i] == "" or text.iloc[i].lower() in {"nan", "na", "null"} else "non-numeric value"
+                raise InputError(
+                    f"{path}: line {_line(i)}, column '{column}': {kind} {frame[column].iloc[i]!r}; expected {expected}"
+                )
+        bad = np.flatnonzero(~check(values))
+        if bad.size:
+            i = bad[0]
+            raise InputError(f"{path}: line {_line(i)}, column '{column}': value {values[i]:g} out of range; expected {expected}")
+        out[column] = values.astype(int) if column == "test_order" else values
+
+    dup = out.duplicated(subset=list(KEY_COLUMNS), keep=False).to_numpy()
+    if dup.any():
+        rows = np.flatnonzero(dup)
+        first = out.iloc[rows[0]]
+        same = rows[
+            (out["specimen"].iloc[rows] == first["specimen"]).to_numpy()
+            & (out["temperature_C"].iloc[rows] == first["temperature_C"]).to_numpy()
+            & (out["frequency_Hz"].iloc[rows] == first["frequency_Hz"]).to_numpy()
+        ]
+        raise InputError(
+            f"{path}: lines {', '.join(str(_line(i)) for i in same)}, columns {list(KEY_COLUMNS)}: duplicate row "
+            f"(specimen={first['specimen']!r}, temperature_C={first['temperature_C']:g}, frequency_Hz={first['frequency_Hz']:g})"
+        )
+
+    for column in frame.columns:
+        if column not in out.columns:
+            try:  # carried along: numeric if every value parses, text otherwise
+                out[column] = pd.to_numeric(frame[column])
+            except (ValueError, TypeError):
+                out[column] = frame[column]
+    return out.sort_values(["temperature_C", "frequency_Hz", "specimen"], kind="stable").reset_index(drop=True)
+
+
+def summarize(df: pd.DataFrame) -> pd.DataFrame:
+    """Replicate mean and scatter of |E*| and Phi per (temperature, frequency).
+
+    Parameters
+    ----------
+    df : DataFrame
+        Validated table from :func:`load_measured` (or any frame with the required columns).
+
+    Returns
+    -------
+    DataFrame, one row per (temperature_C, frequency_Hz), sorted
+        ``temperature_C, frequency_Hz, n, E_norm_MPa_mean, E_norm_MPa_std, phase_deg_mean,
+        phase_deg_std`` (MPa, degrees; std is the sample standard deviation, ddof = 1, NaN
+        when n = 1).
+    """
+    grouped = df.groupby(["temperature_C", "frequency_Hz"], sort=True)
+    out = grouped.agg(
+        n=("E_norm_MPa", "size"),
+        E_norm_MPa_mean=("E_norm_MPa", "mean"),
+        E_norm_MPa_std=("E_norm_MPa", "std"),
+        phase_deg_mean=("phase_deg", "mean"),
+        phase_deg_std=("phase_deg", "std"),
+    ).reset_index()
+    return out[list(SUMMARY_COLUMNS)]

@@ -1,0 +1,184 @@
+"""Benchmarks of the NSCD core (JSON output; never timed tests).
+
+Cases
+-----
+``bonded``
+    A 2PB-like bonded sample generated here (not the real preparation pipeline of
+    :mod:`asphalt_nscd.sample`): N sites of a cubic lattice filling the 56 x 25 x 250 mm
+    bounding box of the EN 12697-26 trapezoid, jittered by +-5 % of the pitch, radii uniform
+    in [0.35, 0.45] x pitch (about 1.1-1.4 mm for N = 12 000), density 3415 kg/m³; bonds for
+    gaps below d_min = 2 mm (sphere-sphere and sphere-plate); bottom plate fixed, top plate
+    (0.235 kg) driven along x with A = 63e-6 m at 40 Hz; Burger's law of Table 3 at 15 degC
+    read in Pa (Em = 2.43e7, eta_m = 3.71e6, Ek = 4.84e7, eta_k = 7.73e5); friction 0.7;
+    dt = 5e-5 s, theta = 0.5. The production path (linear fast path, exact to round-off) is
+    timed over ``steps`` steps; the baseline (NLGS at the given tolerance) over
+    ``baseline_steps`` steps of the same sample; their ratio is reported.
+``granular``
+    A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
+    lattice in a box of 5 fixed walls, friction 0.2, dt = 1e-4 s, NLGS; the first
+    ``settle_steps`` steps (falling, not timed) are followed by ``steps`` timed steps.
+
+Reported: case, n_particles, n_bonds, n_contacts (candidates, last step), n_active_contacts,
+steps, s_per_particle_step, nlgs_iterations_mean, peak_rss_mb (process maximum resident
+set), solver, tolerance, threads, compile_s (first call of every kernel on a tiny problem,
+from the numba cache when present), setup_s (sample generation, first factorisation),
+baseline_* and speedup, time_breakdown (fraction of step time in detection, bond laws,
+solver, other), cpu/platform.
+"""
+
+from __future__ import annotations
+
+import platform
+import resource
+import time
+
+import numpy as np
+
+from ..rheology.laws import GeneralizedBurgers
+from .detection import plate_pairs, sphere_pairs
+from .moreau_jean import Simulation
+from .state import Bonds, NSCDParameters, Plate, Plates, Spheres
+
+LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
+BOX = (0.056, 0.025, 0.250)  # m: bounding box of the trapezoid (B, e, h)
+
+
+def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
+                  density: float = 3415.0):
+    """Spheres, plates and bonds of the bench's 2PB-like sample (see module docstring)."""
+    rng = np.random.default_rng(seed)
+    vol = BOX[0] * BOX[1] * BOX[2]
+    pitch = (vol / n) ** (1.0 / 3.0)
+    dims = np.maximum(np.round(np.array(BOX) / pitch).astype(int), 1)
+    while np.prod(dims) < n:
+        dims[2] += 1
+    idx = np.array(np.unravel_index(np.arange(n), dims[::-1]))[::-1].T  # x fastest
+    pos = (idx + 0.5) * pitch + rng.uniform(-0.05, 0.05, (n, 3)) * pitch
+    rad = rng.uniform(0.35, 0.45, n) * pitch
+    s = Spheres.from_density(pos, rad, density)
+    z_top = dims[2] * pitch
+    f, omega, amp = 40.0, 2 * np.pi * 40.0, 63e-6
+    plates = Plates([
+        Plate([0, 0, 0], [0, 0, 1]),
+        Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
+              displacement=lambda t: np.array([amp * np.sin(omega * t), 0.0, 0.0])),
+    ])
+    i, j, _ = sphere_pairs(s.position, s.radius, d_min)
+    pi_, pk, _ = plate_pairs(s.position, s.radius, plates.point, plates.normal, d_min)
+    bonds = Bonds.create(s, plates, np.concatenate([i, pi_]), np.concatenate([j, -1 - pk]),
+                         law)
+    del f
+    return s, plates, bonds
+
+
+def granular_sample(n: int, seed: int = 0, density: float = 2600.0):
+    """Spheres on a loose jittered cubic lattice in a 5-wall box (open top)."""
+    rng = np.random.default_rng(seed)
+    r_max = 1.5e-3
+    pitch = 2.1 * r_max
+    nx = max(int(round((n / 4) ** (1 / 3))), 1)
+    ny = nx
+    nz = int(np.ceil(n / (nx * ny)))
+    idx = np.array(np.unravel_index(np.arange(n), (nz, ny, nx)))[::-1].T
+    pos = (idx + 0.5) * pitch + rng.uniform(-0.02, 0.02, (n, 3)) * pitch
+    rad = rng.uniform(1e-3, r_max, n)
+    s = Spheres.from_density(pos, rad, density)
+    lx, ly = nx * pitch, ny * pitch
+    plates = Plates([Plate([0, 0, 0], [0, 0, 1]), Plate([0, 0, 0], [1, 0, 0]),
+                     Plate([lx, 0, 0], [-1, 0, 0]), Plate([0, 0, 0], [0, 1, 0]),
+                     Plate([0, ly, 0], [0, -1, 0])])
+    return s, plates
+
+
+def _peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def compile_time() -> float:
+    """Time (s) of a first call of every kernel on a tiny problem (compile or cache load)."""
+    t = time.perf_counter()
+    s, plates, bonds = bonded_sample(30, seed=1)
+    sim = Simulation(s, plates, bonds, NSCDParameters(dt=5e-5, fast_path=True))
+    sim.run(2)
+    sim = Simulation(*bonded_sample(30, seed=1), NSCDParameters(dt=5e-5, fast_path=False))
+    sim.run(2)
+    s, plates = granular_sample(30, seed=1)
+    Simulation(s, plates, None, NSCDParameters(dt=1e-4, friction=0.2)).run(2)
+    return time.perf_counter() - t
+
+
+def _timed(sim, steps):
+    for k in sim.timings:
+        sim.timings[k] = 0.0
+    t = time.perf_counter()
+    df = sim.run(steps)
+    wall = time.perf_counter() - t
+    total = sum(sim.timings.values()) or 1.0
+    breakdown = {k: v / total for k, v in sim.timings.items()}
+    return wall, df, breakdown
+
+
+def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
+              tolerance: float = 1e-7, settle_steps: int = 100, seed: int = 0) -> dict:
+    """Run one benchmark and return its JSON-able record (see module docstring).
+
+    Raises
+    ------
+    ValueError for an unknown case or n < 2.
+    """
+    import numba
+
+    if case not in ("bonded", "granular"):
+        raise ValueError(f"case must be 'bonded' or 'granular', got {case!r}")
+    if n < 2 or steps < 1:
+        raise ValueError("n >= 2 and steps >= 1 required")
+    comp = compile_time()
+    t0 = time.perf_counter()
+    rec: dict = {"case": case, "n_particles": int(n), "steps": int(steps),
+                 "tolerance": tolerance, "threads": 1,
+                 "numba_threads_available": int(numba.config.NUMBA_NUM_THREADS),
+                 "compile_s": comp, "seed": seed,
+                 "cpu": platform.processor() or platform.machine(),
+                 "python": platform.python_version(), "numba": numba.__version__}
+    if case == "bonded":
+        s, plates, bonds = bonded_sample(n, seed=seed)
+        params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
+                                max_iterations=5000, fast_path=True)
+        sim = Simulation(s, plates, bonds, params)
+        sim.step()  # first factorisation
+        rec["setup_s"] = time.perf_counter() - t0
+        rec["factor_nnz"] = int(sim._linear.nnz_factor) if sim._linear else 0
+        wall, df, br = _timed(sim, steps)
+        rec.update(n_bonds=int(bonds.n), solver=str(df.solver.mode()[0]),
+                   n_contacts=int(df.n_contacts.iloc[-1]),
+                   n_active_contacts=int(df.n_active_contacts.iloc[-1]),
+                   s_per_particle_step=wall / (steps * n),
+                   nlgs_iterations_mean=float(df.iterations.mean()), time_breakdown=br)
+        # baseline: NLGS on the same sample, same state
+        s2, plates2, bonds2 = bonded_sample(n, seed=seed)
+        params2 = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
+                                 max_iterations=20000, fast_path=False)
+        sim2 = Simulation(s2, plates2, bonds2, params2)
+        wall2, df2, br2 = _timed(sim2, baseline_steps)
+        rec.update(baseline_solver="nlgs", baseline_steps=int(baseline_steps),
+                   baseline_s_per_particle_step=wall2 / (baseline_steps * n),
+                   baseline_nlgs_iterations_mean=float(df2.iterations.mean()),
+                   baseline_converged=bool(df2.converged.all()),
+                   baseline_time_breakdown=br2,
+                   speedup=(wall2 / (baseline_steps * n)) / (wall / (steps * n)))
+    else:
+        s, plates = granular_sample(n, seed=seed)
+        params = NSCDParameters(dt=1e-4, theta=0.5, friction=0.2, tolerance=tolerance,
+                                max_iterations=5000)
+        sim = Simulation(s, plates, None, params)
+        sim.run(settle_steps)
+        rec["setup_s"] = time.perf_counter() - t0
+        rec["settle_steps"] = int(settle_steps)
+        wall, df, br = _timed(sim, steps)
+        rec.update(n_bonds=0, solver="nlgs", n_contacts=int(df.n_contacts.iloc[-1]),
+                   n_active_contacts=int(df.n_active_contacts.iloc[-1]),
+                   s_per_particle_step=wall / (steps * n),
+                   nlgs_iterations_mean=float(df.iterations.mean()),
+                   converged_fraction=float(df.converged.mean()), time_breakdown=br)
+    rec["peak_rss_mb"] = _peak_rss_mb()
+    return rec

@@ -1,0 +1,123 @@
+"""Checkpoint/restart of a full :class:`~.moreau_jean.Simulation` state in HDF5 (h5py).
+
+Layout: groups ``spheres``, ``plates``, ``bonds``, ``contacts`` (last step's contacts and
+impulses, for the warm start), ``params`` (attributes); root attributes ``time``,
+``step_index``, ``alert_distance``. Sampled plate drivers ``(times, disp)`` are stored in
+``plates/driver_<k>/{times,disp}``; callable drivers must be passed again on reading.
+The file is written atomically (asphalt_nscd.io.atomic_path).
+"""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import numpy as np
+
+from ..io import InputError, atomic_path
+from .state import DRIVEN, Bonds, NSCDParameters, Plate, Plates, Spheres
+
+_SPHERE = ("position", "radius", "mass", "inertia", "velocity", "angular_velocity")
+_PLATE = ("point", "point0", "normal", "mass", "mode", "velocity")
+_BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "Ck", "Kinf",
+         "r_crit", "force", "delta_c", "delta_k", "broken")
+_PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "max_iterations", "relaxation",
+           "alert_distance", "fast_path")
+
+
+def write_checkpoint(sim, path) -> None:
+    """Write the state of ``sim`` to ``path`` (HDF5)."""
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["time"] = sim.time
+            f.attrs["step_index"] = sim.step_index
+            f.attrs["alert_distance"] = sim.alert_distance
+            g = f.create_group("spheres")
+            for k in _SPHERE:
+                g[k] = getattr(sim.spheres, k)
+            g = f.create_group("plates")
+            for k in _PLATE:
+                g[k] = getattr(sim.plates, k)
+            g["plate_external_force"] = sim.plate_external_force
+            for k, drv in enumerate(sim.plates.drivers):
+                if drv is not None and not callable(drv):
+                    d = g.create_group(f"driver_{k}")
+                    d["times"] = np.asarray(drv[0], float)
+                    d["disp"] = np.asarray(drv[1], float)
+            g = f.create_group("bonds")
+            for k in _BOND:
+                g[k] = getattr(sim.bonds, k)
+            g["impulse"] = sim.bond_impulse
+            g.attrs["law"] = json.dumps(sim.bonds.law)
+            g = f.create_group("contacts")
+            g["i"] = sim.contact_i
+            g["j"] = sim.contact_j
+            g["impulse"] = sim.contact_impulse
+            g["frame"] = sim.contact_frame
+            g = f.create_group("params")
+            for k in _PARAMS:
+                val = getattr(sim.params, k)
+                g.attrs[k] = np.nan if val is None else val
+            if sim.external_force is not None and not callable(sim.external_force):
+                f["external_force"] = np.asarray(sim.external_force, float)
+
+
+def read_checkpoint(path, drivers=None, external_force=None):
+    """Rebuild a Simulation from ``path``.
+
+    Raises
+    ------
+    InputError if the file misses a group or a driven plate has no driver.
+    """
+    from .moreau_jean import Simulation
+
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot open checkpoint ({exc})") from exc
+    with f:
+        for grp in ("spheres", "plates", "bonds", "contacts", "params"):
+            if grp not in f:
+                raise InputError(f"{path}: checkpoint group '{grp}' missing")
+        s = {k: f["spheres"][k][()] for k in _SPHERE}
+        spheres = Spheres(**s)
+        gp = f["plates"]
+        mode = gp["mode"][()]
+        plate_list = []
+        for k in range(len(mode)):
+            drv = None
+            if mode[k] == DRIVEN:
+                if drivers is not None and k < len(drivers) and drivers[k] is not None:
+                    drv = drivers[k]
+                elif f"driver_{k}" in gp:
+                    drv = (gp[f"driver_{k}/times"][()], gp[f"driver_{k}/disp"][()])
+                else:
+                    raise InputError(f"{path}: plate {k} is driven; pass its driver in drivers")
+            name = {0: "fixed", 1: "free", 2: "driven"}[int(mode[k])]
+            plate_list.append(Plate(point=gp["point0"][k], normal=gp["normal"][k], mode=name,
+                                    mass=float(gp["mass"][k]), displacement=drv))
+        plates = Plates(plate_list)
+        plates.point[:] = gp["point"][()]
+        plates.velocity[:] = gp["velocity"][()]
+        gb = f["bonds"]
+        bonds = Bonds(**{k: gb[k][()] for k in _BOND}, law=json.loads(gb.attrs["law"]))
+        pa = {k: f["params"].attrs[k] for k in _PARAMS}
+        ad = float(pa["alert_distance"])
+        pa["alert_distance"] = None if np.isnan(ad) else ad
+        pa["max_iterations"] = int(pa["max_iterations"])
+        pa["fast_path"] = bool(pa["fast_path"])
+        params = NSCDParameters(**pa)
+        if external_force is None and "external_force" in f:
+            external_force = f["external_force"][()]
+        sim = Simulation(spheres, plates, bonds, params, external_force=external_force)
+        sim.plate_external_force[:] = gp["plate_external_force"][()]
+        sim.time = float(f.attrs["time"])
+        sim.step_index = int(f.attrs["step_index"])
+        sim.alert_distance = float(f.attrs["alert_distance"])
+        sim.bond_impulse[:] = gb["impulse"][()]
+        gc = f["contacts"]
+        sim.contact_i = gc["i"][()]
+        sim.contact_j = gc["j"][()]
+        sim.contact_impulse = gc["impulse"][()]
+        sim.contact_frame = gc["frame"][()]
+    return sim

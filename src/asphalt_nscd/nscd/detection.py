@@ -1,0 +1,208 @@
+"""Broad and narrow phase contact detection in O(N) with a uniform cell list.
+
+Cells have the size of the largest sphere diameter plus the search distance, so every
+pair closer than that lies in the same or one of the 26 neighbouring cells. Spheres are
+bucketed by a counting sort (O(N)); each sphere is tested against the spheres of higher
+index in its 27 cells. Planes are infinite: every sphere is tested against every plate
+(O(N P), P ~ 6). The grid is a dense box over the spheres' bounding box; its cell size is
+enlarged if it would hold more than 8 N + 1000 cells.
+
+Contact frames: n from the antagonist to the candidate (unit centre-to-centre vector, or
+the plate's inward normal), t = n x e (e the global axis least aligned with n), s = n x t.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _grid(pos, cell):
+    n = pos.shape[0]
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for d in range(3):
+        lo[d] = pos[:, d].min()
+        hi[d] = pos[:, d].max()
+    while True:
+        dims = np.empty(3, dtype=np.int64)
+        for d in range(3):
+            dims[d] = int((hi[d] - lo[d]) / cell) + 1
+        if dims[0] * dims[1] * dims[2] <= 8 * n + 1000:
+            break
+        cell *= 1.5
+    ncell = dims[0] * dims[1] * dims[2]
+    cid = np.empty(n, dtype=np.int64)
+    for a in range(n):
+        cx = int((pos[a, 0] - lo[0]) / cell)
+        cy = int((pos[a, 1] - lo[1]) / cell)
+        cz = int((pos[a, 2] - lo[2]) / cell)
+        cid[a] = (cx * dims[1] + cy) * dims[2] + cz
+    start = np.zeros(ncell + 1, dtype=np.int64)
+    for a in range(n):
+        start[cid[a] + 1] += 1
+    for c in range(ncell):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    order = np.empty(n, dtype=np.int64)
+    for a in range(n):
+        order[fill[cid[a]]] = a
+        fill[cid[a]] += 1
+    return dims, cid, start, order
+
+
+@njit(cache=True)
+def _pairs(pos, rad, max_gap, count_only, out_i, out_j, out_gap):
+    n = pos.shape[0]
+    if n < 2:
+        return 0
+    cell = 2.0 * rad.max() + max_gap
+    dims, cid, start, order = _grid(pos, cell)
+    m = 0
+    for a in range(n):
+        c = cid[a]
+        cz = c % dims[2]
+        cy = (c // dims[2]) % dims[1]
+        cx = c // (dims[1] * dims[2])
+        for dx in range(-1, 2):
+            x = cx + dx
+            if x < 0 or x >= dims[0]:
+                continue
+            for dy in range(-1, 2):
+                y = cy + dy
+                if y < 0 or y >= dims[1]:
+                    continue
+                for dz in range(-1, 2):
+                    z = cz + dz
+                    if z < 0 or z >= dims[2]:
+                        continue
+                    cc = (x * dims[1] + y) * dims[2] + z
+                    for q in range(start[cc], start[cc + 1]):
+                        b = order[q]
+                        if b <= a:
+                            continue
+                        d0 = pos[a, 0] - pos[b, 0]
+                        d1 = pos[a, 1] - pos[b, 1]
+                        d2 = pos[a, 2] - pos[b, 2]
+                        gap = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - rad[a] - rad[b]
+                        if gap < max_gap:
+                            if not count_only:
+                                out_i[m] = a
+                                out_j[m] = b
+                                out_gap[m] = gap
+                            m += 1
+    return m
+
+
+def sphere_pairs(position, radius, max_gap):
+    """Sphere pairs (a < b) with surface gap < max_gap (m).
+
+    Returns
+    -------
+    i, j : (M,) int64; gap : (M,) float, m (negative = overlap).
+    """
+    pos = np.ascontiguousarray(position, dtype=float)
+    rad = np.ascontiguousarray(radius, dtype=float)
+    dummy_i = np.empty(0, np.int64)
+    dummy_g = np.empty(0)
+    m = _pairs(pos, rad, float(max_gap), True, dummy_i, dummy_i, dummy_g)
+    out_i = np.empty(m, np.int64)
+    out_j = np.empty(m, np.int64)
+    out_g = np.empty(m)
+    _pairs(pos, rad, float(max_gap), False, out_i, out_j, out_g)
+    return out_i, out_j, out_g
+
+
+@njit(cache=True)
+def _plate_pairs(pos, rad, pts, nrm, max_gap, count_only, out_i, out_k, out_gap):
+    m = 0
+    for a in range(pos.shape[0]):
+        for k in range(pts.shape[0]):
+            gap = ((pos[a, 0] - pts[k, 0]) * nrm[k, 0] + (pos[a, 1] - pts[k, 1]) * nrm[k, 1]
+                   + (pos[a, 2] - pts[k, 2]) * nrm[k, 2]) - rad[a]
+            if gap < max_gap:
+                if not count_only:
+                    out_i[m] = a
+                    out_k[m] = k
+                    out_gap[m] = gap
+                m += 1
+    return m
+
+
+def plate_pairs(position, radius, plate_point, plate_normal, max_gap):
+    """Sphere-plate pairs with gap (centre-to-plane distance - radius) < max_gap (m).
+
+    Returns i (M,) sphere indices, k (M,) plate indices, gap (M,) m.
+    """
+    pos = np.ascontiguousarray(position, dtype=float)
+    rad = np.ascontiguousarray(radius, dtype=float)
+    pts = np.ascontiguousarray(plate_point, dtype=float).reshape(-1, 3)
+    nrm = np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3)
+    e_i = np.empty(0, np.int64)
+    e_g = np.empty(0)
+    m = _plate_pairs(pos, rad, pts, nrm, float(max_gap), True, e_i, e_i, e_g)
+    out_i = np.empty(m, np.int64)
+    out_k = np.empty(m, np.int64)
+    out_g = np.empty(m)
+    _plate_pairs(pos, rad, pts, nrm, float(max_gap), False, out_i, out_k, out_g)
+    return out_i, out_k, out_g
+
+
+@njit(cache=True)
+def _frames(ci, cj, pos, nrm_plate, frame):
+    for a in range(len(ci)):
+        i = ci[a]
+        j = cj[a]
+        n = np.empty(3)
+        if j >= 0:
+            for d in range(3):
+                n[d] = pos[i, d] - pos[j, d]
+            norm = np.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2)
+            for d in range(3):
+                n[d] /= norm
+        else:
+            for d in range(3):
+                n[d] = nrm_plate[-1 - j, d]
+        ax = 0
+        if abs(n[1]) < abs(n[ax]):
+            ax = 1
+        if abs(n[2]) < abs(n[ax]):
+            ax = 2
+        e = np.zeros(3)
+        e[ax] = 1.0
+        t = np.empty(3)
+        t[0] = n[1] * e[2] - n[2] * e[1]
+        t[1] = n[2] * e[0] - n[0] * e[2]
+        t[2] = n[0] * e[1] - n[1] * e[0]
+        tn = np.sqrt(t[0] ** 2 + t[1] ** 2 + t[2] ** 2)
+        for d in range(3):
+            t[d] /= tn
+        s0 = n[1] * t[2] - n[2] * t[1]
+        s1 = n[2] * t[0] - n[0] * t[2]
+        s2 = n[0] * t[1] - n[1] * t[0]
+        for d in range(3):
+            frame[a, 0, d] = n[d]
+            frame[a, 1, d] = t[d]
+        frame[a, 2, 0] = s0
+        frame[a, 2, 1] = s1
+        frame[a, 2, 2] = s2
+
+
+def detect_contacts(position, radius, plate_point, plate_normal, alert_distance):
+    """Contact candidates (gap < alert_distance) with their frames.
+
+    Returns
+    -------
+    ci : (C,) int64 candidate spheres; cj : (C,) int64 antagonist sphere or ``-1-k``;
+    gap : (C,) m; frame : (C, 3, 3) rows n, t, s.
+    """
+    si, sj, sg = sphere_pairs(position, radius, alert_distance)
+    pi_, pk, pg = plate_pairs(position, radius, plate_point, plate_normal, alert_distance)
+    ci = np.concatenate([si, pi_])
+    cj = np.concatenate([sj, -1 - pk])
+    gap = np.concatenate([sg, pg])
+    frame = np.empty((len(ci), 3, 3))
+    _frames(ci, cj, np.ascontiguousarray(position, dtype=float),
+            np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3), frame)
+    return ci, cj, gap, frame

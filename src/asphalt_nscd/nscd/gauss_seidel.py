@@ -1,0 +1,206 @@
+"""Nonlinear Gauss-Seidel (NLGS) over contacts and bonds, on body velocities.
+
+The global problem of a step is U = H^T v, v = v_free + M^-1 H P, with a local law per
+interaction (local_laws.py). The sweep visits the bonds, then the contacts, in a fixed
+order; each visit computes the local velocity from the current body velocities, removes
+its own contribution (b = U - W_aa P_old), solves its local law exactly, relaxes
+(P <- omega P_loc + (1-omega) P_old) and pushes the change of impulse back into the body
+velocities. Off-diagonal Delassus blocks are thus never formed (cost O(nnz H) a sweep).
+
+Convergence (LMGC90 style, on the change of reactions between two sweeps):
+    quad = sqrt(sum |dP_a|² / sum |P_a|²)          (quadratic mean)
+    maxm = max |dP_a| / (sqrt(sum |P_a|² / n))      (maximum, relative to the rms)
+both must fall below the tolerance. The sweep is sequential (deterministic).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .local_laws import contact_local_solve
+
+
+@njit(cache=True)
+def _push_contact(a, dp0, dp1, dp2, ci, cj, frame, radius, v, w, vp, inv_mass, inv_inertia,
+                  inv_mass_plate):
+    """Add the global effect of a change (dp0, dp1, dp2) of contact a's local impulse."""
+    i = ci[a]
+    j = cj[a]
+    g = np.empty(3)
+    for d in range(3):
+        g[d] = frame[a, 0, d] * dp0 + frame[a, 1, d] * dp1 + frame[a, 2, d] * dp2
+    n0 = frame[a, 0, 0]
+    n1 = frame[a, 0, 1]
+    n2 = frame[a, 0, 2]
+    # candidate: arm -r_i n, torque arm x g
+    ri = radius[i]
+    ti0 = -ri * (n1 * g[2] - n2 * g[1])
+    ti1 = -ri * (n2 * g[0] - n0 * g[2])
+    ti2 = -ri * (n0 * g[1] - n1 * g[0])
+    for d in range(3):
+        v[i, d] += inv_mass[i] * g[d]
+    w[i, 0] += inv_inertia[i] * ti0
+    w[i, 1] += inv_inertia[i] * ti1
+    w[i, 2] += inv_inertia[i] * ti2
+    if j >= 0:
+        rj = radius[j]
+        # antagonist: arm +r_j n, force -g, torque arm x (-g) = -r_j n x g
+        tj0 = -rj * (n1 * g[2] - n2 * g[1])
+        tj1 = -rj * (n2 * g[0] - n0 * g[2])
+        tj2 = -rj * (n0 * g[1] - n1 * g[0])
+        for d in range(3):
+            v[j, d] -= inv_mass[j] * g[d]
+        w[j, 0] += inv_inertia[j] * tj0
+        w[j, 1] += inv_inertia[j] * tj1
+        w[j, 2] += inv_inertia[j] * tj2
+    else:
+        k = -1 - j
+        for d in range(3):
+            vp[k, d] -= inv_mass_plate[k] * g[d]
+
+
+@njit(cache=True)
+def contact_velocity(a, ci, cj, frame, radius, v, w, vp, out):
+    """Local relative velocity (n, t, s) of contact a at the contact point into out (3,)."""
+    i = ci[a]
+    j = cj[a]
+    n0 = frame[a, 0, 0]
+    n1 = frame[a, 0, 1]
+    n2 = frame[a, 0, 2]
+    ri = radius[i]
+    # v_i + w_i x (-r_i n)
+    g0 = v[i, 0] - ri * (w[i, 1] * n2 - w[i, 2] * n1)
+    g1 = v[i, 1] - ri * (w[i, 2] * n0 - w[i, 0] * n2)
+    g2 = v[i, 2] - ri * (w[i, 0] * n1 - w[i, 1] * n0)
+    if j >= 0:
+        rj = radius[j]
+        # - (v_j + w_j x (r_j n))
+        g0 -= v[j, 0] + rj * (w[j, 1] * n2 - w[j, 2] * n1)
+        g1 -= v[j, 1] + rj * (w[j, 2] * n0 - w[j, 0] * n2)
+        g2 -= v[j, 2] + rj * (w[j, 0] * n1 - w[j, 1] * n0)
+    else:
+        k = -1 - j
+        g0 -= vp[k, 0]
+        g1 -= vp[k, 1]
+        g2 -= vp[k, 2]
+    for c in range(3):
+        out[c] = frame[a, c, 0] * g0 + frame[a, c, 1] * g1 + frame[a, c, 2] * g2
+
+
+@njit(cache=True)
+def contact_velocities(ci, cj, frame, radius, v, w, vp, out):
+    """Local relative velocities (C,3) of all contacts into out."""
+    u = np.empty(3)
+    for a in range(len(ci)):
+        contact_velocity(a, ci, cj, frame, radius, v, w, vp, u)
+        out[a, 0] = u[0]
+        out[a, 1] = u[1]
+        out[a, 2] = u[2]
+
+
+@njit(cache=True)
+def _push_bond(b, dp, bi, bj, frame, v, vp, inv_mass, inv_mass_plate):
+    i = bi[b]
+    j = bj[b]
+    for d in range(3):
+        g = frame[b, 0, d] * dp[0] + frame[b, 1, d] * dp[1] + frame[b, 2, d] * dp[2]
+        v[i, d] += inv_mass[i] * g
+        if j >= 0:
+            v[j, d] -= inv_mass[j] * g
+        else:
+            vp[-1 - j, d] -= inv_mass_plate[-1 - j] * g
+
+
+@njit(cache=True)
+def apply_impulses(ci, cj, cframe, radius, cP, bi, bj, bframe, bP, v, w, vp, inv_mass,
+                   inv_inertia, inv_mass_plate):
+    """v <- v + M^-1 H P for all contact (C,3) and bond (B,3) impulses (warm start)."""
+    for a in range(len(ci)):
+        _push_contact(a, cP[a, 0], cP[a, 1], cP[a, 2], ci, cj, cframe, radius, v, w, vp,
+                      inv_mass, inv_inertia, inv_mass_plate)
+    for b in range(len(bi)):
+        _push_bond(b, bP[b], bi, bj, bframe, v, vp, inv_mass, inv_mass_plate)
+
+
+@njit(cache=True)
+def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, broken,
+         radius, v, w, vp, inv_mass, inv_inertia, inv_mass_plate, h, mu, tol, relax,
+         max_iter):
+    """Nonlinear Gauss-Seidel sweeps until convergence.
+
+    On entry v (N,3), w (N,3), vp (P,3) must already include the impulses cP (C,3), bP (B,3)
+    (see apply_impulses). Contacts: gap (C,) m, blocks cwn, cwt (C,). Bonds: block bw (B,),
+    affine law P = bc0 - bcg U (B,3). Returns (iterations, quad, maxm, converged).
+    """
+    nc = len(ci)
+    nb = len(bi)
+    u = np.empty(3)
+    dp = np.empty(3)
+    quad = 0.0
+    maxm = 0.0
+    it = 0
+    converged = False
+    n_int = nc + nb
+    if n_int == 0:
+        return 0, 0.0, 0.0, True
+    while it < max_iter:
+        it += 1
+        sum_d2 = 0.0
+        sum_p2 = 0.0
+        max_d2 = 0.0
+        for b in range(nb):
+            if broken[b]:
+                continue
+            i = bi[b]
+            j = bj[b]
+            for c in range(3):
+                acc = 0.0
+                for d in range(3):
+                    vj = v[j, d] if j >= 0 else vp[-1 - j, d]
+                    acc += bframe[b, c, d] * (v[i, d] - vj)
+                bfree = acc - bw[b] * bP[b, c]
+                p_new = (bc0[b, c] - bcg[b, c] * bfree) / (1.0 + bcg[b, c] * bw[b])
+                p_new = relax * p_new + (1.0 - relax) * bP[b, c]
+                dp[c] = p_new - bP[b, c]
+                bP[b, c] = p_new
+            _push_bond(b, dp, bi, bj, bframe, v, vp, inv_mass, inv_mass_plate)
+            d2 = dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2
+            sum_d2 += d2
+            sum_p2 += bP[b, 0] ** 2 + bP[b, 1] ** 2 + bP[b, 2] ** 2
+            max_d2 = max(max_d2, d2)
+        for a in range(nc):
+            contact_velocity(a, ci, cj, cframe, radius, v, w, vp, u)
+            bn = u[0] - cwn[a] * cP[a, 0]
+            bt = u[1] - cwt[a] * cP[a, 1]
+            bs = u[2] - cwt[a] * cP[a, 2]
+            pn, pt, ps = contact_local_solve(bn, bt, bs, cgap[a], h, cwn[a], cwt[a], mu)
+            pn = relax * pn + (1.0 - relax) * cP[a, 0]
+            pt = relax * pt + (1.0 - relax) * cP[a, 1]
+            ps = relax * ps + (1.0 - relax) * cP[a, 2]
+            d0 = pn - cP[a, 0]
+            d1 = pt - cP[a, 1]
+            d2_ = ps - cP[a, 2]
+            cP[a, 0] = pn
+            cP[a, 1] = pt
+            cP[a, 2] = ps
+            if d0 != 0.0 or d1 != 0.0 or d2_ != 0.0:
+                _push_contact(a, d0, d1, d2_, ci, cj, cframe, radius, v, w, vp, inv_mass,
+                              inv_inertia, inv_mass_plate)
+            dd = d0 * d0 + d1 * d1 + d2_ * d2_
+            sum_d2 += dd
+            sum_p2 += pn * pn + pt * pt + ps * ps
+            max_d2 = max(max_d2, dd)
+        if sum_p2 <= 0.0:
+            quad = 0.0
+            maxm = 0.0
+            converged = True
+            break
+        quad = math.sqrt(sum_d2 / sum_p2)
+        maxm = math.sqrt(max_d2) / math.sqrt(sum_p2 / n_int)
+        if quad <= tol and maxm <= tol:
+            converged = True
+            break
+    return it, quad, maxm, converged

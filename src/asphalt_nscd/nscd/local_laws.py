@@ -1,0 +1,173 @@
+"""Local laws: Signorini-Coulomb contact (Eqs. 6-7) and the generalized Burger's bond
+(Eqs. 12-13, 15-26), written for the Moreau-Jean theta-method on impulses P = h r.
+
+Contact (Eqs. 6-7), exact on the 3D cone
+----------------------------------------
+The unknown is the impulse P = (P_n, P_t, P_s) of the step. With the other interactions
+frozen the local velocity is U = b + W_aa P with W_aa = diag(w_n, w_t, w_t) exactly for
+spheres and planes (delassus.py). The gap enters as in LMGC90's IQS law: Signorini is
+imposed on U_n + max(g, 0)/h, so an open contact may close within the step but never
+penetrates, and an existing overlap is not pushed out (no energy injected). The local
+solution is the standard NSCD one, exact here because W_aa is diagonal and isotropic in
+the tangent plane:
+
+1. b_n + max(g,0)/h >= 0          -> P = 0 (no contact / separation);
+2. P_n = -(b_n + max(g,0)/h)/w_n, P_T = -b_T/w_t (stick prediction);
+3. if |P_T| > mu P_n              -> P_T <- mu P_n P_T/|P_T| (slide: the projection of the
+   prediction on the cone along the W_aa metric, which with isotropic w_t is radial).
+
+Bond (generalized Burger's: Maxwell Km, Cm in series with NK Kelvin-Voigt Kk, Ck, all in
+parallel with a spring Kinf), per local component (n, t, s)
+-----------------------------------------------------------------------------------------
+Series decomposition delta = delta_m + delta_c + sum_k delta_k (Eq. 15) with R_ch = -Km
+delta_m = -Cm d(delta_c)/dt = -Kk delta_k - Ck d(delta_k)/dt (Eqs. 21-24), integrated by the
+theta-method (theta = 1 gives Eqs. 16-19 and the Kelvin-Voigt update of Eq. 26,
+delta_k+ = (Ck delta_k- - h R+)/(Ck + h Kk) in our sign convention)::
+
+    delta_k+ = a_k - b_k R_ch+,  a_k = [Ck dk- - h(1-th)(R_ch- + Kk dk-)]/(Ck + h th Kk),
+                                 b_k = h th/(Ck + h th Kk)
+    delta+   = A - C R_ch+,      A = dc- - h(1-th) R_ch-/Cm + sum a_k,
+                                 C = 1/Km + h th/Cm + sum b_k
+    R+ = R_ch+ - Kinf delta+ = A/C - K_eff delta+,   K_eff = 1/C + Kinf,
+    delta+ = delta- + h((1-th) U- + th U+).
+
+The impulse of the step is P = h (th R+ + (1-th) R-), hence the modified local law (Eq. 25)
+is affine: P = c0 - c_g U+ with c0 = h (th R_pred + (1-th) R-), R_pred = A/C - K_eff
+(delta- + h(1-th) U-), c_g = h² th² K_eff, and with U = b + w P the local solution is
+P = (c0 - c_g b)/(1 + c_g w) per component. Breakage (Eqs. 12-13): when |R_n+| or
+|(R_t+, R_s+)| exceeds R_crit the bond is marked broken at the end of the step; from the
+next step on only Signorini-Coulomb acts on the pair.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def contact_local_solve(bn, bt, bs, gap, h, wn, wt, mu):
+    """Exact Signorini-Coulomb impulse (Pn, Pt, Ps) (N s) for local free velocity (bn, bt, bs)
+    (m/s, excluding this contact's own impulse), gap (m), step h (s), blocks wn, wt (1/kg)."""
+    bn_eff = bn + max(gap, 0.0) / h
+    if bn_eff >= 0.0 or wn <= 0.0:
+        return 0.0, 0.0, 0.0
+    pn = -bn_eff / wn
+    pt = -bt / wt
+    ps = -bs / wt
+    norm_t = math.sqrt(pt * pt + ps * ps)
+    limit = mu * pn
+    if norm_t > limit:
+        scale = limit / norm_t
+        pt *= scale
+        ps *= scale
+    return pn, pt, ps
+
+
+@njit(cache=True)
+def bond_predict(bi, bj, frame, rest, x, v, xp, vp, Km, Cm, Kk, Ck, Kinf, force, delta_c,
+                 delta_k, broken, h, theta, c0, cg, delta_m, u_m):
+    """Per-bond affine law coefficients for the step (see module docstring).
+
+    Inputs: positions x (N,3), velocities v (N,3) at the start of the step, plate points xp
+    (P,3) and step velocities vp (P,3); bond parameters (B,2)/(B,NK,2) and state.
+    Outputs (filled): c0 (B,3) N s, cg (B,3) N s/m, delta_m (B,3) m = delta-, u_m (B,3) m/s = U-.
+    Broken bonds get c0 = cg = 0.
+    """
+    nk = Kk.shape[1]
+    for b in range(len(bi)):
+        if broken[b]:
+            for c in range(3):
+                c0[b, c] = 0.0
+                cg[b, c] = 0.0
+                delta_m[b, c] = 0.0
+                u_m[b, c] = 0.0
+            continue
+        i = bi[b]
+        j = bj[b]
+        rel = np.empty(3)
+        vel = np.empty(3)
+        for d in range(3):
+            if j >= 0:
+                rel[d] = x[i, d] - x[j, d] - rest[b, d]
+                vel[d] = v[i, d] - v[j, d]
+            else:
+                rel[d] = x[i, d] - xp[-1 - j, d] - rest[b, d]
+                vel[d] = v[i, d] - vp[-1 - j, d]
+        for c in range(3):
+            p = 0 if c == 0 else 1
+            dl = frame[b, c, 0] * rel[0] + frame[b, c, 1] * rel[1] + frame[b, c, 2] * rel[2]
+            ul = frame[b, c, 0] * vel[0] + frame[b, c, 1] * vel[1] + frame[b, c, 2] * vel[2]
+            delta_m[b, c] = dl
+            u_m[b, c] = ul
+            r_ch = force[b, c] + Kinf[b, p] * dl
+            A = delta_c[b, c] - h * (1.0 - theta) * r_ch / Cm[b, p]
+            C = 1.0 / Km[b, p] + h * theta / Cm[b, p]
+            for k in range(nk):
+                den = Ck[b, k, p] + h * theta * Kk[b, k, p]
+                A += (Ck[b, k, p] * delta_k[b, k, c]
+                      - h * (1.0 - theta) * (r_ch + Kk[b, k, p] * delta_k[b, k, c])) / den
+                C += h * theta / den
+            k_eff = 1.0 / C + Kinf[b, p]
+            r_pred = A / C - k_eff * (dl + h * (1.0 - theta) * ul)
+            c0[b, c] = h * (theta * r_pred + (1.0 - theta) * force[b, c])
+            cg[b, c] = h * h * theta * theta * k_eff
+
+
+@njit(cache=True)
+def bond_update(bi, bj, frame, Km, Cm, Kk, Ck, Kinf, r_crit, force, delta_c, delta_k, broken,
+                h, theta, delta_m, u_m, v, vp, impulse):
+    """End-of-step update of the bond state from the end velocities v (N,3), vp (P,3).
+
+    Updates force (B,3), delta_c, delta_k in place, marks broken bonds (|R_n| or |R_T| >
+    r_crit) and zeroes their force and impulse. Returns (number newly broken, energy
+    dissipated by the bonds in the step, J): -P . (delta+ - delta-)/h - (E+ - E-), with E
+    the energy stored in the springs.
+    """
+    nk = Kk.shape[1]
+    n_new = 0
+    dissipated = 0.0
+    for b in range(len(bi)):
+        if broken[b]:
+            continue
+        i = bi[b]
+        j = bj[b]
+        vel = np.empty(3)
+        for d in range(3):
+            vel[d] = v[i, d] - (v[j, d] if j >= 0 else vp[-1 - j, d])
+        for c in range(3):
+            p = 0 if c == 0 else 1
+            up = frame[b, c, 0] * vel[0] + frame[b, c, 1] * vel[1] + frame[b, c, 2] * vel[2]
+            dl = delta_m[b, c]
+            dp = dl + h * ((1.0 - theta) * u_m[b, c] + theta * up)
+            r_ch_m = force[b, c] + Kinf[b, p] * dl
+            e_old = 0.5 * r_ch_m * r_ch_m / Km[b, p] + 0.5 * Kinf[b, p] * dl * dl
+            A = delta_c[b, c] - h * (1.0 - theta) * r_ch_m / Cm[b, p]
+            C = 1.0 / Km[b, p] + h * theta / Cm[b, p]
+            for k in range(nk):
+                e_old += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
+                den = Ck[b, k, p] + h * theta * Kk[b, k, p]
+                A += (Ck[b, k, p] * delta_k[b, k, c]
+                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) / den
+                C += h * theta / den
+            r_ch_p = (A - dp) / C
+            e_new = 0.5 * r_ch_p * r_ch_p / Km[b, p] + 0.5 * Kinf[b, p] * dp * dp
+            for k in range(nk):
+                den = Ck[b, k, p] + h * theta * Kk[b, k, p]
+                ak = (Ck[b, k, p] * delta_k[b, k, c]
+                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) / den
+                delta_k[b, k, c] = ak - h * theta / den * r_ch_p
+                e_new += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
+            delta_c[b, c] -= h * (theta * r_ch_p + (1.0 - theta) * r_ch_m) / Cm[b, p]
+            force[b, c] = r_ch_p - Kinf[b, p] * dp
+            dissipated += -impulse[b, c] * (dp - dl) / h - (e_new - e_old)
+        rt = math.sqrt(force[b, 1] ** 2 + force[b, 2] ** 2)
+        if abs(force[b, 0]) > r_crit[b] or rt > r_crit[b]:
+            broken[b] = True
+            n_new += 1
+            for c in range(3):
+                force[b, c] = 0.0
+                impulse[b, c] = 0.0
+    return n_new, dissipated

@@ -1,0 +1,336 @@
+"""Moreau-Jean time stepping (theta-method) of spheres, plates and bonds: the public
+:class:`Simulation`.
+
+One step of length h from t- to t+ = t- + h (Jean 1999; Eq. 14 of the paper):
+
+1. plates: a driven plate gets the mean velocity (u(t+) - u(t-))/h of its imposed
+   displacement for the whole step; a free plate's free velocity includes gravity;
+2. free velocities v_free = v- + h M^-1 (m g + f_ext,theta), f_ext,theta = theta f(t+) +
+   (1-theta) f(t-) when the external force is a callable, else the array as given;
+3. detection at the start-of-step configuration (cell lists, gap < alert distance),
+   warm start of contact impulses from the previous step (matched by pair), of bond
+   impulses from the previous step;
+4. solve for the impulses: the linear fast path (linear.py) when allowed and valid, else
+   nonlinear Gauss-Seidel (gauss_seidel.py);
+5. bonds: internal variables, forces, breakage (local_laws.bond_update);
+6. positions x+ = x- + h (theta v+ + (1-theta) v-) (spheres and free plates); driven plates
+   at their imposed position; rotations are integrated only as angular velocities (the
+   orientation of a sphere does not enter any law).
+
+The default theta = 0.5 is justified in :class:`NSCDParameters`.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from typing import Callable
+
+import numpy as np
+
+from . import detection, gauss_seidel, local_laws
+from .delassus import bond_blocks, contact_blocks
+from .linear import LinearBondSolver
+from .state import DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates, Spheres, StepStats
+
+
+class Simulation:
+    """An NSCD simulation: state + parameters + :meth:`step`.
+
+    Parameters
+    ----------
+    spheres : Spheres; plates : Plates (may be empty); bonds : Bonds or None.
+    params : NSCDParameters.
+    external_force : optional (N,3) array (N) or callable ``t -> (N,3)`` applied to the
+        spheres' barycentres (gravity is added separately from ``params.gravity``).
+
+    Attributes
+    ----------
+    time : s; step_index : int; stats : list of StepStats (when ``record=True`` in run).
+    contact_i, contact_j, contact_impulse : contacts of the last step, impulses (C,3) N s in
+        the local frames (reaction = impulse / dt).
+    bond_impulse : (B,3) N s, last step's bond impulses (local frames).
+    """
+
+    def __init__(self, spheres: Spheres, plates: Plates | None = None,
+                 bonds: Bonds | None = None, params: NSCDParameters | None = None,
+                 external_force: np.ndarray | Callable | None = None):
+        if params is None:
+            raise ValueError("params (NSCDParameters) is required")
+        self.spheres = spheres
+        self.plates = plates if plates is not None else Plates([])
+        self.bonds = bonds if bonds is not None else Bonds.empty()
+        self.params = params
+        self.external_force = external_force
+        self.plate_external_force = np.zeros((self.plates.n, 3))
+        self.time = 0.0
+        self.step_index = 0
+        self.bond_impulse = np.zeros((self.bonds.n, 3))
+        self.contact_i = np.zeros(0, np.int64)
+        self.contact_j = np.zeros(0, np.int64)
+        self.contact_impulse = np.zeros((0, 3))
+        self.contact_frame = np.zeros((0, 3, 3))
+        self._linear = None
+        self._linear_key = None
+        self.timings = {"detection": 0.0, "solve": 0.0, "bonds": 0.0, "other": 0.0}
+        if self.params.alert_distance is None:
+            self.alert_distance = 0.5 * float(spheres.radius.min()) if spheres.n else 0.0
+        else:
+            self.alert_distance = float(self.params.alert_distance)
+
+    # ------------------------------------------------------------------ helpers
+    def _external(self, t0, t1):
+        f = self.external_force
+        if f is None:
+            return None
+        if callable(f):
+            th = self.params.theta
+            return th * np.asarray(f(t1), float) + (1 - th) * np.asarray(f(t0), float)
+        return np.asarray(f, float)
+
+    def n_intact_bonds(self) -> int:
+        return int((~self.bonds.broken).sum())
+
+    # ------------------------------------------------------------------ one step
+    def step(self) -> StepStats:
+        """Advance by one time step ``params.dt``; returns its :class:`StepStats`."""
+        tic = _time.perf_counter()
+        p = self.params
+        h, th = p.dt, p.theta
+        sph, pls, bnd = self.spheres, self.plates, self.bonds
+        t0, t1 = self.time, self.time + h
+        inv_m = sph.inv_mass
+        inv_i = sph.inv_inertia
+        inv_mp = pls.inv_mass
+        finite = np.isfinite(sph.mass)
+
+        # 1. plates
+        vp_prev = pls.velocity.copy()
+        vp_start = pls.velocity.copy()
+        new_point = pls.point.copy()
+        for k in range(pls.n):
+            if pls.mode[k] == DRIVEN:
+                u0 = pls.imposed_displacement(k, t0)
+                u1 = pls.imposed_displacement(k, t1)
+                vp_start[k] = (u1 - u0) / h
+                new_point[k] = pls.point0[k] + u1
+            elif pls.mode[k] == FIXED:
+                vp_start[k] = 0.0
+        vp = vp_start.copy()
+        free_p = pls.mode == FREE
+        if free_p.any():
+            vp[free_p] += h * (p.gravity + self.plate_external_force[free_p] / pls.mass[free_p, None])
+
+        # 2. free velocities
+        v_m = sph.velocity.copy()
+        w_m = sph.angular_velocity.copy()
+        v = v_m.copy()
+        v[finite] += h * p.gravity
+        fext = self._external(t0, t1)
+        if fext is not None:
+            v[finite] += h * fext[finite] * inv_m[finite, None]
+        v[~finite] = 0.0
+        w = w_m.copy()
+        w[~finite] = 0.0
+        v_free = v.copy()
+        vp_free = vp.copy()
+
+        # 3. detection and warm start
+        t_a = _time.perf_counter()
+        ci, cj, gap, cframe = detection.detect_contacts(sph.position, sph.radius, pls.point,
+                                                        pls.normal, self.alert_distance)
+        cP = self._warm_contacts(ci, cj, cframe)
+        cwn = np.empty(len(ci))
+        cwt = np.empty(len(ci))
+        contact_blocks(ci, cj, inv_m, inv_i, sph.radius, inv_mp, cwn, cwt)
+        u_minus = np.empty((len(ci), 3))
+        self._contact_velocities(ci, cj, cframe, v_m, w_m, vp_start, u_minus)
+        t_b = _time.perf_counter()
+        self.timings["detection"] += t_b - t_a
+
+        # bonds: affine laws of the step
+        nb = bnd.n
+        c0 = np.zeros((nb, 3))
+        cg = np.zeros((nb, 3))
+        d_m = np.zeros((nb, 3))
+        u_m = np.zeros((nb, 3))
+        bw = np.zeros(nb)
+        if nb:
+            local_laws.bond_predict(bnd.i, bnd.j, bnd.frame, bnd.rest, sph.position, v_m,
+                                    pls.point, vp_start, bnd.Km, bnd.Cm, bnd.Kk, bnd.Ck,
+                                    bnd.Kinf, bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken,
+                                    h, th, c0, cg, d_m, u_m)
+            bond_blocks(bnd.i, bnd.j, inv_m, inv_mp, bw)
+        bP = self.bond_impulse
+        bP[bnd.broken] = 0.0
+        t_c = _time.perf_counter()
+        self.timings["bonds"] += t_c - t_b
+
+        # 4. solve
+        solver = "nlgs"
+        it, quad, maxm, conv = 0, 0.0, 0.0, True
+        if p.fast_path and nb and self._fast_path(v_free, vp_free, c0, cg, v, vp, bP, inv_m,
+                                                  inv_mp, ci, cj, cframe, gap, w, h):
+            solver = "linear"
+            cP[:] = 0.0
+        else:
+            v[:] = v_free
+            vp[:] = vp_free
+            gauss_seidel.apply_impulses(ci, cj, cframe, sph.radius, cP, bnd.i, bnd.j,
+                                        bnd.frame, bP, v, w, vp, inv_m, inv_i, inv_mp)
+            it, quad, maxm, conv = gauss_seidel.nlgs(
+                ci, cj, cframe, gap, cwn, cwt, cP, bnd.i, bnd.j, bnd.frame, bw, c0, cg, bP,
+                bnd.broken, sph.radius, v, w, vp, inv_m, inv_i, inv_mp, h, p.friction,
+                p.tolerance, p.relaxation, p.max_iterations)
+        t_d = _time.perf_counter()
+        self.timings["solve"] += t_d - t_c
+
+        # 5. bonds update
+        n_new, diss_b = 0, 0.0
+        if nb:
+            n_new, diss_b = local_laws.bond_update(
+                bnd.i, bnd.j, bnd.frame, bnd.Km, bnd.Cm, bnd.Kk, bnd.Ck, bnd.Kinf, bnd.r_crit,
+                bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken, h, th, d_m, u_m, v, vp, bP)
+        # contact dissipation: -P . (theta U+ + (1-theta) U-)
+        u_plus = np.empty((len(ci), 3))
+        self._contact_velocities(ci, cj, cframe, v, w, vp, u_plus)
+        diss_c = float(-(cP * (th * u_plus + (1 - th) * u_minus)).sum())
+        t_e = _time.perf_counter()
+        self.timings["bonds"] += t_e - t_d
+
+        # plate forces (mean over the step) from contacts and bonds
+        plate_force = np.zeros((pls.n, 3))
+        on_plate = cj < 0
+        if on_plate.any():
+            g = np.einsum("ac,acd->ad", cP[on_plate], cframe[on_plate])
+            np.add.at(plate_force, -1 - cj[on_plate], -g / h)
+        bp = (bnd.j < 0) if nb else np.zeros(0, bool)
+        if nb and bp.any():
+            g = np.einsum("ac,acd->ad", bP[bp], bnd.frame[bp])
+            np.add.at(plate_force, -1 - bnd.j[bp], -g / h)
+        driver = np.zeros((pls.n, 3))
+        for k in range(pls.n):
+            if pls.mode[k] == DRIVEN:
+                acc = (vp[k] - vp_prev[k]) / h
+                driver[k] = pls.mass[k] * (acc - p.gravity) - plate_force[k]
+            elif pls.mode[k] == FIXED:
+                driver[k] = -plate_force[k]
+
+        # 6. positions
+        sph.position += h * (th * v + (1 - th) * v_m)
+        sph.velocity[:] = v
+        sph.angular_velocity[:] = w
+        for k in range(pls.n):
+            if pls.mode[k] == FREE:
+                pls.point[k] += h * (th * vp[k] + (1 - th) * vp_start[k])
+            else:
+                pls.point[k] = new_point[k]
+        pls.velocity[:] = vp
+        self.contact_i, self.contact_j = ci, cj
+        self.contact_impulse, self.contact_frame = cP, cframe
+        self.time = t1
+        self.step_index += 1
+        self.timings["other"] += _time.perf_counter() - t_e + (t_a - tic)
+        return StepStats(time=t1, solver=solver, iterations=int(it), residual_quad=float(quad),
+                         residual_max=float(maxm), converged=bool(conv), n_contacts=len(ci),
+                         n_active_contacts=int((cP[:, 0] > 0).sum()),
+                         n_bonds=self.n_intact_bonds(), n_broken=int(n_new),
+                         n_broken_total=int(bnd.broken.sum()), plate_force=plate_force,
+                         driver_force=driver, dissipated=float(diss_b + diss_c))
+
+    def run(self, n_steps: int, callback: Callable | None = None):
+        """Run ``n_steps`` steps; ``callback(sim, stats)`` after each. Returns a pandas
+        DataFrame of :meth:`StepStats.as_row` rows."""
+        import pandas as pd
+
+        rows = []
+        for _ in range(int(n_steps)):
+            st = self.step()
+            rows.append(st.as_row())
+            if callback is not None:
+                callback(self, st)
+        return pd.DataFrame(rows)
+
+    # ------------------------------------------------------------------ internals
+    def _contact_velocities(self, ci, cj, cframe, v, w, vp, out):
+        gauss_seidel.contact_velocities(ci, cj, cframe, self.spheres.radius, v, w, vp, out)
+
+    def _warm_contacts(self, ci, cj, cframe):
+        """Impulses of the previous step's contacts on the same pairs, re-expressed in the
+        new frames (global vectors projected); zero for new contacts."""
+        cP = np.zeros((len(ci), 3))
+        if len(self.contact_i) == 0 or len(ci) == 0:
+            return cP
+        base = self.spheres.n + self.plates.n + 1
+        old_key = self.contact_i * base + np.where(self.contact_j >= 0, self.contact_j,
+                                                   self.spheres.n - 1 - self.contact_j)
+        new_key = ci * base + np.where(cj >= 0, cj, self.spheres.n - 1 - cj)
+        order = np.argsort(old_key)
+        sk = old_key[order]
+        pos = np.searchsorted(sk, new_key)
+        pos = np.minimum(pos, len(sk) - 1)
+        hit = sk[pos] == new_key
+        if hit.any():
+            src = order[pos[hit]]
+            g = np.einsum("ac,acd->ad", self.contact_impulse[src], self.contact_frame[src])
+            cP[hit] = np.einsum("acd,ad->ac", cframe[hit], g)
+            # keep the warm start inside the friction cone
+            pn = np.maximum(cP[:, 0], 0.0)
+            pt = np.hypot(cP[:, 1], cP[:, 2])
+            lim = self.params.friction * pn
+            scale = np.where(pt > lim, lim / np.maximum(pt, 1e-300), 1.0)
+            cP[:, 0] = pn
+            cP[:, 1:] *= scale[:, None]
+        return cP
+
+    def _fast_path(self, v_free, vp_free, c0, cg, v, vp, bP, inv_m, inv_mp, ci, cj, cframe,
+                   gap, w, h) -> bool:
+        """Try the linear solver; True if its solution is the solution of the step."""
+        bnd = self.bonds
+        key = (self.params.dt, self.params.theta, int(bnd.broken.sum()), bnd.n)
+        if self._linear_key != key:
+            self._linear = LinearBondSolver(inv_m, inv_mp, bnd.i, bnd.j, bnd.frame, cg,
+                                            bnd.broken)
+            self._linear_key = key
+        v_try = v_free.copy()
+        vp_try = vp_free.copy()
+        P_try = np.zeros_like(bP)
+        self._linear.solve(v_free, vp_free, bnd.i, bnd.j, bnd.frame, c0, cg, bnd.broken,
+                           v_try, vp_try, P_try)
+        # contacts must stay open with zero reaction
+        if len(ci):
+            u = np.empty((len(ci), 3))
+            self._contact_velocities(ci, cj, cframe, v_try, w, vp_try, u)
+            if np.any(u[:, 0] + np.maximum(gap, 0.0) / h < 0.0):
+                bP[:] = P_try  # warm start for NLGS
+                return False
+        v[:] = v_try
+        vp[:] = vp_try
+        bP[:] = P_try
+        return True
+
+    # ------------------------------------------------------------------ energy
+    def kinetic_energy(self) -> float:
+        """Kinetic energy of the mobile spheres and free plates, J."""
+        s = self.spheres
+        fin = np.isfinite(s.mass)
+        e = 0.5 * (s.mass[fin] * (s.velocity[fin] ** 2).sum(1)).sum()
+        e += 0.5 * (s.inertia[fin] * (s.angular_velocity[fin] ** 2).sum(1)).sum()
+        free = self.plates.mode == FREE
+        e += 0.5 * (self.plates.mass[free] * (self.plates.velocity[free] ** 2).sum(1)).sum()
+        return float(e)
+
+    # ------------------------------------------------------------------ checkpoint
+    def save_checkpoint(self, path) -> None:
+        """Write the full state to HDF5 (see checkpoint.py)."""
+        from .checkpoint import write_checkpoint
+
+        write_checkpoint(self, path)
+
+    @classmethod
+    def load_checkpoint(cls, path, drivers=None, external_force=None) -> "Simulation":
+        """Rebuild a Simulation from an HDF5 checkpoint. Callable plate drivers cannot be
+        stored: pass them as ``drivers`` (list of P entries, None for non-driven plates);
+        sampled (times, disp) drivers are restored from the file."""
+        from .checkpoint import read_checkpoint
+
+        return read_checkpoint(path, drivers=drivers, external_force=external_force)

@@ -1,0 +1,414 @@
+"""State of an NSCD simulation: rigid spheres, rigid planes (plates/walls), Burger's bonds,
+solver parameters and per-step statistics.
+
+All arrays are numpy, SI units (m, kg, s, N). Conventions shared by every module of
+:mod:`asphalt_nscd.nscd`:
+
+* An interaction (contact or bond) couples a *candidate* sphere ``i`` and an *antagonist*
+  ``j``: a sphere index ``j >= 0`` or a plate ``k`` coded ``j = -1 - k`` (the sample file's
+  convention, docs/design.md).
+* The local frame rows are ``(n, t, s)``; ``n`` points from the antagonist to the candidate
+  (for a plate: the plate's inward normal). The relative velocity is ``U = v_i - v_j``
+  (+ rotation terms for contacts) expressed in the local frame; a reaction ``R`` (N) in the
+  local frame acts on ``i`` as ``+R`` and on ``j`` as ``-R``. ``R_n >= 0`` is compressive
+  for a contact; for a bond ``R = -K delta`` is the restoring force on the candidate.
+* An infinite mass (``np.inf``) makes a body immobile (fixed sphere, fixed or driven plate).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..rheology.laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tangential_ratio
+
+#: Plate modes.
+FIXED, FREE, DRIVEN = 0, 1, 2
+PLATE_MODES = {"fixed": FIXED, "free": FREE, "driven": DRIVEN}
+
+#: Yield stress of the bonds, Pa (paper, Section 3.1: 2.7 MPa).
+YIELD_STRESS = 2.7e6
+
+
+def _as(a, shape_tail, name, dtype=float):
+    arr = np.ascontiguousarray(np.asarray(a, dtype=dtype))
+    if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != tuple(shape_tail):
+        raise ValueError(f"{name}: expected shape (n, {', '.join(map(str, shape_tail))}) "
+                         f"got {arr.shape}")
+    return arr
+
+
+@dataclass
+class Spheres:
+    """Rigid spheres.
+
+    Attributes
+    ----------
+    position : (N, 3) float, m — barycentres.
+    radius : (N,) float, m.
+    mass : (N,) float, kg; ``np.inf`` for an immobile sphere.
+    inertia : (N,) float, kg m² — scalar moment of inertia (2/5 m r² for a solid sphere).
+    velocity : (N, 3) float, m/s.
+    angular_velocity : (N, 3) float, rad/s.
+    """
+
+    position: np.ndarray
+    radius: np.ndarray
+    mass: np.ndarray
+    inertia: np.ndarray
+    velocity: np.ndarray = None
+    angular_velocity: np.ndarray = None
+
+    def __post_init__(self):
+        self.position = _as(self.position, (3,), "position")
+        n = len(self.position)
+        self.radius = np.ascontiguousarray(np.broadcast_to(np.asarray(self.radius, float), (n,)))
+        self.mass = np.ascontiguousarray(np.broadcast_to(np.asarray(self.mass, float), (n,)))
+        self.inertia = np.ascontiguousarray(np.broadcast_to(np.asarray(self.inertia, float), (n,)))
+        if self.velocity is None:
+            self.velocity = np.zeros((n, 3))
+        if self.angular_velocity is None:
+            self.angular_velocity = np.zeros((n, 3))
+        self.velocity = _as(self.velocity, (3,), "velocity").copy()
+        self.angular_velocity = _as(self.angular_velocity, (3,), "angular_velocity").copy()
+        if np.any(self.radius <= 0) or np.any(self.mass <= 0) or np.any(self.inertia <= 0):
+            raise ValueError("radius, mass and inertia must be positive")
+
+    @classmethod
+    def from_density(cls, position, radius, density: float) -> "Spheres":
+        """Solid spheres of uniform ``density`` (kg/m³): m = 4/3 pi r³ rho, I = 2/5 m r²."""
+        r = np.asarray(radius, float)
+        m = 4.0 / 3.0 * np.pi * r**3 * density
+        return cls(position=position, radius=r, mass=m, inertia=0.4 * m * r**2)
+
+    @property
+    def n(self) -> int:
+        return len(self.radius)
+
+    @property
+    def inv_mass(self) -> np.ndarray:
+        return 1.0 / self.mass
+
+    @property
+    def inv_inertia(self) -> np.ndarray:
+        return 1.0 / self.inertia
+
+
+@dataclass
+class Plate:
+    """One rigid infinite plane (translations only).
+
+    Parameters
+    ----------
+    point : (3,) m — a point of the plane (its reference point; moves with the plate).
+    normal : (3,) — unit normal pointing into the sample (normalised here).
+    mode : 'fixed' | 'free' | 'driven'.
+    mass : kg. Used by the dynamics for a free plate; for a driven plate only in the driver
+        force (imposed motion), ignored for a fixed one. Default inf.
+    displacement : for a driven plate, the imposed displacement of ``point`` from its initial
+        position: a callable ``t -> (3,)`` (m), or a tuple ``(times (T,), disp (T, 3))`` of
+        samples linearly interpolated (held constant outside).
+    """
+
+    point: Sequence[float]
+    normal: Sequence[float]
+    mode: str = "fixed"
+    mass: float = np.inf
+    displacement: Callable | tuple | None = None
+
+    def __post_init__(self):
+        if self.mode not in PLATE_MODES:
+            raise ValueError(f"plate mode must be one of {list(PLATE_MODES)}, got {self.mode!r}")
+        if self.mode == "driven" and self.displacement is None:
+            raise ValueError("a driven plate needs a displacement history")
+        if self.mode == "free" and not (np.isfinite(self.mass) and self.mass > 0):
+            raise ValueError("a free plate needs a finite positive mass")
+
+
+class Plates:
+    """All plates of a simulation as arrays (P plates).
+
+    Attributes
+    ----------
+    point : (P, 3) m — current reference points; ``point0`` the initial ones.
+    normal : (P, 3) — unit inward normals.
+    mass : (P,) kg; mode : (P,) int (FIXED, FREE, DRIVEN).
+    velocity : (P, 3) m/s — mean velocity over the last step for driven plates.
+    drivers : list of P displacement histories (None unless driven).
+    """
+
+    def __init__(self, plates: Sequence[Plate] = ()):
+        plates = list(plates)
+        p = len(plates)
+        self.point = np.zeros((p, 3))
+        self.normal = np.zeros((p, 3))
+        self.mass = np.full(p, np.inf)
+        self.mode = np.zeros(p, dtype=np.int64)
+        self.drivers: list = []
+        for k, pl in enumerate(plates):
+            self.point[k] = np.asarray(pl.point, float)
+            nrm = np.asarray(pl.normal, float)
+            self.normal[k] = nrm / np.linalg.norm(nrm)
+            self.mass[k] = float(pl.mass)
+            self.mode[k] = PLATE_MODES[pl.mode]
+            self.drivers.append(pl.displacement if pl.mode == "driven" else None)
+        self.point0 = self.point.copy()
+        self.velocity = np.zeros((p, 3))
+
+    @property
+    def n(self) -> int:
+        return len(self.mass)
+
+    @property
+    def inv_mass(self) -> np.ndarray:
+        """1/m for free plates, 0 for fixed and driven ones (imposed kinematics)."""
+        inv = np.zeros(self.n)
+        free = self.mode == FREE
+        inv[free] = 1.0 / self.mass[free]
+        return inv
+
+    def imposed_displacement(self, k: int, t: float) -> np.ndarray:
+        """Imposed displacement (3,) m of driven plate ``k`` at time ``t`` (s)."""
+        drv = self.drivers[k]
+        if callable(drv):
+            return np.asarray(drv(t), dtype=float).reshape(3)
+        times, disp = drv
+        disp = np.asarray(disp, float)
+        return np.array([np.interp(t, times, disp[:, c]) for c in range(3)])
+
+
+@dataclass
+class Bonds:
+    """Generalized Burger's bonds (Maxwell in series with NK Kelvin-Voigt units, optional
+    parallel spring), one per bonded pair (Eqs. 12-13, 20-26, 30-33, 8-11).
+
+    The bond force acts at the barycentres of the two bodies and carries no torque
+    (docs/design.md). The bond frame (n, t, s) is that of the initial configuration
+    (small-strain, consistent with the harmonic solver): the bond displacement is
+    ``delta = frame @ ((x_i - x_j) - rest)`` where ``rest`` is the initial relative
+    position (sphere-plate: relative to the plate's reference point).
+
+    Attributes (B bonds, NK Kelvin-Voigt units; index 0 = normal, 1 = tangential)
+    ----------
+    i, j : (B,) int — candidate sphere, antagonist sphere or plate ``-1-k``.
+    delta0 : (B,) m initial gap; l0 : (B,) m initial barycentre (or centre-plane) distance;
+    r_min : (B,) m; section : (B,) m² = pi r_min²; r_crit : (B,) N = yield_stress * section.
+    frame : (B, 3, 3) rows n, t, s; rest : (B, 3) m.
+    Km, Cm, Kinf : (B, 2) N/m, N s/m, N/m; Kk, Ck : (B, NK, 2).
+    force : (B, 3) N — total bond force at the end of the last step (local frame).
+    delta_c : (B, 3) m — Maxwell dashpot displacement; delta_k : (B, NK, 3) m — Kelvin-Voigt.
+    broken : (B,) bool.
+    """
+
+    i: np.ndarray
+    j: np.ndarray
+    delta0: np.ndarray
+    l0: np.ndarray
+    r_min: np.ndarray
+    frame: np.ndarray
+    rest: np.ndarray
+    Km: np.ndarray
+    Cm: np.ndarray
+    Kk: np.ndarray
+    Ck: np.ndarray
+    Kinf: np.ndarray
+    r_crit: np.ndarray
+    force: np.ndarray = None
+    delta_c: np.ndarray = None
+    delta_k: np.ndarray = None
+    broken: np.ndarray = None
+    law: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        b = len(self.i)
+        nk = self.Kk.shape[1]
+        if self.force is None:
+            self.force = np.zeros((b, 3))
+        if self.delta_c is None:
+            self.delta_c = np.zeros((b, 3))
+        if self.delta_k is None:
+            self.delta_k = np.zeros((b, nk, 3))
+        if self.broken is None:
+            self.broken = np.zeros(b, dtype=bool)
+
+    @property
+    def n(self) -> int:
+        return len(self.i)
+
+    @property
+    def section(self) -> np.ndarray:
+        return np.pi * self.r_min**2
+
+    @classmethod
+    def empty(cls, n_kelvin: int = 1) -> "Bonds":
+        z = np.zeros(0)
+        return cls(i=np.zeros(0, np.int64), j=np.zeros(0, np.int64), delta0=z, l0=z, r_min=z,
+                   frame=np.zeros((0, 3, 3)), rest=np.zeros((0, 3)), Km=np.zeros((0, 2)),
+                   Cm=np.zeros((0, 2)), Kk=np.zeros((0, n_kelvin, 2)),
+                   Ck=np.zeros((0, n_kelvin, 2)), Kinf=np.zeros((0, 2)), r_crit=z)
+
+    @classmethod
+    def create(cls, spheres: Spheres, plates: Plates, i, j, law: GeneralizedBurgers,
+               nu: float = POISSON_RATIO, yield_stress: float = YIELD_STRESS) -> "Bonds":
+        """Bonds between candidate spheres ``i`` and antagonists ``j`` (sphere index, or
+        ``-1-k`` for plate k) in the current configuration, which is taken as the rest state.
+
+        Micro law of each bond: ``law`` (macro, Pa, Pa s) scaled by pi r_min²/l0 (Eqs.
+        30-33) in the normal direction, times 1/(2(1+nu)) in the tangential ones (Eqs. 8-11).
+
+        Parameters
+        ----------
+        i, j : (B,) int.
+        law : macro generalized Burger's law (the paper: N = 1, E_inf = 0).
+        nu : Poisson's ratio of Eqs. 8-11. yield_stress : Pa (R_crit = yield_stress pi r_min²).
+
+        Raises
+        ------
+        ValueError if an index is out of range or a pair is degenerate (l0 <= 0).
+        """
+        i = np.asarray(i, dtype=np.int64).reshape(-1)
+        j = np.asarray(j, dtype=np.int64).reshape(-1)
+        if len(i) != len(j):
+            raise ValueError("i and j differ in length")
+        if len(i) == 0:
+            return cls.empty(law.n_kelvin)
+        if i.min() < 0 or i.max() >= spheres.n or j.max() >= spheres.n or (j < -plates.n).any():
+            raise ValueError("bond index out of range")
+        x = spheres.position
+        sph = j >= 0
+        rest = np.empty((len(i), 3))
+        normal = np.empty((len(i), 3))
+        rest[sph] = x[i[sph]] - x[j[sph]]
+        kk = -1 - j[~sph]
+        rest[~sph] = x[i[~sph]] - plates.point[kk]
+        l0 = np.empty(len(i))
+        l0[sph] = np.linalg.norm(rest[sph], axis=1)
+        l0[~sph] = np.einsum("ij,ij->i", rest[~sph], plates.normal[kk])
+        if np.any(l0 <= 0):
+            raise ValueError("bond with non-positive barycentre distance l0")
+        normal[sph] = rest[sph] / l0[sph, None]
+        normal[~sph] = plates.normal[kk]
+        r_i = spheres.radius[i]
+        r_min = r_i.copy()
+        r_min[sph] = np.minimum(r_i[sph], spheres.radius[j[sph]])
+        delta0 = l0 - r_i
+        delta0[sph] -= spheres.radius[j[sph]]
+        frame = local_frames(normal)
+        a = bond_scale(r_min, l0)  # Eqs. 30-33
+        ratio = np.array([1.0, tangential_ratio(nu)])  # Eqs. 8-11
+        nk = law.n_kelvin
+        Km = law.Em * a[:, None] * ratio
+        Cm = law.eta_m * a[:, None] * ratio
+        Kk = np.array(law.Ek).reshape(1, nk, 1) * a[:, None, None] * ratio
+        Ck = np.array(law.eta_k).reshape(1, nk, 1) * a[:, None, None] * ratio
+        Kinf = law.E_inf * a[:, None] * ratio
+        r_crit = yield_stress * np.pi * r_min**2
+        return cls(i=i, j=j, delta0=delta0, l0=l0, r_min=r_min, frame=frame, rest=rest,
+                   Km=Km, Cm=Cm, Kk=np.ascontiguousarray(Kk), Ck=np.ascontiguousarray(Ck),
+                   Kinf=Kinf, r_crit=r_crit,
+                   law={**law.as_dict(), "nu": nu, "yield_stress": yield_stress})
+
+
+def local_frames(normal: np.ndarray) -> np.ndarray:
+    """Orthonormal frames (B, 3, 3) with rows (n, t, s) from unit normals (B, 3).
+
+    t is n x e where e is the global axis least aligned with n; s = n x t.
+    """
+    normal = np.atleast_2d(normal)
+    idx = np.argmin(np.abs(normal), axis=1)
+    e = np.zeros_like(normal)
+    e[np.arange(len(normal)), idx] = 1.0
+    t = np.cross(normal, e)
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    s = np.cross(normal, t)
+    return np.ascontiguousarray(np.stack([normal, t, s], axis=1))
+
+
+@dataclass
+class NSCDParameters:
+    """Solver parameters.
+
+    Attributes
+    ----------
+    dt : time step, s (paper: 5e-5 s).
+    theta : Moreau-Jean theta in [0.5, 1]. Default 0.5: second order and free of numerical
+        damping for the smooth (bonded) dynamics, so the phase angle of a viscoelastic test is
+        not biased by the integrator (theta = 1 adds damping and an O(omega dt) phase error);
+        also LMGC90's default. The same theta weights the internal variables of the bonds
+        (theta = 1 gives the paper's backward-Euler Kelvin-Voigt update, Eq. 26).
+    gravity : (3,) m/s².
+    friction : Coulomb coefficient mu (0.2 deposition, 0.7 test).
+    tolerance : NLGS convergence on the relative change of reactions (both the quadratic
+        mean and the maximum, LMGC90 "Quad"/"Maxm" style).
+    max_iterations : NLGS sweeps per step.
+    relaxation : NLGS relaxation omega in (0, 1]: R <- omega R_local + (1-omega) R_old.
+    alert_distance : m — pairs with gap below it are contact candidates. None: 0.5 x the
+        smallest radius. Must exceed the largest relative displacement in one step.
+    fast_path : use the linear solver (:mod:`.linear`) on steps with no active contact and
+        no bond breakage (falls back to NLGS automatically).
+    """
+
+    dt: float
+    theta: float = 0.5
+    gravity: Sequence[float] = (0.0, 0.0, -9.81)
+    friction: float = 0.7
+    tolerance: float = 1e-6
+    max_iterations: int = 2000
+    relaxation: float = 1.0
+    alert_distance: float | None = None
+    fast_path: bool = True
+
+    def __post_init__(self):
+        if not (self.dt > 0):
+            raise ValueError(f"dt must be > 0, got {self.dt}")
+        if not (0.5 <= self.theta <= 1.0):
+            raise ValueError(f"theta must lie in [0.5, 1], got {self.theta}")
+        if not (0.0 < self.relaxation <= 1.0):
+            raise ValueError(f"relaxation must lie in (0, 1], got {self.relaxation}")
+        if self.friction < 0 or self.tolerance <= 0 or self.max_iterations < 1:
+            raise ValueError("friction >= 0, tolerance > 0 and max_iterations >= 1 required")
+        self.gravity = np.asarray(self.gravity, dtype=float).reshape(3)
+
+
+@dataclass
+class StepStats:
+    """Statistics of one time step.
+
+    time : s, end of step. solver : 'nlgs' or 'linear'. iterations : NLGS sweeps (0 for
+    the linear path). residual_quad / residual_max : final relative change of reactions.
+    converged : bool. n_contacts : candidates; n_active_contacts : with R_n > 0.
+    n_bonds : intact bonds; n_broken : bonds broken in this step; n_broken_total.
+    plate_force : (P, 3) N, mean force exerted by the spheres on each plate over the step.
+    driver_force : (P, 3) N, force the driver must apply to a driven or fixed plate to
+        impose its motion, including its inertia: m a - m g - plate_force.
+    dissipated : J, energy dissipated in the step by contacts and bonds (>= 0 up to round-off).
+    """
+
+    time: float
+    solver: str
+    iterations: int
+    residual_quad: float
+    residual_max: float
+    converged: bool
+    n_contacts: int
+    n_active_contacts: int
+    n_bonds: int
+    n_broken: int
+    n_broken_total: int
+    plate_force: np.ndarray
+    driver_force: np.ndarray
+    dissipated: float
+
+    def as_row(self) -> dict:
+        """Flat dict (plate forces expanded to plate{k}_F{x,y,z}_N columns)."""
+        row = {k: getattr(self, k) for k in ("time", "solver", "iterations", "residual_quad",
+                                              "residual_max", "converged", "n_contacts",
+                                              "n_active_contacts", "n_bonds", "n_broken",
+                                              "n_broken_total", "dissipated")}
+        for k in range(len(self.plate_force)):
+            for c, ax in enumerate("xyz"):
+                row[f"plate{k}_F{ax}_N"] = float(self.plate_force[k, c])
+                row[f"plate{k}_driver_F{ax}_N"] = float(self.driver_force[k, c])
+        return row

@@ -1,0 +1,246 @@
+"""Preparation of one numerical sample (paper Section 3.2.1).
+
+Stages
+------
+1. *Spheres*: counts per class from the PSD cut at ``psd.cut_mm`` (:mod:`.psd`), for the
+   layer of the (scaled) box, density 2600 kg/m^3.
+2. *Lattice*: random placement on the cubic lattice of the box (:func:`.geometry.lattice_positions`).
+3. *Deposition* under gravity in the six-plate box, friction 0.2 (NSCD core), until the
+   spheres are at rest (largest speed below ``deposition.settle_velocity_m_s``) or
+   ``deposition.duration_s`` has elapsed.
+4. *Vibration*: the top wall is lowered onto the layer (to ``max(z + r)``) and driven
+   vertically by ``u_z(t) = A (1 - cos 2 pi f t)`` (A = 6 mm, f = 30 Hz, 1 s): it starts at
+   rest in contact and taps the top particle layers only (paper: "acts only on the top
+   particle layers"). The paper's "vertical sinusoidal displacement of 6 mm" does not give
+   the phase; this form avoids pushing into the layer at t = 0. The wall is then lifted
+   away and the layer settles for ``vibration.settle_duration_s``.
+5. *Cut*: spheres whose barycentre lies outside the trapezoid are removed; the trapezoid
+   spans the box length (= h), the thickness (= e), and is centred on the layer mid-height
+   (:mod:`.geometry`). *Flip* to the specimen frame (z up along h, x bending direction).
+6. *Plates*: bottom plate at the base (z = 0, fixed), top plate at the head (z = h, free,
+   0.235 kg x scale^3); gravity along -z.
+7. *Shrink* every sphere by 10 % of its volume (radius x 0.9^(1/3)), then raise the density
+   to give the sample mass 0.6 kg x scale^3 (paper: 3415 kg/m^3): rho = M / sum(4/3 pi r^3).
+8. *Bonds* for every sphere pair and sphere-plate pair whose gap is below d_min (the
+   smallest class diameter, or ``bond_gap_mm``), the reference state being the shrunk one
+   (delta0, l0, r_min as in docs/design.md).
+9. *Stabilisation*: ``stabilisation.steps`` steps (paper: 1000) of the bonded sample under
+   gravity with friction 0.7 and a Burger's law (``stabilisation.*``, default Table 3 at
+   15 degC read in Pa). The bonds keep the reference state of stage 8; the sample file stores
+   the stabilised positions.
+
+The sample file is temperature independent: the campaign creates the bond laws of each
+temperature from ``delta0, l0, r_min``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..io import InputError
+from . import geometry, psd, settings
+from .store import SampleData, write_bonds_vtu, write_sample, write_vtu
+
+#: A contact, for the coordination number, is a surface gap below this fraction of d_min.
+CONTACT_TOLERANCE = 0.01
+
+
+@dataclass
+class PreparedSample:
+    """Result of :func:`prepare_sample`: the sample, the stage snapshots and the summary."""
+
+    sample: SampleData
+    stages: list  # dicts: title, frame, position (N, 3), radius (N,)
+    summary: dict
+    trapezoid: geometry.Trapezoid
+
+
+def sphere_population(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Class diameters (m), counts in the layer, and the solid volume (m^3) for a config.
+
+    Raises
+    ------
+    InputError
+        if the PSD keys are inconsistent.
+    """
+    geo = settings.scaled_geometry(cfg)
+    p = cfg["psd"]
+    try:
+        d, frac = psd.class_fractions(cut_mm=p["cut_mm"], class_diameter=p["class_diameter"])
+        volume = p["solid_fraction"] * geo["box"][0] * geo["box"][1] * geo["layer_height"]
+        counts = psd.sphere_counts(volume, d, frac)
+    except ValueError as exc:
+        raise InputError(f"sample.psd: {exc}") from exc
+    return d, counts, volume
+
+
+def counts_table(cfg: dict, summaries=()) -> "pandas.DataFrame":  # noqa: F821
+    """Counts per diameter: paper (Table 2), our rule at full scale (scale 1, cut 2 mm),
+    this configuration's layer, and the mean inside the prepared samples.
+
+    Columns ``diameter_mm, n_paper, n_rule_full_scale, rel_diff_pct, n_config_layer,
+    n_sample_mean``.
+    """
+    import json
+
+    full = settings.merge(settings.DEFAULTS, {"psd": {**cfg["psd"], "cut_mm": 2.0}, "scale": 1.0})
+    d_full, n_full, _ = sphere_population(full)
+    table = psd.table2_comparison(d_full, n_full).rename(columns={"n_ours": "n_rule_full_scale"})
+    d_cfg, n_cfg, _ = sphere_population(cfg)
+    layer = {round(float(d) * 1e3, 3): int(n) for d, n in zip(d_cfg, n_cfg)}
+    table["n_config_layer"] = [layer.get(d, 0) for d in table["diameter_mm"]]
+    per_sample = []
+    for path in summaries:
+        try:
+            data = json.loads(Path(path).read_text())
+            per_sample.append({float(k): v for k, v in data["counts_sample"].items()})
+        except (OSError, ValueError, KeyError) as exc:
+            raise InputError(f"{path}: not a sample summary with 'counts_sample' ({exc})") from exc
+    if per_sample:
+        table["n_sample_mean"] = [np.mean([c.get(d, 0) for c in per_sample]) for d in table["diameter_mm"]]
+    return table
+
+
+def prepare_sample(cfg: dict, seed: int) -> PreparedSample:
+    """Run stages 1-9 for one seed (see module docstring).
+
+    Parameters
+    ----------
+    cfg
+        sample section merged over :data:`.settings.DEFAULTS`.
+    seed
+        seed of the lattice placement (the only random step).
+
+    Returns
+    -------
+    PreparedSample
+
+    Raises
+    ------
+    InputError
+        if the box cannot hold the spheres, or the cut leaves no sphere.
+    """
+    from . import dynamics
+
+    t_start = time.perf_counter()
+    geo = settings.scaled_geometry(cfg)
+    trap = geometry.Trapezoid(B=geo["B"], b=geo["b"], e=geo["e"], h=geo["h"])
+    rng = np.random.default_rng(seed)
+    d_class, counts, _ = sphere_population(cfg)
+    radius = np.repeat(0.5 * d_class, counts)
+    d_min = cfg["bond_gap_mm"] * 1e-3 if cfg["bond_gap_mm"] is not None else float(d_class.min())
+    try:
+        position = geometry.lattice_positions(radius, geo["box"], geo["lattice"], rng)
+    except ValueError as exc:
+        raise InputError(f"sample (box_height_mm / lattice_mm / scale): {exc}") from exc
+    stages = []
+    timings = {}
+
+    t0 = time.perf_counter()
+    position, dep_info = dynamics.deposit(position, radius, cfg, geo)
+    timings["deposition_s"] = time.perf_counter() - t0
+    stages.append({"title": "deposit by gravity", "frame": "deposition", "position": position,
+                   "radius": radius, "length": geo["box"][0]})
+    h_deposit = geometry.layer_top(position, radius)
+
+    t0 = time.perf_counter()
+    position, vib_info = dynamics.vibrate(position, radius, cfg, geo)
+    timings["vibration_s"] = time.perf_counter() - t0
+    h_layer = geometry.layer_top(position, radius)
+    stages.append({"title": "after vibration of the top wall", "frame": "deposition", "position": position,
+                   "radius": radius, "length": geo["box"][0]})
+
+    # Stage 5: cut by barycentre, flip.
+    zc = 0.5 * max(h_layer, trap.B)
+    spec = geometry.to_specimen_frame(position, zc, geo["box"][1])
+    inside = trap.contains(spec)
+    if not inside.any():
+        raise InputError("sample: no sphere left inside the trapezoid after the cut")
+    spec, r_cut = spec[inside], radius[inside]
+    coordination = geometry.coordination_number(spec, r_cut, CONTACT_TOLERANCE * d_min)
+    porosity_cut = 1.0 - geometry.sphere_volume(r_cut).sum() / trap.volume
+
+    # Stages 6-8: plates, shrink, density, bonds.
+    r_final = geometry.shrink_radii(r_cut, cfg["shrink_volume_fraction"])
+    density = geometry.density_for_mass(r_final, geo["sample_mass"])
+    mass = density * geometry.sphere_volume(r_final)
+    plate_point = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, trap.h]])
+    plate_normal = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    plate_mass = np.array([np.inf, geo["top_plate_mass"]])
+    bonds = geometry.make_bonds(spec, r_final, plate_point, plate_normal, d_min)
+
+    # Stage 9: stabilisation.
+    t0 = time.perf_counter()
+    stab_position, stab_info = dynamics.stabilise(spec, r_final, mass, plate_point, plate_normal, plate_mass, bonds, cfg)
+    timings["stabilisation_s"] = time.perf_counter() - t0
+    stages.append({"title": "sample after cut, flip, shrink and stabilisation", "frame": "specimen",
+                   "position": stab_position, "radius": r_final})
+
+    attrs = {
+        "seed": int(seed),
+        "scale": float(cfg["scale"]),
+        "density_kg_m3": density,
+        "friction": float(cfg["friction_bonded"]),
+        "d_min_m": d_min,
+        "config": cfg,
+        "stage": "final",
+        "B_m": trap.B,
+        "b_m": trap.b,
+        "e_m": trap.e,
+        "h_m": trap.h,
+        "n_spheres": int(r_final.size),
+    }
+    sample = SampleData(position=stab_position, radius=r_final, mass=mass, plate_point=plate_point,
+                        plate_normal=plate_normal, plate_mass=plate_mass, bonds=bonds, attrs=attrs)
+    n = r_final.size
+    n_ss = int(np.sum(bonds["j"] >= 0))
+    d_cut_mm = np.round(2e3 * r_cut, 3)
+    summary = {
+        "seed": int(seed),
+        "scale": float(cfg["scale"]),
+        "psd_cut_mm": float(cfg["psd"]["cut_mm"]),
+        "counts_layer": {f"{d * 1e3:g}": int(c) for d, c in zip(d_class, counts)},
+        "counts_sample": {f"{d * 1e3:g}": int(np.sum(d_cut_mm == round(d * 1e3, 3))) for d in d_class},
+        "n_spheres_layer": int(radius.size),
+        "n_spheres": int(n),
+        "trapezoid_mm": {"B": trap.B * 1e3, "b": trap.b * 1e3, "e": trap.e * 1e3, "h": trap.h * 1e3},
+        "layer_height_after_deposition_mm": h_deposit * 1e3,
+        "layer_height_after_vibration_mm": h_layer * 1e3,
+        "trapezoid_centre_height_mm": zc * 1e3,
+        "porosity_before_shrink": porosity_cut,
+        "porosity": 1.0 - geometry.sphere_volume(r_final).sum() / trap.volume,
+        "coordination_number": coordination,
+        "contact_tolerance_mm": CONTACT_TOLERANCE * d_min * 1e3,
+        "max_overlap_after_vibration_mm": geometry.max_overlap(position, radius) * 1e3,
+        "n_bonds": int(bonds["i"].size),
+        "n_bonds_sphere_sphere": n_ss,
+        "n_bonds_bottom_plate": int(np.sum(bonds["j"] == -1)),
+        "n_bonds_top_plate": int(np.sum(bonds["j"] == -2)),
+        "bonds_per_sphere": 2.0 * n_ss / n,
+        "d_min_mm": d_min * 1e3,
+        "density_deposition_kg_m3": float(cfg["density_deposition_kg_m3"]),
+        "density_kg_m3": density,
+        "sample_mass_kg": float(mass.sum()),
+        "top_plate_mass_kg": float(geo["top_plate_mass"]),
+        "deposition": dep_info,
+        "vibration": vib_info,
+        "stabilisation": stab_info,
+        "timings_s": {**timings, "total_s": time.perf_counter() - t_start},
+    }
+    return PreparedSample(sample=sample, stages=stages, summary=summary, trapezoid=trap)
+
+
+def write_outputs(result: PreparedSample, path, vtk_dir=None) -> None:
+    """Write the sample file and, if ``vtk_dir`` is given, one VTU per stage plus the bonds."""
+    write_sample(path, result.sample)
+    if vtk_dir is not None:
+        vtk_dir = Path(vtk_dir)
+        vtk_dir.mkdir(parents=True, exist_ok=True)
+        names = ["stage_a_deposit", "stage_b_vibrated", "stage_c_sample"]
+        for name, stage in zip(names, result.stages):
+            write_vtu(vtk_dir / f"{name}.vtu", stage["position"], stage["radius"])
+        write_bonds_vtu(vtk_dir / "bonds.vtu", result.sample)

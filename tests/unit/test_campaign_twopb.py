@@ -1,0 +1,63 @@
+"""Numerical 2PB test: dt policy, resume after interruption, recovery of the Burger's phase."""
+
+import numpy as np
+import pytest
+
+from asphalt_nscd.campaign import twopb
+from asphalt_nscd.harmonic.network import lattice_sample, write_sample
+from asphalt_nscd.rheology.laws import GeneralizedBurgers
+
+LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
+
+
+@pytest.fixture(scope="module")
+def tiny_sample(tmp_path_factory):
+    """A 40-sphere bonded lattice sample (docs/design.md format), light head plate."""
+    path = tmp_path_factory.mktemp("sample") / "s1.h5"
+    d = lattice_sample(40, seed=3, radius_range=(0.9e-3, 1.5e-3))
+    write_sample(path, **d, plate_mass=(np.inf, 1e-3))
+    return path
+
+
+def test_time_step_policies():
+    fixed = twopb.TwoPBSettings(dt_policy="fixed", dt_s=5e-5)
+    assert twopb.time_step(0.1, fixed) == 5e-5
+    spc = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=500, dt_max_s=1e-3)
+    assert twopb.time_step(40.0, spc) == pytest.approx(5e-5)
+    assert twopb.time_step(0.1, spc) == 1e-3  # capped
+    assert twopb.n_steps_of(40.0, 5e-5, spc) == 2500
+    with pytest.raises(ValueError):
+        twopb.TwoPBSettings(dt_policy="adaptive")
+
+
+def test_resume_gives_the_uninterrupted_run(tiny_sample, tmp_path):
+    s = twopb.TwoPBSettings(n_cycles=2, dt_policy="steps_per_cycle", steps_per_cycle=60, dt_max_s=0.02,
+                            checkpoint_every=25, profile_instants=4)
+    full = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "a.h5", progress=False)
+    out = tmp_path / "b.h5"
+    assert twopb.run_test(tiny_sample, LAW_15C, 10.0, s, out, progress=False, stop_after=70) is None
+    assert (tmp_path / "b.h5.ckpt.h5").exists() and not out.exists()
+    resumed = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, out, progress=False)
+    np.testing.assert_allclose(resumed["force_N"], full["force_N"], rtol=1e-12, atol=0)
+    np.testing.assert_allclose(resumed["profile"]["vx_m_s"], full["profile"]["vx_m_s"], rtol=1e-12)
+    assert not (tmp_path / "b.h5.ckpt.h5").exists()
+    assert not (tmp_path / "b.h5.partial.npz").exists()
+    back = twopb.read_record(out)
+    np.testing.assert_array_equal(back["force_N"], resumed["force_N"])
+    assert back["stats"]["linear"].shape == (120,)
+
+
+def test_reduction_recovers_burgers_phase(tiny_sample, tmp_path):
+    """Without inertia (light spheres and head at 3 Hz) every bond shares one law, so the
+    sample's force is E*(w) times a real geometric stiffness: Psi = Burger's phase."""
+    s = twopb.TwoPBSettings(n_cycles=3, dt_policy="steps_per_cycle", steps_per_cycle=200,
+                            checkpoint_every=0)
+    rec = twopb.run_test(tiny_sample, LAW_15C, 3.0, s, tmp_path / "r.h5", progress=False)
+    row = twopb.reduce_test(rec, window_cycles=1)
+    _, phase = LAW_15C.norm_and_phase(2 * np.pi * 3.0)
+    assert row["phase_deg"] == pytest.approx(float(phase), abs=0.1)
+    assert row["z0_m"] == pytest.approx(63e-6, rel=1e-6)
+    assert row["force_residual"] < 0.02
+    # the two force readings agree where the head inertia is negligible
+    assert row["E_norm_MPa_other_reading"] == pytest.approx(row["E_norm_MPa"], rel=1e-3)
+    assert row["n_nlgs_steps"] == 0 and row["n_broken_total"] == 0

@@ -1,0 +1,56 @@
+"""Atomic output, the CLI dispatcher and report collection."""
+
+from __future__ import annotations
+
+import pytest
+
+from asphalt_nscd import cli
+from asphalt_nscd.io import atomic_path, write_json
+
+
+def test_atomic_path_leaves_nothing_on_failure(tmp_path):
+    target = tmp_path / "sub" / "out.json"
+    with pytest.raises(RuntimeError):
+        with atomic_path(target) as tmp:
+            tmp.write_text("partial")
+            raise RuntimeError("job failed")
+    assert not target.exists()
+    assert list(target.parent.iterdir()) == []
+
+
+def test_atomic_path_replaces_on_success(tmp_path):
+    target = tmp_path / "out.json"
+    target.write_text("old")
+    write_json({"a": 1}, target)
+    assert target.read_text() == '{\n  "a": 1\n}\n'
+    assert [p.name for p in tmp_path.iterdir()] == ["out.json"]
+
+
+def test_every_subpackage_registers_subcommands():
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    assert "collect-report" in sub.choices
+
+
+def test_collect_report_copies_and_indexes(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    fig = tmp_path / "results" / "lab" / "fig.png"
+    fig.parent.mkdir(parents=True)
+    fig.write_bytes(b"\x89PNG fake")
+    table = tmp_path / "results" / "calibration" / "t.csv"
+    table.parent.mkdir(parents=True)
+    table.write_text("a,b\n1,2\n")
+    status = cli.main(["collect-report", "results/lab/fig.png", "results/calibration/t.csv",
+                       "--out-dir", "results/report", "-o", "results/report/index.md"])
+    assert status == 0
+    index = (tmp_path / "results/report/index.md").read_text()
+    assert "![lab/fig.png](lab/fig.png)" in index and "[calibration/t.csv](calibration/t.csv)" in index
+    assert (tmp_path / "results/report/calibration/t.csv").read_text() == "a,b\n1,2\n"
+
+
+def test_collect_report_missing_input_is_an_error(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    status = cli.main(["collect-report", "results/nope.png", "--out-dir", "r", "-o", "r/index.md"])
+    assert status == 2
+    assert "results/nope.png" in capsys.readouterr().err
+    assert not (tmp_path / "r" / "index.md").exists()
