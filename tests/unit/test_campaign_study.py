@@ -106,3 +106,47 @@ def test_cli_run_2pb_and_bad_input(tmp_path):
     assert row["Em_MPa"] == pytest.approx(1.5 * 20.2) and row["n_steps"] == 80
     assert main(base + ["--factor", "Em=big"]) == 2
     assert main(base[:-4] + ["--settings-json", '{"dt": 1}', "-o", "x.h5", "--row", "x.csv"]) == 2
+
+
+def test_cli_aggregation_and_figures(tmp_path):
+    sample = tmp_path / "s1.h5"
+    write_sample(sample, **lattice_sample(30, seed=4, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    settings = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40,
+                           "dt_max_s": 0.02, "checkpoint_every": 0, "profile_instants": 4})
+    rows, recs = [], []
+    for f in (3, 40):
+        rec, row = tmp_path / f"20C_{f}Hz.h5", tmp_path / f"20C_{f}Hz.csv"
+        assert main(["run-2pb", "--sample", str(sample), "--parameters", TABLE3, "--table3-units", "Pa",
+                     "--temperature", "20", "--frequency", str(f), "--settings-json", settings,
+                     "--no-progress", "-o", str(rec), "--row", str(row)]) == 0
+        rows.append(str(row))
+        recs.append(str(rec))
+    out = tmp_path / "out"
+    assert main(["campaign-isotherms", "--rows", *rows, "--parameters", TABLE3, "--table3-units", "Pa",
+                 "--paper-table4", "data/paper/table4_mre.csv", "--isotherms", str(out / "iso.csv"),
+                 "--table4", str(out / "t4.csv"), "--figure-modulus", str(out / "f9.png"),
+                 "--figure-phase", str(out / "f10.png")]) == 0
+    t4 = pd.read_csv(out / "t4.csv")
+    assert list(t4["temperature_C"]) == [20.0] and t4["n_frequencies"].iloc[0] == 2
+    assert main(["campaign-last-cycle", "--record", recs[1], "--figure-cycle", str(out / "f7.png"),
+                 "--figure-profile", str(out / "f8.png")]) == 0
+    assert main(["campaign-dt-study", "--records", *recs[:1], "--rows", *rows[:1], "--parameters", TABLE3,
+                 "--table3-units", "Pa", "--table", str(out / "dt.csv"), "--figure", str(out / "f6.png")]) == 0
+    for name in ("f6", "f7", "f8", "f9", "f10"):
+        assert (out / f"{name}.png").stat().st_size > 1000
+
+
+def test_projection_counts_the_workflow_jobs():
+    """The projection enumerates the same jobs as workflow/rules/simulation.smk (smoke: 14)."""
+    import yaml
+
+    from asphalt_nscd.campaign.bench import campaign_jobs, project_campaign
+
+    with open("config/smoke.yaml") as fh:
+        cfg = yaml.safe_load(fh)
+    jobs = campaign_jobs(cfg["campaign"], len(cfg["sample"]["seeds"]))
+    # paper 1 + measured 1 + dt study 2 + sensitivity 8 + units kPa 1 + kPa unbreakable 1
+    assert sum(j["n_samples"] for j in jobs) == 14
+    p = project_campaign(cfg["campaign"], 1, s_per_step=1e-3, overhead_s=0.0)
+    assert p["total_core_h"] * 3600 == pytest.approx(p["n_steps_total"] * 1e-3)
+    assert p["wall_h"]["2"] == pytest.approx(max(p["total_core_h"] / 2, p["longest_job_h"]))

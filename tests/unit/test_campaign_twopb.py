@@ -61,3 +61,14 @@ def test_reduction_recovers_burgers_phase(tiny_sample, tmp_path):
     # the two force readings agree where the head inertia is negligible
     assert row["E_norm_MPa_other_reading"] == pytest.approx(row["E_norm_MPa"], rel=1e-3)
     assert row["n_nlgs_steps"] == 0 and row["n_broken_total"] == 0
+
+
+def test_bond_strength_option(tiny_sample):
+    """yield_stress_Pa sets R_crit = sigma_y pi r_min^2; None gives unbreakable bonds."""
+    from asphalt_nscd.sample.store import read_sample
+
+    sample = read_sample(tiny_sample)
+    sim, _ = twopb.build_simulation(sample, LAW_15C, 10.0, 1e-4, twopb.TwoPBSettings())
+    np.testing.assert_allclose(sim.bonds.r_crit, 2.7e6 * np.pi * sim.bonds.r_min**2)
+    sim, _ = twopb.build_simulation(sample, LAW_15C, 10.0, 1e-4, twopb.TwoPBSettings(yield_stress_Pa=None))
+    assert np.isinf(sim.bonds.r_crit).all()

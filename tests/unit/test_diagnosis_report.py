@@ -24,7 +24,8 @@ def real_report(tmp_path_factory):
     out = d / "report.json"
     assert main(["diagnose", "--measured", str(REAL), "-o", str(out), "--laws", str(d / "laws.json"),
                  "--budget-csv", str(d / "budget.csv"), "--gain-csv", str(d / "gain.csv"),
-                 "--effects-csv", str(d / "effects.csv"), "--figure", str(d / "budget.png")]) == 0
+                 "--effects-csv", str(d / "effects.csv"), "--figure", str(d / "budget.png"),
+                 "--page", str(d / "page.md")]) == 0
     return json.loads(out.read_text()), d
 
 
@@ -47,6 +48,8 @@ def test_real_data_report_structure_and_gain(real_report):
         assert g["phase"]["after"] < g["phase"]["before"] and g["E_norm"]["after"] < g["E_norm"]["before"]
     assert sum(rep["targets"]["met"].values()) >= len(temps) - 1
     assert (d / "budget.png").stat().st_size > 0
+    page = (d / "page.md").read_text()
+    assert page.startswith("# What the simulation gets wrong") and "broad_spectrum" in page
     assert set(pd.read_csv(d / "budget.csv")["component"]) == {"data_artifacts", "model_form", "total"}
 
 
@@ -80,8 +83,14 @@ def test_synth_then_diagnose_with_simulation_inputs(tmp_path):
     dt = 5e-5
     nscd = harm.assign(solver="nscd", dt_s=dt, phase_deg=harm["phase_deg"] + 0.5 * 360 * grid["frequency_Hz"] * dt)
     pd.concat([harm, nscd]).to_csv(tmp_path / "S.csv", index=False)
+    # a time-integration table with two thetas (as results/nscd/phase_error.csv)
+    ti = pd.DataFrame([(f, dt, th, c * 360 * f * dt) for f in (3.0, 40.0) for dt in (2e-5, 1e-4)
+                       for th, c in ((0.5, 0.5), (1.0, 2.0))],
+                      columns=["frequency_Hz", "dt_s", "theta", "phase_error_deg"])
+    ti.to_csv(tmp_path / "ti.csv", index=False)
     out = tmp_path / "r.json"
     assert main(["diagnose", "--measured", str(m), "--simulated", str(tmp_path / "S.csv"),
+                 "--time-integration", str(tmp_path / "ti.csv"), "--theta", "0.5",
                  "--macro-params", str(tmp_path / "macro.csv"), "-o", str(out)]) == 0
     rep = json.loads(out.read_text())
     by = {e["name"]: e for e in rep["effects"]}
@@ -113,3 +122,14 @@ def test_input_errors(tmp_path, capsys):
     assert "missing column" in capsys.readouterr().err
     assert main(["synth", "--seed", "1", "--effects", "nonsense", "-o", str(tmp_path / "m.csv")]) == 2
     assert not (tmp_path / "r.json").exists()
+
+
+def test_time_integration_from_paired_rows():
+    from asphalt_nscd.diagnosis.report import derived_time_integration
+
+    harm = pd.DataFrame({"temperature_C": [10.0, 10.0], "frequency_Hz": [3.0, 40.0],
+                         "E_norm_MPa": [1e4, 1.2e4], "phase_deg": [20.0, 15.0]})
+    sim = harm.assign(dt_s=5e-5, phase_deg=harm["phase_deg"] + [0.1, 1.0])
+    t = derived_time_integration(sim, harm)
+    assert list(t["phase_error_deg"]) == pytest.approx([0.1, 1.0])
+    assert derived_time_integration(sim.drop(columns="dt_s"), harm) is None

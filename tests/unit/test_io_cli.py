@@ -54,3 +54,14 @@ def test_collect_report_missing_input_is_an_error(tmp_path, monkeypatch, capsys)
     assert status == 2
     assert "results/nope.png" in capsys.readouterr().err
     assert not (tmp_path / "r" / "index.md").exists()
+
+
+def test_atomic_output_has_the_usual_file_mode(tmp_path):
+    import os
+    import stat
+
+    target = tmp_path / "out.json"
+    write_json({}, target)
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o666 & ~umask

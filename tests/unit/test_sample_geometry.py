@@ -143,3 +143,26 @@ def test_coordination_number():
     p = np.array([[0, 0, 0], [2e-3, 0, 0], [4.5e-3, 0, 0]])
     assert geometry.coordination_number(p, r, 1e-5) == pytest.approx(2 / 3)
     assert geometry.coordination_number(p, r, 1e-3) == pytest.approx(4 / 3)
+
+
+def test_configs_match_schema_and_defaults():
+    from pathlib import Path
+
+    import jsonschema
+    import yaml
+
+    root = Path(__file__).resolve().parents[2]
+    schema = yaml.safe_load((root / "workflow/schemas/sample.schema.yaml").read_text())
+    jsonschema.Draft7Validator.check_schema(schema)
+
+    def walk(d, sch, path=""):
+        for k, v in d.items():
+            assert k in sch["properties"], f"schema lacks {path}{k}"
+            if isinstance(v, dict):
+                walk(v, sch["properties"][k], f"{path}{k}.")
+
+    walk(settings.DEFAULTS, schema)
+    for name in ("config", "smoke", "paper"):
+        section = yaml.safe_load((root / f"config/{name}.yaml").read_text())["sample"]
+        jsonschema.validate(section, schema)
+        assert settings.load(root / f"config/{name}.yaml") == settings.merge(settings.DEFAULTS, section)

@@ -25,6 +25,8 @@ def _diagnose_options():
         opts += " --no-refine"
     for key, path in DIAG_OPTIONAL.items():
         opts += f" --{key.replace('_', '-')} {path}"
+    if "time_integration" in DIAG_OPTIONAL and "theta" in config.get("nscd", {}):
+        opts += f" --theta {config['nscd']['theta']}"
     return opts
 
 
@@ -57,6 +59,7 @@ rule diagnose:
             caption="../report/diagnosis_what_goes_wrong.rst",
             category=DIAG_CATEGORY,
         ),
+        page="results/diagnosis/what_the_simulation_gets_wrong.md",
     params:
         options=_diagnose_options(),
     log:
@@ -71,7 +74,7 @@ rule diagnose:
         "asphalt-nscd diagnose --measured {input.measured} --macro-params {input.macro} {params.options} "
         "-o {output.report} --laws {output.laws} --corrected {output.corrected} "
         "--budget-csv {output.budget} --effects-csv {output.effects} --gain-csv {output.gain} "
-        "--figure {output.figure} 2> {log}"
+        "--figure {output.figure} --page {output.page} 2> {log}"
 
 
 rule diagnose_bench:
@@ -97,6 +100,7 @@ rule diagnose_bench:
 
 
 REPORT_FILES += [
+    "results/diagnosis/what_the_simulation_gets_wrong.md",
     "results/diagnosis/error_budget.png",
     "results/diagnosis/error_budget.csv",
     "results/diagnosis/causes.csv",

@@ -1,1 +1,105 @@
-# Rules of the nscd step (see README).
+# NSCD core (src/asphalt_nscd/nscd): verification against closed forms (creep, relaxation,
+# sinusoidal steady state, rest/incline/column/impact, breakage at R_crit, dissipation,
+# fast path vs NLGS) with the phase error of the time-discrete bond law vs omega dt and theta,
+# and benchmarks at reduced N (bonded 2PB-like sample; frictional granular bed).
+
+NSCD = config["nscd"]
+NSCD_BENCH = [f"results/bench/nscd_bonded_n{n}.json" for n in NSCD["bench"]["bonded_n"]] + [
+    f"results/bench/nscd_granular_n{n}.json" for n in NSCD["bench"]["granular_n"]
+]
+
+
+def _csv_list(values):
+    return ",".join(str(v) for v in values)
+
+
+rule nscd_verify:
+    output:
+        json="results/nscd/verify.json",
+        csv=report(
+            "results/nscd/verify.csv",
+            caption="../report/nscd_verify.rst",
+            category="NSCD core",
+        ),
+        phase=report(
+            "results/nscd/phase_error.csv",
+            caption="../report/nscd_phase_error_table.rst",
+            category="NSCD core",
+        ),
+        figure=report(
+            "results/nscd/phase_error.png",
+            caption="../report/nscd_phase_error.rst",
+            category="NSCD core",
+        ),
+    params:
+        freqs=_csv_list(NSCD["verify"]["phase_frequencies_Hz"]),
+        dts=_csv_list(NSCD["verify"]["phase_dts_s"]),
+        thetas=_csv_list(NSCD["verify"]["phase_thetas"]),
+    log:
+        "logs/nscd/verify.log",
+    benchmark:
+        "benchmarks/nscd/verify.tsv"
+    threads: 1
+    resources:
+        mem_mb=1500,
+        runtime=20,
+    shell:
+        "asphalt-nscd verify -o {output.json} --csv {output.csv} --phase-table {output.phase} "
+        "--figure {output.figure} --phase-frequencies {params.freqs} --phase-dts {params.dts} "
+        "--phase-thetas {params.thetas} 2> {log}"
+
+
+rule nscd_bench:
+    output:
+        "results/bench/nscd_{case}_n{n}.json",
+    wildcard_constraints:
+        case="bonded|granular",
+        n=r"\d+",
+    params:
+        steps=NSCD["bench"]["steps"],
+        baseline=NSCD["bench"]["baseline_steps"],
+        settle=NSCD["bench"]["settle_steps"],
+        tol=lambda wc: NSCD["bench"]["granular_tolerance" if wc.case == "granular" else "tolerance"],
+    log:
+        "logs/nscd/bench_{case}_n{n}.log",
+    benchmark:
+        "benchmarks/nscd/bench_{case}_n{n}.tsv"
+    threads: 1
+    resources:
+        mem_mb=3000,
+        runtime=60,
+    shell:
+        "NUMBA_NUM_THREADS=1 asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} "
+        "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
+        "--tolerance {params.tol} -o {output} 2> {log}"
+
+
+rule nscd_bench_summary:
+    input:
+        NSCD_BENCH,
+    output:
+        report(
+            "results/bench/nscd_bench.csv",
+            caption="../report/nscd_bench.rst",
+            category="NSCD core",
+        ),
+    log:
+        "logs/nscd/bench_summary.log",
+    benchmark:
+        "benchmarks/nscd/bench_summary.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    shell:
+        "asphalt-nscd bench-summary {input} -o {output} 2> {log}"
+
+
+REPORT_FILES.extend(
+    [
+        "results/nscd/verify.csv",
+        "results/nscd/phase_error.csv",
+        "results/nscd/phase_error.png",
+        "results/bench/nscd_bench.csv",
+    ]
+)

@@ -11,11 +11,17 @@ import re
 CAMP = config["campaign"]
 
 
+MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa")
+
+
 def test_json(mode):
-    """The test settings of a job mode as JSON: campaign.test with the mode's dt_policy
-    override (the studies dt_study, sensitivity, units_* follow the paper mode)."""
+    """The test settings of a job mode as JSON: campaign.test with the mode's overrides of
+    dt_policy and yield_stress_Pa (the studies dt_study, sensitivity, units_* follow the paper mode)."""
     sched = CAMP["measured"] if mode == "measured" else CAMP["paper"]
-    return json.dumps({**CAMP["test"], **({"dt_policy": sched["dt_policy"]} if "dt_policy" in sched else {})})
+    cfg = {**CAMP["test"], **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
+    if mode.endswith("_nobreak"):
+        cfg["yield_stress_Pa"] = None
+    return json.dumps(cfg)
 
 
 WINDOW_CYCLES = config["lab"]["simulation_window_cycles"]
@@ -75,11 +81,13 @@ def sensitivity_baseline():
     ]
 
 
-def units_rows(reading):
-    """Rows of the units question under one reading; the paper-mode rows serve the reading
-    the paper mode already runs with."""
+def units_rows(reading, nobreak=False):
+    """Rows of the units question under one reading (nobreak: unbreakable bonds); the
+    paper-mode rows serve the reading the paper mode already runs with."""
     d = CAMP["units_question"]
     mode = "paper" if reading == config["calibration"]["table3_units"] else f"units_{reading}"
+    if nobreak:
+        mode = f"units_{reading}_nobreak"
     return [
         f"results/sim/{mode}/{s}/{case_name(d['temperature_C'], f)}.csv"
         for s in campaign_samples(d["n_samples"])
@@ -102,7 +110,7 @@ def job_args(wc):
         opts += f" --factor {m['p']}={m['x']}"
     if wc.mode == "measured":
         return opts
-    units = wc.mode.split("_", 1)[1] if wc.mode.startswith("units_") else config["calibration"]["table3_units"]
+    units = wc.mode.split("_")[1] if wc.mode.startswith("units_") else config["calibration"]["table3_units"]
     return opts + f" --table3-units {units}"
 
 
@@ -118,7 +126,7 @@ rule run_2pb:
         record="results/sim/{mode}/{sample}/{case}.h5",
         row="results/sim/{mode}/{sample}/{case}.csv",
     wildcard_constraints:
-        mode="paper|measured|dt_study|sensitivity|units_Pa|units_kPa",
+        mode="paper|measured|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak|units_kPa_nobreak",
         sample=r"s\d+",
     params:
         args=job_args,
@@ -291,6 +299,7 @@ rule campaign_units_question:
     input:
         rows_pa=units_rows("Pa"),
         rows_kpa=units_rows("kPa"),
+        rows_kpa_nobreak=units_rows("kPa", nobreak=True),
         table3=CAL["table3"],
         sample=sample_file(SAMPLES[0]),
     output:
@@ -314,7 +323,7 @@ rule campaign_units_question:
         runtime=10,
     shell:
         "asphalt-nscd campaign-units --table3 {input.table3} --rows-pa {input.rows_pa} --rows-kpa {input.rows_kpa}"
-        " --sample {input.sample} --temperature {params.T} --grain-mass-kg {params.mass}"
+        " --rows-kpa-nobreak {input.rows_kpa_nobreak} --sample {input.sample} --temperature {params.T} --grain-mass-kg {params.mass}"
         " --r-min-mm {params.r_min} --l0-mm {params.l0} -o {output} 2> {log}"
 
 

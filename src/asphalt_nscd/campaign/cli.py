@@ -94,6 +94,8 @@ def register(subparsers) -> None:
     p.add_argument("--table3", required=True, help="the paper's Table 3 as printed")
     p.add_argument("--rows-pa", nargs="+", required=True, help="reduced rows of the Pa-reading runs")
     p.add_argument("--rows-kpa", nargs="+", required=True, help="reduced rows of the kPa-reading runs")
+    p.add_argument("--rows-kpa-nobreak", nargs="+", default=None,
+                   help="reduced rows of the kPa-reading runs with unbreakable bonds")
     p.add_argument("--sample", required=True, help="sample file of the runs (.h5)")
     p.add_argument("--temperature", type=float, required=True, help="temperature of the runs, degC")
     p.add_argument("--grain-mass-kg", type=float, default=2.86e-5, help="typical grain mass m_g, kg")
@@ -283,8 +285,10 @@ def _units(args) -> int:
     from . import study
 
     micro = {"grain_mass_kg": args.grain_mass_kg, "r_min_mm": [args.r_min_mm], "l0_mm": [args.l0_mm]}
-    out = study.units_question(args.table3, {"Pa": _read_rows(args.rows_pa), "kPa": _read_rows(args.rows_kpa)},
-                               read_sample(args.sample), args.temperature, micro)
+    rows = {"Pa": _read_rows(args.rows_pa), "kPa": _read_rows(args.rows_kpa)}
+    if args.rows_kpa_nobreak:
+        rows["kPa (unbreakable bonds)"] = _read_rows(args.rows_kpa_nobreak)
+    out = study.units_question(args.table3, rows, read_sample(args.sample), args.temperature, micro)
     write_csv(out, args.output)
     return 0
 
@@ -309,7 +313,8 @@ def _bench(args) -> int:
     out = {"measurement": cost, "projections": {}}
     for path in args.config:
         try:
-            cfg = yaml.safe_load(open(path))
+            with open(path) as fh:
+                cfg = yaml.safe_load(fh)
         except (OSError, yaml.YAMLError) as exc:
             raise InputError(f"{path}: cannot read the config ({exc})") from exc
         if "campaign" not in cfg:

@@ -49,6 +49,7 @@ def dt_study_figure(records: list[dict], rows: pd.DataFrame, reference: tuple[fl
     if reference is not None:
         axes[1].axhline(reference[0], color="k", ls="--", label="Burger's (Table 3)")
         axes[2].axhline(reference[1], color="k", ls="--", label="Burger's (Table 3)")
+    axes[1].set_yscale("log")
     for ax, lab in ((axes[1], "|E*| (MPa)"), (axes[2], "phase angle Φ (°)")):
         ax.set_xscale("log")
         ax.set_xlabel("time step dt (s)")
@@ -131,10 +132,10 @@ def sensitivity_figure(table: pd.DataFrame, parameter: str, curves: dict | None 
     plt = _plt()
     sub = table[table["parameter"] == parameter].sort_values(["factor", "frequency_Hz"])
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    cmap = plt.get_cmap("coolwarm")
+    cmap = plt.get_cmap("plasma")
     factors = sorted(sub["factor"].unique())
     for n, fac in enumerate(factors):
-        c = cmap(n / max(len(factors) - 1, 1))
+        c = cmap(0.85 * n / max(len(factors) - 1, 1))
         g = sub[sub["factor"] == fac]
         lab = f"{parameter} × {fac:g}"
         axes[0].errorbar(g["frequency_Hz"], g["E_norm_MPa_mean"], yerr=g["E_norm_MPa_std"], marker="o",

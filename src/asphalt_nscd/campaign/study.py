@@ -97,13 +97,19 @@ def numerical_isotherms(rows: pd.DataFrame, reference: pd.DataFrame) -> pd.DataF
     Returns
     -------
     DataFrame: temperature_C, frequency_Hz, n_samples, E_norm_MPa_mean, E_norm_MPa_std,
-    phase_deg_mean, phase_deg_std, E1_MPa, E2_MPa (means), E_norm_MPa_ref, phase_deg_ref,
+    phase_deg_mean, phase_deg_std, E1_MPa, E2_MPa (means), max_broken_bond_fraction (over
+    samples; NaN without n_broken_total, n_bonds), E_norm_MPa_ref, phase_deg_ref,
     rel_error_E_norm_pct, rel_error_phase_pct (of the sample means).
 
     Raises InputError if a (T, f) of the rows has no reference.
     """
+    rows = rows.copy()
+    if {"n_broken_total", "n_bonds"} <= set(rows.columns):
+        rows["broken_fraction"] = rows["n_broken_total"] / rows["n_bonds"]
+    else:
+        rows["broken_fraction"] = np.nan
     g = rows.groupby(["temperature_C", "frequency_Hz"])
-    out = g.agg(n_samples=("E_norm_MPa", "size"), E_norm_MPa_mean=("E_norm_MPa", "mean"),
+    out = g.agg(max_broken_bond_fraction=("broken_fraction", "max"), n_samples=("E_norm_MPa", "size"), E_norm_MPa_mean=("E_norm_MPa", "mean"),
                 E_norm_MPa_std=("E_norm_MPa", "std"), phase_deg_mean=("phase_deg", "mean"),
                 phase_deg_std=("phase_deg", "std"), E1_MPa=("E1_MPa", "mean"),
                 E2_MPa=("E2_MPa", "mean")).reset_index()
@@ -126,7 +132,8 @@ def table4(isotherms: pd.DataFrame, paper_table4: pd.DataFrame | None = None) ->
     with the paper's Table 4 (``mre_E_norm_pct, mre_phase_pct``) beside when given."""
     out = isotherms.assign(a=isotherms["rel_error_E_norm_pct"].abs(), b=isotherms["rel_error_phase_pct"].abs()) \
         .groupby("temperature_C").agg(n_frequencies=("a", "size"), mre_E_norm_pct=("a", "mean"),
-                                      mre_phase_pct=("b", "mean")).reset_index()
+                                      mre_phase_pct=("b", "mean"),
+                                      max_broken_bond_fraction=("max_broken_bond_fraction", "max")).reset_index()
     ratio = (isotherms["E_norm_MPa_mean"] / isotherms["E_norm_MPa_ref"]).groupby(isotherms["temperature_C"]).mean()
     out["mean_ratio_E_norm"] = out["temperature_C"].map(ratio)
     dphi = (isotherms["phase_deg_mean"] - isotherms["phase_deg_ref"]).groupby(isotherms["temperature_C"]).mean()
@@ -171,8 +178,9 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
     Parameters
     ----------
     table3_path : the paper's Table 3 as printed.
-    rows_by_reading : {'Pa': DataFrame, 'kPa': DataFrame} of reduced rows of the
-        units-question runs (same sample(s), temperature, frequencies) under each reading.
+    rows_by_reading : {'Pa': DataFrame, 'kPa': DataFrame, ...} of reduced rows of the
+        units-question runs (same sample(s), temperature, frequencies) under each reading;
+        the reading is the first word of the key (e.g. 'kPa (unbreakable bonds)').
     sample : SampleData of the first sample (bonds, masses, geometry).
     temperature_C : temperature of the comparison, degC.
     micro : ``grain_mass_kg, r_min_mm, l0_mm`` (config calibration.micro; first r_min/l0
@@ -197,7 +205,8 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
     spec = specimen_of(sample)
     gamma = spec.gamma_per_mm
     out = []
-    for reading, rows in rows_by_reading.items():
+    for label, rows in rows_by_reading.items():
+        reading = label.split()[0]
         table = parameter_table(table3_path, reading)
         p = parameters_at(table, temperature_C, where=str(table3_path))
         Em = p["Em_MPa"] * 1e6
@@ -212,7 +221,7 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
         rel_e = (r["E_norm_MPa"].to_numpy() - ref["E_norm_MPa_ref"].to_numpy()) / ref["E_norm_MPa_ref"].to_numpy()
         rel_p = (r["phase_deg"].to_numpy() - ref["phase_deg_ref"].to_numpy()) / ref["phase_deg_ref"].to_numpy()
         out.append({
-            "table3_units": reading, "temperature_C": temperature_C, "Em_MPa": p["Em_MPa"],
+            "table3_units": label, "temperature_C": temperature_C, "Em_MPa": p["Em_MPa"],
             "Burgers_E_norm_MPa": float(e_ref), "reference_frequency_Hz": reference_frequency_Hz,
             "gamma_per_mm": gamma, "mu_g": spec.mu_g,
             "head_stiffness_Em_N_m": k_em, "head_stiffness_sim_N_m": k_sim,

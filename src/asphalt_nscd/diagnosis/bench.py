@@ -27,7 +27,7 @@ ESTIMATE_KEYS = {
     "inertia_uncorrected": "mass_factor_g",
     "temperature_offset": "offset_C",
     "strain_nonlinearity": "modulus_drop_per_100_microstrain",
-    "self_heating": "temperature_rise_C_per_test",
+    "self_heating": "modulus_drop_pct_per_test",
 }
 
 

@@ -24,6 +24,9 @@ def register(subparsers) -> None:
     p.add_argument("--harmonic", type=Path, default=None, help="harmonic-solver results of the sample (same columns)")
     p.add_argument("--time-integration", type=Path, default=None,
                    help="time-integration phase errors (frequency_Hz, dt_s, phase_error_deg)")
+    p.add_argument("--theta", type=float, default=None,
+                   help="Moreau-Jean theta of the simulation: keep only these rows of a time-integration table "
+                        "with a theta column (e.g. results/nscd/phase_error.csv)")
     p.add_argument("--simulated-extended", type=Path, default=None,
                    help="simulation results rerun with the extended law (same columns as --simulated)")
     p.add_argument("--macro-params", type=Path, default=None,
@@ -49,6 +52,8 @@ def register(subparsers) -> None:
     p.add_argument("--gain-csv", type=Path, default=None, help="MRE before/after per temperature (CSV)")
     p.add_argument("--corrected", type=Path, default=None, help="artifact-corrected measured table (CSV)")
     p.add_argument("--figure", type=Path, default=None, help="stacked error-budget figure (PNG/PDF/SVG)")
+    p.add_argument("--page", type=Path, default=None,
+                   help="Markdown page 'What the simulation gets wrong' (links the figure by its file name)")
     p.set_defaults(func=_diagnose)
 
     p = subparsers.add_parser("synth", help="synthetic measured table with planted effects (truth in a JSON sidecar)")
@@ -79,12 +84,13 @@ def _read_optional(path):
 
 
 def _diagnose(args) -> int:
+    import numpy as np
     import pandas as pd
 
-    from ..io import InputError, write_csv, write_json
+    from ..io import InputError, write_csv, write_json, write_text
     from ..lab.measured import load_measured
     from . import extend
-    from .report import budget_figure, diagnose
+    from .report import budget_figure, diagnose, markdown_page
 
     measured = load_measured(args.measured)
     time_errors = None
@@ -96,6 +102,10 @@ def _diagnose(args) -> int:
         missing = {"frequency_Hz", "dt_s", "phase_error_deg"} - set(time_errors.columns)
         if missing:
             raise InputError(f"{args.time_integration}: line 1 (header): missing column(s) {sorted(missing)}")
+        if args.theta is not None and "theta" in time_errors.columns:
+            time_errors = time_errors[np.isclose(time_errors["theta"].astype(float), args.theta)]
+            if time_errors.empty:
+                raise InputError(f"{args.time_integration}: column 'theta': no row with theta = {args.theta:g}")
     macro = None
     if args.macro_params is not None:
         try:
@@ -134,6 +144,8 @@ def _diagnose(args) -> int:
         write_csv(extra["corrected"].drop(columns=["test_step"], errors="ignore"), args.corrected)
     if args.figure is not None:
         budget_figure(extra["budget"], args.figure)
+    if args.page is not None:
+        write_text(markdown_page(report, args.figure.name if args.figure is not None else None), args.page)
     return 0
 
 

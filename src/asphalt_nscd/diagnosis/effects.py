@@ -11,20 +11,25 @@ time_lag                E* exp(i 2 pi f dt): Phi + 360 f dt, |E*| same      ``ti
 inertia_uncorrected     E1 - gamma 1e-6 dmu w^2 (2PB Eq. 1, paper geometry) ``mass_factor_g``
 temperature_offset      isotherm T measured at T + dT (one isotherm)        ``offset_C``
 strain_nonlinearity     |E*| exp(-b eps / 100 microstrain)                  ``modulus_drop_per_100_microstrain``
-self_heating            n-th test of an isotherm at T + n dT_h              ``temperature_rise_C_per_test``
+self_heating            n-th test of an isotherm (n = 0, 1, ...) at T + c n, ``heating_C_per_test``,
+                        then |E*| exp(-a n), Phi (1 + b n)                  ``extra_drop_pct_per_test``,
+                                                                            ``extra_phase_pct_per_test``
 ======================  =================================================  ==================
 
 Forward selection: starting from the reference model, every candidate not yet selected is
-added in turn (while the current model fits to within noise, screening fits hold the 2S2P1D
-shape parameters at the current fit, see ``SHAPE_PARAMETERS``; when it does not,
-``INADEQUATE_CHI2``, they are free; the entering term is then
-refitted with everything free) and tested by the extra-sum-of-squares F-test (residuals weighted by the
-replicate noise); the candidate with the smallest p-value enters if p < alpha (the
-temperature offset is tried on every isotherm, its p-value Bonferroni-corrected by the
-number of isotherms); strain nonlinearity and self-heating must also have the physical
-sign (modulus falls, temperature rises) and a practical size (``PRACTICAL_MINIMUM``). The loop stops when no candidate enters. For the
-selected model every detected effect gets a drop-one F-test, a Jacobian standard error and
-its share of the misfit ("score": mean change of Phi (%) plus of |E*| (%) it causes).
+added in turn and tested by the extra-sum-of-squares F-test (residuals weighted by the
+replicate noise). While the current model fits to within noise, these screening fits hold
+the weakly identified 2S2P1D parameters E00 and beta at the current fit
+(``SHAPE_PARAMETERS``); when it does not (reduced chi-square > ``INADEQUATE_CHI2``) they are
+free. The candidate with the smallest p-value enters if p < alpha (the temperature offset
+is tried on every isotherm, its p-value Bonferroni-corrected by the number of isotherms;
+strain nonlinearity can only lower |E*| and is tested one-sided),
+has the physical sign (strain nonlinearity and self-heating lower |E*|)
+and a practical size (``PRACTICAL_MINIMUM``); it is then refitted with every parameter free.
+The loop stops when no candidate enters. In the selected model every detected effect gets a
+drop-one F-test, a Jacobian standard error and its share of the misfit ("score": mean
+change of Phi (%) plus of |E*| (%) it causes). A measured point is corrected by the
+complex ratio of the fitted model without and with the artifacts.
 
 Choice: alpha defaults to 1e-3 (config ``diagnosis.alpha``); a lower alpha trades detection
 of small effects against false alarms from model misfit of real data.
@@ -41,22 +46,22 @@ from scipy import stats
 from ..rheology.kramers_kronig import kk_time_lag
 from ..rheology.master_curve import MasterCurveFit, MasterCurveProblem, Term, data_arrays, replicate_noise
 
-#: Practical size below which a significant artifact is not named: time lag, largest phase
-#: shift (deg); inertia, largest change of E1 relative to |E*| (%); temperature offset and
-#: self-heating (rise over an isotherm), degC -- the temperature tolerance of the test
-#: standards is of this order; strain nonlinearity, change of |E*| over the tested strain
-#: range (%). Nonlinear least squares with nearly unidentifiable parameters (E00 and beta of
-#: 2S2P1D) make the F-test somewhat anti-conservative; these floors keep such statistically
-#: significant but physically negligible terms from being named.
-#: 2S2P1D shape parameters held at the current fit while candidates are screened: the
-#: weakly identified pair (E00, beta) otherwise lets a new term switch the fit to another
-#: branch of the ridge, which inflates the F statistic of null effects.
-SHAPE_PARAMETERS = ("log10_E00_MPa", "log10_E0_MPa", "log10_delta", "h", "k_over_h", "log10_beta")
+#: 2S2P1D parameters held at the current fit while candidates are screened: the weakly
+#: identified pair (E00, beta) otherwise lets a new term switch the fit to another branch
+#: of their ridge, which inflates the F statistic of null effects.
+SHAPE_PARAMETERS = ("log10_E00_MPa", "log10_beta")
 #: Reduced chi-square above which the current model is taken as inadequate: candidates are
 #: then screened with every parameter free.
 INADEQUATE_CHI2 = 2.0
+#: Practical size below which a significant artifact is not named: time lag, largest phase
+#: shift (deg); inertia, largest change of E1 relative to |E*| (%); temperature offset,
+#: degC (the temperature tolerance of the test standards is of this order); strain
+#: nonlinearity, change of |E*| over the tested strain range (%); self-heating, drop of
+#: |E*| over an isotherm (%). Nonlinear least squares with nearly unidentifiable parameters
+#: make the F-test somewhat anti-conservative; these floors keep statistically significant
+#: but physically negligible terms from being named.
 PRACTICAL_MINIMUM = {"time_lag": 0.2, "inertia_uncorrected": 0.5, "temperature_offset": 0.5,
-                     "strain_nonlinearity": 0.5, "self_heating": 0.5}
+                     "strain_nonlinearity": 0.5, "self_heating": 1.0}
 
 ARTIFACTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
              "self_heating")
@@ -127,8 +132,12 @@ def make_term(name: str, temperature_C: float | None = None) -> Term:
         return Term(name, ["modulus_drop_per_100_microstrain"], [0.0], [-0.5], [0.5],
                     apply=lambda x, E, d: E * np.exp(-x[0] * d["strain_microstrain"] / 100.0), order=1)
     if name == "self_heating":
-        return Term(name, ["temperature_rise_C_per_test"], [0.0], [-3.0], [3.0],
-                    delta_T=lambda x, d: x[0] * d["test_step"])
+        def heat(x, E, d):
+            n = d["test_step"]
+            return np.abs(E) * np.exp(-x[1] / 100 * n + 1j * np.angle(E) * (1 + x[2] / 100 * n))
+        return Term(name, ["heating_C_per_test", "extra_drop_pct_per_test", "extra_phase_pct_per_test"],
+                    [0.0, 0.0, 0.0], [-5.0, -30.0, -30.0], [5.0, 30.0, 30.0],
+                    delta_T=lambda x, d: x[0] * d["test_step"], apply=heat, order=0)
     raise ValueError(f"unknown artifact '{name}'")
 
 
@@ -145,6 +154,13 @@ def f_test(rss0: float, rss1: float, q: int, dof1: int) -> tuple[float, float]:
         return np.nan, np.nan
     F = max(rss0 - rss1, 0.0) / q / (rss1 / dof1)
     return float(F), float(stats.f.sf(F, q, dof1))
+
+
+def one_sided(name: str, estimate: float, p: float) -> float:
+    """One-sided p-value for strain nonlinearity (it can only lower |E*|); two-sided otherwise."""
+    if name != "strain_nonlinearity" or not np.isfinite(p):
+        return p
+    return p / 2 if estimate > 0 else 1 - p / 2
 
 
 class ArtifactSearch:
@@ -186,8 +202,9 @@ class ArtifactSearch:
         parameter removed; if that lowers its residual the reduced fit was a local minimum,
         and the better one is returned as ``base`` and used in the F-test.
         """
-        starts = [[0.0]] if cand.name != "temperature_offset" else [[0.0], [-3.0], [3.0]]
-        p_full = base.x.size + 1
+        k = len(cand.term.names)
+        starts = [cand.term.x0] if cand.name != "temperature_offset" else [[0.0], [-3.0], [3.0]]
+        p_full = base.x.size + k
         inadequate = base.rss / max(base.n_residuals - p_full, 1) > INADEQUATE_CHI2
         fixed = () if inadequate else SHAPE_PARAMETERS
         best = None
@@ -196,17 +213,21 @@ class ArtifactSearch:
             fit = self.fit(terms + [cand.term], x0=x0, fixed=fixed)
             if best is None or fit.rss < best.rss:
                 best = fit
-        again = self.fit(terms, x0=best.x[:-1], fixed=fixed)
+        again = self.fit(terms, x0=best.x[:-k], fixed=fixed)
         if again.rss < base.rss:
             base = again
-        F, p = f_test(base.rss, best.rss, 1, best.n_residuals - p_full)
+        F, p = f_test(base.rss, best.rss, k, best.n_residuals - p_full)
+        p = one_sided(cand.name, best.x[-1], p)
         if cand.name == "temperature_offset":
             p = min(1.0, p * len(self.data["temperatures"]))
         return best, F, p, base
 
-    def _sign_ok(self, name: str, value: float) -> bool:
+    def _sign_ok(self, name: str, values, fit: MasterCurveFit) -> bool:
         """Physical sign and practical size of an estimate (see PRACTICAL_MINIMUM)."""
         d = self.data
+        value = float(values[0])
+        if name == "self_heating":
+            value = self.heating_effect(fit, values)[0]
         if name in ("strain_nonlinearity", "self_heating") and value <= 0:
             return False
         if name == "time_lag":
@@ -218,7 +239,7 @@ class ArtifactSearch:
         elif name == "strain_nonlinearity":
             eps = d["strain_microstrain"]
             size = 100 * value * (eps.max() - eps.min()) / 100.0
-        else:  # self_heating
+        else:  # self_heating: mean |E*| drop over an isotherm, %
             size = value * d["test_step"].max()
         return size >= PRACTICAL_MINIMUM[name]
 
@@ -243,7 +264,8 @@ class ArtifactSearch:
             if anchor is not None:
                 continue
             ok = [(p, F, c, fit) for p, F, c, fit in results
-                  if np.isfinite(p) and p < self.alpha and self._sign_ok(c.name, fit.x[-1])]
+                  if np.isfinite(p) and p < self.alpha
+                  and self._sign_ok(c.name, fit.x[fit.x.size - len(c.term.names):], fit)]
             if not ok:
                 break
             p, F, c, fit = min(ok, key=lambda r: r[0])
@@ -253,27 +275,45 @@ class ArtifactSearch:
             selected.append(c)
         final = current
         tests = {}
+        sizes = [len(c.term.names) for c in selected]
+        first = final.x.size - sum(sizes)
         for i, c in enumerate(selected):
+            start = first + sum(sizes[:i])
+            idx = list(range(start, start + sizes[i]))
             others = [s.term for j, s in enumerate(selected) if j != i]
             keep = np.ones(final.x.size, bool)
-            keep[final.x.size - len(selected) + i] = False
+            keep[idx] = False
             reduced = self.fit(others, x0=final.x[keep])
-            F, p = f_test(reduced.rss, final.rss, 1, final.n_residuals - final.n_params)
+            F, p = f_test(reduced.rss, final.rss, sizes[i], final.n_residuals - final.n_params)
+            p = one_sided(c.name, final.x[start], p)
             if c.name == "temperature_offset":
                 p = min(1.0, p * len(self.data["temperatures"]))
-            tests[c.name] = {"detected": True, "p": p, "F": F, "cand": c, "fit": final,
-                             "index": final.x.size - len(selected) + i}
+            tests[c.name] = {"detected": True, "p": p, "F": F, "cand": c, "fit": final, "index": idx}
         # not selected: the test of the last round (against the final model); for the
         # temperature offset the most significant isotherm
         for p, F, c, fit in sorted(results, key=lambda r: (np.nan_to_num(r[0], nan=2.0))):
             if c.name not in tests:
+                k = len(c.term.names)
                 tests[c.name] = {"detected": False, "p": p, "F": F, "cand": c, "fit": fit,
-                                 "index": fit.x.size - 1}
+                                 "index": list(range(fit.x.size - k, fit.x.size))}
         return {"base": base, "final": final, "selected": selected, "tests": tests}
 
+    def heating_effect(self, fit: MasterCurveFit, values) -> tuple[float, float]:
+        """Mean drop of |E*| (%) and rise of Phi (%) per earlier test of the same isotherm,
+        caused by the self-heating parameters ``values`` (3,) on the master curve of ``fit``,
+        over the points with n > 0."""
+        d = self.data
+        n = d["test_step"]
+        sel = n > 0
+        E0 = fit.modulus(d["f"], d["T"])
+        E1 = make_term("self_heating").apply(np.asarray(values, float), fit.modulus(d["f"], d["T"] + values[0] * n), d)
+        drop = -np.log(np.abs(E1[sel]) / np.abs(E0[sel])) / n[sel] * 100
+        rise = (np.angle(E1[sel]) / np.angle(E0[sel]) - 1) / n[sel] * 100
+        return float(np.mean(drop)), float(np.mean(rise))
+
     # -------------------------------------------------------------- report pieces
-    def impact(self, fit: MasterCurveFit, index: int) -> tuple[float, float]:
-        """Mean |change| of Phi (%) and of |E*| (%) caused by parameter ``index`` of ``fit``."""
+    def impact(self, fit: MasterCurveFit, index) -> tuple[float, float]:
+        """Mean |change| of Phi (%) and of |E*| (%) caused by parameters ``index`` of ``fit``."""
         prob = self.problem(fit.terms)
         E1 = prob.measured_modulus(fit.x)
         x0 = fit.x.copy()
@@ -318,17 +358,19 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
                 f"{est['mass_factor_g']:.0f} +- {est['mass_factor_g_se']:.0f} g (paper 2PB geometry), "
                 f"i.e. E1 lowered by {dE1:.0f} MPa at {f_max:g} Hz ({stat})")
     if name == "temperature_offset":
-        return (f"the isotherm labelled {est['temperature_C']:g} degC does not lie on the WLF shift law "
-                f"of the others; it behaves as {est['temperature_C'] + est['offset_C']:.1f} degC "
+        return (f"the isotherm labelled {est['temperature_C']:g} degC (the most significant one) fits "
+                f"the WLF shift law of the others best at {est['temperature_C'] + est['offset_C']:.1f} degC "
                 f"(offset {est['offset_C']:+.2f} +- {est['offset_C_se']:.2f} degC, {stat}, "
                 f"Bonferroni over {len(search.data['temperatures'])} isotherms)")
     if name == "strain_nonlinearity":
         return (f"|E*| falls with strain amplitude: {100 * est['modulus_drop_per_100_microstrain']:.2f} "
                 f"+- {100 * est['modulus_drop_per_100_microstrain_se']:.2f} % per 100 microstrain ({stat})")
     if name == "self_heating":
-        return (f"|E*| falls and Phi rises with the position of the test within an isotherm, as for a "
-                f"temperature rise of {est['temperature_rise_C_per_test']:.2f} +- "
-                f"{est['temperature_rise_C_per_test_se']:.2f} degC per test ({stat})")
+        return (f"|E*| changes by {-est['modulus_drop_pct_per_test']:+.2f} +- "
+                f"{est['modulus_drop_pct_per_test_se']:.2f} % and Phi by "
+                f"{est['phase_rise_pct_per_test']:+.2f} +- {est['phase_rise_pct_per_test_se']:.2f} % per "
+                f"earlier test of the same isotherm and specimen (temperature rise "
+                f"{est['heating_C_per_test']:.2f} degC per test plus direct terms; {stat}, 3 degrees of freedom)")
     return stat
 
 
@@ -343,12 +385,25 @@ def effect_entries(search: ArtifactSearch, result: dict) -> list:
                             "evidence": f"not testable: {reason}"})
             continue
         t = result["tests"][name]
-        fit, i = t["fit"], t["index"]
-        key = fit.names[i]
-        est = {key: float(fit.x[i]), f"{key}_se": float(fit.se[i])}
+        fit, idx = t["fit"], t["index"]
+        est = {}
+        for i in idx:
+            est[fit.names[i]] = float(fit.x[i])
+            est[f"{fit.names[i]}_se"] = float(fit.se[i])
         if name == "temperature_offset":
             est["temperature_C"] = t["cand"].temperature_C
-        dphi, dE = search.impact(fit, i)
+        if name == "self_heating":
+            vals = fit.x[idx]
+            g0 = np.array(search.heating_effect(fit, vals))
+            J = np.zeros((2, len(idx)))
+            for j in range(len(idx)):
+                step = np.zeros(len(idx))
+                step[j] = 1e-4 * max(1.0, abs(vals[j]))
+                J[:, j] = (np.array(search.heating_effect(fit, vals + step)) - g0) / step[j]
+            se = np.sqrt(np.clip(np.diag(J @ fit.cov[np.ix_(idx, idx)] @ J.T), 0, None))
+            est.update({"modulus_drop_pct_per_test": float(g0[0]), "modulus_drop_pct_per_test_se": float(se[0]),
+                        "phase_rise_pct_per_test": float(g0[1]), "phase_rise_pct_per_test_se": float(se[1])})
+        dphi, dE = search.impact(fit, idx)
         est["phase_change_pct"] = dphi
         est["E_norm_change_pct"] = dE
         entries.append({"name": name, "category": "data", "detected": bool(t["detected"]),

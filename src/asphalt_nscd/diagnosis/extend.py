@@ -29,6 +29,9 @@ from ..rheology.laws import GeneralizedBurgers
 from ..rheology.master_curve import MasterCurveFit
 from ..rheology.models import fit_generalized_kelvin, log_time_grid
 
+#: phases below this (deg) are weighted as if they were this large in the refinement
+PHASE_FLOOR_DEG = 1.0
+
 
 def prony_from_master(master: MasterCurveFit, temperature_C: float, f_min: float, f_max: float,
                       per_decade: float = 1.0, margin_decades: float = 1.0) -> GeneralizedBurgers:
@@ -70,9 +73,10 @@ def refine_to_isotherm(law: GeneralizedBurgers, frequency_Hz, E_norm_MPa, phase_
                        prior_weight: float = 0.01, tolerances=(0.03, 0.05)) -> GeneralizedBurgers:
     """Adjust the compliances of ``law`` (retardation times fixed) to one isotherm.
 
-    Residuals: ln|E*| model/data and Phi model/data - 1 (relative), each divided by its
-    tolerance (default 3 % and 5 %, the issue's targets), and ``prior_weight`` x the change
-    of every ln compliance from ``law``. An infinite dashpot is first given a long time
+    Residuals: ln|E*| model/data and (Phi model - Phi data) / max(Phi data, 1 deg), each
+    divided by its tolerance (default 3 % and 5 %, the issue's targets), and
+    ``prior_weight`` x the change of every ln compliance from ``law``. The refined law is
+    returned only if it lowers this objective. An infinite dashpot is first given a long time
     (100 x the longest retardation time) so it can be adjusted.
 
     Parameters
@@ -93,14 +97,18 @@ def refine_to_isotherm(law: GeneralizedBurgers, frequency_Hz, E_norm_MPa, phase_
     x0 = np.log(np.concatenate([[1 / law.Em, 1 / eta_m], 1 / np.asarray(law.Ek)]))
     omega = 2 * np.pi * f
 
+    ph_scale = np.maximum(ph, PHASE_FLOOR_DEG)
+
     def resid(x):
         m = _with_compliances(law, x, tau)
         E = m.complex_modulus(omega)
         return np.concatenate([(np.log(np.abs(E)) - lnE) / tolerances[0],
-                               (np.degrees(np.angle(E)) / ph - 1.0) / tolerances[1],
+                               (np.degrees(np.angle(E)) - ph) / ph_scale / tolerances[1],
                                prior_weight * (x - x0)])
 
     res = least_squares(resid, x0, method="trf", x_scale=1.0)
+    if np.sum(res.fun**2) > np.sum(resid(x0) ** 2):  # never worse than the master-curve law
+        return law
     return _with_compliances(law, res.x, tau)
 
 

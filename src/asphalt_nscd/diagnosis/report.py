@@ -277,10 +277,24 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
         "gain": gain,
         "targets": {**TARGETS, "met": met},
     }
+    report = json_safe(report)
     extra = {"laws": laws, "corrected": corrected, "budget": budget, "master": master,
              "mre_E": {float(T): float(v) for T, v in ext["mre_E_norm_pct"].items()},
              "mre_phase": {float(T): float(v) for T, v in ext["mre_phase_pct"].items()}}
     return report, extra
+
+
+def json_safe(obj):
+    """Recursively turn NumPy scalars into Python ones and non-finite floats into None."""
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
 
 
 def budget_figure(budget: pd.DataFrame, path) -> None:
@@ -315,3 +329,47 @@ def budget_figure(budget: pd.DataFrame, path) -> None:
     fig.suptitle("Error budget of the simulation per temperature")
     savefig(fig, path)
     plt.close(fig)
+
+
+def markdown_page(report: dict, figure: str | None = None) -> str:
+    """The report page "What the simulation gets wrong" (Markdown) from a diagnose report."""
+    lines = ["# What the simulation gets wrong", "",
+             f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
+             f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", "",
+             "| T (degC) | MRE \\|E*\\| before (%) | after (%) | MRE Phi before (%) | after (%) | targets met |",
+             "|---|---|---|---|---|---|---|"]
+    for T, g in report["gain"].items():
+        lines.append(f"| {T} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
+                     f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} | {report['targets']['met'][T]} |")
+    lines += ["", f"Targets: |E*| MRE <= {report['targets']['E_norm_mre_pct']:g} %, "
+              f"Phi MRE <= {report['targets']['phase_mre_pct']:g} %.", "", "## Named causes (most important first)", ""]
+    by = {e["name"]: e for e in report["effects"]}
+    if not report["causes"]:
+        lines.append("None at the chosen significance level.")
+    for name in report["causes"]:
+        e = by[name]
+        p = "n/a" if e["p_value"] is None else f"{e['p_value']:.2g}"
+        lines.append(f"- **{name}** ({e['category']}, p = {p}, score {e['score']:.2f}): {e['evidence']}")
+    lines += ["", "## Candidates not named", ""]
+    for e in report["effects"]:
+        if not e["detected"]:
+            p = "" if e["p_value"] is None else f" (p = {e['p_value']:.2g})"
+            lines.append(f"- {e['name']}{p}: {e['evidence']}")
+    kk = report.get("kramers_kronig_mean_abs_residual_deg", {})
+    if kk:
+        lines += ["", "Kramers-Kronig consistency of the measured isotherms (mean |Phi - Phi_Booij-Thoone|, deg): "
+                  + ", ".join(f"{T} degC: {v:.2f}" for T, v in kk.items())
+                  + ". A value well above the approximation's own error (1-2 deg for mixes) points to an "
+                  "isotherm whose |E*| and Phi no causal linear viscoelastic law matches together."]
+    lines += ["", "## Error budget (MRE %, \\|E*\\| / Phi)", "",
+              "| T (degC) | data artifacts | model form | micro-macro transfer | numerics | total |",
+              "|---|---|---|---|---|---|"]
+    for T, comp in report["error_budget"].items():
+        cells = []
+        for c in ("data_artifacts", "model_form", "micro_macro_transfer", "numerics", "total"):
+            v = comp.get(c)
+            cells.append("n/a" if v is None else f"{v['mre_E_norm_pct']:.2f} / {v['mre_phase_pct']:.2f}")
+        lines.append(f"| {T} | " + " | ".join(cells) + " |")
+    if figure:
+        lines += ["", f"![error budget]({figure})"]
+    return "\n".join(lines) + "\n"

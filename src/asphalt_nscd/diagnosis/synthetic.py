@@ -25,8 +25,9 @@ temperature_offset   one isotherm generated at T + dT, labelled T; |dT| 1.5-4 de
                      (``temperature_C``, ``offset_C``)
 strain_nonlinearity  |E*| * exp(-b eps/100 microstrain); b 0.02-0.06
                      (``modulus_drop_per_100_microstrain``)
-self_heating         the n-th test of an isotherm (n = 0, 1, ...) runs at T + n dT_h;
-                     dT_h 0.3-1 degC (``temperature_rise_C_per_test``)
+self_heating         the n-th test of an isotherm (n = 0, 1, ...): |E*| exp(-a n/100),
+                     Phi (1 + b n/100); a, b 0.5-2 % per test
+                     (``modulus_drop_pct_per_test``, ``phase_rise_pct_per_test``)
 ===================  =====================================================================
 """
 
@@ -95,7 +96,8 @@ def random_effect(name: str, rng: np.random.Generator, temperatures) -> dict:
     if name == "strain_nonlinearity":
         return {"modulus_drop_per_100_microstrain": float(rng.uniform(0.02, 0.06))}
     if name == "self_heating":
-        return {"temperature_rise_C_per_test": float(rng.uniform(0.3, 1.0))}
+        return {"modulus_drop_pct_per_test": float(rng.uniform(0.5, 2.0)),
+                "phase_rise_pct_per_test": float(rng.uniform(0.5, 2.0))}
     raise ValueError(f"unknown effect '{name}'; expected one of {', '.join(EFFECTS)}")
 
 
@@ -172,10 +174,12 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
                 T_eff = T
                 if "temperature_offset" in planted and T == planted["temperature_offset"]["temperature_C"]:
                     T_eff += planted["temperature_offset"]["offset_C"]
-                if "self_heating" in planted:
-                    T_eff += n * planted["self_heating"]["temperature_rise_C_per_test"]
                 strain = rng.uniform(30.0, 150.0)
                 E = complex(truth_modulus(truth, f, T_eff)) * np.exp(c + 1j * np.radians(p0))
+                if "self_heating" in planted:
+                    sh = planted["self_heating"]
+                    E = abs(E) * np.exp(-sh["modulus_drop_pct_per_test"] / 100 * n
+                                        + 1j * np.angle(E) * (1 + sh["phase_rise_pct_per_test"] / 100 * n))
                 if "strain_nonlinearity" in planted:
                     E *= np.exp(-planted["strain_nonlinearity"]["modulus_drop_per_100_microstrain"] * strain / 100.0)
                 if "inertia_uncorrected" in planted:

@@ -1,1 +1,20 @@
-"""harmonic subpackage (see asphalt_nscd docstring)."""
+"""Harmonic (frequency-domain) solver of a bonded sample: the exact periodic steady state of
+the discrete model under the 2PB head motion, one complex sparse solve per (T, f).
+
+Public API (SI inside; MPa, degrees, Hz, degC at the edges)::
+
+    from asphalt_nscd.harmonic.network import read_sample, write_sample, lattice_sample
+    from asphalt_nscd.harmonic.solver import HarmonicSystem
+    from asphalt_nscd.harmonic.response import harmonic_rows
+
+    system = HarmonicSystem(read_sample("results/samples/s1.h5"), nu=0.35)
+    sol = system.solve_law(law, frequency_Hz=10.0, inertia="full")   # law: any object with
+    sol.force, sol.psi_deg, sol.mu_kg                                 # complex_modulus(omega)
+    rows = harmonic_rows(system, law, 15.0, [3, 10, 40], geometry_mm)  # Eqs. 1-5 + network factor
+    system.solve(kn, kt, omega)        # per-bond complex stiffnesses (B,) N/m (general laws)
+
+Modules: :mod:`.network` (sample file <-> bond network), :mod:`.solver` (assembly, solvers,
+content of the force), :mod:`.response` (EN 12697-26 rows, macro law, network factor),
+:mod:`.timedomain` (the same test through the NSCD core), :mod:`.analysis` (sensitivity,
+comparison, network factor tables, benchmark, figures), :mod:`.cli` (subcommands).
+"""

@@ -247,12 +247,14 @@ def write_sample(path: str | Path, position, radius, mass, plate_point, i, j,
 
 
 def lattice_sample(n_spheres: int, seed: int = 0, spacing: float = 4.0e-3,
-                   aspect=(1.0, 0.5, 4.0), radius_range=(1.0e-3, 2.0e-3),
+                   aspect=(1.0, 0.5, 4.0), radius_range=(1.0e-3, 1.6e-3), jitter: float = 0.05,
                    density_kg_m3: float = 3415.0, d_min: float = 2e-3):
     """Spheres on a jittered cubic lattice with bonds where the gap is below ``d_min``.
 
-    A stand-in for a prepared sample (same file format, about 6-12 bonds per sphere) for tests
-    and the benchmark. The lattice has ``aspect`` cells along (x, y, z) scaled so that it
+    A stand-in for a prepared sample (same file format) for tests and the benchmark. Sites are
+    jittered by up to ``jitter`` x spacing per axis; with the defaults no two spheres touch
+    (2 r_max + 2 sqrt(3) jitter spacing < spacing, so the time-domain run has no contact) and
+    the face neighbours are bonded (coordination about 6). The lattice has ``aspect`` cells along (x, y, z) scaled so that it
     holds at least ``n_spheres`` sites; the first ``n_spheres`` sites are kept. Spheres of the
     lowest (highest) layer are bonded to the bottom (top) plate.
 
@@ -271,7 +273,7 @@ def lattice_sample(n_spheres: int, seed: int = 0, spacing: float = 4.0e-3,
     grid = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1)
     sites = grid.reshape(-1, 3)
     sites = sites[np.lexsort((sites[:, 0], sites[:, 1], sites[:, 2]))][:n_spheres]
-    position = (sites + 0.5) * spacing + rng.uniform(-0.1, 0.1, size=sites.shape) * spacing
+    position = (sites + 0.5) * spacing + rng.uniform(-jitter, jitter, size=sites.shape) * spacing
     radius = rng.uniform(*radius_range, size=n_spheres)
     mass = density_kg_m3 * 4.0 / 3.0 * np.pi * radius**3
     tree = cKDTree(position)

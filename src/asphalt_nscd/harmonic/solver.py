@@ -48,15 +48,18 @@ Without inertia K(w) = E*(w) G with G real when all bonds share one law, so the 
 response is E*(w) times a real geometric stiffness: the "network factor" is then a real
 constant and the phase of the sample equals that of the macro law.
 
-Linear solver (SciPy SuperLU; measured on a 12,000-sphere lattice sample, 36,000 DOF, see
-``asphalt-nscd harmonic-bench``). The matrices are complex symmetric (not Hermitian), with a
-symmetric pattern: SuperLU in symmetric mode with the MMD(A^T + A) ordering has half the
-fill of COLAMD. When every bond follows one law, K(w) = E*(w) G with G real and independent
-of T and f: G is factorised once per sample (real arithmetic, about 4x cheaper than one
-complex factorisation) and each (T, f) costs a back-substitution, plus a few GMRES
-iterations preconditioned by G^-1 when inertia is included (w^2 m / k << 1 far below the
-first resonance, so 2-4 iterations). The general path (per-bond laws) factorises the
-complex matrix at each (T, f).
+Linear solver: SciPy's SuperLU (``scipy.sparse.linalg.splu``). The matrices are complex
+symmetric (not Hermitian) with a symmetric pattern: SuperLU in symmetric mode with the
+MMD(A^T + A) ordering gave half the fill of COLAMD (19.5e6 vs 33.8e6 factor entries,
+8.7 s vs 11.0 s for one complex factorisation of a 12,000-sphere lattice, 36,000 DOF). When
+every bond follows one law, K(w) = E*(w) G with G real and independent of T and f, so G is
+factorised once per sample in real arithmetic (2.6 s on the same lattice) and each (T, f)
+costs a back-substitution (0.2 s), plus a few GMRES iterations preconditioned by G^-1 when
+inertia is included (w^2 m / k << 1 far below the first resonance; 1.5 s). The general path
+for per-bond laws (:meth:`HarmonicSystem.solve`) factorises the complex matrix at each (T, f).
+SciPy has no sparse Cholesky or nested-dissection ordering; a geometric nested dissection
+tried here did not beat MMD(A^T + A) (28e6 entries). Measurements: ``asphalt-nscd
+harmonic-bench`` (results/harmonic/bench.json).
 """
 
 from __future__ import annotations

@@ -13,7 +13,10 @@ State::
     Bonds.create(spheres, plates, i, j, law: GeneralizedBurgers, nu=0.35, yield_stress=2.7e6)
         # j = sphere index or -1-k for plate k; rest state = current configuration
     NSCDParameters(dt, theta=0.5, gravity=(0,0,-9.81), friction=0.7, tolerance=1e-6,
-                   max_iterations=2000, relaxation=1.0, alert_distance=None, fast_path=True)
+                   convergence='quad'|'max'|'both', max_iterations=2000, relaxation=1.0,
+                   alert_distance=None, fast_path=True, linear_solver='cg'|'direct',
+                   linear_tolerance=1e-10)
+    NSCDParameters.from_config(config['nscd'], dt, friction, gravity)
 
 Time stepping::
 

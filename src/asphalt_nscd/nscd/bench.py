@@ -15,11 +15,15 @@ Cases
     ``baseline_steps`` steps of the same sample; their ratio is reported.
 ``granular``
     A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
-    lattice in a box of 5 fixed walls, friction 0.2, dt = 1e-4 s, NLGS; the first
+    lattice (about 1.5 N^(1/3) spheres along x and y) in a box of 5 fixed walls, friction 0.2,
+    dt = 2e-4 s, NLGS at the tolerance ``tolerance`` (1e-4 is LMGC90's usual granular
+    setting); the first
     ``settle_steps`` steps (falling, not timed) are followed by ``steps`` timed steps.
 
 Reported: case, n_particles, n_bonds, n_contacts (candidates, last step), n_active_contacts,
-steps, s_per_particle_step, nlgs_iterations_mean, peak_rss_mb (process maximum resident
+steps, s_per_particle_step (process CPU time; wall time in wall_s_per_particle_step,
+with the 1-min load average, since the machine is shared), nlgs_iterations_mean (NLGS sweeps,
+or conjugate-gradient iterations on the linear path), peak_rss_mb (process maximum resident
 set), solver, tolerance, threads, compile_s (first call of every kernel on a tiny problem,
 from the numba cache when present), setup_s (sample generation, first factorisation),
 baseline_* and speedup, time_breakdown (fraction of step time in detection, bond laws,
@@ -28,6 +32,7 @@ solver, other), cpu/platform.
 
 from __future__ import annotations
 
+import os
 import platform
 import resource
 import time
@@ -57,7 +62,7 @@ def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
     rad = rng.uniform(0.35, 0.45, n) * pitch
     s = Spheres.from_density(pos, rad, density)
     z_top = dims[2] * pitch
-    f, omega, amp = 40.0, 2 * np.pi * 40.0, 63e-6
+    omega, amp = 2 * np.pi * 40.0, 63e-6
     plates = Plates([
         Plate([0, 0, 0], [0, 0, 1]),
         Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
@@ -67,7 +72,6 @@ def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
     pi_, pk, _ = plate_pairs(s.position, s.radius, plates.point, plates.normal, d_min)
     bonds = Bonds.create(s, plates, np.concatenate([i, pi_]), np.concatenate([j, -1 - pk]),
                          law)
-    del f
     return s, plates, bonds
 
 
@@ -75,12 +79,12 @@ def granular_sample(n: int, seed: int = 0, density: float = 2600.0):
     """Spheres on a loose jittered cubic lattice in a 5-wall box (open top)."""
     rng = np.random.default_rng(seed)
     r_max = 1.5e-3
-    pitch = 2.1 * r_max
-    nx = max(int(round((n / 4) ** (1 / 3))), 1)
+    pitch = 2.02 * r_max
+    nx = max(int(round(1.5 * n ** (1 / 3))), 1)
     ny = nx
     nz = int(np.ceil(n / (nx * ny)))
     idx = np.array(np.unravel_index(np.arange(n), (nz, ny, nx)))[::-1].T
-    pos = (idx + 0.5) * pitch + rng.uniform(-0.02, 0.02, (n, 3)) * pitch
+    pos = (idx + 0.5) * pitch + rng.uniform(-0.005, 0.005, (n, 3)) * pitch
     rad = rng.uniform(1e-3, r_max, n)
     s = Spheres.from_density(pos, rad, density)
     lx, ly = nx * pitch, ny * pitch
@@ -108,14 +112,19 @@ def compile_time() -> float:
 
 
 def _timed(sim, steps):
+    """Run ``steps`` steps; returns (CPU seconds of this process, wall seconds, stats,
+    fraction of the step time per phase). CPU time is reported because the machine is
+    shared: wall time grows with the load of other jobs."""
     for k in sim.timings:
         sim.timings[k] = 0.0
     t = time.perf_counter()
+    c = time.process_time()
     df = sim.run(steps)
+    cpu = time.process_time() - c
     wall = time.perf_counter() - t
     total = sum(sim.timings.values()) or 1.0
     breakdown = {k: v / total for k, v in sim.timings.items()}
-    return wall, df, breakdown
+    return cpu, wall, df, breakdown
 
 
 def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
@@ -148,8 +157,11 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
         rec["factor_nnz"] = int(sim._linear.nnz_factor) if sim._linear else 0
-        wall, df, br = _timed(sim, steps)
+        wall, wall_clock, df, br = _timed(sim, steps)
         rec.update(n_bonds=int(bonds.n), solver=str(df.solver.mode()[0]),
+                   wall_s_per_particle_step=wall_clock / (steps * n),
+                   linear_solver=params.linear_solver,
+                   linear_tolerance=params.linear_tolerance,
                    n_contacts=int(df.n_contacts.iloc[-1]),
                    n_active_contacts=int(df.n_active_contacts.iloc[-1]),
                    s_per_particle_step=wall / (steps * n),
@@ -159,7 +171,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         params2 = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                  max_iterations=20000, fast_path=False)
         sim2 = Simulation(s2, plates2, bonds2, params2)
-        wall2, df2, br2 = _timed(sim2, baseline_steps)
+        wall2, _, df2, br2 = _timed(sim2, baseline_steps)
         rec.update(baseline_solver="nlgs", baseline_steps=int(baseline_steps),
                    baseline_s_per_particle_step=wall2 / (baseline_steps * n),
                    baseline_nlgs_iterations_mean=float(df2.iterations.mean()),
@@ -168,17 +180,18 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                    speedup=(wall2 / (baseline_steps * n)) / (wall / (steps * n)))
     else:
         s, plates = granular_sample(n, seed=seed)
-        params = NSCDParameters(dt=1e-4, theta=0.5, friction=0.2, tolerance=tolerance,
+        params = NSCDParameters(dt=2e-4, theta=0.5, friction=0.2, tolerance=tolerance,
                                 max_iterations=5000)
         sim = Simulation(s, plates, None, params)
         sim.run(settle_steps)
         rec["setup_s"] = time.perf_counter() - t0
         rec["settle_steps"] = int(settle_steps)
-        wall, df, br = _timed(sim, steps)
-        rec.update(n_bonds=0, solver="nlgs", n_contacts=int(df.n_contacts.iloc[-1]),
+        wall, wall_clock, df, br = _timed(sim, steps)
+        rec.update(n_bonds=0, solver="nlgs", wall_s_per_particle_step=wall_clock / (steps * n), n_contacts=int(df.n_contacts.iloc[-1]),
                    n_active_contacts=int(df.n_active_contacts.iloc[-1]),
                    s_per_particle_step=wall / (steps * n),
                    nlgs_iterations_mean=float(df.iterations.mean()),
                    converged_fraction=float(df.converged.mean()), time_breakdown=br)
     rec["peak_rss_mb"] = _peak_rss_mb()
+    rec["load_average_1min"] = float(os.getloadavg()[0])
     return rec

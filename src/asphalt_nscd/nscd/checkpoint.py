@@ -1,7 +1,8 @@
 """Checkpoint/restart of a full :class:`~.moreau_jean.Simulation` state in HDF5 (h5py).
 
 Layout: groups ``spheres``, ``plates``, ``bonds``, ``contacts`` (last step's contacts and
-impulses, for the warm start), ``params`` (attributes); root attributes ``time``,
+impulses, for the warm start), ``params`` (attributes), ``solver`` (the previous velocities used to extrapolate the
+initial guess of the iterative linear solver, so that a restart is bit-identical); root attributes ``time``,
 ``step_index``, ``alert_distance``. Sampled plate drivers ``(times, disp)`` are stored in
 ``plates/driver_<k>/{times,disp}``; callable drivers must be passed again on reading.
 The file is written atomically (asphalt_nscd.io.atomic_path).
@@ -21,8 +22,8 @@ _SPHERE = ("position", "radius", "mass", "inertia", "velocity", "angular_velocit
 _PLATE = ("point", "point0", "normal", "mass", "mode", "velocity")
 _BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "Ck", "Kinf",
          "r_crit", "force", "delta_c", "delta_k", "broken")
-_PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "max_iterations", "relaxation",
-           "alert_distance", "fast_path")
+_PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations", "relaxation",
+           "alert_distance", "fast_path", "linear_solver", "linear_tolerance")
 
 
 def write_checkpoint(sim, path) -> None:
@@ -54,6 +55,10 @@ def write_checkpoint(sim, path) -> None:
             g["j"] = sim.contact_j
             g["impulse"] = sim.contact_impulse
             g["frame"] = sim.contact_frame
+            if sim._v_before is not None:  # initial guess of the iterative linear solver
+                g = f.create_group("solver")
+                g["v_before"] = sim._v_before
+                g["vp_before"] = sim._vp_before
             g = f.create_group("params")
             for k in _PARAMS:
                 val = getattr(sim.params, k)
@@ -106,6 +111,8 @@ def read_checkpoint(path, drivers=None, external_force=None):
         pa["alert_distance"] = None if np.isnan(ad) else ad
         pa["max_iterations"] = int(pa["max_iterations"])
         pa["fast_path"] = bool(pa["fast_path"])
+        pa["linear_solver"] = str(pa["linear_solver"])
+        pa["convergence"] = str(pa["convergence"])
         params = NSCDParameters(**pa)
         if external_force is None and "external_force" in f:
             external_force = f["external_force"][()]
@@ -114,7 +121,11 @@ def read_checkpoint(path, drivers=None, external_force=None):
         sim.time = float(f.attrs["time"])
         sim.step_index = int(f.attrs["step_index"])
         sim.alert_distance = float(f.attrs["alert_distance"])
+        sim._candidates = type(sim._candidates)(sim.alert_distance)
         sim.bond_impulse[:] = gb["impulse"][()]
+        if "solver" in f:
+            sim._v_before = f["solver/v_before"][()]
+            sim._vp_before = f["solver/vp_before"][()]
         gc = f["contacts"]
         sim.contact_i = gc["i"][()]
         sim.contact_j = gc["j"][()]

@@ -3,6 +3,8 @@
 ``asphalt-nscd verify -o verify.json [--csv verify.csv] [--phase-table phase.csv]
 [--figure verify.png]`` runs the verification cases of :mod:`.verify`.
 
+``asphalt-nscd bench-summary a.json b.json -o bench.csv`` tabulates bench records.
+
 ``asphalt-nscd bench --case bonded|granular --n N [--steps S] [--baseline-steps B]
 [--tolerance TOL] [--settle-steps K] [--seed SEED] -o bench.json`` runs one benchmark.
 """
@@ -31,11 +33,16 @@ def register(subparsers) -> None:
     b.add_argument("--baseline-steps", type=int, default=5,
                    help="timed NLGS steps of the bonded baseline")
     b.add_argument("--tolerance", type=float, default=1e-7, help="NLGS tolerance")
-    b.add_argument("--settle-steps", type=int, default=200,
+    b.add_argument("--settle-steps", type=int, default=500,
                    help="untimed settling steps of the granular case")
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("-o", "--output", required=True, help="JSON record")
     b.set_defaults(func=_bench)
+
+    c = subparsers.add_parser("bench-summary", help="table of NSCD benchmark JSON records")
+    c.add_argument("inputs", nargs="+", help="bench JSON files")
+    c.add_argument("-o", "--output", required=True, help="CSV, one row per record")
+    c.set_defaults(func=_bench_summary)
 
 
 def _floats(text, name):
@@ -84,4 +91,29 @@ def _bench(args) -> int:
     rec = run_bench(args.case, args.n, steps=args.steps, baseline_steps=args.baseline_steps,
                     tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed)
     write_json(rec, args.output)
+    return 0
+
+
+def _bench_summary(args) -> int:
+    import json
+
+    import pandas as pd
+
+    from ..io import InputError, write_csv
+
+    rows = []
+    for path in args.inputs:
+        try:
+            with open(path) as fh:
+                rec = json.load(fh)
+        except (OSError, json.JSONDecodeError) as exc:
+            raise InputError(f"{path}: cannot read bench JSON ({exc})") from exc
+        for key in ("case", "n_particles", "s_per_particle_step"):
+            if key not in rec:
+                raise InputError(f"{path}: key '{key}' missing")
+        flat = {k: v for k, v in rec.items() if not isinstance(v, dict)}
+        for k, v in rec.get("time_breakdown", {}).items():
+            flat[f"fraction_{k}"] = v
+        rows.append(flat)
+    write_csv(pd.DataFrame(rows), args.output)
     return 0

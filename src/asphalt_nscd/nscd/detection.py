@@ -7,6 +7,12 @@ index in its 27 cells. Planes are infinite: every sphere is tested against every
 (O(N P), P ~ 6). The grid is a dense box over the spheres' bounding box; its cell size is
 enlarged if it would hold more than 8 N + 1000 cells.
 
+Verlet skin: :class:`CandidateList` keeps the pairs closer than alert + skin and re-runs
+the cell-list search only when the largest sphere displacement since the last search (x 2,
+plus the largest plate displacement) exceeds the skin; in between, only the gaps and
+frames of the stored pairs are recomputed (narrow phase, O(C)). The result is identical to
+a fresh search at every step.
+
 Contact frames: n from the antagonist to the candidate (unit centre-to-centre vector, or
 the plate's inward normal), t = n x e (e the global axis least aligned with n), s = n x t.
 """
@@ -206,3 +212,60 @@ def detect_contacts(position, radius, plate_point, plate_normal, alert_distance)
     _frames(ci, cj, np.ascontiguousarray(position, dtype=float),
             np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3), frame)
     return ci, cj, gap, frame
+
+
+@njit(cache=True)
+def _narrow(ci, cj, pos, rad, pts, nrm, gap):
+    for a in range(len(ci)):
+        i = ci[a]
+        j = cj[a]
+        if j >= 0:
+            d0 = pos[i, 0] - pos[j, 0]
+            d1 = pos[i, 1] - pos[j, 1]
+            d2 = pos[i, 2] - pos[j, 2]
+            gap[a] = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - rad[i] - rad[j]
+        else:
+            k = -1 - j
+            gap[a] = ((pos[i, 0] - pts[k, 0]) * nrm[k, 0] + (pos[i, 1] - pts[k, 1]) * nrm[k, 1]
+                      + (pos[i, 2] - pts[k, 2]) * nrm[k, 2]) - rad[i]
+
+
+class CandidateList:
+    """Contact candidates with a Verlet skin (see module docstring).
+
+    Parameters
+    ----------
+    alert_distance : m, contacts are the pairs with gap < alert_distance.
+    skin : m, extra search distance (default: alert_distance).
+    """
+
+    def __init__(self, alert_distance: float, skin: float | None = None):
+        self.alert = float(alert_distance)
+        self.skin = float(alert_distance if skin is None else skin)
+        self.x_ref = None
+        self.p_ref = None
+        self.n_searches = 0
+
+    def contacts(self, position, radius, plate_point, plate_normal):
+        """Contacts (ci, cj, gap, frame) as :func:`detect_contacts` returns them."""
+        pos = np.ascontiguousarray(position, dtype=float)
+        pts = np.ascontiguousarray(plate_point, dtype=float).reshape(-1, 3)
+        nrm = np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3)
+        stale = self.x_ref is None or self.x_ref.shape != pos.shape
+        if not stale:
+            dx = np.sqrt(((pos - self.x_ref) ** 2).sum(1)).max() if len(pos) else 0.0
+            dp = np.sqrt(((pts - self.p_ref) ** 2).sum(1)).max() if len(pts) else 0.0
+            stale = 2.0 * dx + dp > self.skin
+        if stale:
+            ci, cj, _, _ = detect_contacts(pos, radius, pts, nrm, self.alert + self.skin)
+            self.ci, self.cj = ci, cj
+            self.x_ref = pos.copy()
+            self.p_ref = pts.copy()
+            self.n_searches += 1
+        gap = np.empty(len(self.ci))
+        _narrow(self.ci, self.cj, pos, np.ascontiguousarray(radius, dtype=float), pts, nrm, gap)
+        keep = gap < self.alert
+        ci, cj, gap = self.ci[keep], self.cj[keep], gap[keep]
+        frame = np.empty((len(ci), 3, 3))
+        _frames(ci, cj, pos, nrm, frame)
+        return ci, cj, gap, frame

@@ -87,19 +87,25 @@ def bond_predict(bi, bj, frame, rest, x, v, xp, vp, Km, Cm, Kk, Ck, Kinf, force,
             continue
         i = bi[b]
         j = bj[b]
-        rel = np.empty(3)
-        vel = np.empty(3)
-        for d in range(3):
-            if j >= 0:
-                rel[d] = x[i, d] - x[j, d] - rest[b, d]
-                vel[d] = v[i, d] - v[j, d]
-            else:
-                rel[d] = x[i, d] - xp[-1 - j, d] - rest[b, d]
-                vel[d] = v[i, d] - vp[-1 - j, d]
+        if j >= 0:
+            r0 = x[i, 0] - x[j, 0] - rest[b, 0]
+            r1 = x[i, 1] - x[j, 1] - rest[b, 1]
+            r2 = x[i, 2] - x[j, 2] - rest[b, 2]
+            u0 = v[i, 0] - v[j, 0]
+            u1 = v[i, 1] - v[j, 1]
+            u2 = v[i, 2] - v[j, 2]
+        else:
+            k = -1 - j
+            r0 = x[i, 0] - xp[k, 0] - rest[b, 0]
+            r1 = x[i, 1] - xp[k, 1] - rest[b, 1]
+            r2 = x[i, 2] - xp[k, 2] - rest[b, 2]
+            u0 = v[i, 0] - vp[k, 0]
+            u1 = v[i, 1] - vp[k, 1]
+            u2 = v[i, 2] - vp[k, 2]
         for c in range(3):
             p = 0 if c == 0 else 1
-            dl = frame[b, c, 0] * rel[0] + frame[b, c, 1] * rel[1] + frame[b, c, 2] * rel[2]
-            ul = frame[b, c, 0] * vel[0] + frame[b, c, 1] * vel[1] + frame[b, c, 2] * vel[2]
+            dl = frame[b, c, 0] * r0 + frame[b, c, 1] * r1 + frame[b, c, 2] * r2
+            ul = frame[b, c, 0] * u0 + frame[b, c, 1] * u1 + frame[b, c, 2] * u2
             delta_m[b, c] = dl
             u_m[b, c] = ul
             r_ch = force[b, c] + Kinf[b, p] * dl
@@ -134,12 +140,17 @@ def bond_update(bi, bj, frame, Km, Cm, Kk, Ck, Kinf, r_crit, force, delta_c, del
             continue
         i = bi[b]
         j = bj[b]
-        vel = np.empty(3)
-        for d in range(3):
-            vel[d] = v[i, d] - (v[j, d] if j >= 0 else vp[-1 - j, d])
+        if j >= 0:
+            u0 = v[i, 0] - v[j, 0]
+            u1 = v[i, 1] - v[j, 1]
+            u2 = v[i, 2] - v[j, 2]
+        else:
+            u0 = v[i, 0] - vp[-1 - j, 0]
+            u1 = v[i, 1] - vp[-1 - j, 1]
+            u2 = v[i, 2] - vp[-1 - j, 2]
         for c in range(3):
             p = 0 if c == 0 else 1
-            up = frame[b, c, 0] * vel[0] + frame[b, c, 1] * vel[1] + frame[b, c, 2] * vel[2]
+            up = frame[b, c, 0] * u0 + frame[b, c, 1] * u1 + frame[b, c, 2] * u2
             dl = delta_m[b, c]
             dp = dl + h * ((1.0 - theta) * u_m[b, c] + theta * up)
             r_ch_m = force[b, c] + Kinf[b, p] * dl

@@ -30,7 +30,7 @@ import numpy as np
 from . import detection, gauss_seidel, local_laws
 from .delassus import bond_blocks, contact_blocks
 from .linear import LinearBondSolver
-from .state import DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates, Spheres, StepStats
+from .state import CONVERGENCE_NORMS, DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates, Spheres, StepStats
 
 
 class Simulation:
@@ -71,11 +71,15 @@ class Simulation:
         self.contact_frame = np.zeros((0, 3, 3))
         self._linear = None
         self._linear_key = None
+        self.linear_iterations = 0
+        self._v_before = None
+        self._vp_before = None
         self.timings = {"detection": 0.0, "solve": 0.0, "bonds": 0.0, "other": 0.0}
         if self.params.alert_distance is None:
             self.alert_distance = 0.5 * float(spheres.radius.min()) if spheres.n else 0.0
         else:
             self.alert_distance = float(self.params.alert_distance)
+        self._candidates = detection.CandidateList(self.alert_distance)
 
     # ------------------------------------------------------------------ helpers
     def _external(self, t0, t1):
@@ -134,16 +138,23 @@ class Simulation:
         v_free = v.copy()
         vp_free = vp.copy()
 
-        # 3. detection and warm start
+        # 3. detection and warm start; the alert distance is raised (never lowered) when the
+        # free velocities could close a larger gap within the step
         t_a = _time.perf_counter()
-        ci, cj, gap, cframe = detection.detect_contacts(sph.position, sph.radius, pls.point,
-                                                        pls.normal, self.alert_distance)
+        vmax = np.sqrt((v_free**2).sum(1).max()) if len(v_free) else 0.0
+        if pls.n:
+            vmax += np.sqrt((vp_free**2).sum(1).max())
+        if 2.0 * h * vmax > self._candidates.alert:
+            self._candidates.alert = 2.0 * h * vmax
+            self._candidates.skin = max(self._candidates.skin, self._candidates.alert)
+            self._candidates.x_ref = None
+            self.alert_distance = self._candidates.alert
+        ci, cj, gap, cframe = self._candidates.contacts(sph.position, sph.radius, pls.point,
+                                                        pls.normal)
         cP = self._warm_contacts(ci, cj, cframe)
         cwn = np.empty(len(ci))
         cwt = np.empty(len(ci))
         contact_blocks(ci, cj, inv_m, inv_i, sph.radius, inv_mp, cwn, cwt)
-        u_minus = np.empty((len(ci), 3))
-        self._contact_velocities(ci, cj, cframe, v_m, w_m, vp_start, u_minus)
         t_b = _time.perf_counter()
         self.timings["detection"] += t_b - t_a
 
@@ -171,6 +182,7 @@ class Simulation:
         if p.fast_path and nb and self._fast_path(v_free, vp_free, c0, cg, v, vp, bP, inv_m,
                                                   inv_mp, ci, cj, cframe, gap, w, h):
             solver = "linear"
+            it = self.linear_iterations
             cP[:] = 0.0
         else:
             v[:] = v_free
@@ -180,7 +192,7 @@ class Simulation:
             it, quad, maxm, conv = gauss_seidel.nlgs(
                 ci, cj, cframe, gap, cwn, cwt, cP, bnd.i, bnd.j, bnd.frame, bw, c0, cg, bP,
                 bnd.broken, sph.radius, v, w, vp, inv_m, inv_i, inv_mp, h, p.friction,
-                p.tolerance, p.relaxation, p.max_iterations)
+                p.tolerance, p.relaxation, p.max_iterations, CONVERGENCE_NORMS[p.convergence])
         t_d = _time.perf_counter()
         self.timings["solve"] += t_d - t_c
 
@@ -191,9 +203,13 @@ class Simulation:
                 bnd.i, bnd.j, bnd.frame, bnd.Km, bnd.Cm, bnd.Kk, bnd.Ck, bnd.Kinf, bnd.r_crit,
                 bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken, h, th, d_m, u_m, v, vp, bP)
         # contact dissipation: -P . (theta U+ + (1-theta) U-)
-        u_plus = np.empty((len(ci), 3))
-        self._contact_velocities(ci, cj, cframe, v, w, vp, u_plus)
-        diss_c = float(-(cP * (th * u_plus + (1 - th) * u_minus)).sum())
+        diss_c = 0.0
+        if cP.any():
+            u_plus = np.empty((len(ci), 3))
+            u_minus = np.empty((len(ci), 3))
+            self._contact_velocities(ci, cj, cframe, v, w, vp, u_plus)
+            self._contact_velocities(ci, cj, cframe, v_m, w_m, vp_start, u_minus)
+            diss_c = float(-(cP * (th * u_plus + (1 - th) * u_minus)).sum())
         t_e = _time.perf_counter()
         self.timings["bonds"] += t_e - t_d
 
@@ -216,6 +232,7 @@ class Simulation:
                 driver[k] = -plate_force[k]
 
         # 6. positions
+        self._v_before, self._vp_before = v_m, vp_start
         sph.position += h * (th * v + (1 - th) * v_m)
         sph.velocity[:] = v
         sph.angular_velocity[:] = w
@@ -258,7 +275,7 @@ class Simulation:
         """Impulses of the previous step's contacts on the same pairs, re-expressed in the
         new frames (global vectors projected); zero for new contacts."""
         cP = np.zeros((len(ci), 3))
-        if len(self.contact_i) == 0 or len(ci) == 0:
+        if len(self.contact_i) == 0 or len(ci) == 0 or not self.contact_impulse.any():
             return cP
         base = self.spheres.n + self.plates.n + 1
         old_key = self.contact_i * base + np.where(self.contact_j >= 0, self.contact_j,
@@ -286,16 +303,25 @@ class Simulation:
                    gap, w, h) -> bool:
         """Try the linear solver; True if its solution is the solution of the step."""
         bnd = self.bonds
-        key = (self.params.dt, self.params.theta, int(bnd.broken.sum()), bnd.n)
+        p = self.params
+        key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
+               p.linear_tolerance)
         if self._linear_key != key:
             self._linear = LinearBondSolver(inv_m, inv_mp, bnd.i, bnd.j, bnd.frame, cg,
-                                            bnd.broken)
+                                            bnd.broken, method=p.linear_solver,
+                                            tolerance=p.linear_tolerance)
             self._linear_key = key
         v_try = v_free.copy()
         vp_try = vp_free.copy()
         P_try = np.zeros_like(bP)
+        # initial guess of the iterative solver: linear extrapolation of the velocities
+        v0, vp0 = self.spheres.velocity, self.plates.velocity
+        if self._v_before is not None and self._v_before.shape == v0.shape:
+            v0 = 2.0 * v0 - self._v_before
+            vp0 = 2.0 * vp0 - self._vp_before
         self._linear.solve(v_free, vp_free, bnd.i, bnd.j, bnd.frame, c0, cg, bnd.broken,
-                           v_try, vp_try, P_try)
+                           v_try, vp_try, P_try, v_start=v0, vp_start=vp0)
+        self.linear_iterations = self._linear.last_iterations
         # contacts must stay open with zero reaction
         if len(ci):
             u = np.empty((len(ci), 3))

@@ -28,6 +28,9 @@ from ..rheology.laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tange
 FIXED, FREE, DRIVEN = 0, 1, 2
 PLATE_MODES = {"fixed": FIXED, "free": FREE, "driven": DRIVEN}
 
+#: NLGS convergence norms (gauss_seidel.nlgs): quadratic mean, maximum, both.
+CONVERGENCE_NORMS = {"quad": 0, "max": 1, "both": 2}
+
 #: Yield stress of the bonds, Pa (paper, Section 3.1: 2.7 MPa).
 YIELD_STRESS = 2.7e6
 
@@ -340,14 +343,20 @@ class NSCDParameters:
         (theta = 1 gives the paper's backward-Euler Kelvin-Voigt update, Eq. 26).
     gravity : (3,) m/s².
     friction : Coulomb coefficient mu (0.2 deposition, 0.7 test).
-    tolerance : NLGS convergence on the relative change of reactions (both the quadratic
-        mean and the maximum, LMGC90 "Quad"/"Maxm" style).
+    tolerance : NLGS convergence on the relative change of reactions between sweeps.
+    convergence : which LMGC90-style norm is tested: 'quad' (quadratic mean, default, as
+        LMGC90's usual "Quad"), 'max' (maximum relative to the rms) or 'both'. Both values
+        are returned in StepStats whatever the choice.
     max_iterations : NLGS sweeps per step.
     relaxation : NLGS relaxation omega in (0, 1]: R <- omega R_local + (1-omega) R_old.
     alert_distance : m — pairs with gap below it are contact candidates. None: 0.5 x the
-        smallest radius. Must exceed the largest relative displacement in one step.
+        smallest radius. It must exceed the largest relative displacement in one step: the
+        simulation raises it automatically to 2 h max|v_free| when needed.
     fast_path : use the linear solver (:mod:`.linear`) on steps with no active contact and
         no bond breakage (falls back to NLGS automatically).
+    linear_solver : 'cg' (matrix-free preconditioned conjugate gradient) or 'direct'
+        (SuperLU, small systems).
+    linear_tolerance : relative residual of 'cg'.
     """
 
     dt: float
@@ -355,12 +364,20 @@ class NSCDParameters:
     gravity: Sequence[float] = (0.0, 0.0, -9.81)
     friction: float = 0.7
     tolerance: float = 1e-6
+    convergence: str = "quad"
     max_iterations: int = 2000
     relaxation: float = 1.0
     alert_distance: float | None = None
     fast_path: bool = True
+    linear_solver: str = "cg"
+    linear_tolerance: float = 1e-10
 
     def __post_init__(self):
+        if self.convergence not in CONVERGENCE_NORMS:
+            raise ValueError(f"convergence must be one of {list(CONVERGENCE_NORMS)}, "
+                             f"got {self.convergence!r}")
+        if self.linear_solver not in ("cg", "direct"):
+            raise ValueError(f"linear_solver must be 'cg' or 'direct', got {self.linear_solver!r}")
         if not (self.dt > 0):
             raise ValueError(f"dt must be > 0, got {self.dt}")
         if not (0.5 <= self.theta <= 1.0):
@@ -371,13 +388,23 @@ class NSCDParameters:
             raise ValueError("friction >= 0, tolerance > 0 and max_iterations >= 1 required")
         self.gravity = np.asarray(self.gravity, dtype=float).reshape(3)
 
+    @classmethod
+    def from_config(cls, section: dict, dt: float, friction: float,
+                    gravity=(0.0, 0.0, -9.81)) -> "NSCDParameters":
+        """Parameters from the ``nscd`` section of the workflow config (solver keys) and
+        the run's own dt (s), friction and gravity (m/s²)."""
+        keys = ("theta", "tolerance", "convergence", "max_iterations", "relaxation", "fast_path",
+                "linear_solver", "linear_tolerance")
+        return cls(dt=dt, friction=friction, gravity=gravity,
+                   **{k: section[k] for k in keys if k in section})
+
 
 @dataclass
 class StepStats:
     """Statistics of one time step.
 
-    time : s, end of step. solver : 'nlgs' or 'linear'. iterations : NLGS sweeps (0 for
-    the linear path). residual_quad / residual_max : final relative change of reactions.
+    time : s, end of step. solver : 'nlgs' or 'linear'. iterations : NLGS sweeps, or
+    conjugate-gradient iterations on the linear path (0 for its direct solver). residual_quad / residual_max : final relative change of reactions.
     converged : bool. n_contacts : candidates; n_active_contacts : with R_n > 0.
     n_bonds : intact bonds; n_broken : bonds broken in this step; n_broken_total.
     plate_force : (P, 3) N, mean force exerted by the spheres on each plate over the step.

@@ -25,6 +25,9 @@ Ek = 4.84e7, eta_k = 7.73e5; spheres of 2 mm radius, l0 = 4.5 mm):
   force crosses R_crit = sigma_y pi r_min² (within one ramp increment).
 * ``dissipation``: step dissipation never negative (impact, sliding, bonded sinusoid).
 * ``fast_path``: linear fast path and NLGS give the same bond forces.
+* ``solver_tolerance``: phase of the driver force of a -10 degC, 40 Hz test on a small
+  bonded network with CG (relative residual 1e-10) and NLGS (tol 1e-7) against the direct
+  solver: within 0.001 deg and 0.01 deg.
 
 :func:`phase_error_table` measures the phase and amplitude error of the time-discrete bond
 law under an imposed sinusoidal gap, as a function of omega dt and theta.
@@ -501,6 +504,43 @@ def case_fast_path(n_steps: int = 40) -> list[dict]:
                  note=f"{len(f_gs)} bonds, linear steps: {(d_lin.solver == 'linear').sum()}")]
 
 
+#: Table 3 of the paper at -10 degC read in Pa, Pa s (the stiffest, smallest phase angle).
+LAW_M10C = GeneralizedBurgers.burgers(Em=3.98e7, eta_m=6.28e7, Ek=9.56e8, eta_k=1.49e7)
+
+
+def _driver_phase(fast, solver="cg", tol=1e-7, linear_tol=1e-10, n_cycles=2, freq=40.0,
+                  dt=5e-5):
+    """Phase (deg) of the top-plate driver force against the imposed displacement of the
+    small bonded network under the -10 degC law, fitted over the last cycle."""
+    s, plates, bonds = random_bonded_network(n=64, law=LAW_M10C)
+    sim = Simulation(s, plates, bonds, NSCDParameters(
+        dt=dt, gravity=(0, 0, 0), tolerance=tol, max_iterations=100000, fast_path=fast,
+        linear_solver=solver, linear_tolerance=linear_tol, convergence="both"))
+    omega = 2 * np.pi * freq
+    n = int(round(n_cycles / freq / dt))
+    t = np.empty(n)
+    f = np.empty(n)
+    for k in range(n):
+        st = sim.step()
+        t[k] = sim.time
+        f[k] = st.driver_force[1, 0]
+    last = t >= t[-1] - 1.0 / freq
+    return float(np.degrees(np.angle(_fit_harmonic(t[last], f[last], omega))))
+
+
+def case_solver_tolerance_phase() -> list[dict]:
+    """Phase of a -10 degC, 40 Hz test (small bonded network, top plate driven) with the
+    iterative solvers at their default tolerances against the direct solver (exact)."""
+    ref = _driver_phase(True, "direct")
+    cg = _driver_phase(True, "cg", linear_tol=1e-10)
+    gs = _driver_phase(False, tol=1e-7)
+    return [_row("solver_tolerance", "driver-force phase, CG (rel. residual 1e-10)", cg, ref,
+                 0.001, "deg", scale=1.0, note="vs direct solver; absolute error in degrees"),
+            _row("solver_tolerance", "driver-force phase, NLGS (tol 1e-7, quad and max)", gs,
+                 ref, 0.01, "deg", scale=1.0,
+                 note="vs direct solver; absolute error in degrees")]
+
+
 def run_all(phase_omegas=(2 * np.pi * 40.0,), phase_dts=(1e-5, 2e-5, 5e-5, 1e-4, 2e-4),
             phase_thetas=(0.5, 0.55, 1.0)):
     """All verification cases. Returns (rows list, phase error DataFrame)."""
@@ -520,6 +560,7 @@ def run_all(phase_omegas=(2 * np.pi * 40.0,), phase_dts=(1e-5, 2e-5, 5e-5, 1e-4,
     rows += case_breakage("tangential")
     rows += case_dissipation(imp_diss, imp_e)
     rows += case_fast_path()
+    rows += case_solver_tolerance_phase()
     return rows, table
 
 

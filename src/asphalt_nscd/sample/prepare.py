@@ -9,11 +9,14 @@ Stages
    spheres are at rest (largest speed below ``deposition.settle_velocity_m_s``) or
    ``deposition.duration_s`` has elapsed.
 4. *Vibration*: the top wall is lowered onto the layer (to ``max(z + r)``) and driven
-   vertically by ``u_z(t) = A (1 - cos 2 pi f t)`` (A = 6 mm, f = 30 Hz, 1 s): it starts at
-   rest in contact and taps the top particle layers only (paper: "acts only on the top
-   particle layers"). The paper's "vertical sinusoidal displacement of 6 mm" does not give
-   the phase; this form avoids pushing into the layer at t = 0. The wall is then lifted
-   away and the layer settles for ``vibration.settle_duration_s``.
+   vertically (A = 6 mm, f = 30 Hz, 1 s). The paper's "vertical sinusoidal displacement of
+   6 mm" gives neither the mean position nor the phase; ``vibration.form`` chooses:
+   ``tap`` (default), ``u_z = A (1 - cos 2 pi f t)``, starts at rest in contact and never
+   goes below the initial layer top, so it only touches the top particle layers (paper:
+   "acts only on the top particle layers") -- on our loose layers it changes the layer top
+   by < 0.1 mm; ``sine``, ``u_z = -A sin 2 pi f t``, pushes A into the layer each cycle,
+   which with rigid spheres makes many Gauss-Seidel steps unconverged and lifts the layer.
+   The wall is then lifted away and the layer settles for ``vibration.settle_duration_s``.
 5. *Cut*: spheres whose barycentre lies outside the trapezoid are removed; the trapezoid
    spans the box length (= h), the thickness (= e), and is centred on the layer mid-height
    (:mod:`.geometry`). *Flip* to the specimen frame (z up along h, x bending direction).
@@ -102,7 +105,8 @@ def counts_table(cfg: dict, summaries=()) -> "pandas.DataFrame":  # noqa: F821
             raise InputError(f"{path}: not a sample summary with 'counts_sample' ({exc})") from exc
     if per_sample:
         table["n_sample_mean"] = [np.mean([c.get(d, 0) for c in per_sample]) for d in table["diameter_mm"]]
-    return table
+    first = ["diameter_mm", "n_paper", "n_rule_full_scale", "rel_diff_pct"]
+    return table[first + [c for c in table.columns if c not in first]]
 
 
 def prepare_sample(cfg: dict, seed: int) -> PreparedSample:
@@ -186,7 +190,7 @@ def prepare_sample(cfg: dict, seed: int) -> PreparedSample:
         "density_kg_m3": density,
         "friction": float(cfg["friction_bonded"]),
         "d_min_m": d_min,
-        "config": cfg,
+        "config": {k: v for k, v in cfg.items() if k != "seeds"},
         "stage": "final",
         "B_m": trap.B,
         "b_m": trap.b,

@@ -1,0 +1,61 @@
+"""Linear fast path: same reactions as NLGS, automatic fallback on contact or breakage."""
+
+import numpy as np
+import pytest
+
+from asphalt_nscd.nscd import NSCDParameters, Simulation
+from asphalt_nscd.nscd.verify import LAW_15C, random_bonded_network
+
+
+def _run(fast, solver="cg", n_steps=30, contacts=False, gravity=(0, 0, 0), n=40, kick=0.0):
+    law = LAW_15C.scaled(1e-3) if kick else LAW_15C  # soft bonds: the thrown sphere hits
+    s, plates, bonds = random_bonded_network(n=n, contacts=contacts, law=law)
+    s.velocity[1, 0] = -kick  # sphere 1 thrown at its neighbour 0 (lattice along x)
+    if kick:
+        bonds.r_crit[:] = np.inf
+    params = NSCDParameters(dt=5e-5, friction=0.7, tolerance=1e-11, max_iterations=50000,
+                            gravity=gravity, fast_path=fast, linear_solver=solver,
+                            linear_tolerance=1e-13)
+    sim = Simulation(s, plates, bonds, params)
+    df = sim.run(n_steps)
+    return sim, df
+
+
+@pytest.mark.parametrize("solver", ["cg", "direct"])
+def test_fast_path_matches_nlgs(solver):
+    sim_f, df_f = _run(True, solver)
+    sim_g, df_g = _run(False)
+    assert (df_f.solver == "linear").all()
+    assert (df_g.solver == "nlgs").all()
+    scale = np.abs(sim_g.bonds.force).max()
+    assert scale > 0
+    np.testing.assert_allclose(sim_f.bonds.force, sim_g.bonds.force, atol=1e-8 * scale)
+    np.testing.assert_allclose(df_f.plate1_Fx_N, df_g.plate1_Fx_N,
+                               atol=1e-8 * np.abs(df_g.plate1_Fx_N).max())
+
+
+def test_fast_path_falls_back_when_contacts_close():
+    """A sphere thrown at its neighbour: the contact activates, those steps are solved by
+    NLGS (the others by the linear path) and agree with a pure NLGS run."""
+    sim_f, df_f = _run(True, contacts=True, n_steps=60, kick=5.0)
+    sim_g, df_g = _run(False, contacts=True, n_steps=60, kick=5.0)
+    assert (df_f.n_active_contacts > 0).any()
+    assert set(df_f.solver[df_f.n_active_contacts > 0]) == {"nlgs"}
+    assert (df_f.solver == "linear").any()
+    scale = np.abs(sim_g.bonds.force).max()
+    np.testing.assert_allclose(sim_f.bonds.force, sim_g.bonds.force, atol=1e-6 * scale)
+
+
+def test_fast_path_refactorises_after_breakage():
+    s, plates, bonds = random_bonded_network(n=27)
+    bonds.r_crit[:] = np.inf
+    bonds.r_crit[0] = 1e-9  # this bond breaks at the first step
+    params = NSCDParameters(dt=5e-5, gravity=(0, 0, -9.81))
+    sim = Simulation(s, plates, bonds, params)
+    st = sim.step()
+    assert st.n_broken == 1 and bonds.broken[0]
+    n_before = sim._linear_key
+    st = sim.step()
+    assert st.solver == "linear"
+    assert sim._linear_key != n_before
+    assert np.all(bonds.force[0] == 0.0)
