@@ -133,3 +133,13 @@ def test_time_integration_from_paired_rows():
     t = derived_time_integration(sim, harm)
     assert list(t["phase_error_deg"]) == pytest.approx([0.1, 1.0])
     assert derived_time_integration(sim.drop(columns="dt_s"), harm) is None
+
+
+def test_prune_drops_only_negligible_units():
+    from asphalt_nscd.rheology.laws import GeneralizedBurgers
+
+    law = GeneralizedBurgers(Em=40e3, eta_m=1e6, Ek=(1e4, 1e9), eta_k=(10.0, 1e3), E_inf=50.0)
+    pruned = extend.prune(law)
+    assert pruned.Ek == (1e4,) and pruned.Em == law.Em and pruned.E_inf == law.E_inf
+    w = np.logspace(-1, 3, 20)
+    assert np.abs(pruned.complex_modulus(w) / law.complex_modulus(w) - 1).max() < 1e-3

@@ -17,6 +17,9 @@ from asphalt_nscd.rheology.laws import GeneralizedBurgers, bond_scale, tangentia
 GEOMETRY = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
 LAW_30 = GeneralizedBurgers.burgers(Em=1.30e7, eta_m=3.45e5, Ek=9.31e6, eta_k=1.31e5)
 A = 63e-6
+#: The kinematics of the time-domain NSCD core: bonds at the barycentres, head translating.
+BARY = {"bond_kinematics": "barycentre", "head_rotation": "clamped"}
+BARY_CLI = ["--bond-kinematics", "barycentre", "--head-rotation", "clamped"]
 
 
 @pytest.fixture
@@ -40,7 +43,7 @@ def params_csv(tmp_path):
 def test_quasi_static_row_is_gamma_times_network_stiffness(column):
     # inertia "none": Eq. 1 with mu = 0.135 M + m returns gamma |K| exactly, and the network
     # factor is the closed form gamma RT / (1/a_bottom + 1/a_top) (SI), real, at every f
-    system = HarmonicSystem(read_sample(column))
+    system = HarmonicSystem(read_sample(column), **BARY)
     a_eff = 1.0 / (1.0 / bond_scale(1e-3, 6e-3) + 1.0 / bond_scale(1e-3, 4e-3))
     gamma = Specimen2PB(**GEOMETRY).gamma_per_mm
     factor = gamma * 1e3 * tangential_ratio(0.35) * a_eff  # gamma in 1/m times a in m
@@ -67,7 +70,7 @@ def test_geometry_from_sample_attributes(tmp_path, column):
 def test_time_domain_converges_to_the_harmonic_solution(tmp_path, f):
     path = tmp_path / "lattice.h5"
     write_sample(path, **lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
-    system = HarmonicSystem(read_sample(path))
+    system = HarmonicSystem(read_sample(path), **BARY)
     ref = harmonic_rows(system, LAW_30, 30.0, [f], GEOMETRY, inertia="full", solver="direct")[0]
     errors = []
     for dt in (2e-4, 1e-4):
@@ -80,7 +83,7 @@ def test_time_domain_converges_to_the_harmonic_solution(tmp_path, f):
 
 def test_harmonic_cli_rows_and_errors(tmp_path, column, params_csv, capsys):
     out = tmp_path / "h.csv"
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv),
+    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
                  "--frequency", "3", "40", "--mode", "paper", "-o", str(out)]) == 0
     frame = pd.read_csv(out)
     assert len(frame) == 4 and set(frame["mode"]) == {"paper"} and set(frame["sample"]) == {"col"}
@@ -91,21 +94,21 @@ def test_harmonic_cli_rows_and_errors(tmp_path, column, params_csv, capsys):
     pd.DataFrame({"temperature_C": [30.0, 30.0, 5.0], "frequency_Hz": [1.0, 25.0, 1.0]}).to_csv(
         summary, index=False)
     out2 = tmp_path / "m.csv"
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv),
+    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
                  "--frequencies-from", str(summary), "-o", str(out2)]) == 0
     frame2 = pd.read_csv(out2)
     assert list(frame2["frequency_Hz"]) == [1.0, 25.0] and set(frame2["temperature_C"]) == {30.0}
     # a temperature the table lacks, and two frequency sources
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv),
+    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
                  "--temperature", "15", "--frequency", "3", "-o", str(out2)]) == 2
     assert "temperature_C = 15" in capsys.readouterr().err
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv),
+    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
                  "--frequency", "3", "--sweep", "1", "10", "3", "-o", str(out2)]) == 2
 
 
 def test_network_factor_plot_and_sensitivity_cli(tmp_path, column, params_csv):
     sweep = tmp_path / "sweep.csv"
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv),
+    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
                  "--sweep", "0.1", "100", "7", "--mode", "paper", "-o", str(sweep)]) == 0
     nf, nfs = tmp_path / "nf.csv", tmp_path / "nfs.csv"
     assert main(["harmonic-network-factor", str(sweep), "-o", str(nf), "--summary", str(nfs)]) == 0
@@ -118,6 +121,7 @@ def test_network_factor_plot_and_sensitivity_cli(tmp_path, column, params_csv):
     assert all(p.stat().st_size > 0 for p in figs.values())
     sens = tmp_path / "sens.csv"
     assert main(["harmonic-sensitivity", "--sample", str(column), "--parameters", str(params_csv),
+                 *BARY_CLI,
                  "--temperature", "20", "--frequency", "10", "--levels", "10", "50",
                  "--inertia", "none", "-o", str(sens), "--figure", str(tmp_path / "s.png")]) == 0
     frame = pd.read_csv(sens)

@@ -4,7 +4,11 @@
 #   measured = results/calibration/burgers_parameters.csv at the measured (T, f) of the lab summary
 # plus a dense frequency sweep (isotherms, Black, Cole-Cole beside the macro law and the
 # measured data), the network factor table (sample |E*| / macro |E*|), the sensitivity study
-# on a finer grid, the time-domain (NSCD) check and a benchmark.
+# on a finer grid, the time-domain (NSCD) check, the kinematics study (network factor per
+# bond kinematics x head rotation) and a benchmark. Bond kinematics and head rotation come
+# from harmonic.bond_kinematics / head_rotation (default contact + free, consistent with the
+# cantilever of EN 12697-26 Eq. 3); the time-domain check uses barycentre + clamped, the
+# kinematics of the NSCD core.
 # Rerun one target: `snakemake --cores 1 results/harmonic/jobs/s1_paper.csv --forcerun harmonic_jobs`.
 
 HARM = config["harmonic"]
@@ -25,8 +29,13 @@ def _harmonic_frequencies(wc, input):
     return f"--frequencies-from {input.summary}"
 
 
+def _kinematics_options():
+    return f"--bond-kinematics {HARM['bond_kinematics']} --head-rotation {HARM['head_rotation']}"
+
+
 def _solver_options():
-    return f"--inertia {HARM['inertia']} --solver {HARM['solver']} --rtol {HARM['rtol']}"
+    return (f"--inertia {HARM['inertia']} --solver {HARM['solver']} --rtol {HARM['rtol']} "
+            + _kinematics_options())
 
 
 rule harmonic_jobs:
@@ -170,6 +179,7 @@ rule harmonic_sensitivity:
         frequencies=" ".join(str(f) for f in HARM["sensitivity"]["frequencies_Hz"]),
         levels=" ".join(str(p) for p in HARM["sensitivity"]["levels_percent"]),
         inertia=HARM["inertia"],
+        kinematics=_kinematics_options(),
     log:
         "logs/harmonic/sensitivity.log",
     benchmark:
@@ -181,7 +191,7 @@ rule harmonic_sensitivity:
     shell:
         "asphalt-nscd harmonic-sensitivity --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperature} --frequency {params.frequencies} --levels {params.levels} "
-        "--inertia {params.inertia} -o {output.table} --figure {output.figure} 2> {log}"
+        "--inertia {params.inertia} {params.kinematics} -o {output.table} --figure {output.figure} 2> {log}"
 
 
 rule harmonic_compare:
@@ -218,7 +228,36 @@ rule harmonic_compare:
         "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} --dt {params.dts} "
         "--rtol {params.rtols} --cycles {params.cycles} --settle-factor {params.settle} "
+        "--bond-kinematics barycentre --head-rotation clamped "
         "-o {output.table} --figure {output.figure} 2> {log}"
+
+
+rule harmonic_kinematics:
+    input:
+        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
+        parameters=HARMONIC_PARAMETERS["paper"],
+    output:
+        report(
+            "results/harmonic/kinematics_study.csv",
+            caption="../report/harmonic_kinematics.rst",
+            category="Harmonic solver",
+        ),
+    params:
+        temperatures=" ".join(str(t) for t in HARM["kinematics_study"]["temperatures_C"]),
+        frequencies=" ".join(str(f) for f in HARM["kinematics_study"]["frequencies_Hz"]),
+        inertia=" ".join(HARM["kinematics_study"]["inertia"]),
+    log:
+        "logs/harmonic/kinematics_study.log",
+    benchmark:
+        "benchmarks/harmonic/kinematics_study.tsv"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=15,
+    shell:
+        "asphalt-nscd harmonic-kinematics --sample {input.sample} --parameters {input.parameters} "
+        "--temperature {params.temperatures} --frequency {params.frequencies} "
+        "--inertia {params.inertia} -o {output} 2> {log}"
 
 
 rule harmonic_bench:
@@ -236,7 +275,9 @@ rule harmonic_bench:
         mem_mb=4000,
         runtime=15,
     shell:
-        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} -o {output} 2> {log}"
+        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} "
+        + _kinematics_options()
+        + " -o {output} 2> {log}"
 
 
 REPORT_FILES += expand("results/harmonic/figures/{mode}_{plot}.png", mode=HARMONIC_MODES, plot=HARMONIC_PLOTS)
@@ -247,5 +288,6 @@ REPORT_FILES += [
     "results/harmonic/sensitivity.png",
     "results/harmonic/compare_time_domain.csv",
     "results/harmonic/compare_time_domain.png",
+    "results/harmonic/kinematics_study.csv",
     "results/harmonic/bench.json",
 ]

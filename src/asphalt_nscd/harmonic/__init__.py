@@ -7,11 +7,17 @@ Public API (SI inside; MPa, degrees, Hz, degC at the edges)::
     from asphalt_nscd.harmonic.solver import HarmonicSystem
     from asphalt_nscd.harmonic.response import harmonic_rows
 
-    system = HarmonicSystem(read_sample("results/samples/s1.h5"), nu=0.35)
+    system = HarmonicSystem(read_sample("results/samples/s1.h5"), nu=0.35,
+                            bond_kinematics="contact", head_rotation="free")  # the defaults
     sol = system.solve_law(law, frequency_Hz=10.0, inertia="full")   # law: any object with
     sol.force, sol.psi_deg, sol.mu_kg                                 # complex_modulus(omega)
     rows = harmonic_rows(system, law, 15.0, [3, 10, 40], geometry_mm)  # Eqs. 1-5 + network factor
     system.solve(kn, kt, omega)        # per-bond complex stiffnesses (B,) N/m (general laws)
+
+Bond kinematics: ``contact`` (6 DOF per sphere, bond force at the contact point with torques;
+default) or ``barycentre`` (3 DOF, no torque: the NSCD core, which spuriously stiffens bending);
+head rotation ``free`` (default, the cantilever of EN 12697-26 Eq. 3) or ``clamped``. See
+:mod:`.solver`.
 
 Modules: :mod:`.network` (sample file <-> bond network), :mod:`.solver` (assembly, solvers,
 content of the force), :mod:`.response` (EN 12697-26 rows, macro law, network factor),

@@ -9,11 +9,14 @@ benchmark, figures.
   from the linear solver's (rtol) and from the model (the same for both).
 * :func:`network_factor_table` — per (sample, mode, T, f) ratio of the sample's |E*| to the
   macro |E*| and phase difference, and its mean and spread over samples.
+* :func:`kinematics_study` — network factor per (bond_kinematics, head_rotation, T, f) of one
+  sample: the micro-macro transfer under each modelling choice of :mod:`.solver`.
 * :func:`benchmark` — timing and peak memory of one (T, f) on an N-sphere sample.
 """
 
 from __future__ import annotations
 
+import itertools
 import resource
 import time
 
@@ -152,19 +155,67 @@ def network_factor_table(frames: list[pd.DataFrame]) -> tuple[pd.DataFrame, pd.D
     return table, summary
 
 
+def kinematics_study(network, params: pd.DataFrame, frequencies_Hz, geometry_mm,
+                     nu: float = 0.35, inertia_modes=("none", "full"),
+                     **solve_kwargs) -> pd.DataFrame:
+    """Network factor and phase difference per (bond_kinematics, head_rotation, inertia, T, f).
+
+    With ``inertia="none"`` the network factor is the real geometric factor of K = E* G
+    (independent of T and f); with ``"full"`` it also holds the sample's distributed inertia
+    beyond the lumped 0.135 M of Eq. 1 (resonances of the sample + head).
+
+    Parameters
+    ----------
+    network : BondNetwork
+        The sample.
+    params : DataFrame
+        Burger's parameter rows (``temperature_C`` + MPa, MPa s columns), one per temperature.
+    frequencies_Hz : sequence of float, Hz.
+    geometry_mm : ``b_mm, B_mm, e_mm, h_mm`` for gamma (Eq. 3).
+    nu : Poisson's ratio of Eqs. 8-11.
+    inertia_modes : sequence of "none" / "full" (see :mod:`.solver`).
+    solve_kwargs : ``amplitude, solver, rtol`` of :func:`harmonic_rows`.
+
+    Returns
+    -------
+    DataFrame: ``sample, bond_kinematics, head_rotation`` + the harmonic rows (``inertia``)
+    (``temperature_C, frequency_Hz, E_norm_MPa, phase_deg, macro_E_norm_MPa,
+    macro_phase_deg, network_factor, phase_difference_deg, n_free_dof, ...``).
+    """
+    from .solver import BOND_KINEMATICS, HEAD_ROTATIONS, HarmonicSystem
+
+    frames = []
+    for kinematics in BOND_KINEMATICS:
+        for head in HEAD_ROTATIONS:
+            system = HarmonicSystem(network, nu=nu, bond_kinematics=kinematics,
+                                    head_rotation=head)
+            for inertia, (_, prow) in itertools.product(inertia_modes, params.iterrows()):
+                rows = harmonic_rows(system, law_of_row(prow), float(prow["temperature_C"]),
+                                     frequencies_Hz, geometry_mm, inertia=inertia,
+                                     **solve_kwargs)
+                frame = pd.DataFrame(rows)
+                frame.insert(0, "head_rotation", head)
+                frame.insert(0, "bond_kinematics", kinematics)
+                frame.insert(0, "sample", network.name)
+                frames.append(frame)
+    return pd.concat(frames, ignore_index=True)
+
+
 def peak_rss_mb() -> float:
     """Peak resident memory of this process, MB (Linux ru_maxrss is in kB)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
-              td_dt: float = 5e-5, td_cycles: int = 5) -> dict:
+              td_dt: float = 5e-5, td_cycles: int = 5, bond_kinematics: str = "contact",
+              head_rotation: str = "free", direct: bool = True) -> dict:
     """Time one harmonic (T, f) on a sample, and the matching time-domain job by extrapolation.
 
     Harmonic: reading + preparation, the one-off real factorisation, then per frequency the
     ``reuse`` solve with and without inertia and the ``direct`` complex LU. Time-domain: the
     mean wall time of ``td_steps`` NSCD steps of the same test, times the steps of a
-    ``td_cycles``-cycle job at ``td_dt`` (the paper's 5 cycles at 5e-5 s).
+    ``td_cycles``-cycle job at ``td_dt`` (the paper's 5 cycles at 5e-5 s). ``direct=False``
+    skips the complex LU (minutes on 10^4 spheres).
 
     Returns
     -------
@@ -175,7 +226,8 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
 
     t0 = time.perf_counter()
     network = read_sample(sample_path)
-    system = HarmonicSystem(network)
+    system = HarmonicSystem(network, bond_kinematics=bond_kinematics,
+                            head_rotation=head_rotation)
     t_setup = time.perf_counter() - t0
     t0 = time.perf_counter()
     system._reference()
@@ -183,7 +235,8 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     per_f = []
     for f in frequencies_Hz:
         entry = {"frequency_Hz": float(f)}
-        for solver, inertia in (("reuse", "none"), ("reuse", "full"), ("direct", "full")):
+        cases = [("reuse", "none"), ("reuse", "full")] + ([("direct", "full")] if direct else [])
+        for solver, inertia in cases:
             t0 = time.perf_counter()
             row = harmonic_rows(system, law, 0.0, [f], geometry_mm, inertia=inertia,
                                 solver=solver)[0]
@@ -196,11 +249,12 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     first = per_f[0]
     return {
         "n_spheres": network.n_spheres, "n_bonds": network.n_bonds,
+        "bond_kinematics": bond_kinematics, "head_rotation": head_rotation,
         "n_free_dof": system.n_free, "n_load_free": system.n_load_free,
         "setup_s": t_setup, "reference_factorisation_s": t_factor,
         "per_frequency": per_f,
         "first_TF_total_s": t_setup + t_factor + first["reuse_full_s"],
-        "direct_TF_total_s": t_setup + first["direct_full_s"],
+        "direct_TF_total_s": t_setup + first.get("direct_full_s", float("nan")),
         "time_domain_step_s": td, "time_domain_steps": n_td,
         "time_domain_job_s": td * n_td,
         "time_domain_job": f"{td_cycles} cycles at {frequencies_Hz[0]} Hz, dt = {td_dt} s",

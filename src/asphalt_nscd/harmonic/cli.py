@@ -5,7 +5,12 @@
 * ``harmonic-sensitivity``   — Burger's parameters at +-p % (Section 4.2, finer grid).
 * ``harmonic-network-factor``— sample |E*| / macro |E*| and phase difference tables.
 * ``harmonic-plot``          — isotherms, Black diagram, Cole-Cole: macro, sample, measured.
+* ``harmonic-kinematics``    — network factor per (bond kinematics, head rotation, T, f).
 * ``harmonic-bench``         — timing and peak memory on an N-sphere sample (JSON).
+
+``--bond-kinematics contact|barycentre`` and ``--head-rotation free|clamped`` select the
+model of :mod:`asphalt_nscd.harmonic.solver` (default contact + free; ``harmonic-compare``
+defaults to barycentre + clamped, the kinematics of the NSCD core).
 """
 
 from __future__ import annotations
@@ -13,7 +18,20 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def _add_law_options(p, temperature_required: bool = False) -> None:
+def _add_kinematics_options(p, bond_kinematics: str = "contact",
+                            head_rotation: str = "free") -> None:
+    p.add_argument("--bond-kinematics", choices=["contact", "barycentre"],
+                   default=bond_kinematics,
+                   help="contact: 6 DOF per sphere, bond acting at the contact point (torques); "
+                        "barycentre: 3 DOF per sphere, bond at the barycentres (the NSCD core) "
+                        f"(default {bond_kinematics}; see asphalt_nscd.harmonic.solver)")
+    p.add_argument("--head-rotation", choices=["free", "clamped"], default=head_rotation,
+                   help="free: the head plate rotates under the bond moments (cantilever of "
+                        f"Eq. 3); clamped: it only translates (default {head_rotation})")
+
+
+def _add_law_options(p, temperature_required: bool = False, bond_kinematics: str = "contact",
+                     head_rotation: str = "free") -> None:
     p.add_argument("--sample", type=Path, required=True, help="sample file results/samples/<s>.h5")
     p.add_argument("--parameters", type=Path, required=True,
                    help="Burger's parameters CSV: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, "
@@ -23,6 +41,7 @@ def _add_law_options(p, temperature_required: bool = False) -> None:
                    help="temperatures, degC (default: every row of --parameters)")
     p.add_argument("--amplitude-m", type=float, default=63e-6, help="head amplitude A, m (63e-6)")
     p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (0.35)")
+    _add_kinematics_options(p, bond_kinematics, head_rotation)
 
 
 def register(subparsers) -> None:
@@ -50,7 +69,7 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser("harmonic-compare",
                               help="harmonic vs NSCD time-domain |E*|, Phi per (T, f, dt, rtol)")
-    _add_law_options(p)
+    _add_law_options(p, bond_kinematics="barycentre", head_rotation="clamped")
     p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
     p.add_argument("--dt", type=float, nargs="+", required=True, help="time steps, s")
     p.add_argument("--rtol", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8, 1e-10, 1e-12],
@@ -93,6 +112,23 @@ def register(subparsers) -> None:
         p.add_argument(f"--{name}", type=Path, default=None, help=f"PNG of the {name} plot")
     p.set_defaults(func=_plot)
 
+    p = subparsers.add_parser("harmonic-kinematics",
+                              help="network factor per (bond kinematics, head rotation, T, f)")
+    p.add_argument("--sample", type=Path, required=True, help="sample file results/samples/<s>.h5")
+    p.add_argument("--parameters", type=Path, required=True,
+                   help="Burger's parameters CSV (e.g. results/calibration/paper_table3.csv)")
+    p.add_argument("--temperature", type=float, nargs="+", default=[],
+                   help="temperatures, degC (default: every row of --parameters)")
+    p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
+    p.add_argument("--amplitude-m", type=float, default=63e-6, help="head amplitude A, m (63e-6)")
+    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (0.35)")
+    p.add_argument("--inertia", choices=["full", "none"], nargs="+", default=["none", "full"],
+                   help="inertia modes (see 'harmonic'; default both)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="CSV per (bond_kinematics, head_rotation, inertia, T, f): network_factor, "
+                        "phase_difference_deg")
+    p.set_defaults(func=_kinematics)
+
     p = subparsers.add_parser("harmonic-bench", help="benchmark the harmonic solver (JSON)")
     p.add_argument("--n", type=int, default=12000, help="spheres of the generated lattice sample")
     p.add_argument("--sample", type=Path, default=None,
@@ -100,6 +136,9 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the generated sample")
     p.add_argument("--frequency", type=float, nargs="+", default=[10.0], help="frequencies, Hz")
     p.add_argument("--td-steps", type=int, default=20, help="NSCD steps timed (0: skip)")
+    p.add_argument("--skip-direct", action="store_true",
+                   help="do not time the complex LU per (T, f) (minutes on 10^4 spheres)")
+    _add_kinematics_options(p)
     p.add_argument("-o", "--output", type=Path, required=True, help="JSON")
     p.set_defaults(func=_bench)
 
@@ -112,9 +151,10 @@ def _load(args):
 
     network = read_sample(args.sample)
     try:
-        system = HarmonicSystem(network, nu=args.nu)
+        system = HarmonicSystem(network, nu=args.nu, bond_kinematics=args.bond_kinematics,
+                                head_rotation=args.head_rotation)
     except ValueError as exc:
-        raise InputError(f"--nu: {exc}") from None
+        raise InputError(f"{args.sample}: --nu/--bond-kinematics/--head-rotation: {exc}") from None
     params = select_temperatures(read_parameter_table(args.parameters), args.temperature,
                                  args.parameters)
     return system, params, specimen_geometry_mm(args.sample)
@@ -197,6 +237,25 @@ def _network_factor(args) -> int:
     return 0
 
 
+def _kinematics(args) -> int:
+    from ..io import write_csv
+    from .analysis import kinematics_study
+    from .network import read_sample
+    from .response import read_parameter_table, select_temperatures, specimen_geometry_mm
+
+    network = read_sample(args.sample)
+    params = select_temperatures(read_parameter_table(args.parameters), args.temperature,
+                                 args.parameters)
+    if any(f <= 0 for f in args.frequency):
+        from ..io import InputError
+
+        raise InputError(f"--frequency: frequencies must be positive, got {args.frequency}")
+    frame = kinematics_study(network, params, args.frequency, specimen_geometry_mm(args.sample),
+                             nu=args.nu, inertia_modes=args.inertia, amplitude=args.amplitude_m)
+    write_csv(frame, args.output)
+    return 0
+
+
 def _plot(args) -> int:
     import matplotlib.pyplot as plt
     import pandas as pd
@@ -250,7 +309,9 @@ def _bench(args) -> int:
             write_sample(path, **lattice_sample(args.n, seed=args.seed))
         if args.sample is not None:
             geometry = specimen_geometry_mm(path)
-        result = benchmark(path, law, args.frequency, geometry, td_steps=args.td_steps)
+        result = benchmark(path, law, args.frequency, geometry, td_steps=args.td_steps,
+                           bond_kinematics=args.bond_kinematics,
+                           head_rotation=args.head_rotation, direct=not args.skip_direct)
     result.update({"sample": str(args.sample) if args.sample else f"lattice n={args.n}",
                    "law": "paper Table 3, 15 degC, Pa reading", "linear_solver":
                    "scipy.sparse.linalg.splu (SuperLU), MMD(A^T+A), symmetric mode"})

@@ -9,6 +9,21 @@ Bond frame (docs/design.md): for a sphere-sphere bond n = (x_j - x_i)/|x_j - x_i
 sphere-plate bond n is the plate normal. The linearised bond stiffness depends on n only
 through n n^T, so the sign of n does not matter.
 
+Contact point of a bond (used by ``bond_kinematics="contact"`` of :mod:`.solver`): the middle
+of the gap on the line of centres, c = x_i + (r_i + delta0/2) e with e the unit vector from
+sphere i towards the other body (e = n for sphere-sphere bonds, minus the plate normal for
+sphere-plate bonds), delta0 = l0 - r_i - r_j (sphere-sphere) or l0 - r_i (sphere-plate).
+
+Top-plate (head) rotational inertia, used when the head is free to rotate: the head is a
+steel cuboid (density :data:`PLATE_DENSITY_KG_M3`) of the sample file's top-plate mass m
+(0.235 kg scaled with the sample) and footprint b x e (root attributes ``b_m, e_m`` of the
+sample file, the specimen's head; else the x-y extent of the top-plate bonds' contact
+points), of thickness t = m / (rho b e). It rotates about the head-face centre
+``plates/point[1]``: I = diag(m (e^2 + t^2)/12, m (b^2 + t^2)/12, m (b^2 + e^2)/12) +
+m (t/2)^2 diag(1, 1, 0) (parallel-axis term of the face offset). The mass coupling between
+the imposed head translation and the head rotation (centre of mass t/2 above the face) is
+neglected.
+
 :func:`write_sample` writes the same format; :func:`lattice_sample` builds a bonded sample of
 spheres on a jittered cubic lattice between two plates (for tests and the benchmark; the
 physical samples come from ``asphalt_nscd.sample``).
@@ -38,6 +53,8 @@ REQUIRED = {
     "bonds/l0": (),
     "bonds/r_min": (),
 }
+#: Steel density of the head plate (rotational inertia, module docstring), kg/m^3.
+PLATE_DENSITY_KG_M3 = 7850.0
 
 
 @dataclass(frozen=True)
@@ -62,6 +79,16 @@ class BondNetwork:
         a_b = pi r_min^2 / l0 (Eqs. 30-33).
     name : str
         Sample name (file stem).
+    radius : (N,) float, m
+        Sphere radii.
+    rotational_inertia : (N,) float, kg m^2
+        Sphere moments of inertia (``spheres/inertia``, else 2/5 m r^2).
+    contact_point : (B, 3) float, m
+        Contact point c of each bond (module docstring).
+    plate_point : (2, 3) float, m
+        Reference points of the plates; the head rotates about ``plate_point[1]``.
+    plate_inertia : (3,) float, kg m^2
+        Principal moments of inertia of the head about ``plate_point[1]`` (module docstring).
     """
 
     position: np.ndarray
@@ -73,6 +100,11 @@ class BondNetwork:
     normal: np.ndarray
     scale: np.ndarray
     name: str = "sample"
+    radius: np.ndarray | None = None
+    rotational_inertia: np.ndarray | None = None
+    contact_point: np.ndarray | None = None
+    plate_point: np.ndarray | None = None
+    plate_inertia: np.ndarray | None = None
 
     @property
     def n_spheres(self) -> int:
@@ -109,9 +141,45 @@ def bond_normals(position, plate_normal, i, j) -> np.ndarray:
     return n
 
 
+def contact_points(position, radius, plate_normal, i, j, l0) -> np.ndarray:
+    """Contact points c = x_i + (r_i + delta0/2) e of the bonds, shape (B, 3), m.
+
+    e points from sphere i to the other body; delta0 = l0 - r_i - r_j (sphere-sphere) or
+    l0 - r_i (sphere-plate), so r_i + delta0/2 = (l0 + r_i - r_j)/2 or (l0 + r_i)/2.
+    """
+    sph = j >= 0
+    d = np.empty((len(i), 3))
+    d[sph] = position[j[sph]] - position[i[sph]]
+    d[sph] /= np.linalg.norm(d[sph], axis=1, keepdims=True)
+    d[~sph] = -plate_normal[-1 - j[~sph]]
+    other = np.where(sph, radius[np.where(sph, j, 0)], 0.0)
+    arm = 0.5 * (np.asarray(l0, float) + radius[i] - other)
+    return position[i] + arm[:, None] * d
+
+
+def head_inertia(mass: float, b_m: float, e_m: float,
+                 density_kg_m3: float = PLATE_DENSITY_KG_M3) -> np.ndarray:
+    """Moments of inertia (3,) kg m^2 of the head about its face centre (module docstring).
+
+    A steel cuboid of mass ``mass`` (kg), footprint ``b_m`` (along x) x ``e_m`` (along y), m.
+    """
+    if not (mass > 0 and np.isfinite(mass)) or b_m <= 0 or e_m <= 0:
+        return np.zeros(3)
+    t = mass / (density_kg_m3 * b_m * e_m)
+    return np.array([mass * (e_m**2 + t**2) / 12 + mass * t**2 / 4,
+                     mass * (b_m**2 + t**2) / 12 + mass * t**2 / 4,
+                     mass * (b_m**2 + e_m**2) / 12])
+
+
 def network_from_arrays(position, mass, plate_normal, plate_mass, i, j, l0, r_min,
-                        name: str = "sample") -> BondNetwork:
+                        name: str = "sample", radius=None, rotational_inertia=None,
+                        plate_point=None, head_size_m=None) -> BondNetwork:
     """Build a :class:`BondNetwork` from the arrays of the sample file (shapes as there).
+
+    ``radius`` (N,) m: without it there are no contact points and only the barycentre
+    kinematics is available; ``rotational_inertia`` (N,) kg m^2 defaults to
+    2/5 m r^2; ``plate_point`` (2, 3) m to the origin; ``head_size_m`` = (b, e) m of the head
+    (default: x-y extent of the contact points of the top-plate bonds).
 
     Raises
     ------
@@ -135,16 +203,37 @@ def network_from_arrays(position, mass, plate_normal, plate_mass, i, j, l0, r_mi
         raise ValueError(f"bonds/j must lie in [0, {n_sph}) (other sphere) or be -1/-2 (plates)")
     plate_normal = np.asarray(plate_normal, float).reshape(2, 3)
     plate_normal = plate_normal / np.linalg.norm(plate_normal, axis=1, keepdims=True)
+    plate_mass = np.asarray(plate_mass, float).ravel()
+    plate_point = (np.zeros((2, 3)) if plate_point is None
+                   else np.asarray(plate_point, float).reshape(2, 3))
+    contact = inertia = None
+    if radius is not None:
+        radius = np.asarray(radius, float).ravel()
+        if radius.shape != (n_sph,) or np.any(~(radius > 0)):
+            raise ValueError(f"spheres/radius must be positive with shape ({n_sph},)")
+        contact = contact_points(position, radius, plate_normal, i, j, l0)
+        inertia = (0.4 * mass * radius**2 if rotational_inertia is None
+                   else np.asarray(rotational_inertia, float).ravel())
+        if inertia.shape != (n_sph,) or np.any(~(inertia > 0)):
+            raise ValueError(f"spheres/inertia must be positive with shape ({n_sph},)")
+    if head_size_m is None:
+        top = contact[j == -2] if contact is not None else position[i[j == -2]]
+        head_size_m = np.ptp(top[:, :2], axis=0) if len(top) else (0.0, 0.0)
     return BondNetwork(
         position=position,
         mass=mass,
-        plate_mass=np.asarray(plate_mass, float).ravel(),
+        plate_mass=plate_mass,
         plate_normal=plate_normal,
         i=i,
         j=j,
         normal=bond_normals(position, plate_normal, i, j),
         scale=bond_scale(r_min, l0),
         name=name,
+        radius=radius,
+        rotational_inertia=inertia,
+        contact_point=contact,
+        plate_point=plate_point,
+        plate_inertia=head_inertia(float(plate_mass[1]), *map(float, head_size_m)),
     )
 
 
@@ -173,6 +262,11 @@ def read_sample(path: str | Path) -> BondNetwork:
                     raise InputError(f"{path}: dataset '{key}' has shape {value.shape}, "
                                      f"expected (n,{','.join(map(str, tail))})")
                 data[key] = value
+            if "spheres/inertia" in h5:
+                data["spheres/inertia"] = h5["spheres/inertia"][()]
+            head = None
+            if "b_m" in h5.attrs and "e_m" in h5.attrs:
+                head = (float(h5.attrs["b_m"]), float(h5.attrs["e_m"]))
     except OSError as exc:
         raise InputError(f"{path}: not a readable HDF5 sample file ({exc})") from exc
     if data["plates/point"].shape[0] != 2:
@@ -181,7 +275,9 @@ def read_sample(path: str | Path) -> BondNetwork:
         return network_from_arrays(
             data["spheres/position"], data["spheres/mass"], data["plates/normal"],
             data["plates/mass"], data["bonds/i"], data["bonds/j"], data["bonds/l0"],
-            data["bonds/r_min"], name=path.stem)
+            data["bonds/r_min"], name=path.stem, radius=data["spheres/radius"],
+            rotational_inertia=data.get("spheres/inertia"), plate_point=data["plates/point"],
+            head_size_m=head)
     except ValueError as exc:
         raise InputError(f"{path}: {exc}") from exc
 

@@ -8,7 +8,9 @@ phasor, plus the macro law at the same (T, f) and the *network factor*:
 
 The macro law is the Burger's model of the parameter row (Eqs. 27-29); Eqs. 30-33 assume
 the sample behaves like one bond of section pi r_min^2 and length l0, and the network
-factor measures how far the discrete sample is from that assumption.
+factor measures how far the discrete sample is from that assumption. It depends strongly on
+the bond kinematics of :mod:`.solver` (about 1.1-1.4 with ``contact`` + free head, about 80
+with ``barycentre`` on the default samples; :func:`.analysis.kinematics_study`).
 
 Specimen geometry for gamma (Eq. 3): the root attributes ``b_m, B_m, e_m, h_m`` of the
 sample file (written by ``asphalt_nscd.sample``, already scaled), else the EN 12697-26

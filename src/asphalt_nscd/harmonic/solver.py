@@ -9,8 +9,6 @@ steady state solves one complex sparse linear system per (T, f):
 
 Model (docs/design.md, "Bond law")
 ----------------------------------
-* 3 translational DOF per sphere: the bond force acts at the barycentres and carries no
-  torque, so rotations neither load nor are loaded by the bonds and drop out.
 * Bond b between bodies a and c with unit vector n (initial frame) has the complex 3x3
   stiffness  K_b(w) = k_n(w) n n^T + k_t(w) (I - n n^T)  with
   k_n(w) = a_b E*(w),  a_b = pi r_min^2 / l0  (Eqs. 30-33),  k_t = k_n / (2 (1 + nu))
@@ -19,7 +17,43 @@ Model (docs/design.md, "Bond law")
   ``complex_modulus(omega)`` method works). It is the exact frequency response of the
   time-domain bond law (Maxwell + Kelvin-Voigt in series per direction, Eqs. 15-24) when
   every bond stays intact and the rotation of the frame is negligible (small strain).
-* Bottom plate fixed; top plate translated by (A, 0, 0) (imposed, the paper's "z" is along x).
+* Bond kinematics (option ``bond_kinematics``; the paper does not say where the bond acts):
+
+  ``contact`` (default) — 6 DOF per sphere (u, theta). K_b acts on the relative displacement
+      of the bond's contact point c (middle of the gap on the line of centres, see
+      :mod:`.network`):  Delta = (u_c + theta_c x (c - x_c)) - (u_a + theta_a x (c - x_a)),
+      so the bond force, applied at c, carries a torque on both bodies and a rigid rotation
+      of a bonded pair strains no bond. Rotational inertia: ``spheres/inertia``.
+  ``barycentre`` — 3 DOF per sphere: Delta = u_c - u_a at the barycentres, no torque. This is
+      the time-domain NSCD core as it is (kept for the time-domain comparison). A rigid
+      rotation moves barycentres tangentially relative to each other, so the tangential
+      springs resist it: in bending (2PB) the sample is spuriously stiff — the network factor
+      of sample s1 (221 spheres) is 88.7 with ``barycentre`` vs 2.65 with ``contact``
+      (clamped head, no inertia; ``results/harmonic/kinematics_study.csv``).
+
+  Zero-stiffness modes of ``contact``: a bond is a point spring, so a sphere with one bond
+  can spin about the bond axis and roll about c, and a sphere on a straight line of bonds
+  can spin about it. These modes are regularised by a rotational spring on the relative
+  rotation theta_c - theta_a of every bond, of stiffness eps k_n(w) |c - x_a|^2 with
+  eps = :data:`ROTATIONAL_REGULARISATION` (1e-10): it has the law of the bond (so
+  K(w) = E*(w) G still holds), makes G positive definite (every active cluster is bonded
+  to a plate; with a free head, at least one cluster must join both plates, else the head's
+  rigid rotation is free and SuperLU reports a singular factor), and resists no rigid-body motion. Exact zero-energy modes v of the free
+  DOFs are not loaded (K_pf v = 0), so they do not change the head force; soft but
+  non-zero modes are stiffened by O(eps): the head force changes linearly with eps, by
+  2.4e-5 (relative) at eps = 1e-8 and 2.4e-7 at 1e-10 against eps = 0 on a 150-sphere
+  jittered lattice, and by < 1e-5 for eps in [1e-10, 1e-6] on sample s1. With inertia the
+  rotational masses also make the dynamic matrix regular. With ``barycentre`` + ``free``
+  the same spring (l = |c - plates/point[1]|) holds the head's spin when all head bonds lie
+  on one line through its centre.
+* Head rotation (option ``head_rotation``): ``free`` (default) — the head (top plate) rotates
+  about the centre of its face ``plates/point[1]`` under the bond moments, as the cantilever
+  loaded at the head that the form factor gamma of EN 12697-26 Eq. 3 assumes; its rotational
+  inertia is that of a steel cuboid of the head's size (:mod:`.network`). Sphere-plate
+  bonds then see the head's displacement at c, u_top + theta_top x (c - plates/point[1]).
+  ``clamped`` — the head only translates (the NSCD core's driven plate).
+  ``contact`` + ``free`` is the consistent choice for Eq. 3 and the workflow's default.
+* Bottom plate fixed; head translated by (A, 0, 0) (imposed, the paper's "z" is along x).
 * Spheres in bonded clusters touching no plate carry no load: their steady-state
   displacement is zero (no force reaches them); they are removed and counted.
 
@@ -57,6 +91,11 @@ factorised once per sample in real arithmetic (2.6 s on the same lattice) and ea
 costs a back-substitution (0.2 s), plus a few GMRES iterations preconditioned by G^-1 when
 inertia is included (w^2 m / k << 1 far below the first resonance; 1.5 s). The general path
 for per-bond laws (:meth:`HarmonicSystem.solve`) factorises the complex matrix at each (T, f).
+With ``bond_kinematics="contact"`` (6 DOF per sphere, 72,003 unknowns on the same lattice
+with a free head) the 6x6 bond blocks raise the fill: measured on a loaded 2-core machine
+(``harmonic-bench --n 12000 --td-steps 0 --skip-direct``), setup 10.6 s vs 1.8 s, real
+factorisation 103 s vs 6.6 s, back-substitution 1.1 s vs 0.14 s, GMRES with inertia 68 s vs
+2.2 s (more iterations, each dearer), i.e. 182 s vs 10.5 s for the first (T, f).
 SciPy has no sparse Cholesky or nested-dissection ordering; a geometric nested dissection
 tried here did not beat MMD(A^T + A) (28e6 entries). Measurements: ``asphalt-nscd
 harmonic-bench`` (results/harmonic/bench.json).
@@ -76,6 +115,10 @@ from ..rheology.laws import tangential_ratio
 from .network import BondNetwork
 
 INERTIA_MODES = ("none", "full")
+BOND_KINEMATICS = ("contact", "barycentre")
+HEAD_ROTATIONS = ("free", "clamped")
+#: Relative stiffness eps of the regularising rotational bond spring (module docstring).
+ROTATIONAL_REGULARISATION = 1e-10
 SOLVERS = ("reuse", "direct")
 #: EN 12697-26 lumped-mass factor of the specimen in mu = 0.135 M + m (Eq. 1).
 SPECIMEN_MASS_FACTOR = 0.135
@@ -110,6 +153,10 @@ class HarmonicSolution:
         Relative residual |A u - b| / |b| of the linear system.
     solver : str
         "reuse" or "direct" (see :meth:`HarmonicSystem.solve_law`).
+    rotation : (N, 3) complex, rad
+        Sphere rotation phasors (zero with the barycentre kinematics).
+    head_rotation : (3,) complex, rad
+        Head rotation phasor (zero when clamped).
     """
 
     frequency_Hz: float
@@ -126,6 +173,8 @@ class HarmonicSolution:
     solve_time_s: float
     residual: float
     solver: str = "direct"
+    rotation: np.ndarray | None = None
+    head_rotation: np.ndarray | None = None
 
     @property
     def psi_deg(self) -> float:
@@ -145,11 +194,37 @@ class HarmonicSystem:
     network : BondNetwork
     nu : float
         Poisson's ratio of the tangential ratio 1/(2(1+nu)) (Eqs. 8-11).
+    bond_kinematics : {"contact", "barycentre"}
+        Where the bond acts; 6 or 3 DOF per sphere (module docstring).
+    head_rotation : {"free", "clamped"}
+        Whether the head rotates (3 more unknowns) or only translates (module docstring).
+    regularisation : float
+        eps of the regularising rotational bond spring (``contact`` only; module docstring).
+
+    Raises
+    ------
+    ValueError
+        on an unknown option, negative ``regularisation``, or ``contact`` without radii.
     """
 
-    def __init__(self, network: BondNetwork, nu: float = 0.35):
+    def __init__(self, network: BondNetwork, nu: float = 0.35,
+                 bond_kinematics: str = "contact", head_rotation: str = "free",
+                 regularisation: float = ROTATIONAL_REGULARISATION):
+        if bond_kinematics not in BOND_KINEMATICS:
+            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
+                             f"got {bond_kinematics!r}")
+        if head_rotation not in HEAD_ROTATIONS:
+            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {head_rotation!r}")
+        if bond_kinematics == "contact" and network.contact_point is None:
+            raise ValueError("bond_kinematics='contact' needs the sphere radii (contact points)")
+        if not regularisation >= 0:
+            raise ValueError(f"regularisation must be >= 0, got {regularisation}")
         self.network = network
         self.t_ratio = tangential_ratio(nu)
+        self.bond_kinematics = bond_kinematics
+        self.head_rotation = head_rotation
+        self.regularisation = float(regularisation)
+        contact = bond_kinematics == "contact"
         n_sph = network.n_spheres
         i, j = network.i, network.j
         # Load-free clusters: connected components of the sphere graph touching no plate.
@@ -160,37 +235,65 @@ class HarmonicSystem:
         anchored[label[i[~sph]]] = True
         self.active = anchored[label]
         self.n_load_free = int(n_sph - self.active.sum())
-        # DOF numbering: active spheres 0..3n_act-1 (free), then the top plate (3 prescribed).
-        body = -np.ones(n_sph + 2, np.int64)  # body index -> column block; -1 = not a DOF
-        body[np.flatnonzero(self.active)] = np.arange(self.active.sum())
         n_act = int(self.active.sum())
-        body[n_sph + 1] = n_act  # top plate (j = -2 -> n_sph + 1 after the shift below)
-        self.n_free = 3 * n_act
-        a_body = body[i]
-        c_body = body[np.where(j >= 0, j, n_sph - 1 - j)]  # j=-1 -> n_sph (bottom), -2 -> top
-        self.keep = a_body >= 0  # bonds of load-free clusters carry nothing
-        a_body, c_body = a_body[self.keep], c_body[self.keep]
+        self.dof_per_sphere = 6 if contact else 3
+        d = self.dof_per_sphere
+        n_head_rot = 3 if head_rotation == "free" else 0
+        self.n_free = d * n_act + n_head_rot
+        # Global DOF of the 6 coordinates (u, theta) of every body; -1 = fixed / not a DOF.
+        # Bodies 0..n_sph-1 spheres, n_sph bottom plate (fixed), n_sph+1 top plate whose
+        # translation is prescribed (DOFs n_free..n_free+2, the "p" block).
+        gdof = -np.ones((n_sph + 2, 6), np.int64)
+        act = np.flatnonzero(self.active)
+        gdof[act, :d] = d * np.arange(n_act)[:, None] + np.arange(d)
+        gdof[n_sph + 1, :3] = self.n_free + np.arange(3)
+        if n_head_rot:
+            gdof[n_sph + 1, 3:] = d * n_act + np.arange(3)
+        self.keep = self.active[i]  # bonds of load-free clusters carry nothing
+        a_body = i[self.keep]
+        c_body = np.where(j >= 0, j, n_sph - 1 - j)[self.keep]  # -1 -> n_sph, -2 -> n_sph + 1
         n = network.normal[self.keep]
-        self.pn = np.einsum("bk,bl->bkl", n, n).reshape(-1, 9)
-        self.pt = np.eye(3).reshape(1, 9) - self.pn
-        # COO entries of the four blocks (a,a), (c,c), (a,c), (c,a); bottom plate dropped.
-        loc_r = np.repeat(np.arange(3), 3)
-        loc_c = np.tile(np.arange(3), 3)
-        rows, cols, sign, src = [], [], [], []
+        # Point where the bond acts: contact point, or the barycentre of sphere i.
+        point = network.contact_point[self.keep] if contact else network.position[a_body]
+        centre = np.vstack([network.position, network.plate_point if network.plate_point
+                            is not None else np.zeros((2, 3))])
+        # L (B, 6, 6) per side: (relative displacement at the point, relative rotation)
+        # = L_c q_c - L_a q_a with L = [[I, -skew(point - centre)], [0, I]].
+        arm_a = point - centre[a_body]
+        lever_a, lever_c = _lever(arm_a), _lever(point - centre[c_body])
         nb = len(a_body)
+        pn = np.einsum("bk,bl->bkl", n, n)
+        unit_n = np.zeros((nb, 6, 6))
+        unit_t = np.zeros((nb, 6, 6))
+        unit_n[:, :3, :3] = pn
+        unit_t[:, :3, :3] = np.eye(3) - pn
+        # Regularising rotational spring eps k_n l^2 (module docstring): l = |c - x_a| with
+        # the contact kinematics; with the barycentre one only the head rotates, l = |c - p|.
+        arm = arm_a if contact else point - centre[c_body]
+        arm2 = np.einsum("bk,bk->b", arm, arm)
+        unit_n[:, 3:, 3:] = (self.regularisation * arm2)[:, None, None] * np.eye(3)
+        rows, cols, un, ut, src = [], [], [], [], []
         bidx = np.arange(nb)
-        has_c = c_body >= 0
-        for ra, ca, s, mask in ((a_body, a_body, 1.0, np.ones(nb, bool)),
-                                (c_body, c_body, 1.0, has_c),
-                                (a_body, c_body, -1.0, has_c),
-                                (c_body, a_body, -1.0, has_c)):
-            rows.append((3 * ra[mask])[:, None] + loc_r)
-            cols.append((3 * ca[mask])[:, None] + loc_c)
-            sign.append(np.full(mask.sum(), s))
-            src.append(bidx[mask])
-        rows = np.concatenate(rows).ravel()
-        cols = np.concatenate(cols).ravel()
-        self._sign = np.concatenate(sign)
+        for s_body, s_lev, t_body, t_lev, sign in ((a_body, lever_a, a_body, lever_a, 1.0),
+                                                   (c_body, lever_c, c_body, lever_c, 1.0),
+                                                   (a_body, lever_a, c_body, lever_c, -1.0),
+                                                   (c_body, lever_c, a_body, lever_a, -1.0)):
+            r_dof = gdof[s_body]  # (B, 6)
+            c_dof = gdof[t_body]
+            vn = sign * np.einsum("bki,bkl,blj->bij", s_lev, unit_n, t_lev)
+            vt = sign * np.einsum("bki,bkl,blj->bij", s_lev, unit_t, t_lev)
+            rr = np.broadcast_to(r_dof[:, :, None], (nb, 6, 6))
+            cc = np.broadcast_to(c_dof[:, None, :], (nb, 6, 6))
+            ok = (rr >= 0) & (cc >= 0) & ((vn != 0) | (vt != 0))
+            rows.append(rr[ok])
+            cols.append(cc[ok])
+            un.append(vn[ok])
+            ut.append(vt[ok])
+            src.append(np.broadcast_to(bidx[:, None, None], (nb, 6, 6))[ok])
+        rows = np.concatenate(rows)
+        cols = np.concatenate(cols)
+        self._unit_n = np.concatenate(un)
+        self._unit_t = np.concatenate(ut)
         self._src = np.concatenate(src)
         n_all = self.n_free + 3
         lin = rows * n_all + cols
@@ -208,7 +311,13 @@ class HarmonicSystem:
             c0 = 0 if name[1] == "f" else self.n_free
             shape = (self.n_free if name[0] == "f" else 3, self.n_free if name[1] == "f" else 3)
             self._blocks[name] = (sel, u_rows[sel] - r0, u_cols[sel] - c0, shape)
-        self.mass_free = np.repeat(network.mass[self.active], 3)
+        mass = np.zeros((n_act, d))
+        mass[:, :3] = network.mass[act, None]
+        if contact:
+            mass[:, 3:] = network.rotational_inertia[act, None]
+        head = np.asarray(network.plate_inertia if network.plate_inertia is not None
+                          else np.zeros(3), float)[:n_head_rot]
+        self.mass_free = np.concatenate([mass.ravel(), head])
 
     def bond_stiffness(self, law, omega: float) -> tuple[np.ndarray, np.ndarray]:
         """Complex normal and tangential stiffness of every bond, (B,) each, N/m.
@@ -223,8 +332,7 @@ class HarmonicSystem:
         """Sparse blocks ff, fp, pf, pp of K(w) for per-bond stiffnesses kn, kt (B,) N/m."""
         kn = np.asarray(kn)[self.keep]
         kt = np.asarray(kt)[self.keep]
-        vals = (kn[:, None] * self.pn + kt[:, None] * self.pt)  # (B, 9)
-        entry = (vals[self._src] * self._sign[:, None]).ravel()
+        entry = kn[self._src] * self._unit_n + kt[self._src] * self._unit_t
         data = (np.bincount(self._inverse, weights=entry.real, minlength=self._n_uniq)
                 + 1j * np.bincount(self._inverse, weights=entry.imag, minlength=self._n_uniq))
         out = {}
@@ -292,12 +400,15 @@ class HarmonicSystem:
             ``reuse``: K(w) = E*(w) G, the real G is factorised once per sample; without
             inertia the solution is a back-substitution, with inertia
             (G - w^2/E* M) u = -G_fp u_p is solved by GMRES preconditioned with G^-1 to the
-            relative tolerance ``rtol``. ``direct``: one complex LU per call (:meth:`solve`).
+            relative tolerance ``rtol``; if GMRES does not reach ``rtol`` within 200 x 50
+            iterations (near a resonance, or near-mechanisms of G) the call falls back to
+            ``direct`` (the solution's ``solver`` then reads "direct").
+            ``direct``: one complex LU per call (:meth:`solve`).
 
         Raises
         ------
         ValueError
-            on an unknown option, or if GMRES does not reach ``rtol``.
+            on an unknown option.
         """
         _check_inertia(inertia)
         if solver not in SOLVERS:
@@ -334,9 +445,11 @@ class HarmonicSystem:
                 uf, info = spla.gmres(op, rhs.astype(complex), x0=u0, rtol=rtol, atol=0.0,
                                       M=prec, restart=50, maxiter=200)
                 if info != 0:
-                    raise ValueError(f"GMRES did not reach rtol={rtol} (info={info}) at "
-                                     f"f={frequency_Hz} Hz: the frequency may be near a "
-                                     "resonance of the sample; use solver='direct'")
+                    # G^-1 is a poor preconditioner when G has near-mechanisms (soft
+                    # rotational modes, module docstring): fall back to the complex LU.
+                    return self.solve(e * self.network.scale,
+                                      e * self.network.scale * self.t_ratio, omega,
+                                      amplitude=amplitude, inertia=inertia)
                 residual = float(np.linalg.norm(op @ uf - rhs) / np.linalg.norm(rhs))
         reaction = e * (ref["pf"] @ uf + ref["pp"] @ up)
         return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "reuse")
@@ -347,14 +460,36 @@ class HarmonicSystem:
         sample_mass = self.network.sample_mass
         mu = SPECIMEN_MASS_FACTOR * sample_mass + m_top
         force = reaction - omega**2 * (m_top if inertia == "full" else mu) * up
+        d = self.dof_per_sphere
+        n_act = int(self.active.sum())
+        q = np.asarray(uf)[:d * n_act].reshape(-1, d)
         disp = np.zeros((self.network.n_spheres, 3), complex)
-        disp[self.active] = np.asarray(uf).reshape(-1, 3)
+        rot = np.zeros((self.network.n_spheres, 3), complex)
+        disp[self.active] = q[:, :3]
+        if d == 6:
+            rot[self.active] = q[:, 3:]
+        head = np.zeros(3, complex)
+        if self.head_rotation == "free":
+            head = np.asarray(uf)[d * n_act:d * n_act + 3]
         return HarmonicSolution(
             frequency_Hz=omega / (2 * np.pi), force=force, reaction=reaction,
             displacement=disp, amplitude_m=amplitude,
             mu_kg=mu, sample_mass_kg=sample_mass, plate_mass_kg=m_top, inertia=inertia, n_free_dof=self.n_free,
             n_load_free=self.n_load_free, solve_time_s=time.perf_counter() - t0,
-            residual=residual, solver=solver)
+            residual=residual, solver=solver, rotation=rot, head_rotation=head)
+
+
+def _lever(arm) -> np.ndarray:
+    """(B, 6, 6) maps [[I, -skew(arm)], [0, I]]: (u, theta) -> (u + theta x arm, theta)."""
+    out = np.zeros((len(arm), 6, 6))
+    out[:, :3, :3] = np.eye(3)
+    out[:, 3:, 3:] = np.eye(3)
+    x, y, z = arm[:, 0], arm[:, 1], arm[:, 2]
+    # -skew(arm) = [[0, z, -y], [-z, 0, x], [y, -x, 0]]
+    out[:, 0, 4], out[:, 0, 5] = z, -y
+    out[:, 1, 3], out[:, 1, 5] = -z, x
+    out[:, 2, 3], out[:, 2, 4] = y, -x
+    return out
 
 
 def _check_inertia(inertia: str) -> None:

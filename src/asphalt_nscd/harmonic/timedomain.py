@@ -1,7 +1,8 @@
 """Time-domain check of the harmonic solver: the same sample, law and head motion run
 through the NSCD core (:mod:`asphalt_nscd.nscd`), reduced by the same Eqs. 1-5.
 
-Set-up (identical to the harmonic model): no gravity, bottom plate fixed, top plate driven
+Set-up (identical to the harmonic model with ``bond_kinematics="barycentre"`` and
+``head_rotation="clamped"``, the kinematics of the NSCD core): no gravity, bottom plate fixed, top plate driven
 with x(t) = A sin(w t) (mass = the sample file's top-plate mass, which enters the driver
 force), bonds created from the sample configuration with the macro law scaled per bond
 (``Bonds.create``: Eqs. 30-33, 8-11), Moreau-Jean theta-method with step ``dt``.

@@ -25,10 +25,32 @@ Time stepping::
                               # residual_quad, residual_max, converged, n_contacts,
                               # n_active_contacts, n_bonds, n_broken, n_broken_total,
                               # plate_force (P,3) N (spheres -> plate), driver_force (P,3) N
-                              # (force the driver applies, incl. plate inertia), dissipated J
+                              # (force the driver applies, incl. plate inertia from the exact
+                              # imposed acceleration, theta-averaged; none if mass inf),
+                              # dissipated J
     df = sim.run(n_steps, callback=None)      # DataFrame of StepStats.as_row()
     sim.save_checkpoint("x.h5"); Simulation.load_checkpoint("x.h5", drivers=[...])
     sim.bonds.force (B,3) N, bonds.broken (B,), sim.contact_impulse (C,3) N s (/dt = force)
+
+Choices (details in the module docstrings)
+------------------------------------------
+* theta = 0.5 by default (second order, no numerical damping of the bonded dynamics; the
+  phase error vs omega dt and theta is measured by ``verify.phase_error_table``).
+* Contacts: Signorini on U_n + max(g,0)/h (LMGC90 IQS-like), Coulomb on the 3D cone solved
+  exactly (diagonal isotropic Delassus block of spheres and planes; local_laws.py).
+* Bonds: force at the barycentres, no torque, frame of the initial configuration
+  (small strain); generalized Burger's law integrated by the theta-method (theta = 1 is the
+  paper's Eq. 26); breakage when |R_n| or |R_t| > R_crit, then Eqs. 6-7; a bonded pair
+  that also touches gets both forces.
+* Steps with no active contact and no breakage are solved as a linear system (linear.py,
+  preconditioned CG; 'direct' = symmetric-mode SuperLU, exact but slower per step at
+  12 000 spheres), otherwise NLGS; ``StepStats.solver`` says which. The configured CG
+  residual 1e-7 resolves the phase angle to ~1e-5 deg (tests/unit/test_nscd_linear.py).
+* ``StepStats.driver_force`` = m (a_theta - g) - plate_force, a_theta = theta a(t+) +
+  (1-theta) a(t-) of the imposed motion: consistent with plate_force to O(dt²).
+
+Helper shared with other steps: ``linear.splu_symmetric(a)`` (SuperLU, symmetric mode,
+MMD(A^T+A) ordering) for sparse SPD matrices.
 
 Helpers: ``detection.sphere_pairs(position, radius, max_gap)`` and
 ``detection.plate_pairs(...)`` (cell lists, O(N)) to find bonded pairs;

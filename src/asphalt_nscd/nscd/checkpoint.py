@@ -1,8 +1,9 @@
 """Checkpoint/restart of a full :class:`~.moreau_jean.Simulation` state in HDF5 (h5py).
 
 Layout: groups ``spheres``, ``plates``, ``bonds``, ``contacts`` (last step's contacts and
-impulses, for the warm start), ``params`` (attributes), ``solver`` (the previous velocities used to extrapolate the
-initial guess of the iterative linear solver, so that a restart is bit-identical); root attributes ``time``,
+impulses, for the warm start), ``params`` (attributes), ``solver`` (the previous
+velocities used to extrapolate the initial guess of the iterative linear solver, so that a
+restart is bit-identical); root attributes ``time``,
 ``step_index``, ``alert_distance``. Sampled plate drivers ``(times, disp)`` are stored in
 ``plates/driver_<k>/{times,disp}``; callable drivers must be passed again on reading.
 The file is written atomically (asphalt_nscd.io.atomic_path).
@@ -22,7 +23,8 @@ _SPHERE = ("position", "radius", "mass", "inertia", "velocity", "angular_velocit
 _PLATE = ("point", "point0", "normal", "mass", "mode", "velocity")
 _BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "Ck", "Kinf",
          "r_crit", "force", "delta_c", "delta_k", "broken")
-_PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations", "relaxation",
+_PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations",
+           "relaxation",
            "alert_distance", "fast_path", "linear_solver", "linear_tolerance")
 
 

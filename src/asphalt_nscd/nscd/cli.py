@@ -6,7 +6,8 @@
 ``asphalt-nscd bench-summary a.json b.json -o bench.csv`` tabulates bench records.
 
 ``asphalt-nscd bench --case bonded|granular --n N [--steps S] [--baseline-steps B]
-[--tolerance TOL] [--settle-steps K] [--seed SEED] -o bench.json`` runs one benchmark.
+[--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
+-o bench.json`` runs one benchmark.
 """
 
 
@@ -36,6 +37,8 @@ def register(subparsers) -> None:
     b.add_argument("--settle-steps", type=int, default=500,
                    help="untimed settling steps of the granular case")
     b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--linear-tolerance", type=float, default=1e-7,
+                   help="relative residual of the conjugate gradient (bonded case)")
     b.add_argument("-o", "--output", required=True, help="JSON record")
     b.set_defaults(func=_bench)
 
@@ -89,7 +92,8 @@ def _bench(args) -> int:
     if args.n < 2 or args.steps < 1:
         raise InputError(f"--n must be >= 2 and --steps >= 1 (got {args.n}, {args.steps})")
     rec = run_bench(args.case, args.n, steps=args.steps, baseline_steps=args.baseline_steps,
-                    tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed)
+                    tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed,
+                    linear_tolerance=args.linear_tolerance)
     write_json(rec, args.output)
     return 0
 

@@ -2,7 +2,9 @@
 
 The global problem of a step is U = H^T v, v = v_free + M^-1 H P, with a local law per
 interaction (local_laws.py). The sweep visits the bonds, then the contacts, in a fixed
-order (symmetric or reversed sweeps were tried on a granular bed: no fewer iterations);
+order (symmetric or reversed sweeps, and contacts sorted from top to bottom along
+gravity, were tried on a granular bed: no fewer iterations); an open contact with zero
+impulse is skipped after a test on its normal velocity alone (same result, less work);
 each visit computes the local velocity from the current body velocities, removes
 its own contribution (b = U - W_aa P_old), solves its local law exactly, relaxes
 (P <- omega P_loc + (1-omega) P_old) and pushes the change of impulse back into the body
@@ -26,7 +28,7 @@ from numba import njit
 from .local_laws import contact_local_solve
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _push_contact(a, dp0, dp1, dp2, ci, cj, frame, radius, v, w, vp, inv_mass, inv_inertia,
                   inv_mass_plate):
     """Add the global effect of a change (dp0, dp1, dp2) of contact a's local impulse."""
@@ -68,7 +70,7 @@ def _push_contact(a, dp0, dp1, dp2, ci, cj, frame, radius, v, w, vp, inv_mass, i
         vp[k, 2] -= mk * g2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def contact_velocity(a, ci, cj, frame, radius, v, w, vp, out):
     """Local relative velocity (n, t, s) of contact a at the contact point into out (3,)."""
     i = ci[a]
@@ -107,7 +109,7 @@ def contact_velocities(ci, cj, frame, radius, v, w, vp, out):
         out[a, 2] = u[2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _push_bond(b, dp, bi, bj, frame, v, vp, inv_mass, inv_mass_plate):
     i = bi[b]
     j = bj[b]
@@ -178,6 +180,17 @@ def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, b
             sum_p2 += bP[b, 0] ** 2 + bP[b, 1] ** 2 + bP[b, 2] ** 2
             max_d2 = max(max_d2, d2)
         for a in range(nc):
+            if cP[a, 0] == 0.0 and cP[a, 1] == 0.0 and cP[a, 2] == 0.0:
+                # open contact without impulse: the normal velocity n.(v_i - v_j) (rotations
+                # do not contribute: (w x n).n = 0) decides alone whether it stays open
+                i = ci[a]
+                j = cj[a]
+                un = 0.0
+                for d in range(3):
+                    vj = v[j, d] if j >= 0 else vp[-1 - j, d]
+                    un += cframe[a, 0, d] * (v[i, d] - vj)
+                if un + max(cgap[a], 0.0) / h >= 0.0:
+                    continue
             contact_velocity(a, ci, cj, cframe, radius, v, w, vp, u)
             bn = u[0] - cwn[a] * cP[a, 0]
             bt = u[1] - cwt[a] * cP[a, 1]

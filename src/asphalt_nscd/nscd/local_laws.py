@@ -47,7 +47,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def contact_local_solve(bn, bt, bs, gap, h, wn, wt, mu):
     """Exact Signorini-Coulomb impulse (Pn, Pt, Ps) (N s) for local free velocity (bn, bt, bs)
     (m/s, excluding this contact's own impulse), gap (m), step h (s), blocks wn, wt (1/kg)."""
@@ -67,12 +67,31 @@ def contact_local_solve(bn, bt, bs, gap, h, wn, wt, mu):
 
 
 @njit(cache=True)
-def bond_predict(bi, bj, frame, rest, x, v, xp, vp, Km, Cm, Kk, Ck, Kinf, force, delta_c,
-                 delta_k, broken, h, theta, c0, cg, delta_m, u_m):
+def bond_coefficients(Km, Cm, Kk, Ck, h, theta, coef, i_den):
+    """Reciprocals of the step (constant for given bond parameters, h and theta), so that
+    bond_predict and bond_update need no division: coef (B,3,2) = [1/Km, 1/Cm, 1/C] with
+    C = 1/Km + h theta/Cm + sum_k h theta/(Ck + h theta Kk) (module docstring), and
+    i_den (B,NK,2) = 1/(Ck + h theta Kk); index 2 = 0 normal, 1 tangential."""
+    nk = Kk.shape[1]
+    for b in range(Km.shape[0]):
+        for p in range(2):
+            coef[b, 0, p] = 1.0 / Km[b, p]
+            coef[b, 1, p] = 1.0 / Cm[b, p]
+            cc = coef[b, 0, p] + h * theta * coef[b, 1, p]
+            for k in range(nk):
+                i_den[b, k, p] = 1.0 / (Ck[b, k, p] + h * theta * Kk[b, k, p])
+                cc += h * theta * i_den[b, k, p]
+            coef[b, 2, p] = 1.0 / cc
+
+
+@njit(cache=True)
+def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, force,
+                 delta_c, delta_k, broken, h, theta, c0, cg, delta_m, u_m):
     """Per-bond affine law coefficients for the step (see module docstring).
 
     Inputs: positions x (N,3), velocities v (N,3) at the start of the step, plate points xp
-    (P,3) and step velocities vp (P,3); bond parameters (B,2)/(B,NK,2) and state.
+    (P,3) and step velocities vp (P,3); coef (B,3,2), i_den (B,NK,2) from
+    :func:`bond_coefficients`; bond parameters (B,2)/(B,NK,2) and state.
     Outputs (filled): c0 (B,3) N s, cg (B,3) N s/m, delta_m (B,3) m = delta-, u_m (B,3) m/s = U-.
     Broken bonds get c0 = cg = 0.
     """
@@ -109,23 +128,22 @@ def bond_predict(bi, bj, frame, rest, x, v, xp, vp, Km, Cm, Kk, Ck, Kinf, force,
             delta_m[b, c] = dl
             u_m[b, c] = ul
             r_ch = force[b, c] + Kinf[b, p] * dl
-            A = delta_c[b, c] - h * (1.0 - theta) * r_ch / Cm[b, p]
-            C = 1.0 / Km[b, p] + h * theta / Cm[b, p]
+            A = delta_c[b, c] - h * (1.0 - theta) * r_ch * coef[b, 1, p]
             for k in range(nk):
-                den = Ck[b, k, p] + h * theta * Kk[b, k, p]
                 A += (Ck[b, k, p] * delta_k[b, k, c]
-                      - h * (1.0 - theta) * (r_ch + Kk[b, k, p] * delta_k[b, k, c])) / den
-                C += h * theta / den
-            k_eff = 1.0 / C + Kinf[b, p]
-            r_pred = A / C - k_eff * (dl + h * (1.0 - theta) * ul)
+                      - h * (1.0 - theta) * (r_ch + Kk[b, k, p] * delta_k[b, k, c])) \
+                    * i_den[b, k, p]
+            k_eff = coef[b, 2, p] + Kinf[b, p]
+            r_pred = A * coef[b, 2, p] - k_eff * (dl + h * (1.0 - theta) * ul)
             c0[b, c] = h * (theta * r_pred + (1.0 - theta) * force[b, c])
             cg[b, c] = h * h * theta * theta * k_eff
 
 
 @njit(cache=True)
-def bond_update(bi, bj, frame, Km, Cm, Kk, Ck, Kinf, r_crit, force, delta_c, delta_k, broken,
-                h, theta, delta_m, u_m, v, vp, impulse):
-    """End-of-step update of the bond state from the end velocities v (N,3), vp (P,3).
+def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c, delta_k,
+                broken, h, theta, delta_m, u_m, v, vp, impulse):
+    """End-of-step update of the bond state from the end velocities v (N,3), vp (P,3);
+    coef, i_den from :func:`bond_coefficients`.
 
     Updates force (B,3), delta_c, delta_k in place, marks broken bonds (|R_n| or |R_T| >
     r_crit) and zeroes their force and impulse. Returns (number newly broken, energy
@@ -135,6 +153,7 @@ def bond_update(bi, bj, frame, Km, Cm, Kk, Ck, Kinf, r_crit, force, delta_c, del
     nk = Kk.shape[1]
     n_new = 0
     dissipated = 0.0
+    ak = np.empty(nk)
     for b in range(len(bi)):
         if broken[b]:
             continue
@@ -154,24 +173,20 @@ def bond_update(bi, bj, frame, Km, Cm, Kk, Ck, Kinf, r_crit, force, delta_c, del
             dl = delta_m[b, c]
             dp = dl + h * ((1.0 - theta) * u_m[b, c] + theta * up)
             r_ch_m = force[b, c] + Kinf[b, p] * dl
-            e_old = 0.5 * r_ch_m * r_ch_m / Km[b, p] + 0.5 * Kinf[b, p] * dl * dl
-            A = delta_c[b, c] - h * (1.0 - theta) * r_ch_m / Cm[b, p]
-            C = 1.0 / Km[b, p] + h * theta / Cm[b, p]
+            e_old = 0.5 * r_ch_m * r_ch_m * coef[b, 0, p] + 0.5 * Kinf[b, p] * dl * dl
+            A = delta_c[b, c] - h * (1.0 - theta) * r_ch_m * coef[b, 1, p]
             for k in range(nk):
                 e_old += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
-                den = Ck[b, k, p] + h * theta * Kk[b, k, p]
-                A += (Ck[b, k, p] * delta_k[b, k, c]
-                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) / den
-                C += h * theta / den
-            r_ch_p = (A - dp) / C
-            e_new = 0.5 * r_ch_p * r_ch_p / Km[b, p] + 0.5 * Kinf[b, p] * dp * dp
+                ak[k] = (Ck[b, k, p] * delta_k[b, k, c]
+                         - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) \
+                    * i_den[b, k, p]
+                A += ak[k]
+            r_ch_p = (A - dp) * coef[b, 2, p]
+            e_new = 0.5 * r_ch_p * r_ch_p * coef[b, 0, p] + 0.5 * Kinf[b, p] * dp * dp
             for k in range(nk):
-                den = Ck[b, k, p] + h * theta * Kk[b, k, p]
-                ak = (Ck[b, k, p] * delta_k[b, k, c]
-                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) / den
-                delta_k[b, k, c] = ak - h * theta / den * r_ch_p
+                delta_k[b, k, c] = ak[k] - h * theta * i_den[b, k, p] * r_ch_p
                 e_new += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
-            delta_c[b, c] -= h * (theta * r_ch_p + (1.0 - theta) * r_ch_m) / Cm[b, p]
+            delta_c[b, c] -= h * (theta * r_ch_p + (1.0 - theta) * r_ch_m) * coef[b, 1, p]
             force[b, c] = r_ch_p - Kinf[b, p] * dp
             dissipated += -impulse[b, c] * (dp - dl) / h - (e_new - e_old)
         rt = math.sqrt(force[b, 1] ** 2 + force[b, 2] ** 2)

@@ -404,12 +404,18 @@ class StepStats:
     """Statistics of one time step.
 
     time : s, end of step. solver : 'nlgs' or 'linear'. iterations : NLGS sweeps, or
-    conjugate-gradient iterations on the linear path (0 for its direct solver). residual_quad / residual_max : final relative change of reactions.
+    conjugate-gradient iterations on the linear path (0 for its direct solver).
+    residual_quad / residual_max : final relative change of reactions.
     converged : bool. n_contacts : candidates; n_active_contacts : with R_n > 0.
     n_bonds : intact bonds; n_broken : bonds broken in this step; n_broken_total.
     plate_force : (P, 3) N, mean force exerted by the spheres on each plate over the step.
     driver_force : (P, 3) N, force the driver must apply to a driven or fixed plate to
-        impose its motion, including its inertia: m a - m g - plate_force.
+        impose its motion, including its inertia: m a - m g - plate_force, with
+        a = theta a(t+) + (1-theta) a(t-) the theta-average of the imposed motion's
+        acceleration (second differences with step dt), consistent to second order with
+        plate_force = P/dt, P = dt (theta R+ + (1-theta) R-); for theta = 0.5 both are the
+        values at the step midpoint t - dt/2 to O(dt²). A driven plate of infinite mass
+        (and a fixed plate) reports -plate_force (inertia not counted).
     dissipated : J, energy dissipated in the step by contacts and bonds (>= 0 up to round-off).
     """
 

@@ -388,7 +388,8 @@ def case_impact(dt: float = 1e-4, theta: float = 0.5, height: float = 0.05):
             v_imp = -v_before
             max_pen = max(max_pen, -(s.position[0, 2] - r))
     bound = (1 - theta) * dt * v_imp
-    rows = [_row("impact", "normal velocity after the impact step (max |v_z|)", np.max(np.abs(post)),
+    rows = [_row("impact", "normal velocity after the impact step (max |v_z|)",
+                 np.max(np.abs(post)),
                  0.0, 1e-9, "m/s", scale=v_imp, note="scale: impact velocity"),
             _row("impact", "penetration <= (1 - theta) h v_impact", max_pen, bound, 1e-9, "m",
                  scale=bound, bound=True, note="upper bound")]
