@@ -38,9 +38,10 @@ Model (docs/design.md, "Bond law")
   eps = :data:`ROTATIONAL_REGULARISATION` (1e-10): it has the law of the bond (so
   K(w) = E*(w) G still holds), makes G positive definite (every active cluster is bonded
   to a plate; with a free head, at least one cluster must join both plates, else the head's
-  rigid rotation is free and SuperLU reports a singular factor), and resists no rigid-body motion. Exact zero-energy modes v of the free
-  DOFs are not loaded (K_pf v = 0), so they do not change the head force; soft but
-  non-zero modes are stiffened by O(eps): the head force changes linearly with eps, by
+  rigid rotation is free and SuperLU reports a singular factor), and resists no rigid-body
+  motion. Exact zero-energy modes v of the free DOFs are not loaded (K_pf v = 0), so they
+  do not change the head force; soft but non-zero modes are stiffened by O(eps): the head
+  force changes linearly with eps, by
   2.4e-5 (relative) at eps = 1e-8 and 2.4e-7 at 1e-10 against eps = 0 on a 150-sphere
   jittered lattice, and by < 1e-5 for eps in [1e-10, 1e-6] on sample s1. With inertia the
   rotational masses also make the dynamic matrix regular. With ``barycentre`` + ``free``
@@ -53,6 +54,11 @@ Model (docs/design.md, "Bond law")
   bonds then see the head's displacement at c, u_top + theta_top x (c - plates/point[1]).
   ``clamped`` — the head only translates (the NSCD core's driven plate).
   ``contact`` + ``free`` is the consistent choice for Eq. 3 and the workflow's default.
+* Verification (tests/unit/test_harmonic_kinematics.py): a bonded pair under a rigid
+  rotation carries no force with ``contact`` and k_t theta x (x_j - x_i) with
+  ``barycentre``; axial series/parallel closed forms hold for every option; a two-chain
+  ladder cantilever with a free head matches an independent dense assembly (1e-9) and its
+  tip compliance has the Euler-Bernoulli L^3 / (3 EI) term, EI = k_n s w^2 / 2, to 1e-9.
 * Bottom plate fixed; head translated by (A, 0, 0) (imposed, the paper's "z" is along x).
 * Spheres in bonded clusters touching no plate carry no load: their steady-state
   displacement is zero (no force reaches them); they are removed and counted.
@@ -214,7 +220,8 @@ class HarmonicSystem:
             raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
                              f"got {bond_kinematics!r}")
         if head_rotation not in HEAD_ROTATIONS:
-            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {head_rotation!r}")
+            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
+                             f"got {head_rotation!r}")
         if bond_kinematics == "contact" and network.contact_point is None:
             raise ValueError("bond_kinematics='contact' needs the sphere radii (contact points)")
         if not regularisation >= 0:

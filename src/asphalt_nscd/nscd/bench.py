@@ -11,9 +11,10 @@ Cases
     (0.235 kg) driven along x with A = 63e-6 m at 40 Hz; Burger's law of Table 3 at 15 degC
     read in Pa (Em = 2.43e7, eta_m = 3.71e6, Ek = 4.84e7, eta_k = 7.73e5); friction 0.7;
     dt = 5e-5 s, theta = 0.5; the top plate lies 0.1 pitch above the highest sphere (the
-    last lattice layer may be partial). The production path (linear fast path, exact to round-off) is
-    timed over ``steps`` steps; the baseline (NLGS at the given tolerance) over
-    ``baseline_steps`` steps of the same sample; their ratio is reported.
+    last lattice layer may be partial). The production path (linear fast path, conjugate
+    gradient at ``linear_tolerance``) is timed over ``steps`` steps; the baseline (NLGS
+    at the given tolerance) over ``baseline_steps`` steps of the same sample; their ratio
+    is reported.
 ``granular``
     A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
     lattice (about 1.5 N^(1/3) spheres along x and y) in a box of 5 fixed walls, friction 0.2,
@@ -29,8 +30,9 @@ set), solver, tolerance, threads, compile_s (first call of every kernel on a tin
 from the numba cache when present), setup_s (sample generation, first factorisation),
 baseline_* and speedup, direct_* (bonded: the SuperLU path run over the same steps,
 its factorisation time, factor size, CPU time per particle and step, and the largest bond
-force difference to the conjugate gradient relative to the largest force), time_breakdown (fraction of step time in detection, bond laws,
-solver, other), cpu/platform.
+force difference to the conjugate gradient relative to the largest force),
+peak_rss_mb_production (bonded: peak RSS before the references run), time_breakdown
+(fraction of step time in detection, bond laws, solver, other), cpu/platform.
 """
 
 from __future__ import annotations
