@@ -43,6 +43,25 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         raise
 
 
+def read_csv(path: str | os.PathLike, **kwargs):
+    """Read a CSV file into a pandas DataFrame.
+
+    Raises
+    ------
+    InputError
+        naming the file if it does not exist or is not a readable CSV file.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    try:
+        return pd.read_csv(path, **kwargs)
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+
+
 def write_csv(frame, path: str | os.PathLike, **kwargs) -> None:
     """Write a pandas DataFrame to CSV atomically (no index unless asked)."""
     kwargs.setdefault("index", False)

@@ -57,3 +57,22 @@ def test_smoke_workflow_runs_end_to_end(tmp_path):
     # the HTML report builds from the same run
     _snakemake(workdir, "--configfile", "config/smoke.yaml", "--report", str(workdir / "report.html"))
     assert (workdir / "report.html").stat().st_size > 10_000
+
+
+def test_invalid_config_is_rejected_with_the_key_named(tmp_path):
+    import yaml
+
+    workdir = _workdir(tmp_path)
+    cfg = yaml.safe_load((REPO / "config" / "smoke.yaml").read_text())
+    cfg["sample"]["scale"] = -1.0
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(cfg))
+    env = dict(os.environ)
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    proc = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
+         "-n", "--configfile", str(bad)],
+        capture_output=True, text=True, env=env, timeout=300,
+    )
+    assert proc.returncode != 0
+    assert "scale" in proc.stderr + proc.stdout

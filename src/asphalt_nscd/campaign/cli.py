@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import argparse
 
 
 def _settings_options(p):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from ..io import InputError, atomic_path, write_text
+from ..io import InputError, atomic_path, read_csv, write_text
 
 
 def register(subparsers) -> None:
@@ -59,19 +59,12 @@ def _collect_report(args) -> int:
 
 
 def _parse_set(spec: str, kind: str):
-    import pandas as pd
-
     from .rheology_plots import CurveSet
 
     label, sep, path = spec.partition("=")
     if not sep or not label or not path:
         raise InputError(f"curve set {spec!r}: expected LABEL=PATH")
-    try:
-        frame = pd.read_csv(path)
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    frame = read_csv(path)
     try:
         return CurveSet(label, frame, kind=kind)
     except ValueError as exc:

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import InputError
+from ..io import InputError, read_csv
 
 #: Keys of the JSON sidecar of a lab record (specimen geometry and test conditions).
 RECORD_META_KEYS = ("b_mm", "B_mm", "e_mm", "h_mm", "M_kg", "m_kg", "temperature_C", "frequency_Hz")
@@ -393,12 +393,7 @@ def read_record(csv_path, meta_path) -> tuple[dict, Specimen2PB, dict]:
     conditions = {"temperature_C": float(T), "frequency_Hz": _positive_number(data, "frequency_Hz", meta_path)}
 
     csv_path = Path(csv_path)
-    try:
-        frame = pd.read_csv(csv_path)
-    except FileNotFoundError:
-        raise InputError(f"{csv_path}: file not found") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputError(f"{csv_path}: not a readable CSV file ({exc})") from None
+    frame = read_csv(csv_path)
     missing = [c for c in RECORD_COLUMNS if c not in frame.columns]
     if missing:
         raise InputError(f"{csv_path}: missing column(s) {missing}; expected {list(RECORD_COLUMNS)}")

@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..io import InputError
+from ..io import InputError, read_csv
 from .laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tangential_ratio
 
 #: Burger's parameter columns (MPa, MPa s) of a calibrated or converted table.
@@ -84,12 +84,7 @@ def load_table3(path, units: str = "Pa") -> pd.DataFrame:
     """
     if units not in TABLE3_UNITS:
         raise InputError(f"{path}: unknown Table 3 unit reading {units!r}; expected one of {sorted(TABLE3_UNITS)}")
-    try:
-        raw = pd.read_csv(path, comment="#")
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    raw = read_csv(path, comment="#")
     missing = [c for c in TABLE3_COLUMNS if c not in raw.columns]
     if missing:
         raise InputError(f"{path}: missing column(s) {missing}; expected {list(TABLE3_COLUMNS)}")
@@ -405,12 +400,7 @@ def read_parameters(path) -> pd.DataFrame:
         if the file is missing or unreadable, or a column is missing or non-positive.
     """
     path = Path(path)
-    try:
-        frame = pd.read_csv(path)
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    frame = read_csv(path)
     missing = [c for c in ("temperature_C", *PARAM_COLUMNS) if c not in frame.columns]
     if missing:
         raise InputError(f"{path}: missing column(s) {missing}; expected temperature_C and {list(PARAM_COLUMNS)}")

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from .models import two_s2p1d_modulus
-from .shift import arrhenius_log_shift, wlf_log_shift
+from .shift import arrhenius_log_shift
 
 
 @dataclass

@@ -49,7 +49,6 @@ def stages_figure(stages: list[dict], trapezoid=None):
     norm = Normalize(all_d.min(), all_d.max() if all_d.max() > all_d.min() else all_d.min() + 1)
     cmap = plt.get_cmap("viridis")
     dep = [s for s in stages if s["frame"] == "deposition"]
-    spec = [s for s in stages if s["frame"] == "specimen"]
     fig = plt.figure(figsize=(10, 7), layout="constrained")
     grid = fig.add_gridspec(max(len(dep), 1), 2, width_ratios=[3, 1])
     coll = None
