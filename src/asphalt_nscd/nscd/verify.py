@@ -92,15 +92,17 @@ def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = 0.35
 
 
 # ----------------------------------------------------------------------------- bonds
-def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5) -> list[dict]:
+def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5,
+               kinematics: str = "contact") -> list[dict]:
     """Creep of a two-sphere bond under a constant force of R_crit/2 (normal or tangential);
-    the loaded sphere does not rotate (module docstring)."""
+    the loaded sphere does not rotate (module docstring). ``kinematics``: bond kinematics."""
     s, b = _pair(mass1=1e-6, inertia1=np.inf)
     F = 0.5 * b.r_crit[0]
     axis = b.frame[0, 0] if direction == "normal" else b.frame[0, 1]
     f = np.zeros((2, 3))
     f[1] = F * axis
-    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0)),
+    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0),
+                                                bond_kinematics=kinematics),
                      external_force=f)
     micro = bond_law(LAW_15C, tangential=direction != "normal")
     times, num = [], []
