@@ -216,6 +216,10 @@ rule harmonic_compare:
         rtols=" ".join(str(r) for r in HARM["compare"]["rtol"]),
         cycles=HARM["compare"]["cycles"],
         settle=HARM["compare"]["settle_factor"],
+        # the time-domain core's kinematics (config nscd.bond_kinematics and
+        # campaign.test.head_rotation), used by both sides of the comparison
+        bond_kinematics=config["nscd"].get("bond_kinematics", "contact"),
+        head_rotation=config["campaign"]["test"].get("head_rotation", "free"),
     log:
         "logs/harmonic/compare_time_domain.log",
     benchmark:
@@ -228,7 +232,7 @@ rule harmonic_compare:
         "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} --dt {params.dts} "
         "--rtol {params.rtols} --cycles {params.cycles} --settle-factor {params.settle} "
-        "--bond-kinematics barycentre --head-rotation clamped "
+        "--bond-kinematics {params.bond_kinematics} --head-rotation {params.head_rotation} "
         "-o {output.table} --figure {output.figure} 2> {log}"
 
 

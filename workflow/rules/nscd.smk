@@ -60,6 +60,7 @@ rule nscd_bench:
         baseline=NSCD["bench"]["baseline_steps"],
         settle=NSCD["bench"]["settle_steps"],
         tol=lambda wc: NSCD["bench"]["granular_tolerance" if wc.case == "granular" else "tolerance"],
+        kinematics=NSCD.get("bond_kinematics", "contact"),
     log:
         "logs/nscd/bench_{case}_n{n}.log",
     benchmark:
@@ -71,7 +72,7 @@ rule nscd_bench:
     shell:
         "NUMBA_NUM_THREADS=1 asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} "
         "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
-        "--tolerance {params.tol} -o {output} 2> {log}"
+        "--tolerance {params.tol} --bond-kinematics {params.kinematics} -o {output} 2> {log}"
 
 
 rule nscd_bench_summary:

@@ -16,11 +16,13 @@ MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa")
 
 def test_json(mode):
     """The test settings of a job mode as JSON: campaign.test with the mode's overrides of
-    dt_policy and yield_stress_Pa (the studies dt_study, sensitivity, units_* follow the paper mode)."""
+    dt_policy and yield_stress_Pa (the studies dt_study, sensitivity, units_* follow the paper mode),
+    and the core's bond kinematics (nscd.bond_kinematics)."""
     sched = CAMP["measured"] if mode == "measured" else CAMP["paper"]
     cfg = {**CAMP["test"], **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
     if mode.endswith("_nobreak"):
         cfg["yield_stress_Pa"] = None
+    cfg["bond_kinematics"] = config["nscd"].get("bond_kinematics", "contact")
     return json.dumps(cfg)
 
 

@@ -57,6 +57,18 @@ the test. The creep is vertical and slow (the fit's drift term absorbs any trace
 x), but at high temperature it can close contacts and switch steps from the linear fast
 path to Gauss-Seidel. Off by default at reduced scale, on in ``paper.yaml``.
 
+Bond kinematics and head rotation (``bond_kinematics``, config ``nscd.bond_kinematics``;
+``head_rotation``, config ``campaign.test.head_rotation``): by default the bonds act at their
+contact points with torques (``contact``, :class:`asphalt_nscd.nscd.Bonds`) and the head,
+driven in translation, rotates freely about the centre of its face ``plates/point[1]``
+(``free``) with the rotational inertia of the harmonic model (a steel cuboid of the head's
+mass and footprint, :func:`asphalt_nscd.harmonic.network.head_inertia`; footprint from the
+sample's ``b_m, e_m`` attributes, else the x-y extent of the top-plate bonds' contact
+points), as the cantilever of EN 12697-26 Eq. 3. ``barycentre`` + ``clamped`` is the former
+core: the tangential springs then resist the rigid rotation of bonded pairs and the bending
+stiffness of the sample is spurious (network factor ~90 instead of ~1.1-1.5, harmonic
+solver).
+
 Checkpoint and resume: every ``checkpoint_every`` steps the recorded arrays are written to
 ``<output>.partial.npz`` and then the core state to ``<output>.ckpt.h5`` (both atomic, in
 that order, so the arrays always cover the checkpoint); a rerun resumes from them when the
@@ -78,6 +90,7 @@ import numpy as np
 from ..io import InputError, atomic_path
 
 DT_POLICIES = ("fixed", "steps_per_cycle")
+HEAD_ROTATIONS = ("free", "clamped")
 FORCE_READINGS = ("bonds", "driver")
 #: per-step statistics stored under ``stats/``
 STAT_KEYS = ("iterations", "residual_quad", "residual_max", "converged", "n_contacts",
@@ -99,6 +112,8 @@ class TwoPBSettings:
         None = unbreakable bonds (a linear test).
     force_reading : 'bonds' | 'driver'. checkpoint_every : steps (0 = never).
     profile_bins, profile_instants : height bins and instants of the velocity profile.
+    bond_kinematics : 'contact' | 'barycentre' (config ``nscd.bond_kinematics``);
+    head_rotation : 'free' | 'clamped' (module docstring).
     """
 
     amplitude_m: float = 63e-6
@@ -119,8 +134,16 @@ class TwoPBSettings:
     checkpoint_every: int = 5000
     profile_bins: int = 10
     profile_instants: int = 8
+    bond_kinematics: str = "contact"
+    head_rotation: str = "free"
 
     def __post_init__(self):
+        if self.head_rotation not in HEAD_ROTATIONS:
+            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
+                             f"got {self.head_rotation!r}")
+        if self.bond_kinematics not in ("contact", "barycentre"):
+            raise ValueError(f"bond_kinematics must be 'contact' or 'barycentre', "
+                             f"got {self.bond_kinematics!r}")
         if self.dt_policy not in DT_POLICIES:
             raise ValueError(f"dt_policy must be one of {DT_POLICIES}, got {self.dt_policy!r}")
         if self.force_reading not in FORCE_READINGS:
@@ -169,26 +192,58 @@ def specimen_of(sample) -> "Specimen2PB":  # noqa: F821
     return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **geo)
 
 
+def head_inertia_of(sample) -> np.ndarray:
+    """Principal moments of inertia (3,) kg m² of the head about ``plates/point[1]``: the
+    harmonic model's steel cuboid (module docstring)."""
+    from ..harmonic.network import contact_points, head_inertia
+
+    if "b_m" in sample.attrs and "e_m" in sample.attrs:
+        size = (float(sample.attrs["b_m"]), float(sample.attrs["e_m"]))
+    else:
+        i = np.asarray(sample.bonds["i"])
+        j = np.asarray(sample.bonds["j"])
+        c = contact_points(sample.position, sample.radius, sample.plate_normal, i, j,
+                           np.asarray(sample.bonds["l0"]))[j == -2]
+        size = tuple(np.ptp(c[:, :2], axis=0)) if len(c) else (0.0, 0.0)
+    return head_inertia(float(sample.plate_mass[1]), *map(float, size))
+
+
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
     """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
-    fixed, top plate driven by :class:`HeadMotion`, bonds with the macro ``law``
-    (GeneralizedBurgers, Pa, Pa s). Returns (Simulation, HeadMotion)."""
+    fixed, top plate driven by :class:`HeadMotion` (and free to rotate when
+    ``settings.head_rotation == 'free'``, inertia :func:`head_inertia_of`), bonds with the
+    macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``.
+    Returns (Simulation, HeadMotion).
+
+    Raises
+    ------
+    InputError if the head is free to rotate but has no positive finite inertia.
+    """
     from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
 
     spheres = Spheres(position=sample.position, radius=sample.radius, mass=sample.mass,
                       inertia=sample.inertia)
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
+    head = {}
+    if settings.head_rotation == "free":
+        inertia = head_inertia_of(sample)
+        if not np.all((inertia > 0) & np.isfinite(inertia)):
+            raise InputError(f"head_rotation 'free': the head has no positive finite rotational "
+                             f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "
+                             f"{inertia} kg m²)")
+        head = {"rotation": True, "inertia": inertia}
     plates = Plates([
         Plate(sample.plate_point[0], sample.plate_normal[0], mode="fixed"),
         Plate(sample.plate_point[1], sample.plate_normal[1], mode="driven",
-              mass=float(sample.plate_mass[1]), displacement=motion),
+              mass=float(sample.plate_mass[1]), displacement=motion, **head),
     ])
     strength = np.inf if settings.yield_stress_Pa is None else float(settings.yield_stress_Pa)
     bonds = Bonds.create(spheres, plates, sample.bonds["i"], sample.bonds["j"], law, nu=settings.nu,
                          yield_stress=strength)
     gravity = (0.0, 0.0, -9.81) if settings.gravity else (0.0, 0.0, 0.0)
     params = NSCDParameters(dt=dt, theta=settings.theta, gravity=gravity, friction=settings.friction,
-                            tolerance=settings.tolerance, max_iterations=settings.max_iterations)
+                            tolerance=settings.tolerance, max_iterations=settings.max_iterations,
+                            bond_kinematics=settings.bond_kinematics)
     return Simulation(spheres, plates, bonds, params), motion
 
 

@@ -9,8 +9,8 @@
 * ``harmonic-bench``         — timing and peak memory on an N-sphere sample (JSON).
 
 ``--bond-kinematics contact|barycentre`` and ``--head-rotation free|clamped`` select the
-model of :mod:`asphalt_nscd.harmonic.solver` (default contact + free; ``harmonic-compare``
-defaults to barycentre + clamped, the kinematics of the NSCD core).
+model of :mod:`asphalt_nscd.harmonic.solver` (default contact + free, also the NSCD core's
+default; ``harmonic-compare`` passes the same options to the time-domain core).
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser("harmonic-compare",
                               help="harmonic vs NSCD time-domain |E*|, Phi per (T, f, dt, rtol)")
-    _add_law_options(p, bond_kinematics="barycentre", head_rotation="clamped")
+    _add_law_options(p)
     p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
     p.add_argument("--dt", type=float, nargs="+", required=True, help="time steps, s")
     p.add_argument("--rtol", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8, 1e-10, 1e-12],
@@ -187,7 +187,9 @@ def _compare(args) -> int:
     system, params, geometry = _load(args)
     frame = compare_time_domain(args.sample, system, params, args.frequency, args.dt, args.rtol,
                                 geometry, amplitude=args.amplitude_m, n_cycles=args.cycles,
-                                settle_factor=args.settle_factor, theta=args.theta, nu=args.nu)
+                                settle_factor=args.settle_factor, theta=args.theta, nu=args.nu,
+                                bond_kinematics=args.bond_kinematics,
+                                head_rotation=args.head_rotation)
     frame.insert(0, "sample", system.network.name)
     write_csv(frame, args.output)
     if args.figure:

@@ -1,10 +1,12 @@
 """Time-domain check of the harmonic solver: the same sample, law and head motion run
 through the NSCD core (:mod:`asphalt_nscd.nscd`), reduced by the same Eqs. 1-5.
 
-Set-up (identical to the harmonic model with ``bond_kinematics="barycentre"`` and
-``head_rotation="clamped"``, the kinematics of the NSCD core): no gravity, bottom plate fixed, top plate driven
-with x(t) = A sin(w t) (mass = the sample file's top-plate mass, which enters the driver
-force), bonds created from the sample configuration with the macro law scaled per bond
+Set-up (identical to the harmonic model with the same ``bond_kinematics`` and
+``head_rotation``, passed to the NSCD core: ``NSCDParameters.bond_kinematics`` and, for a
+free head, a top plate with ``rotation=True`` and the harmonic model's head inertia
+(:func:`.network.head_inertia`, about ``plates/point[1]``)): no gravity, bottom plate fixed,
+top plate driven with x(t) = A sin(w t) (mass = the sample file's top-plate mass, which
+enters the driver force), bonds created from the sample configuration with the macro law scaled per bond
 (``Bonds.create``: Eqs. 30-33, 8-11), Moreau-Jean theta-method with step ``dt``.
 
 Reading: the forces of a step are means over the step, so they are sampled at the mid-step
@@ -46,7 +48,8 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
                     dt: float, amplitude: float = 63e-6, n_cycles: int = 5,
                     settle_factor: float = 6.0, window_cycles: int = 1, theta: float = 0.5,
                     tolerance: float = 1e-8, nu: float = 0.35, max_steps: int = 2_000_000,
-                    force_reading: str = "bonds") -> dict:
+                    force_reading: str = "bonds", bond_kinematics: str = "contact",
+                    head_rotation: str = "free") -> dict:
     """Run the time-domain 2PB test of a sample at one (law, f, dt) and reduce it.
 
     Parameters
@@ -58,6 +61,8 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
     n_cycles, settle_factor, window_cycles : duration and analysis window (module docstring).
     theta, tolerance : Moreau-Jean theta and NLGS tolerance (fast path is exact).
     force_reading : {"bonds", "driver"}, see the module docstring.
+    bond_kinematics : {"contact", "barycentre"}; head_rotation : {"free", "clamped"} — the
+        model (:mod:`.solver`), passed to the NSCD core (module docstring).
 
     Returns
     -------
@@ -76,6 +81,8 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
     """
     if force_reading not in ("bonds", "driver"):
         raise ValueError(f"force_reading must be 'bonds' or 'driver', got {force_reading!r}")
+    if head_rotation not in ("free", "clamped"):
+        raise ValueError(f"head_rotation must be 'free' or 'clamped', got {head_rotation!r}")
     import h5py
 
     from ..lab.en12697 import Specimen2PB, reduce_record
@@ -89,13 +96,19 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
         plate_mass = h5["plates/mass"][()]
         bi, bj = h5["bonds/i"][()], h5["bonds/j"][()]
     omega = 2.0 * np.pi * frequency_Hz
+    head = {}
+    if head_rotation == "free":
+        from .network import read_sample
+
+        head = {"rotation": True, "inertia": read_sample(sample_path).plate_inertia}
     plates = Plates([
         Plate(point[0], normal[0], mode="fixed"),
         Plate(point[1], normal[1], mode="driven", mass=float(plate_mass[1]),
-              displacement=lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0)),
+              displacement=lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0), **head),
     ])
     bonds = Bonds.create(spheres, plates, bi, bj, law, nu=nu)
-    params = NSCDParameters(dt=dt, theta=theta, gravity=(0.0, 0.0, 0.0), tolerance=tolerance)
+    params = NSCDParameters(dt=dt, theta=theta, gravity=(0.0, 0.0, 0.0), tolerance=tolerance,
+                            bond_kinematics=bond_kinematics)
     sim = Simulation(spheres, plates, bonds, params)
     period = 1.0 / frequency_Hz
     duration = max(n_cycles * period, settle_factor * relaxation_bound_s(law))

@@ -8,14 +8,15 @@ State::
     Spheres(position (N,3), radius (N,), mass (N,), inertia (N,), velocity, angular_velocity)
     Spheres.from_density(position, radius, density)          # mass inf = immobile sphere
     Plate(point (3,), normal (3,) inward, mode='fixed'|'free'|'driven', mass=inf,
-          displacement=callable t -> (3,) | (times (T,), disp (T,3)))   # driven plates
-    Plates([Plate, ...])                                       # infinite planes, translation only
+          displacement=callable t -> (3,) | (times (T,), disp (T,3)),   # driven plates
+          rotation=False, inertia=inf (scalar or (3,) kg m², about point))  # free rotation
+    Plates([Plate, ...])   # infinite planes; .angular_velocity, .rotation (P,3) if rotating
     Bonds.create(spheres, plates, i, j, law: GeneralizedBurgers, nu=0.35, yield_stress=2.7e6)
         # j = sphere index or -1-k for plate k; rest state = current configuration
     NSCDParameters(dt, theta=0.5, gravity=(0,0,-9.81), friction=0.7, tolerance=1e-6,
                    convergence='quad'|'max'|'both', max_iterations=2000, relaxation=1.0,
                    alert_distance=None, fast_path=True, linear_solver='cg'|'direct',
-                   linear_tolerance=1e-10)
+                   linear_tolerance=1e-10, bond_kinematics='contact'|'barycentre')
     NSCDParameters.from_config(config['nscd'], dt, friction, gravity)
 
 Time stepping::
@@ -31,6 +32,7 @@ Time stepping::
     df = sim.run(n_steps, callback=None)      # DataFrame of StepStats.as_row()
     sim.save_checkpoint("x.h5"); Simulation.load_checkpoint("x.h5", drivers=[...])
     sim.bonds.force (B,3) N, bonds.broken (B,), sim.contact_impulse (C,3) N s (/dt = force)
+    sim.plate_torque (P,3) N m  # bond torque on each plate about its point, last step
 
 Choices (details in the module docstrings)
 ------------------------------------------
@@ -38,10 +40,19 @@ Choices (details in the module docstrings)
   phase error vs omega dt and theta is measured by ``verify.phase_error_table``).
 * Contacts: Signorini on U_n + max(g,0)/h (LMGC90 IQS-like), Coulomb on the 3D cone solved
   exactly (diagonal isotropic Delassus block of spheres and planes; local_laws.py).
-* Bonds: force at the barycentres, no torque, frame of the initial configuration
-  (small strain); generalized Burger's law integrated by the theta-method (theta = 1 is the
+* Bonds: ``bond_kinematics='contact'`` (default) — the bond acts at its contact point c
+  (middle of the gap on the line of centres) with lever arms c - x (fixed, small strain):
+  its force carries torques, a rigid rotation of a bonded pair strains no bond, the
+  Delassus block is a full 3x3 and the linear fast path has 6 DOF per sphere;
+  ``'barycentre'`` — the former core: force at the barycentres, no torque (the tangential
+  springs resist rigid rotations: a 2PB sample is ~90x too stiff in bending). Same options
+  as asphalt_nscd.harmonic. Frame of the initial configuration (small strain); generalized
+  Burger's law integrated by the theta-method (theta = 1 is the
   paper's Eq. 26); breakage when |R_n| or |R_t| > R_crit, then Eqs. 6-7; a bonded pair
   that also touches gets both forces.
+* Plates may rotate freely about their reference point (``rotation=True``; e.g. the 2PB
+  head, driven in translation): bonds exert torques on them ('contact' kinematics);
+  contacts ignore the plate rotation (documented in moreau_jean.py).
 * Steps with no active contact and no breakage are solved as a linear system (linear.py,
   preconditioned CG; 'direct' = symmetric-mode SuperLU, exact but slower per step at
   12 000 spheres), otherwise NLGS; ``StepStats.solver`` says which. The configured CG

@@ -14,7 +14,8 @@ Cases
     last lattice layer may be partial). The production path (linear fast path, conjugate
     gradient at ``linear_tolerance``) is timed over ``steps`` steps; the baseline (NLGS
     at the given tolerance) over ``baseline_steps`` steps of the same sample; their ratio
-    is reported.
+    is reported. ``bond_kinematics`` ('contact', the default, or 'barycentre') applies to
+    all three runs (production, direct, NLGS baseline); the head does not rotate.
 ``granular``
     A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
     lattice (about 1.5 N^(1/3) spheres along x and y) in a box of 5 fixed walls, friction 0.2,
@@ -135,12 +136,13 @@ def _timed(sim, steps):
 
 def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
               tolerance: float = 1e-7, settle_steps: int = 100, seed: int = 0,
-              linear_tolerance: float = 1e-7) -> dict:
+              linear_tolerance: float = 1e-7, bond_kinematics: str = "contact") -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
     (1e-7, config/config.yaml: changes the phase angle of the driver force at 40 Hz,
-    -10 degC, by < 1e-4 degree against the exact direct solve).
+    -10 degC, by < 1e-4 degree against the exact direct solve). ``bond_kinematics``: of the
+    bonded case (NSCDParameters).
 
     Raises
     ------
@@ -157,14 +159,15 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     rec: dict = {"case": case, "n_particles": int(n), "steps": int(steps),
                  "tolerance": tolerance, "threads": 1,
                  "numba_threads_available": int(numba.config.NUMBA_NUM_THREADS),
-                 "compile_s": comp, "seed": seed,
+                 "compile_s": comp, "seed": seed, "bond_kinematics": bond_kinematics,
                  "cpu": platform.processor() or platform.machine(),
                  "python": platform.python_version(), "numba": numba.__version__}
     if case == "bonded":
         s, plates, bonds = bonded_sample(n, seed=seed)
         params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                 max_iterations=5000, fast_path=True,
-                                linear_tolerance=linear_tolerance)
+                                linear_tolerance=linear_tolerance,
+                                bond_kinematics=bond_kinematics)
         sim = Simulation(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
@@ -183,7 +186,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         s3, plates3, bonds3 = bonded_sample(n, seed=seed)
         t3 = time.perf_counter()
         sim3 = Simulation(s3, plates3, bonds3, NSCDParameters(
-            dt=5e-5, theta=0.5, friction=0.7, fast_path=True, linear_solver="direct"))
+            dt=5e-5, theta=0.5, friction=0.7, fast_path=True, linear_solver="direct",
+            bond_kinematics=bond_kinematics))
         sim3.step()  # factorisation
         direct_setup = time.perf_counter() - t3
         cpu3, _, _, _ = _timed(sim3, steps)
@@ -196,7 +200,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         # baseline: NLGS on the same sample, same state
         s2, plates2, bonds2 = bonded_sample(n, seed=seed)
         params2 = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
-                                 max_iterations=20000, fast_path=False)
+                                 max_iterations=20000, fast_path=False,
+                                 bond_kinematics=bond_kinematics)
         sim2 = Simulation(s2, plates2, bonds2, params2)
         wall2, _, df2, br2 = _timed(sim2, baseline_steps)
         rec.update(baseline_solver="nlgs", baseline_steps=int(baseline_steps),

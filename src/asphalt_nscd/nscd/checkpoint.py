@@ -20,12 +20,13 @@ from ..io import InputError, atomic_path
 from .state import DRIVEN, Bonds, NSCDParameters, Plate, Plates, Spheres
 
 _SPHERE = ("position", "radius", "mass", "inertia", "velocity", "angular_velocity")
-_PLATE = ("point", "point0", "normal", "mass", "mode", "velocity")
+_PLATE = ("point", "point0", "normal", "mass", "mode", "velocity", "rotates", "inertia",
+          "angular_velocity", "rotation")
 _BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "Ck", "Kinf",
-         "r_crit", "force", "delta_c", "delta_k", "broken")
+         "r_crit", "arm_i", "arm_j", "displacement", "force", "delta_c", "delta_k", "broken")
 _PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations",
            "relaxation",
-           "alert_distance", "fast_path", "linear_solver", "linear_tolerance")
+           "alert_distance", "fast_path", "linear_solver", "linear_tolerance", "bond_kinematics")
 
 
 def write_checkpoint(sim, path) -> None:
@@ -61,6 +62,8 @@ def write_checkpoint(sim, path) -> None:
                 g = f.create_group("solver")
                 g["v_before"] = sim._v_before
                 g["vp_before"] = sim._vp_before
+                g["w_before"] = sim._w_before
+                g["wp_before"] = sim._wp_before
             g = f.create_group("params")
             for k in _PARAMS:
                 val = getattr(sim.params, k)
@@ -102,10 +105,14 @@ def read_checkpoint(path, drivers=None, external_force=None):
                     raise InputError(f"{path}: plate {k} is driven; pass its driver in drivers")
             name = {0: "fixed", 1: "free", 2: "driven"}[int(mode[k])]
             plate_list.append(Plate(point=gp["point0"][k], normal=gp["normal"][k], mode=name,
-                                    mass=float(gp["mass"][k]), displacement=drv))
+                                    mass=float(gp["mass"][k]), displacement=drv,
+                                    rotation=bool(gp["rotates"][k]),
+                                    inertia=gp["inertia"][k]))
         plates = Plates(plate_list)
         plates.point[:] = gp["point"][()]
         plates.velocity[:] = gp["velocity"][()]
+        plates.angular_velocity[:] = gp["angular_velocity"][()]
+        plates.rotation[:] = gp["rotation"][()]
         gb = f["bonds"]
         bonds = Bonds(**{k: gb[k][()] for k in _BOND}, law=json.loads(gb.attrs["law"]))
         pa = {k: f["params"].attrs[k] for k in _PARAMS}
@@ -115,6 +122,7 @@ def read_checkpoint(path, drivers=None, external_force=None):
         pa["fast_path"] = bool(pa["fast_path"])
         pa["linear_solver"] = str(pa["linear_solver"])
         pa["convergence"] = str(pa["convergence"])
+        pa["bond_kinematics"] = str(pa["bond_kinematics"])
         params = NSCDParameters(**pa)
         if external_force is None and "external_force" in f:
             external_force = f["external_force"][()]
@@ -128,6 +136,8 @@ def read_checkpoint(path, drivers=None, external_force=None):
         if "solver" in f:
             sim._v_before = f["solver/v_before"][()]
             sim._vp_before = f["solver/vp_before"][()]
+            sim._w_before = f["solver/w_before"][()]
+            sim._wp_before = f["solver/wp_before"][()]
         gc = f["contacts"]
         sim.contact_i = gc["i"][()]
         sim.contact_j = gc["j"][()]

@@ -7,7 +7,7 @@
 
 ``asphalt-nscd bench --case bonded|granular --n N [--steps S] [--baseline-steps B]
 [--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
--o bench.json`` runs one benchmark.
+[--bond-kinematics contact|barycentre] -o bench.json`` runs one benchmark.
 """
 
 
@@ -39,6 +39,8 @@ def register(subparsers) -> None:
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--linear-tolerance", type=float, default=1e-7,
                    help="relative residual of the conjugate gradient (bonded case)")
+    b.add_argument("--bond-kinematics", choices=["contact", "barycentre"], default="contact",
+                   help="where the bonds act (bonded case; NSCDParameters.bond_kinematics)")
     b.add_argument("-o", "--output", required=True, help="JSON record")
     b.set_defaults(func=_bench)
 
@@ -93,7 +95,8 @@ def _bench(args) -> int:
         raise InputError(f"--n must be >= 2 and --steps >= 1 (got {args.n}, {args.steps})")
     rec = run_bench(args.case, args.n, steps=args.steps, baseline_steps=args.baseline_steps,
                     tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed,
-                    linear_tolerance=args.linear_tolerance)
+                    linear_tolerance=args.linear_tolerance,
+                    bond_kinematics=args.bond_kinematics)
     write_json(rec, args.output)
     return 0
 

@@ -9,6 +9,10 @@ each visit computes the local velocity from the current body velocities, removes
 its own contribution (b = U - W_aa P_old), solves its local law exactly, relaxes
 (P <- omega P_loc + (1-omega) P_old) and pushes the change of impulse back into the body
 velocities. Off-diagonal Delassus blocks are thus never formed (cost O(nnz H) a sweep).
+Bonds with the 'contact' kinematics (``rot`` True) use their velocity at the contact point
+(local_laws.bond_velocity), the full block W_bb and A_inv = (I + diag(c_g) W_bb)^-1
+(delassus.bond_blocks_contact), and push torques a x g onto both bodies (a rotating plate
+included: inverse principal inertia (P,3) in global axes).
 
 Convergence (LMGC90 style, on the change of reactions between two sweeps):
     quad = sqrt(sum |dP_a|² / sum |P_a|²)          (quadratic mean)
@@ -25,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .local_laws import contact_local_solve
+from .local_laws import bond_velocity, contact_local_solve
 
 
 @njit(cache=True, inline="always")
@@ -110,43 +114,84 @@ def contact_velocities(ci, cj, frame, radius, v, w, vp, out):
 
 
 @njit(cache=True, inline="always")
-def _push_bond(b, dp, bi, bj, frame, v, vp, inv_mass, inv_mass_plate):
+def _push_bond(b, dp, bi, bj, frame, v, vp, inv_mass, inv_mass_plate, arm_i, arm_j, w, wp,
+               inv_inertia, inv_inertia_plate, rot):
+    """Add the global effect of a change dp (3,) of bond b's local impulse: +g on i, -g on
+    j (g = F^T dp) at the barycentres, plus the torques a x g at c when rot."""
     i = bi[b]
     j = bj[b]
-    for d in range(3):
-        g = frame[b, 0, d] * dp[0] + frame[b, 1, d] * dp[1] + frame[b, 2, d] * dp[2]
-        v[i, d] += inv_mass[i] * g
+    g0 = frame[b, 0, 0] * dp[0] + frame[b, 1, 0] * dp[1] + frame[b, 2, 0] * dp[2]
+    g1 = frame[b, 0, 1] * dp[0] + frame[b, 1, 1] * dp[1] + frame[b, 2, 1] * dp[2]
+    g2 = frame[b, 0, 2] * dp[0] + frame[b, 1, 2] * dp[1] + frame[b, 2, 2] * dp[2]
+    mi = inv_mass[i]
+    v[i, 0] += mi * g0
+    v[i, 1] += mi * g1
+    v[i, 2] += mi * g2
+    if j >= 0:
+        mj = inv_mass[j]
+        v[j, 0] -= mj * g0
+        v[j, 1] -= mj * g1
+        v[j, 2] -= mj * g2
+    else:
+        k = -1 - j
+        mk = inv_mass_plate[k]
+        vp[k, 0] -= mk * g0
+        vp[k, 1] -= mk * g1
+        vp[k, 2] -= mk * g2
+    if rot:
+        a0 = arm_i[b, 0]
+        a1 = arm_i[b, 1]
+        a2 = arm_i[b, 2]
+        ii = inv_inertia[i]
+        w[i, 0] += ii * (a1 * g2 - a2 * g1)
+        w[i, 1] += ii * (a2 * g0 - a0 * g2)
+        w[i, 2] += ii * (a0 * g1 - a1 * g0)
+        a0 = arm_j[b, 0]
+        a1 = arm_j[b, 1]
+        a2 = arm_j[b, 2]
         if j >= 0:
-            v[j, d] -= inv_mass[j] * g
+            ij = inv_inertia[j]
+            w[j, 0] -= ij * (a1 * g2 - a2 * g1)
+            w[j, 1] -= ij * (a2 * g0 - a0 * g2)
+            w[j, 2] -= ij * (a0 * g1 - a1 * g0)
         else:
-            vp[-1 - j, d] -= inv_mass_plate[-1 - j] * g
+            k = -1 - j
+            wp[k, 0] -= inv_inertia_plate[k, 0] * (a1 * g2 - a2 * g1)
+            wp[k, 1] -= inv_inertia_plate[k, 1] * (a2 * g0 - a0 * g2)
+            wp[k, 2] -= inv_inertia_plate[k, 2] * (a0 * g1 - a1 * g0)
 
 
 @njit(cache=True)
 def apply_impulses(ci, cj, cframe, radius, cP, bi, bj, bframe, bP, v, w, vp, inv_mass,
-                   inv_inertia, inv_mass_plate):
-    """v <- v + M^-1 H P for all contact (C,3) and bond (B,3) impulses (warm start)."""
+                   inv_inertia, inv_mass_plate, barm_i, barm_j, wp, inv_inertia_plate, rot):
+    """v <- v + M^-1 H P for all contact (C,3) and bond (B,3) impulses (warm start); bond
+    lever arms barm_i, barm_j (B,3), plate angular velocities wp (P,3) used when rot."""
     for a in range(len(ci)):
         _push_contact(a, cP[a, 0], cP[a, 1], cP[a, 2], ci, cj, cframe, radius, v, w, vp,
                       inv_mass, inv_inertia, inv_mass_plate)
     for b in range(len(bi)):
-        _push_bond(b, bP[b], bi, bj, bframe, v, vp, inv_mass, inv_mass_plate)
+        _push_bond(b, bP[b], bi, bj, bframe, v, vp, inv_mass, inv_mass_plate, barm_i, barm_j,
+                   w, wp, inv_inertia, inv_inertia_plate, rot)
 
 
 @njit(cache=True)
 def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, broken,
          radius, v, w, vp, inv_mass, inv_inertia, inv_mass_plate, h, mu, tol, relax,
-         max_iter, norm):
+         max_iter, norm, barm_i, barm_j, bW, bA_inv, wp, inv_inertia_plate, rot):
     """Nonlinear Gauss-Seidel sweeps until convergence.
 
-    On entry v (N,3), w (N,3), vp (P,3) must already include the impulses cP (C,3), bP (B,3)
-    (see apply_impulses). Contacts: gap (C,) m, blocks cwn, cwt (C,). Bonds: block bw (B,),
-    affine law P = bc0 - bcg U (B,3). Returns (iterations, quad, maxm, converged).
+    On entry v (N,3), w (N,3), vp (P,3), wp (P,3) must already include the impulses cP
+    (C,3), bP (B,3) (see apply_impulses). Contacts: gap (C,) m, blocks cwn, cwt (C,). Bonds:
+    affine law P = bc0 - bcg U (B,3); 'barycentre' (rot False): block bw (B,) (times I);
+    'contact' (rot True): lever arms barm_i, barm_j (B,3), blocks bW (B,3,3) and bA_inv
+    (B,3,3) (delassus.bond_blocks_contact). Returns (iterations, quad, maxm, converged).
     """
     nc = len(ci)
     nb = len(bi)
     u = np.empty(3)
     dp = np.empty(3)
+    ul = np.empty(3)
+    rhs = np.empty(3)
     quad = 0.0
     maxm = 0.0
     it = 0
@@ -162,19 +207,36 @@ def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, b
         for b in range(nb):
             if broken[b]:
                 continue
-            i = bi[b]
-            j = bj[b]
-            for c in range(3):
-                acc = 0.0
-                for d in range(3):
-                    vj = v[j, d] if j >= 0 else vp[-1 - j, d]
-                    acc += bframe[b, c, d] * (v[i, d] - vj)
-                bfree = acc - bw[b] * bP[b, c]
-                p_new = (bc0[b, c] - bcg[b, c] * bfree) / (1.0 + bcg[b, c] * bw[b])
-                p_new = relax * p_new + (1.0 - relax) * bP[b, c]
-                dp[c] = p_new - bP[b, c]
-                bP[b, c] = p_new
-            _push_bond(b, dp, bi, bj, bframe, v, vp, inv_mass, inv_mass_plate)
+            if rot:
+                g0, g1, g2 = bond_velocity(b, bi, bj, barm_i, barm_j, v, w, vp, wp, rot)
+                for c in range(3):
+                    ul[c] = bframe[b, c, 0] * g0 + bframe[b, c, 1] * g1 + bframe[b, c, 2] * g2
+                for c in range(3):
+                    bfree = ul[c] - (bW[b, c, 0] * bP[b, 0] + bW[b, c, 1] * bP[b, 1]
+                                     + bW[b, c, 2] * bP[b, 2])
+                    rhs[c] = bc0[b, c] - bcg[b, c] * bfree
+                for c in range(3):
+                    p_new = (bA_inv[b, c, 0] * rhs[0] + bA_inv[b, c, 1] * rhs[1]
+                             + bA_inv[b, c, 2] * rhs[2])
+                    p_new = relax * p_new + (1.0 - relax) * bP[b, c]
+                    dp[c] = p_new - bP[b, c]
+                for c in range(3):
+                    bP[b, c] += dp[c]
+            else:
+                i = bi[b]
+                j = bj[b]
+                for c in range(3):
+                    acc = 0.0
+                    for d in range(3):
+                        vj = v[j, d] if j >= 0 else vp[-1 - j, d]
+                        acc += bframe[b, c, d] * (v[i, d] - vj)
+                    bfree = acc - bw[b] * bP[b, c]
+                    p_new = (bc0[b, c] - bcg[b, c] * bfree) / (1.0 + bcg[b, c] * bw[b])
+                    p_new = relax * p_new + (1.0 - relax) * bP[b, c]
+                    dp[c] = p_new - bP[b, c]
+                    bP[b, c] = p_new
+            _push_bond(b, dp, bi, bj, bframe, v, vp, inv_mass, inv_mass_plate, barm_i, barm_j,
+                       w, wp, inv_inertia, inv_inertia_plate, rot)
             d2 = dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2
             sum_d2 += d2
             sum_p2 += bP[b, 0] ** 2 + bP[b, 1] ** 2 + bP[b, 2] ** 2

@@ -34,7 +34,12 @@ delta_k+ = (Ck delta_k- - h R+)/(Ck + h Kk) in our sign convention)::
 The impulse of the step is P = h (th R+ + (1-th) R-), hence the modified local law (Eq. 25)
 is affine: P = c0 - c_g U+ with c0 = h (th R_pred + (1-th) R-), R_pred = A/C - K_eff
 (delta- + h(1-th) U-), c_g = h² th² K_eff, and with U = b + w P the local solution is
-P = (c0 - c_g b)/(1 + c_g w) per component. Breakage (Eqs. 12-13): when |R_n+| or
+P = (c0 - c_g b)/(1 + c_g w) per component (barycentre kinematics; with the contact
+kinematics W_bb is a full 3x3 block and P = (I + diag(c_g) W_bb)^-1 (c0 - c_g b),
+gauss_seidel.py). The bond's relative velocity U (:func:`bond_velocity`) is that of the
+barycentres ('barycentre') or of the contact point with the lever arms ('contact', see
+state.Bonds); with 'contact' delta- is the accumulated ``Bonds.displacement``, with
+'barycentre' it is recomputed from the positions. Breakage (Eqs. 12-13): when |R_n+| or
 |(R_t+, R_s+)| exceeds R_crit the bond is marked broken at the end of the step; from the
 next step on only Signorini-Coulomb acts on the pair.
 """
@@ -66,6 +71,44 @@ def contact_local_solve(bn, bt, bs, gap, h, wn, wt, mu):
     return pn, pt, ps
 
 
+@njit(cache=True, inline="always")
+def bond_velocity(b, bi, bj, arm_i, arm_j, v, w, vp, wp, rot):
+    """Global relative velocity (3 floats, m/s) of bond b: v_i - v_j ('barycentre', rot
+    False), or (v_i + w_i x a_i) - (v_j + w_j x a_j) at the contact point (rot True; a plate
+    antagonist k contributes vp_k + wp_k x a_j)."""
+    i = bi[b]
+    j = bj[b]
+    if j >= 0:
+        u0 = v[i, 0] - v[j, 0]
+        u1 = v[i, 1] - v[j, 1]
+        u2 = v[i, 2] - v[j, 2]
+    else:
+        k = -1 - j
+        u0 = v[i, 0] - vp[k, 0]
+        u1 = v[i, 1] - vp[k, 1]
+        u2 = v[i, 2] - vp[k, 2]
+    if rot:
+        a0 = arm_i[b, 0]
+        a1 = arm_i[b, 1]
+        a2 = arm_i[b, 2]
+        u0 += w[i, 1] * a2 - w[i, 2] * a1
+        u1 += w[i, 2] * a0 - w[i, 0] * a2
+        u2 += w[i, 0] * a1 - w[i, 1] * a0
+        a0 = arm_j[b, 0]
+        a1 = arm_j[b, 1]
+        a2 = arm_j[b, 2]
+        if j >= 0:
+            u0 -= w[j, 1] * a2 - w[j, 2] * a1
+            u1 -= w[j, 2] * a0 - w[j, 0] * a2
+            u2 -= w[j, 0] * a1 - w[j, 1] * a0
+        else:
+            k = -1 - j
+            u0 -= wp[k, 1] * a2 - wp[k, 2] * a1
+            u1 -= wp[k, 2] * a0 - wp[k, 0] * a2
+            u2 -= wp[k, 0] * a1 - wp[k, 1] * a0
+    return u0, u1, u2
+
+
 @njit(cache=True)
 def bond_coefficients(Km, Cm, Kk, Ck, h, theta, coef, i_den):
     """Reciprocals of the step (constant for given bond parameters, h and theta), so that
@@ -86,11 +129,14 @@ def bond_coefficients(Km, Cm, Kk, Ck, h, theta, coef, i_den):
 
 @njit(cache=True)
 def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, force,
-                 delta_c, delta_k, broken, h, theta, c0, cg, delta_m, u_m):
+                 delta_c, delta_k, broken, h, theta, c0, cg, delta_m, u_m,
+                 arm_i, arm_j, w, wp, disp, rot):
     """Per-bond affine law coefficients for the step (see module docstring).
 
-    Inputs: positions x (N,3), velocities v (N,3) at the start of the step, plate points xp
-    (P,3) and step velocities vp (P,3); coef (B,3,2), i_den (B,NK,2) from
+    Inputs: positions x (N,3), velocities v (N,3) and angular velocities w (N,3) at the
+    start of the step, plate points xp (P,3), step velocities vp (P,3) and angular
+    velocities wp (P,3); lever arms arm_i, arm_j (B,3), accumulated displacement disp (B,3)
+    and rot (True = 'contact' kinematics); coef (B,3,2), i_den (B,NK,2) from
     :func:`bond_coefficients`; bond parameters (B,2)/(B,NK,2) and state.
     Outputs (filled): c0 (B,3) N s, cg (B,3) N s/m, delta_m (B,3) m = delta-, u_m (B,3) m/s = U-.
     Broken bonds get c0 = cg = 0.
@@ -110,20 +156,18 @@ def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, f
             r0 = x[i, 0] - x[j, 0] - rest[b, 0]
             r1 = x[i, 1] - x[j, 1] - rest[b, 1]
             r2 = x[i, 2] - x[j, 2] - rest[b, 2]
-            u0 = v[i, 0] - v[j, 0]
-            u1 = v[i, 1] - v[j, 1]
-            u2 = v[i, 2] - v[j, 2]
         else:
             k = -1 - j
             r0 = x[i, 0] - xp[k, 0] - rest[b, 0]
             r1 = x[i, 1] - xp[k, 1] - rest[b, 1]
             r2 = x[i, 2] - xp[k, 2] - rest[b, 2]
-            u0 = v[i, 0] - vp[k, 0]
-            u1 = v[i, 1] - vp[k, 1]
-            u2 = v[i, 2] - vp[k, 2]
+        u0, u1, u2 = bond_velocity(b, bi, bj, arm_i, arm_j, v, w, vp, wp, rot)
         for c in range(3):
             p = 0 if c == 0 else 1
-            dl = frame[b, c, 0] * r0 + frame[b, c, 1] * r1 + frame[b, c, 2] * r2
+            if rot:
+                dl = disp[b, c]
+            else:
+                dl = frame[b, c, 0] * r0 + frame[b, c, 1] * r1 + frame[b, c, 2] * r2
             ul = frame[b, c, 0] * u0 + frame[b, c, 1] * u1 + frame[b, c, 2] * u2
             delta_m[b, c] = dl
             u_m[b, c] = ul
@@ -141,9 +185,10 @@ def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, f
 
 @njit(cache=True)
 def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c, delta_k,
-                broken, h, theta, delta_m, u_m, v, vp, impulse):
-    """End-of-step update of the bond state from the end velocities v (N,3), vp (P,3);
-    coef, i_den from :func:`bond_coefficients`.
+                broken, h, theta, delta_m, u_m, v, vp, impulse, arm_i, arm_j, w, wp, disp, rot):
+    """End-of-step update of the bond state from the end velocities v, w (N,3), vp, wp
+    (P,3); coef, i_den from :func:`bond_coefficients`; disp (B,3) receives delta+ (the
+    accumulated displacement of the 'contact' kinematics, rot True).
 
     Updates force (B,3), delta_c, delta_k in place, marks broken bonds (|R_n| or |R_T| >
     r_crit) and zeroes their force and impulse. Returns (number newly broken, energy
@@ -157,16 +202,7 @@ def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c
     for b in range(len(bi)):
         if broken[b]:
             continue
-        i = bi[b]
-        j = bj[b]
-        if j >= 0:
-            u0 = v[i, 0] - v[j, 0]
-            u1 = v[i, 1] - v[j, 1]
-            u2 = v[i, 2] - v[j, 2]
-        else:
-            u0 = v[i, 0] - vp[-1 - j, 0]
-            u1 = v[i, 1] - vp[-1 - j, 1]
-            u2 = v[i, 2] - vp[-1 - j, 2]
+        u0, u1, u2 = bond_velocity(b, bi, bj, arm_i, arm_j, v, w, vp, wp, rot)
         for c in range(3):
             p = 0 if c == 0 else 1
             up = frame[b, c, 0] * u0 + frame[b, c, 1] * u1 + frame[b, c, 2] * u2
@@ -188,6 +224,7 @@ def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c
                 e_new += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
             delta_c[b, c] -= h * (theta * r_ch_p + (1.0 - theta) * r_ch_m) * coef[b, 1, p]
             force[b, c] = r_ch_p - Kinf[b, p] * dp
+            disp[b, c] = dp
             dissipated += -impulse[b, c] * (dp - dl) / h - (e_new - e_old)
         rt = math.sqrt(force[b, 1] ** 2 + force[b, 2] ** 2)
         if abs(force[b, 0]) > r_crit[b] or rt > r_crit[b]:

@@ -15,7 +15,16 @@ One step of length h from t- to t+ = t- + h (Jean 1999; Eq. 14 of the paper):
 5. bonds: internal variables, forces, breakage (local_laws.bond_update);
 6. positions x+ = x- + h (theta v+ + (1-theta) v-) (spheres and free plates); driven plates
    at their imposed position; rotations are integrated only as angular velocities (the
-   orientation of a sphere does not enter any law).
+   orientation of a sphere does not enter any law; a rotating plate accumulates its small
+   rotation vector in ``Plates.rotation``).
+
+Bond kinematics (``NSCDParameters.bond_kinematics``, state.Bonds): with 'contact' the
+bonds act at their contact points with lever arms (torques on spheres and on rotating
+plates); the linear fast path then has 6 DOF per sphere (linear.py). Rotating plates
+(``Plate(rotation=True)``): translation as their mode says (e.g. driven), free rotation
+about their reference point under the bond torques. Contacts do not see a plate's rotation
+(their plate velocity is its translation, and they exert no torque on it): adequate for the
+small head rotations of a bonded 2PB test, where the head's load passes through bonds.
 
 Reported plate forces: ``plate_force`` = impulse / h of the spheres on the plate, i.e.
 theta R(t+) + (1-theta) R(t-); ``driver_force`` = m (a_theta - g) - plate_force with a_theta
@@ -35,7 +44,7 @@ from typing import Callable
 import numpy as np
 
 from . import detection, gauss_seidel, local_laws
-from .delassus import bond_blocks, contact_blocks
+from .delassus import bond_blocks, bond_blocks_contact, contact_blocks
 from .linear import LinearBondSolver
 from .state import (CONVERGENCE_NORMS, DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates,
                     Spheres, StepStats)
@@ -81,9 +90,14 @@ class Simulation:
         self._linear_key = None
         self._coef_key = None
         self._bond_work = None  # per-step bond work arrays, reused (bond_predict fills them)
+        #: (P, 3) N m, mean torque of the bonds on each plate about its reference point over
+        #: the last step ('contact' kinematics; zero with 'barycentre').
+        self.plate_torque = np.zeros((self.plates.n, 3))
         self.linear_iterations = 0
         self._v_before = None
         self._vp_before = None
+        self._w_before = None
+        self._wp_before = None
         self.timings = {"detection": 0.0, "solve": 0.0, "bonds": 0.0, "other": 0.0}
         if self.params.alert_distance is None:
             self.alert_distance = 0.5 * float(spheres.radius.min()) if spheres.n else 0.0
@@ -115,7 +129,9 @@ class Simulation:
         inv_m = sph.inv_mass
         inv_i = sph.inv_inertia
         inv_mp = pls.inv_mass
+        inv_ip = pls.inv_inertia
         finite = np.isfinite(sph.mass)
+        rot = p.bond_kinematics == "contact"
 
         # 1. plates
         vp_start = pls.velocity.copy()
@@ -129,6 +145,8 @@ class Simulation:
             elif pls.mode[k] == FIXED:
                 vp_start[k] = 0.0
         vp = vp_start.copy()
+        wp_start = np.where(pls.rotates[:, None], pls.angular_velocity, 0.0)
+        wp = wp_start.copy()
         free_p = pls.mode == FREE
         if free_p.any():
             vp[free_p] += h * (p.gravity
@@ -171,15 +189,22 @@ class Simulation:
         # bonds: affine laws of the step
         nb = bnd.n
         if self._bond_work is None or self._bond_work[0].shape[0] != nb:
-            self._bond_work = tuple(np.zeros((nb, 3)) for _ in range(4)) + (np.zeros(nb),)
-        c0, cg, d_m, u_m, bw = self._bond_work  # all entries rewritten by the kernels below
+            self._bond_work = (tuple(np.zeros((nb, 3)) for _ in range(4)) + (np.zeros(nb),)
+                               + (np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3))))
+        # all entries rewritten by the kernels below
+        c0, cg, d_m, u_m, bw, bW, bA = self._bond_work
         if nb:
             coef, i_den = self._bond_coefficients()
             local_laws.bond_predict(bnd.i, bnd.j, bnd.frame, bnd.rest, sph.position, v_m,
                                     pls.point, vp_start, coef, i_den, bnd.Kk, bnd.Ck,
                                     bnd.Kinf, bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken,
-                                    h, th, c0, cg, d_m, u_m)
-            bond_blocks(bnd.i, bnd.j, inv_m, inv_mp, bw)
+                                    h, th, c0, cg, d_m, u_m, bnd.arm_i, bnd.arm_j, w_m,
+                                    wp_start, bnd.displacement, rot)
+            if rot:
+                bond_blocks_contact(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, inv_m, inv_i,
+                                    inv_mp, inv_ip, cg, bW, bA)
+            else:
+                bond_blocks(bnd.i, bnd.j, inv_m, inv_mp, bw)
         bP = self.bond_impulse
         bP[bnd.broken] = 0.0
         t_c = _time.perf_counter()
@@ -189,19 +214,25 @@ class Simulation:
         solver = "nlgs"
         it, quad, maxm, conv = 0, 0.0, 0.0, True
         if p.fast_path and nb and self._fast_path(v_free, vp_free, c0, cg, v, vp, bP, inv_m,
-                                                  inv_mp, ci, cj, cframe, gap, w, h):
+                                                  inv_mp, ci, cj, cframe, gap, w, h,
+                                                  wp, inv_i, inv_ip, rot):
             solver = "linear"
             it = self.linear_iterations
             cP[:] = 0.0
         else:
             v[:] = v_free
             vp[:] = vp_free
+            w[:] = w_m
+            w[~finite] = 0.0
+            wp[:] = wp_start
             gauss_seidel.apply_impulses(ci, cj, cframe, sph.radius, cP, bnd.i, bnd.j,
-                                        bnd.frame, bP, v, w, vp, inv_m, inv_i, inv_mp)
+                                        bnd.frame, bP, v, w, vp, inv_m, inv_i, inv_mp,
+                                        bnd.arm_i, bnd.arm_j, wp, inv_ip, rot)
             it, quad, maxm, conv = gauss_seidel.nlgs(
                 ci, cj, cframe, gap, cwn, cwt, cP, bnd.i, bnd.j, bnd.frame, bw, c0, cg, bP,
                 bnd.broken, sph.radius, v, w, vp, inv_m, inv_i, inv_mp, h, p.friction,
-                p.tolerance, p.relaxation, p.max_iterations, CONVERGENCE_NORMS[p.convergence])
+                p.tolerance, p.relaxation, p.max_iterations, CONVERGENCE_NORMS[p.convergence],
+                bnd.arm_i, bnd.arm_j, bW, bA, wp, inv_ip, rot)
         t_d = _time.perf_counter()
         self.timings["solve"] += t_d - t_c
 
@@ -210,7 +241,8 @@ class Simulation:
         if nb:
             n_new, diss_b = local_laws.bond_update(
                 bnd.i, bnd.j, bnd.frame, coef, i_den, bnd.Kk, bnd.Ck, bnd.Kinf, bnd.r_crit,
-                bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken, h, th, d_m, u_m, v, vp, bP)
+                bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken, h, th, d_m, u_m, v, vp, bP,
+                bnd.arm_i, bnd.arm_j, w, wp, bnd.displacement, rot)
         # contact dissipation: -P . (theta U+ + (1-theta) U-)
         diss_c = 0.0
         if cP.any():
@@ -229,9 +261,12 @@ class Simulation:
             g = np.einsum("ac,acd->ad", cP[on_plate], cframe[on_plate])
             np.add.at(plate_force, -1 - cj[on_plate], -g / h)
         bp = (bnd.j < 0) if nb else np.zeros(0, bool)
+        self.plate_torque = np.zeros((pls.n, 3))
         if nb and bp.any():
             g = np.einsum("ac,acd->ad", bP[bp], bnd.frame[bp])
             np.add.at(plate_force, -1 - bnd.j[bp], -g / h)
+            if rot:
+                np.add.at(self.plate_torque, -1 - bnd.j[bp], np.cross(bnd.arm_j[bp], -g / h))
         driver = np.zeros((pls.n, 3))
         for k in range(pls.n):
             if pls.mode[k] == DRIVEN and np.isfinite(pls.mass[k]):
@@ -245,6 +280,7 @@ class Simulation:
 
         # 6. positions
         self._v_before, self._vp_before = v_m, vp_start
+        self._w_before, self._wp_before = w_m, wp_start
         sph.position += h * (th * v + (1 - th) * v_m)
         sph.velocity[:] = v
         sph.angular_velocity[:] = w
@@ -254,6 +290,8 @@ class Simulation:
             else:
                 pls.point[k] = new_point[k]
         pls.velocity[:] = vp
+        pls.rotation += h * (th * wp + (1 - th) * wp_start)
+        pls.angular_velocity[:] = wp
         self.contact_i, self.contact_j = ci, cj
         self.contact_impulse, self.contact_frame = cP, cframe
         self.time = t1
@@ -338,37 +376,56 @@ class Simulation:
         return cP
 
     def _fast_path(self, v_free, vp_free, c0, cg, v, vp, bP, inv_m, inv_mp, ci, cj, cframe,
-                   gap, w, h) -> bool:
-        """Try the linear solver; True if its solution is the solution of the step."""
+                   gap, w, h, wp, inv_i, inv_ip, rot) -> bool:
+        """Try the linear solver; True if its solution is the solution of the step (then
+        v, vp, bP, and with rot also w, wp, hold it)."""
         bnd = self.bonds
         p = self.params
         key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
-               p.linear_tolerance)
+               p.linear_tolerance, rot)
         if self._linear_key != key:
+            rotation = None
+            if rot:
+                rotation = dict(arm_i=bnd.arm_i, arm_j=bnd.arm_j, inv_inertia=inv_i,
+                                inv_inertia_plate=inv_ip)
             self._linear = LinearBondSolver(inv_m, inv_mp, bnd.i, bnd.j, bnd.frame, cg,
                                             bnd.broken, method=p.linear_solver,
-                                            tolerance=p.linear_tolerance)
+                                            tolerance=p.linear_tolerance, rotation=rotation)
             self._linear_key = key
         v_try = v_free.copy()
         vp_try = vp_free.copy()
+        w_try = w.copy()
+        wp_try = wp.copy()
         P_try = np.zeros_like(bP)
         # initial guess of the iterative solver: linear extrapolation of the velocities
         v0, vp0 = self.spheres.velocity, self.plates.velocity
+        w0, wp0 = self.spheres.angular_velocity, self.plates.angular_velocity
         if self._v_before is not None and self._v_before.shape == v0.shape:
             v0 = 2.0 * v0 - self._v_before
             vp0 = 2.0 * vp0 - self._vp_before
-        self._linear.solve(v_free, vp_free, bnd.i, bnd.j, bnd.frame, c0, cg, bnd.broken,
-                           v_try, vp_try, P_try, v_start=v0, vp_start=vp0)
+            if rot and self._w_before is not None:
+                w0 = 2.0 * w0 - self._w_before
+                wp0 = 2.0 * wp0 - self._wp_before
+        if rot:
+            self._linear.solve_rot(v_free, w.copy(), vp_free, wp.copy(), bnd.i, bnd.j,
+                                   bnd.frame, bnd.arm_i, bnd.arm_j, c0, cg, bnd.broken,
+                                   v_try, w_try, vp_try, wp_try, P_try,
+                                   start=(v0, w0, vp0, wp0))
+        else:
+            self._linear.solve(v_free, vp_free, bnd.i, bnd.j, bnd.frame, c0, cg, bnd.broken,
+                               v_try, vp_try, P_try, v_start=v0, vp_start=vp0)
         self.linear_iterations = self._linear.last_iterations
         # contacts must stay open with zero reaction
         if len(ci):
             u = np.empty((len(ci), 3))
-            self._contact_velocities(ci, cj, cframe, v_try, w, vp_try, u)
+            self._contact_velocities(ci, cj, cframe, v_try, w_try, vp_try, u)
             if np.any(u[:, 0] + np.maximum(gap, 0.0) / h < 0.0):
                 bP[:] = P_try  # warm start for NLGS
                 return False
         v[:] = v_try
         vp[:] = vp_try
+        w[:] = w_try
+        wp[:] = wp_try
         bP[:] = P_try
         return True
 
@@ -381,6 +438,8 @@ class Simulation:
         e += 0.5 * (s.inertia[fin] * (s.angular_velocity[fin] ** 2).sum(1)).sum()
         free = self.plates.mode == FREE
         e += 0.5 * (self.plates.mass[free] * (self.plates.velocity[free] ** 2).sum(1)).sum()
+        rp = self.plates.rotates
+        e += 0.5 * (self.plates.inertia[rp] * self.plates.angular_velocity[rp] ** 2).sum()
         return float(e)
 
     # ------------------------------------------------------------------ checkpoint

@@ -31,6 +31,9 @@ PLATE_MODES = {"fixed": FIXED, "free": FREE, "driven": DRIVEN}
 #: NLGS convergence norms (gauss_seidel.nlgs): quadratic mean, maximum, both.
 CONVERGENCE_NORMS = {"quad": 0, "max": 1, "both": 2}
 
+#: Bond kinematics (NSCDParameters.bond_kinematics, Bonds).
+BOND_KINEMATICS = ("contact", "barycentre")
+
 #: Yield stress of the bonds, Pa (paper, Section 3.1: 2.7 MPa).
 YIELD_STRESS = 2.7e6
 
@@ -101,7 +104,8 @@ class Spheres:
 
 @dataclass
 class Plate:
-    """One rigid infinite plane (translations only).
+    """One rigid infinite plane: translation (fixed, free or driven) and, optionally, free
+    rotation about its reference point.
 
     Parameters
     ----------
@@ -113,6 +117,13 @@ class Plate:
     displacement : for a driven plate, the imposed displacement of ``point`` from its initial
         position: a callable ``t -> (3,)`` (m), or a tuple ``(times (T,), disp (T, 3))`` of
         samples linearly interpolated (held constant outside).
+    rotation : bool — if True the plate rotates freely about ``point`` under the torques of
+        its bonds (e.g. the head of a 2PB test, free to rotate as the cantilever of
+        EN 12697-26 Eq. 3 while its translation is imposed). Small rotations: the plate's
+        orientation (normal) is not updated; contacts do not see the rotation (documented
+        limitation, Simulation). Default False (translation only, as before).
+    inertia : kg m² — principal moments (3,) about ``point`` along the global axes, or a
+        scalar; required (finite, > 0) when ``rotation`` is True.
     """
 
     point: Sequence[float]
@@ -120,6 +131,8 @@ class Plate:
     mode: str = "fixed"
     mass: float = np.inf
     displacement: Callable | tuple | None = None
+    rotation: bool = False
+    inertia: float | Sequence[float] = np.inf
 
     def __post_init__(self):
         if self.mode not in PLATE_MODES:
@@ -128,6 +141,9 @@ class Plate:
             raise ValueError("a driven plate needs a displacement history")
         if self.mode == "free" and not (np.isfinite(self.mass) and self.mass > 0):
             raise ValueError("a free plate needs a finite positive mass")
+        inertia = np.broadcast_to(np.asarray(self.inertia, float), (3,))
+        if self.rotation and not (np.all(np.isfinite(inertia)) and np.all(inertia > 0)):
+            raise ValueError("a rotating plate needs finite positive moments of inertia")
 
 
 class Plates:
@@ -140,6 +156,9 @@ class Plates:
     mass : (P,) kg; mode : (P,) int (FIXED, FREE, DRIVEN).
     velocity : (P, 3) m/s — mean velocity over the last step for driven plates.
     drivers : list of P displacement histories (None unless driven).
+    rotates : (P,) bool; inertia : (P, 3) kg m² (principal, global axes, about ``point``).
+    angular_velocity : (P, 3) rad/s; rotation : (P, 3) rad — accumulated small rotation
+        vector (zero for plates that do not rotate).
     """
 
     def __init__(self, plates: Sequence[Plate] = ()):
@@ -150,7 +169,11 @@ class Plates:
         self.mass = np.full(p, np.inf)
         self.mode = np.zeros(p, dtype=np.int64)
         self.drivers: list = []
+        self.rotates = np.zeros(p, dtype=bool)
+        self.inertia = np.full((p, 3), np.inf)
         for k, pl in enumerate(plates):
+            self.rotates[k] = bool(pl.rotation)
+            self.inertia[k] = np.broadcast_to(np.asarray(pl.inertia, float), (3,))
             self.point[k] = np.asarray(pl.point, float)
             nrm = np.asarray(pl.normal, float)
             self.normal[k] = nrm / np.linalg.norm(nrm)
@@ -159,6 +182,8 @@ class Plates:
             self.drivers.append(pl.displacement if pl.mode == "driven" else None)
         self.point0 = self.point.copy()
         self.velocity = np.zeros((p, 3))
+        self.angular_velocity = np.zeros((p, 3))
+        self.rotation = np.zeros((p, 3))
 
     @property
     def n(self) -> int:
@@ -170,6 +195,13 @@ class Plates:
         inv = np.zeros(self.n)
         free = self.mode == FREE
         inv[free] = 1.0 / self.mass[free]
+        return inv
+
+    @property
+    def inv_inertia(self) -> np.ndarray:
+        """(P, 3) 1/(kg m²): inverse principal moments of rotating plates, 0 otherwise."""
+        inv = np.zeros((self.n, 3))
+        inv[self.rotates] = 1.0 / self.inertia[self.rotates]
         return inv
 
     def imposed_displacement(self, k: int, t: float) -> np.ndarray:
@@ -187,11 +219,24 @@ class Bonds:
     """Generalized Burger's bonds (Maxwell in series with NK Kelvin-Voigt units, optional
     parallel spring), one per bonded pair (Eqs. 12-13, 20-26, 30-33, 8-11).
 
-    The bond force acts at the barycentres of the two bodies and carries no torque
-    (docs/design.md). The bond frame (n, t, s) is that of the initial configuration
-    (small-strain, consistent with the harmonic solver): the bond displacement is
-    ``delta = frame @ ((x_i - x_j) - rest)`` where ``rest`` is the initial relative
-    position (sphere-plate: relative to the plate's reference point).
+    Where the bond acts is chosen by ``NSCDParameters.bond_kinematics``:
+
+    * ``'contact'`` (default): at the bond's contact point c = x_i + (r_i + delta0/2) e, e the
+      unit vector from sphere i towards the other body (the plate: minus its inward normal),
+      i.e. the middle of the gap on the line of centres (as harmonic/network.py). The local
+      velocity is U = frame @ ((v_i + w_i x a_i) - (v_j + w_j x a_j)) with the lever arms
+      a_i = c - x_i, a_j = c - x_j (plate: c - its reference point, the centre of its
+      rotation), fixed at their initial values (small strain); the force acts at c, so it
+      carries a torque a x R on both bodies, and a rigid rotation of a bonded pair strains
+      no bond. The displacement ``displacement`` (local frame) is accumulated from U by the
+      theta-method (orientations are not tracked).
+    * ``'barycentre'``: at the barycentres, no torque (the former core): the bond
+      displacement is ``delta = frame @ ((x_i - x_j) - rest)`` from the positions. A rigid
+      rotation of a pair strains its tangential springs (spurious bending stiffness).
+
+    The bond frame (n, t, s) is that of the initial configuration (small strain, consistent
+    with the harmonic solver); ``rest`` is the initial relative position (sphere-plate:
+    relative to the plate's reference point).
 
     Attributes (B bonds, NK Kelvin-Voigt units; index 0 = normal, 1 = tangential)
     ----------
@@ -199,6 +244,9 @@ class Bonds:
     delta0 : (B,) m initial gap; l0 : (B,) m initial barycentre (or centre-plane) distance;
     r_min : (B,) m; section : (B,) m² = pi r_min²; r_crit : (B,) N = yield_stress * section.
     frame : (B, 3, 3) rows n, t, s; rest : (B, 3) m.
+    arm_i, arm_j : (B, 3) m — lever arms c - x_i and c - x_j (plate: c - plate point).
+    displacement : (B, 3) m — bond displacement delta (local frame) of the 'contact'
+        kinematics, accumulated step by step (unused by 'barycentre').
     Km, Cm, Kinf : (B, 2) N/m, N s/m, N/m; Kk, Ck : (B, NK, 2).
     force : (B, 3) N — total bond force at the end of the last step (local frame).
     delta_c : (B, 3) m — Maxwell dashpot displacement; delta_k : (B, NK, 3) m — Kelvin-Voigt.
@@ -218,6 +266,9 @@ class Bonds:
     Ck: np.ndarray
     Kinf: np.ndarray
     r_crit: np.ndarray
+    arm_i: np.ndarray = None
+    arm_j: np.ndarray = None
+    displacement: np.ndarray = None
     force: np.ndarray = None
     delta_c: np.ndarray = None
     delta_k: np.ndarray = None
@@ -235,6 +286,11 @@ class Bonds:
             self.delta_k = np.zeros((b, nk, 3))
         if self.broken is None:
             self.broken = np.zeros(b, dtype=bool)
+        if self.displacement is None:
+            self.displacement = np.zeros((b, 3))
+        for name in ("arm_i", "arm_j"):
+            if getattr(self, name) is None:
+                raise ValueError(f"Bonds.{name} (lever arms (B, 3), m) is required")
 
     @property
     def n(self) -> int:
@@ -250,7 +306,8 @@ class Bonds:
         return cls(i=np.zeros(0, np.int64), j=np.zeros(0, np.int64), delta0=z, l0=z, r_min=z,
                    frame=np.zeros((0, 3, 3)), rest=np.zeros((0, 3)), Km=np.zeros((0, 2)),
                    Cm=np.zeros((0, 2)), Kk=np.zeros((0, n_kelvin, 2)),
-                   Ck=np.zeros((0, n_kelvin, 2)), Kinf=np.zeros((0, 2)), r_crit=z)
+                   Ck=np.zeros((0, n_kelvin, 2)), Kinf=np.zeros((0, 2)), r_crit=z,
+                   arm_i=np.zeros((0, 3)), arm_j=np.zeros((0, 3)))
 
     @classmethod
     def create(cls, spheres: Spheres, plates: Plates, i, j, law: GeneralizedBurgers,
@@ -299,6 +356,13 @@ class Bonds:
         delta0 = l0 - r_i
         delta0[sph] -= spheres.radius[j[sph]]
         frame = local_frames(normal)
+        # contact point c = x_i + (r_i + delta0/2) e, e from i towards the other body; n
+        # points from the antagonist to i for both kinds of bond, so e = -n
+        c = x[i] - (r_i + 0.5 * delta0)[:, None] * normal
+        arm_i = c - x[i]
+        arm_j = np.empty_like(arm_i)
+        arm_j[sph] = c[sph] - x[j[sph]]
+        arm_j[~sph] = c[~sph] - plates.point[kk]
         a = bond_scale(r_min, l0)  # Eqs. 30-33
         ratio = np.array([1.0, tangential_ratio(nu)])  # Eqs. 8-11
         nk = law.n_kelvin
@@ -310,7 +374,7 @@ class Bonds:
         r_crit = yield_stress * np.pi * r_min**2
         return cls(i=i, j=j, delta0=delta0, l0=l0, r_min=r_min, frame=frame, rest=rest,
                    Km=Km, Cm=Cm, Kk=np.ascontiguousarray(Kk), Ck=np.ascontiguousarray(Ck),
-                   Kinf=Kinf, r_crit=r_crit,
+                   Kinf=Kinf, r_crit=r_crit, arm_i=arm_i, arm_j=arm_j,
                    law={**law.as_dict(), "nu": nu, "yield_stress": yield_stress})
 
 
@@ -357,6 +421,9 @@ class NSCDParameters:
     linear_solver : 'cg' (matrix-free preconditioned conjugate gradient) or 'direct'
         (SuperLU, small systems).
     linear_tolerance : relative residual of 'cg'.
+    bond_kinematics : 'contact' (default; bond at the contact point, with torques, 6 DOF per
+        sphere in the linear fast path) or 'barycentre' (the former core: at the barycentres,
+        no torque). See :class:`Bonds`; same option as the harmonic solver.
     """
 
     dt: float
@@ -371,8 +438,12 @@ class NSCDParameters:
     fast_path: bool = True
     linear_solver: str = "cg"
     linear_tolerance: float = 1e-10
+    bond_kinematics: str = "contact"
 
     def __post_init__(self):
+        if self.bond_kinematics not in BOND_KINEMATICS:
+            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
+                             f"got {self.bond_kinematics!r}")
         if self.convergence not in CONVERGENCE_NORMS:
             raise ValueError(f"convergence must be one of {list(CONVERGENCE_NORMS)}, "
                              f"got {self.convergence!r}")
@@ -394,7 +465,7 @@ class NSCDParameters:
         """Parameters from the ``nscd`` section of the workflow config (solver keys) and
         the run's own dt (s), friction and gravity (m/s²)."""
         keys = ("theta", "tolerance", "convergence", "max_iterations", "relaxation", "fast_path",
-                "linear_solver", "linear_tolerance")
+                "linear_solver", "linear_tolerance", "bond_kinematics")
         return cls(dt=dt, friction=friction, gravity=gravity,
                    **{k: section[k] for k in keys if k in section})
 

@@ -10,7 +10,15 @@ Ek = 4.84e7, eta_k = 7.73e5; spheres of 2 mm radius, l0 = 4.5 mm):
 
 * ``creep_normal`` / ``creep_tangential``: one sphere fixed, constant force on the other,
   delta(t) = F (1/Km + t/Cm + (1 - exp(-Kk t/Ck))/Kk) (tangential: parameters x
-  1/(2(1+nu)), Eqs. 8-11); theta = 1 (L-stable, quasi-static with a light sphere).
+  1/(2(1+nu)), Eqs. 8-11); theta = 1 (L-stable, quasi-static with a light sphere). The
+  loaded sphere's rotation is locked (infinite inertia): with the default 'contact' bond
+  kinematics a bond is a point spring at c and a force at the barycentre would also drive
+  the free rolling of the sphere about c (harmonic/solver.py); locked, delta is the
+  barycentre translation under both kinematics.
+* ``rigid_rotation``: a bonded pair (sphere-sphere and sphere-plate with a rotating plate)
+  in rigid rotation (same angular velocity, consistent translations) for a few steps: no
+  bond force with the 'contact' kinematics (the tangential force k_t theta x (x_i - x_j)
+  of the 'barycentre' kinematics is the reference scale).
 * ``relaxation``: sphere fixed, plate driven by a step of the gap; R(t) against the
   relaxation of the chain computed by the matrix exponential of its linear ODE.
 * ``sinusoid``: two-sphere bond under F sin(w t), steady state against
@@ -84,14 +92,17 @@ def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = 0.35
 
 
 # ----------------------------------------------------------------------------- bonds
-def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5) -> list[dict]:
-    """Creep of a two-sphere bond under a constant force of R_crit/2 (normal or tangential)."""
-    s, b = _pair(mass1=1e-6)
+def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5,
+               kinematics: str = "contact") -> list[dict]:
+    """Creep of a two-sphere bond under a constant force of R_crit/2 (normal or tangential);
+    the loaded sphere does not rotate (module docstring). ``kinematics``: bond kinematics."""
+    s, b = _pair(mass1=1e-6, inertia1=np.inf)
     F = 0.5 * b.r_crit[0]
     axis = b.frame[0, 0] if direction == "normal" else b.frame[0, 1]
     f = np.zeros((2, 3))
     f[1] = F * axis
-    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0)),
+    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0),
+                                                bond_kinematics=kinematics),
                      external_force=f)
     micro = bond_law(LAW_15C, tangential=direction != "normal")
     times, num = [], []
@@ -396,9 +407,57 @@ def case_impact(dt: float = 1e-4, theta: float = 0.5, height: float = 0.05):
     return rows, np.array(diss), 0.5 * s.mass[0] * v_imp**2
 
 
+def rigid_rotation_force(kinematics: str, with_plate: bool = False, omega: float = 5.0,
+                         dt: float = 1e-5, n_steps: int = 20) -> float:
+    """Largest bond force (N) over ``n_steps`` steps of a bonded pair in rigid rotation.
+
+    Sphere-sphere: two mobile spheres at (0,0,0) and (L0,0,0), angular velocity (0, 0, omega)
+    rad/s about the origin, velocities omega x x. ``with_plate``: one sphere bonded to a
+    rotating plate (z = 0, driven with zero translation, free rotation), both spinning
+    about (0, 0, 0) with omega about y. No gravity; theta = 0.5.
+    """
+    m = 4.0 / 3.0 * np.pi * R_SPHERE**3 * DENSITY
+    w = np.array([0.0, 0.0, omega]) if not with_plate else np.array([0.0, omega, 0.0])
+    if with_plate:
+        pos = np.array([[0.0, 0.0, L0 / 2]])
+        s = Spheres(position=pos, radius=[R_SPHERE], mass=[m], inertia=[0.4 * m * R_SPHERE**2])
+        plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1,
+                               displacement=lambda t: np.zeros(3), rotation=True,
+                               inertia=1e-4)])
+        plates.angular_velocity[0] = w
+        b = Bonds.create(s, plates, [0], [-1], LAW_15C)
+    else:
+        pos = np.array([[0.0, 0.0, 0.0], [L0, 0.0, 0.0]])
+        s = Spheres(position=pos, radius=[R_SPHERE] * 2, mass=[m] * 2,
+                    inertia=[0.4 * m * R_SPHERE**2] * 2)
+        plates = Plates([])
+        b = Bonds.create(s, plates, [1], [0], LAW_15C)
+    s.angular_velocity[:] = w
+    s.velocity[:] = np.cross(w, s.position)
+    sim = Simulation(s, plates, b, NSCDParameters(dt=dt, gravity=(0, 0, 0),
+                                                  bond_kinematics=kinematics))
+    f_max = 0.0
+    for _ in range(n_steps):
+        sim.step()
+        f_max = max(f_max, float(np.abs(b.force).max()))
+    return f_max
+
+
+def case_rigid_rotation() -> list[dict]:
+    """No bond force under a rigid rotation with the 'contact' kinematics (module docstring)."""
+    rows = []
+    for with_plate, name in ((False, "sphere-sphere"), (True, "sphere-rotating plate")):
+        ref = rigid_rotation_force("barycentre", with_plate)
+        rows.append(_row("rigid_rotation", f"max |bond force|, contact kinematics, {name}",
+                         rigid_rotation_force("contact", with_plate), 0.0, 1e-9, "N",
+                         scale=ref, note=f"scale: barycentre kinematics force {ref:.3g} N"))
+    return rows
+
+
 def case_breakage(direction: str = "normal", dt: float = 1e-4) -> list[dict]:
-    """Force ramp F(t) = rate t on a two-sphere bond; record the force at breakage."""
-    s, b = _pair(mass1=1e-6)
+    """Force ramp F(t) = rate t on a two-sphere bond; record the force at breakage (the loaded
+    sphere does not rotate, as in :func:`case_creep`)."""
+    s, b = _pair(mass1=1e-6, inertia1=np.inf)
     rc = b.r_crit[0]
     t_break = 0.2
     rate = rc / t_break
@@ -548,6 +607,7 @@ def run_all(phase_omegas=(2 * np.pi * 40.0,), phase_dts=(1e-5, 2e-5, 5e-5, 1e-4,
     rows: list[dict] = []
     rows += case_creep("normal")
     rows += case_creep("tangential")
+    rows += case_rigid_rotation()
     rows += case_relaxation()
     rows += case_sinusoid()
     table = phase_error_table(LAW_15C, phase_omegas, phase_dts, phase_thetas)
