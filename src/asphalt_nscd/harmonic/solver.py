@@ -117,6 +117,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
+from ..nscd.linear import splu_symmetric
 from ..rheology.laws import tangential_ratio
 from .network import BondNetwork
 
@@ -356,7 +357,7 @@ class HarmonicSystem:
             kn = self.network.scale.astype(complex)
             blk = {k: sp.csc_matrix((v.data.real.copy(), v.indices, v.indptr), shape=v.shape)
                    for k, v in self.blocks(kn, kn * self.t_ratio).items()}
-            blk["lu"] = _factorise(blk["ff"]) if self.n_free else None
+            blk["lu"] = splu_symmetric(blk["ff"]) if self.n_free else None
             self._ref = blk
         return self._ref
 
@@ -387,7 +388,7 @@ class HarmonicSystem:
         if inertia != "none":
             a_ff = a_ff - omega**2 * sp.diags(self.mass_free.astype(complex), format="csc")
         rhs = -(blk["fp"] @ up)
-        uf = _factorise(a_ff).solve(rhs) if self.n_free else np.zeros(0, complex)
+        uf = splu_symmetric(a_ff).solve(rhs) if self.n_free else np.zeros(0, complex)
         residual = _relative_residual(a_ff, uf, rhs)
         reaction = blk["pf"] @ uf + blk["pp"] @ up
         return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct")
@@ -502,15 +503,6 @@ def _lever(arm) -> np.ndarray:
 def _check_inertia(inertia: str) -> None:
     if inertia not in INERTIA_MODES:
         raise ValueError(f"inertia must be one of {INERTIA_MODES}, got {inertia!r}")
-
-
-def _factorise(a):
-    """SuperLU factor of a sparse matrix with symmetric pattern (symmetric mode, MMD(A^T+A))."""
-    a = sp.csc_matrix(a, copy=True)
-    a.sort_indices()
-    a.data = np.ascontiguousarray(a.data)
-    return spla.splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                     options={"SymmetricMode": True})
 
 
 def _relative_residual(a, x, b) -> float:
