@@ -137,7 +137,7 @@ def test_cli_aggregation_and_figures(tmp_path):
 
 
 def test_projection_counts_the_workflow_jobs():
-    """The projection enumerates the same jobs as workflow/rules/simulation.smk (smoke: 14)."""
+    """The projection enumerates the same jobs as workflow/rules/simulation.smk (smoke: 15)."""
     import yaml
 
     from asphalt_nscd.campaign.bench import campaign_jobs, project_campaign
@@ -145,8 +145,12 @@ def test_projection_counts_the_workflow_jobs():
     with open("config/smoke.yaml") as fh:
         cfg = yaml.safe_load(fh)
     jobs = campaign_jobs(cfg["campaign"], len(cfg["sample"]["seeds"]))
-    # paper 1 + measured 1 + dt study 2 + sensitivity 8 + units kPa 1 + kPa unbreakable 1
-    assert sum(j["n_samples"] for j in jobs) == 14
+    # paper 1 + measured 1 + extended 1 + dt study 2 + sensitivity 8 + units kPa 1 + kPa unbreakable 1
+    assert sum(j["n_samples"] for j in jobs) == 15
+    ext = [j for j in jobs if j["mode"] == "extended"]
+    meas = [j for j in jobs if j["mode"] == "measured"]
+    assert [(j["temperature_C"], j["frequency_Hz"], j["dt_s"]) for j in ext] == \
+        [(j["temperature_C"], j["frequency_Hz"], j["dt_s"]) for j in meas]
     p = project_campaign(cfg["campaign"], 1, s_per_step=1e-3, overhead_s=0.0)
     assert p["total_core_h"] * 3600 == pytest.approx(p["n_steps_total"] * 1e-3)
     assert p["wall_h"]["2"] == pytest.approx(max(p["total_core_h"] / 2, p["longest_job_h"]))

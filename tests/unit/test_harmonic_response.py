@@ -139,3 +139,10 @@ def test_bench_cli(tmp_path):
     result = json.loads(out.read_text())
     assert result["n_spheres"] == 100 and result["peak_rss_mb"] > 0
     assert result["first_TF_total_s"] > 0 and result["time_domain_job_s"] > 0
+    assert set(result["orderings"]) == {"metis", "mmd", "colamd"}
+    assert result["orderings"]["mmd"]["fill_ratio_to_mmd"] == 1.0
+    assert all(v["relative_residual"] < 1e-6 for v in result["orderings"].values())
+    assert result["baseline"]["converged"] and result["baseline"]["speedup"] > 0
+    first = result["per_frequency"][0]
+    assert first["new_factorisations"][0]["kind"] == "G - sigma M"
+    assert len(result["subsequent_TF_s"]) == len(result["per_frequency"]) - 1

@@ -1,20 +1,48 @@
-# Diagnosis: what the simulation gets wrong. Error budget per temperature, named causes
-# (statistical tests on nested 2S2P1D/WLF master-curve fits), the extended generalized
-# Burger's law per temperature (results/diagnosis/generalized_burgers.json, Pa and Pa s, for
-# the campaign and the harmonic solver) and its gain; plus the detection benchmark on
-# synthetic tables with planted artifacts.
+# Diagnosis: what the simulation gets wrong. Two steps:
+# 1. extend_law: the extended generalized Burger's law per temperature (Maxwell + N
+#    Kelvin-Voigt units + static spring, from the 2S2P1D/WLF master curve of the
+#    artifact-corrected measured data; results/diagnosis/generalized_burgers.json, Pa and Pa s),
+#    from the measured table alone. The extended campaign mode (simulation.smk) runs with it.
+# 2. diagnose: error budget per temperature, named causes (statistical tests on nested
+#    master-curve fits; simulation causes from the NSCD campaign, the harmonic solver and the
+#    time-step phase error) and the gain per temperature, NSCD before -> NSCD after and macro
+#    law before -> after; plus the detection benchmark on synthetic tables with planted artifacts.
+# Simulation inputs (config diagnosis.simulated, harmonic, time_integration, simulated_extended,
+# transfer = the network factor JSONs of rule harmonic_transfer):
+# "auto" = the workflow's own outputs on the extended mode's samples (campaign.extended.n_samples,
+# the same samples before and after), null = not used, or a CSV path.
 # Rerun: `snakemake --cores 1 results/diagnosis/report.json --forcerun diagnose`.
 
 DIAG = config["diagnosis"]
 DIAG_CATEGORY = "What the simulation gets wrong"
-DIAG_OPTIONAL = {
-    key: DIAG.get(key)
-    for key in ("simulated", "harmonic", "time_integration", "simulated_extended")
-    if DIAG.get(key)
-}
 
 
-def _diagnose_options():
+def _diag_auto(key):
+    """The workflow's own output(s) for a simulation input of diagnose (``auto``)."""
+    samples = mode_samples("extended")
+    if key == "simulated":
+        return mode_rows("measured", samples)
+    if key == "simulated_extended":
+        return mode_rows("extended", samples)
+    if key == "harmonic":
+        return [f"results/harmonic/jobs/{s}_measured.csv" for s in samples]
+    if key == "time_integration":
+        return ["results/campaign/measured/dt_policy_phase_error.csv"]
+    if key == "transfer":
+        return [transfer_file(s) for s in samples]
+    raise ValueError(key)
+
+
+DIAG_INPUTS = {}
+for _key in ("simulated", "harmonic", "time_integration", "simulated_extended", "transfer"):
+    _value = DIAG.get(_key, "auto")
+    if _value == "auto":
+        DIAG_INPUTS[_key] = _diag_auto(_key)
+    elif _value:
+        DIAG_INPUTS[_key] = [_value]
+
+
+def _fit_options():
     opts = (
         f"--alpha {DIAG['alpha']} --shift {DIAG['shift']} --per-decade {DIAG['per_decade']} "
         f"--margin-decades {DIAG['margin_decades']} --prior-weight {DIAG['prior_weight']}"
@@ -23,22 +51,52 @@ def _diagnose_options():
         opts += f" --t-ref {DIAG['T_ref_C']}"
     if not DIAG["refine"]:
         opts += " --no-refine"
-    for key, path in DIAG_OPTIONAL.items():
-        opts += f" --{key.replace('_', '-')} {path}"
-    if "time_integration" in DIAG_OPTIONAL and "theta" in config.get("nscd", {}):
-        opts += f" --theta {config['nscd']['theta']}"
     return opts
+
+
+def _diagnose_options():
+    opts = _fit_options()
+    for key, paths in DIAG_INPUTS.items():
+        opts += f" --{key.replace('_', '-')} " + " ".join(paths)
+    if "time_integration" in DIAG_INPUTS:
+        # the campaign's Moreau-Jean theta (rows of other thetas are dropped)
+        opts += f" --theta {config['campaign']['test']['theta']}"
+    return opts
+
+
+rule extend_law:
+    input:
+        measured="results/lab/measured.csv",
+    output:
+        laws=report(
+            LAW_JSON,
+            caption="../report/diagnosis_extended_law.rst",
+            category=DIAG_CATEGORY,
+        ),
+        corrected="results/diagnosis/corrected_measured.csv",
+    params:
+        options=_fit_options(),
+    log:
+        "logs/diagnosis/extend_law.log",
+    benchmark:
+        "benchmarks/diagnosis/extend_law.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=15,
+    shell:
+        "asphalt-nscd extend-law --measured {input.measured} {params.options} -o {output.laws} "
+        "--corrected {output.corrected} 2> {log}"
 
 
 rule diagnose:
     input:
         measured="results/lab/measured.csv",
         macro="results/calibration/burgers_parameters.csv",
-        optional=list(DIAG_OPTIONAL.values()),
+        laws=LAW_JSON,
+        simulations=[p for paths in DIAG_INPUTS.values() for p in paths],
     output:
         report="results/diagnosis/report.json",
-        laws="results/diagnosis/generalized_burgers.json",
-        corrected="results/diagnosis/corrected_measured.csv",
         budget=report(
             "results/diagnosis/error_budget.csv",
             caption="../report/diagnosis_error_budget.rst",
@@ -71,8 +129,8 @@ rule diagnose:
         mem_mb=1000,
         runtime=15,
     shell:
-        "asphalt-nscd diagnose --measured {input.measured} --macro-params {input.macro} {params.options} "
-        "-o {output.report} --laws {output.laws} --corrected {output.corrected} "
+        "asphalt-nscd diagnose --measured {input.measured} --macro-params {input.macro} --law-json {input.laws} "
+        "{params.options} -o {output.report} "
         "--budget-csv {output.budget} --effects-csv {output.effects} --gain-csv {output.gain} "
         "--figure {output.figure} --page {output.page} 2> {log}"
 
@@ -106,6 +164,7 @@ REPORT_FILES += [
     "results/diagnosis/causes.csv",
     "results/diagnosis/gain.csv",
     "results/diagnosis/report.json",
-    "results/diagnosis/generalized_burgers.json",
+    LAW_JSON,
+    "results/diagnosis/corrected_measured.csv",
     "results/diagnosis/detection_bench.json",
 ]

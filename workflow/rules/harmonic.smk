@@ -264,6 +264,32 @@ rule harmonic_kinematics:
         "--inertia {params.inertia} -o {output} 2> {log}"
 
 
+rule harmonic_transfer:
+    # Network factor NF_s of a sample (no inertia; law-, T- and f-independent) under the
+    # time-domain test's kinematics (nscd.bond_kinematics, campaign.test.head_rotation, nu):
+    # the transfer correction of the extended campaign mode (run-2pb --network-factor-json).
+    input:
+        sample="results/samples/{sample}.h5",
+    output:
+        "results/harmonic/transfer/{sample}.json",
+    params:
+        bond_kinematics=config["nscd"].get("bond_kinematics", "contact"),
+        head_rotation=config["campaign"]["test"].get("head_rotation", "free"),
+        nu=config["campaign"]["test"].get("nu", 0.35),
+    log:
+        "logs/harmonic/transfer_{sample}.log",
+    benchmark:
+        "benchmarks/harmonic/transfer_{sample}.tsv"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=15,
+    shell:
+        "asphalt-nscd harmonic-transfer --sample {input.sample} --nu {params.nu} "
+        "--bond-kinematics {params.bond_kinematics} --head-rotation {params.head_rotation} "
+        "-o {output} 2> {log}"
+
+
 rule harmonic_bench:
     output:
         "results/harmonic/bench.json",

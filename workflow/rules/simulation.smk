@@ -3,12 +3,19 @@
 # Table 3 units question (Sections 3.2-4). One job per (mode, sample, T, f[, variant]):
 #   results/sim/{mode}/{sample}/{T}C_{f}Hz[_dt{dt} | _{param}x{factor}].h5 (record) + .csv (row)
 # Modes: paper (Table 3 under calibration.table3_units), measured (calibrated parameters),
-# and the studies: dt_study, sensitivity, units_Pa, units_kPa (paper parameters).
+# extended (the measured mode's schedule and settings with the generalized Burger's law of the
+# diagnosis, results/diagnosis/generalized_burgers.json, on campaign.extended.n_samples
+# samples; with campaign.extended.transfer_correction the bond law is divided by the sample's
+# network factor NF_s, results/harmonic/transfer/{sample}.json), and the studies: dt_study, sensitivity, units_Pa, units_kPa (paper parameters).
 # Rerun one job: `snakemake --cores 1 results/sim/paper/s1/15C_40Hz.csv --forcerun run_2pb`.
 import json
 import re
 
 CAMP = config["campaign"]
+# the extended bond law per temperature (rule extend_law, diagnosis.smk) run by the extended mode
+LAW_JSON = "results/diagnosis/generalized_burgers.json"
+# main campaign modes with a numerical_isotherms/table4 aggregation
+ISOTHERM_MODES = "paper|measured|extended"
 
 
 MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa")
@@ -16,9 +23,10 @@ MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa")
 
 def test_json(mode):
     """The test settings of a job mode as JSON: campaign.test with the mode's overrides of
-    dt_policy and yield_stress_Pa (the studies dt_study, sensitivity, units_* follow the paper mode),
-    and the core's bond kinematics (nscd.bond_kinematics)."""
-    sched = CAMP["measured"] if mode == "measured" else CAMP["paper"]
+    dt_policy and yield_stress_Pa (the extended mode follows the measured mode; the studies
+    dt_study, sensitivity, units_* follow the paper mode), and the core's bond kinematics
+    (nscd.bond_kinematics)."""
+    sched = CAMP["measured"] if mode in ("measured", "extended") else CAMP["paper"]
     cfg = {**CAMP["test"], **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
     if mode.endswith("_nobreak"):
         cfg["yield_stress_Pa"] = None
@@ -43,12 +51,19 @@ def case_name(T, f, suffix=""):
     return f"{_num(T)}C_{_num(f)}Hz{suffix}"
 
 
-def mode_rows(mode):
-    """Reduced rows of the main campaign of one mode (paper or measured)."""
-    sched = CAMP[mode]
+def mode_samples(mode):
+    """Samples of the main campaign of one mode: campaign.n_samples (paper, measured) or
+    campaign.extended.n_samples (extended)."""
+    return campaign_samples(CAMP["extended"]["n_samples"] if mode == "extended" else CAMP["n_samples"])
+
+
+def mode_rows(mode, samples=None):
+    """Reduced rows of the main campaign of one mode (paper, measured or extended; the
+    extended mode runs the measured schedule), on ``samples`` (default: the mode's)."""
+    sched = CAMP["measured" if mode == "extended" else mode]
     return [
         f"results/sim/{mode}/{s}/{case_name(T, f)}.csv"
-        for s in campaign_samples(CAMP["n_samples"])
+        for s in (mode_samples(mode) if samples is None else samples)
         for T in sched["temperatures_C"]
         for f in sched["frequencies_Hz"]
     ]
@@ -110,27 +125,52 @@ def job_args(wc):
         opts += f" --dt {m['dt']}"
     if m["p"]:
         opts += f" --factor {m['p']}={m['x']}"
-    if wc.mode == "measured":
+    if wc.mode == "extended" and transfer_correction():
+        opts += f" --network-factor-json {transfer_file(wc.sample)}"
+    if wc.mode in ("measured", "extended"):
         return opts
     units = wc.mode.split("_")[1] if wc.mode.startswith("units_") else config["calibration"]["table3_units"]
     return opts + f" --table3-units {units}"
 
 
+def transfer_correction():
+    """Whether the extended mode calibrates its bonds with E*(w) / NF_s (the sample's network
+    factor, rule harmonic_transfer; config campaign.extended.transfer_correction, default true)."""
+    return bool(CAMP["extended"].get("transfer_correction", True))
+
+
+def transfer_file(sample):
+    """Network factor JSON of a sample (rule harmonic_transfer, harmonic.smk)."""
+    return f"results/harmonic/transfer/{sample}.json"
+
+
+def job_transfer(wc):
+    """The transfer JSON a job needs: the extended mode's when the correction is on, else none."""
+    return [transfer_file(wc.sample)] if wc.mode == "extended" and transfer_correction() else []
+
+
 def job_parameters(wc):
-    return "results/calibration/burgers_parameters.csv" if wc.mode == "measured" else CAL["table3"]
+    return _mode_parameters(wc.mode)
+
+
+def _law_option(mode):
+    """CLI option of the mode's law file: --law-json (extended) or --parameters."""
+    return "--law-json" if mode == "extended" else "--parameters"
 
 
 rule run_2pb:
     input:
         sample=lambda wc: sample_file(wc.sample),
         parameters=job_parameters,
+        transfer=job_transfer,
     output:
         record="results/sim/{mode}/{sample}/{case}.h5",
         row="results/sim/{mode}/{sample}/{case}.csv",
     wildcard_constraints:
-        mode="paper|measured|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak|units_kPa_nobreak",
+        mode="paper|measured|extended|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak|units_kPa_nobreak",
         sample=r"s\d+",
     params:
+        source=lambda wc: _law_option(wc.mode),
         args=job_args,
         settings=lambda wc: test_json(wc.mode),
         window=WINDOW_CYCLES,
@@ -144,18 +184,21 @@ rule run_2pb:
         runtime=CAMP["job_runtime_min"],
     shell:
         "asphalt-nscd run-2pb --sample {input.sample} --sample-name {wildcards.sample} --mode {wildcards.mode}"
-        " --parameters {input.parameters} {params.args} --settings-json {params.settings:q}"
+        " {params.source} {input.parameters} {params.args} --settings-json {params.settings:q}"
         " --window-cycles {params.window} -o {output.record} --row {output.row} 2> {log}"
 
 
 def _mode_parameters(mode):
+    """Law file of a mode: calibrated Burger's table (measured), law JSON (extended), Table 3."""
     if mode == "measured":
         return "results/calibration/burgers_parameters.csv"
+    if mode == "extended":
+        return LAW_JSON
     return CAL["table3"]
 
 
 def _mode_options(mode):
-    if mode == "measured":
+    if mode in ("measured", "extended"):
         return "--measured-summary results/lab/measured_summary.csv"
     return f"--table3-units {CAL['table3_units']} --paper-table4 data/paper/table4_mre.csv"
 
@@ -164,7 +207,7 @@ rule campaign_isotherms:
     input:
         rows=lambda wc: mode_rows(wc.mode),
         parameters=lambda wc: _mode_parameters(wc.mode),
-        summary=lambda wc: ["results/lab/measured_summary.csv"] if wc.mode == "measured" else [],
+        summary=lambda wc: ["results/lab/measured_summary.csv"] if wc.mode in ("measured", "extended") else [],
     output:
         isotherms="results/campaign/{mode}/numerical_isotherms.csv",
         table4=report(
@@ -186,10 +229,11 @@ rule campaign_isotherms:
             subcategory="{mode}",
         ),
     wildcard_constraints:
-        mode="paper|measured",
+        mode=ISOTHERM_MODES,
     params:
+        source=lambda wc: _law_option(wc.mode),
         options=lambda wc: _mode_options(wc.mode),
-        title=lambda wc: "NSCD vs " + ("measured" if wc.mode == "measured" else "Table 3 Burger's") + f" ({wc.mode} mode)",
+        title=lambda wc: "NSCD vs " + ("Table 3 Burger's" if wc.mode == "paper" else "measured") + f" ({wc.mode} mode)",
     log:
         "logs/campaign/{mode}_isotherms.log",
     benchmark:
@@ -199,7 +243,7 @@ rule campaign_isotherms:
         mem_mb=1000,
         runtime=10,
     shell:
-        "asphalt-nscd campaign-isotherms --rows {input.rows} --parameters {input.parameters} {params.options}"
+        "asphalt-nscd campaign-isotherms --rows {input.rows} {params.source} {input.parameters} {params.options}"
         " --isotherms {output.isotherms} --table4 {output.table4} --figure-modulus {output.modulus}"
         " --figure-phase {output.phase} --title {params.title:q} 2> {log}"
 
@@ -371,6 +415,12 @@ for _mode in CAMP["modes"]:
         f"results/campaign/{_mode}/figures/fig10_isotherms_phase.png",
         f"results/campaign/{_mode}/dt_policy_phase_error.csv",
     ]
+# the extended mode always runs: the diagnosis compares it with the measured mode
+REPORT_FILES += [
+    "results/campaign/extended/table4_extended.csv",
+    "results/campaign/extended/figures/fig09_isotherms_modulus.png",
+    "results/campaign/extended/figures/fig10_isotherms_phase.png",
+]
 if "paper" in CAMP["modes"]:
     REPORT_FILES += [
         "results/campaign/paper/dt_study.csv",

@@ -60,12 +60,19 @@ def measure_step_cost(sample_path=None, n_spheres: int = 2000, n_steps: int = 20
 
 
 def campaign_jobs(campaign: dict, n_samples_total: int) -> list[dict]:
-    """Every test job of a ``campaign`` config section: mode, n_samples, T, f, dt, n_steps."""
+    """Every test job of a ``campaign`` config section: mode, n_samples, T, f, dt, n_steps.
+
+    As workflow/rules/simulation.smk: the main modes (``campaign.modes``, ``campaign.n_samples``
+    samples), the extended mode (the measured schedule and settings on
+    ``campaign.extended.n_samples`` samples; always run), the dt study, the sensitivity study
+    and the units question. The extended mode's transfer correction changes the law, not the
+    job count or the time steps.
+    """
     def ns(n):
         return n_samples_total if n is None else min(int(n), n_samples_total)
 
     def settings_for(mode):
-        sched = campaign["measured"] if mode == "measured" else campaign["paper"]
+        sched = campaign["measured"] if mode in ("measured", "extended") else campaign["paper"]
         cfg = dict(campaign["test"])
         cfg.update({k: sched[k] for k in ("dt_policy", "yield_stress_Pa") if k in sched})
         return TwoPBSettings(**{k: v for k, v in cfg.items() if k in TwoPBSettings.__dataclass_fields__})
@@ -82,6 +89,10 @@ def campaign_jobs(campaign: dict, n_samples_total: int) -> list[dict]:
         for T in campaign[mode]["temperatures_C"]:
             for f in campaign[mode]["frequencies_Hz"]:
                 add(mode, ns(campaign["n_samples"]), T, f)
+    if "extended" in campaign:
+        for T in campaign["measured"]["temperatures_C"]:
+            for f in campaign["measured"]["frequencies_Hz"]:
+                add("extended", ns(campaign["extended"]["n_samples"]), T, f)
     d = campaign["dt_study"]
     for dt in d["dt_s"]:
         add("dt_study", ns(d["n_samples"]), d["temperature_C"], d["frequency_Hz"], dt)

@@ -1,6 +1,7 @@
 """Subcommands of the campaign step (registered by asphalt_nscd.cli).
 
-``run-2pb``             one numerical 2PB complex modulus test: record (HDF5) + reduced row (CSV)
+``run-2pb``             one numerical 2PB complex modulus test: record (HDF5) + reduced row (CSV);
+                        ``--network-factor-json``: bond law divided by the sample's network factor
 ``campaign-isotherms``  numerical isotherms, Table 4 analogue, Figs. 9-10 analogues of one mode
 ``campaign-dt-study``   Fig. 6 analogue (time-step influence) and its table
 ``campaign-last-cycle`` Figs. 7-8 analogues (last cycle, velocity profile) from one record
@@ -21,9 +22,16 @@ def _settings_options(p):
                    help="last cycles reduced (config lab.simulation_window_cycles)")
 
 
-def _parameter_options(p):
-    p.add_argument("--parameters", required=True,
-                   help="Burger's parameter table: calibrated CSV in MPa, or the paper's Table 3 as printed")
+def _parameter_options(p, law_json: bool = False):
+    """--parameters (and, with ``law_json``, the alternative --law-json) and --table3-units."""
+    src = p.add_mutually_exclusive_group(required=True) if law_json else p
+    src.add_argument("--parameters", required=not law_json,
+                     help="Burger's parameter table: calibrated CSV in MPa, or the paper's Table 3 as printed")
+    if law_json:
+        src.add_argument("--law-json", default=None,
+                         help="generalized Burger's law per temperature (Pa, Pa s; output of "
+                              "'asphalt-nscd extend-law', e.g. results/diagnosis/generalized_burgers.json) "
+                              "instead of --parameters")
     p.add_argument("--table3-units", choices=("Pa", "kPa"), default=None,
                    help="read --parameters as the paper's Table 3 under this unit reading")
 
@@ -36,13 +44,20 @@ def register(subparsers) -> None:
                               "EN 12697-26 Eqs. 1-5 (CSV).")
     p.add_argument("--sample", required=True, help="sample file (.h5)")
     p.add_argument("--sample-name", default=None, help="sample name for the row (default: file stem)")
-    p.add_argument("--mode", default="paper", help="label of the parameter set (paper, measured, ...)")
-    _parameter_options(p)
+    p.add_argument("--mode", default="paper", help="label of the parameter set (paper, measured, extended, ...)")
+    _parameter_options(p, law_json=True)
     p.add_argument("--temperature", type=float, required=True, help="temperature, degC")
     p.add_argument("--frequency", type=float, required=True, help="loading frequency, Hz")
     p.add_argument("--factor", action="append", default=[], metavar="NAME=X",
-                   help="multiply a Burger's parameter (Em, eta_m, Ek, eta_k) by X; repeatable")
+                   help="multiply a Burger's parameter (Em, eta_m, Ek, eta_k) by X; repeatable "
+                        "(not with --law-json)")
     p.add_argument("--dt", type=float, default=None, help="fixed time step, s (overrides the dt policy)")
+    p.add_argument("--network-factor-json", default=None, metavar="PATH",
+                   help="transfer correction: divide every modulus and viscosity of the bond law by the "
+                        "sample's network factor NF_s read from PATH (output of 'asphalt-nscd "
+                        "harmonic-transfer', e.g. results/harmonic/transfer/s1.json; its sample, "
+                        "bond_kinematics, head_rotation and nu must match the run), so that the "
+                        "inertia-free sample modulus equals the macro law (asphalt_nscd.harmonic.transfer)")
     _settings_options(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("-o", "--output", required=True, help="record (.h5)")
@@ -51,10 +66,10 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser("campaign-isotherms", help="numerical isotherms, Table 4 analogue, Figs. 9-10")
     p.add_argument("--rows", nargs="+", required=True, help="reduced rows (CSV) of one mode")
-    _parameter_options(p)
+    _parameter_options(p, law_json=True)
     p.add_argument("--measured-summary", default=None,
                    help="measured means per (T, f) (results/lab/measured_summary.csv); default reference: "
-                   "the Burger's isotherms of --parameters")
+                   "the model isotherms of --parameters (or --law-json)")
     p.add_argument("--paper-table4", default=None, help="the paper's Table 4 to show beside (paper mode)")
     p.add_argument("--fmin", type=float, default=0.05, help="lowest frequency of the model curves, Hz")
     p.add_argument("--fmax", type=float, default=50.0, help="highest frequency of the model curves, Hz")
@@ -176,10 +191,25 @@ def _run(args) -> int:
             factors[name] = float(value)
         except ValueError:
             raise InputError(f"--factor {item!r}: expected NAME=number") from None
-    table = study.parameter_table(args.parameters, args.table3_units)
-    params = study.parameters_at(table, args.temperature, factors, where=args.parameters)
-    law = study.law_of(params)
+    if args.law_json is not None:
+        if factors or args.table3_units:
+            raise InputError("--law-json: --factor and --table3-units apply to a Burger's --parameters table only")
+        law = study.law_at(study.read_law_json(args.law_json), args.temperature, where=args.law_json)
+        params = {**study.law_summary(law), "law_json": str(args.law_json)}
+    else:
+        table = study.parameter_table(args.parameters, args.table3_units)
+        params = study.parameters_at(table, args.temperature, factors, where=args.parameters)
+        law = study.law_of(params)
     name = args.sample_name or Path(args.sample).stem
+    if args.network_factor_json is not None:
+        from ..harmonic.transfer import read_transfer_json
+
+        transfer = read_transfer_json(args.network_factor_json, sample=name,
+                                      bond_kinematics=settings.bond_kinematics,
+                                      head_rotation=settings.head_rotation, nu=settings.nu)
+        nf = transfer["network_factor"]
+        law = law.scaled(1.0 / nf)  # bonds calibrated with E*(w) / NF_s: the whole complex modulus
+        params = {**params, "transfer_network_factor": nf, "transfer_json": str(args.network_factor_json)}
     meta = {"mode": args.mode, "sample": name, "temperature_C": args.temperature,
             "table3_units": args.table3_units or "", "variant": ";".join(args.factor) or "base",
             "parameter": ";".join(f.partition("=")[0] for f in args.factor) or "",
@@ -204,16 +234,26 @@ def _isotherms(args) -> int:
     from . import figures, study
 
     rows = _read_rows(args.rows)
-    table = study.parameter_table(args.parameters, args.table3_units)
     temps = sorted(rows["temperature_C"].unique())
-    curves = burgers_curves(table[table["temperature_C"].isin(temps)],
-                            np.geomspace(args.fmin, args.fmax, 61))
+    freqs = np.geomspace(args.fmin, args.fmax, 61)
+    if args.law_json is not None:
+        laws = study.read_law_json(args.law_json)
+        curves = study.law_curves(laws, temps, freqs, where=args.law_json)
+        model = "generalized Burger's law"
+    else:
+        table = study.parameter_table(args.parameters, args.table3_units)
+        curves = burgers_curves(table[table["temperature_C"].isin(temps)], freqs)
+        model = "Burger's"
     points = None
     if args.measured_summary:
         summary = pd.read_csv(args.measured_summary)
         ref = study.measured_reference(summary)
         points = summary[summary["temperature_C"].isin(temps)]
         label = "measured (mean ± sd)"
+    elif args.law_json is not None:
+        ref = study.law_reference(laws, rows["temperature_C"], rows["frequency_Hz"],
+                                  where=args.law_json).drop_duplicates()
+        label = model
     else:
         ref = study.burgers_reference(table, rows["temperature_C"], rows["frequency_Hz"]).drop_duplicates()
         label = "Burger's (Table 3)"
@@ -221,7 +261,9 @@ def _isotherms(args) -> int:
     write_csv(iso, args.isotherms)
     paper4 = pd.read_csv(args.paper_table4) if args.paper_table4 else None
     write_csv(study.table4(iso, paper4), args.table4)
-    fm, fp = figures.isotherm_figures(iso, curves, label, reference_points=points, title=args.title)
+    fm, fp = figures.isotherm_figures(iso, curves, label, reference_points=points, title=args.title,
+                                      curve_label=f"{model} model" if args.law_json is None else
+                                      f"{model} (law JSON)")
     savefig(fm, args.figure_modulus)
     savefig(fp, args.figure_phase)
     return 0

@@ -109,9 +109,11 @@ def velocity_profile_figure(rec: dict):
 
 
 def isotherm_figures(isotherms: pd.DataFrame, curves: pd.DataFrame | None, reference_label: str,
-                     reference_points: pd.DataFrame | None = None, title: str = ""):
+                     reference_points: pd.DataFrame | None = None, title: str = "",
+                     curve_label: str = "Burger's model"):
     """Figs. 9-10 analogues: |E*| and Phi isotherms, NSCD sample means (± sd over samples)
-    against reference curves and/or points. Returns (fig_modulus, fig_phase)."""
+    against reference curves (legend ``curve_label``, e.g. "generalized Burger's law") and/or
+    points (legend ``reference_label``). Returns (fig_modulus, fig_phase)."""
     from ..figures.rheology_plots import CurveSet, rheology_figure
 
     sets = [CurveSet("NSCD (mean ± sd over samples)", isotherms[[
@@ -120,7 +122,7 @@ def isotherm_figures(isotherms: pd.DataFrame, curves: pd.DataFrame | None, refer
     if reference_points is not None:
         sets.append(CurveSet(reference_label, reference_points, kind="points", marker="x"))
     if curves is not None:
-        sets.append(CurveSet("Burger's model", curves, kind="line"))
+        sets.append(CurveSet(curve_label, curves, kind="line"))
     return (rheology_figure(sets, "isotherms-modulus", title=title),
             rheology_figure(sets, "isotherms-phase", title=title))
 

@@ -11,6 +11,12 @@ Modes (config ``campaign.modes``)
 * ``measured``: the Burger's parameters calibrated on the measured mix
   (``results/calibration/burgers_parameters.csv``) at the measured temperatures and
   frequencies; reference = the measured means (``results/lab/measured_summary.csv``).
+* ``extended``: the measured mode's schedule with the extended bond law of the diagnosis, a
+  generalized Burger's law per temperature (``results/diagnosis/generalized_burgers.json``,
+  read by :func:`read_law_json`); reference = the measured means. With
+  ``campaign.extended.transfer_correction`` (default) the bonds are calibrated with
+  E*(w) / NF_s, NF_s the sample's network factor (``run-2pb --network-factor-json``,
+  :mod:`asphalt_nscd.harmonic.transfer`); the measured mode keeps Eqs. 30-33 as printed.
 
 Mean relative error (Table 4 analogue), per temperature, over the frequencies f of the
 campaign, of the sample-mean numerical value x_num against the reference x_ref:
@@ -54,6 +60,133 @@ def parameters_at(table: pd.DataFrame, temperature_C: float, factors: dict | Non
             raise InputError(f"factor {name!r}: expected one of {list(SENSITIVITY_PARAMETERS)}")
         row[SENSITIVITY_PARAMETERS[name]] *= float(factor)
     return row
+
+
+#: Fields of one temperature of a law JSON (output of ``asphalt-nscd extend-law``).
+LAW_FIELDS = ("Em", "eta_m", "Ek", "eta_k", "E_inf")
+
+
+def read_law_json(path) -> dict:
+    """Generalized Burger's laws per temperature from a law JSON file.
+
+    The file is the output of ``asphalt-nscd extend-law`` (``diagnosis.extend.laws_to_json``):
+    ``{"units": {...}, "temperatures": {"<T degC>": {"Em": Pa, "eta_m": Pa s or null (no
+    Maxwell dashpot), "Ek": [Pa, ...], "eta_k": [Pa s, ...], "E_inf": Pa, ...}}}``.
+
+    Returns
+    -------
+    dict {temperature_C (float): rheology.laws.GeneralizedBurgers in Pa, Pa s}
+
+    Raises
+    ------
+    InputError
+        naming the file and the key: unreadable or not JSON, no ``temperatures`` object or an
+        empty one, a temperature key that is not a number, a missing field, a field that is
+        not a (list of) positive finite number(s) (``E_inf`` >= 0, ``eta_m`` may be null),
+        ``Ek``/``eta_k`` of different lengths, or ``units`` other than Pa and Pa s.
+    """
+    import json
+
+    from ..rheology.laws import GeneralizedBurgers
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            obj = json.load(fh)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the law JSON ({exc.strerror or exc})") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not valid JSON ({exc})") from None
+    if not isinstance(obj, dict) or not isinstance(obj.get("temperatures"), dict) or not obj["temperatures"]:
+        raise InputError(f"{path}: key 'temperatures': expected a non-empty object keyed by temperature (degC)")
+    units = obj.get("units")
+    if units is not None:
+        expected = {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"}
+        bad = [k for k, u in expected.items() if isinstance(units, dict) and k in units and units[k] != u]
+        if not isinstance(units, dict) or bad:
+            raise InputError(f"{path}: key 'units': expected {expected}, got {units}")
+
+    def number(value, key, allow_zero=False):
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
+        if not ok or value < 0 or (value == 0 and not allow_zero):
+            raise InputError(f"{path}: key {key}: expected a {'non-negative' if allow_zero else 'positive'} "
+                             f"finite number, got {value!r}")
+        return float(value)
+
+    laws = {}
+    for key, d in obj["temperatures"].items():
+        where = f"'temperatures.{key}'"
+        try:
+            T = float(key)
+        except ValueError:
+            raise InputError(f"{path}: key {where}: expected a temperature in degC") from None
+        if not np.isfinite(T):
+            raise InputError(f"{path}: key {where}: expected a finite temperature in degC")
+        if not isinstance(d, dict):
+            raise InputError(f"{path}: key {where}: expected an object with {list(LAW_FIELDS)}")
+        missing = [k for k in LAW_FIELDS if k not in d]
+        if missing:
+            raise InputError(f"{path}: key {where}: missing field(s) {missing}")
+        Em = number(d["Em"], f"'temperatures.{key}.Em'")
+        eta_m = np.inf if d["eta_m"] is None else number(d["eta_m"], f"'temperatures.{key}.eta_m'")
+        units_lists = []
+        for k in ("Ek", "eta_k"):
+            if not isinstance(d[k], list):
+                raise InputError(f"{path}: key 'temperatures.{key}.{k}': expected a list of positive numbers")
+            units_lists.append([number(v, f"'temperatures.{key}.{k}[{i}]'") for i, v in enumerate(d[k])])
+        if len(units_lists[0]) != len(units_lists[1]):
+            raise InputError(f"{path}: key 'temperatures.{key}': Ek has {len(units_lists[0])} units but "
+                             f"eta_k has {len(units_lists[1])}")
+        E_inf = number(d["E_inf"], f"'temperatures.{key}.E_inf'", allow_zero=True)
+        if T in laws:
+            raise InputError(f"{path}: key {where}: temperature {T:g} degC given twice")
+        laws[T] = GeneralizedBurgers(Em=Em, eta_m=eta_m, Ek=tuple(units_lists[0]), eta_k=tuple(units_lists[1]),
+                                     E_inf=E_inf)
+    return laws
+
+
+def law_at(laws: dict, temperature_C: float, where="") -> "GeneralizedBurgers":  # noqa: F821
+    """The law of :func:`read_law_json` at ``temperature_C`` (matched within 1e-9 degC).
+
+    Raises InputError naming ``where`` and the available temperatures if it is missing.
+    """
+    for T, law in laws.items():
+        if np.isclose(T, float(temperature_C), rtol=0.0, atol=1e-9):
+            return law
+    raise InputError(f"{where}: key 'temperatures': no law at {float(temperature_C):g} degC; "
+                     f"available: {sorted(laws)}")
+
+
+def law_summary(law) -> dict:
+    """Scalar description of a generalized Burger's law (Pa, Pa s) for a reduced row, in MPa:
+    ``n_kelvin, Em_MPa, eta_m_MPa_s`` (inf: no dashpot), ``E_inf_MPa``."""
+    return {"n_kelvin": int(law.n_kelvin), "Em_MPa": law.Em * 1e-6, "eta_m_MPa_s": law.eta_m * 1e-6,
+            "E_inf_MPa": law.E_inf * 1e-6}
+
+
+def law_curves(laws: dict, temperatures_C, frequency_Hz, where="law JSON") -> pd.DataFrame:
+    """Model isotherms of the laws (Pa) at the given temperatures, in the format of
+    ``rheology.calibration.burgers_curves``: ``temperature_C, frequency_Hz, E_norm_MPa,
+    phase_deg, E1_MPa, E2_MPa``, shape (n_temperatures * k, 6).
+
+    Raises InputError (naming ``where``) if a temperature has no law.
+    """
+    f = np.asarray(frequency_Hz, dtype=float).ravel()
+    frames = []
+    for T in sorted({float(t) for t in np.atleast_1d(temperatures_C)}):
+        e = law_at(laws, T, where).complex_modulus(2.0 * np.pi * f) * 1e-6
+        frames.append(pd.DataFrame({"temperature_C": T, "frequency_Hz": f, "E_norm_MPa": np.abs(e),
+                                    "phase_deg": np.degrees(np.angle(e)), "E1_MPa": e.real, "E2_MPa": e.imag}))
+    return pd.concat(frames, ignore_index=True)
+
+
+def law_reference(laws: dict, temperature_C, frequency_Hz, where="law JSON") -> pd.DataFrame:
+    """|E*| (MPa) and Phi (deg) of the laws (Pa) at each (T, f) pair, as :func:`burgers_reference`."""
+    rows = []
+    for T, f in zip(np.atleast_1d(temperature_C), np.atleast_1d(frequency_Hz)):
+        e = complex(law_at(laws, T, where).complex_modulus(2.0 * np.pi * float(f))) * 1e-6
+        rows.append({"temperature_C": float(T), "frequency_Hz": float(f),
+                     "E_norm_MPa_ref": abs(e), "phase_deg_ref": float(np.degrees(np.angle(e)))})
+    return pd.DataFrame(rows)
 
 
 def law_of(params: dict):

@@ -1,5 +1,7 @@
 """Subcommands of the diagnosis step (registered by asphalt_nscd.cli).
 
+* ``extend-law``     — the extended (generalized Burger's) law per temperature from a measured
+                       table alone (law JSON, Pa and Pa s): the input of the extended campaign.
 * ``diagnose``       — what the simulation gets wrong: error budget, named causes, extended
                        law and gain (JSON report; optional law JSON, tables and figure).
 * ``synth``          — synthetic measured table (2S2P1D + WLF truth, planted effects) and its
@@ -12,26 +14,11 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def register(subparsers) -> None:
-    """Add this step's subcommands to the asphalt-nscd parser."""
-    p = subparsers.add_parser("diagnose", help="error budget, named causes, extended law and gain of the simulation")
+def _fit_options(p) -> None:
+    """Options of the artifact search, master curve and extended-law fit (diagnose, extend-law)."""
     p.add_argument("--measured", type=Path, required=True,
                    help="measured table (specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg "
                         "[, strain_microstrain, test_order])")
-    p.add_argument("--simulated", type=Path, default=None,
-                   help="simulation results (temperature_C, frequency_Hz, E_norm_MPa, phase_deg [, solver, dt_s]); "
-                        "without it the baseline is the macro Burger's fit")
-    p.add_argument("--harmonic", type=Path, default=None, help="harmonic-solver results of the sample (same columns)")
-    p.add_argument("--time-integration", type=Path, default=None,
-                   help="time-integration phase errors (frequency_Hz, dt_s, phase_error_deg)")
-    p.add_argument("--theta", type=float, default=None,
-                   help="Moreau-Jean theta of the simulation: keep only these rows of a time-integration table "
-                        "with a theta column (e.g. results/nscd/phase_error.csv)")
-    p.add_argument("--simulated-extended", type=Path, default=None,
-                   help="simulation results rerun with the extended law (same columns as --simulated)")
-    p.add_argument("--macro-params", type=Path, default=None,
-                   help="Burger's parameters given to the simulation (temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, "
-                        "eta_k_MPa_s); default: fitted to the measured table")
     p.add_argument("--alpha", type=float, default=1e-3, help="significance level of the tests (default 1e-3)")
     p.add_argument("--shift", choices=["wlf", "arrhenius"], default="wlf", help="shift law of the master curve")
     p.add_argument("--t-ref", type=float, default=None,
@@ -44,12 +31,58 @@ def register(subparsers) -> None:
                    help="keep the extended law on the master curve (no per-isotherm refinement)")
     p.add_argument("--prior-weight", type=float, default=0.01,
                    help="penalty keeping the refined compliances near the master-curve law (default 0.01)")
+
+
+def register(subparsers) -> None:
+    """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser("extend-law", help="extended (generalized Burger's) law per temperature (law JSON)",
+                              description="Fit the generalized Burger's law per temperature (Maxwell + N "
+                              "Kelvin-Voigt units + static spring) to the 2S2P1D/WLF master curve of the "
+                              "artifact-corrected measured table, without any simulation input; write it as a "
+                              "law JSON (Pa, Pa s) for 'run-2pb --law-json' and 'diagnose --law-json'.")
+    _fit_options(p)
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="law JSON: units, law, temperatures {T: Em, eta_m (null: no dashpot), Ek[], eta_k[], "
+                        "E_inf, mre_E_norm_pct, mre_phase_pct}, Pa and Pa s")
+    p.add_argument("--corrected", type=Path, default=None, help="artifact-corrected measured table (CSV)")
+    p.set_defaults(func=_extend_law)
+
+    p = subparsers.add_parser("diagnose", help="error budget, named causes, extended law and gain of the simulation")
+    _fit_options(p)
+    p.add_argument("--simulated", type=Path, nargs="+", default=None,
+                   help="time-domain (NSCD) results with the Burger's bond law: reduced rows (temperature_C, "
+                        "frequency_Hz, E_norm_MPa, phase_deg [, solver, dt_s]) or numerical isotherms "
+                        "(E_norm_MPa_mean, phase_deg_mean); several files are concatenated; without it the "
+                        "baseline is the macro Burger's fit")
+    p.add_argument("--harmonic", type=Path, nargs="+", default=None,
+                   help="harmonic-solver results of the simulated sample(s) (same columns; concatenated)")
+    p.add_argument("--time-integration", type=Path, nargs="+", default=None,
+                   help="time-integration phase errors (frequency_Hz, dt_s, phase_error_deg [, theta]; "
+                        "e.g. results/campaign/measured/dt_policy_phase_error.csv; concatenated)")
+    p.add_argument("--theta", type=float, default=None,
+                   help="Moreau-Jean theta of the simulation: keep only these rows of a time-integration table "
+                        "with a theta column (e.g. results/nscd/phase_error.csv)")
+    p.add_argument("--simulated-extended", type=Path, nargs="+", default=None,
+                   help="NSCD results rerun with the extended law (same columns as --simulated)")
+    p.add_argument("--transfer", type=Path, nargs="+", default=None,
+                   help="network factor JSON(s) of the extended simulation's samples (output of "
+                        "'harmonic-transfer', e.g. results/harmonic/transfer/s1.json): the gain table adds "
+                        "the extended law without the transfer correction (NF_s x E*, inertia-free harmonic "
+                        "response), separating the gain of the law from that of the correction")
+    p.add_argument("--law-json", type=Path, default=None,
+                   help="the extended law the extended simulation ran with (output of 'extend-law'); "
+                        "default: fitted here with --per-decade ... --prior-weight")
+    p.add_argument("--macro-params", type=Path, default=None,
+                   help="Burger's parameters given to the simulation (temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, "
+                        "eta_k_MPa_s); default: fitted to the measured table")
     p.add_argument("-o", "--output", type=Path, required=True, help="report JSON")
     p.add_argument("--laws", type=Path, default=None,
                    help="generalized Burger's law per temperature (JSON, Pa and Pa s)")
     p.add_argument("--budget-csv", type=Path, default=None, help="error budget table (CSV)")
     p.add_argument("--effects-csv", type=Path, default=None, help="candidate causes table (CSV)")
-    p.add_argument("--gain-csv", type=Path, default=None, help="MRE before/after per temperature (CSV)")
+    p.add_argument("--gain-csv", type=Path, default=None,
+                   help="MRE before/after per temperature and source (nscd: NSCD simulations; macro: macro "
+                        "laws) (CSV)")
     p.add_argument("--corrected", type=Path, default=None, help="artifact-corrected measured table (CSV)")
     p.add_argument("--figure", type=Path, default=None, help="stacked error-budget figure (PNG/PDF/SVG)")
     p.add_argument("--page", type=Path, default=None,
@@ -77,35 +110,92 @@ def register(subparsers) -> None:
     p.set_defaults(func=_bench)
 
 
-def _read_optional(path):
-    from .report import read_simulated
+def _read_optional(paths):
+    from .report import read_simulated_many
 
-    return None if path is None else read_simulated(path)
+    return None if not paths else read_simulated_many(paths)
 
 
-def _diagnose(args) -> int:
+def _read_time_errors(paths, theta):
+    """Time-integration phase-error tables (concatenated), rows of ``theta`` only when the
+    table has a theta column. Raises InputError naming the file and column."""
     import numpy as np
     import pandas as pd
 
+    from ..io import InputError
+
+    frames = []
+    for path in paths:
+        try:
+            t = pd.read_csv(path)
+        except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+            raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+        missing = {"frequency_Hz", "dt_s", "phase_error_deg"} - set(t.columns)
+        if missing:
+            raise InputError(f"{path}: line 1 (header): missing column(s) {sorted(missing)}")
+        for c in ("frequency_Hz", "dt_s", "phase_error_deg"):
+            v = pd.to_numeric(t[c], errors="coerce").to_numpy(float)
+            bad = np.flatnonzero(~np.isfinite(v))
+            if bad.size:
+                raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number")
+            t[c] = v
+        if theta is not None and "theta" in t.columns:
+            t = t[np.isclose(t["theta"].astype(float), theta)]
+            if t.empty:
+                raise InputError(f"{path}: column 'theta': no row with theta = {theta:g}")
+        frames.append(t)
+    return pd.concat(frames, ignore_index=True)
+
+
+def _fit_kwargs(args) -> dict:
+    return dict(alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref, per_decade=args.per_decade,
+                margin_decades=args.margin_decades, refine=not args.no_refine, prior_weight=args.prior_weight)
+
+
+def _extend_law(args) -> int:
+    from ..io import write_csv, write_json
+    from ..lab.measured import load_measured
+    from . import extend
+    from .report import extended_laws
+
+    measured = load_measured(args.measured)
+    out = extended_laws(measured, **_fit_kwargs(args))
+    obj = extend.laws_to_json(out["laws"], out["mre_E"], out["mre_phase"])
+    for T, d in obj["temperatures"].items():
+        d["mre_E_norm_pct_vs_measured"] = out["mre_E_measured"].get(float(T))
+        d["mre_phase_pct_vs_measured"] = out["mre_phase_measured"].get(float(T))
+    a = out["analysis"]
+    obj["source"] = {"measured": str(args.measured), "master_curve": "2S2P1D", "shift": args.shift,
+                     "T_ref_C": float(a["master"].T_ref_C),
+                     "artifacts_corrected": [c.name for c in a["result"]["selected"]],
+                     "per_decade": args.per_decade, "margin_decades": args.margin_decades,
+                     "refine": not args.no_refine, "prior_weight": args.prior_weight,
+                     "mre_reference": "artifact-corrected measured replicate means"}
+    write_json(obj, args.output)
+    if args.corrected is not None:
+        write_csv(a["corrected"].drop(columns=["test_step"], errors="ignore"), args.corrected)
+    return 0
+
+
+def _diagnose(args) -> int:
+    import pandas as pd
+
+    from ..campaign.study import read_law_json
     from ..io import InputError, write_csv, write_json, write_text
     from ..lab.measured import load_measured
     from . import extend
     from .report import budget_figure, diagnose, markdown_page
 
     measured = load_measured(args.measured)
-    time_errors = None
-    if args.time_integration is not None:
-        try:
-            time_errors = pd.read_csv(args.time_integration)
-        except (OSError, pd.errors.ParserError) as exc:
-            raise InputError(f"{args.time_integration}: not a readable CSV file ({exc})") from None
-        missing = {"frequency_Hz", "dt_s", "phase_error_deg"} - set(time_errors.columns)
+    time_errors = None if not args.time_integration else _read_time_errors(args.time_integration, args.theta)
+    laws = None
+    if args.law_json is not None:
+        laws = {T: law.scaled(1e-6) for T, law in read_law_json(args.law_json).items()}
+        missing = [float(T) for T in sorted(measured["temperature_C"].unique())
+                   if not any(abs(T - k) < 1e-9 for k in laws)]
         if missing:
-            raise InputError(f"{args.time_integration}: line 1 (header): missing column(s) {sorted(missing)}")
-        if args.theta is not None and "theta" in time_errors.columns:
-            time_errors = time_errors[np.isclose(time_errors["theta"].astype(float), args.theta)]
-            if time_errors.empty:
-                raise InputError(f"{args.time_integration}: column 'theta': no row with theta = {args.theta:g}")
+            raise InputError(f"{args.law_json}: key 'temperatures': no law at {missing} degC (measured "
+                             f"temperatures); given: {sorted(laws)}")
     macro = None
     if args.macro_params is not None:
         try:
@@ -115,12 +205,20 @@ def _diagnose(args) -> int:
         missing = {"temperature_C", "Em_MPa", "eta_m_MPa_s", "Ek_MPa", "eta_k_MPa_s"} - set(macro.columns)
         if missing:
             raise InputError(f"{args.macro_params}: line 1 (header): missing column(s) {sorted(missing)}")
+    transfer = None
+    if args.transfer:
+        from ..harmonic.transfer import read_transfer_json
+
+        transfer = {}
+        for path in args.transfer:
+            obj = read_transfer_json(path)
+            if obj["sample"] in transfer:
+                raise InputError(f"{path}: key 'sample': sample {obj['sample']!r} given twice in --transfer")
+            transfer[obj["sample"]] = obj["network_factor"]
     report, extra = diagnose(
         measured, simulated=_read_optional(args.simulated), harmonic=_read_optional(args.harmonic),
         time_errors=time_errors, simulated_extended=_read_optional(args.simulated_extended),
-        macro_params=macro, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref,
-        per_decade=args.per_decade, margin_decades=args.margin_decades, refine=not args.no_refine,
-        prior_weight=args.prior_weight)
+        macro_params=macro, laws=laws, transfer=transfer, **_fit_kwargs(args))
     report["measured"]["path"] = str(args.measured)
     write_json(report, args.output)
     if args.laws is not None:
@@ -135,11 +233,7 @@ def _diagnose(args) -> int:
                  "evidence": e["evidence"]} for e in report["effects"]]
         write_csv(pd.DataFrame(rows), args.effects_csv)
     if args.gain_csv is not None:
-        rows = [{"temperature_C": float(T), "E_norm_mre_before_pct": g["E_norm"]["before"],
-                 "E_norm_mre_after_pct": g["E_norm"]["after"], "phase_mre_before_pct": g["phase"]["before"],
-                 "phase_mre_after_pct": g["phase"]["after"], "targets_met": report["targets"]["met"][T]}
-                for T, g in report["gain"].items()]
-        write_csv(pd.DataFrame(rows), args.gain_csv)
+        write_csv(extra["gain_rows"], args.gain_csv)
     if args.corrected is not None:
         write_csv(extra["corrected"].drop(columns=["test_step"], errors="ignore"), args.corrected)
     if args.figure is not None:

@@ -14,7 +14,26 @@
    micro-macro transfer (harmonic response vs its macro law), numerics (time-domain vs
    harmonic);
 6. extended law: a generalized Burger's law per temperature from the 2S2P1D/WLF master
-   curve of the corrected data (:mod:`asphalt_nscd.diagnosis.extend`), its MRE and the gain.
+   curve of the corrected data (:mod:`asphalt_nscd.diagnosis.extend`; computed here, or
+   given: the workflow fits it first with :func:`extended_laws` (``asphalt-nscd
+   extend-law``), runs the NSCD campaign with it, then diagnoses), its MRE and the gain.
+
+Gain: MRE before -> after per temperature, from two sources, each row labelled:
+``nscd`` (time-domain NSCD simulation with the Burger's bond law -> NSCD simulation rerun
+with the extended law; only when both simulations are given) and ``macro`` (the macro
+Burger's law -> the extended macro law, always). "Before" is against the measured replicate
+means, "after" against the artifact-corrected ones (the extended law is calibrated on them);
+the "after" against the measured means is reported beside.
+
+Transfer correction: the extended NSCD rows may have run with the bonds calibrated with
+E*(w) / NF_s (``run-2pb --network-factor-json``; column ``transfer_network_factor`` of the
+rows), NF_s the sample's network factor (:mod:`asphalt_nscd.harmonic.transfer`); the report
+says so and gives NF_s. Given the network factors (``transfer``), a third source ``law_only``
+is added: the inertia-free harmonic response of the samples with the extended law and no
+correction, NF_s E*_law(w) (exact: K(w) = E*(w) G; mean NF_s over the samples, on the
+cells of the extended NSCD run, else on every measured cell), before = the primary "before". It
+separates the gain of the law (before -> law_only) from the gain of the correction
+(law_only -> nscd).
 
 MRE (paper Table 4): mean over the frequencies of an isotherm of |model - data| / data, in
 percent, against the replicate means; bias: the signed mean. Temperatures are JSON keys
@@ -63,12 +82,18 @@ def _cells_from_complex(cells: pd.DataFrame, E) -> pd.DataFrame:
 def read_simulated(path) -> pd.DataFrame:
     """Read a simulated/harmonic result table (reduced complex-modulus rows).
 
+    Numerical isotherms (``asphalt-nscd campaign-isotherms``: ``E_norm_MPa_mean,
+    phase_deg_mean``, sample means per (T, f)) are read as rows of those means.
+
     Raises InputError naming the file and the missing column or bad row.
     """
     try:
         df = pd.read_csv(path)
     except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    if "E_norm_MPa" not in df.columns and {"E_norm_MPa_mean", "phase_deg_mean"} <= set(df.columns):
+        df = df.drop(columns=[c for c in ("phase_deg",) if c in df.columns]).rename(
+            columns={"E_norm_MPa_mean": "E_norm_MPa", "phase_deg_mean": "phase_deg"})
     missing = [c for c in SIM_COLUMNS if c not in df.columns]
     if missing:
         raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(SIM_COLUMNS)}")
@@ -115,6 +140,85 @@ def derived_time_integration(sim: pd.DataFrame | None, harmonic: pd.DataFrame | 
                          "phase_error_deg": m["phase_deg"] - m["phase_deg_h"]})
 
 
+def read_simulated_many(paths) -> pd.DataFrame | None:
+    """:func:`read_simulated` of each path, concatenated (None for no path).
+
+    Accepts reduced rows (``E_norm_MPa, phase_deg``) and the numerical isotherms of
+    ``asphalt-nscd campaign-isotherms`` (``E_norm_MPa_mean, phase_deg_mean``, sample means).
+    """
+    if paths is None:
+        return None
+    paths = [paths] if isinstance(paths, (str, bytes)) or not hasattr(paths, "__iter__") else list(paths)
+    frames = [read_simulated(p) for p in paths]
+    return pd.concat(frames, ignore_index=True) if frames else None
+
+
+def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
+            T_ref_C: float | None = None) -> dict:
+    """Artifact search and master curve of a measured table (steps 1-2 of the module docstring).
+
+    Returns
+    -------
+    dict with ``search`` (effects.ArtifactSearch), ``result`` (its ``run()``), ``corrected``
+    (artifact-corrected table, same rows as ``measured``) and ``master`` (2S2P1D/WLF
+    MasterCurveFit of the corrected table, MPa).
+
+    Raises
+    ------
+    InputError
+        if the measured table has fewer than 2 temperatures or 3 frequencies per isotherm.
+    """
+    n_T = measured["temperature_C"].nunique()
+    if n_T < 2 or measured.groupby("temperature_C")["frequency_Hz"].nunique().min() < 3:
+        raise InputError("measured table: need >= 2 temperatures and >= 3 frequencies per temperature")
+    search = effects.ArtifactSearch(measured, alpha=alpha, T_ref_C=T_ref_C, shift=shift)
+    result = search.run()
+    final = result["final"]
+    corrected = search.corrected(final)
+    master = fit_master_curve(corrected, shift=shift, T_ref_C=final.T_ref_C, sigma=search.sigma,
+                              x0=final.x[:len(final.x) - sum(len(t.names) for t in final.terms)])
+    return {"search": search, "result": result, "corrected": corrected, "master": master}
+
+
+def extended_laws(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
+                  T_ref_C: float | None = None, per_decade: float = 2.0, margin_decades: float = 1.0,
+                  refine: bool = True, prior_weight: float = 0.01, analysis: dict | None = None) -> dict:
+    """The extended law per temperature without any simulation input (``asphalt-nscd extend-law``).
+
+    Returns
+    -------
+    dict ``laws`` ({T degC: GeneralizedBurgers in MPa, MPa s}, :func:`extend.calibrate`),
+    ``mre_E``, ``mre_phase`` ({T: MRE %} against the artifact-corrected replicate means),
+    ``mre_E_measured``, ``mre_phase_measured`` (against the measured ones) and ``analysis``
+    (:func:`analyse`).
+    """
+    a = analysis if analysis is not None else analyse(measured, alpha=alpha, shift=shift, T_ref_C=T_ref_C)
+    laws = extend.calibrate(a["master"], a["corrected"], per_decade=per_decade, margin_decades=margin_decades,
+                            refine=refine, prior_weight=prior_weight)
+    mE, mP = extend.mre_of_laws(laws, a["corrected"])
+    mEm, mPm = extend.mre_of_laws(laws, a["search"].df)
+    return {"laws": laws, "mre_E": mE, "mre_phase": mP, "mre_E_measured": mEm, "mre_phase_measured": mPm,
+            "analysis": a}
+
+
+def _gain_rows(before: pd.DataFrame, after: pd.DataFrame, after_measured: pd.DataFrame, temps) -> dict:
+    """{T key: {"E_norm": {before, after, after_vs_measured}, "phase": {...}}} on common temperatures."""
+    out = {}
+    for T in temps:
+        if T not in after.index or T not in before.index:
+            continue
+        out[_key(T)] = {q: {"before": float(before.loc[T, col]), "after": float(after.loc[T, col]),
+                            "after_vs_measured": float(after_measured.loc[T, col])
+                            if T in after_measured.index else None}
+                        for q, col in (("E_norm", "mre_E_norm_pct"), ("phase", "mre_phase_pct"))}
+    return out
+
+
+def _met(gain: dict) -> dict:
+    return {k: bool(v["E_norm"]["after"] <= TARGETS["E_norm_mre_pct"] and v["phase"]["after"] <= TARGETS["phase_mre_pct"])
+            for k, v in gain.items()}
+
+
 def _by_T(frame: pd.DataFrame, col: str) -> dict:
     return {_key(T): float(v) for T, v in frame[col].items()}
 
@@ -124,7 +228,8 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
              simulated_extended: pd.DataFrame | None = None, macro_params: pd.DataFrame | None = None,
              alpha: float = 1e-3, shift: str = "wlf", T_ref_C: float | None = None,
              per_decade: float = 2.0, margin_decades: float = 1.0, refine: bool = True,
-             prior_weight: float = 0.01) -> tuple[dict, dict]:
+             prior_weight: float = 0.01, laws: dict | None = None,
+             transfer: dict | None = None) -> tuple[dict, dict]:
     """Diagnose a measured table (and optional simulation results).
 
     Parameters
@@ -149,32 +254,34 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
         Significance level of every test.
     shift, T_ref_C : master-curve shift law and reference temperature.
     per_decade, margin_decades, refine, prior_weight : see :func:`extend.calibrate`.
+    laws : dict, optional
+        The extended law per temperature {T degC: GeneralizedBurgers in MPa, MPa s} (e.g. the
+        one the extended simulation ran with, read from its law JSON and scaled by 1e-6);
+        default: calibrated here (then per_decade ... prior_weight apply).
+    transfer : dict, optional
+        Network factor NF_s (dimensionless) per sample name of the extended simulation
+        (``harmonic-transfer`` JSONs): adds the ``law_only`` gain source, NF_s E*_law (mean
+        over the samples; module docstring).
 
     Returns
     -------
     (report, extra)
         ``report``: the JSON-serialisable report; ``extra``: ``laws`` (dict T ->
         GeneralizedBurgers in MPa), ``corrected`` (DataFrame), ``budget`` (DataFrame),
-        ``master`` (MasterCurveFit).
+        ``master`` (MasterCurveFit), ``gain_rows`` (DataFrame of the gain table, one row
+        per temperature and source, see :func:`gain_table`).
 
     Raises
     ------
     InputError
-        if the measured table has fewer than 2 temperatures or 3 frequencies per isotherm.
+        if the measured table has fewer than 2 temperatures or 3 frequencies per isotherm, or
+        if an extended row ran with a network factor that differs from ``transfer``'s.
     """
-    n_T = measured["temperature_C"].nunique()
-    if n_T < 2 or measured.groupby("temperature_C")["frequency_Hz"].nunique().min() < 3:
-        raise InputError("measured table: need >= 2 temperatures and >= 3 frequencies per temperature")
+    a = analyse(measured, alpha=alpha, shift=shift, T_ref_C=T_ref_C)
     simulated, harmonic = split_simulated(simulated, harmonic)
     if time_errors is None:
         time_errors = derived_time_integration(simulated, harmonic)
-
-    search = effects.ArtifactSearch(measured, alpha=alpha, T_ref_C=T_ref_C, shift=shift)
-    result = search.run()
-    final = result["final"]
-    corrected = search.corrected(final)
-    master = fit_master_curve(corrected, shift=shift, T_ref_C=final.T_ref_C, sigma=search.sigma,
-                              x0=final.x[:len(final.x) - sum(len(t.names) for t in final.terms)])
+    search, result, corrected, master = a["search"], a["result"], a["corrected"], a["master"]
 
     meas_cells = causes.cell_means(search.df)
     corr_cells = causes.cell_means(corrected)
@@ -224,29 +331,53 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
     budget = pd.DataFrame(budget_rows)
 
     # extended law and gain
-    laws = extend.calibrate(master, corrected, per_decade=per_decade, margin_decades=margin_decades,
-                            refine=refine, prior_weight=prior_weight)
-    if simulated_extended is not None:
-        ext_cells = _sim_cells(simulated_extended)
-        ext_model = "NSCD simulation with the generalized Burger's bond law"
+    if laws is None:
+        laws = extend.calibrate(master, corrected, per_decade=per_decade, margin_decades=margin_decades,
+                                refine=refine, prior_weight=prior_weight)
     else:
-        E = np.array([laws[float(T)].complex_modulus(2 * np.pi * f)
+        laws = {float(T): law for T, law in laws.items()}
+        missing = [T for T in temps if not any(np.isclose(T, k) for k in laws)]
+        if missing:
+            raise InputError(f"extended laws: no law at {[float(T) for T in missing]} degC (the measured "
+                             f"temperatures); given: {sorted(laws)}")
+        laws = {float(T): next(law for k, law in laws.items() if np.isclose(T, k)) for T in temps}
+    E_law = np.array([laws[float(T)].complex_modulus(2 * np.pi * f)
                       for T, f in zip(corr_cells["temperature_C"], corr_cells["frequency_Hz"])])
-        ext_cells = _cells_from_complex(corr_cells, E)
-        ext_model = ("generalized Burger's law (Maxwell + N Kelvin-Voigt + static spring) per temperature "
-                     "from the 2S2P1D/WLF master curve of the corrected data")
+    law_cells = _cells_from_complex(corr_cells, E_law)
+    law_model = ("generalized Burger's law (Maxwell + N Kelvin-Voigt + static spring) per temperature "
+                 "from the 2S2P1D/WLF master curve of the corrected data")
+    ext_sim_cells = _sim_cells(simulated_extended)
+    tr = transfer_summary(simulated_extended, transfer)
+    nscd_after = "NSCD simulation (time domain, generalized Burger's bond law" + (
+        f", transfer correction E*/NF_s, NF_s = {_nf_text(tr['network_factor_applied'])})"
+        if tr["applied"] else ", no transfer correction)")
+    if ext_sim_cells is not None:
+        ext_cells, ext_model = ext_sim_cells, nscd_after
+    else:
+        ext_cells, ext_model = law_cells, law_model
     ext = compare(ext_cells, corr_cells)
     ext_meas = compare(ext_cells, meas_cells)
-    gain = {}
-    for T in temps:
-        if T not in ext.index or T not in base.index:
-            continue
-        gain[_key(T)] = {"E_norm": {"before": float(base.loc[T, "mre_E_norm_pct"]),
-                                    "after": float(ext.loc[T, "mre_E_norm_pct"])},
-                         "phase": {"before": float(base.loc[T, "mre_phase_pct"]),
-                                   "after": float(ext.loc[T, "mre_phase_pct"])}}
-    met = {k: bool(v["E_norm"]["after"] <= TARGETS["E_norm_mre_pct"] and v["phase"]["after"] <= TARGETS["phase_mre_pct"])
-           for k, v in gain.items()}
+    law_ext = compare(law_cells, corr_cells)
+    law_ext_meas = compare(law_cells, meas_cells)
+    macro_before = compare(burgers_cells, meas_cells)
+    gain = _gain_rows(base, ext, ext_meas, temps)
+    sources = {"before": "nscd" if sim_cells is not None else "macro",
+               "after": "nscd" if ext_sim_cells is not None else "macro"}
+    gain_macro = _gain_rows(macro_before, law_ext, law_ext_meas, temps)
+    gain_nscd = gain if sources == {"before": "nscd", "after": "nscd"} else None
+    met = _met(gain)
+    gain_law_only, law_only_model = None, None
+    if tr["law_only_network_factor"] is not None:
+        nf = tr["law_only_network_factor"]
+        # on the cells of the extended NSCD run when there is one (same cells as its gain rows)
+        cells = ext_sim_cells if ext_sim_cells is not None else corr_cells
+        cells = cells[[any(np.isclose(T, k) for k in laws) for T in cells["temperature_C"]]]
+        E_lo = nf * np.array([laws[next(k for k in laws if np.isclose(T, k))].complex_modulus(2 * np.pi * f)
+                              for T, f in zip(cells["temperature_C"], cells["frequency_Hz"])])
+        lo_cells = _cells_from_complex(cells, E_lo)
+        gain_law_only = _gain_rows(base, compare(lo_cells, corr_cells), compare(lo_cells, meas_cells), temps)
+        law_only_model = ("harmonic response without inertia, generalized Burger's bond law, no transfer "
+                          f"correction: NF_s x E*_law, NF_s = {_nf_text(tr['network_factor_harmonic'])}")
 
     kk = kk_residuals(search.df)
     kk_T = kk.groupby("temperature_C")["phase_kk_residual_deg"].agg(lambda r: float(np.mean(np.abs(r))))
@@ -268,20 +399,136 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
         "error_budget": budget_json,
         "effects": sorted(entries, key=lambda e: order[e["category"]]),
         "causes": [e["name"] for e in named],
-        "extended": {"model": ext_model, "reference": "artifact-corrected measured replicate means",
+        "extended": {"model": ext_model, "law": law_model,
+                     "reference": "artifact-corrected measured replicate means",
                      "parameters": extend.laws_to_json(laws)["temperatures"],
                      "parameter_units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
                      "mre_E_norm_pct": _by_T(ext, "mre_E_norm_pct"), "mre_phase_pct": _by_T(ext, "mre_phase_pct"),
                      "mre_E_norm_pct_vs_measured": _by_T(ext_meas, "mre_E_norm_pct"),
-                     "mre_phase_pct_vs_measured": _by_T(ext_meas, "mre_phase_pct")},
+                     "mre_phase_pct_vs_measured": _by_T(ext_meas, "mre_phase_pct"),
+                     "law_mre_E_norm_pct": _by_T(law_ext, "mre_E_norm_pct"),
+                     "law_mre_phase_pct": _by_T(law_ext, "mre_phase_pct")},
         "gain": gain,
-        "targets": {**TARGETS, "met": met},
+        "gain_sources": {**sources,
+                         "models": {"nscd": {"before": "NSCD simulation (time domain, Burger's bond law)",
+                                             "after": nscd_after},
+                                    "macro": {"before": "macro Burger's model (Eqs. 27-29) per temperature",
+                                              "after": law_model},
+                                    "law_only": {"before": baseline_model, "after": law_only_model}},
+                         "reference": {"before": "measured replicate means",
+                                       "after": "artifact-corrected measured replicate means"}},
+        "gain_nscd": gain_nscd,
+        "gain_macro": gain_macro,
+        "gain_law_only": gain_law_only,
+        "transfer": tr,
+        "targets": {**TARGETS, "met": met, "met_macro": _met(gain_macro),
+                    "met_nscd": _met(gain_nscd) if gain_nscd is not None else None,
+                    "met_law_only": _met(gain_law_only) if gain_law_only is not None else None},
     }
     report = json_safe(report)
     extra = {"laws": laws, "corrected": corrected, "budget": budget, "master": master,
-             "mre_E": {float(T): float(v) for T, v in ext["mre_E_norm_pct"].items()},
-             "mre_phase": {float(T): float(v) for T, v in ext["mre_phase_pct"].items()}}
+             "mre_E": {float(T): float(v) for T, v in law_ext["mre_E_norm_pct"].items()},
+             "mre_phase": {float(T): float(v) for T, v in law_ext["mre_phase_pct"].items()},
+             "gain_rows": gain_table(report)}
     return report, extra
+
+
+def _nf_text(nf: dict | None) -> str:
+    """``0.909 (s1), 0.912 (s2)`` from {sample: NF_s}."""
+    return ", ".join(f"{v:.4g} ({k})" for k, v in (nf or {}).items()) or "n/a"
+
+
+def transfer_summary(simulated_extended: pd.DataFrame | None, transfer: dict | None) -> dict:
+    """What the extended NSCD rows say about the transfer correction, and the NF_s to use
+    for the ``law_only`` source.
+
+    Returns
+    -------
+    dict: ``applied`` (True: the extended rows carry ``transfer_network_factor``; False: they
+    do not; None: no extended rows), ``network_factor_applied`` ({sample: NF_s} of the rows),
+    ``network_factor_applied_mean``, ``network_factor_harmonic`` ({sample: NF_s} given, else
+    the applied ones), ``law_only_network_factor`` (their mean, or None), ``definition``.
+
+    Raises
+    ------
+    InputError
+        if a sample's rows carry several factors, or a factor that differs (relative 1e-9)
+        from the one given in ``transfer`` for the same sample.
+    """
+    applied, per_sample = None, {}
+    ext = simulated_extended
+    if ext is not None and len(ext):
+        applied = "transfer_network_factor" in ext.columns
+        if applied:
+            nf = pd.to_numeric(ext["transfer_network_factor"], errors="coerce")
+            samples = ext["sample"].astype(str) if "sample" in ext.columns else pd.Series("all", index=ext.index)
+            if not np.isfinite(nf.to_numpy(float)).all():
+                raise InputError("extended NSCD rows: column 'transfer_network_factor' is empty or not a number "
+                                 "on some rows (rows with and without the transfer correction are mixed)")
+            for name, values in nf.groupby(samples):
+                if not np.allclose(values, values.iloc[0], rtol=1e-12, atol=0):
+                    raise InputError(f"extended NSCD rows: sample {name!r} ran with several network factors "
+                                     f"{sorted(set(values.round(12)))}")
+                per_sample[str(name)] = float(values.iloc[0])
+    given = {str(k): float(v) for k, v in (transfer or {}).items()}
+    for name, v in per_sample.items():
+        if name in given and not np.isclose(v, given[name], rtol=1e-9, atol=0):
+            raise InputError(f"extended NSCD rows: sample {name!r} ran with network factor {v:.10g} but the "
+                             f"transfer JSON gives {given[name]:.10g} (stale simulation or JSON)")
+    harmonic = given or dict(per_sample)
+    return {"applied": applied, "network_factor_applied": per_sample or None,
+            "network_factor_applied_mean": float(np.mean(list(per_sample.values()))) if per_sample else None,
+            "network_factor_harmonic": harmonic or None,
+            "law_only_network_factor": float(np.mean(list(harmonic.values()))) if harmonic else None,
+            "definition": "NF_s = sample |E*| / macro |E*| without inertia (harmonic solver, real, law "
+                          "independent); transfer correction: bonds calibrated with E*(w) / NF_s"}
+
+
+def gain_table(report: dict) -> pd.DataFrame:
+    """The gain table of a diagnose report: one row per temperature and source.
+
+    Columns: ``temperature_C, source`` (``nscd``: NSCD simulation before and after; ``macro``:
+    macro laws; ``nscd_before_macro_after`` / ``macro_before_nscd_after`` when only one
+    simulation was given; ``law_only``: the extended law without the transfer correction,
+    NF_s E*_law, when the network factors are known), ``before_model, after_model``,
+    ``transfer_correction`` (the "after" includes the transfer correction E*/NF_s),
+    ``network_factor`` (mean NF_s of the "after": applied, or multiplied in for ``law_only``;
+    empty when none), ``E_norm_mre_before_pct,
+    E_norm_mre_after_pct, phase_mre_before_pct, phase_mre_after_pct`` (before: against the
+    measured replicate means; after: against the artifact-corrected ones, %),
+    ``E_norm_mre_after_vs_measured_pct, phase_mre_after_vs_measured_pct`` and
+    ``targets_met`` (after-MREs within the targets).
+    """
+    src = report["gain_sources"]
+    models = src["models"]
+    blocks = []
+    primary = "nscd" if src["before"] == src["after"] == "nscd" else (
+        "macro" if src["before"] == src["after"] == "macro" else f"{src['before']}_before_{src['after']}_after")
+    blocks.append((primary, report["gain"], models[src["before"]]["before"], models[src["after"]]["after"]))
+    if primary != "macro":
+        blocks.append(("macro", report["gain_macro"], models["macro"]["before"], models["macro"]["after"]))
+    if report.get("gain_law_only") is not None:
+        blocks.append(("law_only", report["gain_law_only"], models["law_only"]["before"],
+                       models["law_only"]["after"]))
+    tr = report.get("transfer") or {}
+    applied = bool(tr.get("applied"))
+    rows = []
+    for source, gain, before_model, after_model in blocks:
+        met = _met(gain)
+        nscd_after = source == "nscd" or source.endswith("_nscd_after")
+        corrected = nscd_after and applied
+        nf = (tr.get("network_factor_applied_mean") if corrected else
+              tr.get("law_only_network_factor") if source == "law_only" else None)
+        for T, g in gain.items():
+            rows.append({"temperature_C": float(T), "source": source, "before_model": before_model,
+                         "after_model": after_model, "transfer_correction": corrected,
+                         "network_factor": np.nan if nf is None else float(nf),
+                         "E_norm_mre_before_pct": g["E_norm"]["before"], "E_norm_mre_after_pct": g["E_norm"]["after"],
+                         "phase_mre_before_pct": g["phase"]["before"], "phase_mre_after_pct": g["phase"]["after"],
+                         "E_norm_mre_after_vs_measured_pct": g["E_norm"]["after_vs_measured"],
+                         "phase_mre_after_vs_measured_pct": g["phase"]["after_vs_measured"],
+                         "targets_met": met[T]})
+    return pd.DataFrame(rows)
 
 
 def json_safe(obj):
@@ -331,16 +578,65 @@ def budget_figure(budget: pd.DataFrame, path) -> None:
     plt.close(fig)
 
 
+def _bracket(v) -> str:
+    """`` (v)`` with 2 decimals, or nothing for a missing value."""
+    return "" if v is None or v != v else f" ({v:.2f})"
+
+
 def markdown_page(report: dict, figure: str | None = None) -> str:
     """The report page "What the simulation gets wrong" (Markdown) from a diagnose report."""
+    src = report.get("gain_sources")
     lines = ["# What the simulation gets wrong", "",
              f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
-             f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", "",
-             "| T (degC) | MRE \\|E*\\| before (%) | after (%) | MRE Phi before (%) | after (%) | targets met |",
-             "|---|---|---|---|---|---|---|"]
-    for T, g in report["gain"].items():
-        lines.append(f"| {T} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
-                     f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} | {report['targets']['met'][T]} |")
+             f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", ""]
+    labels = {"nscd": "NSCD simulation", "macro": "macro law", "law_only": "extended law, no correction"}
+    if src is not None:
+        rows = gain_table(report)
+        tr = report.get("transfer") or {}
+        if tr.get("applied"):
+            note = (" The NSCD rows after the extension include the transfer correction: every bond is "
+                    "calibrated with E*(w) / NF_s, NF_s the sample's network factor (sample |E*| / macro "
+                    "|E*| without inertia, harmonic solver; Eqs. 30-33 assume NF_s = 1), NF_s = "
+                    f"{_nf_text(tr['network_factor_applied'])}. The NSCD rows before it (the paper's "
+                    "method) are not corrected.")
+        elif tr.get("applied") is False:
+            note = " The NSCD rows after the extension carry no transfer correction (Eqs. 30-33 as printed)."
+        else:
+            note = ""
+        if report.get("gain_law_only") is not None:
+            note += (" *Extended law, no correction* rows: the inertia-free harmonic response of the samples "
+                     "with the generalized Burger's bond law as Eqs. 30-33 transfer it, NF_s x E*_law, "
+                     f"NF_s = {_nf_text(tr.get('network_factor_harmonic'))}; before -> these rows is the "
+                     "gain of the law, these rows -> the NSCD rows after is the gain of the correction "
+                     "(and of the remaining inertia and time integration).")
+        lines += ["## Gain of the extended law per temperature (MRE %, before -> after)", "",
+                  "Source: *NSCD simulation* rows compare the time-domain NSCD runs (Burger's bond law "
+                  "before, generalized Burger's bond law after); *macro law* rows compare the macro laws "
+                  "themselves (Burger's before, generalized Burger's after), no simulation. "
+                  f"Before: against the {src['reference']['before']}; after: against the "
+                  f"{src['reference']['after']} (in brackets: against the measured means)." + note, "",
+                  "| T (degC) | source | MRE \\|E*\\| before | after | MRE Phi before | after | targets met |",
+                  "|---|---|---|---|---|---|---|"]
+        order = {"law_only": 1, "macro": 2}
+        rows = rows.assign(_o=rows["source"].map(lambda x: order.get(x, 0)))
+        for _, r in rows.sort_values(["temperature_C", "_o"]).iterrows():
+            if r["source"] in labels:
+                label = labels[r["source"]]
+            else:
+                b, _, a = r["source"].partition("_before_")
+                label = f"{labels[b]} -> {labels[a.replace('_after', '')]}"
+            if r["transfer_correction"]:
+                label += f" (+ transfer correction, NF_s = {r['network_factor']:.4g})"
+            lines.append(f"| {r['temperature_C']:g} | {label} | {r['E_norm_mre_before_pct']:.2f} | "
+                         f"{r['E_norm_mre_after_pct']:.2f}{_bracket(r['E_norm_mre_after_vs_measured_pct'])} | "
+                         f"{r['phase_mre_before_pct']:.2f} | {r['phase_mre_after_pct']:.2f}"
+                         f"{_bracket(r['phase_mre_after_vs_measured_pct'])} | {bool(r['targets_met'])} |")
+    else:
+        lines += ["| T (degC) | MRE \\|E*\\| before (%) | after (%) | MRE Phi before (%) | after (%) | targets met |",
+                  "|---|---|---|---|---|---|"]
+        for T, g in report["gain"].items():
+            lines.append(f"| {T} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
+                         f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} | {report['targets']['met'][T]} |")
     lines += ["", f"Targets: |E*| MRE <= {report['targets']['E_norm_mre_pct']:g} %, "
               f"Phi MRE <= {report['targets']['phase_mre_pct']:g} %.", "", "## Named causes (most important first)", ""]
     by = {e["name"]: e for e in report["effects"]}
@@ -370,6 +666,12 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
             v = comp.get(c)
             cells.append("n/a" if v is None else f"{v['mre_E_norm_pct']:.2f} / {v['mre_phase_pct']:.2f}")
         lines.append(f"| {T} | " + " | ".join(cells) + " |")
+    total = "the NSCD simulation" if report["baseline"]["model"].startswith("NSCD") else "the macro Burger's law"
+    lines += ["", "Components: data artifacts = measured vs artifact-corrected means; model form = macro "
+              "Burger's law vs corrected means; micro-macro transfer = harmonic response of the NSCD "
+              "sample vs its macro Burger's law (n/a without harmonic results); numerics = NSCD "
+              "simulation vs harmonic response (n/a without both); total = "
+              f"{total} vs the measured means."]
     if figure:
         lines += ["", f"![error budget]({figure})"]
     return "\n".join(lines) + "\n"

@@ -208,41 +208,142 @@ def peak_rss_mb() -> float:
 
 def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
               td_dt: float = 5e-5, td_cycles: int = 5, bond_kinematics: str = "contact",
-              head_rotation: str = "free", direct: bool = True) -> dict:
-    """Time one harmonic (T, f) on a sample, and the matching time-domain job by extrapolation.
+              head_rotation: str = "free", direct: bool = True,
+              orderings=("metis", "mmd", "colamd"), baseline: bool = True) -> dict:
+    """Time the harmonic (T, f) solves on a sample, and the matching time-domain job.
 
-    Harmonic: reading + preparation, the one-off real factorisation, then per frequency the
-    ``reuse`` solve with and without inertia and the ``direct`` complex LU. Time-domain: the
-    mean wall time of ``td_steps`` NSCD steps of the same test, times the steps of a
-    ``td_cycles``-cycle job at ``td_dt`` (the paper's 5 cycles at 5e-5 s). ``direct=False``
-    skips the complex LU (minutes on 10^4 spheres).
+    Harmonic, in this order: reading + preparation (``setup_s``); per frequency the
+    ``reuse`` solve with inertia (the first one includes the METIS ordering and the real
+    factorisation of G - Re(s) M; later ones reuse it or factorise a new shift, see
+    :meth:`.HarmonicSystem.solve_law`), its GMRES iterations and whether the factor was
+    reused; the factorisation of G and per frequency the ``reuse`` solve without inertia;
+    optionally the ``direct`` complex LU (``direct=False`` skips it: minutes at 10^4 spheres).
+    ``first_TF_total_s`` = setup + first solve with inertia; ``peak_rss_mb_solver`` is the peak
+    memory at that point (before the comparisons below).
+
+    Same-run comparisons: ``orderings`` — G factorised with each ordering ("metis": this
+    module's nested dissection, "mmd": SuperLU MMD(A^T+A), the previous default, "colamd"):
+    factor time, fill L.nnz + U.nnz, time of one complex (2-column) solve, and ratios to
+    "mmd"; ``baseline`` — the previous inertia path at the first frequency (MMD factor of G,
+    GMRES preconditioned by G^-1) and the ratio of its factor + solve time to the new one's.
+
+    Time-domain: mean wall time of ``td_steps`` NSCD steps of the same test, times the steps
+    of a ``td_cycles``-cycle job at ``td_dt`` (the paper's 5 cycles at 5e-5 s).
 
     Returns
     -------
-    dict (JSON-ready) with sizes, times in s, ``peak_rss_mb``.
+    dict (JSON-ready) with sizes, times in s, fills, ratios, ``peak_rss_mb``.
     """
+    import scipy.sparse.linalg as spla
+    from scipy.sparse.linalg import splu
+
+    from ..nscd.linear import splu_symmetric
     from .network import read_sample
-    from .solver import HarmonicSystem
+    from .solver import HarmonicSystem, _fill
 
     t0 = time.perf_counter()
     network = read_sample(sample_path)
     system = HarmonicSystem(network, bond_kinematics=bond_kinematics,
                             head_rotation=head_rotation)
     t_setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    system._reference()
-    t_factor = time.perf_counter() - t0
     per_f = []
     for f in frequencies_Hz:
-        entry = {"frequency_Hz": float(f)}
-        cases = [("reuse", "none"), ("reuse", "full")] + ([("direct", "full")] if direct else [])
-        for solver, inertia in cases:
-            t0 = time.perf_counter()
-            row = harmonic_rows(system, law, 0.0, [f], geometry_mm, inertia=inertia,
-                                solver=solver)[0]
-            entry[f"{solver}_{inertia}_s"] = time.perf_counter() - t0
-            entry[f"{solver}_{inertia}_E_norm_MPa"] = row["E_norm_MPa"]
+        n_factors = len(system.factor_log)
+        t0 = time.perf_counter()
+        row = harmonic_rows(system, law, 0.0, [f], geometry_mm, inertia="full",
+                            solver="reuse")[0]
+        entry = {"frequency_Hz": float(f), "reuse_full_s": time.perf_counter() - t0,
+                 "reuse_full_E_norm_MPa": row["E_norm_MPa"],
+                 "gmres_iterations": int(system.last_gmres_iterations),
+                 "new_factorisations": [dict(r) for r in system.factor_log[n_factors:]]}
         per_f.append(entry)
+    peak_solver = peak_rss_mb()
+    t0 = time.perf_counter()
+    ref = system._reference()
+    t_factor = time.perf_counter() - t0
+    for entry in per_f:
+        t0 = time.perf_counter()
+        row = harmonic_rows(system, law, 0.0, [entry["frequency_Hz"]], geometry_mm,
+                            inertia="none", solver="reuse")[0]
+        entry["reuse_none_s"] = time.perf_counter() - t0
+        entry["reuse_none_E_norm_MPa"] = row["E_norm_MPa"]
+    g = ref["ff"]
+    system._shifted.clear()
+    ref.pop("lu", None)
+    rng = np.random.default_rng(0)
+    b = rng.standard_normal(g.shape[0]) + 1j * rng.standard_normal(g.shape[0])
+    cmp = {}
+    for name in orderings:
+        t0 = time.perf_counter()
+        if name == "metis":
+            perm = system.permutation()
+            t_order = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            lu = splu_symmetric(g, perm)
+        elif name == "mmd":
+            t_order = 0.0
+            lu = splu_symmetric(g)
+        else:
+            t_order = 0.0
+            lu = splu(g.tocsc(), permc_spec=name.upper(), diag_pivot_thresh=0.0,
+                      options={"SymmetricMode": True})
+        t_fac = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        x = (lu.solve(b) if name == "metis" else
+             lu.solve(np.ascontiguousarray(np.column_stack([b.real, b.imag]))))
+        t_sol = time.perf_counter() - t0
+        x = x if name == "metis" else x[:, 0] + 1j * x[:, 1]
+        cmp[name] = {"ordering_s": t_order, "factor_s": t_fac, "solve_s": t_sol,
+                     "fill": _fill(lu), "stored_entries": int(lu.nnz),
+                     "relative_residual": float(np.linalg.norm(g @ x - b) / np.linalg.norm(b))}
+        del lu
+    if "mmd" in cmp:
+        for v in cmp.values():
+            v["fill_ratio_to_mmd"] = v["fill"] / cmp["mmd"]["fill"]
+            v["factor_time_ratio_to_mmd"] = v["factor_s"] / cmp["mmd"]["factor_s"]
+            v["solve_time_ratio_to_mmd"] = v["solve_s"] / cmp["mmd"]["solve_s"]
+    base = {}
+    if baseline and system.n_free:
+        f = float(frequencies_Hz[0])
+        omega = 2 * np.pi * f
+        s = omega**2 / complex(law.complex_modulus(omega))
+        up = np.array([63e-6, 0.0, 0.0], complex)
+        rhs = -(ref["fp"] @ up)
+        m = system.mass_free
+        t0 = time.perf_counter()
+        lu = splu_symmetric(g)
+        t_fac = time.perf_counter() - t0
+
+        def g_inv(v):
+            v = np.asarray(v).ravel()
+            return lu.solve(np.ascontiguousarray(v.real)) + 1j * lu.solve(
+                np.ascontiguousarray(v.imag))
+
+        op = spla.LinearOperator(g.shape, dtype=complex,
+                                 matvec=lambda v: g @ v - s * (m * v.ravel()))
+        prec = spla.LinearOperator(g.shape, dtype=complex, matvec=g_inv)
+        count = [0]
+
+        def tick(_):
+            count[0] += 1
+
+        t0 = time.perf_counter()
+        u, info = spla.gmres(op, rhs, x0=g_inv(rhs), rtol=1e-12, atol=0.0, M=prec, restart=50,
+                             maxiter=200, callback=tick, callback_type="pr_norm")
+        t_gm = time.perf_counter() - t0
+        del lu
+        new = per_f[0]["reuse_full_s"]
+        base = {"method": "MMD(A^T+A) factor of G, GMRES preconditioned by G^-1 (previous)",
+                "frequency_Hz": f, "factor_s": t_fac, "gmres_s": t_gm,
+                "gmres_iterations": count[0], "converged": bool(info == 0),
+                "total_s": t_fac + t_gm, "new_total_s": new,
+                "speedup": (t_fac + t_gm) / new}
+    direct_s = float("nan")
+    if direct:
+        t0 = time.perf_counter()
+        harmonic_rows(system, law, 0.0, [frequencies_Hz[0]], geometry_mm, inertia="full",
+                      solver="direct")
+        direct_s = time.perf_counter() - t0
     td = (_time_domain_step_time(sample_path, law, float(frequencies_Hz[0]), td_dt, td_steps)
           if td_steps > 0 else float("nan"))
     n_td = int(round(td_cycles / (float(frequencies_Hz[0]) * td_dt)))
@@ -251,13 +352,17 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
         "n_spheres": network.n_spheres, "n_bonds": network.n_bonds,
         "bond_kinematics": bond_kinematics, "head_rotation": head_rotation,
         "n_free_dof": system.n_free, "n_load_free": system.n_load_free,
-        "setup_s": t_setup, "reference_factorisation_s": t_factor,
+        "ordering": system.ordering, "setup_s": t_setup,
         "per_frequency": per_f,
-        "first_TF_total_s": t_setup + t_factor + first["reuse_full_s"],
-        "direct_TF_total_s": t_setup + first.get("direct_full_s", float("nan")),
+        "first_TF_total_s": t_setup + first["reuse_full_s"],
+        "subsequent_TF_s": [e["reuse_full_s"] for e in per_f[1:]],
+        "reference_factorisation_s": t_factor,
+        "orderings": cmp, "baseline": base,
+        "direct_first_TF_s": direct_s,
         "time_domain_step_s": td, "time_domain_steps": n_td,
         "time_domain_job_s": td * n_td,
         "time_domain_job": f"{td_cycles} cycles at {frequencies_Hz[0]} Hz, dt = {td_dt} s",
+        "peak_rss_mb_solver": peak_solver,
         "peak_rss_mb": peak_rss_mb(),
     }
 

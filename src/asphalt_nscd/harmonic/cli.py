@@ -6,6 +6,8 @@
 * ``harmonic-network-factor``— sample |E*| / macro |E*| and phase difference tables.
 * ``harmonic-plot``          — isotherms, Black diagram, Cole-Cole: macro, sample, measured.
 * ``harmonic-kinematics``    — network factor per (bond kinematics, head rotation, T, f).
+* ``harmonic-transfer``      — network factor NF_s of a sample (no inertia, law independent):
+                               the transfer JSON of ``run-2pb --network-factor-json``.
 * ``harmonic-bench``         — timing and peak memory on an N-sphere sample (JSON).
 
 ``--bond-kinematics contact|barycentre`` and ``--head-rotation free|clamped`` select the
@@ -59,8 +61,9 @@ def register(subparsers) -> None:
                    help="full: sphere masses in the dynamics, head inertia in the force; none: "
                         "quasi-static (see asphalt_nscd.harmonic.solver)")
     p.add_argument("--solver", choices=["reuse", "direct"], default="reuse",
-                   help="reuse: one real LU of the reference stiffness per sample; direct: one "
-                        "complex LU per (T, f)")
+                   help="reuse: real LUs only (G per sample; with inertia GMRES preconditioned "
+                        "by G - Re(s) M, shared by nearby (T, f)); direct: one complex LU per "
+                        "(T, f)")
     p.add_argument("--rtol", type=float, default=1e-12, help="GMRES relative tolerance (reuse)")
     p.add_argument("--mode", default="", help="label written in a 'mode' column (paper/measured)")
     p.add_argument("-o", "--output", type=Path, required=True,
@@ -129,12 +132,35 @@ def register(subparsers) -> None:
                         "phase_difference_deg")
     p.set_defaults(func=_kinematics)
 
-    p = subparsers.add_parser("harmonic-bench", help="benchmark the harmonic solver (JSON)")
+    p = subparsers.add_parser("harmonic-transfer",
+                              help="network factor NF_s of a sample (transfer JSON for run-2pb)",
+                              description="Network factor NF_s = sample |E*| / macro |E*| of the "
+                              "inertia-free sample (real, independent of the law, temperature and "
+                              "frequency; asphalt_nscd.harmonic.transfer): one real factorisation. "
+                              "Use the kinematics of the time-domain test it corrects (config "
+                              "nscd.bond_kinematics, campaign.test.head_rotation, campaign.test.nu).")
+    p.add_argument("--sample", type=Path, required=True, help="sample file results/samples/<s>.h5")
+    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (0.35)")
+    _add_kinematics_options(p)
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="transfer JSON: network_factor, sample, bond_kinematics, head_rotation, nu, units")
+    p.set_defaults(func=_transfer)
+
+    p = subparsers.add_parser("harmonic-bench", help="benchmark the harmonic solver (JSON); run it "
+                                                     "with OPENBLAS_NUM_THREADS=1 (one core, as "
+                                                     "under Snakemake)")
     p.add_argument("--n", type=int, default=12000, help="spheres of the generated lattice sample")
     p.add_argument("--sample", type=Path, default=None,
                    help="use this sample file instead of generating one")
     p.add_argument("--seed", type=int, default=0, help="seed of the generated sample")
-    p.add_argument("--frequency", type=float, nargs="+", default=[10.0], help="frequencies, Hz")
+    p.add_argument("--frequency", type=float, nargs="+", default=[10.0, 3.0, 6.0, 25.0, 40.0],
+                   help="frequencies, Hz, solved in this order (default 10 3 6 25 40: the first "
+                        "near the sample's resonance)")
+    p.add_argument("--orderings", nargs="*", default=["metis", "mmd", "colamd"],
+                   choices=["metis", "mmd", "colamd"],
+                   help="orderings compared on the factorisation of G in the same run")
+    p.add_argument("--skip-baseline", action="store_true",
+                   help="do not time the previous inertia path (MMD + GMRES with G^-1)")
     p.add_argument("--td-steps", type=int, default=20, help="NSCD steps timed (0: skip)")
     p.add_argument("--skip-direct", action="store_true",
                    help="do not time the complex LU per (T, f) (minutes on 10^4 spheres)")
@@ -239,6 +265,14 @@ def _network_factor(args) -> int:
     return 0
 
 
+def _transfer(args) -> int:
+    from .transfer import write_transfer
+
+    write_transfer(args.sample, args.output, nu=args.nu, bond_kinematics=args.bond_kinematics,
+                   head_rotation=args.head_rotation)
+    return 0
+
+
 def _kinematics(args) -> int:
     from ..io import write_csv
     from .analysis import kinematics_study
@@ -313,9 +347,14 @@ def _bench(args) -> int:
             geometry = specimen_geometry_mm(path)
         result = benchmark(path, law, args.frequency, geometry, td_steps=args.td_steps,
                            bond_kinematics=args.bond_kinematics,
-                           head_rotation=args.head_rotation, direct=not args.skip_direct)
+                           head_rotation=args.head_rotation, direct=not args.skip_direct,
+                           orderings=tuple(args.orderings), baseline=not args.skip_baseline)
+    import os
+
+    result["OPENBLAS_NUM_THREADS"] = os.environ.get("OPENBLAS_NUM_THREADS", "unset")
     result.update({"sample": str(args.sample) if args.sample else f"lattice n={args.n}",
                    "law": "paper Table 3, 15 degC, Pa reading", "linear_solver":
-                   "scipy.sparse.linalg.splu (SuperLU), MMD(A^T+A), symmetric mode"})
+                   "scipy.sparse.linalg.splu (SuperLU), symmetric mode, METIS nested "
+                   "dissection (pymetis); inertia: GMRES preconditioned by G - Re(s) M"})
     write_json(result, args.output)
     return 0

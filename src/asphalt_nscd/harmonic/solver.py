@@ -88,28 +88,64 @@ Without inertia K(w) = E*(w) G with G real when all bonds share one law, so the 
 response is E*(w) times a real geometric stiffness: the "network factor" is then a real
 constant and the phase of the sample equals that of the macro law.
 
-Linear solver: SciPy's SuperLU (``scipy.sparse.linalg.splu``). The matrices are complex
-symmetric (not Hermitian) with a symmetric pattern: SuperLU in symmetric mode with the
-MMD(A^T + A) ordering gave half the fill of COLAMD (19.5e6 vs 33.8e6 factor entries,
-8.7 s vs 11.0 s for one complex factorisation of a 12,000-sphere lattice, 36,000 DOF). When
-every bond follows one law, K(w) = E*(w) G with G real and independent of T and f, so G is
-factorised once per sample in real arithmetic (2.6 s on the same lattice) and each (T, f)
-costs a back-substitution (0.2 s), plus a few GMRES iterations preconditioned by G^-1 when
-inertia is included (w^2 m / k << 1 far below the first resonance; 1.5 s). The general path
-for per-bond laws (:meth:`HarmonicSystem.solve`) factorises the complex matrix at each (T, f).
-With ``bond_kinematics="contact"`` (6 DOF per sphere, 72,003 unknowns on the same lattice
-with a free head) the 6x6 bond blocks raise the fill: measured on a loaded 2-core machine
-(``harmonic-bench --n 12000 --td-steps 0 --skip-direct``), setup 10.6 s vs 1.8 s, real
-factorisation 103 s vs 6.6 s, back-substitution 1.1 s vs 0.14 s, GMRES with inertia 68 s vs
-2.2 s (more iterations, each dearer), i.e. 182 s vs 10.5 s for the first (T, f).
-SciPy has no sparse Cholesky or nested-dissection ordering; a geometric nested dissection
-tried here did not beat MMD(A^T + A) (28e6 entries). Measurements: ``asphalt-nscd
-harmonic-bench`` (results/harmonic/bench.json).
+Linear solvers (choices measured with ``asphalt-nscd harmonic-bench``; docs/choices.md)
+--------------------------------------------------------------------------------------
+When every bond follows one law, K(w) - w^2 M = E*(w) (G - s M) with s = w^2 / E*(w), G the
+real symmetric positive definite (regularised) stiffness for a unit modulus, independent of
+(T, f), and M the diagonal masses and rotational inertias.
+
+* Factorisations: SciPy's SuperLU in symmetric mode (diagonal pivots) in the METIS
+  nested-dissection order of the body graph expanded to the d-DOF blocks
+  (:mod:`.ordering`). Same run on the 12,000-sphere lattice (contact + free head, 72,003
+  unknowns, factor of G, 1 BLAS thread, 2-core machine at load 6-7): fill L.nnz + U.nnz
+  6.35e7 (METIS) vs 7.58e7 (MMD(A^T + A), the previous default) vs 11.4e7 (COLAMD); factor
+  8.9 s vs 17.2 s vs 20.9 s; one 2-column solve 0.13 s vs 0.17 s vs 0.36 s. On 1,500 spheres
+  MMD is slightly better (fill 0.91 x METIS); METIS wins as the sample grows.
+* Only real factorisations: SciPy's complex SuperLU took 10-100 x the time of the real one of
+  the same pattern and fill (0.6-30 s vs 0.06-0.1 s at 4,800 unknowns, erratic from run to
+  run), so the ``reuse`` path never factorises a complex matrix.
+* ``inertia="none"``: G is factorised once per sample; each (T, f) is a back-substitution.
+* ``inertia="full"``: GMRES preconditioned by the real factor of G - sigma M, sigma = Re(s)
+  (indefinite above the first eigenfrequency; SuperLU keeps the diagonal pivots, a small pivot
+  only weakens the preconditioner and GMRES checks the true residual). For the generalised
+  eigenvalues lambda >= 0 of (G, M) the preconditioned operator has the eigenvalues
+  z = (lambda - s) / (lambda - sigma): a Moebius map of the real axis through z(inf) = 1,
+  z(sigma) = inf and z(0) = s / sigma = 1 - i Im(s)/Re(s), i.e. the line Re z = 1, bounded
+  away from 0 even at a resonance. G^-1 (sigma = 0, the previous preconditioner) puts every
+  mode softer than |s| (the resonant ones and the eps-regularised near-mechanisms) on the ray
+  1 - s/lambda far from 1: on the 12,000-sphere lattice (Table 3, 15 degC, rtol 1e-12) it
+  needed 12, 18, 21, 62 GMRES iterations at 0.1, 1, 3, 10 Hz, the shifted factor 9 at 10 Hz.
+  A factor is reused across (T, f) while sigma_c / 100 <= Re(s) <= 20 sigma_c
+  (:data:`SHIFT_REUSE_BELOW`, :data:`SHIFT_REUSE_ABOVE`): iterations with the 10 Hz factor at
+  1, 1.5, 2, 3, 6, 25, 35, 40, 50, 60 Hz (Re(s) ratio 0.01 ... 29): 19, 16, 16, 15, 12, 24, 30,
+  34, 39, 73, against about 70 iterations for one factorisation. GMRES is capped at
+  :data:`GMRES_MAX_ITERATIONS`; a reused factor that misses it is replaced by one at Re(s);
+  if that misses too, the call falls back to ``direct``.
+* ``direct`` (and per-bond laws, :meth:`HarmonicSystem.solve`): one complex LU per call, the
+  reference of the tests.
+* Assembly: the 6x6 blocks of the bonds are summed per pair of bodies (np.add.reduceat after
+  one sort of 4B keys) instead of a unique-sort of 36 x 4B entries: setup 0.7 s vs 7.0 s on
+  the 12,000-sphere lattice (same run, load 5), 0.09 s vs 0.54 s on 800 spheres.
+* Result (``harmonic-bench --n 12000 --td-steps 5 --skip-direct``, OPENBLAS_NUM_THREADS=1;
+  Table 3 at 15 degC in Pa, where the sample + head resonance is near 10 Hz). Load 2.3-4.4 on
+  the 2 cores (84 % of a core): first (T, f) = 10 Hz 9.2 s (setup 1.4 s, ordering 0.1 s,
+  factor of G - Re(s) M 6.2 s, 9 GMRES iterations); then 3, 6, 25, 40 Hz reusing that factor
+  2.1, 1.6, 2.9, 3.9 s (15, 12, 24, 34 iterations); peak memory 1.2 GB. The previous path in
+  the same run (MMD factor of G + GMRES with G^-1, 50 iterations) took 34.4 s for the 10 Hz
+  solve vs 7.8 s (4.4 x), plus its 7 s setup. Matching time-domain job (5 cycles at 10 Hz,
+  dt = 5e-5 s): 10,000 NSCD steps of 0.073 s, 729 s. At load 6.2-6.9 (68 % of a core): first
+  (T, f) 11.8 s, then 2.6-5.5 s.
+* Threads: run with one BLAS thread (Snakemake sets OPENBLAS_NUM_THREADS to the rule's
+  threads; the bench records it). With multithreaded OpenBLAS on the loaded 2-core machine
+  GMRES's vector products dominated: 2.3 s vs 0.78 s for one solve at 4,000 spheres.
+* Memory: one shifted factor is kept (:data:`MAX_SHIFTED_FACTORS`, dropped before the next is
+  computed), about 0.8 GB at 12,000 spheres.
 """
 
 from __future__ import annotations
 
 import time
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -117,9 +153,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
-from ..nscd.linear import splu_symmetric
+from ..nscd.linear import PermutedLU, splu_symmetric
 from ..rheology.laws import tangential_ratio
 from .network import BondNetwork
+from .ordering import ORDERINGS, nested_dissection
 
 INERTIA_MODES = ("none", "full")
 BOND_KINEMATICS = ("contact", "barycentre")
@@ -127,6 +164,15 @@ HEAD_ROTATIONS = ("free", "clamped")
 #: Relative stiffness eps of the regularising rotational bond spring (module docstring).
 ROTATIONAL_REGULARISATION = 1e-10
 SOLVERS = ("reuse", "direct")
+#: A cached real factor of G - sigma_c M is reused for the shift sigma = Re(s) when
+#: sigma_c / SHIFT_REUSE_BELOW <= sigma <= sigma_c * SHIFT_REUSE_ABOVE (iteration counts in the
+#: module docstring: a factorisation costs about as much as 70 GMRES iterations).
+SHIFT_REUSE_BELOW = 100.0
+SHIFT_REUSE_ABOVE = 20.0
+#: GMRES iterations (no restart) before a reused shifted factor is replaced by a new one.
+GMRES_MAX_ITERATIONS = 80
+#: Shifted factors kept in memory besides G (each about 0.75 GB at 12,000 spheres).
+MAX_SHIFTED_FACTORS = 1
 #: EN 12697-26 lumped-mass factor of the specimen in mu = 0.135 M + m (Eq. 1).
 SPECIMEN_MASS_FACTOR = 0.135
 
@@ -216,13 +262,15 @@ class HarmonicSystem:
 
     def __init__(self, network: BondNetwork, nu: float = 0.35,
                  bond_kinematics: str = "contact", head_rotation: str = "free",
-                 regularisation: float = ROTATIONAL_REGULARISATION):
+                 regularisation: float = ROTATIONAL_REGULARISATION, ordering: str = "metis"):
         if bond_kinematics not in BOND_KINEMATICS:
             raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
                              f"got {bond_kinematics!r}")
         if head_rotation not in HEAD_ROTATIONS:
             raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
                              f"got {head_rotation!r}")
+        if ordering not in ORDERINGS:
+            raise ValueError(f"ordering must be one of {ORDERINGS}, got {ordering!r}")
         if bond_kinematics == "contact" and network.contact_point is None:
             raise ValueError("bond_kinematics='contact' needs the sphere radii (contact points)")
         if not regularisation >= 0:
@@ -232,6 +280,10 @@ class HarmonicSystem:
         self.bond_kinematics = bond_kinematics
         self.head_rotation = head_rotation
         self.regularisation = float(regularisation)
+        self.ordering = ordering
+        #: One record per factorisation: kind, shift, times, stored entries (:meth:`factorise`).
+        self.factor_log: list[dict] = []
+        self._shifted: OrderedDict = OrderedDict()
         contact = bond_kinematics == "contact"
         n_sph = network.n_spheres
         i, j = network.i, network.j
@@ -248,15 +300,20 @@ class HarmonicSystem:
         d = self.dof_per_sphere
         n_head_rot = 3 if head_rotation == "free" else 0
         self.n_free = d * n_act + n_head_rot
-        # Global DOF of the 6 coordinates (u, theta) of every body; -1 = fixed / not a DOF.
-        # Bodies 0..n_sph-1 spheres, n_sph bottom plate (fixed), n_sph+1 top plate whose
-        # translation is prescribed (DOFs n_free..n_free+2, the "p" block).
-        gdof = -np.ones((n_sph + 2, 6), np.int64)
+        # Body slots: active spheres 0..n_act-1, top plate n_act, bottom plate n_act + 1.
+        # Global DOF of the 6 coordinates (u, theta) of every slot; -1 = fixed / not a DOF.
+        # The top plate's translation is prescribed (DOFs n_free..n_free+2, the "p" block).
         act = np.flatnonzero(self.active)
-        gdof[act, :d] = d * np.arange(n_act)[:, None] + np.arange(d)
-        gdof[n_sph + 1, :3] = self.n_free + np.arange(3)
+        slot = -np.ones(n_sph + 2, np.int64)
+        slot[act] = np.arange(n_act)
+        slot[n_sph + 1] = n_act
+        slot[n_sph] = n_act + 1
+        n_slot = n_act + 2
+        gdof = -np.ones((n_slot, 6), np.int64)
+        gdof[:n_act, :d] = d * np.arange(n_act)[:, None] + np.arange(d)
+        gdof[n_act, :3] = self.n_free + np.arange(3)
         if n_head_rot:
-            gdof[n_sph + 1, 3:] = d * n_act + np.arange(3)
+            gdof[n_act, 3:] = d * n_act + np.arange(3)
         self.keep = self.active[i]  # bonds of load-free clusters carry nothing
         a_body = i[self.keep]
         c_body = np.where(j >= 0, j, n_sph - 1 - j)[self.keep]  # -1 -> n_sph, -2 -> n_sph + 1
@@ -280,45 +337,52 @@ class HarmonicSystem:
         arm = arm_a if contact else point - centre[c_body]
         arm2 = np.einsum("bk,bk->b", arm, arm)
         unit_n[:, 3:, 3:] = (self.regularisation * arm2)[:, None, None] * np.eye(3)
-        rows, cols, un, ut, src = [], [], [], [], []
-        bidx = np.arange(nb)
-        for s_body, s_lev, t_body, t_lev, sign in ((a_body, lever_a, a_body, lever_a, 1.0),
-                                                   (c_body, lever_c, c_body, lever_c, 1.0),
-                                                   (a_body, lever_a, c_body, lever_c, -1.0),
-                                                   (c_body, lever_c, a_body, lever_a, -1.0)):
-            r_dof = gdof[s_body]  # (B, 6)
-            c_dof = gdof[t_body]
-            vn = sign * np.einsum("bki,bkl,blj->bij", s_lev, unit_n, t_lev)
-            vt = sign * np.einsum("bki,bkl,blj->bij", s_lev, unit_t, t_lev)
-            rr = np.broadcast_to(r_dof[:, :, None], (nb, 6, 6))
-            cc = np.broadcast_to(c_dof[:, None, :], (nb, 6, 6))
-            ok = (rr >= 0) & (cc >= 0) & ((vn != 0) | (vt != 0))
-            rows.append(rr[ok])
-            cols.append(cc[ok])
-            un.append(vn[ok])
-            ut.append(vt[ok])
-            src.append(np.broadcast_to(bidx[:, None, None], (nb, 6, 6))[ok])
-        rows = np.concatenate(rows)
-        cols = np.concatenate(cols)
-        self._unit_n = np.concatenate(un)
-        self._unit_t = np.concatenate(ut)
-        self._src = np.concatenate(src)
-        n_all = self.n_free + 3
-        lin = rows * n_all + cols
-        uniq, self._inverse = np.unique(lin, return_inverse=True)
-        self._n_uniq = len(uniq)
-        u_rows, u_cols = uniq // n_all, uniq % n_all
-        # Split the unique entries into the blocks ff, fp (rows free) and pf, pp (rows top).
+        # 6x6 blocks of bond b on the slot pairs (a,a), (c,c), (a,c), (c,a):
+        # L_a^T U L_a, L_c^T U L_c, -L_a^T U L_c, -L_c^T U L_a (U = unit_n or unit_t).
+        sa, sc = slot[a_body], slot[c_body]
+        lat, lct = lever_a.transpose(0, 2, 1), lever_c.transpose(0, 2, 1)
+        blocks_n, blocks_t = [], []
+        for left, right, sign in ((lat, lever_a, 1.0), (lct, lever_c, 1.0),
+                                  (lat, lever_c, -1.0), (lct, lever_a, -1.0)):
+            blocks_n.append(sign * (left @ unit_n @ right))
+            blocks_t.append(sign * (left @ unit_t @ right))
+        self._unit_n = np.concatenate(blocks_n)  # (4B, 6, 6)
+        self._unit_t = np.concatenate(blocks_t)
+        self._src = np.tile(np.arange(nb), 4)
+        pair_r = np.concatenate([sa, sc, sa, sc])
+        pair_c = np.concatenate([sa, sc, sc, sa])
+        # Sum the blocks of each slot pair: sort once, np.add.reduceat per assembly.
+        key = pair_r * n_slot + pair_c
+        self._order = np.argsort(key, kind="stable")
+        sorted_key = key[self._order]
+        first = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]]) if nb else \
+            np.zeros(0, np.int64)
+        self._starts = first
+        ukey = sorted_key[first]
+        rows = gdof[ukey // n_slot][:, :, None]  # (U, 6, 1)
+        cols = gdof[ukey % n_slot][:, None, :]  # (U, 1, 6)
+        nonzero = (self._reduce(np.abs(self._unit_n) + np.abs(self._unit_t)) != 0)
+        valid = (rows >= 0) & (cols >= 0) & nonzero
+        rows = np.broadcast_to(rows, valid.shape)[valid]
+        cols = np.broadcast_to(cols, valid.shape)[valid]
+        self._valid = np.flatnonzero(valid.ravel())
+        # Split the entries into the blocks ff, fp (rows free) and pf, pp (rows top).
         self._blocks = {}
-        for name, rsel, csel in (("ff", u_rows < self.n_free, u_cols < self.n_free),
-                                 ("fp", u_rows < self.n_free, u_cols >= self.n_free),
-                                 ("pf", u_rows >= self.n_free, u_cols < self.n_free),
-                                 ("pp", u_rows >= self.n_free, u_cols >= self.n_free)):
+        for name, rsel, csel in (("ff", rows < self.n_free, cols < self.n_free),
+                                 ("fp", rows < self.n_free, cols >= self.n_free),
+                                 ("pf", rows >= self.n_free, cols < self.n_free),
+                                 ("pp", rows >= self.n_free, cols >= self.n_free)):
             sel = np.flatnonzero(rsel & csel)
             r0 = 0 if name[0] == "f" else self.n_free
             c0 = 0 if name[1] == "f" else self.n_free
             shape = (self.n_free if name[0] == "f" else 3, self.n_free if name[1] == "f" else 3)
-            self._blocks[name] = (sel, u_rows[sel] - r0, u_cols[sel] - c0, shape)
+            self._blocks[name] = (sel, rows[sel] - r0, cols[sel] - c0, shape)
+        # Body graph of the free unknowns (spheres, and the head when it rotates) for the
+        # nested-dissection ordering: node k holds unknowns node_start[k]:node_start[k+1].
+        n_node = n_act + (1 if n_head_rot else 0)
+        edge = (sa < n_node) & (sc < n_node)
+        self._graph = (n_node, sa[edge], sc[edge],
+                       np.r_[d * np.arange(n_act + 1), [self.n_free] if n_head_rot else []])
         mass = np.zeros((n_act, d))
         mass[:, :3] = network.mass[act, None]
         if contact:
@@ -326,6 +390,12 @@ class HarmonicSystem:
         head = np.asarray(network.plate_inertia if network.plate_inertia is not None
                           else np.zeros(3), float)[:n_head_rot]
         self.mass_free = np.concatenate([mass.ravel(), head])
+
+    def _reduce(self, entry) -> np.ndarray:
+        """Sum of per-(bond, slot pair) 6x6 blocks (4B, 6, 6) per slot pair -> (U, 6, 6)."""
+        if len(self._starts) == 0:
+            return np.zeros((0, 6, 6), entry.dtype)
+        return np.add.reduceat(entry[self._order], self._starts, axis=0)
 
     def bond_stiffness(self, law, omega: float) -> tuple[np.ndarray, np.ndarray]:
         """Complex normal and tangential stiffness of every bond, (B,) each, N/m.
@@ -337,16 +407,49 @@ class HarmonicSystem:
         return kn, kn * self.t_ratio
 
     def blocks(self, kn, kt) -> dict:
-        """Sparse blocks ff, fp, pf, pp of K(w) for per-bond stiffnesses kn, kt (B,) N/m."""
-        kn = np.asarray(kn)[self.keep]
-        kt = np.asarray(kt)[self.keep]
-        entry = kn[self._src] * self._unit_n + kt[self._src] * self._unit_t
-        data = (np.bincount(self._inverse, weights=entry.real, minlength=self._n_uniq)
-                + 1j * np.bincount(self._inverse, weights=entry.imag, minlength=self._n_uniq))
+        """Sparse blocks ff, fp, pf, pp of K(w) for per-bond stiffnesses kn, kt (B,) N/m.
+
+        Real stiffnesses give real (float64) blocks, complex ones complex blocks (CSC).
+        """
+        kn = np.asarray(kn)[self.keep][self._src][:, None, None]
+        kt = np.asarray(kt)[self.keep][self._src][:, None, None]
+        data = self._reduce(kn * self._unit_n + kt * self._unit_t).ravel()[self._valid]
         out = {}
         for name, (sel, r, c, shape) in self._blocks.items():
             out[name] = sp.csc_matrix((data[sel], (r, c)), shape=shape)
         return out
+
+    def permutation(self) -> np.ndarray | None:
+        """Fill-reducing ordering of the free unknowns (None: SuperLU's MMD(A^T + A)).
+
+        ``ordering="metis"``: METIS nested dissection of the body graph expanded to the
+        d-DOF blocks (:mod:`.ordering`), computed once per system.
+        """
+        if self.ordering == "mmd" or self.n_free == 0:
+            return None
+        if not hasattr(self, "_perm"):
+            from .ordering import expand_blocks
+
+            n_node, ei, ej, start = self._graph
+            self._perm = expand_blocks(nested_dissection(n_node, ei, ej), start)
+        return self._perm
+
+    def factorise(self, a, kind: str = "", shift: float = 0.0):
+        """SuperLU factor (symmetric mode) of a free-free matrix in the system's ordering.
+
+        Records kind, shift, ordering and factor times and SuperLU's stored entries
+        (``lu.nnz``; L.nnz + U.nnz would copy the factors) in :attr:`factor_log`.
+        """
+        t0 = time.perf_counter()
+        perm = self.permutation()
+        t1 = time.perf_counter()
+        lu = splu_symmetric(a, perm)
+        if perm is None:  # same solve interface (complex right-hand sides of a real factor)
+            lu = PermutedLU(lu, np.arange(a.shape[0]), a.dtype)
+        self.factor_log.append({"kind": kind, "shift": float(shift), "ordering": self.ordering,
+                                "ordering_s": t1 - t0, "factor_s": time.perf_counter() - t1,
+                                "stored_entries": int(lu.nnz), "n": int(a.shape[0])})
+        return lu
 
     def _reference(self) -> dict:
         """Real reference stiffness G = K(k_n = a_b, k_t = a_b / (2(1+nu))) and its LU factor.
@@ -354,18 +457,61 @@ class HarmonicSystem:
         When every bond follows the same law, K(w) = E*(w) G; G is factorised once per sample.
         """
         if not hasattr(self, "_ref"):
-            kn = self.network.scale.astype(complex)
-            blk = {k: sp.csc_matrix((v.data.real.copy(), v.indices, v.indptr), shape=v.shape)
-                   for k, v in self.blocks(kn, kn * self.t_ratio).items()}
-            blk["lu"] = splu_symmetric(blk["ff"]) if self.n_free else None
+            blk = dict(self._reference_blocks())
+            blk["lu"] = self.factorise(blk["ff"], "G") if self.n_free else None
             self._ref = blk
         return self._ref
+
+    def _reference_blocks(self) -> dict:
+        """G's blocks without factorising it (the inertia path needs G - sigma M only)."""
+        if not hasattr(self, "_ref_blocks"):
+            kn = self.network.scale.astype(float)
+            self._ref_blocks = self.blocks(kn, kn * self.t_ratio)
+        return self._ref_blocks
+
+    def shifted_factor(self, sigma: float, reuse: bool = True):
+        """Real factor of G - sigma M, reused from the cache when a cached shift is near.
+
+        Parameters
+        ----------
+        sigma : float, 1/s^2 per Pa (the real part of s = w^2 / E*).
+        reuse : bool
+            Reuse a cached factor of shift sigma_c if sigma_c / :data:`SHIFT_REUSE_BELOW` <=
+            sigma <= sigma_c * :data:`SHIFT_REUSE_ABOVE` (the nearest in log scale). The
+            cache keeps :data:`MAX_SHIFTED_FACTORS` factors (least recently used dropped).
+
+        Returns
+        -------
+        (factor, sigma_used, reused)
+        """
+        best = None
+        for sc in self._shifted if reuse else ():
+            if sc > 0 and sigma > 0 and sc / SHIFT_REUSE_BELOW <= sigma <= sc * SHIFT_REUSE_ABOVE:
+                dist = abs(np.log(sigma / sc))
+                if best is None or dist < best[0]:
+                    best = (dist, sc)
+        if best is not None:
+            self._shifted.move_to_end(best[1])
+            return self._shifted[best[1]], best[1], True
+        while len(self._shifted) >= MAX_SHIFTED_FACTORS:  # free memory before factorising
+            self._shifted.popitem(last=False)
+        g = self._reference_blocks()["ff"]
+        a = (g - sigma * sp.diags(self.mass_free, format="csc")).tocsc()
+        try:
+            lu = self.factorise(a, "G - sigma M", sigma)
+        except RuntimeError:  # exactly singular at this shift: move it slightly
+            sigma = sigma * (1.0 + 1e-6)
+            a = (g - sigma * sp.diags(self.mass_free, format="csc")).tocsc()
+            lu = self.factorise(a, "G - sigma M", sigma)
+        del a
+        self._shifted[sigma] = lu
+        return lu, sigma, False
 
     def solve(self, kn, kt, omega: float, amplitude: float = 63e-6,
               inertia: str = "full") -> HarmonicSolution:
         """Steady state for per-bond stiffnesses kn, kt (B,) complex N/m at w (rad/s).
 
-        One complex sparse LU (SuperLU, symmetric mode, MMD(A^T+A) ordering) per call: the
+        One complex sparse LU (SuperLU, symmetric mode, the system's ordering) per call: the
         general path, for bond laws that differ from bond to bond.
 
         Parameters
@@ -382,13 +528,15 @@ class HarmonicSystem:
         """
         _check_inertia(inertia)
         t0 = time.perf_counter()
-        blk = self.blocks(kn, kt)
+        blk = self.blocks(np.asarray(kn, complex), np.asarray(kt, complex))
         up = np.array([amplitude, 0.0, 0.0], complex)
         a_ff = blk["ff"]
         if inertia != "none":
-            a_ff = a_ff - omega**2 * sp.diags(self.mass_free.astype(complex), format="csc")
+            a_ff = (a_ff - omega**2 * sp.diags(self.mass_free.astype(complex),
+                                               format="csc")).tocsc()
         rhs = -(blk["fp"] @ up)
-        uf = splu_symmetric(a_ff).solve(rhs) if self.n_free else np.zeros(0, complex)
+        uf = (self.factorise(a_ff, "complex K - w^2 M").solve(rhs) if self.n_free
+              else np.zeros(0, complex))
         residual = _relative_residual(a_ff, uf, rhs)
         reaction = blk["pf"] @ uf + blk["pp"] @ up
         return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct")
@@ -405,12 +553,15 @@ class HarmonicSystem:
         frequency_Hz : float
             Test frequency f, Hz (w = 2 pi f).
         solver : {"reuse", "direct"}
-            ``reuse``: K(w) = E*(w) G, the real G is factorised once per sample; without
-            inertia the solution is a back-substitution, with inertia
-            (G - w^2/E* M) u = -G_fp u_p is solved by GMRES preconditioned with G^-1 to the
-            relative tolerance ``rtol``; if GMRES does not reach ``rtol`` within 200 x 50
-            iterations (near a resonance, or near-mechanisms of G) the call falls back to
-            ``direct`` (the solution's ``solver`` then reads "direct").
+            ``reuse``: K(w) - w^2 M = E*(w) (G - s M) with s = w^2 / E* and the real G
+            independent of (T, f). Without inertia the solution is a back-substitution with
+            G's factor (computed once per sample). With inertia, (G - s M) u = -G_fp u_p is
+            solved by GMRES to the relative residual ``rtol``, preconditioned by the real
+            factor of G - sigma M, sigma = Re(s) (:meth:`shifted_factor`: reused across
+            (T, f) while sigma stays near, see :data:`SHIFT_REUSE_BELOW`); if GMRES has not
+            converged after :data:`GMRES_MAX_ITERATIONS` iterations with a reused factor,
+            G - Re(s) M is factorised and GMRES restarted; if that fails too the call falls
+            back to ``direct`` (the solution's ``solver`` then reads "direct").
             ``direct``: one complex LU per call (:meth:`solve`).
 
         Raises
@@ -427,40 +578,65 @@ class HarmonicSystem:
             kn = self.network.scale * e
             return self.solve(kn, kn * self.t_ratio, omega, amplitude=amplitude, inertia=inertia)
         t0 = time.perf_counter()
-        ref = self._reference()
         up = np.array([amplitude, 0.0, 0.0], complex)
-        rhs = -(ref["fp"] @ up)
         uf = np.zeros(self.n_free, complex)
         residual = 0.0
-        if self.n_free:
-            lu = ref["lu"]
-
-            def g_inv(v):
-                v = np.asarray(v).ravel()
-                return lu.solve(np.ascontiguousarray(v.real)) + 1j * lu.solve(
-                    np.ascontiguousarray(v.imag))
-
-            u0 = g_inv(rhs)
-            if inertia == "none":
-                uf = u0
+        self.last_gmres_iterations = 0
+        if inertia == "none":
+            ref = self._reference()
+            rhs = -(ref["fp"] @ up)
+            if self.n_free:
+                uf = ref["lu"].solve(rhs)
                 residual = _relative_residual(ref["ff"], uf, rhs)
-            else:
-                shift = omega**2 / e
-                m = self.mass_free
-                op = spla.LinearOperator((self.n_free,) * 2, dtype=complex,
-                                         matvec=lambda v: ref["ff"] @ v - shift * (m * v.ravel()))
-                prec = spla.LinearOperator((self.n_free,) * 2, dtype=complex, matvec=g_inv)
-                uf, info = spla.gmres(op, rhs.astype(complex), x0=u0, rtol=rtol, atol=0.0,
-                                      M=prec, restart=50, maxiter=200)
-                if info != 0:
-                    # G^-1 is a poor preconditioner when G has near-mechanisms (soft
-                    # rotational modes, module docstring): fall back to the complex LU.
+        else:
+            ref = self._reference_blocks()
+            rhs = -(ref["fp"] @ up)
+            if self.n_free:
+                s = omega**2 / e
+                uf, residual = self._gmres_shifted(ref["ff"], s, rhs, rtol)
+                if uf is None:
                     return self.solve(e * self.network.scale,
                                       e * self.network.scale * self.t_ratio, omega,
                                       amplitude=amplitude, inertia=inertia)
-                residual = float(np.linalg.norm(op @ uf - rhs) / np.linalg.norm(rhs))
         reaction = e * (ref["pf"] @ uf + ref["pp"] @ up)
         return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "reuse")
+
+    def _gmres_shifted(self, g, s, rhs, rtol):
+        """Solve (G - s M) u = rhs by GMRES preconditioned with a real factor of G - sigma M.
+
+        With sigma = Re(s) the preconditioned spectrum (lambda - s)/(lambda - sigma) over the
+        eigenvalues lambda of (G, M) lies on the line Re z = 1: bounded away from 0, so
+        GMRES needs few iterations whatever the distance to a resonance (module docstring).
+
+        Returns (u, relative residual), or (None, nan) if GMRES did not converge.
+        """
+        m = self.mass_free
+        op = spla.LinearOperator((self.n_free,) * 2, dtype=complex,
+                                 matvec=lambda v: g @ v - s * (m * v.ravel()))
+        rhs = rhs.astype(complex)
+        x0 = None
+        for attempt in range(2):
+            lu, sigma, reused = self.shifted_factor(s.real, reuse=attempt == 0)
+            prec = spla.LinearOperator((self.n_free,) * 2, dtype=complex,
+                                       matvec=lambda v, lu=lu: lu.solve(np.asarray(v).ravel()))
+            if x0 is None:
+                x0 = prec @ rhs
+            count = [0]
+
+            def tick(_, count=count):
+                count[0] += 1
+
+            restart = max(1, min(100, GMRES_MAX_ITERATIONS))
+            uf, info = spla.gmres(op, rhs, x0=x0, rtol=rtol, atol=0.0, M=prec, restart=restart,
+                                  maxiter=max(1, -(-GMRES_MAX_ITERATIONS // restart)),
+                                  callback=tick, callback_type="pr_norm")
+            self.last_gmres_iterations += count[0]
+            if info == 0:
+                return uf, float(np.linalg.norm(op @ uf - rhs) / np.linalg.norm(rhs))
+            x0 = uf
+            if not reused:
+                break
+        return None, float("nan")
 
     def _solution(self, omega, uf, reaction, amplitude, inertia, residual, t0, solver):
         up = np.array([amplitude, 0.0, 0.0], complex)
@@ -498,6 +674,12 @@ def _lever(arm) -> np.ndarray:
     out[:, 1, 3], out[:, 1, 5] = -z, x
     out[:, 2, 3], out[:, 2, 4] = y, -x
     return out
+
+
+def _fill(lu) -> int:
+    """L.nnz + U.nnz of a SuperLU factor (SciPy copies L and U at each access: one at a time)."""
+    n = int(lu.L.nnz)
+    return n + int(lu.U.nnz)
 
 
 def _check_inertia(inertia: str) -> None:
