@@ -137,7 +137,7 @@ def test_cli_aggregation_and_figures(tmp_path):
 
 
 def test_projection_counts_the_workflow_jobs():
-    """The projection enumerates the same jobs as workflow/rules/simulation.smk (smoke: 15)."""
+    """The projection enumerates the same jobs as workflow/rules/simulation.smk (smoke: 16)."""
     import yaml
 
     from asphalt_nscd.campaign.bench import campaign_jobs, project_campaign
@@ -145,8 +145,9 @@ def test_projection_counts_the_workflow_jobs():
     with open("config/smoke.yaml") as fh:
         cfg = yaml.safe_load(fh)
     jobs = campaign_jobs(cfg["campaign"], len(cfg["sample"]["seeds"]))
-    # paper 1 + measured 1 + extended 1 + dt study 2 + sensitivity 8 + units kPa 1 + kPa unbreakable 1
-    assert sum(j["n_samples"] for j in jobs) == 15
+    # paper 1 + measured 1 + extended 1 + dt study 2 + sensitivity 8 + its x1 baseline (20 degC,
+    # 40 Hz, outside the paper schedule) 1 + units kPa 1 + kPa unbreakable 1 = `snakemake -n` run_2pb
+    assert sum(j["n_samples"] for j in jobs) == 16
     ext = [j for j in jobs if j["mode"] == "extended"]
     meas = [j for j in jobs if j["mode"] == "measured"]
     assert [(j["temperature_C"], j["frequency_Hz"], j["dt_s"]) for j in ext] == \

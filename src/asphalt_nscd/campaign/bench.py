@@ -100,6 +100,18 @@ def campaign_jobs(campaign: dict, n_samples_total: int) -> list[dict]:
     for _ in range(4 * len(d["factors"])):
         for f in d["frequencies_Hz"]:
             add("sensitivity", ns(d["n_samples"]), d["temperature_C"], f)
+    # paper-mode jobs other rules need even when the paper schedule does not hold them (or the
+    # paper mode is off): the x1 baseline of the sensitivity study and the last-cycle figure
+    paper = campaign["paper"]
+    scheduled = {(T, f) for T in paper["temperatures_C"] for f in paper["frequencies_Hz"]} \
+        if "paper" in campaign["modes"] else set()
+    extra = {(d["temperature_C"], f): ns(d["n_samples"]) for f in d["frequencies_Hz"]}
+    last = campaign["last_cycle"]
+    key = (last["temperature_C"], last["frequency_Hz"])
+    extra[key] = max(extra.get(key, 0), 1)
+    for (T, f), n in extra.items():
+        if (T, f) not in scheduled:
+            add("paper", n, T, f)
     d = campaign["units_question"]
     for mode in ("units_kPa", "units_kPa_nobreak"):
         for f in d["frequencies_Hz"]:
