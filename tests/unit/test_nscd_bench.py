@@ -27,3 +27,30 @@ def test_bench_cli(tmp_path, case):
 
 def test_bench_bad_input(tmp_path):
     assert main(["bench", "--case", "bonded", "--n", "1", "-o", str(tmp_path / "x.json")]) == 2
+
+
+def test_bench_granular_settles_and_reports_it(tmp_path):
+    """The granular bed is timed after settling; the settling phase is reported."""
+    out = tmp_path / "g.json"
+    assert main(["bench", "--case", "granular", "--n", "40", "--steps", "2",
+                 "--settle-steps", "3000", "--settle-speed", "0.02", "-o", str(out)]) == 0
+    rec = json.loads(out.read_text())
+    assert rec["settled"] and rec["settle_final_speed"] < 0.02
+    assert 0 < rec["settle_steps"] <= 3000 and rec["settle_steps"] % 50 == 0
+    assert rec["settle_nlgs_iterations_max"] >= rec["settle_nlgs_iterations_mean"] > 0
+    assert rec["n_active_contacts"] > 0
+
+
+def test_bench_threads_record(tmp_path):
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba thread pool has a single thread")
+    out = tmp_path / "t.json"
+    assert main(["bench", "--case", "bonded", "--n", "60", "--steps", "2", "--baseline-steps",
+                 "1", "--threads", "2", "-o", str(out)]) == 0
+    rec = json.loads(out.read_text())
+    assert rec["threads"] == 2 and rec["thread_speedup"] > 0
+    assert rec["threads_max_force_difference"] < 1e-6
+    assert main(["bench", "--case", "bonded", "--n", "60", "--threads", "0",
+                 "-o", str(tmp_path / "x.json")]) == 2

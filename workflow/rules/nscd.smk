@@ -59,6 +59,7 @@ rule nscd_bench:
         steps=NSCD["bench"]["steps"],
         baseline=NSCD["bench"]["baseline_steps"],
         settle=NSCD["bench"]["settle_steps"],
+        settle_speed=NSCD["bench"].get("settle_speed_m_s", 5.0e-3),
         tol=lambda wc: NSCD["bench"]["granular_tolerance" if wc.case == "granular" else "tolerance"],
         kinematics=NSCD.get("bond_kinematics", "contact"),
     log:
@@ -72,6 +73,7 @@ rule nscd_bench:
     shell:
         "NUMBA_NUM_THREADS=1 asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} "
         "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
+        "--settle-speed {params.settle_speed} "
         "--tolerance {params.tol} --bond-kinematics {params.kinematics} -o {output} 2> {log}"
 
 

@@ -20,8 +20,20 @@ Cases
     A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
     lattice (about 1.5 N^(1/3) spheres along x and y) in a box of 5 fixed walls, friction 0.2,
     dt = 2e-4 s, NLGS at the tolerance ``tolerance`` (1e-4 is LMGC90's usual granular
-    setting); the first
-    ``settle_steps`` steps (falling, not timed) are followed by ``steps`` timed steps.
+    setting). The spheres first fall and compact (untimed settling: steps in chunks of 50
+    until the largest sphere speed is below ``settle_speed`` (default 5e-3 m/s), at most
+    ``settle_steps``); then ``steps`` timed steps measure the settled bed at rest under
+    gravity (its contact network loaded by the weight of the bed, warm-started from the
+    previous step). The settling phase is reported too (settle_*: steps run, whether the
+    speed criterion was met, CPU time per particle and step, mean and maximum NLGS sweeps):
+    it is the costly part of preparing a bed (hundreds of sweeps per step while the bed
+    compacts, the sweeps growing with the depth of the force chains), and was what the
+    former 500-step settling timed (443 sweeps per step at N = 12 000: still compacting).
+
+``threads``: number of numba threads of the parallel kernels (NSCDParameters.threads; 1 =
+the sequential kernels). With ``threads`` > 1 the bonded case also times the same steps with
+one thread on a copy of the sample and reports ``threads1_s_per_particle_step`` and
+``thread_speedup`` (CPU time would hide the gain: wall times are compared).
 
 Reported: case, n_particles, n_bonds, n_contacts (candidates, last step), n_active_contacts,
 steps, s_per_particle_step (process CPU time; wall time in wall_s_per_particle_step,
@@ -135,18 +147,21 @@ def _timed(sim, steps):
 
 
 def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
-              tolerance: float = 1e-7, settle_steps: int = 100, seed: int = 0,
-              linear_tolerance: float = 1e-7, bond_kinematics: str = "contact") -> dict:
+              tolerance: float = 1e-7, settle_steps: int = 5000, seed: int = 0,
+              linear_tolerance: float = 1e-7, bond_kinematics: str = "contact",
+              threads: int = 1, settle_speed: float = 5e-3) -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
     (1e-7, config/config.yaml: changes the phase angle of the driver force at 40 Hz,
     -10 degC, by < 1e-4 degree against the exact direct solve). ``bond_kinematics``: of the
-    bonded case (NSCDParameters).
+    bonded case (NSCDParameters). ``threads``: NSCDParameters.threads of the timed run.
+    ``settle_steps``, ``settle_speed`` (m/s): settling of the granular bed (module
+    docstring).
 
     Raises
     ------
-    ValueError for an unknown case or n < 2.
+    ValueError for an unknown case, n < 2, steps < 1 or a bad threads value.
     """
     import numba
 
@@ -157,7 +172,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     comp = compile_time()
     t0 = time.perf_counter()
     rec: dict = {"case": case, "n_particles": int(n), "steps": int(steps),
-                 "tolerance": tolerance, "threads": 1,
+                 "tolerance": tolerance, "threads": int(threads),
                  "numba_threads_available": int(numba.config.NUMBA_NUM_THREADS),
                  "compile_s": comp, "seed": seed, "bond_kinematics": bond_kinematics,
                  "cpu": platform.processor() or platform.machine(),
@@ -167,7 +182,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                 max_iterations=5000, fast_path=True,
                                 linear_tolerance=linear_tolerance,
-                                bond_kinematics=bond_kinematics)
+                                bond_kinematics=bond_kinematics, threads=threads)
         sim = Simulation(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
@@ -182,6 +197,20 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                    s_per_particle_step=wall / (steps * n),
                    nlgs_iterations_mean=float(df.iterations.mean()), time_breakdown=br)
         rec["peak_rss_mb_production"] = _peak_rss_mb()  # before the references below
+        if threads > 1:  # same steps on one thread, wall time compared
+            s4, plates4, bonds4 = bonded_sample(n, seed=seed)
+            sim4 = Simulation(s4, plates4, bonds4, NSCDParameters(
+                dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
+                fast_path=True, linear_tolerance=linear_tolerance,
+                bond_kinematics=bond_kinematics, threads=1))
+            sim4.step()
+            _, wall4, _, _ = _timed(sim4, steps)
+            rec.update(threads1_wall_s_per_particle_step=wall4 / (steps * n),
+                       thread_speedup=wall4 / wall_clock,
+                       threads_max_force_difference=float(
+                           np.abs(bonds.force - bonds4.force).max()
+                           / (float(np.abs(bonds4.force).max()) or 1.0)))
+            del sim4, s4, plates4, bonds4
         # reference: direct (SuperLU) linear solver on the same sample, same steps
         s3, plates3, bonds3 = bonded_sample(n, seed=seed)
         t3 = time.perf_counter()
@@ -213,11 +242,24 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     else:
         s, plates = granular_sample(n, seed=seed)
         params = NSCDParameters(dt=2e-4, theta=0.5, friction=0.2, tolerance=tolerance,
-                                max_iterations=5000)
+                                max_iterations=5000, threads=threads)
         sim = Simulation(s, plates, None, params)
-        sim.run(settle_steps)
+        done, sweeps, speed = 0, [], np.inf
+        c = time.process_time()
+        while done < settle_steps:
+            k = min(50, settle_steps - done)
+            sweeps.extend(sim.run(k).iterations.tolist())
+            done += k
+            speed = float(np.sqrt((s.velocity ** 2).sum(1)).max())
+            if speed < settle_speed:
+                break
+        settle_cpu = time.process_time() - c
         rec["setup_s"] = time.perf_counter() - t0
-        rec["settle_steps"] = int(settle_steps)
+        rec.update(settle_steps=int(done), settle_speed=settle_speed,
+                   settled=bool(speed < settle_speed), settle_final_speed=speed,
+                   settle_s_per_particle_step=settle_cpu / max(done, 1) / n,
+                   settle_nlgs_iterations_mean=float(np.mean(sweeps)) if sweeps else 0.0,
+                   settle_nlgs_iterations_max=int(max(sweeps)) if sweeps else 0)
         wall, wall_clock, df, br = _timed(sim, steps)
         rec.update(n_bonds=0, solver="nlgs", wall_s_per_particle_step=wall_clock / (steps * n),
                    n_contacts=int(df.n_contacts.iloc[-1]),

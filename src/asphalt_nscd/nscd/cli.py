@@ -7,7 +7,8 @@
 
 ``asphalt-nscd bench --case bonded|granular --n N [--steps S] [--baseline-steps B]
 [--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
-[--bond-kinematics contact|barycentre] -o bench.json`` runs one benchmark.
+[--bond-kinematics contact|barycentre] [--settle-speed V] [--threads T] -o bench.json`` runs
+one benchmark.
 """
 
 
@@ -34,8 +35,12 @@ def register(subparsers) -> None:
     b.add_argument("--baseline-steps", type=int, default=5,
                    help="timed NLGS steps of the bonded baseline")
     b.add_argument("--tolerance", type=float, default=1e-7, help="NLGS tolerance")
-    b.add_argument("--settle-steps", type=int, default=500,
-                   help="untimed settling steps of the granular case")
+    b.add_argument("--settle-steps", type=int, default=5000,
+                   help="most untimed settling steps of the granular case")
+    b.add_argument("--settle-speed", type=float, default=5e-3,
+                   help="granular settling ends when the largest sphere speed (m/s) is below")
+    b.add_argument("--threads", type=int, default=1,
+                   help="numba threads of the parallel kernels (NSCDParameters.threads)")
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--linear-tolerance", type=float, default=1e-7,
                    help="relative residual of the conjugate gradient (bonded case)")
@@ -91,12 +96,20 @@ def _bench(args) -> int:
     from ..io import InputError, write_json
     from .bench import run_bench
 
+    import numba
+
     if args.n < 2 or args.steps < 1:
         raise InputError(f"--n must be >= 2 and --steps >= 1 (got {args.n}, {args.steps})")
+    if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
+        raise InputError(f"--threads must lie in [1, {numba.config.NUMBA_NUM_THREADS}] "
+                         f"(NUMBA_NUM_THREADS), got {args.threads}")
+    if not args.settle_speed > 0:
+        raise InputError(f"--settle-speed must be > 0 m/s, got {args.settle_speed}")
     rec = run_bench(args.case, args.n, steps=args.steps, baseline_steps=args.baseline_steps,
                     tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed,
                     linear_tolerance=args.linear_tolerance,
-                    bond_kinematics=args.bond_kinematics)
+                    bond_kinematics=args.bond_kinematics, threads=args.threads,
+                    settle_speed=args.settle_speed)
     write_json(rec, args.output)
     return 0
 

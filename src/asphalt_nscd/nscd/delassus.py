@@ -25,8 +25,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._jit import helper, kernel
 
-@njit(cache=True)
+
+@kernel
 def contact_blocks(ci, cj, inv_mass, inv_inertia, radius, inv_mass_plate, wn, wt):
     """Fill wn (C,) and wt (C,) (1/kg) of the diagonal contact Delassus blocks."""
     for a in range(len(ci)):
@@ -43,7 +45,7 @@ def contact_blocks(ci, cj, inv_mass, inv_inertia, radius, inv_mass_plate, wn, wt
         wt[a] = n_part + t_part
 
 
-@njit(cache=True)
+@kernel
 def bond_blocks(bi, bj, inv_mass, inv_mass_plate, w):
     """Fill w (B,) (1/kg): the bond Delassus block is w I (barycentric, no torque)."""
     for b in range(len(bi)):
@@ -89,23 +91,14 @@ def dense_delassus(n_spheres, ci, cj, frames, radius, inv_mass, inv_inertia,
     return H.T @ (minv[:, None] * H)
 
 
-@njit(cache=True, inline="always")
+@helper
 def _add_rot(W, a0, a1, a2, d0, d1, d2):
     """W += [a]x^T diag(d) [a]x (3x3, global axes)."""
     # rows of [a]x: (0, -a2, a1), (a2, 0, -a0), (-a1, a0, 0)
-    S = np.empty((3, 3))
-    S[0, 0] = 0.0
-    S[0, 1] = -a2
-    S[0, 2] = a1
-    S[1, 0] = a2
-    S[1, 1] = 0.0
-    S[1, 2] = -a0
-    S[2, 0] = -a1
-    S[2, 1] = a0
-    S[2, 2] = 0.0
+    S = ((0.0, -a2, a1), (a2, 0.0, -a0), (-a1, a0, 0.0))
     for r in range(3):
         for c in range(3):
-            W[r, c] += d0 * S[0, r] * S[0, c] + d1 * S[1, r] * S[1, c] + d2 * S[2, r] * S[2, c]
+            W[r, c] += d0 * S[0][r] * S[0][c] + d1 * S[1][r] * S[1][c] + d2 * S[2][r] * S[2][c]
 
 
 @njit(cache=True)

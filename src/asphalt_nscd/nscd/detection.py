@@ -22,6 +22,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._jit import kernel
+
 
 @njit(cache=True)
 def _grid(pos, cell):
@@ -155,44 +157,52 @@ def plate_pairs(position, radius, plate_point, plate_normal, max_gap):
     return out_i, out_k, out_g
 
 
-@njit(cache=True)
+@kernel
 def _frames(ci, cj, pos, nrm_plate, frame):
     for a in range(len(ci)):
         i = ci[a]
         j = cj[a]
-        n = np.empty(3)
         if j >= 0:
-            for d in range(3):
-                n[d] = pos[i, d] - pos[j, d]
-            norm = np.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2)
-            for d in range(3):
-                n[d] /= norm
+            n0 = pos[i, 0] - pos[j, 0]
+            n1 = pos[i, 1] - pos[j, 1]
+            n2 = pos[i, 2] - pos[j, 2]
+            norm = np.sqrt(n0 ** 2 + n1 ** 2 + n2 ** 2)
+            n0 /= norm
+            n1 /= norm
+            n2 /= norm
         else:
-            for d in range(3):
-                n[d] = nrm_plate[-1 - j, d]
-        ax = 0
-        if abs(n[1]) < abs(n[ax]):
-            ax = 1
-        if abs(n[2]) < abs(n[ax]):
-            ax = 2
-        e = np.zeros(3)
-        e[ax] = 1.0
-        t = np.empty(3)
-        t[0] = n[1] * e[2] - n[2] * e[1]
-        t[1] = n[2] * e[0] - n[0] * e[2]
-        t[2] = n[0] * e[1] - n[1] * e[0]
-        tn = np.sqrt(t[0] ** 2 + t[1] ** 2 + t[2] ** 2)
-        for d in range(3):
-            t[d] /= tn
-        s0 = n[1] * t[2] - n[2] * t[1]
-        s1 = n[2] * t[0] - n[0] * t[2]
-        s2 = n[0] * t[1] - n[1] * t[0]
-        for d in range(3):
-            frame[a, 0, d] = n[d]
-            frame[a, 1, d] = t[d]
-        frame[a, 2, 0] = s0
-        frame[a, 2, 1] = s1
-        frame[a, 2, 2] = s2
+            n0 = nrm_plate[-1 - j, 0]
+            n1 = nrm_plate[-1 - j, 1]
+            n2 = nrm_plate[-1 - j, 2]
+        # e: the global axis least aligned with n
+        e0 = 0.0
+        e1 = 0.0
+        e2 = 0.0
+        if abs(n1) < abs(n0):
+            if abs(n2) < abs(n1):
+                e2 = 1.0
+            else:
+                e1 = 1.0
+        elif abs(n2) < abs(n0):
+            e2 = 1.0
+        else:
+            e0 = 1.0
+        t0 = n1 * e2 - n2 * e1
+        t1 = n2 * e0 - n0 * e2
+        t2 = n0 * e1 - n1 * e0
+        tn = np.sqrt(t0 ** 2 + t1 ** 2 + t2 ** 2)
+        t0 /= tn
+        t1 /= tn
+        t2 /= tn
+        frame[a, 0, 0] = n0
+        frame[a, 0, 1] = n1
+        frame[a, 0, 2] = n2
+        frame[a, 1, 0] = t0
+        frame[a, 1, 1] = t1
+        frame[a, 1, 2] = t2
+        frame[a, 2, 0] = n1 * t2 - n2 * t1
+        frame[a, 2, 1] = n2 * t0 - n0 * t2
+        frame[a, 2, 2] = n0 * t1 - n1 * t0
 
 
 def detect_contacts(position, radius, plate_point, plate_normal, alert_distance):
@@ -214,7 +224,7 @@ def detect_contacts(position, radius, plate_point, plate_normal, alert_distance)
     return ci, cj, gap, frame
 
 
-@njit(cache=True)
+@kernel
 def _narrow(ci, cj, pos, rad, pts, nrm, gap):
     for a in range(len(ci)):
         i = ci[a]

@@ -26,13 +26,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import njit
-
+from ._jit import helper, kernel
 from .local_laws import bond_velocity, contact_local_solve
 
 
-@njit(cache=True, inline="always")
+@helper
 def _push_contact(a, dp0, dp1, dp2, ci, cj, frame, radius, v, w, vp, inv_mass, inv_inertia,
                   inv_mass_plate):
     """Add the global effect of a change (dp0, dp1, dp2) of contact a's local impulse."""
@@ -74,9 +72,10 @@ def _push_contact(a, dp0, dp1, dp2, ci, cj, frame, radius, v, w, vp, inv_mass, i
         vp[k, 2] -= mk * g2
 
 
-@njit(cache=True, inline="always")
-def contact_velocity(a, ci, cj, frame, radius, v, w, vp, out):
-    """Local relative velocity (n, t, s) of contact a at the contact point into out (3,)."""
+@helper
+def contact_velocity(a, ci, cj, frame, radius, v, w, vp):
+    """Local relative velocity (n, t, s) (3 floats, m/s) of contact a at the contact
+    point."""
     i = ci[a]
     j = cj[a]
     n0 = frame[a, 0, 0]
@@ -98,31 +97,28 @@ def contact_velocity(a, ci, cj, frame, radius, v, w, vp, out):
         g0 -= vp[k, 0]
         g1 -= vp[k, 1]
         g2 -= vp[k, 2]
-    for c in range(3):
-        out[c] = frame[a, c, 0] * g0 + frame[a, c, 1] * g1 + frame[a, c, 2] * g2
+    return (frame[a, 0, 0] * g0 + frame[a, 0, 1] * g1 + frame[a, 0, 2] * g2,
+            frame[a, 1, 0] * g0 + frame[a, 1, 1] * g1 + frame[a, 1, 2] * g2,
+            frame[a, 2, 0] * g0 + frame[a, 2, 1] * g1 + frame[a, 2, 2] * g2)
 
 
-@njit(cache=True)
+@kernel
 def contact_velocities(ci, cj, frame, radius, v, w, vp, out):
     """Local relative velocities (C,3) of all contacts into out."""
-    u = np.empty(3)
     for a in range(len(ci)):
-        contact_velocity(a, ci, cj, frame, radius, v, w, vp, u)
-        out[a, 0] = u[0]
-        out[a, 1] = u[1]
-        out[a, 2] = u[2]
+        out[a, 0], out[a, 1], out[a, 2] = contact_velocity(a, ci, cj, frame, radius, v, w, vp)
 
 
-@njit(cache=True, inline="always")
-def _push_bond(b, dp, bi, bj, frame, v, vp, inv_mass, inv_mass_plate, arm_i, arm_j, w, wp,
-               inv_inertia, inv_inertia_plate, rot):
-    """Add the global effect of a change dp (3,) of bond b's local impulse: +g on i, -g on
-    j (g = F^T dp) at the barycentres, plus the torques a x g at c when rot."""
+@helper
+def _push_bond(b, dp0, dp1, dp2, bi, bj, frame, v, vp, inv_mass, inv_mass_plate, arm_i, arm_j,
+               w, wp, inv_inertia, inv_inertia_plate, rot):
+    """Add the global effect of a change (dp0, dp1, dp2) of bond b's local impulse: +g on
+    i, -g on j (g = F^T dp) at the barycentres, plus the torques a x g at c when rot."""
     i = bi[b]
     j = bj[b]
-    g0 = frame[b, 0, 0] * dp[0] + frame[b, 1, 0] * dp[1] + frame[b, 2, 0] * dp[2]
-    g1 = frame[b, 0, 1] * dp[0] + frame[b, 1, 1] * dp[1] + frame[b, 2, 1] * dp[2]
-    g2 = frame[b, 0, 2] * dp[0] + frame[b, 1, 2] * dp[1] + frame[b, 2, 2] * dp[2]
+    g0 = frame[b, 0, 0] * dp0 + frame[b, 1, 0] * dp1 + frame[b, 2, 0] * dp2
+    g1 = frame[b, 0, 1] * dp0 + frame[b, 1, 1] * dp1 + frame[b, 2, 1] * dp2
+    g2 = frame[b, 0, 2] * dp0 + frame[b, 1, 2] * dp1 + frame[b, 2, 2] * dp2
     mi = inv_mass[i]
     v[i, 0] += mi * g0
     v[i, 1] += mi * g1
@@ -161,7 +157,7 @@ def _push_bond(b, dp, bi, bj, frame, v, vp, inv_mass, inv_mass_plate, arm_i, arm
             wp[k, 2] -= inv_inertia_plate[k, 2] * (a0 * g1 - a1 * g0)
 
 
-@njit(cache=True)
+@kernel
 def apply_impulses(ci, cj, cframe, radius, cP, bi, bj, bframe, bP, v, w, vp, inv_mass,
                    inv_inertia, inv_mass_plate, barm_i, barm_j, wp, inv_inertia_plate, rot):
     """v <- v + M^-1 H P for all contact (C,3) and bond (B,3) impulses (warm start); bond
@@ -170,11 +166,11 @@ def apply_impulses(ci, cj, cframe, radius, cP, bi, bj, bframe, bP, v, w, vp, inv
         _push_contact(a, cP[a, 0], cP[a, 1], cP[a, 2], ci, cj, cframe, radius, v, w, vp,
                       inv_mass, inv_inertia, inv_mass_plate)
     for b in range(len(bi)):
-        _push_bond(b, bP[b], bi, bj, bframe, v, vp, inv_mass, inv_mass_plate, barm_i, barm_j,
-                   w, wp, inv_inertia, inv_inertia_plate, rot)
+        _push_bond(b, bP[b, 0], bP[b, 1], bP[b, 2], bi, bj, bframe, v, vp, inv_mass,
+                   inv_mass_plate, barm_i, barm_j, w, wp, inv_inertia, inv_inertia_plate, rot)
 
 
-@njit(cache=True)
+@kernel
 def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, broken,
          radius, v, w, vp, inv_mass, inv_inertia, inv_mass_plate, h, mu, tol, relax,
          max_iter, norm, barm_i, barm_j, bW, bA_inv, wp, inv_inertia_plate, rot):
@@ -188,10 +184,6 @@ def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, b
     """
     nc = len(ci)
     nb = len(bi)
-    u = np.empty(3)
-    dp = np.empty(3)
-    ul = np.empty(3)
-    rhs = np.empty(3)
     quad = 0.0
     maxm = 0.0
     it = 0
@@ -209,35 +201,58 @@ def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, b
                 continue
             if rot:
                 g0, g1, g2 = bond_velocity(b, bi, bj, barm_i, barm_j, v, w, vp, wp, rot)
-                for c in range(3):
-                    ul[c] = bframe[b, c, 0] * g0 + bframe[b, c, 1] * g1 + bframe[b, c, 2] * g2
-                for c in range(3):
-                    bfree = ul[c] - (bW[b, c, 0] * bP[b, 0] + bW[b, c, 1] * bP[b, 1]
-                                     + bW[b, c, 2] * bP[b, 2])
-                    rhs[c] = bc0[b, c] - bcg[b, c] * bfree
-                for c in range(3):
-                    p_new = (bA_inv[b, c, 0] * rhs[0] + bA_inv[b, c, 1] * rhs[1]
-                             + bA_inv[b, c, 2] * rhs[2])
-                    p_new = relax * p_new + (1.0 - relax) * bP[b, c]
-                    dp[c] = p_new - bP[b, c]
-                for c in range(3):
-                    bP[b, c] += dp[c]
+                ul0 = bframe[b, 0, 0] * g0 + bframe[b, 0, 1] * g1 + bframe[b, 0, 2] * g2
+                ul1 = bframe[b, 1, 0] * g0 + bframe[b, 1, 1] * g1 + bframe[b, 1, 2] * g2
+                ul2 = bframe[b, 2, 0] * g0 + bframe[b, 2, 1] * g1 + bframe[b, 2, 2] * g2
+                p0 = bP[b, 0]
+                p1 = bP[b, 1]
+                p2 = bP[b, 2]
+                r0 = bc0[b, 0] - bcg[b, 0] * (ul0 - (bW[b, 0, 0] * p0 + bW[b, 0, 1] * p1
+                                                     + bW[b, 0, 2] * p2))
+                r1 = bc0[b, 1] - bcg[b, 1] * (ul1 - (bW[b, 1, 0] * p0 + bW[b, 1, 1] * p1
+                                                     + bW[b, 1, 2] * p2))
+                r2 = bc0[b, 2] - bcg[b, 2] * (ul2 - (bW[b, 2, 0] * p0 + bW[b, 2, 1] * p1
+                                                     + bW[b, 2, 2] * p2))
+                n0 = bA_inv[b, 0, 0] * r0 + bA_inv[b, 0, 1] * r1 + bA_inv[b, 0, 2] * r2
+                n1 = bA_inv[b, 1, 0] * r0 + bA_inv[b, 1, 1] * r1 + bA_inv[b, 1, 2] * r2
+                n2 = bA_inv[b, 2, 0] * r0 + bA_inv[b, 2, 1] * r1 + bA_inv[b, 2, 2] * r2
+                dp0 = relax * n0 + (1.0 - relax) * p0 - p0
+                dp1 = relax * n1 + (1.0 - relax) * p1 - p1
+                dp2 = relax * n2 + (1.0 - relax) * p2 - p2
+                bP[b, 0] += dp0
+                bP[b, 1] += dp1
+                bP[b, 2] += dp2
             else:
                 i = bi[b]
                 j = bj[b]
-                for c in range(3):
-                    acc = 0.0
-                    for d in range(3):
-                        vj = v[j, d] if j >= 0 else vp[-1 - j, d]
-                        acc += bframe[b, c, d] * (v[i, d] - vj)
-                    bfree = acc - bw[b] * bP[b, c]
-                    p_new = (bc0[b, c] - bcg[b, c] * bfree) / (1.0 + bcg[b, c] * bw[b])
-                    p_new = relax * p_new + (1.0 - relax) * bP[b, c]
-                    dp[c] = p_new - bP[b, c]
-                    bP[b, c] = p_new
-            _push_bond(b, dp, bi, bj, bframe, v, vp, inv_mass, inv_mass_plate, barm_i, barm_j,
-                       w, wp, inv_inertia, inv_inertia_plate, rot)
-            d2 = dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2
+                if j >= 0:
+                    g0 = v[i, 0] - v[j, 0]
+                    g1 = v[i, 1] - v[j, 1]
+                    g2 = v[i, 2] - v[j, 2]
+                else:
+                    g0 = v[i, 0] - vp[-1 - j, 0]
+                    g1 = v[i, 1] - vp[-1 - j, 1]
+                    g2 = v[i, 2] - vp[-1 - j, 2]
+                ww = bw[b]
+                # component c: P = (c0 - cg (U - w P_old)) / (1 + cg w), relaxed
+                acc = bframe[b, 0, 0] * g0 + bframe[b, 0, 1] * g1 + bframe[b, 0, 2] * g2
+                pn = (bc0[b, 0] - bcg[b, 0] * (acc - ww * bP[b, 0])) / (1.0 + bcg[b, 0] * ww)
+                pn = relax * pn + (1.0 - relax) * bP[b, 0]
+                dp0 = pn - bP[b, 0]
+                bP[b, 0] = pn
+                acc = bframe[b, 1, 0] * g0 + bframe[b, 1, 1] * g1 + bframe[b, 1, 2] * g2
+                pn = (bc0[b, 1] - bcg[b, 1] * (acc - ww * bP[b, 1])) / (1.0 + bcg[b, 1] * ww)
+                pn = relax * pn + (1.0 - relax) * bP[b, 1]
+                dp1 = pn - bP[b, 1]
+                bP[b, 1] = pn
+                acc = bframe[b, 2, 0] * g0 + bframe[b, 2, 1] * g1 + bframe[b, 2, 2] * g2
+                pn = (bc0[b, 2] - bcg[b, 2] * (acc - ww * bP[b, 2])) / (1.0 + bcg[b, 2] * ww)
+                pn = relax * pn + (1.0 - relax) * bP[b, 2]
+                dp2 = pn - bP[b, 2]
+                bP[b, 2] = pn
+            _push_bond(b, dp0, dp1, dp2, bi, bj, bframe, v, vp, inv_mass, inv_mass_plate,
+                       barm_i, barm_j, w, wp, inv_inertia, inv_inertia_plate, rot)
+            d2 = dp0 * dp0 + dp1 * dp1 + dp2 * dp2
             sum_d2 += d2
             sum_p2 += bP[b, 0] ** 2 + bP[b, 1] ** 2 + bP[b, 2] ** 2
             max_d2 = max(max_d2, d2)
@@ -253,10 +268,10 @@ def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, b
                     un += cframe[a, 0, d] * (v[i, d] - vj)
                 if un + max(cgap[a], 0.0) / h >= 0.0:
                     continue
-            contact_velocity(a, ci, cj, cframe, radius, v, w, vp, u)
-            bn = u[0] - cwn[a] * cP[a, 0]
-            bt = u[1] - cwt[a] * cP[a, 1]
-            bs = u[2] - cwt[a] * cP[a, 2]
+            u0, u1, u2 = contact_velocity(a, ci, cj, cframe, radius, v, w, vp)
+            bn = u0 - cwn[a] * cP[a, 0]
+            bt = u1 - cwt[a] * cP[a, 1]
+            bs = u2 - cwt[a] * cP[a, 2]
             pn, pt, ps = contact_local_solve(bn, bt, bs, cgap[a], h, cwn[a], cwt[a], mu)
             pn = relax * pn + (1.0 - relax) * cP[a, 0]
             pt = relax * pt + (1.0 - relax) * cP[a, 1]

@@ -1,40 +1,52 @@
 """Fast path: a step of a bonded network without active contacts is a linear system.
 
 With no contact reaction and no breakage, every bond obeys the affine law P_b = c0_b -
-G_b (v_i - v_j) (local_laws.py; G_b = F_b^T diag(c_g) F_b, constant for a given dt, theta
-and bond parameters). Eliminating the impulses gives, on the translational velocities of
-the mobile bodies (spheres of finite mass and free plates),
+G_b U_b (local_laws.py; G_b = F_b^T diag(c_g) F_b, constant for a given dt, theta and bond
+parameters) with U_b = L_b x its relative velocity. Eliminating the impulses gives, on the
+unknown velocities x,
 
-    (M + sum_b H_b G_b H_b^T) v+ = M v_free + sum_b H_b q_b,
+    (M + sum_b L_b^T G_b L_b) x = M x_free + sum_b L_b^T q_b,
 
-q_b = c0_b - G_b (v_i - v_j)_known (known velocities: fixed spheres, fixed or driven plates).
-The matrix is symmetric positive definite and constant while the set of intact bonds does
-not change. Two solvers:
+q_b = F_b^T (c0_b - diag(c_g) F_b U_b,known) (U_b,known: the part of the bond velocity
+from known velocities: fixed spheres, fixed or driven plates). The matrix is symmetric
+positive definite and constant while the set of intact bonds does not change.
 
-* ``cg`` (default): matrix-free preconditioned conjugate gradient (3x3 block-Jacobi
-  preconditioner, initial guess = the velocities at the start of the step), stopped at a
-  relative residual ``linear_tolerance``. O(B) per iteration and memory; the matrix is
-  mass-dominated at the paper's time step (h² theta² K_bond ~ m), so it converges in tens
-  of iterations.
-  The bond blocks are stored compactly, G_b = c_t I + (c_n - c_t) n n^T (the two
-  tangential coefficients of a bond are equal, local_laws.py): 5 numbers per bond instead
-  of 9, which matters because the product is memory-bound.
+Unknowns and kinematics (one code path for both): the unknowns are 3-dof blocks, numbered
+body by body, a body's translation block followed by its rotation block. With
+'barycentre' bond kinematics the rotations are not coupled by bonds (no torque) and only
+translation blocks exist (mobile spheres, free plates), L_b = [I, -I]. With 'contact'
+(state.Bonds) the bond velocity is taken at the contact point with the lever arms a_i,
+a_j: L_b = [I, -[a_i]x] on the candidate's (translation, rotation) and [-I, +[a_j]x] on the
+antagonist's; a mobile sphere has 6 dof, a free plate 3 more, a rotating plate's rotation
+3 (its translation may be imposed). M holds the masses and rotational inertias.
+
+Solvers:
+
+* ``cg`` (default): matrix-free preconditioned conjugate gradient (:func:`_pcg`), stopped
+  at a relative residual |r| <= ``linear_tolerance`` |rhs|. Per iteration one pass over the
+  bonds (:func:`_matvec`, which also returns p.Kp and applies the previous updates of x and
+  p, so that p is read once) and one fused pass over the vectors (update of r,
+  preconditioner, dot products). The bond blocks
+  are stored compactly, G_b = c_t I + (c_n - c_t) n n^T (the two tangential coefficients of
+  a bond are equal, local_laws.py): n, c_t, c_n - c_t and the lever arms packed in one
+  array; the arms of sphere-sphere bonds lie along n (state.Bonds.create) and are stored
+  as two numbers (7 per bond instead of 11, and fewer operations: w x a = al (w x n),
+  a x f = al c_t (n x u)); other bonds (sphere-plate) keep their full arms.
+  Preconditioner: block Jacobi on the 3x3 diagonal blocks (translation or rotation of a
+  body), inverted once per matrix.
+  Initial guess: the caller's (moreau_jean.py: linear extrapolation in time of the body
+  velocities). The matrix is mass-dominated at the paper's time step (h² theta² K_bond ~
+  m), so CG converges in a few tens of iterations (about 25 at N = 12 000 and relative
+  residual 1e-7). Tried without gain (same iteration count, bench at N = 12 000): the
+  A-norm projection on the span of the last 4 solutions as initial guess (it contains the
+  linear and quadratic extrapolations), and 6x6 blocks (a sphere's translation and
+  rotation together: 25.0 instead of 25.4 iterations, a dearer preconditioner).
 * ``direct``: SuperLU factorisation once per (dt, theta, intact-bond set)
   (:func:`splu_symmetric`: symmetric mode, no pivoting, MMD ordering of A^T + A, the
   setting of harmonic/solver.py), two triangular solves per step, exact to round-off.
-  At N = 12 000 (36 000 dofs, 79 000 bonds) the factorisation takes about 5 s, but the
-  factor holds 2.9e7 entries and a solve (~0.07 s) is slower than ``cg`` (~0.02 s at
-  linear_tolerance 1e-7): ``cg`` remains the default, ``direct`` is the reference.
-
-Bond kinematics: with 'barycentre' the rotations are not coupled by bonds (no torque) and
-the unknowns are the translational velocities above. With 'contact' (state.Bonds) the bond
-velocity is U_b = L_b x over the blocks of its two bodies, L = [I, -[a_i]x] for the
-candidate's translation and rotation, [-I, +[a_j]x] for the antagonist's, and the unknowns
-are 3-dof blocks of translation and of rotation: 6 per mobile sphere, 3 more for a free
-plate's translation, 3 for a rotating plate's rotation (its translation may be imposed).
-The matrix is M + sum_b L_b^T G_b L_b with M the masses and the rotational inertias; the
-``cg`` preconditioner is block-Jacobi on these 3x3 blocks (rotation blocks: sum of
-[a]x^T G [a]x), the ``direct`` solver assembles the same matrix.
+  At N = 12 000 (36 000 dofs, 79 000 bonds, 'barycentre') the factorisation takes about
+  5 s and the factor holds 2.9e7 entries: a solve (~0.07 s) is slower than ``cg``, which
+  remains the default; ``direct`` is the reference.
 
 Validity is checked after the solve by the caller (moreau_jean.py): every contact candidate
 must satisfy U_n + max(g, 0)/h >= 0 with zero reaction, and no bond may exceed R_crit;
@@ -46,21 +58,11 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from numba import njit
+from numba import njit, prange
 from scipy.sparse.linalg import splu
 
+from ._jit import helper, kernel
 from .local_laws import bond_velocity
-
-
-def dof_map(inv_mass, inv_mass_plate):
-    """Unknown-body numbering: (N,) and (P,) arrays of dof blocks (-1 = known velocity)."""
-    sph = np.full(len(inv_mass), -1, dtype=np.int64)
-    mob = inv_mass > 0
-    sph[mob] = np.arange(mob.sum())
-    pl = np.full(len(inv_mass_plate), -1, dtype=np.int64)
-    pmob = inv_mass_plate > 0
-    pl[pmob] = mob.sum() + np.arange(pmob.sum())
-    return sph, pl
 
 
 def splu_symmetric(a, permutation=None):
@@ -156,145 +158,172 @@ def _skew(a):
                      np.stack([-a[:, 1], a[:, 0], z], 1)], 1)
 
 
+def dof_numbering(inv_mass, inv_mass_plate, inv_inertia=None, inv_inertia_plate=None):
+    """Block numbering of the unknowns, body by body (translation, then rotation).
+
+    Parameters
+    ----------
+    inv_mass (N,), inv_mass_plate (P,) 1/kg (0 = known translation); inv_inertia (N,) and
+    inv_inertia_plate (P,3) 1/(kg m²) (0 = known rotation), None = no rotation unknown
+    ('barycentre' kinematics).
+
+    Returns
+    -------
+    st, sr (N,), pt, pr (P,) int64 block indices (-1 = known velocity) and m3 (nblk, 3) the
+    diagonal of M (masses and principal inertias).
+    """
+    inv_mass = np.asarray(inv_mass, float)
+    inv_mass_plate = np.asarray(inv_mass_plate, float)
+    n, p = len(inv_mass), len(inv_mass_plate)
+    mob = inv_mass > 0
+    pmob = inv_mass_plate > 0
+    if inv_inertia is None:
+        rmob = np.zeros(n, bool)
+        prmob = np.zeros(p, bool)
+    else:
+        rmob = mob & (np.asarray(inv_inertia, float) > 0)
+        prmob = np.all(np.asarray(inv_inertia_plate, float).reshape(p, 3) > 0, axis=1)
+    count = np.concatenate([mob.astype(np.int64) + rmob, pmob.astype(np.int64) + prmob])
+    first = np.concatenate([[0], np.cumsum(count)])
+    st = np.where(mob, first[:n], -1)
+    sr = np.where(rmob, first[:n] + mob, -1)
+    pt = np.where(pmob, first[n:-1], -1)
+    pr = np.where(prmob, first[n:-1] + pmob, -1)
+    nblk = int(first[-1])
+    m3 = np.zeros((nblk, 3))
+    m3[st[mob]] = (1.0 / inv_mass[mob])[:, None]
+    m3[pt[pmob]] = (1.0 / inv_mass_plate[pmob])[:, None]
+    if inv_inertia is not None:
+        m3[sr[rmob]] = (1.0 / np.asarray(inv_inertia, float)[rmob])[:, None]
+        m3[pr[prmob]] = 1.0 / np.asarray(inv_inertia_plate, float).reshape(p, 3)[prmob]
+    return st, sr, pt, pr, m3
+
+
+def _partition(blk, compact, nblk, threads):
+    """Bond order and ranges of the threaded matrix product.
+
+    The unknown blocks are cut into ``threads`` contiguous ranges holding about the same
+    number of bonds; a bond whose blocks (-1 = known, ignored) all lie in range t belongs to
+    partition t, the others to the last, sequential group. Returns (order (B,) of the
+    bonds: compact bonds first grouped by partition, then the general ones likewise,
+    part_c and part_g (threads+2,) int64 range starts within the compact and within the
+    general bonds); for threads <= 1: (identity, empty, empty).
+    """
+    nb = len(blk)
+    if threads <= 1:
+        return np.arange(nb), np.zeros(0, np.int64), np.zeros(0, np.int64)
+    big = np.iinfo(np.int64).max
+    lo = np.where(blk >= 0, blk, big).min(1)
+    hi = blk.max(1)
+    lo = np.where(lo == big, 0, lo)
+    hi = np.maximum(hi, 0)
+    per_blk = np.bincount(lo, minlength=max(nblk, 1))
+    cum = np.cumsum(per_blk)
+    cuts = np.searchsorted(cum, np.arange(1, threads) * nb / threads)
+    cuts = np.concatenate([[0], cuts, [max(nblk, 1)]])
+    own = np.searchsorted(cuts, lo, side="right") - 1
+    grp = np.where(np.searchsorted(cuts, hi, side="right") - 1 == own, own, threads)
+    key = np.where(compact, 0, threads + 1) + grp
+    order = np.argsort(key, kind="stable")
+    kc = np.sort(grp[compact])
+    kg = np.sort(grp[~compact])
+    part_c = np.searchsorted(kc, np.arange(threads + 2)).astype(np.int64)
+    part_g = np.searchsorted(kg, np.arange(threads + 2)).astype(np.int64)
+    return order, part_c, part_g
+
+
 class LinearBondSolver:
-    """Factorised system of the bonded network for one (dt, theta, intact-bond set).
+    """The linear system of the bonded network for one (dt, theta, intact-bond set).
 
     Parameters
     ----------
     inv_mass, inv_mass_plate : (N,), (P,) 1/kg (0 = immobile).
     bi, bj, frame, cg : bonds (B,), (B,3,3), (B,3) N s/m; broken : (B,) bool.
+    method : 'cg' or 'direct' (module docstring); tolerance : relative residual of 'cg';
+    max_iterations : of 'cg'.
+    threads : > 1: the conjugate gradient runs on that many numba threads (bonds ordered
+        by partitions of the unknowns, :func:`_partition`); 1: sequential kernels.
     rotation : dict or None — for the 'contact' kinematics: ``arm_i``, ``arm_j`` (B,3) m,
         ``inv_inertia`` (N,) and ``inv_inertia_plate`` (P,3) 1/(kg m²) (0 = no rotation).
         None: 'barycentre' kinematics (translations only).
+
+    Raises
+    ------
+    ValueError for an unknown method, or unequal tangential bond coefficients
+    ('cg').
     """
 
     def __init__(self, inv_mass, inv_mass_plate, bi, bj, frame, cg, broken, method="cg",
-                 tolerance=1e-10, max_iterations=10000, rotation=None):
+                 tolerance=1e-10, max_iterations=10000, rotation=None, threads=1):
         if method not in ("cg", "direct"):
             raise ValueError(f"linear solver must be 'cg' or 'direct', got {method!r}")
+        self.method = method
+        self.tolerance = tolerance
+        self.max_iterations = max_iterations
+        self.last_iterations = 0
+        self.last_residual = 0.0
         self.rot = rotation is not None
+        nb = len(bi)
         if self.rot:
-            self._init_rot(inv_mass, inv_mass_plate, bi, bj, frame, cg, broken, method,
-                           tolerance, max_iterations, **rotation)
-            return
-        self.method = method
-        self.tolerance = tolerance
-        self.max_iterations = max_iterations
-        self.last_iterations = 0
-        self.last_residual = 0.0
-        self.sph, self.pl = dof_map(inv_mass, inv_mass_plate)
-        nb_unknown = int((self.sph >= 0).sum() + (self.pl >= 0).sum())
-        self.ndof = 3 * nb_unknown
-        self.mass_dof = np.zeros(self.ndof)
-        m3 = self.mass_dof.reshape(-1, 3)
-        m3[self.sph[self.sph >= 0]] = (1.0 / inv_mass[self.sph >= 0])[:, None]
-        m3[self.pl[self.pl >= 0]] = (1.0 / inv_mass_plate[self.pl >= 0])[:, None]
-        keep = ~broken
-        G = np.einsum("bci,bc,bcj->bij", frame, cg, frame)[keep]
-        di = self.sph[bi[keep]]
-        jj = bj[keep]
-        dj = np.full(len(jj), -1, dtype=np.int64)
-        dj[jj >= 0] = self.sph[jj[jj >= 0]]
-        dj[jj < 0] = self.pl[-1 - jj[jj < 0]]
-        self.di = np.ascontiguousarray(di)
-        self.dj = np.ascontiguousarray(dj)
-        if method == "cg":
-            cgk = cg[keep]
-            if not np.array_equal(cgk[:, 1], cgk[:, 2]):
-                raise ValueError("the two tangential bond coefficients must be equal")
-            self.normal = np.ascontiguousarray(frame[keep, 0, :])
-            self.g_t = np.ascontiguousarray(cgk[:, 1])
-            self.g_nt = np.ascontiguousarray(cgk[:, 0] - cgk[:, 1])
-            nblk = self.ndof // 3
-            blocks = np.zeros((nblk, 3, 3))
-            blocks[:, [0, 1, 2], [0, 1, 2]] = self.mass_dof.reshape(-1, 3)
-            for d in (di, dj):
-                ok = d >= 0
-                np.add.at(blocks, d[ok], G[ok])
-            self.precond = np.ascontiguousarray(np.linalg.inv(blocks)) if nblk else blocks
-            self.lu = None
-            self.nnz_matrix = self.ndof + 36 * len(G)
-            self.nnz_factor = 0
-            return
-        rows, cols, vals = [np.arange(self.ndof)], [np.arange(self.ndof)], [self.mass_dof]
-        r3 = np.arange(3)
-        for da, db, sign in ((di, di, 1.0), (dj, dj, 1.0), (di, dj, -1.0), (dj, di, -1.0)):
-            ok = (da >= 0) & (db >= 0)
-            rr = (3 * da[ok, None, None] + r3[None, :, None]) * np.ones((1, 1, 3), np.int64)
-            cc = (3 * db[ok, None, None] + r3[None, None, :]) * np.ones((1, 3, 1), np.int64)
-            rows.append(rr.ravel())
-            cols.append(cc.ravel())
-            vals.append((sign * G[ok]).ravel())
-        K = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(self.ndof, self.ndof))
-        self.nnz_matrix = K.nnz
-        self.lu = splu_symmetric(K) if self.ndof else None
-        self.nnz_factor = self.lu.L.nnz + self.lu.U.nnz if self.ndof else 0
-
-    def _init_rot(self, inv_mass, inv_mass_plate, bi, bj, frame, cg, broken, method,
-                  tolerance, max_iterations, arm_i, arm_j, inv_inertia, inv_inertia_plate):
-        """Set up the 'contact' kinematics system (module docstring)."""
-        self.method = method
-        self.tolerance = tolerance
-        self.max_iterations = max_iterations
-        self.last_iterations = 0
-        self.last_residual = 0.0
-        n, p = len(inv_mass), len(inv_mass_plate)
-        # block numbering: translation of spheres, rotation of spheres, plates' translation,
-        # plates' rotation (-1 = known velocity)
-        mob = inv_mass > 0
-        rmob = mob & (inv_inertia > 0)
-        pmob = inv_mass_plate > 0
-        prmob = np.all(inv_inertia_plate > 0, axis=1)
-        counts = np.cumsum([0, mob.sum(), rmob.sum(), pmob.sum(), prmob.sum()])
-        self.st = np.full(n, -1, np.int64)
-        self.sr = np.full(n, -1, np.int64)
-        self.pt = np.full(p, -1, np.int64)
-        self.pr = np.full(p, -1, np.int64)
-        self.st[mob] = counts[0] + np.arange(mob.sum())
-        self.sr[rmob] = counts[1] + np.arange(rmob.sum())
-        self.pt[pmob] = counts[2] + np.arange(pmob.sum())
-        self.pr[prmob] = counts[3] + np.arange(prmob.sum())
-        nblk = int(counts[-1])
+            arm_i, arm_j = rotation["arm_i"], rotation["arm_j"]
+            st, sr, pt, pr, m3 = dof_numbering(inv_mass, inv_mass_plate,
+                                               rotation["inv_inertia"],
+                                               rotation["inv_inertia_plate"])
+        else:
+            arm_i = arm_j = np.zeros((nb, 3))
+            st, sr, pt, pr, m3 = dof_numbering(inv_mass, inv_mass_plate)
+        self.st, self.sr, self.pt, self.pr = st, sr, pt, pr
+        nblk = len(m3)
         self.ndof = 3 * nblk
-        m3 = np.zeros((nblk, 3))
-        m3[self.st[mob]] = (1.0 / inv_mass[mob])[:, None]
-        m3[self.sr[rmob]] = (1.0 / inv_inertia[rmob])[:, None]
-        m3[self.pt[pmob]] = (1.0 / inv_mass_plate[pmob])[:, None]
-        m3[self.pr[prmob]] = 1.0 / inv_inertia_plate[prmob]
-        self.mass_dof = m3.ravel()
-        keep = ~broken
+        self.mass_dof = np.ascontiguousarray(m3.ravel())
+        keep = ~np.asarray(broken, bool)
         jj = bj[keep]
         sph = jj >= 0
         kk = np.where(sph, 0, -1 - jj)
-        ti = self.st[bi[keep]]
-        ri = self.sr[bi[keep]]
-        tj = np.where(sph, self.st[np.where(sph, jj, 0)], self.pt[kk] if p else -1)
-        rj = np.where(sph, self.sr[np.where(sph, jj, 0)], self.pr[kk] if p else -1)
+        js = np.where(sph, jj, 0)
+        ti = st[bi[keep]]
+        ri = sr[bi[keep]]
+        tj = np.where(sph, st[js], pt[kk] if len(pt) else -1)
+        rj = np.where(sph, sr[js], pr[kk] if len(pr) else -1)
         self.blk = np.ascontiguousarray(np.stack([ti, ri, tj, rj], 1).astype(np.int64))
-        self.arm_i = np.ascontiguousarray(arm_i[keep])
-        self.arm_j = np.ascontiguousarray(arm_j[keep])
         cgk = cg[keep]
-        if not np.array_equal(cgk[:, 1], cgk[:, 2]):
-            raise ValueError("the two tangential bond coefficients must be equal")
-        self.normal = np.ascontiguousarray(frame[keep, 0, :])
-        self.g_t = np.ascontiguousarray(cgk[:, 1])
-        self.g_nt = np.ascontiguousarray(cgk[:, 0] - cgk[:, 1])
-        G = np.einsum("bci,bc,bcj->bij", frame, cg, frame)[keep]
+        G = np.einsum("bci,bc,bcj->bij", frame[keep], cgk, frame[keep])
         eye = np.broadcast_to(np.eye(3), G.shape)
-        # U_b = sum over the bond's blocks of L @ x_block
-        L = [eye, -_skew(self.arm_i), -eye, _skew(self.arm_j)]
+        L = [eye, -_skew(arm_i[keep]), -eye, _skew(arm_j[keep])]  # U_b = sum_c L[c] x_blk[c]
+        self.nnz_factor = 0
+        self.lu = None
         if method == "cg":
-            blocks = np.zeros((nblk, 3, 3))
-            blocks[:, [0, 1, 2], [0, 1, 2]] = m3
-            for c in range(4):
-                ok = self.blk[:, c] >= 0
-                Lc = L[c][ok]
-                np.add.at(blocks, self.blk[ok, c], np.einsum("bki,bkl,blj->bij", Lc, G[ok], Lc))
-            self.precond = np.ascontiguousarray(np.linalg.inv(blocks)) if nblk else blocks
-            self.lu = None
-            self.nnz_matrix = self.ndof + 144 * len(G)
-            self.nnz_factor = 0
+            if not np.array_equal(cgk[:, 1], cgk[:, 2]):
+                raise ValueError("the two tangential bond coefficients must be equal")
+            nrm = frame[keep, 0, :]
+            gcol = [cgk[:, 1:2], (cgk[:, 0] - cgk[:, 1])[:, None]]
+            ai, aj = arm_i[keep], arm_j[keep]
+            al_i = np.einsum("bd,bd->b", ai, nrm)
+            al_j = np.einsum("bd,bd->b", aj, nrm)
+            # lever arms along the normal (sphere-sphere bonds of state.Bonds.create, up to
+            # round-off) are stored as their two components: the compact kernel branch
+            par = (np.abs(ai - al_i[:, None] * nrm).max(1) <= 1e-12 * np.abs(ai).max(1)) \
+                & (np.abs(aj - al_j[:, None] * nrm).max(1) <= 1e-12 * np.abs(aj).max(1))
+            if not self.rot:
+                par[:] = True
+                al_i[:] = 0.0
+                al_j[:] = 0.0
+            order, self.part_c, self.part_g = _partition(self.blk, par, nblk, int(threads))
+            par = par[order]
+            self.blk = self.blk[order]
+            G, L = G[order], [x[order] for x in L]
+            nrm, ai, aj, al_i, al_j = nrm[order], ai[order], aj[order], al_i[order], al_j[order]
+            gcol = [g[order] for g in gcol]
+            self.blk_c = np.ascontiguousarray(self.blk[par].astype(np.int32))
+            arms_c = [al_i[par, None], al_j[par, None]] if self.rot else []  # unread without
+            self.bdat_c = np.ascontiguousarray(np.concatenate(  # rotation blocks
+                [nrm[par]] + [g[par] for g in gcol] + arms_c, 1))
+            self.blk_g = np.ascontiguousarray(self.blk[~par].astype(np.int32))
+            self.bdat_g = np.ascontiguousarray(np.concatenate(
+                [nrm[~par]] + [g[~par] for g in gcol] + [ai[~par], aj[~par]], 1))
+            self._init_precond(m3, L, G)
+            self.nnz_matrix = self.ndof + (144 if self.rot else 36) * len(G)
+            self._work = np.zeros((4, self.ndof))
             return
         rows, cols, vals = [np.arange(self.ndof)], [np.arange(self.ndof)], [self.mass_dof]
         r3 = np.arange(3)
@@ -315,242 +344,49 @@ class LinearBondSolver:
         self.lu = splu_symmetric(K) if self.ndof else None
         self.nnz_factor = self.lu.L.nnz + self.lu.U.nnz if self.ndof else 0
 
-    def solve_rot(self, v_free, w_free, vp_free, wp_free, bi, bj, frame, arm_i, arm_j, c0, cg,
-                  broken, v, w, vp, wp, impulse, start=None):
-        """'contact' kinematics: end-of-step velocities v, w (N,3), vp, wp (P,3) (unknown
-        rows written; known rows must hold the imposed values) and bond impulses (B,3).
-        ``start``: (v, w, vp, wp) initial guess of ``cg`` (default: the free velocities)."""
-        rhs = np.zeros(self.ndof)
-        free = (v_free, w_free, vp_free, wp_free)
-        _gather_rot(rhs, self.st, self.sr, self.pt, self.pr, *free)
-        rhs *= self.mass_dof
-        _rhs_rot(rhs, self.st, self.sr, self.pt, self.pr, v, w, vp, wp, bi, bj, frame, arm_i,
-                 arm_j, c0, cg, broken)
+    def _init_precond(self, m3, L, G):
+        """Inverses (nblk, 3, 3) of the diagonal 3x3 blocks of the matrix."""
+        blocks = np.zeros((len(m3), 3, 3))
+        blocks[:, [0, 1, 2], [0, 1, 2]] = m3
+        for c in range(4):
+            ok = self.blk[:, c] >= 0
+            Lc = L[c][ok]
+            np.add.at(blocks, self.blk[ok, c], np.einsum("bki,bkl,blj->bij", Lc, G[ok], Lc))
+        self.precond = np.ascontiguousarray(np.linalg.inv(blocks)) if len(m3) else blocks
+
+    def solve(self, v_free, w_free, vp_free, wp_free, bi, bj, frame, arm_i, arm_j, c0, cg,
+              broken, v, w, vp, wp, impulse, start=None):
+        """End-of-step velocities and bond impulses.
+
+        Parameters
+        ----------
+        v_free, w_free (N,3), vp_free, wp_free (P,3): free velocities m/s, rad/s (with
+        'barycentre' the angular ones are not used); bonds (B,...) as in state.Bonds; c0
+        (B,3) N s, cg (B,3) N s/m (local_laws.bond_predict).
+        v, w, vp, wp: outputs, unknown rows written; known rows must hold the imposed
+        values. impulse (B,3) N s: output, local frames.
+        start: (v, w, vp, wp) initial guess of ``cg`` (default: the free velocities).
+        """
+        rhs = np.empty(self.ndof)
+        _rhs(rhs, self.mass_dof, self.st, self.sr, self.pt, self.pr, v_free, w_free, vp_free,
+             wp_free, v, w, vp, wp, bi, bj, frame, arm_i, arm_j, c0, cg, broken, self.rot)
         if self.method == "direct":
             sol = self.lu.solve(rhs) if self.ndof else rhs
         else:
-            sol = np.zeros(self.ndof)
-            _gather_rot(sol, self.st, self.sr, self.pt, self.pr, *(start or free))
-            it, res = _pcg_rot(self.mass_dof, self.normal, self.g_t, self.g_nt, self.blk,
-                               self.arm_i, self.arm_j, self.precond, rhs, sol, self.tolerance,
-                               self.max_iterations)
+            sol = np.empty(self.ndof)
+            _gather(sol, self.st, self.sr, self.pt, self.pr,
+                    *(start or (v_free, w_free, vp_free, wp_free)))
+            it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
+                           self.precond, rhs, sol, self.tolerance, self.max_iterations,
+                           self._work, self.part_c, self.part_g)
             self.last_iterations, self.last_residual = it, res
-        _scatter_rot(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
-        _bond_impulses_rot(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse)
-
-    def solve(self, v_free, vp_free, bi, bj, frame, c0, cg, broken, v, vp, impulse,
-              v_start=None, vp_start=None):
-        """Velocities at the end of the step (written into v (N,3), vp (P,3): unknown rows
-        only; known rows must already hold the imposed velocities) and bond impulses
-        impulse (B,3) in the local frames. v_start, vp_start: initial guess of ``cg``
-        (default: the free velocities)."""
-        if v_start is None:
-            v_start, vp_start = v_free, vp_free
-        rhs = np.zeros(self.ndof)
-        _rhs(rhs, self.sph, self.pl, self.mass_dof, v_free, vp_free, v, vp, bi, bj, frame, c0,
-             cg, broken)
-        if self.method == "direct":
-            sol = self.lu.solve(rhs) if self.ndof else rhs
-        else:
-            sol = np.zeros(self.ndof)
-            _gather(sol, self.sph, self.pl, v_start, vp_start)
-            it, res = _pcg(self.mass_dof, self.normal, self.g_t, self.g_nt, self.di, self.dj,
-                           self.precond, rhs, sol, self.tolerance, self.max_iterations)
-            self.last_iterations, self.last_residual = it, res
-        _scatter(sol, self.sph, self.pl, v, vp)
-        _bond_impulses(bi, bj, frame, c0, cg, broken, v, vp, impulse)
+        _scatter(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
+        _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
+                       self.rot)
 
 
-@njit(cache=True)
-def _rhs(rhs, sph, pl, mass_dof, v_free, vp_free, v, vp, bi, bj, frame, c0, cg, broken):
-    for s in range(len(sph)):
-        if sph[s] >= 0:
-            for d in range(3):
-                rhs[3 * sph[s] + d] = mass_dof[3 * sph[s] + d] * v_free[s, d]
-    for k in range(len(pl)):
-        if pl[k] >= 0:
-            for d in range(3):
-                rhs[3 * pl[k] + d] = mass_dof[3 * pl[k] + d] * vp_free[k, d]
-    q = np.empty(3)
-    uk = np.empty(3)
-    for b in range(len(bi)):
-        if broken[b]:
-            continue
-        i = bi[b]
-        j = bj[b]
-        di = sph[i]
-        dj = sph[j] if j >= 0 else pl[-1 - j]
-        if di >= 0 and dj >= 0:  # both velocities unknown: q = F^T c0
-            for d in range(3):
-                q[d] = frame[b, 0, d] * c0[b, 0] + frame[b, 1, d] * c0[b, 1] \
-                    + frame[b, 2, d] * c0[b, 2]
-                rhs[3 * di + d] += q[d]
-                rhs[3 * dj + d] -= q[d]
-            continue
-        # known part of the relative velocity
-        for d in range(3):
-            vi = v[i, d] if di < 0 else 0.0
-            if j >= 0:
-                vj = v[j, d] if dj < 0 else 0.0
-            else:
-                vj = vp[-1 - j, d] if dj < 0 else 0.0
-            uk[d] = vi - vj
-        for d in range(3):
-            acc = 0.0
-            for c in range(3):
-                ul = frame[b, c, 0] * uk[0] + frame[b, c, 1] * uk[1] + frame[b, c, 2] * uk[2]
-                acc += frame[b, c, d] * (c0[b, c] - cg[b, c] * ul)
-            q[d] = acc
-        for d in range(3):
-            if di >= 0:
-                rhs[3 * di + d] += q[d]
-            if dj >= 0:
-                rhs[3 * dj + d] -= q[d]
-
-
-@njit(cache=True)
-def _scatter(sol, sph, pl, v, vp):
-    for s in range(len(sph)):
-        if sph[s] >= 0:
-            for d in range(3):
-                v[s, d] = sol[3 * sph[s] + d]
-    for k in range(len(pl)):
-        if pl[k] >= 0:
-            for d in range(3):
-                vp[k, d] = sol[3 * pl[k] + d]
-
-
-@njit(cache=True)
-def _bond_impulses(bi, bj, frame, c0, cg, broken, v, vp, impulse):
-    for b in range(len(bi)):
-        if broken[b]:
-            continue
-        i = bi[b]
-        j = bj[b]
-        for c in range(3):
-            acc = 0.0
-            for d in range(3):
-                vj = v[j, d] if j >= 0 else vp[-1 - j, d]
-                acc += frame[b, c, d] * (v[i, d] - vj)
-            impulse[b, c] = c0[b, c] - cg[b, c] * acc
-
-
-@njit(cache=True)
-def _gather(x, sph, pl, v, vp):
-    for s in range(len(sph)):
-        if sph[s] >= 0:
-            for d in range(3):
-                x[3 * sph[s] + d] = v[s, d]
-    for k in range(len(pl)):
-        if pl[k] >= 0:
-            for d in range(3):
-                x[3 * pl[k] + d] = vp[k, d]
-
-
-@njit(cache=True)
-def _matvec(mass_dof, normal, g_t, g_nt, di, dj, x, y):
-    """y = (M + sum_b H_b G_b H_b^T) x, matrix-free over the intact bonds, with
-    G_b = g_t I + g_nt n n^T (normal (B,3), g_t, g_nt (B,))."""
-    for r in range(len(x)):
-        y[r] = mass_dof[r] * x[r]
-    for b in range(len(di)):
-        a = di[b]
-        c = dj[b]
-        if a >= 0 and c >= 0:
-            u0 = x[3 * a] - x[3 * c]
-            u1 = x[3 * a + 1] - x[3 * c + 1]
-            u2 = x[3 * a + 2] - x[3 * c + 2]
-        elif a >= 0:
-            u0 = x[3 * a]
-            u1 = x[3 * a + 1]
-            u2 = x[3 * a + 2]
-        elif c >= 0:
-            u0 = -x[3 * c]
-            u1 = -x[3 * c + 1]
-            u2 = -x[3 * c + 2]
-        else:  # both velocities imposed: no unknown
-            continue
-        n0 = normal[b, 0]
-        n1 = normal[b, 1]
-        n2 = normal[b, 2]
-        s = g_nt[b] * (n0 * u0 + n1 * u1 + n2 * u2)
-        gt = g_t[b]
-        f0 = gt * u0 + s * n0
-        f1 = gt * u1 + s * n1
-        f2 = gt * u2 + s * n2
-        if a >= 0:
-            y[3 * a] += f0
-            y[3 * a + 1] += f1
-            y[3 * a + 2] += f2
-        if c >= 0:
-            y[3 * c] -= f0
-            y[3 * c + 1] -= f1
-            y[3 * c + 2] -= f2
-
-
-@njit(cache=True)
-def _precondition(precond, r, z):
-    for k in range(precond.shape[0]):
-        for d in range(3):
-            z[3 * k + d] = (precond[k, d, 0] * r[3 * k] + precond[k, d, 1] * r[3 * k + 1]
-                            + precond[k, d, 2] * r[3 * k + 2])
-
-
-@njit(cache=True)
-def _pcg(mass_dof, normal, g_t, g_nt, di, dj, precond, rhs, x, tol, max_iter):
-    """Preconditioned conjugate gradient on (M + sum H G H^T) x = rhs, x holding the initial
-    guess; stops when |r| <= tol |rhs|. Returns (iterations, relative residual)."""
-    n = len(rhs)
-    r = np.empty(n)
-    z = np.empty(n)
-    q = np.empty(n)
-    _matvec(mass_dof, normal, g_t, g_nt, di, dj, x, q)
-    norm_b = 0.0
-    for k in range(n):
-        r[k] = rhs[k] - q[k]
-        norm_b += rhs[k] * rhs[k]
-    norm_b = np.sqrt(norm_b)
-    if norm_b == 0.0:
-        for k in range(n):
-            x[k] = 0.0
-        return 0, 0.0
-    _precondition(precond, r, z)
-    p = z.copy()
-    rz = 0.0
-    rr = 0.0
-    for k in range(n):
-        rz += r[k] * z[k]
-        rr += r[k] * r[k]
-    it = 0
-    while np.sqrt(rr) > tol * norm_b and it < max_iter:
-        it += 1
-        _matvec(mass_dof, normal, g_t, g_nt, di, dj, p, q)
-        pq = 0.0
-        for k in range(n):
-            pq += p[k] * q[k]
-        alpha = rz / pq
-        rr = 0.0
-        rz_new = 0.0
-        for blk in range(n // 3):  # fused: update, block-Jacobi preconditioner, dot products
-            b3 = 3 * blk
-            for d in range(3):
-                x[b3 + d] += alpha * p[b3 + d]
-                r[b3 + d] -= alpha * q[b3 + d]
-            for d in range(3):
-                z[b3 + d] = (precond[blk, d, 0] * r[b3] + precond[blk, d, 1] * r[b3 + 1]
-                             + precond[blk, d, 2] * r[b3 + 2])
-                rr += r[b3 + d] * r[b3 + d]
-                rz_new += r[b3 + d] * z[b3 + d]
-        beta = rz_new / rz
-        rz = rz_new
-        for k in range(n):
-            p[k] = z[k] + beta * p[k]
-    return it, np.sqrt(rr) / norm_b
-
-
-# ---------------------------------------------------------------- 'contact' kinematics
-@njit(cache=True)
-def _gather_rot(x, st, sr, pt, pr, v, w, vp, wp):
+@kernel
+def _gather(x, st, sr, pt, pr, v, w, vp, wp):
     """x[block] <- the body velocities of the unknown blocks."""
     for s in range(len(st)):
         for d in range(3):
@@ -566,8 +402,8 @@ def _gather_rot(x, st, sr, pt, pr, v, w, vp, wp):
                 x[3 * pr[k] + d] = wp[k, d]
 
 
-@njit(cache=True)
-def _scatter_rot(x, st, sr, pt, pr, v, w, vp, wp):
+@kernel
+def _scatter(x, st, sr, pt, pr, v, w, vp, wp):
     """Body velocities of the unknown blocks <- x."""
     for s in range(len(st)):
         for d in range(3):
@@ -583,25 +419,47 @@ def _scatter_rot(x, st, sr, pt, pr, v, w, vp, wp):
                 wp[k, d] = x[3 * pr[k] + d]
 
 
-@njit(cache=True)
-def _blocks_of(b, bi, bj, st, sr, pt, pr):
-    i = bi[b]
-    j = bj[b]
-    if j >= 0:
-        return st[i], sr[i], st[j], sr[j]
-    return st[i], sr[i], pt[-1 - j], pr[-1 - j]
+@helper
+def _add_force(y, t, r, arm, b, f0, f1, f2, sign):
+    """y[t] += sign f, y[r] += sign arm[b] x f (blocks of 3; -1 = known, skipped)."""
+    if t >= 0:
+        y[3 * t] += sign * f0
+        y[3 * t + 1] += sign * f1
+        y[3 * t + 2] += sign * f2
+    if r >= 0:
+        a0 = arm[b, 0]
+        a1 = arm[b, 1]
+        a2 = arm[b, 2]
+        y[3 * r] += sign * (a1 * f2 - a2 * f1)
+        y[3 * r + 1] += sign * (a2 * f0 - a0 * f2)
+        y[3 * r + 2] += sign * (a0 * f1 - a1 * f0)
 
 
-@njit(cache=True)
-def _rhs_rot(rhs, st, sr, pt, pr, v, w, vp, wp, bi, bj, frame, arm_i, arm_j, c0, cg, broken):
-    """rhs += sum_b L_b^T q_b, q_b = F^T (c0 - cg F U_known) (U_known: the bond velocity
-    from the known (imposed) blocks only)."""
+@kernel
+def _rhs(rhs, mass_dof, st, sr, pt, pr, v_free, w_free, vp_free, wp_free, v, w, vp, wp, bi,
+         bj, frame, arm_i, arm_j, c0, cg, broken, rot):
+    """rhs = M x_free + sum_b L_b^T q_b, q_b = F^T (c0 - cg F U_known) (U_known: the bond
+    velocity from the known blocks only; rotations enter only when rot)."""
+    _gather(rhs, st, sr, pt, pr, v_free, w_free, vp_free, wp_free)
+    for k in range(len(rhs)):
+        rhs[k] *= mass_dof[k]
     for b in range(len(bi)):
         if broken[b]:
             continue
         i = bi[b]
         j = bj[b]
-        ti, ri, tj, rj = _blocks_of(b, bi, bj, st, sr, pt, pr)
+        ti = st[i]
+        ri = sr[i]
+        if j >= 0:
+            tj = st[j]
+            rj = sr[j]
+            vj0, vj1, vj2 = v[j, 0], v[j, 1], v[j, 2]
+            wj0, wj1, wj2 = w[j, 0], w[j, 1], w[j, 2]
+        else:
+            tj = pt[-1 - j]
+            rj = pr[-1 - j]
+            vj0, vj1, vj2 = vp[-1 - j, 0], vp[-1 - j, 1], vp[-1 - j, 2]
+            wj0, wj1, wj2 = wp[-1 - j, 0], wp[-1 - j, 1], wp[-1 - j, 2]
         u0 = 0.0
         u1 = 0.0
         u2 = 0.0
@@ -609,21 +467,15 @@ def _rhs_rot(rhs, st, sr, pt, pr, v, w, vp, wp, bi, bj, frame, arm_i, arm_j, c0,
             u0 += v[i, 0]
             u1 += v[i, 1]
             u2 += v[i, 2]
-        if ri < 0:
-            u0 += w[i, 1] * arm_i[b, 2] - w[i, 2] * arm_i[b, 1]
-            u1 += w[i, 2] * arm_i[b, 0] - w[i, 0] * arm_i[b, 2]
-            u2 += w[i, 0] * arm_i[b, 1] - w[i, 1] * arm_i[b, 0]
-        if j >= 0:
-            vj0, vj1, vj2 = v[j, 0], v[j, 1], v[j, 2]
-            wj0, wj1, wj2 = w[j, 0], w[j, 1], w[j, 2]
-        else:
-            vj0, vj1, vj2 = vp[-1 - j, 0], vp[-1 - j, 1], vp[-1 - j, 2]
-            wj0, wj1, wj2 = wp[-1 - j, 0], wp[-1 - j, 1], wp[-1 - j, 2]
         if tj < 0:
             u0 -= vj0
             u1 -= vj1
             u2 -= vj2
-        if rj < 0:
+        if rot and ri < 0:
+            u0 += w[i, 1] * arm_i[b, 2] - w[i, 2] * arm_i[b, 1]
+            u1 += w[i, 2] * arm_i[b, 0] - w[i, 0] * arm_i[b, 2]
+            u2 += w[i, 0] * arm_i[b, 1] - w[i, 1] * arm_i[b, 0]
+        if rot and rj < 0:
             u0 -= wj1 * arm_j[b, 2] - wj2 * arm_j[b, 1]
             u1 -= wj2 * arm_j[b, 0] - wj0 * arm_j[b, 2]
             u2 -= wj0 * arm_j[b, 1] - wj1 * arm_j[b, 0]
@@ -636,30 +488,128 @@ def _rhs_rot(rhs, st, sr, pt, pr, v, w, vp, wp, bi, bj, frame, arm_i, arm_j, c0,
             q0 += frame[b, c, 0] * pc
             q1 += frame[b, c, 1] * pc
             q2 += frame[b, c, 2] * pc
-        _add_force(rhs, ti, ri, arm_i[b, 0], arm_i[b, 1], arm_i[b, 2], q0, q1, q2, 1.0)
-        _add_force(rhs, tj, rj, arm_j[b, 0], arm_j[b, 1], arm_j[b, 2], q0, q1, q2, -1.0)
+        if not rot:
+            ri = -1
+            rj = -1
+        _add_force(rhs, ti, ri, arm_i, b, q0, q1, q2, 1.0)
+        _add_force(rhs, tj, rj, arm_j, b, q0, q1, q2, -1.0)
 
 
-@njit(cache=True, inline="always")
-def _add_force(y, t, r, a0, a1, a2, f0, f1, f2, sign):
-    """y[t] += sign f, y[r] += sign a x f (blocks of 3; -1 = known, skipped)."""
-    if t >= 0:
-        y[3 * t] += sign * f0
-        y[3 * t + 1] += sign * f1
-        y[3 * t + 2] += sign * f2
-    if r >= 0:
-        y[3 * r] += sign * (a1 * f2 - a2 * f1)
-        y[3 * r + 1] += sign * (a2 * f0 - a0 * f2)
-        y[3 * r + 2] += sign * (a0 * f1 - a1 * f0)
+@kernel
+def _matvec(mass_dof, bdat_c, blk_c, bdat, blk, z, beta, p, y, alpha, x):
+    """x += alpha p (the previous CG update, fused here to read p once), p <- z + beta p,
+    then y = (M + sum_b L_b^T G_b L_b) p matrix-free over the intact bonds; returns p.y.
+    G_b = g_t I + g_nt n n^T. blk_c, blk (B,4) int32: translation and rotation blocks of
+    i, then of j (-1 = known). Compact bonds bdat_c (Bc,7|5): n, g_t,
+    g_nt and the lever arms a_i = al_i n, a_j = al_j n given by al_i, al_j (then w x a =
+    al (w x n) and a x f = al g_t (n x u)); general bonds bdat (Bg,11): n, g_t, g_nt, a_i,
+    a_j. Arms are read only for rotation blocks."""
+    py = 0.0
+    for k in range(len(p)):
+        pk = p[k]
+        x[k] += alpha * pk
+        pk = z[k] + beta * pk
+        p[k] = pk
+        y[k] = mass_dof[k] * pk
+        py += pk * y[k]
+    return py + _bonds(0, blk_c.shape[0], bdat_c, blk_c, 0, blk.shape[0], bdat, blk, p, y)
 
 
-@njit(cache=True)
-def _matvec_rot(mass_dof, normal, g_t, g_nt, blk, arm_i, arm_j, x, y):
-    """y = (M + sum_b L_b^T G_b L_b) x over the intact bonds (blk (B,4): translation and
-    rotation blocks of i, then of j; G_b = g_t I + g_nt n n^T)."""
-    for r in range(len(x)):
-        y[r] = mass_dof[r] * x[r]
-    for b in range(blk.shape[0]):
+@njit(cache=True, parallel=True)
+def _matvec_par(mass_dof, bdat_c, blk_c, bdat, blk, part_c, part_g, z, beta, p, y, alpha,
+                x):
+    """:func:`_matvec` on threads: the bonds are ordered by partition (LinearBondSolver with
+    threads > 1): the bonds of partition t (t < T) touch only its blocks and are summed by
+    one thread each, then the bonds across partitions (part_c[T]..part_c[T+1], and the same
+    for the general bonds) sequentially."""
+    py = 0.0
+    for k in prange(len(p)):
+        pk = p[k]
+        x[k] += alpha * pk
+        pk = z[k] + beta * pk
+        p[k] = pk
+        yk = mass_dof[k] * pk
+        y[k] = yk
+        py += pk * yk
+    nt = len(part_c) - 2
+    for t in prange(nt):
+        py += _bonds(part_c[t], part_c[t + 1], bdat_c, blk_c, part_g[t], part_g[t + 1], bdat,
+                     blk, p, y)
+    return py + _bonds(part_c[nt], part_c[nt + 1], bdat_c, blk_c, part_g[nt], part_g[nt + 1],
+                       bdat, blk, p, y)
+
+
+@kernel
+def _bonds(lo_c, hi_c, bdat_c, blk_c, lo_g, hi_g, bdat, blk, p, y):
+    """y += sum_b L_b^T G_b L_b p over the compact bonds lo_c..hi_c and the general bonds
+    lo_g..hi_g (:func:`_matvec`); returns their sum of p^T L^T G L p."""
+    py = 0.0
+    for b in range(lo_c, hi_c):
+        ti = blk_c[b, 0]
+        ri = blk_c[b, 1]
+        tj = blk_c[b, 2]
+        rj = blk_c[b, 3]
+        u0 = 0.0
+        u1 = 0.0
+        u2 = 0.0
+        if ti >= 0:
+            u0 = p[3 * ti]
+            u1 = p[3 * ti + 1]
+            u2 = p[3 * ti + 2]
+        if tj >= 0:
+            u0 -= p[3 * tj]
+            u1 -= p[3 * tj + 1]
+            u2 -= p[3 * tj + 2]
+        n0 = bdat_c[b, 0]
+        n1 = bdat_c[b, 1]
+        n2 = bdat_c[b, 2]
+        rot = ri >= 0 or rj >= 0
+        if rot:  # W = al_i w_i - al_j w_j; u += W x n
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            if ri >= 0:
+                al = bdat_c[b, 5]
+                w0 = al * p[3 * ri]
+                w1 = al * p[3 * ri + 1]
+                w2 = al * p[3 * ri + 2]
+            if rj >= 0:
+                al = bdat_c[b, 6]
+                w0 -= al * p[3 * rj]
+                w1 -= al * p[3 * rj + 1]
+                w2 -= al * p[3 * rj + 2]
+            u0 += w1 * n2 - w2 * n1
+            u1 += w2 * n0 - w0 * n2
+            u2 += w0 * n1 - w1 * n0
+        gt = bdat_c[b, 3]
+        s = bdat_c[b, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
+        f0 = gt * u0 + s * n0
+        f1 = gt * u1 + s * n1
+        f2 = gt * u2 + s * n2
+        py += u0 * f0 + u1 * f1 + u2 * f2  # p^T L^T G L p
+        if ti >= 0:
+            y[3 * ti] += f0
+            y[3 * ti + 1] += f1
+            y[3 * ti + 2] += f2
+        if tj >= 0:
+            y[3 * tj] -= f0
+            y[3 * tj + 1] -= f1
+            y[3 * tj + 2] -= f2
+        if rot:  # n x f = g_t n x u
+            c0 = gt * (n1 * u2 - n2 * u1)
+            c1 = gt * (n2 * u0 - n0 * u2)
+            c2 = gt * (n0 * u1 - n1 * u0)
+            if ri >= 0:
+                al = bdat_c[b, 5]
+                y[3 * ri] += al * c0
+                y[3 * ri + 1] += al * c1
+                y[3 * ri + 2] += al * c2
+            if rj >= 0:
+                al = bdat_c[b, 6]
+                y[3 * rj] -= al * c0
+                y[3 * rj + 1] -= al * c1
+                y[3 * rj + 2] -= al * c2
+    for b in range(lo_g, hi_g):
         ti = blk[b, 0]
         ri = blk[b, 1]
         tj = blk[b, 2]
@@ -668,94 +618,164 @@ def _matvec_rot(mass_dof, normal, g_t, g_nt, blk, arm_i, arm_j, x, y):
         u1 = 0.0
         u2 = 0.0
         if ti >= 0:
-            u0 += x[3 * ti]
-            u1 += x[3 * ti + 1]
-            u2 += x[3 * ti + 2]
-        if ri >= 0:
-            w0 = x[3 * ri]
-            w1 = x[3 * ri + 1]
-            w2 = x[3 * ri + 2]
-            u0 += w1 * arm_i[b, 2] - w2 * arm_i[b, 1]
-            u1 += w2 * arm_i[b, 0] - w0 * arm_i[b, 2]
-            u2 += w0 * arm_i[b, 1] - w1 * arm_i[b, 0]
+            u0 = p[3 * ti]
+            u1 = p[3 * ti + 1]
+            u2 = p[3 * ti + 2]
         if tj >= 0:
-            u0 -= x[3 * tj]
-            u1 -= x[3 * tj + 1]
-            u2 -= x[3 * tj + 2]
+            u0 -= p[3 * tj]
+            u1 -= p[3 * tj + 1]
+            u2 -= p[3 * tj + 2]
+        if ri >= 0:
+            w0 = p[3 * ri]
+            w1 = p[3 * ri + 1]
+            w2 = p[3 * ri + 2]
+            u0 += w1 * bdat[b, 7] - w2 * bdat[b, 6]
+            u1 += w2 * bdat[b, 5] - w0 * bdat[b, 7]
+            u2 += w0 * bdat[b, 6] - w1 * bdat[b, 5]
         if rj >= 0:
-            w0 = x[3 * rj]
-            w1 = x[3 * rj + 1]
-            w2 = x[3 * rj + 2]
-            u0 -= w1 * arm_j[b, 2] - w2 * arm_j[b, 1]
-            u1 -= w2 * arm_j[b, 0] - w0 * arm_j[b, 2]
-            u2 -= w0 * arm_j[b, 1] - w1 * arm_j[b, 0]
-        n0 = normal[b, 0]
-        n1 = normal[b, 1]
-        n2 = normal[b, 2]
-        s = g_nt[b] * (n0 * u0 + n1 * u1 + n2 * u2)
-        gt = g_t[b]
+            w0 = p[3 * rj]
+            w1 = p[3 * rj + 1]
+            w2 = p[3 * rj + 2]
+            u0 -= w1 * bdat[b, 10] - w2 * bdat[b, 9]
+            u1 -= w2 * bdat[b, 8] - w0 * bdat[b, 10]
+            u2 -= w0 * bdat[b, 9] - w1 * bdat[b, 8]
+        n0 = bdat[b, 0]
+        n1 = bdat[b, 1]
+        n2 = bdat[b, 2]
+        gt = bdat[b, 3]
+        s = bdat[b, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
         f0 = gt * u0 + s * n0
         f1 = gt * u1 + s * n1
         f2 = gt * u2 + s * n2
-        _add_force(y, ti, ri, arm_i[b, 0], arm_i[b, 1], arm_i[b, 2], f0, f1, f2, 1.0)
-        _add_force(y, tj, rj, arm_j[b, 0], arm_j[b, 1], arm_j[b, 2], f0, f1, f2, -1.0)
+        py += u0 * f0 + u1 * f1 + u2 * f2  # p^T L^T G L p
+        if ti >= 0:
+            y[3 * ti] += f0
+            y[3 * ti + 1] += f1
+            y[3 * ti + 2] += f2
+        if tj >= 0:
+            y[3 * tj] -= f0
+            y[3 * tj + 1] -= f1
+            y[3 * tj + 2] -= f2
+        if ri >= 0:
+            a0 = bdat[b, 5]
+            a1 = bdat[b, 6]
+            a2 = bdat[b, 7]
+            y[3 * ri] += a1 * f2 - a2 * f1
+            y[3 * ri + 1] += a2 * f0 - a0 * f2
+            y[3 * ri + 2] += a0 * f1 - a1 * f0
+        if rj >= 0:
+            a0 = bdat[b, 8]
+            a1 = bdat[b, 9]
+            a2 = bdat[b, 10]
+            y[3 * rj] -= a1 * f2 - a2 * f1
+            y[3 * rj + 1] -= a2 * f0 - a0 * f2
+            y[3 * rj + 2] -= a0 * f1 - a1 * f0
+    return py
 
 
-@njit(cache=True)
-def _pcg_rot(mass_dof, normal, g_t, g_nt, blk, arm_i, arm_j, precond, rhs, x, tol, max_iter):
-    """Block-Jacobi preconditioned CG of the 'contact' system; x holds the initial guess.
-    Returns (iterations, relative residual)."""
+@kernel
+def _update(precond, alpha, q, r, z):
+    """r -= alpha q, z = P^-1 r (3x3 block Jacobi); returns (r.r, r.z)."""
+    rr = 0.0
+    rz = 0.0
+    for blk in range(precond.shape[0]):
+        b3 = 3 * blk
+        for d in range(3):
+            r[b3 + d] -= alpha * q[b3 + d]
+        r0 = r[b3]
+        r1 = r[b3 + 1]
+        r2 = r[b3 + 2]
+        for d in range(3):
+            zd = precond[blk, d, 0] * r0 + precond[blk, d, 1] * r1 + precond[blk, d, 2] * r2
+            z[b3 + d] = zd
+            rz += r[b3 + d] * zd
+        rr += r0 * r0 + r1 * r1 + r2 * r2
+    return rr, rz
+
+
+@njit(cache=True, parallel=True)
+def _update_par(precond, alpha, q, r, z):
+    """:func:`_update` on threads."""
+    rr = 0.0
+    rz = 0.0
+    for blk in prange(precond.shape[0]):
+        b3 = 3 * blk
+        for d in range(3):
+            r[b3 + d] -= alpha * q[b3 + d]
+        r0 = r[b3]
+        r1 = r[b3 + 1]
+        r2 = r[b3 + 2]
+        z0 = precond[blk, 0, 0] * r0 + precond[blk, 0, 1] * r1 + precond[blk, 0, 2] * r2
+        z1 = precond[blk, 1, 0] * r0 + precond[blk, 1, 1] * r1 + precond[blk, 1, 2] * r2
+        z2 = precond[blk, 2, 0] * r0 + precond[blk, 2, 1] * r1 + precond[blk, 2, 2] * r2
+        z[b3] = z0
+        z[b3 + 1] = z1
+        z[b3 + 2] = z2
+        rz += r0 * z0 + r1 * z1 + r2 * z2
+        rr += r0 * r0 + r1 * r1 + r2 * r2
+    return rr, rz
+
+
+@njit(cache=True)  # with NRT: it calls the threaded kernels (they need it)
+def _pcg(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, max_iter, work,
+         part_c, part_g):
+    """Block-Jacobi preconditioned conjugate gradient on (M + sum L^T G L) x = rhs, x
+    holding the initial guess; stops when |r| <= tol |rhs|. work (4, n): r (final residual
+    on return), z, p, q. part_c, part_g: bond partitions of the threaded kernels (empty:
+    sequential). Returns (iterations, relative residual)."""
+    par = len(part_c) > 0
     n = len(rhs)
-    r = np.empty(n)
-    z = np.empty(n)
-    q = np.empty(n)
-    _matvec_rot(mass_dof, normal, g_t, g_nt, blk, arm_i, arm_j, x, q)
+    r = work[0]
+    z = work[1]
+    p = work[2]
+    q = work[3]
+    for k in range(n):
+        p[k] = 0.0
+    if par:  # p <- x, q = A x
+        _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, x, 0.0, p, q, 0.0,
+                    x)
+    else:
+        _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, p, q, 0.0, x)
     norm_b = 0.0
     for k in range(n):
         r[k] = rhs[k] - q[k]
         norm_b += rhs[k] * rhs[k]
+        p[k] = 0.0
     norm_b = np.sqrt(norm_b)
     if norm_b == 0.0:
         for k in range(n):
             x[k] = 0.0
+            r[k] = 0.0
         return 0, 0.0
-    _precondition(precond, r, z)
-    p = z.copy()
-    rz = 0.0
-    rr = 0.0
-    for k in range(n):
-        rz += r[k] * z[k]
-        rr += r[k] * r[k]
+    rr, rz = _update(precond, 0.0, q, r, z)  # z = P^-1 r
+    beta = 0.0
+    alpha = 0.0
     it = 0
     while np.sqrt(rr) > tol * norm_b and it < max_iter:
         it += 1
-        _matvec_rot(mass_dof, normal, g_t, g_nt, blk, arm_i, arm_j, p, q)
-        pq = 0.0
-        for k in range(n):
-            pq += p[k] * q[k]
-        alpha = rz / pq
-        for k in range(n):
-            x[k] += alpha * p[k]
-            r[k] -= alpha * q[k]
-        _precondition(precond, r, z)
-        rr = 0.0
-        rz_new = 0.0
-        for k in range(n):
-            rr += r[k] * r[k]
-            rz_new += r[k] * z[k]
+        if par:
+            pq = _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, z, beta,
+                             p, q, alpha, x)
+            alpha = rz / pq
+            rr, rz_new = _update_par(precond, alpha, q, r, z)
+        else:
+            pq = _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, z, beta, p, q, alpha, x)
+            alpha = rz / pq
+            rr, rz_new = _update(precond, alpha, q, r, z)
         beta = rz_new / rz
         rz = rz_new
-        for k in range(n):
-            p[k] = z[k] + beta * p[k]
+    for k in range(n):  # the last update of x
+        x[k] += alpha * p[k]
     return it, np.sqrt(rr) / norm_b
 
 
-@njit(cache=True)
-def _bond_impulses_rot(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse):
+@kernel
+def _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse, rot):
+    """impulse (B,3) = c0 - cg F U of the intact bonds (U: local_laws.bond_velocity)."""
     for b in range(len(bi)):
         if broken[b]:
             continue
-        g0, g1, g2 = bond_velocity(b, bi, bj, arm_i, arm_j, v, w, vp, wp, True)
+        g0, g1, g2 = bond_velocity(b, bi, bj, arm_i, arm_j, v, w, vp, wp, rot)
         for c in range(3):
             ul = frame[b, c, 0] * g0 + frame[b, c, 1] * g1 + frame[b, c, 2] * g2
             impulse[b, c] = c0[b, c] - cg[b, c] * ul

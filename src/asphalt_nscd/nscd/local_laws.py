@@ -48,11 +48,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import njit
+from ._jit import helper, kernel
 
 
-@njit(cache=True, inline="always")
+@helper
 def contact_local_solve(bn, bt, bs, gap, h, wn, wt, mu):
     """Exact Signorini-Coulomb impulse (Pn, Pt, Ps) (N s) for local free velocity (bn, bt, bs)
     (m/s, excluding this contact's own impulse), gap (m), step h (s), blocks wn, wt (1/kg)."""
@@ -71,7 +70,7 @@ def contact_local_solve(bn, bt, bs, gap, h, wn, wt, mu):
     return pn, pt, ps
 
 
-@njit(cache=True, inline="always")
+@helper
 def bond_velocity(b, bi, bj, arm_i, arm_j, v, w, vp, wp, rot):
     """Global relative velocity (3 floats, m/s) of bond b: v_i - v_j ('barycentre', rot
     False), or (v_i + w_i x a_i) - (v_j + w_j x a_j) at the contact point (rot True; a plate
@@ -109,7 +108,7 @@ def bond_velocity(b, bi, bj, arm_i, arm_j, v, w, vp, wp, rot):
     return u0, u1, u2
 
 
-@njit(cache=True)
+@kernel
 def bond_coefficients(Km, Cm, Kk, Ck, h, theta, coef, i_den):
     """Reciprocals of the step (constant for given bond parameters, h and theta), so that
     bond_predict and bond_update need no division: coef (B,3,2) = [1/Km, 1/Cm, 1/C] with
@@ -127,7 +126,7 @@ def bond_coefficients(Km, Cm, Kk, Ck, h, theta, coef, i_den):
             coef[b, 2, p] = 1.0 / cc
 
 
-@njit(cache=True)
+@kernel
 def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, force,
                  delta_c, delta_k, broken, h, theta, c0, cg, delta_m, u_m,
                  arm_i, arm_j, w, wp, disp, rot):
@@ -183,7 +182,7 @@ def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, f
             cg[b, c] = h * h * theta * theta * k_eff
 
 
-@njit(cache=True)
+@kernel
 def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c, delta_k,
                 broken, h, theta, delta_m, u_m, v, vp, impulse, arm_i, arm_j, w, wp, disp, rot):
     """End-of-step update of the bond state from the end velocities v, w (N,3), vp, wp
@@ -198,7 +197,6 @@ def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c
     nk = Kk.shape[1]
     n_new = 0
     dissipated = 0.0
-    ak = np.empty(nk)
     for b in range(len(bi)):
         if broken[b]:
             continue
@@ -213,14 +211,16 @@ def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c
             A = delta_c[b, c] - h * (1.0 - theta) * r_ch_m * coef[b, 1, p]
             for k in range(nk):
                 e_old += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
-                ak[k] = (Ck[b, k, p] * delta_k[b, k, c]
-                         - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) \
+                A += (Ck[b, k, p] * delta_k[b, k, c]
+                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) \
                     * i_den[b, k, p]
-                A += ak[k]
             r_ch_p = (A - dp) * coef[b, 2, p]
             e_new = 0.5 * r_ch_p * r_ch_p * coef[b, 0, p] + 0.5 * Kinf[b, p] * dp * dp
-            for k in range(nk):
-                delta_k[b, k, c] = ak[k] - h * theta * i_den[b, k, p] * r_ch_p
+            for k in range(nk):  # a_k recomputed (same operations): no work array
+                ak = (Ck[b, k, p] * delta_k[b, k, c]
+                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) \
+                    * i_den[b, k, p]
+                delta_k[b, k, c] = ak - h * theta * i_den[b, k, p] * r_ch_p
                 e_new += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
             delta_c[b, c] -= h * (theta * r_ch_p + (1.0 - theta) * r_ch_m) * coef[b, 1, p]
             force[b, c] = r_ch_p - Kinf[b, p] * dp

@@ -41,6 +41,7 @@ from __future__ import annotations
 import time as _time
 from typing import Callable
 
+import numba
 import numpy as np
 
 from . import detection, gauss_seidel, local_laws
@@ -123,6 +124,8 @@ class Simulation:
         """Advance by one time step ``params.dt``; returns its :class:`StepStats`."""
         tic = _time.perf_counter()
         p = self.params
+        if p.threads > 1:
+            numba.set_num_threads(p.threads)
         h, th = p.dt, p.theta
         sph, pls, bnd = self.spheres, self.plates, self.bonds
         t0, t1 = self.time, self.time + h
@@ -200,11 +203,6 @@ class Simulation:
                                     bnd.Kinf, bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken,
                                     h, th, c0, cg, d_m, u_m, bnd.arm_i, bnd.arm_j, w_m,
                                     wp_start, bnd.displacement, rot)
-            if rot:
-                bond_blocks_contact(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, inv_m, inv_i,
-                                    inv_mp, inv_ip, cg, bW, bA)
-            else:
-                bond_blocks(bnd.i, bnd.j, inv_m, inv_mp, bw)
         bP = self.bond_impulse
         bP[bnd.broken] = 0.0
         t_c = _time.perf_counter()
@@ -225,6 +223,12 @@ class Simulation:
             w[:] = w_m
             w[~finite] = 0.0
             wp[:] = wp_start
+            if nb:  # Delassus blocks of the bonds: needed by NLGS only
+                if rot:
+                    bond_blocks_contact(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, inv_m,
+                                        inv_i, inv_mp, inv_ip, cg, bW, bA)
+                else:
+                    bond_blocks(bnd.i, bnd.j, inv_m, inv_mp, bw)
             gauss_seidel.apply_impulses(ci, cj, cframe, sph.radius, cP, bnd.i, bnd.j,
                                         bnd.frame, bP, v, w, vp, inv_m, inv_i, inv_mp,
                                         bnd.arm_i, bnd.arm_j, wp, inv_ip, rot)
@@ -382,7 +386,7 @@ class Simulation:
         bnd = self.bonds
         p = self.params
         key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
-               p.linear_tolerance, rot)
+               p.linear_tolerance, rot, p.threads)
         if self._linear_key != key:
             rotation = None
             if rot:
@@ -390,7 +394,8 @@ class Simulation:
                                 inv_inertia_plate=inv_ip)
             self._linear = LinearBondSolver(inv_m, inv_mp, bnd.i, bnd.j, bnd.frame, cg,
                                             bnd.broken, method=p.linear_solver,
-                                            tolerance=p.linear_tolerance, rotation=rotation)
+                                            tolerance=p.linear_tolerance, rotation=rotation,
+                                            threads=p.threads)
             self._linear_key = key
         v_try = v_free.copy()
         vp_try = vp_free.copy()
@@ -406,14 +411,9 @@ class Simulation:
             if rot and self._w_before is not None:
                 w0 = 2.0 * w0 - self._w_before
                 wp0 = 2.0 * wp0 - self._wp_before
-        if rot:
-            self._linear.solve_rot(v_free, w.copy(), vp_free, wp.copy(), bnd.i, bnd.j,
-                                   bnd.frame, bnd.arm_i, bnd.arm_j, c0, cg, bnd.broken,
-                                   v_try, w_try, vp_try, wp_try, P_try,
-                                   start=(v0, w0, vp0, wp0))
-        else:
-            self._linear.solve(v_free, vp_free, bnd.i, bnd.j, bnd.frame, c0, cg, bnd.broken,
-                               v_try, vp_try, P_try, v_start=v0, vp_start=vp0)
+        self._linear.solve(v_free, w.copy(), vp_free, wp.copy(), bnd.i, bnd.j, bnd.frame,
+                           bnd.arm_i, bnd.arm_j, c0, cg, bnd.broken, v_try, w_try, vp_try,
+                           wp_try, P_try, start=(v0, w0, vp0, wp0))
         self.linear_iterations = self._linear.last_iterations
         # contacts must stay open with zero reaction
         if len(ci):

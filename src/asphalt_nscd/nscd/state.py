@@ -424,6 +424,10 @@ class NSCDParameters:
     bond_kinematics : 'contact' (default; bond at the contact point, with torques, 6 DOF per
         sphere in the linear fast path) or 'barycentre' (the former core: at the barycentres,
         no torque). See :class:`Bonds`; same option as the harmonic solver.
+    threads : numba threads of the parallel kernels (conjugate gradient of the fast path,
+        bond laws); 1 (default) = the sequential kernels. At most the numba thread pool
+        (NUMBA_NUM_THREADS). An execution setting, not stored in checkpoints; results agree
+        with the sequential ones to round-off (tests/unit/test_nscd_threads.py).
     """
 
     dt: float
@@ -439,8 +443,16 @@ class NSCDParameters:
     linear_solver: str = "cg"
     linear_tolerance: float = 1e-10
     bond_kinematics: str = "contact"
+    threads: int = 1
 
     def __post_init__(self):
+        import numba
+
+        if not (isinstance(self.threads, (int, np.integer)) and
+                1 <= self.threads <= numba.config.NUMBA_NUM_THREADS):
+            raise ValueError(f"threads must be an integer in [1, NUMBA_NUM_THREADS = "
+                             f"{numba.config.NUMBA_NUM_THREADS}], got {self.threads!r}")
+        self.threads = int(self.threads)
         if self.bond_kinematics not in BOND_KINEMATICS:
             raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
                              f"got {self.bond_kinematics!r}")
@@ -465,7 +477,7 @@ class NSCDParameters:
         """Parameters from the ``nscd`` section of the workflow config (solver keys) and
         the run's own dt (s), friction and gravity (m/s²)."""
         keys = ("theta", "tolerance", "convergence", "max_iterations", "relaxation", "fast_path",
-                "linear_solver", "linear_tolerance", "bond_kinematics")
+                "linear_solver", "linear_tolerance", "bond_kinematics", "threads")
         return cls(dt=dt, friction=friction, gravity=gravity,
                    **{k: section[k] for k in keys if k in section})
 
