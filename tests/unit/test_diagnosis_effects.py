@@ -105,3 +105,39 @@ def test_bench_scenarios_and_outcome():
     assert scenario(0) == scenario(0)
     r = run_one(7003, ("time_lag",))
     assert r["planted"] == ["time_lag"] and "time_lag" in r["detected"]
+
+
+def test_replicate_noise_regresses_out_the_strain_effect():
+    from asphalt_nscd.rheology.master_curve import replicate_noise
+
+    mags = {"strain_nonlinearity": {"modulus_drop_per_100_microstrain": 0.06}}
+    table, truth = synthetic.generate(21, ["strain_nonlinearity"], schedule="paper_2pb", n_specimens=4,
+                                      magnitudes=mags)
+    true_sigma = truth["noise"]["point_lnE_sigma"]
+    plain, _ = replicate_noise(table)
+    adjusted, sP = replicate_noise(table, covariates=("strain_microstrain",))
+    # the strain effect (sd 0.06 x 0.35 = 2 %) inflates the plain estimate, not the adjusted one
+    assert plain > np.hypot(true_sigma, 0.5 * 0.06 * 0.35)
+    assert adjusted == pytest.approx(true_sigma, rel=0.25)
+    # without covariates the two-way least squares equals the plain estimate (balanced table)
+    clean, _ = synthetic.generate(22, [], schedule="paper_2pb", n_specimens=3)
+    a, _ = replicate_noise(clean)
+    b, _ = replicate_noise(clean.assign(zero=0.0), covariates=("zero",))
+    assert b == pytest.approx(a, rel=1e-9)
+
+
+def test_strain_term_is_centred_and_correction_goes_to_small_strain():
+    # seed 54 of the benchmark (AASHTO T 342, 2 replicates): the uncentred term, screened with
+    # E00 held fixed, took the mean |E*| drop for a master-curve change and was missed
+    table, truth = synthetic.generate(54, ["strain_nonlinearity"])
+    search = ArtifactSearch(table)
+    assert search.strain_ref == pytest.approx(table["strain_microstrain"].mean())
+    result = search.run()
+    entries = {e["name"]: e for e in effect_entries(search, result)}
+    e = entries["strain_nonlinearity"]
+    assert e["detected"] and estimate_ok("strain_nonlinearity", e, truth, 0.25)
+    b = result["final"].param("modulus_drop_per_100_microstrain")
+    corrected = search.corrected(result["final"])
+    ratio = np.log(corrected["E_norm_MPa"].to_numpy() / search.df["E_norm_MPa"].to_numpy())
+    # every point is brought to eps -> 0: ln ratio = b eps / 100
+    assert np.allclose(ratio, b * search.df["strain_microstrain"].to_numpy() / 100.0, atol=1e-9)

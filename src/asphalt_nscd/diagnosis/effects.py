@@ -10,11 +10,20 @@ name                    measured = f(true)                                 param
 time_lag                E* exp(i 2 pi f dt): Phi + 360 f dt, |E*| same      ``time_lag_ms``
 inertia_uncorrected     E1 - gamma 1e-6 dmu w^2 (2PB Eq. 1, paper geometry) ``mass_factor_g``
 temperature_offset      isotherm T measured at T + dT (one isotherm)        ``offset_C``
-strain_nonlinearity     |E*| exp(-b eps / 100 microstrain)                  ``modulus_drop_per_100_microstrain``
+strain_nonlinearity     |E*| exp(-b (eps - eps_ref) / 100 microstrain)      ``modulus_drop_per_100_microstrain``
 self_heating            n-th test of an isotherm (n = 0, 1, ...) at T + c n, ``heating_C_per_test``,
                         then |E*| exp(-a n), Phi (1 + b n)                  ``extra_drop_pct_per_test``,
                                                                             ``extra_phase_pct_per_test``
 ======================  =================================================  ==================
+
+Strain nonlinearity is measured from the mean strain eps_ref of the table: the term then
+does not change the overall |E*| level, which the master curve carries (E0 and E00), so the
+screening fits with E00 held fixed do not bias it; the corrected table is brought to the
+small-strain limit eps -> 0 (the linear viscoelastic modulus). The ln|E*| noise is taken
+from the replicate scatter with the strain effect regressed out
+(:func:`~asphalt_nscd.rheology.master_curve.replicate_noise` with the strain covariate):
+otherwise a real strain effect, which differs between the replicates of a cell, inflates
+the noise level and deflates its own F statistic.
 
 Forward selection: starting from the reference model, every candidate not yet selected is
 added in turn and tested by the extra-sum-of-squares F-test (residuals weighted by the
@@ -110,8 +119,11 @@ def testability(df: pd.DataFrame) -> dict:
     return out
 
 
-def make_term(name: str, temperature_C: float | None = None) -> Term:
+def make_term(name: str, temperature_C: float | None = None, strain_ref_microstrain: float = 0.0) -> Term:
     """Measurement-model term of one artifact (see the module table).
+
+    ``temperature_C``: isotherm of a temperature offset; ``strain_ref_microstrain``: the
+    strain at which the strain-nonlinearity term is 1 (default 0: the small-strain limit).
 
     Terms act in the order of the measurement chain: temperature (offset, self-heating),
     strain nonlinearity, inertia (on E1 of the specimen), then the time lag (on the phase
@@ -130,7 +142,8 @@ def make_term(name: str, temperature_C: float | None = None) -> Term:
                     delta_T=lambda x, d: x[0] * (d["T"] == T_k))
     if name == "strain_nonlinearity":
         return Term(name, ["modulus_drop_per_100_microstrain"], [0.0], [-0.5], [0.5],
-                    apply=lambda x, E, d: E * np.exp(-x[0] * d["strain_microstrain"] / 100.0), order=1)
+                    apply=lambda x, E, d: E * np.exp(-x[0] * (d["strain_microstrain"] - strain_ref_microstrain)
+                                                     / 100.0), order=1)
     if name == "self_heating":
         def heat(x, E, d):
             n = d["test_step"]
@@ -170,12 +183,15 @@ class ArtifactSearch:
         self.df = prepare_table(df)
         self.alpha = float(alpha)
         self.data = data_arrays(self.df)
-        sE, sP = replicate_noise(self.df)
+        self.testable = testability(self.df)
+        strain = ("strain_microstrain",) if self.testable["strain_nonlinearity"][0] else ()
+        #: reference strain of the strain-nonlinearity term (mean of the table), microstrain
+        self.strain_ref = float(np.mean(self.data["strain_microstrain"])) if strain else 0.0
+        sE, sP = replicate_noise(self.df, covariates=strain)
         self.noise_from_replicates = sE is not None
         self.sigma = (max(sE, 2e-3), max(sP, 0.03)) if sE is not None else (0.02, 0.5)
         self.shift = shift
         self.T_ref_C = T_ref_C
-        self.testable = testability(self.df)
 
     def problem(self, terms) -> MasterCurveProblem:
         return MasterCurveProblem(self.data, shift=self.shift, T_ref_C=self.T_ref_C, terms=terms,
@@ -191,6 +207,8 @@ class ArtifactSearch:
                 continue
             if name == "temperature_offset":
                 out += [Candidate(name, make_term(name, T), float(T)) for T in self.data["temperatures"]]
+            elif name == "strain_nonlinearity":
+                out.append(Candidate(name, make_term(name, strain_ref_microstrain=self.strain_ref)))
             else:
                 out.append(Candidate(name, make_term(name)))
         return out
@@ -327,7 +345,10 @@ class ArtifactSearch:
         """Measured table with the fitted artifacts of ``fit`` removed.
 
         Each point is multiplied by the complex ratio of the model without artifacts to the
-        model with them (specimen factors kept), which inverts every term exactly.
+        model with them (specimen factors kept), which inverts every term exactly; a strain
+        nonlinearity b is corrected to the small-strain limit (the term is fitted about the
+        table's mean strain eps_ref, so every point is further multiplied by
+        exp(b eps_ref / 100)).
         """
         prob = self.problem(fit.terms)
         n_art = sum(len(t.names) for t in fit.terms)
@@ -335,6 +356,8 @@ class ArtifactSearch:
         if n_art:
             x_clean[-n_art:] = 0.0
         ratio = prob.measured_modulus(x_clean) / prob.measured_modulus(fit.x)
+        if "modulus_drop_per_100_microstrain" in fit.names:
+            ratio = ratio * np.exp(fit.param("modulus_drop_per_100_microstrain") * self.strain_ref / 100.0)
         E = self.df["E_norm_MPa"].to_numpy(float) * np.exp(1j * np.radians(self.df["phase_deg"].to_numpy(float)))
         Ec = E * ratio
         out = self.df.copy()

@@ -29,6 +29,14 @@ self_heating         the n-th test of an isotherm (n = 0, 1, ...): |E*| exp(-a n
                      Phi (1 + b n/100); a, b 0.5-2 % per test
                      (``modulus_drop_pct_per_test``, ``phase_rise_pct_per_test``)
 ===================  =====================================================================
+
+Strain range: b = 2-6 % of |E*| per 100 microstrain brackets the conventional limit of
+linearity, the strain at which |E*| has fallen to 95 % of its small-strain value (SHRP
+criterion, Anderson et al. 1994, SHRP-A-369), which for asphalt mixes lies near 100
+microstrain (Airey, Rahimzadeh & Collop 2004, J. Mater. Civ. Eng. 16(3) 212-220): a
+complex-modulus test run at 30-150 microstrain can show such a drop. At the low end with
+two replicates and 2 % point noise the effect is close to the noise (a z-score near 3 for
+the oracle regression on the known master curve), which bounds any test's power.
 """
 
 from __future__ import annotations

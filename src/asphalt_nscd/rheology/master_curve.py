@@ -102,12 +102,18 @@ class MasterCurveFit:
         return E * np.exp(self.specimen_mean[0] + 1j * np.radians(self.specimen_mean[1]))
 
 
-def replicate_noise(df: pd.DataFrame) -> tuple[float | None, float | None]:
+def replicate_noise(df: pd.DataFrame, covariates=()) -> tuple[float | None, float | None]:
     """Point noise of ln|E*| and Phi (deg) from the scatter between replicates.
 
     ln|E*| residuals are taken about the cell mean (temperature, frequency) after removing
     a constant offset per specimen (specimen scatter); Phi about the cell mean. Pooled
     standard deviations with their degrees of freedom; (None, None) without replicates.
+
+    ``covariates``: names of columns (e.g. ``strain_microstrain``) that vary between the
+    replicates of a cell and may change ln|E*| linearly; they are regressed out of the
+    ln|E*| scatter together with the cell means and specimen offsets (least squares, one
+    degree of freedom each), so that a real effect of them does not inflate the noise.
+    Without covariates the result is the same as that two-way fit on a balanced table.
     """
     d = df.copy()
     d["lnE"] = np.log(d["E_norm_MPa"])
@@ -120,9 +126,21 @@ def replicate_noise(df: pd.DataFrame) -> tuple[float | None, float | None]:
     dof_e = dof_p - (n_spec - 1)
     if n_spec < 2 or dof_e <= 0:
         return None, None
-    d["rE"] = d["rE"] - d.groupby("specimen")["rE"].transform("mean")
-    return (float(np.sqrt(np.sum(d["rE"] ** 2) / dof_e)),
-            float(np.sqrt(np.sum(d["rP"] ** 2) / dof_p)))
+    sP = float(np.sqrt(np.sum(d["rP"] ** 2) / dof_p))
+    covariates = [c for c in covariates if c in d.columns]
+    if not covariates:
+        d["rE"] = d["rE"] - d.groupby("specimen")["rE"].transform("mean")
+        return float(np.sqrt(np.sum(d["rE"] ** 2) / dof_e)), sP
+    # two-way least squares: cell means + specimen offsets + linear covariates
+    X = np.column_stack([pd.get_dummies(cell.ngroup()).to_numpy(float),
+                         pd.get_dummies(d["specimen"].astype(str)).to_numpy(float)[:, 1:]]
+                        + [d[c].to_numpy(float) for c in covariates])
+    y = d["lnE"].to_numpy(float)
+    coef, _, rank, _ = np.linalg.lstsq(X, y, rcond=None)
+    dof = len(y) - int(rank)
+    if dof <= 0:
+        return None, None
+    return float(np.sqrt(np.sum((y - X @ coef) ** 2) / dof)), sP
 
 
 def data_arrays(df: pd.DataFrame) -> dict:
