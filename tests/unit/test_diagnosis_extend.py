@@ -82,3 +82,14 @@ def test_calibrate_balance_flag_changes_only_the_refinement(monkeypatch):
     laws = extend.calibrate(master, table, balance=True)
     assert len(calls) == table["temperature_C"].nunique() == len(laws)
     assert isinstance(table, pd.DataFrame)
+
+
+def test_balance_tolerances_option_rejects_non_positive_values():
+    import argparse
+
+    from asphalt_nscd.diagnosis.cli import _tolerances
+    from asphalt_nscd.io import InputError
+
+    assert _tolerances(argparse.Namespace(balance_tolerances_pct=[3.0, 5.0])) == pytest.approx((0.03, 0.05))
+    with pytest.raises(InputError, match="balance-tolerances-pct"):
+        _tolerances(argparse.Namespace(balance_tolerances_pct=[3.0, 0.0]))

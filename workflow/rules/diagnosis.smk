@@ -51,6 +51,10 @@ def _fit_options():
         opts += f" --t-ref {DIAG['T_ref_C']}"
     if not DIAG["refine"]:
         opts += " --no-refine"
+    if not DIAG.get("balance", True):
+        opts += " --no-balance"
+    tol = DIAG.get("balance_tolerances_pct", [3.0, 5.0])
+    opts += f" --balance-tolerances-pct {tol[0]} {tol[1]}"
     return opts
 
 

@@ -31,6 +31,10 @@ def _fit_options(p) -> None:
                    help="keep the extended law on the master curve (no per-isotherm refinement)")
     p.add_argument("--prior-weight", type=float, default=0.01,
                    help="penalty keeping the refined compliances near the master-curve law (default 0.01)")
+    p.add_argument("--no-balance", action="store_true",
+                   help="skip the minimax step of the per-isotherm refinement (least squares only)")
+    p.add_argument("--balance-tolerances-pct", type=float, nargs=2, default=[3.0, 5.0], metavar=("E", "PHI"),
+                   help="MRE of |E*| and of Phi (%%) normalising the two errors of the minimax step (default 3 5)")
 
 
 def register(subparsers) -> None:
@@ -149,7 +153,17 @@ def _read_time_errors(paths, theta):
 
 def _fit_kwargs(args) -> dict:
     return dict(alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref, per_decade=args.per_decade,
-                margin_decades=args.margin_decades, refine=not args.no_refine, prior_weight=args.prior_weight)
+                margin_decades=args.margin_decades, refine=not args.no_refine, prior_weight=args.prior_weight,
+                balance=not args.no_balance, tolerances=_tolerances(args))
+
+
+def _tolerances(args) -> tuple[float, float]:
+    from ..io import InputError
+
+    tol = tuple(float(v) / 100.0 for v in args.balance_tolerances_pct)
+    if not all(t > 0 for t in tol):
+        raise InputError(f"--balance-tolerances-pct: expected two positive percentages, got {args.balance_tolerances_pct}")
+    return tol
 
 
 def _extend_law(args) -> int:
@@ -170,6 +184,7 @@ def _extend_law(args) -> int:
                      "artifacts_corrected": [c.name for c in a["result"]["selected"]],
                      "per_decade": args.per_decade, "margin_decades": args.margin_decades,
                      "refine": not args.no_refine, "prior_weight": args.prior_weight,
+                     "balance": not args.no_balance, "balance_tolerances_pct": list(args.balance_tolerances_pct),
                      "mre_reference": "artifact-corrected measured replicate means"}
     write_json(obj, args.output)
     if args.corrected is not None:

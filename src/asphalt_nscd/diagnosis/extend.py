@@ -355,7 +355,7 @@ def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
 
 def calibrate(master: MasterCurveFit, corrected: pd.DataFrame, per_decade: float = 2.0,
               margin_decades: float = 1.0, refine: bool = True, prior_weight: float = 0.01,
-              balance: bool = True) -> dict:
+              balance: bool = True, tolerances=TOLERANCES) -> dict:
     """Generalized Burger's law per tested temperature (MPa, MPa s): ``{T: law}``.
 
     ``refine``: least-squares refinement to each isotherm (:func:`refine_to_isotherm`);
@@ -363,6 +363,8 @@ def calibrate(master: MasterCurveFit, corrected: pd.DataFrame, per_decade: float
     kept if it still lowers :func:`minimax_score` after :func:`prune` and does not lose a
     target (|E*| or Phi) that the least-squares law met (on an isotherm whose phases are
     within the noise, e.g. below 1 deg, the minimax trade would otherwise give up |E*|).
+    ``tolerances``: (MRE |E*|, MRE Phi) as fractions that normalise the two errors in the
+    minimax objective (default 3 % and 5 %; config ``diagnosis.balance_tolerances_pct``).
     """
     from .causes import cell_means
 
@@ -376,8 +378,9 @@ def calibrate(master: MasterCurveFit, corrected: pd.DataFrame, per_decade: float
         law = prune(law)
         if refine and balance:
             data = (g["frequency_Hz"], g["E_norm_MPa"], g["phase_deg"])
-            balanced = prune(balance_to_isotherm(law, *data, prior_weight))
-            r0, r1 = target_ratios(law, *data), target_ratios(balanced, *data)
+            balanced = prune(balance_to_isotherm(law, *data, prior_weight, tolerances=tolerances))
+            r0 = target_ratios(law, *data, tolerances=tolerances)
+            r1 = target_ratios(balanced, *data, tolerances=tolerances)
             # kept if it lowers the objective after pruning and loses no target the first law met
             if max(r1) < max(r0) and all(b <= 1.0 for a, b in zip(r0, r1) if a <= 1.0):
                 law = balanced

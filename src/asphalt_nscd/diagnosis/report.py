@@ -182,7 +182,8 @@ def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
 
 def extended_laws(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
                   T_ref_C: float | None = None, per_decade: float = 2.0, margin_decades: float = 1.0,
-                  refine: bool = True, prior_weight: float = 0.01, analysis: dict | None = None) -> dict:
+                  refine: bool = True, prior_weight: float = 0.01, analysis: dict | None = None,
+                  balance: bool = True, tolerances=extend.TOLERANCES) -> dict:
     """The extended law per temperature without any simulation input (``asphalt-nscd extend-law``).
 
     Returns
@@ -194,7 +195,8 @@ def extended_laws(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf
     """
     a = analysis if analysis is not None else analyse(measured, alpha=alpha, shift=shift, T_ref_C=T_ref_C)
     laws = extend.calibrate(a["master"], a["corrected"], per_decade=per_decade, margin_decades=margin_decades,
-                            refine=refine, prior_weight=prior_weight)
+                            refine=refine, prior_weight=prior_weight, balance=balance,
+                            tolerances=tolerances)
     mE, mP = extend.mre_of_laws(laws, a["corrected"])
     mEm, mPm = extend.mre_of_laws(laws, a["search"].df)
     return {"laws": laws, "mre_E": mE, "mre_phase": mP, "mre_E_measured": mEm, "mre_phase_measured": mPm,
@@ -229,7 +231,8 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
              alpha: float = 1e-3, shift: str = "wlf", T_ref_C: float | None = None,
              per_decade: float = 2.0, margin_decades: float = 1.0, refine: bool = True,
              prior_weight: float = 0.01, laws: dict | None = None,
-             transfer: dict | None = None) -> tuple[dict, dict]:
+             transfer: dict | None = None, balance: bool = True,
+             tolerances=extend.TOLERANCES) -> tuple[dict, dict]:
     """Diagnose a measured table (and optional simulation results).
 
     Parameters
@@ -333,7 +336,8 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
     # extended law and gain
     if laws is None:
         laws = extend.calibrate(master, corrected, per_decade=per_decade, margin_decades=margin_decades,
-                                refine=refine, prior_weight=prior_weight)
+                                refine=refine, prior_weight=prior_weight, balance=balance,
+                            tolerances=tolerances)
     else:
         laws = {float(T): law for T, law in laws.items()}
         missing = [T for T in temps if not any(np.isclose(T, k) for k in laws)]
