@@ -62,6 +62,26 @@ def read_csv(path: str | os.PathLike, **kwargs):
         raise InputError(f"{path}: not a readable CSV file ({exc})") from None
 
 
+def read_json(path: str | os.PathLike, what: str = "JSON file"):
+    """Read a JSON file (any JSON value).
+
+    Raises
+    ------
+    InputError
+        naming the file: ``"<path>: cannot read the <what> (...)"`` if it cannot be opened,
+        ``"<path>: not valid JSON (...)"`` if it does not parse.
+    """
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not valid JSON ({exc})") from None
+
+
 def write_csv(frame, path: str | os.PathLike, **kwargs) -> None:
     """Write a pandas DataFrame to CSV atomically (no index unless asked)."""
     kwargs.setdefault("index", False)

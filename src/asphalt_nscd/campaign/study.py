@@ -30,7 +30,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from ..io import InputError
+from ..io import InputError, read_json
 
 #: Burger's parameters that the sensitivity study varies, with their table columns.
 SENSITIVITY_PARAMETERS = {"Em": "Em_MPa", "eta_m": "eta_m_MPa_s", "Ek": "Ek_MPa", "eta_k": "eta_k_MPa_s"}
@@ -85,17 +85,9 @@ def read_law_json(path) -> dict:
         not a (list of) positive finite number(s) (``E_inf`` >= 0, ``eta_m`` may be null),
         ``Ek``/``eta_k`` of different lengths, or ``units`` other than Pa and Pa s.
     """
-    import json
-
     from ..rheology.laws import GeneralizedBurgers
 
-    try:
-        with open(path, encoding="utf-8") as fh:
-            obj = json.load(fh)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the law JSON ({exc.strerror or exc})") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from None
+    obj = read_json(path, "law JSON")
     if not isinstance(obj, dict) or not isinstance(obj.get("temperatures"), dict) or not obj["temperatures"]:
         raise InputError(f"{path}: key 'temperatures': expected a non-empty object keyed by temperature (degC)")
     units = obj.get("units")

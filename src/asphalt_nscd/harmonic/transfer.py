@@ -33,13 +33,12 @@ The JSON written by ``asphalt-nscd harmonic-transfer`` (:func:`transfer_json`) a
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from ..io import InputError
+from ..io import InputError, read_json
 from .solver import BOND_KINEMATICS, HEAD_ROTATIONS, HarmonicSystem
 
 #: Keys a transfer JSON must hold (:func:`read_transfer_json`).
@@ -176,13 +175,7 @@ def read_transfer_json(path, sample: str | None = None, bond_kinematics: str | N
         ``bond_kinematics`` / ``head_rotation``, ``nu`` not a number, or a mismatch with the
         given sample name or settings.
     """
-    try:
-        with open(path, encoding="utf-8") as fh:
-            obj = json.load(fh)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the transfer JSON ({exc.strerror or exc})") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from None
+    obj = read_json(path, "transfer JSON")
     if not isinstance(obj, dict):
         raise InputError(f"{path}: expected a JSON object with keys {list(TRANSFER_KEYS)}")
     missing = [k for k in TRANSFER_KEYS if k not in obj]

@@ -115,19 +115,13 @@ def _bench(args) -> int:
 
 
 def _bench_summary(args) -> int:
-    import json
-
     import pandas as pd
 
-    from ..io import InputError, write_csv
+    from ..io import InputError, read_json, write_csv
 
     rows = []
     for path in args.inputs:
-        try:
-            with open(path) as fh:
-                rec = json.load(fh)
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"{path}: cannot read bench JSON ({exc})") from exc
+        rec = read_json(path, "bench JSON")
         for key in ("case", "n_particles", "s_per_particle_step"):
             if key not in rec:
                 raise InputError(f"{path}: key '{key}' missing")
