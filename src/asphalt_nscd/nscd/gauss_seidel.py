@@ -199,8 +199,8 @@ def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, b
         for b in range(nb):
             if broken[b]:
                 continue
+            g0, g1, g2 = bond_velocity(b, bi, bj, barm_i, barm_j, v, w, vp, wp, rot)
             if rot:
-                g0, g1, g2 = bond_velocity(b, bi, bj, barm_i, barm_j, v, w, vp, wp, rot)
                 ul0 = bframe[b, 0, 0] * g0 + bframe[b, 0, 1] * g1 + bframe[b, 0, 2] * g2
                 ul1 = bframe[b, 1, 0] * g0 + bframe[b, 1, 1] * g1 + bframe[b, 1, 2] * g2
                 ul2 = bframe[b, 2, 0] * g0 + bframe[b, 2, 1] * g1 + bframe[b, 2, 2] * g2
@@ -223,16 +223,6 @@ def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, b
                 bP[b, 1] += dp1
                 bP[b, 2] += dp2
             else:
-                i = bi[b]
-                j = bj[b]
-                if j >= 0:
-                    g0 = v[i, 0] - v[j, 0]
-                    g1 = v[i, 1] - v[j, 1]
-                    g2 = v[i, 2] - v[j, 2]
-                else:
-                    g0 = v[i, 0] - vp[-1 - j, 0]
-                    g1 = v[i, 1] - vp[-1 - j, 1]
-                    g2 = v[i, 2] - vp[-1 - j, 2]
                 ww = bw[b]
                 # component c: P = (c0 - cg (U - w P_old)) / (1 + cg w), relaxed
                 acc = bframe[b, 0, 0] * g0 + bframe[b, 0, 1] * g1 + bframe[b, 0, 2] * g2
