@@ -19,7 +19,7 @@ $(BIN)/asphalt-nscd: pyproject.toml requirements.lock
 setup: $(BIN)/asphalt-nscd
 
 run: setup
-	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --printshellcmds
+	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --printshellcmds --rerun-incomplete
 
 report: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html

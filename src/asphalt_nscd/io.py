@@ -1,7 +1,12 @@
 """Input errors and atomic output.
 
 Every output file of the workflow is written to a temporary file in the target directory and
-renamed into place, so that a failed job never leaves a half-written result.
+renamed into place, so that a failed job never leaves a half-written result. A job killed
+outright (SIGKILL) may leave such a temporary file; :func:`remove_stale_temporaries` clears
+them when the job is rerun. SIGTERM is turned into ``SystemExit`` by the command line
+(:mod:`asphalt_nscd.cli`), which unwinds the writers; long loops also call
+:func:`check_termination` so that a SIGTERM whose exception was swallowed inside a library
+callback still stops the job at its next step.
 """
 
 from __future__ import annotations
@@ -20,6 +25,32 @@ os.umask(_UMASK)
 
 class InputError(ValueError):
     """Bad input. The message names the file, the row or key, and what was expected."""
+
+
+#: Signal number of a termination request received by this process (None: none).
+_TERMINATION = {"signal": None}
+
+
+def request_termination(signum: int) -> None:
+    """Record a termination request (SIGTERM handler) and unwind: ``SystemExit(128 + signum)``."""
+    _TERMINATION["signal"] = signum
+    raise SystemExit(128 + signum)
+
+
+def check_termination() -> None:
+    """Raise ``SystemExit(128 + signum)`` if a termination request was received."""
+    if _TERMINATION["signal"] is not None:
+        raise SystemExit(128 + _TERMINATION["signal"])
+
+
+def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files :func:`atomic_path` left next to ``path`` when a writer was
+    killed outright (SIGKILL, power loss). Returns the removed paths."""
+    target = Path(path)
+    stale = sorted(target.parent.glob(f".{target.name}.*.tmp")) if target.parent.is_dir() else []
+    for tmp in stale:
+        tmp.unlink(missing_ok=True)
+    return stale
 
 
 @contextlib.contextmanager

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from asphalt_nscd import cli
+from asphalt_nscd import io
 from asphalt_nscd.io import atomic_path, write_json
 
 
@@ -65,3 +66,23 @@ def test_atomic_output_has_the_usual_file_mode(tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert stat.S_IMODE(target.stat().st_mode) == 0o666 & ~umask
+
+
+def test_stale_temporaries_of_a_killed_writer_are_removed(tmp_path):
+    target = tmp_path / "run.h5"
+    stale = [tmp_path / ".run.h5.abc123.tmp", tmp_path / ".run.h5.zz.tmp"]
+    keep = [tmp_path / ".other.h5.abc.tmp", tmp_path / "run.h5.ckpt.h5"]
+    for p in stale + keep:
+        p.write_text("x")
+    assert io.remove_stale_temporaries(target) == sorted(stale)
+    assert all(not p.exists() for p in stale) and all(p.exists() for p in keep)
+
+
+def test_termination_request_unwinds_and_is_remembered(monkeypatch):
+    monkeypatch.setitem(io._TERMINATION, "signal", None)
+    io.check_termination()  # no request: nothing happens
+    with pytest.raises(SystemExit) as exc:
+        io.request_termination(15)
+    assert exc.value.code == 143
+    with pytest.raises(SystemExit):  # a swallowed SystemExit still stops the next step
+        io.check_termination()

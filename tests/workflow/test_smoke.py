@@ -1,5 +1,5 @@
-"""Reduced-size run of the whole Snakemake workflow (config/smoke.yaml), its report, and
-dry runs of the default and paper configurations."""
+"""Dry runs of the three configurations and config validation. The reduced-size run of the
+whole workflow, started as the README starts it, is tests/workflow/test_readme.py."""
 
 from __future__ import annotations
 
@@ -37,26 +37,6 @@ def _snakemake(workdir: Path, *args: str, timeout: float = 1800) -> subprocess.C
 def test_dry_run_builds_dag(tmp_path, config):
     proc = _snakemake(_workdir(tmp_path), "-n", "--configfile", config, "--quiet", "rules")
     assert "report_index" in proc.stdout + proc.stderr
-
-
-@pytest.mark.slow
-def test_smoke_workflow_runs_end_to_end(tmp_path):
-    workdir = _workdir(tmp_path)
-    _snakemake(workdir, "--configfile", "config/smoke.yaml", "--cores", "2")
-    index = workdir / "results" / "report" / "index.md"
-    assert index.is_file()
-    text = index.read_text()
-    # every figure/table the index links exists in the report directory and is not empty
-    links = [line.split("(")[-1].rstrip(")") for line in text.splitlines() if line.endswith(")")]
-    assert links, "report index lists no figures or tables"
-    for link in links:
-        path = workdir / "results" / "report" / link
-        assert path.is_file() and path.stat().st_size > 0, link
-    # nothing left half-written
-    assert not list((workdir / "results").rglob("*.tmp"))
-    # the HTML report builds from the same run
-    _snakemake(workdir, "--configfile", "config/smoke.yaml", "--report", str(workdir / "report.html"))
-    assert (workdir / "report.html").stat().st_size > 10_000
 
 
 def test_invalid_config_is_rejected_with_the_key_named(tmp_path):

@@ -87,7 +87,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import InputError, atomic_path
+from ..io import InputError, atomic_path, check_termination, remove_stale_temporaries
 
 DT_POLICIES = ("fixed", "steps_per_cycle")
 HEAD_ROTATIONS = ("free", "clamped")
@@ -288,6 +288,8 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     specimen = specimen_of(sample)
     ckpt = output.with_name(output.name + ".ckpt.h5")
     partial = output.with_name(output.name + ".partial.npz")
+    for path in (output, ckpt, partial):  # left by a writer killed outright
+        remove_stale_temporaries(path)
     key = json.dumps({"sample": str(sample_path), "law": law.as_dict(), "f": frequency_Hz, "dt": dt,
                       "n_steps": n_steps, "settings": asdict(settings)}, sort_keys=True)
     per_period = 1.0 / (frequency_Hz * dt)
@@ -322,6 +324,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     wall0, cpu0 = float(arrays["wall"][0]), float(arrays["cpu"][0])
     start = sim.step_index
     for k in range(start, n_steps):
+        check_termination()
         st = sim.step()
         arrays["t"][k] = st.time - 0.5 * dt
         arrays["plate_fx"][k] = st.plate_force[1, 0]

@@ -1,0 +1,282 @@
+"""The README's first command as a newcomer runs it, and what its run must give.
+
+A fresh copy of the repository (the files a clone holds: tracked and not-ignored ones, no
+`.venv`, no `results/`) runs the README's first command on the smoke configuration,
+``make run CONFIG=config/smoke.yaml``, from a plain shell: no virtual environment activated
+and no `.venv/bin` on the PATH. On that run:
+
+* the report index and every file it links exist, nothing is half-written;
+* ``make report`` builds the HTML report with no docutils warning, and headless Chromium
+  shows it: it loads, lists every report category, no caption shows an error box, and a
+  figure renders (its screenshot is not blank);
+* a second run of the same command from scratch gives identical result tables, except the
+  measured compute times listed in ``NOT_IDENTICAL`` (see the README, "Determinism").
+
+Marked ``slow``: it installs the pinned environment in the copy (about a minute) and runs the
+smoke workflow twice.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+SMOKE = "config/smoke.yaml"
+
+#: Outputs that legitimately differ between two runs of the same configuration, and why.
+#: Files (glob under results/) are skipped whole; columns/keys are dropped before comparing.
+NOT_IDENTICAL = {
+    "files": {
+        "bench/*": "NSCD core benchmark: measured times (bench command)",
+        "report/bench/*": "copy of the benchmark table",
+        "harmonic/bench.json": "harmonic solver benchmark: measured times",
+        "report/harmonic/bench.json": "copy of the harmonic solver benchmark",
+    },
+    "columns": {
+        "wall_time_s": "measured wall time of a simulation job",
+        "cpu_time_s": "measured CPU time of a simulation job",
+        "cpu_per_sphere_step_s": "measured CPU time per sphere and step",
+        "solve_time_s": "measured time of a harmonic solve",
+        "wall_clock_s": "measured wall time of a sample preparation phase",
+        "timings_s": "measured wall times of the sample preparation phases",
+        "seconds_per_table": "measured time per table of the detection benchmark",
+    },
+}
+
+
+def readme_commands() -> list[str]:
+    """The commands of the README's first code block (comments stripped)."""
+    text = (REPO / "README.md").read_text()
+    block = re.search(r"```(?:bash|sh)?\n(.*?)```", text, re.S)
+    assert block, "README has no code block"
+    return [line.split("#")[0].strip() for line in block.group(1).splitlines() if line.split("#")[0].strip()]
+
+
+def newcomer_env() -> dict:
+    """The environment of a plain shell: no virtual environment, no .venv/bin on the PATH."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("VIRTUAL_ENV", "PYTHONPATH", "CONDA_PREFIX", "PYTHONHOME")}
+    ours = str(Path(sys.executable).parent)
+    env["PATH"] = os.pathsep.join(
+        p for p in env.get("PATH", "").split(os.pathsep)
+        if p and p != ours and ".venv" not in Path(p).parts and "venv" not in Path(p).name
+    )
+    return env
+
+
+def make_args(env: dict) -> list[str]:
+    """``PYTHON=...`` only where the plain shell has no python3.11 (the Makefile's default)."""
+    if shutil.which("python3.11", path=env["PATH"]):
+        return []
+    base = Path(getattr(sys, "_base_executable", sys.executable))
+    return [f"PYTHON={base}"]
+
+
+def run(cmd: list[str], cwd: Path, env: dict, timeout: float = 3600) -> subprocess.CompletedProcess:
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    if proc.returncode != 0:
+        logs = "\n".join(f"--- {p}\n{p.read_text()[-2000:]}" for p in sorted((cwd / "logs").rglob("*.log"))
+                         if "rror" in p.read_text()) if (cwd / "logs").exists() else ""
+        pytest.fail(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n"
+                    f"{proc.stderr[-5000:]}\n{logs}")
+    return proc
+
+
+@pytest.fixture(scope="module")
+def clone(tmp_path_factory) -> Path:
+    """A fresh copy of the repository: the files a clone of the working tree holds."""
+    files = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+                           cwd=REPO, capture_output=True, text=True, check=True).stdout.split("\0")
+    dest = tmp_path_factory.mktemp("clone") / "asphalt-nscd"
+    for name in filter(None, files):
+        src = REPO / name
+        if src.is_file():
+            (dest / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dest / name)
+    return dest
+
+
+@pytest.fixture(scope="module")
+def smoke_run(clone) -> Path:
+    """``make run CONFIG=config/smoke.yaml`` in the fresh copy, from a plain shell."""
+    env = newcomer_env()
+    assert shutil.which("asphalt-nscd", path=env["PATH"]) is None, "the plain shell already sees asphalt-nscd"
+    run(["make", "run", f"CONFIG={SMOKE}", *make_args(env)], clone, env)
+    return clone
+
+
+def test_readme_first_screen_gives_the_two_commands():
+    assert readme_commands() == ["make run", "make test"]
+    assert "make test" in (REPO / ".ci" / "run").read_text()
+
+
+@pytest.mark.slow
+def test_make_run_from_a_plain_shell_builds_the_report_index(smoke_run):
+    index = smoke_run / "results" / "report" / "index.md"
+    assert index.is_file()
+    links = [line.split("(")[-1].rstrip(")") for line in index.read_text().splitlines() if line.endswith(")")]
+    assert len(links) > 20, "report index lists too few figures and tables"
+    for link in links:
+        path = smoke_run / "results" / "report" / link
+        assert path.is_file() and path.stat().st_size > 0, link
+    assert not list((smoke_run / "results").rglob("*.tmp"))
+    assert not list((smoke_run / "results").rglob("*.ckpt.h5")), "a finished run left a checkpoint"
+
+
+def report_categories() -> set[str]:
+    """Every report category the rules declare (``category=`` or a *_CATEGORY constant)."""
+    cats = set()
+    for smk in (REPO / "workflow" / "rules").glob("*.smk"):
+        text = smk.read_text()
+        cats |= set(re.findall(r'\bcategory="([^"]+)"', text))
+        cats |= set(re.findall(r'^\w+_CATEGORY = "([^"]+)"', text, re.M))
+    return cats
+
+
+@pytest.mark.slow
+def test_html_report_renders_in_headless_chromium(smoke_run):
+    proc = run(["make", "report", f"CONFIG={SMOKE}", *make_args(newcomer_env())], smoke_run, newcomer_env())
+    messages = re.findall(r"\((?:INFO/1|WARNING/2|ERROR/3|SEVERE/4)\).*", proc.stdout + proc.stderr)
+    assert not messages, "docutils messages while building the report:\n" + "\n".join(messages[:20])
+    report = smoke_run / "results" / "report.html"
+    assert report.stat().st_size > 10_000
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("Chromium is not installed (Debian: apt-get install chromium; .ci/run installs it "
+                    "where it can): the HTML report was built without docutils messages but not opened")
+    check_report_in_browser(report, chromium, smoke_run / "results" / "report_screens")
+
+
+def check_report_in_browser(report: Path, chromium: str, screens: Path) -> None:
+    """Open the HTML report in headless Chromium: it loads, its menu lists every report
+    category, no caption shows a docutils error box, and a figure renders (not blank)."""
+    from PIL import Image
+    from playwright.sync_api import sync_playwright
+
+    args = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-sync",
+            "--disable-background-networking", "--disable-component-update"]
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=chromium, args=args)
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(report.as_uri())
+        page.wait_for_selector("text=RESULTS")
+        assert page.title() == "Snakemake Report"
+        menu = page.locator("div.p-3 ul li a span").all_inner_texts()
+        missing = sorted(c for c in report_categories() if c not in menu)
+        assert not missing, f"categories missing from the report menu {menu}: {missing}"
+
+        shown = {"captions": 0, "figure": None}
+        for category in sorted(report_categories()):
+            _open(page, [category])
+            if page.locator("tr:has([role=group])").count():
+                _check_items(page, [category], shown, screens)
+                continue
+            for sub in page.locator("div.p-3 ul li a span").all_inner_texts():
+                _open(page, [category, sub])
+                _check_items(page, [category, sub], shown, screens)
+        assert shown["captions"] > 20, shown
+        assert shown["figure"] is not None, "no figure was shown"
+        assert not errors, errors
+        browser.close()
+    pixels = np.asarray(Image.open(shown["figure"]).convert("L"), float)
+    assert pixels.std() > 10.0, f"the figure screenshot {shown['figure']} is blank"
+
+
+def _open(page, path: list[str]) -> None:
+    """Go home (breadcrumb) and open a category, then a subcategory, by their menu entries."""
+    page.locator("nav ol li a").first.click()
+    for name in path:
+        page.locator("div.p-3 ul li a span").filter(has_text=re.compile(rf"^{re.escape(name)}$")).click()
+
+
+def _check_items(page, path: list[str], shown: dict, screens: Path) -> None:
+    """Every file of an open (sub)category: its caption (info view) shows no docutils error
+    box; the first PNG is shown in the content panel and screenshotted."""
+    rows = page.locator("tr:has([role=group])")
+    names = [rows.nth(k).locator("td").first.inner_text().strip() for k in range(rows.count())]
+    assert names, f"no files under {path}"
+    for name in names:
+        page.locator("tr:has([role=group])").filter(has_text=name).first.locator(
+            "[iconname=information-circle]").click()
+        page.wait_for_selector("text=DESCRIPTION")
+        body = page.inner_text("body")
+        assert page.locator(".system-message").count() == 0 and "System Message" not in body, \
+            f"error box under the caption of {name}"
+        shown["captions"] += 1
+        _open(page, path)
+        if shown["figure"] is None and name.endswith(".png"):
+            page.locator("tr:has([role=group])").filter(has_text=name).first.locator("[iconname=eye]").click()
+            img = page.locator("img[src^='data:image/png']").last
+            img.wait_for(state="visible")
+            screens.mkdir(parents=True, exist_ok=True)
+            shot = screens / (Path(name).stem + ".png")
+            img.screenshot(path=str(shot))
+            shown["figure"] = shot
+            _open(page, path)
+
+
+def _tables(results: Path) -> dict[str, Path]:
+    from fnmatch import fnmatch
+
+    out = {}
+    for p in sorted(results.rglob("*")):
+        rel = p.relative_to(results).as_posix()
+        if p.suffix in (".csv", ".json", ".md") and not any(fnmatch(rel, g) for g in NOT_IDENTICAL["files"]):
+            out[rel] = p
+    return out
+
+
+def _drop_times(obj):
+    if isinstance(obj, dict):
+        return {k: _drop_times(v) for k, v in obj.items() if k not in NOT_IDENTICAL["columns"]}
+    if isinstance(obj, list):
+        return [_drop_times(v) for v in obj]
+    return obj
+
+
+@pytest.mark.slow
+def test_two_runs_of_the_same_config_give_identical_tables(smoke_run):
+    first = smoke_run / "results_first_run"
+    shutil.copytree(smoke_run / "results", first)
+    shutil.rmtree(smoke_run / "results")
+    run(["make", "run", f"CONFIG={SMOKE}", *make_args(newcomer_env())], smoke_run, newcomer_env())
+    a, b = _tables(first), _tables(smoke_run / "results")
+    assert set(a) == set(b)
+    assert len(a) > 30
+    differ = []
+    for rel, pa in a.items():
+        pb = b[rel]
+        if pa.suffix == ".csv":
+            da, db = pd.read_csv(pa), pd.read_csv(pb)
+            cols = [c for c in da.columns if c not in NOT_IDENTICAL["columns"]]
+            same = list(da.columns) == list(db.columns) and da[cols].equals(db[cols])
+        elif pa.suffix == ".json":
+            same = _drop_times(json.loads(pa.read_text())) == _drop_times(json.loads(pb.read_text()))
+        else:
+            same = pa.read_text() == pb.read_text()
+        if not same:
+            differ.append(rel)
+    assert not differ, f"tables that differ between two runs of {SMOKE}: {differ}"
+    # the prepared samples are bit-identical
+    import h5py
+
+    for pa in sorted((first / "samples").glob("*.h5")):
+        with h5py.File(pa) as fa, h5py.File(smoke_run / "results" / "samples" / pa.name) as fb:
+            names: list[str] = []
+            fa.visit(lambda n: names.append(n) if isinstance(fa[n], h5py.Dataset) else None)
+            assert names
+            for n in names:
+                np.testing.assert_array_equal(fa[n][()], fb[n][()], err_msg=f"{pa.name}:{n}")
