@@ -459,8 +459,9 @@ class NSCDParameters:
         if self.convergence not in CONVERGENCE_NORMS:
             raise ValueError(f"convergence must be one of {list(CONVERGENCE_NORMS)}, "
                              f"got {self.convergence!r}")
-        if self.linear_solver not in ("cg", "direct"):
-            raise ValueError(f"linear_solver must be 'cg' or 'direct', got {self.linear_solver!r}")
+        if self.linear_solver not in ("cg", "cg_ssor", "direct"):
+            raise ValueError("linear_solver must be 'cg', 'cg_ssor' or 'direct', "
+                             f"got {self.linear_solver!r}")
         if not (self.dt > 0):
             raise ValueError(f"dt must be > 0, got {self.dt}")
         if not (0.5 <= self.theta <= 1.0):

@@ -64,14 +64,17 @@ def box_plates(box, top=None):
 def _run(sim, n_steps: int, stop=None) -> dict:
     """Advance ``sim`` by up to ``n_steps``; ``stop(sim)`` checked every CHECK_EVERY steps."""
     tic = time.perf_counter()
+    cpu = time.process_time()
     unconverged = 0
     iterations = 0
+    max_iterations = 0
     steps = 0
     for k in range(int(n_steps)):
         st = sim.step()
         steps += 1
         unconverged += not st.converged
         iterations += st.iterations
+        max_iterations = max(max_iterations, st.iterations)
         if stop is not None and (k + 1) % CHECK_EVERY == 0 and stop(sim):
             break
     speed = np.linalg.norm(sim.spheres.velocity, axis=1)
@@ -81,8 +84,10 @@ def _run(sim, n_steps: int, stop=None) -> dict:
         "time_step_s": sim.params.dt,
         "unconverged_steps": int(unconverged),
         "mean_iterations": iterations / max(steps, 1),
+        "max_iterations": int(max_iterations),
         "max_speed_end_m_s": float(speed.max()) if speed.size else 0.0,
         "wall_clock_s": time.perf_counter() - tic,
+        "cpu_s": time.process_time() - cpu,
     }
 
 
