@@ -62,6 +62,7 @@ def register(subparsers) -> None:
     b.add_argument("-o", "--output", required=True, help="benchmark JSON record")
     b.add_argument("--sample", help="also write the sample file (.h5)")
     b.add_argument("--summary", help="also write the summary JSON of prepare-sample")
+    b.add_argument("--progress", action="store_true", help="progress lines of the dynamic stages on stderr")
     b.set_defaults(func=_bench)
 
     t = subparsers.add_parser(
@@ -105,6 +106,9 @@ def _bench(args) -> int:
     from .bench import bench_record
     from .prepare import prepare_sample, write_outputs
 
+    from . import dynamics
+
+    dynamics.PROGRESS = bool(args.progress)
     cfg = _load_config(args)
     result = prepare_sample(cfg, args.seed)
     if args.sample:
