@@ -41,6 +41,17 @@ Solvers:
   A-norm projection on the span of the last 4 solutions as initial guess (it contains the
   linear and quadratic extrapolations), and 6x6 blocks (a sphere's translation and
   rotation together: 25.0 instead of 25.4 iterations, a dearer preconditioner).
+* ``cg_ssor``: the same conjugate gradient preconditioned by symmetric Gauss-Seidel (SSOR,
+  omega = 1) on the body blocks (a sphere's translation and rotation together, up to 6x6,
+  :func:`ssor_structure`), M = (D + L) D^-1 (D + U), run in Eisenstat's form
+  (:func:`_pcg_ssor`): the preconditioned product costs one forward and one backward
+  triangular solve, each a pass over the bonds like the product with A, and no product with
+  A. At N = 12 000 ('contact', 2PB-like bench sample) it needs 10.8 iterations instead of
+  26.8, but a triangular solve is sequential (each body waits for its lower neighbours) and
+  costs about as much as a whole matrix-free product, so a step is only ~1.1 x faster (see
+  docs/choices.md). Stopping test on the preconditioned residual (free), confirmed by the
+  true residual |rhs - A x| <= tol |rhs| (one product; tightened and continued if not met).
+  Sequential only (``threads`` ignored).
 * ``direct``: SuperLU factorisation once per (dt, theta, intact-bond set)
   (:func:`splu_symmetric`: symmetric mode, no pivoting, MMD ordering of A^T + A, the
   setting of harmonic/solver.py), two triangular solves per step, exact to round-off.
