@@ -48,8 +48,9 @@ Solvers:
   triangular solve, each a pass over the bonds like the product with A, and no product with
   A. At N = 12 000 ('contact', 2PB-like bench sample) it needs 10.8 iterations instead of
   26.8, but a triangular solve is sequential (each body waits for its lower neighbours) and
-  costs about as much as a whole matrix-free product, so a step is only ~1.1 x faster (see
-  docs/choices.md). Stopping test on the preconditioned residual (free), confirmed by the
+  costs about as much as a whole matrix-free product, so a step is only 1.17 x faster; with
+  'barycentre' kinematics (3 unknowns per sphere, a cheaper product) it is 0.8 x as fast
+  (docs/choices.md). Stopping test on the preconditioned residual (free), confirmed by the
   true residual |rhs - A x| <= tol |rhs| (one product; tightened and continued if not met).
   Sequential only (``threads`` ignored).
 * ``direct``: SuperLU factorisation once per (dt, theta, intact-bond set)
