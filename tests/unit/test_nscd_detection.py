@@ -49,28 +49,3 @@ def test_candidate_list_with_skin_equals_fresh_search():
         b = detection.detect_contacts(pos, rad, pts, nrm, 5e-4)
         assert set(zip(a[0].tolist(), a[1].tolist())) == set(zip(b[0].tolist(), b[1].tolist()))
     assert cl.n_searches < 20
-
-
-def test_pair_alert_keeps_only_pairs_that_can_close_within_the_step():
-    """With body speeds, a pair is kept when gap < min(alert, max(alert_min, 2 h (s_i + s_j))):
-    brute force over random pairs, speeds and a plate."""
-    rng = np.random.default_rng(5)
-    n = 200
-    pos = rng.uniform(0, 0.03, (n, 3))
-    rad = rng.uniform(1e-3, 2e-3, n)
-    speed = rng.uniform(0, 3.0, n) * (rng.random(n) < 0.3)
-    pts, nrm = np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]])
-    plate_speed = np.array([0.5])
-    h, alert, alert_min = 2e-4, 1.5e-3, 5e-4
-    cl = detection.CandidateList(alert)
-    ci, cj, gap, _ = cl.contacts(pos, rad, pts, nrm, speed=speed, plate_speed=plate_speed, h=h,
-                                 alert_min=alert_min)
-    fi, fj, fgap, _ = detection.detect_contacts(pos, rad, pts, nrm, alert)
-    sj = np.where(fj >= 0, speed[np.maximum(fj, 0)], plate_speed[np.maximum(-1 - fj, 0)])
-    lim = np.minimum(alert, np.maximum(alert_min, 2 * h * (speed[fi] + sj)))
-    want = set(zip(fi[fgap < lim].tolist(), fj[fgap < lim].tolist()))
-    assert set(zip(ci.tolist(), cj.tolist())) == want
-    assert 0 < len(want) < len(fi)  # some pairs dropped, some kept
-    # without speeds: the global alert distance
-    ci2, cj2, _, _ = cl.contacts(pos, rad, pts, nrm)
-    assert set(zip(ci2.tolist(), cj2.tolist())) == set(zip(fi.tolist(), fj.tolist()))

@@ -7,11 +7,6 @@ index in its 27 cells. Planes are infinite: every sphere is tested against every
 (O(N P), P ~ 6). The grid is a dense box over the spheres' bounding box; its cell size is
 enlarged if it would hold more than 8 N + 1000 cells.
 
-Pair alert: :meth:`CandidateList.contacts` may be given the speeds of the bodies; a pair
-is then a candidate only if its gap is below max(alert_min, 2 h (|v_i| + |v_j|)) (at most
-the global alert), so a static pile does not carry the large alert distance of the spheres
-raining onto it.
-
 Verlet skin: :class:`CandidateList` keeps the pairs closer than alert + skin and re-runs
 the cell-list search only when the largest sphere displacement since the last search (x 2,
 plus the largest plate displacement) exceeds the skin; in between, only the gaps and
@@ -245,16 +240,6 @@ def _narrow(ci, cj, pos, rad, pts, nrm, gap):
                       + (pos[i, 2] - pts[k, 2]) * nrm[k, 2]) - rad[i]
 
 
-@kernel
-def _keep_pairs(ci, cj, gap, speed, plate_speed, two_h, alert_min, alert, keep):
-    """keep[a] = gap[a] < min(alert, max(alert_min, 2h (speed_i + speed_j)))."""
-    for a in range(len(ci)):
-        j = cj[a]
-        sj = speed[j] if j >= 0 else plate_speed[-1 - j]
-        lim = max(alert_min, two_h * (speed[ci[a]] + sj))
-        keep[a] = gap[a] < min(lim, alert)
-
-
 class CandidateList:
     """Contact candidates with a Verlet skin (see module docstring).
 
@@ -271,16 +256,8 @@ class CandidateList:
         self.p_ref = None
         self.n_searches = 0
 
-    def contacts(self, position, radius, plate_point, plate_normal, speed=None,
-                 plate_speed=None, h=0.0, alert_min=None):
-        """Contacts (ci, cj, gap, frame) as :func:`detect_contacts` returns them.
-
-        With ``speed`` (N,) and ``plate_speed`` (P,) (m/s, e.g. the norms of the free
-        velocities), the step ``h`` (s) and ``alert_min`` (m), a pair is kept only if its gap
-        is below ``min(alert, max(alert_min, 2 h (speed_i + speed_j)))`` (plate: speed_i +
-        plate_speed_k): a pair that cannot close within the step is not a candidate even when
-        the global alert distance has been raised for the fastest spheres (a granular layer
-        under a rain of falling spheres: about half the candidates)."""
+    def contacts(self, position, radius, plate_point, plate_normal):
+        """Contacts (ci, cj, gap, frame) as :func:`detect_contacts` returns them."""
         pos = np.ascontiguousarray(position, dtype=float)
         pts = np.ascontiguousarray(plate_point, dtype=float).reshape(-1, 3)
         nrm = np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3)
@@ -297,13 +274,7 @@ class CandidateList:
             self.n_searches += 1
         gap = np.empty(len(self.ci))
         _narrow(self.ci, self.cj, pos, np.ascontiguousarray(radius, dtype=float), pts, nrm, gap)
-        if speed is None:
-            keep = gap < self.alert
-        else:
-            keep = np.empty(len(gap), np.bool_)
-            _keep_pairs(self.ci, self.cj, gap, np.ascontiguousarray(speed, dtype=float),
-                        np.ascontiguousarray(plate_speed, dtype=float).reshape(-1), 2.0 * h,
-                        self.alert if alert_min is None else float(alert_min), self.alert, keep)
+        keep = gap < self.alert
         ci, cj, gap = self.ci[keep], self.cj[keep], gap[keep]
         frame = np.empty((len(ci), 3, 3))
         _frames(ci, cj, pos, nrm, frame)

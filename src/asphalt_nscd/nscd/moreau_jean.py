@@ -104,7 +104,6 @@ class Simulation:
             self.alert_distance = 0.5 * float(spheres.radius.min()) if spheres.n else 0.0
         else:
             self.alert_distance = float(self.params.alert_distance)
-        self._alert_min = self.alert_distance  # pairs keep at least this alert distance
         self._candidates = detection.CandidateList(self.alert_distance)
 
     # ------------------------------------------------------------------ helpers
@@ -170,9 +169,7 @@ class Simulation:
         v_free = v.copy()
         vp_free = vp.copy()
 
-        # 3. detection and warm start; a pair is a candidate when its gap is below
-        # max(alert_min, 2 h (|v_i| + |v_j|)) (detection.CandidateList.contacts), at most the
-        # global alert distance, which is raised (never lowered) when the
+        # 3. detection and warm start; the alert distance is raised (never lowered) when the
         # free velocities could close a larger gap within the step
         t_a = _time.perf_counter()
         vmax = np.sqrt((v_free**2).sum(1).max()) if len(v_free) else 0.0
@@ -183,9 +180,8 @@ class Simulation:
             self._candidates.skin = max(self._candidates.skin, self._candidates.alert)
             self._candidates.x_ref = None
             self.alert_distance = self._candidates.alert
-        ci, cj, gap, cframe = self._candidates.contacts(
-            sph.position, sph.radius, pls.point, pls.normal, speed=np.sqrt((v_free**2).sum(1)),
-            plate_speed=np.sqrt((vp_free**2).sum(1)), h=h, alert_min=self._alert_min)
+        ci, cj, gap, cframe = self._candidates.contacts(sph.position, sph.radius, pls.point,
+                                                        pls.normal)
         cP = self._warm_contacts(ci, cj, cframe)
         cwn = np.empty(len(ci))
         cwt = np.empty(len(ci))
