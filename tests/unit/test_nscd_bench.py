@@ -54,3 +54,16 @@ def test_bench_threads_record(tmp_path):
     assert rec["threads_max_force_difference"] < 1e-6
     assert main(["bench", "--case", "bonded", "--n", "60", "--threads", "0",
                  "-o", str(tmp_path / "x.json")]) == 2
+
+
+def test_bench_ssor_record_times_the_jacobi_kernel_too(tmp_path):
+    """--linear-solver cg_ssor: the production run uses the SSOR conjugate gradient and the
+    record holds the block-Jacobi kernel's time on the same steps, with the same forces."""
+    out = tmp_path / "s.json"
+    assert main(["bench", "--case", "bonded", "--n", "200", "--steps", "3", "--baseline-steps",
+                 "1", "--linear-solver", "cg_ssor", "-o", str(out)]) == 0
+    rec = json.loads(out.read_text())
+    assert rec["linear_solver"] == "cg_ssor" and rec["solver"] == "linear"
+    assert rec["speedup_vs_cg"] > 0 and rec["cg_s_per_particle_step"] > 0
+    assert rec["cg_iterations_mean"] > rec["nlgs_iterations_mean"] > 0
+    assert rec["cg_max_force_difference"] < 1e-5

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from asphalt_nscd.cli import main
+from asphalt_nscd.io import InputError
 from asphalt_nscd.sample import dynamics, geometry, settings
 from asphalt_nscd.sample.prepare import prepare_sample
 from asphalt_nscd.sample.store import read_sample
@@ -91,3 +92,49 @@ def test_prepare_sample_cli(tmp_path):
         "bonds.vtu", "stage_a_deposit.vtu", "stage_b_vibrated.vtu", "stage_c_sample.vtu"]
     assert (tmp_path / "stages.png").stat().st_size > 1000
     assert json.loads((tmp_path / "summary.json").read_text())["n_spheres"] == s.radius.size
+
+
+def test_rest_measure_rms_ends_deposition_no_later_than_max(tiny_cfg):
+    """The rms speed never exceeds the largest speed: the 'rms' test ends the deposition at
+    the same check or earlier, and the layer is then at rest by its own measure."""
+    geo = settings.scaled_geometry(tiny_cfg)
+    r = np.repeat([4e-3, 5e-3], [12, 6])
+    p0 = geometry.lattice_positions(r, geo["box"], geo["lattice"], np.random.default_rng(2))
+    _, info_max = dynamics.deposit(p0, r, tiny_cfg, geo)
+    cfg = settings.merge(tiny_cfg, {"deposition": {"rest_measure": "rms"}})
+    p, info_rms = dynamics.deposit(p0, r, cfg, geo)
+    assert info_rms["rest_measure"] == "rms" and info_rms["at_rest"]
+    assert info_rms["steps"] <= info_max["steps"]
+    assert info_rms["rest_speed_end_m_s"] <= info_rms["max_speed_end_m_s"]
+    bad = settings.merge(tiny_cfg, {"deposition": {"rest_measure": "mean"}})
+    with pytest.raises(InputError, match="rest_measure"):
+        dynamics.deposit(p0, r, bad, geo)
+
+
+def test_prepare_bench_cli(tmp_path):
+    """prepare-bench: one preparation timed by phase (CPU and wall, summing to the total),
+    NLGS statistics per dynamic stage, counts beside Table 2, and the sample file."""
+    cfg = tmp_path / "sample.json"
+    cfg.write_text(json.dumps(TINY))
+    out = tmp_path / "bench.json"
+    assert main(["prepare-bench", "--config", str(cfg), "--seed", "5", "-o", str(out),
+                 "--sample", str(tmp_path / "s5.h5")]) == 0
+    rec = json.loads(out.read_text())
+    s = read_sample(tmp_path / "s5.h5")
+    assert rec["case"] == "prepare" and rec["seed"] == 5
+    assert rec["sample"]["n_spheres"] == s.radius.size
+    assert rec["sample"]["n_bonds"] == s.bonds["i"].size
+    assert rec["sample"]["density_paper_kg_m3"] == 3415.0
+    phases = ["lattice", "deposition", "vibration", "cut_flip", "plates_shrink", "bonds",
+              "stabilisation"]
+    for key in ("cpu_s", "wall_s"):
+        parts = sum(rec["phases"][p][key] for p in phases)
+        assert parts == pytest.approx(rec["phases"]["total"][key], rel=1e-9)
+    vib = rec["phases"]["vibration_shaking"]["cpu_s"] + rec["phases"]["vibration_settling"]["cpu_s"]
+    assert vib <= rec["phases"]["vibration"]["cpu_s"] + 1e-3
+    dep = rec["nscd"]["deposition"]
+    assert dep["steps"] > 0 and 1 <= dep["mean_nlgs_iterations"] <= dep["max_nlgs_iterations"] <= 100
+    rows = {row["diameter_mm"]: row for row in rec["table2"]}
+    assert rows[2.0]["n_paper"] == 11798 and rows[8.0]["n_layer"] > 0
+    assert rec["table2_max_abs_pct"] == pytest.approx(
+        max(abs(r["rel_diff_pct"]) for r in rec["table2"] if r["rel_diff_pct"] is not None))

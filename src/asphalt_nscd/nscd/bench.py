@@ -146,10 +146,28 @@ def _timed(sim, steps):
     return cpu, wall, df, breakdown
 
 
+def _timed_alternating(sims, steps, chunk=5):
+    """Run ``steps`` steps of each simulation in alternating chunks (same machine load for
+    all); returns the process CPU seconds and the mean step iterations of each."""
+    cpu = [0.0] * len(sims)
+    its = [[] for _ in sims]
+    done = 0
+    while done < steps:
+        k = min(chunk, steps - done)
+        for m, sim in enumerate(sims):
+            c = time.process_time()
+            for _ in range(k):
+                its[m].append(sim.step().iterations)
+            cpu[m] += time.process_time() - c
+        done += k
+    return cpu, [float(np.mean(x)) for x in its]
+
+
 def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
               tolerance: float = 1e-7, settle_steps: int = 5000, seed: int = 0,
               linear_tolerance: float = 1e-7, bond_kinematics: str = "contact",
-              threads: int = 1, settle_speed: float = 5e-3) -> dict:
+              threads: int = 1, settle_speed: float = 5e-3,
+              linear_solver: str = "cg") -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
@@ -157,7 +175,11 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     -10 degC, by < 1e-4 degree against the exact direct solve). ``bond_kinematics``: of the
     bonded case (NSCDParameters). ``threads``: NSCDParameters.threads of the timed run.
     ``settle_steps``, ``settle_speed`` (m/s): settling of the granular bed (module
-    docstring).
+    docstring). ``linear_solver``: of the bonded case's production run ('cg': block-Jacobi
+    conjugate gradient; 'cg_ssor': SSOR-preconditioned, linear.py); with 'cg_ssor' the same
+    steps are also run with 'cg' on a copy of the sample, alternating chunks of 5 steps,
+    and ``cg_s_per_particle_step``, ``cg_iterations_mean`` and ``speedup_vs_cg`` (CPU time
+    ratio) are reported.
 
     Raises
     ------
@@ -181,7 +203,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         s, plates, bonds = bonded_sample(n, seed=seed)
         params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                 max_iterations=5000, fast_path=True,
-                                linear_tolerance=linear_tolerance,
+                                linear_tolerance=linear_tolerance, linear_solver=linear_solver,
                                 bond_kinematics=bond_kinematics, threads=threads)
         sim = Simulation(s, plates, bonds, params)
         sim.step()  # first factorisation
@@ -197,6 +219,24 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                    s_per_particle_step=wall / (steps * n),
                    nlgs_iterations_mean=float(df.iterations.mean()), time_breakdown=br)
         rec["peak_rss_mb_production"] = _peak_rss_mb()  # before the references below
+        if linear_solver != "cg":  # the block-Jacobi kernel on a copy, alternating chunks
+            s5, plates5, bonds5 = bonded_sample(n, seed=seed)
+            sim5 = Simulation(s5, plates5, bonds5, NSCDParameters(
+                dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
+                fast_path=True, linear_tolerance=linear_tolerance, linear_solver="cg",
+                bond_kinematics=bond_kinematics, threads=threads))
+            sim5.step()
+            s6, plates6, bonds6 = bonded_sample(n, seed=seed)
+            sim6 = Simulation(s6, plates6, bonds6, params)
+            sim6.step()
+            cpu_pair, it_pair = _timed_alternating([sim6, sim5], steps)
+            rec.update(alternating_s_per_particle_step=cpu_pair[0] / (steps * n),
+                       cg_s_per_particle_step=cpu_pair[1] / (steps * n),
+                       cg_iterations_mean=it_pair[1], speedup_vs_cg=cpu_pair[1] / cpu_pair[0],
+                       cg_max_force_difference=float(
+                           np.abs(bonds6.force - bonds5.force).max()
+                           / (float(np.abs(bonds5.force).max()) or 1.0)))
+            del sim5, s5, plates5, bonds5, sim6, s6, plates6, bonds6
         if threads > 1:  # same steps on one thread, wall time compared
             s4, plates4, bonds4 = bonded_sample(n, seed=seed)
             sim4 = Simulation(s4, plates4, bonds4, NSCDParameters(

@@ -7,8 +7,8 @@
 
 ``asphalt-nscd bench --case bonded|granular --n N [--steps S] [--baseline-steps B]
 [--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
-[--bond-kinematics contact|barycentre] [--settle-speed V] [--threads T] -o bench.json`` runs
-one benchmark.
+[--bond-kinematics contact|barycentre] [--settle-speed V] [--threads T]
+[--linear-solver cg|cg_ssor] -o bench.json`` runs one benchmark.
 """
 
 
@@ -46,6 +46,9 @@ def register(subparsers) -> None:
                    help="relative residual of the conjugate gradient (bonded case)")
     b.add_argument("--bond-kinematics", choices=["contact", "barycentre"], default="contact",
                    help="where the bonds act (bonded case; NSCDParameters.bond_kinematics)")
+    b.add_argument("--linear-solver", choices=["cg", "cg_ssor"], default="cg",
+                   help="conjugate gradient of the bonded case: block-Jacobi (cg) or SSOR "
+                        "(cg_ssor, also times cg on the same steps)")
     b.add_argument("-o", "--output", required=True, help="JSON record")
     b.set_defaults(func=_bench)
 
@@ -109,7 +112,7 @@ def _bench(args) -> int:
                     tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed,
                     linear_tolerance=args.linear_tolerance,
                     bond_kinematics=args.bond_kinematics, threads=args.threads,
-                    settle_speed=args.settle_speed)
+                    settle_speed=args.settle_speed, linear_solver=args.linear_solver)
     write_json(rec, args.output)
     return 0
 

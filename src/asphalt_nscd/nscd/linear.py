@@ -41,6 +41,18 @@ Solvers:
   A-norm projection on the span of the last 4 solutions as initial guess (it contains the
   linear and quadratic extrapolations), and 6x6 blocks (a sphere's translation and
   rotation together: 25.0 instead of 25.4 iterations, a dearer preconditioner).
+* ``cg_ssor``: the same conjugate gradient preconditioned by symmetric Gauss-Seidel (SSOR,
+  omega = 1) on the body blocks (a sphere's translation and rotation together, up to 6x6,
+  :func:`ssor_structure`), M = (D + L) D^-1 (D + U), run in Eisenstat's form
+  (:func:`_pcg_ssor`): the preconditioned product costs one forward and one backward
+  triangular solve, each a pass over the bonds like the product with A, and no product with
+  A. At N = 12 000 ('contact', 2PB-like bench sample) it needs 10.8 iterations instead of
+  26.8, but a triangular solve is sequential (each body waits for its lower neighbours) and
+  costs about as much as a whole matrix-free product, so a step is only 1.17 x faster; with
+  'barycentre' kinematics (3 unknowns per sphere, a cheaper product) it is 0.8 x as fast
+  (docs/choices.md). Stopping test on the preconditioned residual (free), confirmed by the
+  true residual |rhs - A x| <= tol |rhs| (one product; tightened and continued if not met).
+  Sequential only (``threads`` ignored).
 * ``direct``: SuperLU factorisation once per (dt, theta, intact-bond set)
   (:func:`splu_symmetric`: symmetric mode, no pivoting, MMD ordering of A^T + A, the
   setting of harmonic/solver.py), two triangular solves per step, exact to round-off.
@@ -151,6 +163,12 @@ class PermutedLU:
         return out
 
 
+#: Methods of :class:`LinearBondSolver` (and values of NSCDParameters.linear_solver).
+LINEAR_SOLVERS = ("cg", "cg_ssor", "direct")
+_SSOR_KEYS = ("bfirst", "bcount", "Dinv", "lptr", "lidx", "ldat", "uptr", "uidx",
+              "udat")
+
+
 def _skew(a):
     """Cross-product matrices (B,3,3) of vectors a (B,3): skew(a) @ x = a x x."""
     z = np.zeros(len(a))
@@ -255,8 +273,8 @@ class LinearBondSolver:
 
     def __init__(self, inv_mass, inv_mass_plate, bi, bj, frame, cg, broken, method="cg",
                  tolerance=1e-10, max_iterations=10000, rotation=None, threads=1):
-        if method not in ("cg", "direct"):
-            raise ValueError(f"linear solver must be 'cg' or 'direct', got {method!r}")
+        if method not in LINEAR_SOLVERS:
+            raise ValueError(f"linear solver must be one of {LINEAR_SOLVERS}, got {method!r}")
         self.method = method
         self.tolerance = tolerance
         self.max_iterations = max_iterations
@@ -292,7 +310,7 @@ class LinearBondSolver:
         L = [eye, -_skew(arm_i[keep]), -eye, _skew(arm_j[keep])]  # U_b = sum_c L[c] x_blk[c]
         self.nnz_factor = 0
         self.lu = None
-        if method == "cg":
+        if method in ("cg", "cg_ssor"):
             if not np.array_equal(cgk[:, 1], cgk[:, 2]):
                 raise ValueError("the two tangential bond coefficients must be equal")
             nrm = frame[keep, 0, :]
@@ -324,6 +342,11 @@ class LinearBondSolver:
             self._init_precond(m3, L, G)
             self.nnz_matrix = self.ndof + (144 if self.rot else 36) * len(G)
             self._work = np.zeros((4, self.ndof))
+            if method == "cg_ssor":
+                bdat_all = np.concatenate([nrm] + gcol + [ai, aj], 1)
+                ss = ssor_structure(st, sr, pt, pr, m3, self.blk, L, G, bdat_all)
+                self._ssor = tuple(ss[k] for k in _SSOR_KEYS)
+                self._work = np.zeros((9, self.ndof))
             return
         rows, cols, vals = [np.arange(self.ndof)], [np.arange(self.ndof)], [self.mass_dof]
         r3 = np.arange(3)
@@ -376,9 +399,14 @@ class LinearBondSolver:
             sol = np.empty(self.ndof)
             _gather(sol, self.st, self.sr, self.pt, self.pr,
                     *(start or (v_free, w_free, vp_free, wp_free)))
-            it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
-                           self.precond, rhs, sol, self.tolerance, self.max_iterations,
-                           self._work, self.part_c, self.part_g)
+            if self.method == "cg_ssor":
+                it, res = _pcg_ssor(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g,
+                                    self.blk_g, *self._ssor, rhs, sol, self.tolerance,
+                                    self.max_iterations, self._work)
+            else:
+                it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g,
+                               self.blk_g, self.precond, rhs, sol, self.tolerance,
+                               self.max_iterations, self._work, self.part_c, self.part_g)
             self.last_iterations, self.last_residual = it, res
         _scatter(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
         _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
@@ -779,3 +807,315 @@ def _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, im
         for c in range(3):
             ul = frame[b, c, 0] * g0 + frame[b, c, 1] * g1 + frame[b, c, 2] * g2
             impulse[b, c] = c0[b, c] - cg[b, c] * ul
+
+
+# --------------------------------------------------------------------------------------
+# Symmetric Gauss-Seidel (SSOR, omega = 1) preconditioner on body blocks, Eisenstat's trick
+# --------------------------------------------------------------------------------------
+def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all):
+    """Body blocks and bond lists of the SSOR-preconditioned conjugate gradient.
+
+    A body is the group of unknown blocks of one sphere or plate (translation and/or
+    rotation: 1 or 2 consecutive blocks of the numbering of :func:`dof_numbering`). The
+    matrix A = M + sum_b L_b^T G_b L_b splits into body-diagonal blocks D (up to 6x6, the
+    translation-rotation coupling of a body included) and off-diagonal blocks, one per bond
+    between two bodies with unknowns, ordered by body index: L (lower) and U = L^T.
+
+    Parameters
+    ----------
+    st, sr, pt, pr : block indices of :func:`dof_numbering`; m3 (nblk, 3) diagonal of M;
+    blk (B,4) int64 blocks (ti, ri, tj, rj) of each intact bond (-1 = known); L : the four
+    (B,3,3) kinematic operators of the bond (U_b = sum_c L[c] x_blk[c]); G (B,3,3);
+    bdat_all (B,11): n, g_t, g_nt, a_i, a_j of each bond.
+
+    Returns
+    -------
+    dict: ``bfirst``, ``bcount`` (nbody,) first block and block count of each body;
+    ``D``, ``Dinv`` (nbody, 6, 6) body blocks (identity on absent rows); ``lptr``,
+    ``lbond``, ``lside`` (bonds whose other body has a lower index, by body; side 0 = the
+    body is the bond's candidate i, 1 = its antagonist j), ``uptr``, ``ubond``, ``uside``
+    (other body of higher index); ``bdat`` (B,11), ``blk`` (B,4) int32.
+    """
+    nblk = len(m3)
+    first = []
+    for s_t, s_r in list(zip(st, sr)) + list(zip(pt, pr)):
+        ids = [int(b) for b in (s_t, s_r) if b >= 0]
+        if ids:
+            first.append((min(ids), len(ids)))
+    first.sort()
+    bfirst = np.array([f for f, _ in first], np.int64)
+    bcount = np.array([c for _, c in first], np.int64)
+    nbody = len(bfirst)
+    body_of = np.full(max(nblk, 1), -1, np.int64)
+    for k in range(nbody):
+        body_of[bfirst[k]:bfirst[k] + bcount[k]] = k
+    D = np.zeros((nbody, 6, 6))
+    idx = np.arange(3)
+    for k in range(nbody):
+        for q in range(bcount[k]):
+            D[k, 3 * q + idx, 3 * q + idx] = m3[bfirst[k] + q]
+        for q in range(bcount[k], 2):
+            D[k, 3 * q + idx, 3 * q + idx] = 1.0  # absent rows: identity (zero right-hand side)
+    sides = ((0, 1), (2, 3))
+    for side in sides:
+        for c in side:
+            for c2 in side:
+                ok = (blk[:, c] >= 0) & (blk[:, c2] >= 0)
+                if not ok.any():
+                    continue
+                body = body_of[blk[ok, c]]
+                o1 = 3 * (blk[ok, c] - bfirst[body])
+                o2 = 3 * (blk[ok, c2] - bfirst[body])
+                block = np.einsum("bki,bkl,blj->bij", L[c][ok], G[ok], L[c2][ok])
+                for a in range(3):
+                    for e in range(3):
+                        np.add.at(D, (body, o1 + a, o2 + e), block[:, a, e])
+    Dinv = np.linalg.inv(D) if nbody else D.copy()
+    bi_body = np.where(blk[:, 0] >= 0, body_of[np.maximum(blk[:, 0], 0)],
+                       np.where(blk[:, 1] >= 0, body_of[np.maximum(blk[:, 1], 0)], -1))
+    bj_body = np.where(blk[:, 2] >= 0, body_of[np.maximum(blk[:, 2], 0)],
+                       np.where(blk[:, 3] >= 0, body_of[np.maximum(blk[:, 3], 0)], -1))
+    both = np.flatnonzero((bi_body >= 0) & (bj_body >= 0))
+    hi = np.maximum(bi_body[both], bj_body[both])
+    lo = np.minimum(bi_body[both], bj_body[both])
+    side_hi = (bj_body[both] == hi).astype(np.int64)  # side of the higher body in the bond
+    o = np.argsort(hi, kind="stable")
+    lptr = np.searchsorted(hi[o], np.arange(nbody + 1)).astype(np.int64)
+    rev = nbody - 1 - lo  # the upper solve visits the bodies from the last: entries in that order
+    o2 = np.argsort(rev, kind="stable")
+    uptr = np.searchsorted(rev[o2], np.arange(nbody + 1)).astype(np.int64)
+    lidx, ldat = _pack(both[o], side_hi[o], blk, bdat_all, bfirst, body_of)
+    uidx, udat = _pack(both[o2], 1 - side_hi[o2], blk, bdat_all, bfirst, body_of)
+    return {"bfirst": bfirst, "bcount": bcount, "D": np.ascontiguousarray(D),
+            "Dinv": np.ascontiguousarray(Dinv), "lptr": lptr, "lidx": lidx, "ldat": ldat,
+            "uptr": uptr, "uidx": uidx, "udat": udat}
+
+
+def _pack(bond, own, blk, bdat, bfirst, body_of):
+    """Entries of a triangular solve, in its visiting order: idx (E,4) int32 = other side's
+    translation and rotation blocks (-1 = known), own translation and rotation offsets in
+    the own body's 6-vector (-1 = absent); dat (E,11) = n, g_t, g_nt, the other side's arm,
+    the own side's arm."""
+    other = 1 - own
+    e = np.arange(len(bond))
+    t_o = blk[bond, 2 * other]
+    r_o = blk[bond, 2 * other + 1]
+    t_k = blk[bond, 2 * own]
+    r_k = blk[bond, 2 * own + 1]
+    body = body_of[np.where(t_k >= 0, t_k, r_k)]
+    first = bfirst[body] if len(body) else np.zeros(0, np.int64)
+    idx = np.stack([t_o, r_o, np.where(t_k >= 0, 3 * (t_k - first), -1),
+                    np.where(r_k >= 0, 3 * (r_k - first), -1)], 1).astype(np.int32)
+    arm_o = np.where((other == 0)[:, None], bdat[bond, 5:8], bdat[bond, 8:11])
+    arm_k = np.where((own == 0)[:, None], bdat[bond, 5:8], bdat[bond, 8:11])
+    dat = np.concatenate([bdat[bond, :5], arm_o, arm_k], 1) if len(e) else np.zeros((0, 11))
+    return np.ascontiguousarray(idx.reshape(-1, 4)), np.ascontiguousarray(dat)
+
+
+@helper
+def _couple(e, idx, dat, y):
+    """Force f = G s_other(y) and torque a_own x f of entry e of a triangular solve
+    (:func:`_pack`): L_own^T f is minus the off-diagonal block of the bond times y
+    (A_ko = sigma_k sigma_o L_k^T G L_o, sigma_i = 1, sigma_j = -1); s(y) = y_t + y_r x a is
+    the velocity of the other side at the contact point."""
+    t = idx[e, 0]
+    r = idx[e, 1]
+    u0 = 0.0
+    u1 = 0.0
+    u2 = 0.0
+    if t >= 0:
+        u0 = y[3 * t]
+        u1 = y[3 * t + 1]
+        u2 = y[3 * t + 2]
+    if r >= 0:
+        w0 = y[3 * r]
+        w1 = y[3 * r + 1]
+        w2 = y[3 * r + 2]
+        u0 += w1 * dat[e, 7] - w2 * dat[e, 6]
+        u1 += w2 * dat[e, 5] - w0 * dat[e, 7]
+        u2 += w0 * dat[e, 6] - w1 * dat[e, 5]
+    n0 = dat[e, 0]
+    n1 = dat[e, 1]
+    n2 = dat[e, 2]
+    gt = dat[e, 3]
+    s = dat[e, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
+    f0 = gt * u0 + s * n0
+    f1 = gt * u1 + s * n1
+    f2 = gt * u2 + s * n2
+    a0 = dat[e, 8]
+    a1 = dat[e, 9]
+    a2 = dat[e, 10]
+    return f0, f1, f2, a1 * f2 - a2 * f1, a2 * f0 - a0 * f2, a0 * f1 - a1 * f0
+
+
+@helper
+def _solve_body(k, bfirst, bcount, Dinv, ptr_lo, ptr_hi, idx, dat, rhs, y, side_out, lower):
+    """One body of a triangular solve: s = rhs_k + sum of the entries' L_k^T f (scalars:
+    no memory round trip), y_k = Dinv_k s; side_out_k = s (lower: D y_k) or rhs_k - s
+    (upper: the U y part)."""
+    f = 3 * bfirst[k]
+    six = bcount[k] == 2
+    s0 = rhs[f]
+    s1 = rhs[f + 1]
+    s2 = rhs[f + 2]
+    s3 = 0.0
+    s4 = 0.0
+    s5 = 0.0
+    if six:
+        s3 = rhs[f + 3]
+        s4 = rhs[f + 4]
+        s5 = rhs[f + 5]
+    for e in range(ptr_lo, ptr_hi):
+        f0, f1, f2, c0, c1, c2 = _couple(e, idx, dat, y)
+        if idx[e, 2] == 0:
+            s0 += f0
+            s1 += f1
+            s2 += f2
+        qr = idx[e, 3]
+        if qr == 3:
+            s3 += c0
+            s4 += c1
+            s5 += c2
+        elif qr == 0:
+            s0 += c0
+            s1 += c1
+            s2 += c2
+    if lower:
+        side_out[f] = s0
+        side_out[f + 1] = s1
+        side_out[f + 2] = s2
+    else:
+        side_out[f] = rhs[f] - s0
+        side_out[f + 1] = rhs[f + 1] - s1
+        side_out[f + 2] = rhs[f + 2] - s2
+    if six:
+        if lower:
+            side_out[f + 3] = s3
+            side_out[f + 4] = s4
+            side_out[f + 5] = s5
+        else:
+            side_out[f + 3] = rhs[f + 3] - s3
+            side_out[f + 4] = rhs[f + 4] - s4
+            side_out[f + 5] = rhs[f + 5] - s5
+        for a in range(6):
+            y[f + a] = (Dinv[k, a, 0] * s0 + Dinv[k, a, 1] * s1 + Dinv[k, a, 2] * s2
+                        + Dinv[k, a, 3] * s3 + Dinv[k, a, 4] * s4 + Dinv[k, a, 5] * s5)
+    else:
+        for a in range(3):
+            y[f + a] = Dinv[k, a, 0] * s0 + Dinv[k, a, 1] * s1 + Dinv[k, a, 2] * s2
+
+
+@kernel
+def _lower_solve(bfirst, bcount, Dinv, lptr, lidx, ldat, rhs, y, dy):
+    """y = (D + L)^-1 rhs, body by body in increasing order; also dy = D y = rhs - L y (a
+    by-product)."""
+    for k in range(len(bfirst)):
+        _solve_body(k, bfirst, bcount, Dinv, lptr[k], lptr[k + 1], lidx, ldat, rhs, y, dy,
+                    True)
+
+
+@kernel
+def _upper_solve(bfirst, bcount, Dinv, uptr, uidx, udat, rhs, y, uy):
+    """y = (D + U)^-1 rhs, body by body in decreasing order; also uy = U y = rhs - D y (a
+    by-product). The entries of the m-th body visited (k = nbody - 1 - m) are
+    uptr[m]..uptr[m+1]."""
+    nbody = len(bfirst)
+    for m in range(nbody):
+        _solve_body(nbody - 1 - m, bfirst, bcount, Dinv, uptr[m], uptr[m + 1], uidx, udat,
+                    rhs, y, uy, False)
+
+
+@njit(cache=True)
+def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_Dinv,
+              ss_lptr, ss_lidx, ss_ldat, ss_uptr, ss_uidx, ss_udat, rhs, x, tol, max_iter,
+              work):
+    """Conjugate gradient on A x = rhs preconditioned by symmetric Gauss-Seidel on the body
+    blocks, M = (D + L) D^-1 (D + U), with Eisenstat's trick: CG on
+    A^ = (D + L)^-1 A (D + U)^-1 (preconditioner D), whose product costs one backward and
+    one forward triangular solve, A^ v = t + (D + L)^-1 (v - D t), t = (D + U)^-1 v (v - D t
+    and D (D + L)^-1 (.) are by-products of the solves). x holds the initial guess; the
+    iteration tracks x = (D + U)^-1 x^ directly (x += alpha t). Stopping: when
+    (r^T M^-1 r)^1/2 falls below tol_eff (rhs^T M^-1 rhs)^1/2 the true residual
+    |rhs - A x| is computed; the run stops if it is <= tol |rhs|, else tol_eff is tightened
+    by the missing factor. work (9, n). Returns (iterations, |rhs - A x| / |rhs|)."""
+    n = len(rhs)
+    rh = work[0]
+    z = work[1]
+    p = work[2]
+    q = work[3]
+    t = work[4]
+    tmp = work[5]
+    dq = work[6]
+    scratch = work[7]
+    dummy = work[8]
+    for k in range(n):
+        scratch[k] = 0.0
+    _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, q, 0.0, dummy)
+    norm_b = 0.0
+    rr = 0.0
+    for k in range(n):
+        tmp[k] = rhs[k] - q[k]
+        norm_b += rhs[k] * rhs[k]
+        rr += tmp[k] * tmp[k]
+    norm_b = np.sqrt(norm_b)
+    if norm_b == 0.0:
+        for k in range(n):
+            x[k] = 0.0
+        return 0, 0.0
+    res = np.sqrt(rr) / norm_b
+    if res <= tol:
+        return 0, res
+    # reference of the stopping test: b^T M^-1 b = b^.D b^, b^ = (D + L)^-1 rhs
+    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lptr, ss_lidx, ss_ldat, rhs, q, dq)
+    ref = 0.0
+    for k in range(n):
+        ref += q[k] * dq[k]
+    ref = np.sqrt(max(ref, 0.0))
+    # r^ = (D + L)^-1 (b - A x), z = D r^
+    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lptr, ss_lidx, ss_ldat, tmp, rh, z)
+    rz = 0.0
+    for k in range(n):
+        rz += rh[k] * z[k]
+        p[k] = z[k]
+    tol_eff = tol
+    it = 0
+    while it < max_iter:
+        it += 1
+        # t = (D + U)^-1 p, tmp = p - D t; q = (D + L)^-1 tmp, dq = D q; then q += t
+        _upper_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_uptr, ss_uidx, ss_udat, p, t, tmp)
+        _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lptr, ss_lidx, ss_ldat, tmp, q, dq)
+        pq = 0.0
+        for k in range(n):
+            q[k] += t[k]
+            pq += p[k] * q[k]
+        alpha = rz / pq
+        rz_new = 0.0
+        for k in range(n):
+            x[k] += alpha * t[k]
+            rh[k] -= alpha * q[k]
+            z[k] -= alpha * (p[k] - tmp[k] + dq[k])  # D q = D t + D (D + L)^-1 tmp
+            rz_new += rh[k] * z[k]
+        if np.sqrt(max(rz_new, 0.0)) <= tol_eff * ref:
+            for k in range(n):
+                scratch[k] = 0.0
+            _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, q, 0.0, dummy)
+            rr = 0.0
+            for k in range(n):
+                d = rhs[k] - q[k]
+                rr += d * d
+            res = np.sqrt(rr) / norm_b
+            if res <= tol:
+                return it, res
+            tol_eff *= max(0.5 * tol / res, 1e-3)
+        beta = rz_new / rz
+        rz = rz_new
+        for k in range(n):
+            p[k] = z[k] + beta * p[k]
+    for k in range(n):
+        scratch[k] = 0.0
+    _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, q, 0.0, dummy)
+    rr = 0.0
+    for k in range(n):
+        d = rhs[k] - q[k]
+        rr += d * d
+    return it, np.sqrt(rr) / norm_b

@@ -418,9 +418,10 @@ class NSCDParameters:
         simulation raises it automatically to 2 h max|v_free| when needed.
     fast_path : use the linear solver (:mod:`.linear`) on steps with no active contact and
         no bond breakage (falls back to NLGS automatically).
-    linear_solver : 'cg' (matrix-free preconditioned conjugate gradient) or 'direct'
-        (SuperLU, small systems).
-    linear_tolerance : relative residual of 'cg'.
+    linear_solver : 'cg' (matrix-free conjugate gradient, 3x3 block-Jacobi preconditioner),
+        'cg_ssor' (the same with symmetric Gauss-Seidel on the body blocks, Eisenstat's form;
+        sequential, ignores ``threads``) or 'direct' (SuperLU, small systems).
+    linear_tolerance : relative residual of 'cg' and 'cg_ssor'.
     bond_kinematics : 'contact' (default; bond at the contact point, with torques, 6 DOF per
         sphere in the linear fast path) or 'barycentre' (the former core: at the barycentres,
         no torque). See :class:`Bonds`; same option as the harmonic solver.
@@ -459,8 +460,9 @@ class NSCDParameters:
         if self.convergence not in CONVERGENCE_NORMS:
             raise ValueError(f"convergence must be one of {list(CONVERGENCE_NORMS)}, "
                              f"got {self.convergence!r}")
-        if self.linear_solver not in ("cg", "direct"):
-            raise ValueError(f"linear_solver must be 'cg' or 'direct', got {self.linear_solver!r}")
+        if self.linear_solver not in ("cg", "cg_ssor", "direct"):
+            raise ValueError("linear_solver must be 'cg', 'cg_ssor' or 'direct', "
+                             f"got {self.linear_solver!r}")
         if not (self.dt > 0):
             raise ValueError(f"dt must be > 0, got {self.dt}")
         if not (0.5 <= self.theta <= 1.0):

@@ -50,6 +50,21 @@ def register(subparsers) -> None:
     p.add_argument("--summary", help="summary JSON (counts, porosity, coordination, bonds per sphere)")
     p.set_defaults(func=_prepare)
 
+    b = subparsers.add_parser(
+        "prepare-bench",
+        help="time one sample preparation phase by phase (JSON)",
+        description="Prepare one sample (as prepare-sample) and write a JSON record of the CPU and "
+        "wall time of each phase, the NLGS statistics of the dynamic stages, and the counts, bonds, "
+        "porosity and density beside the paper's (asphalt_nscd.sample.bench).",
+    )
+    _add_config_options(b)
+    b.add_argument("--seed", type=int, required=True, help="random seed of the lattice placement")
+    b.add_argument("-o", "--output", required=True, help="benchmark JSON record")
+    b.add_argument("--sample", help="also write the sample file (.h5)")
+    b.add_argument("--summary", help="also write the summary JSON of prepare-sample")
+    b.add_argument("--progress", action="store_true", help="progress lines of the dynamic stages on stderr")
+    b.set_defaults(func=_bench)
+
     t = subparsers.add_parser(
         "sample-table",
         help="sphere counts per diameter beside Table 2",
@@ -83,6 +98,26 @@ def _prepare(args) -> int:
         fig.suptitle(f"sample s{args.seed}: {result.summary['n_spheres']} spheres, scale {cfg['scale']}", fontsize=10)
         savefig(fig, args.figure)
         plt.close(fig)
+    return 0
+
+
+def _bench(args) -> int:
+    from ..io import write_json
+    from .bench import bench_record
+    from .prepare import prepare_sample, write_outputs
+
+    from . import dynamics
+
+    dynamics.PROGRESS = bool(args.progress)
+    cfg = _load_config(args)
+    result = prepare_sample(cfg, args.seed)
+    if args.sample:
+        write_outputs(result, args.sample)
+    if args.summary:
+        write_json(result.summary, args.summary)
+    rec = bench_record(result.summary)
+    rec["config"] = args.config or "--config-json"
+    write_json(rec, args.output)
     return 0
 
 

@@ -40,7 +40,7 @@ DEFAULTS: dict = {
     "density_deposition_kg_m3": 2600.0,
     "gravity_m_s2": 9.81,
     "friction_deposition": 0.2,
-    "deposition": {"time_step_s": 2.0e-4, "duration_s": 1.0, "settle_velocity_m_s": 0.01},
+    "deposition": {"time_step_s": 2.0e-4, "duration_s": 1.0, "settle_velocity_m_s": 0.01, "rest_measure": "max"},
     "vibration": {"form": "tap", "amplitude_mm": 6.0, "frequency_Hz": 30.0, "duration_s": 1.0, "time_step_s": 2.0e-4, "settle_duration_s": 0.1},
     "shrink_volume_fraction": 0.10,
     "sample_mass_kg": 0.6,
