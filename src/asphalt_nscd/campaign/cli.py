@@ -9,6 +9,7 @@
 ``campaign-units``      the Table 3 units question (Pa versus kPa reading)
 ``campaign-dt-policy``  phase error of the time-step policy (bond law, phase_error_table)
 ``campaign-bench``      time per step of the 2PB test and projected campaign time (JSON)
+``periodic-check``      periodic start vs from-rest protocol on a sample at several (mode, T, f)
 """
 
 from __future__ import annotations
@@ -138,15 +139,126 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, help="output JSON")
     p.set_defaults(func=_bench)
 
+    _register_periodic_check(subparsers)
 
-def _settings(args):
+
+def _register_periodic_check(subparsers) -> None:
+    p = subparsers.add_parser(
+        "periodic-check", help="periodic start vs from-rest protocol of the 2PB test (table)",
+        description="For each case MODE:T:F run the 2PB test of the sample from rest for --long-cycles "
+        "cycles (the reference; its first n_cycles are the paper's protocol) and from the periodic steady "
+        "state (campaign.test.periodic_cycles), reduce each last cycle and tabulate |E*|, Phi, their "
+        "differences, steps and solver iterations (asphalt_nscd.campaign.periodic.check_case).")
+    p.add_argument("--sample", required=True, help="sample file (.h5)")
+    p.add_argument("--cases", nargs="+", required=True, metavar="MODE:T:F",
+                   help="mode (paper, measured, extended, dt_study, sensitivity, units_Pa, units_kPa, "
+                        "units_kPa_nobreak; its law and test settings), temperature degC, frequency Hz")
+    p.add_argument("--config", default=None,
+                   help="workflow config (YAML): the jobs' test settings per mode (campaign section, "
+                        "nscd.bond_kinematics, lab.simulation_window_cycles); default: --settings-json")
+    _settings_options(p)
+    p.add_argument("--table3", default="data/paper/table3_burgers.csv",
+                   help="the paper's Table 3 as printed (paper mode and studies)")
+    p.add_argument("--table3-units", choices=("Pa", "kPa"), default=None,
+                   help="reading of --table3 for the paper mode (default: the config's calibration.table3_units, else Pa)")
+    p.add_argument("--parameters", default=None, help="calibrated Burger's table (MPa; measured mode)")
+    p.add_argument("--law-json", default=None, help="generalized Burger's law JSON (extended mode)")
+    p.add_argument("--network-factor-json", default=None,
+                   help="transfer JSON of the sample (extended mode with the transfer correction)")
+    p.add_argument("--long-cycles", type=int, default=20, help="cycles of the from-rest reference run")
+    p.add_argument("--continuous", action="store_true",
+                   help="also start from the continuous steady state (s = i w) to measure the discrete correction")
+    p.add_argument("--cycles-table", default=None, help="output CSV of every from-rest cycle's |E*| and Phi")
+    p.add_argument("-o", "--output", required=True, help="output CSV (one row per case)")
+    p.set_defaults(func=_periodic_check)
+
+
+def _case_law(mode, T, args, cfg, sample_name):
+    """The macro law of a job of ``mode`` at T (as run-2pb gets it in simulation.smk)."""
+    from ..io import InputError
+    from . import study
+
+    if mode == "extended":
+        if not args.law_json:
+            raise InputError("periodic-check: an extended case needs --law-json")
+        law = study.law_at(study.read_law_json(args.law_json), T, where=args.law_json)
+        if args.network_factor_json:
+            from ..harmonic.transfer import read_transfer_json
+
+            nf = read_transfer_json(args.network_factor_json, sample=sample_name)["network_factor"]
+            law = law.scaled(1.0 / nf)
+        return law
+    if mode == "measured":
+        if not args.parameters:
+            raise InputError("periodic-check: a measured case needs --parameters")
+        return study.law_of(study.parameters_at(study.parameter_table(args.parameters), T, where=args.parameters))
+    units = args.table3_units or (cfg or {}).get("calibration", {}).get("table3_units", "Pa")
+    if mode.startswith("units_"):
+        units = mode.split("_")[1]
+    table = study.parameter_table(args.table3, units)
+    return study.law_of(study.parameters_at(table, T, where=args.table3))
+
+
+def _periodic_check(args) -> int:
+    import dataclasses
+    import sys
+    from pathlib import Path
+
+    import pandas as pd
+    import yaml
+
+    from ..io import InputError, write_csv
+    from . import periodic, twopb
+
+    cfg = None
+    if args.config:
+        try:
+            with open(args.config) as fh:
+                cfg = yaml.safe_load(fh)
+        except (OSError, yaml.YAMLError) as exc:
+            raise InputError(f"{args.config}: cannot read the config ({exc})") from exc
+        if not isinstance(cfg, dict) or "campaign" not in cfg:
+            raise InputError(f"{args.config}: no 'campaign' section")
+    name = Path(args.sample).stem
+    rows, cycles = [], []
+    for case in args.cases:
+        parts = case.split(":")
+        try:
+            mode, T, f = parts[0], float(parts[1]), float(parts[2])
+            if len(parts) != 3:
+                raise ValueError
+        except (ValueError, IndexError):
+            raise InputError(f"--cases {case!r}: expected MODE:T:F (e.g. measured:54:0.1)") from None
+        base = None
+        if cfg is not None:
+            kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
+            base = twopb.mode_settings(cfg["campaign"], mode, kin)
+            base["window_cycles"] = cfg.get("lab", {}).get("simulation_window_cycles", 1.0)
+        settings = _settings(args, base)
+        law = _case_law(mode, T, args, cfg, name)
+        meta = {"mode": mode, "sample": name, "temperature_C": T, "n_kelvin": law.n_kelvin,
+                "start_config": settings.start}
+        print(f"periodic-check {case}", flush=True, file=sys.stderr)
+        row, cyc = periodic.check_case(args.sample, law, f, dataclasses.replace(settings, start="periodic"),
+                                       long_cycles=args.long_cycles, continuous=args.continuous, meta=meta)
+        rows.append(row)
+        cycles += cyc
+    write_csv(pd.DataFrame(rows), args.output)
+    if args.cycles_table:
+        write_csv(pd.DataFrame(cycles), args.cycles_table)
+    return 0
+
+
+def _settings(args, base: dict | None = None):
+    """TwoPBSettings from ``base`` (e.g. a mode's config settings) updated by --settings-json
+    and --window-cycles."""
     import json
 
     from ..io import InputError
     from .twopb import TwoPBSettings
 
     try:
-        cfg = json.loads(args.settings_json)
+        cfg = {**(base or {}), **json.loads(args.settings_json)}
     except ValueError as exc:
         raise InputError(f"--settings-json: not valid JSON ({exc})") from exc
     if getattr(args, "window_cycles", None) is not None:
