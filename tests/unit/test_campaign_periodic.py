@@ -71,7 +71,7 @@ def test_periodic_state_is_an_orbit_of_the_step_map(tiny_sample, kinematics, the
     sim, _ = twopb.build_simulation(sample, law, f, dt, s)
     sim.params.linear_tolerance = 1e-13
     x_rest = sim.spheres.position.copy()
-    state = periodic.periodic_state(sim, tiny_sample, law, f, s.amplitude_m, s.head_rotation)
+    state = periodic.periodic_state(sim, law, f, s.amplitude_m, s.head_rotation)
     # the phasors from the state at two quarter-spaced phases: y(t) = Re(Y e^{iwt}), Y = y(0) - i y(pi/2 w)
     # (obtained here by stepping: compare the state after k steps with a direct second solve)
     periodic.apply_periodic_state(sim, state)
@@ -107,7 +107,7 @@ def test_discrete_state_beats_the_continuous_one(tiny_sample):
     for continuous in (False, True):
         sim, _ = twopb.build_simulation(sample, LAW_15C, f, dt, s)
         sim.params.linear_tolerance = 1e-13
-        state = periodic.periodic_state(sim, tiny_sample, LAW_15C, f, s.amplitude_m, continuous=continuous)
+        state = periodic.periodic_state(sim, LAW_15C, f, s.amplitude_m, continuous=continuous)
         periodic.apply_periodic_state(sim, state)
         v0 = sim.spheres.velocity.copy()
         for _ in range(20):

@@ -179,7 +179,7 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
             s = dataclasses.replace(base, start=start)
             sim, _ = build_simulation(sample, law, f, dt, s)
             cpu = time.process_time()
-            info = start_test(sim, sample_path, law, f, s)
+            info = start_test(sim, law, f, s)
             solve = time.process_time() - cpu if start == "periodic" else 0.0
             for _ in range(warmup):
                 sim.step()

@@ -126,7 +126,28 @@ class PeriodicState:
     head_force: complex
 
 
-def periodic_state(sim, sample_path, law, frequency_Hz: float, amplitude_m: float,
+def network_of(sim):
+    """The harmonic model (:class:`asphalt_nscd.harmonic.network.BondNetwork`) of a 2PB
+    simulation at rest, from the core's own state: positions, radii, masses and rotational
+    inertias of its spheres, its plates (bottom fixed, top = plate 1 with its mass and
+    rotational inertia) and its bonds' i, j, l0, r_min as ``Bonds.create`` computed them from
+    the positions. (The sample file's stored ``bonds/l0`` may differ from the stored
+    positions, e.g. by up to 0.8 % for head bonds of the default samples, where the
+    stabilisation moved the spheres after bonding; the core takes the positions as the rest
+    state, so the periodic state must too.)"""
+    import dataclasses
+
+    from ..harmonic.network import network_from_arrays
+
+    sph, pls, b = sim.spheres, sim.plates, sim.bonds
+    net = network_from_arrays(sph.position, sph.mass, pls.normal[:2], [np.inf, pls.mass[1]], b.i, b.j,
+                              b.l0, b.r_min, radius=sph.radius, rotational_inertia=sph.inertia,
+                              plate_point=pls.point[:2], head_size_m=(1.0, 1.0))
+    head = pls.inertia[1] if pls.rotates[1] else np.zeros(3)
+    return dataclasses.replace(net, plate_inertia=np.array(head, float))
+
+
+def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
                    head_rotation: str = "free", nu: float = 0.35,
                    continuous: bool = False, system=None) -> PeriodicState:
     """Periodic steady state of the 2PB test built by ``twopb.build_simulation`` (module
@@ -134,25 +155,22 @@ def periodic_state(sim, sample_path, law, frequency_Hz: float, amplitude_m: floa
 
     Parameters
     ----------
-    sim : asphalt_nscd.nscd.Simulation at rest (time 0, bonds' rest = current configuration).
-    sample_path : the sample file (docs/design.md) of ``sim``.
+    sim : asphalt_nscd.nscd.Simulation at rest (time 0, bonds' rest = current configuration),
+        bottom plate 0 fixed, top plate 1 driven; its harmonic model is :func:`network_of`.
     law : GeneralizedBurgers, macro law of the bonds (Pa, Pa s) as given to Bonds.create.
     frequency_Hz, amplitude_m : head motion u(t) = A sin(2 pi f t), Hz and m.
     head_rotation : 'free' | 'clamped' (TwoPBSettings.head_rotation).
     nu : Poisson's ratio of Eqs. 8-11.
     continuous : solve at s = i w (the continuous steady state) instead of s_h (for the
         measurement of what the discrete correction buys).
-    system : a HarmonicSystem of the sample with the same options, to reuse (optional).
+    system : a HarmonicSystem of :func:`network_of` (sim) with the same options, to reuse
+        (optional; built with the rotational regularisation off: the inertia makes the
+        dynamic matrix regular, and the core has no such spring).
 
     Returns
     -------
     PeriodicState
-
-    Raises
-    ------
-    InputError if the sample file cannot be read by the harmonic solver.
     """
-    from ..harmonic.network import read_sample
     from ..harmonic.solver import HarmonicSystem
 
     tic = time.perf_counter()
@@ -160,7 +178,7 @@ def periodic_state(sim, sample_path, law, frequency_Hz: float, amplitude_m: floa
     contact = p.bond_kinematics == "contact"
     head = head_rotation if contact else "clamped"
     if system is None:
-        system = HarmonicSystem(read_sample(sample_path), nu=nu, bond_kinematics=p.bond_kinematics,
+        system = HarmonicSystem(network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics,
                                 head_rotation=head, regularisation=0.0)
     s = (1j * 2.0 * math.pi * frequency_Hz if continuous
          else theta_laplace(frequency_Hz, p.dt, p.theta))

@@ -301,7 +301,7 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     return Simulation(spheres, plates, bonds, params), motion
 
 
-def start_test(sim, sample_path, law, frequency_Hz: float, settings: TwoPBSettings,
+def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
                continuous: bool = False) -> dict:
     """Put a freshly built simulation in its initial state: at rest, or, with ``settings.start
     == 'periodic'``, in the periodic steady state (:mod:`.periodic`) unless that state would
@@ -320,7 +320,7 @@ def start_test(sim, sample_path, law, frequency_Hz: float, settings: TwoPBSettin
     if settings.start != "periodic":
         return info
     cpu = time.process_time()
-    state = periodic.periodic_state(sim, sample_path, law, frequency_Hz, settings.amplitude_m,
+    state = periodic.periodic_state(sim, law, frequency_Hz, settings.amplitude_m,
                                     head_rotation=settings.head_rotation, nu=settings.nu,
                                     continuous=continuous)
     info.update({"solve_s": state.solve_s, "solve_cpu_s": time.process_time() - cpu,
@@ -402,7 +402,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                   file=sys.stderr)
     if sim is None:
         sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings)
-        start_info = start_test(sim, sample_path, law, frequency_Hz, settings, continuous=continuous_start)
+        start_info = start_test(sim, law, frequency_Hz, settings, continuous=continuous_start)
         n_steps = n_steps_of(frequency_Hz, dt, settings, start_info["start"])
         arrays = {"t": np.zeros(n_steps), "plate_fx": np.zeros(n_steps), "driver_fx": np.zeros(n_steps),
                   "profile_vx": np.zeros((len(_profile_steps(n_steps, per_period, settings.profile_instants)),

@@ -647,8 +647,12 @@ class HarmonicSystem:
                 count[0] += 1
 
             restart = max(1, min(100, GMRES_MAX_ITERATIONS))
+            # at least one restart: SciPy's GMRES stops a cycle on the preconditioned residual
+            # and checks the true one only at the restart; without a restart a solution whose
+            # true residual is just above rtol was rejected after 10 iterations and the call
+            # fell back to the (slow) complex LU (theta-method steady states, campaign.periodic)
             uf, info = spla.gmres(op, rhs, x0=x0, rtol=rtol, atol=0.0, M=prec, restart=restart,
-                                  maxiter=max(1, -(-GMRES_MAX_ITERATIONS // restart)),
+                                  maxiter=max(2, -(-GMRES_MAX_ITERATIONS // restart)),
                                   callback=tick, callback_type="pr_norm")
             self.last_gmres_iterations += count[0]
             if info == 0:
