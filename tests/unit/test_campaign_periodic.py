@@ -59,9 +59,10 @@ def test_laplace_modulus():
 @pytest.mark.parametrize("kinematics,theta,law", [("contact", 0.5, LAW_15C), ("barycentre", 0.5, LAW_15C),
                                                   ("contact", 0.7, LAW_GEN)])
 def test_periodic_state_is_an_orbit_of_the_step_map(tiny_sample, kinematics, theta, law):
-    """After k steps from the periodic state every state variable (positions, velocities,
-    angular velocities, bond forces, Maxwell and Kelvin-Voigt internal variables) equals
-    Re(Y z^k): the state is the exact periodic solution of the discrete scheme."""
+    """One period (40 steps) after the periodic start every state variable (positions,
+    velocities, angular velocities, bond forces, Maxwell and Kelvin-Voigt internal variables)
+    is back to its initial value, and in between the positions are a pure sinusoid of the
+    period: the state is the exact periodic solution of the discrete scheme."""
     f = 10.0
     s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=1.0, theta=theta,
                             bond_kinematics=kinematics,
@@ -72,22 +73,25 @@ def test_periodic_state_is_an_orbit_of_the_step_map(tiny_sample, kinematics, the
     sim.params.linear_tolerance = 1e-13
     x_rest = sim.spheres.position.copy()
     state = periodic.periodic_state(sim, law, f, s.amplitude_m, s.head_rotation)
-    # the phasors from the state at two quarter-spaced phases: y(t) = Re(Y e^{iwt}), Y = y(0) - i y(pi/2 w)
-    # (obtained here by stepping: compare the state after k steps with a direct second solve)
     periodic.apply_periodic_state(sim, state)
     X, V = state.position - x_rest, state.velocity
     amp_x = np.abs(state.position - x_rest).max()
-    hist = {"x": [], "v": [], "F": [], "dk": [], "dc": []}
+    W = state.angular_velocity
+    hist = {"x": [], "v": [], "w": [], "F": [], "dk": [], "dc": []}
     for _ in range(40):
         sim.step()
         hist["x"].append(sim.spheres.position - x_rest)
         hist["v"].append(sim.spheres.velocity.copy())
+        hist["w"].append(sim.spheres.angular_velocity.copy())
         hist["F"].append(sim.bonds.force.copy())
         hist["dk"].append(sim.bonds.delta_k.copy())
         hist["dc"].append(sim.bonds.delta_c.copy())
     # one period later (40 steps) the state is back: y_40 = y_0
     assert np.abs(hist["x"][-1] - X).max() < 1e-8 * amp_x
     assert np.abs(hist["v"][-1] - V).max() < 1e-8 * np.abs(V).max()
+    if kinematics == "contact":
+        assert np.abs(W).max() > 0
+        assert np.abs(hist["w"][-1] - W).max() < 1e-8 * np.abs(W).max()
     assert np.abs(hist["F"][-1] - state.bond_force).max() < 1e-8 * np.abs(state.bond_force).max()
     assert np.abs(hist["dk"][-1] - state.delta_k).max() < 1e-8 * np.abs(state.delta_k).max()
     assert np.abs(hist["dc"][-1] - state.delta_c).max() < 1e-8 * np.abs(state.delta_c).max()

@@ -54,6 +54,15 @@ def test_smoke_workflow_runs_end_to_end(tmp_path):
         assert path.is_file() and path.stat().st_size > 0, link
     # nothing left half-written
     assert not list((workdir / "results").rglob("*.tmp"))
+    # the measured and extended modes start from the periodic steady state (1 cycle), the paper
+    # mode from rest (campaign.*.start of config/smoke.yaml)
+    import pandas as pd
+
+    starts = {mode: pd.read_csv(next((workdir / "results" / "sim" / mode).rglob("*.csv"))).iloc[0]
+              for mode in ("paper", "measured", "extended")}
+    assert starts["paper"]["start"] == "rest" and starts["paper"]["n_cycles_simulated"] == 2
+    for mode in ("measured", "extended"):
+        assert starts[mode]["start"] == "periodic" and starts[mode]["n_cycles_simulated"] == 1
     # the HTML report builds from the same run
     _snakemake(workdir, "--configfile", "config/smoke.yaml", "--report", str(workdir / "report.html"))
     assert (workdir / "report.html").stat().st_size > 10_000

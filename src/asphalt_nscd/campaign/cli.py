@@ -499,11 +499,11 @@ def _bench(args) -> int:
         kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
         n_total = len(cfg.get("sample", {}).get("seeds", [1]))
         common = dict(overhead_s=args.overhead_s, bond_kinematics=kin, prepare_s_per_sample=prepare_s)
+        single = {start or "configured": bench.project_campaign(camp, n_total, cost["s_per_step"], start=start,
+                                                                **common)
+                  for start in (None, "rest")}
         if not args.per_job:
-            out["projections"][path] = {
-                start or "configured": bench.project_campaign(camp, n_total, cost["s_per_step"], start=start,
-                                                              **common)
-                for start in (None, "rest")}
+            out["projections"][path] = single
             continue
         laws = study.JobLaws(table3=args.table3, table3_units=cfg.get("calibration", {}).get("table3_units", "Pa"),
                              parameters=args.parameters, law_json=args.law_json,
@@ -522,6 +522,7 @@ def _bench(args) -> int:
             start or "configured": bench.project_campaign(camp, n_total, per_step, start=start,
                                                           periodic_solve_s=solve, **common)
             for start in (None, "rest")}
+        out["projections"][path]["single_law"] = single
         out["projections"][path]["job_costs"] = [
             {"mode": k[0], "temperature_C": k[1], "frequency_Hz": k[2], "dt_s": k[3], "start": start, **v}
             for k, by_start in costs.items() for start, v in by_start.items()]
