@@ -92,3 +92,17 @@ def test_build_simulation_passes_the_kinematics_options(tiny_sample):
     assert sim.params.bond_kinematics == "barycentre" and not sim.plates.rotates.any()
     with pytest.raises(ValueError, match="head_rotation"):
         twopb.TwoPBSettings(head_rotation="hinged")
+
+
+def test_build_simulation_does_not_move_the_sample(tiny_sample):
+    """The simulation owns its positions: running it leaves the SampleData (which may build
+    the next simulation, e.g. in campaign-bench) at the sample file's configuration."""
+    from asphalt_nscd.sample.store import read_sample
+
+    sample = read_sample(tiny_sample)
+    before = sample.position.copy()
+    sim, _ = twopb.build_simulation(sample, LAW_15C, 10.0, 1e-4, twopb.TwoPBSettings())
+    for _ in range(5):
+        sim.step()
+    assert np.abs(sim.spheres.position - before).max() > 0
+    np.testing.assert_array_equal(sample.position, before)

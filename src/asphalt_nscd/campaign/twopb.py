@@ -275,8 +275,10 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     """
     from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
 
-    spheres = Spheres(position=sample.position, radius=sample.radius, mass=sample.mass,
-                      inertia=sample.inertia)
+    # a copy: Spheres keeps a contiguous array as given, and the run moves the spheres (the
+    # same SampleData may build several simulations, e.g. campaign-bench's job classes)
+    spheres = Spheres(position=np.array(sample.position, dtype=float), radius=sample.radius,
+                      mass=sample.mass, inertia=sample.inertia)
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
     head = {}
     if settings.head_rotation == "free":
