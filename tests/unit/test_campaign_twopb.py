@@ -4,19 +4,9 @@ import numpy as np
 import pytest
 
 from asphalt_nscd.campaign import twopb
-from asphalt_nscd.harmonic.network import lattice_sample, write_sample
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
 LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
-
-
-@pytest.fixture(scope="module")
-def tiny_sample(tmp_path_factory):
-    """A 40-sphere bonded lattice sample (docs/design.md format), light head plate."""
-    path = tmp_path_factory.mktemp("sample") / "s1.h5"
-    d = lattice_sample(40, seed=3, radius_range=(0.9e-3, 1.5e-3))
-    write_sample(path, **d, plate_mass=(np.inf, 1e-3))
-    return path
 
 
 def test_time_step_policies():

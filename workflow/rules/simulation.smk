@@ -7,6 +7,9 @@
 # diagnosis, results/diagnosis/generalized_burgers.json, on campaign.extended.n_samples
 # samples; with campaign.extended.transfer_correction the bond law is divided by the sample's
 # network factor NF_s, results/harmonic/transfer/{sample}.json), and the studies: dt_study, sensitivity, units_Pa, units_kPa (paper parameters).
+# Start of each job (campaign.test.start, per-mode `start`): rest (n_cycles) or periodic
+# (periodic_cycles from the periodic steady state, asphalt_nscd.campaign.periodic); the row's
+# `start` column says which was used.
 # Rerun one job: `snakemake --cores 1 results/sim/paper/s1/15C_40Hz.csv --forcerun run_2pb`.
 import json
 import re

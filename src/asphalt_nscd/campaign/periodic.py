@@ -62,9 +62,13 @@ with ``n_cycles`` (recorded in the record and row as ``start``). Gravity, when o
 constant load: by superposition its response (a sag and, with a Maxwell dashpot, a slow
 creep) is the same from either start, and is left to start from rest in both.
 
-The solve costs one harmonic solution of the sample (a real factorisation and a few GMRES
-iterations; ``solve_s`` in the record), about the cost of tens of time steps at 12,000
-spheres (:func:`asphalt_nscd.campaign.bench.measure_step_cost`).
+The solve costs one harmonic solution of the sample (a real factorisation and 4-14 GMRES
+iterations; ``solve_s`` in the record): 0.05-0.17 s on the 221-sphere default sample and
+0.5-0.6 s of CPU on a 1,641-sphere one, i.e. 5-10 steps of a measured-mode job
+(``campaign-bench --per-job`` counts it).
+
+``asphalt-nscd periodic-check`` (:func:`check_case`) measures the equivalence on any sample
+and list of (mode, T, f): the table of docs/choices.md.
 """
 
 from __future__ import annotations
