@@ -155,3 +155,77 @@ def test_projection_counts_the_workflow_jobs():
     p = project_campaign(cfg["campaign"], 1, s_per_step=1e-3, overhead_s=0.0)
     assert p["total_core_h"] * 3600 == pytest.approx(p["n_steps_total"] * 1e-3)
     assert p["wall_h"]["2"] == pytest.approx(max(p["total_core_h"] / 2, p["longest_job_h"]))
+
+
+def test_projection_counts_the_periodic_start_and_the_preparation():
+    """Measured and extended jobs of config/smoke.yaml start periodic: 1 cycle (500 steps) plus
+    one periodic solve each instead of n_cycles = 2 from rest; the samples' preparation is
+    added once per sample."""
+    import yaml
+
+    from asphalt_nscd.campaign.bench import campaign_jobs, project_campaign
+
+    with open("config/smoke.yaml") as fh:
+        cfg = yaml.safe_load(fh)
+    camp = cfg["campaign"]
+    jobs = {j["mode"]: j for j in campaign_jobs(camp, 1)}
+    assert jobs["measured"]["start"] == jobs["extended"]["start"] == "periodic"
+    assert jobs["measured"]["n_steps"] == 500 and jobs["paper"]["start"] == "rest"
+    rest = {j["mode"]: j for j in campaign_jobs(camp, 1, start="rest")}
+    assert rest["measured"]["n_steps"] == 1000 and rest["measured"]["start"] == "rest"
+    kw = dict(s_per_step=1e-3, overhead_s=0.0, prepare_s_per_sample=100.0)
+    conf = project_campaign(camp, 1, periodic_solve_s=2.0, **kw)
+    before = project_campaign(camp, 1, periodic_solve_s=2.0, start="rest", **kw)
+    assert conf["prepare_core_h"] * 3600 == pytest.approx(100.0)
+    assert conf["total_core_h"] * 3600 == pytest.approx(conf["n_steps_total"] * 1e-3 + 2 * 2.0 + 100.0)
+    assert before["total_core_h"] * 3600 == pytest.approx(before["n_steps_total"] * 1e-3 + 100.0)
+    assert before["n_steps_total"] - conf["n_steps_total"] == 2 * 500
+    assert conf["steps_per_job_by_mode"]["measured"] == 500
+    assert conf["start_by_mode"] == {**before["start_by_mode"], "measured": "periodic", "extended": "periodic"}
+    # a per-job cost function
+    p = project_campaign(camp, 1, s_per_step=lambda j: 1e-3 if j["mode"] == "paper" else 0.0, overhead_s=0.0)
+    assert p["total_core_h"] * 3600 == pytest.approx(p["n_steps_by_mode"]["paper"] * 1e-3)
+
+
+def test_campaign_bench_per_job_on_a_sample(tmp_path):
+    """campaign-bench --per-job times every job class of a config with the job's law and start
+    and projects before (all from rest) and after (configured starts)."""
+    import yaml
+
+    sample = tmp_path / "s1.h5"
+    write_sample(sample, **lattice_sample(60, seed=2, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    params = tmp_path / "burgers.csv"
+    pd.DataFrame([{"temperature_C": 21.0, "Em_MPa": 1.0e4, "eta_m_MPa_s": 1.2e4, "Ek_MPa": 7.7e3,
+                   "eta_k_MPa_s": 830.0}]).to_csv(params, index=False)
+    law = tmp_path / "law.json"
+    law.write_text(json.dumps({"temperatures": {"21": {"Em": 1e10, "eta_m": 1e10, "Ek": [8e9, 2e10],
+                                                        "eta_k": [8e8, 1e8], "E_inf": 5e7}}}))
+    with open("config/smoke.yaml") as fh:
+        cfg = yaml.safe_load(fh)
+    cfg["campaign"]["dt_study"]["dt_s"] = [2.0e-4]
+    cfg_path = tmp_path / "smoke.yaml"
+    cfg_path.write_text(yaml.safe_dump(cfg))
+    summary = tmp_path / "summary.json"
+    summary.write_text(json.dumps({"timings_s": {"total_s": 360.0}}))
+    out = tmp_path / "bench.json"
+    assert main(["campaign-bench", "--sample", str(sample), "--steps", "3", "--config", str(cfg_path), "--per-job",
+                 "--job-steps", "2", "--table3", TABLE3, "--parameters", str(params), "--law-json", str(law),
+                 "--prepare-json", str(summary), "-o", str(out)]) == 0
+    res = json.loads(out.read_text())
+    proj = res["projections"][str(cfg_path)]
+    assert res["prepare_s_per_sample"] == 360.0
+    assert proj["configured"]["prepare_core_h"] == pytest.approx(0.1)
+    costs = proj["job_costs"]
+    periodic = [c for c in costs if c["start"] == "periodic"]
+    assert {c["mode"] for c in periodic} == {"measured", "extended"}
+    assert all(c["start_used"] == "periodic" and c["solve_s"] > 0 for c in periodic)
+    assert all(c["s_per_step"] > 0 and c["iterations_mean"] > 0 for c in costs)
+    assert proj["configured"]["n_steps_total"] < proj["rest"]["n_steps_total"]
+    assert "single_law" in proj
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"total": 1.0}))
+    args = ["campaign-bench", "--steps", "1", "--n-spheres", "20", "--prepare-json", str(bad), "-o", str(out)]
+    from asphalt_nscd.campaign.cli import _prepare_seconds
+    from asphalt_nscd.cli import build_parser
+    with pytest.raises(InputError, match="timings_s.total_s"):
+        _prepare_seconds(build_parser().parse_args(args))

@@ -4,19 +4,9 @@ import numpy as np
 import pytest
 
 from asphalt_nscd.campaign import twopb
-from asphalt_nscd.harmonic.network import lattice_sample, write_sample
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
 LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
-
-
-@pytest.fixture(scope="module")
-def tiny_sample(tmp_path_factory):
-    """A 40-sphere bonded lattice sample (docs/design.md format), light head plate."""
-    path = tmp_path_factory.mktemp("sample") / "s1.h5"
-    d = lattice_sample(40, seed=3, radius_range=(0.9e-3, 1.5e-3))
-    write_sample(path, **d, plate_mass=(np.inf, 1e-3))
-    return path
 
 
 def test_time_step_policies():
@@ -92,3 +82,17 @@ def test_build_simulation_passes_the_kinematics_options(tiny_sample):
     assert sim.params.bond_kinematics == "barycentre" and not sim.plates.rotates.any()
     with pytest.raises(ValueError, match="head_rotation"):
         twopb.TwoPBSettings(head_rotation="hinged")
+
+
+def test_build_simulation_does_not_move_the_sample(tiny_sample):
+    """The simulation owns its positions: running it leaves the SampleData (which may build
+    the next simulation, e.g. in campaign-bench) at the sample file's configuration."""
+    from asphalt_nscd.sample.store import read_sample
+
+    sample = read_sample(tiny_sample)
+    before = sample.position.copy()
+    sim, _ = twopb.build_simulation(sample, LAW_15C, 10.0, 1e-4, twopb.TwoPBSettings())
+    for _ in range(5):
+        sim.step()
+    assert np.abs(sim.spheres.position - before).max() > 0
+    np.testing.assert_array_equal(sample.position, before)

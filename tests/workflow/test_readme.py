@@ -131,6 +131,13 @@ def test_make_run_from_a_plain_shell_builds_the_report_index(smoke_run):
         assert path.is_file() and path.stat().st_size > 0, link
     assert not list((smoke_run / "results").rglob("*.tmp"))
     assert not list((smoke_run / "results").rglob("*.ckpt.h5")), "a finished run left a checkpoint"
+    # the measured and extended modes start from the periodic steady state (1 cycle), the paper
+    # mode from rest (campaign.*.start of config/smoke.yaml)
+    starts = {mode: pd.read_csv(next((smoke_run / "results" / "sim" / mode).rglob("*.csv"))).iloc[0]
+              for mode in ("paper", "measured", "extended")}
+    assert starts["paper"]["start"] == "rest" and starts["paper"]["n_cycles_simulated"] == 2
+    for mode in ("measured", "extended"):
+        assert starts[mode]["start"] == "periodic" and starts[mode]["n_cycles_simulated"] == 1
 
 
 def report_categories() -> set[str]:

@@ -7,6 +7,9 @@
 # diagnosis, results/diagnosis/generalized_burgers.json, on campaign.extended.n_samples
 # samples; with campaign.extended.transfer_correction the bond law is divided by the sample's
 # network factor NF_s, results/harmonic/transfer/{sample}.json), and the studies: dt_study, sensitivity, units_Pa, units_kPa (paper parameters).
+# Start of each job (campaign.test.start, per-mode `start`): rest (n_cycles) or periodic
+# (periodic_cycles from the periodic steady state, asphalt_nscd.campaign.periodic); the row's
+# `start` column says which was used.
 # Rerun one job: `snakemake --cores 1 results/sim/paper/s1/15C_40Hz.csv --forcerun run_2pb`.
 import json
 import re
@@ -18,20 +21,15 @@ LAW_JSON = "results/diagnosis/generalized_burgers.json"
 ISOTHERM_MODES = "paper|measured|extended"
 
 
-MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa")
-
-
 def test_json(mode):
     """The test settings of a job mode as JSON: campaign.test with the mode's overrides of
-    dt_policy and yield_stress_Pa (the extended mode follows the measured mode; the studies
-    dt_study, sensitivity, units_* follow the paper mode), and the core's bond kinematics
-    (nscd.bond_kinematics)."""
-    sched = CAMP["measured"] if mode in ("measured", "extended") else CAMP["paper"]
-    cfg = {**CAMP["test"], **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
-    if mode.endswith("_nobreak"):
-        cfg["yield_stress_Pa"] = None
-    cfg["bond_kinematics"] = config["nscd"].get("bond_kinematics", "contact")
-    return json.dumps(cfg)
+    dt_policy, yield_stress_Pa and start (the extended mode follows the measured mode; the
+    studies dt_study, sensitivity, units_* follow the paper mode; a study section's own
+    start wins), and the core's bond kinematics (nscd.bond_kinematics):
+    asphalt_nscd.campaign.twopb.mode_settings, shared with campaign-bench."""
+    from asphalt_nscd.campaign.twopb import mode_settings
+
+    return json.dumps(mode_settings(CAMP, mode, config["nscd"].get("bond_kinematics", "contact")))
 
 
 WINDOW_CYCLES = config["lab"]["simulation_window_cycles"]

@@ -4,10 +4,21 @@
 paper's Table 3 at 15 degC read in Pa) on a sample file, or on a bonded lattice sample of
 ``n_spheres`` spheres (:func:`asphalt_nscd.harmonic.network.lattice_sample`, the stand-in of
 a prepared sample with 6-12 bonds per sphere) after ``warmup`` steps (numba compilation).
+
+The cost of a step is not the same in every job: the conjugate gradient of the linear fast
+path needs more iterations where the bonds are stiff against the masses over a step (mix-like
+moduli of the measured and extended modes, long steps of the steps_per_cycle policy at low
+frequency). :func:`measure_job_costs` therefore times every distinct job class (mode, T, f,
+dt) of a campaign on the sample with the job's own law (:class:`.study.JobLaws`), from each
+start the projection needs (rest, and periodic where the config asks for it, including the
+time of the periodic state's harmonic solve).
+
 :func:`project_campaign` multiplies the cost per step by the number of steps of every job
-of a ``campaign`` config section (dt policy, cycles, schedules, studies) and gives the
-wall time on 1 and 2 cores and on a P-core allocation, where each job runs on one core and
-the wall time is bounded below by the longest job.
+of a ``campaign`` config section (dt policy, start and cycles per mode, schedules, studies),
+adds the periodic solves, a per-job start-up and the preparation of the samples, and gives
+the wall time on 1 and 2 cores and on a P-core allocation, where each job runs on one core
+and the wall time is bounded below by the longest job. ``start='rest'`` projects the paper's
+protocol everywhere (the "before" of the periodic start).
 """
 
 from __future__ import annotations
@@ -59,22 +70,29 @@ def measure_step_cost(sample_path=None, n_spheres: int = 2000, n_steps: int = 20
             "linear_fraction": linear / n_steps, "dt_s": dt}
 
 
-def campaign_jobs(campaign: dict, n_samples_total: int) -> list[dict]:
-    """Every test job of a ``campaign`` config section: mode, n_samples, T, f, dt, n_steps.
+def campaign_jobs(campaign: dict, n_samples_total: int, bond_kinematics: str = "contact",
+                  start: str | None = None) -> list[dict]:
+    """Every test job of a ``campaign`` config section: mode, n_samples, T, f, dt, start,
+    n_steps.
 
     As workflow/rules/simulation.smk: the main modes (``campaign.modes``, ``campaign.n_samples``
     samples), the extended mode (the measured schedule and settings on
     ``campaign.extended.n_samples`` samples; always run), the dt study, the sensitivity study
-    and the units question. The extended mode's transfer correction changes the law, not the
-    job count or the time steps.
+    and the units question, each with its settings (:func:`.twopb.mode_settings`). The
+    extended mode's transfer correction changes the law, not the job count or the time steps.
+    ``start``: None = each mode's configured start, 'rest' or 'periodic' = that start for
+    every job. A periodic start that falls back to rest (bonds that would break) is not
+    foreseen here.
     """
+    from .twopb import mode_settings
+
     def ns(n):
         return n_samples_total if n is None else min(int(n), n_samples_total)
 
     def settings_for(mode):
-        sched = campaign["measured"] if mode in ("measured", "extended") else campaign["paper"]
-        cfg = dict(campaign["test"])
-        cfg.update({k: sched[k] for k in ("dt_policy", "yield_stress_Pa") if k in sched})
+        cfg = mode_settings(campaign, mode, bond_kinematics)
+        if start is not None:
+            cfg["start"] = start
         return TwoPBSettings(**{k: v for k, v in cfg.items() if k in TwoPBSettings.__dataclass_fields__})
 
     jobs = []
@@ -83,7 +101,7 @@ def campaign_jobs(campaign: dict, n_samples_total: int) -> list[dict]:
         s = settings_for(mode)
         step = dt if dt is not None else time_step(f, s)
         jobs.append({"mode": mode, "n_samples": n, "temperature_C": T, "frequency_Hz": f, "dt_s": step,
-                     "n_steps": n_steps_of(f, step, s)})
+                     "start": s.start, "n_steps": n_steps_of(f, step, s)})
 
     for mode in campaign["modes"]:
         for T in campaign[mode]["temperatures_C"]:
@@ -119,22 +137,105 @@ def campaign_jobs(campaign: dict, n_samples_total: int) -> list[dict]:
     return jobs
 
 
-def project_campaign(campaign: dict, n_samples_total: int, s_per_step: float, overhead_s: float = 3.0,
-                     cores=(1, 2, 100)) -> dict:
-    """Projected wall time (h) of every test job of a campaign on each core count.
+def job_class(job: dict) -> tuple:
+    """Key of the cost class of a job: (mode, T, f, dt); the studies' parameter factors are
+    not part of it (the base law is timed)."""
+    return (job["mode"], float(job["temperature_C"]), float(job["frequency_Hz"]), float(job["dt_s"]))
 
-    ``overhead_s``: per-job start-up (interpreter, imports, numba cache, sample reading).
-    Wall time on P cores = max(total / P, longest job) (one job per core, perfect packing).
+
+def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_steps: int = 10,
+                      warmup: int = 2, bond_kinematics: str = "contact",
+                      starts=("rest", "periodic")) -> dict:
+    """CPU time per step of every job class of ``jobs`` on a sample file, with the job's law.
+
+    Parameters
+    ----------
+    laws : :class:`.study.JobLaws` (the law files of the modes).
+    starts : starts to time; 'periodic' is timed only for classes whose jobs start periodic.
+    n_steps, warmup : timed steps after warm-up steps, per class and start.
+
+    Returns
+    -------
+    dict {job_class: {start: {s_per_step, iterations_mean, linear_fraction, solve_s (CPU time
+    of the periodic state, 0 from rest)}}}
     """
-    jobs = campaign_jobs(campaign, n_samples_total)
-    per_job = [j["n_steps"] * s_per_step + overhead_s for j in jobs for _ in range(j["n_samples"])]
-    total = float(np.sum(per_job))
-    longest = float(np.max(per_job))
-    by_mode = {}
+    import dataclasses
+
+    from ..sample.store import read_sample
+    from .twopb import mode_settings, start_test
+
+    sample = read_sample(sample_path)
+    out = {}
+    periodic_classes = {job_class(j) for j in jobs if j["start"] == "periodic"}
+    for cls in dict.fromkeys(job_class(j) for j in jobs):
+        mode, T, f, dt = cls
+        base = TwoPBSettings(**{k: v for k, v in mode_settings(campaign, mode, bond_kinematics).items()
+                                if k in TwoPBSettings.__dataclass_fields__})
+        law = laws.law(mode, T)
+        out[cls] = {}
+        for start in starts:
+            if start == "periodic" and cls not in periodic_classes:
+                continue
+            s = dataclasses.replace(base, start=start)
+            sim, _ = build_simulation(sample, law, f, dt, s)
+            cpu = time.process_time()
+            info = start_test(sim, law, f, s)
+            solve = time.process_time() - cpu if start == "periodic" else 0.0
+            for _ in range(warmup):
+                sim.step()
+            its, lin = [], 0
+            cpu = time.process_time()
+            for _ in range(n_steps):
+                st = sim.step()
+                its.append(st.iterations)
+                lin += st.solver == "linear"
+            out[cls][start] = {"s_per_step": (time.process_time() - cpu) / n_steps,
+                               "iterations_mean": float(np.mean(its)), "linear_fraction": lin / n_steps,
+                               "solve_s": solve, "start_used": info["start"]}
+    return out
+
+
+def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_s: float = 3.0,
+                     cores=(1, 2, 100), bond_kinematics: str = "contact", start: str | None = None,
+                     periodic_solve_s=0.0, prepare_s_per_sample: float = 0.0) -> dict:
+    """Projected time of every test job of a campaign (core-hours and wall hours per core count).
+
+    ``s_per_step``: CPU time of one step, s — a number, or a callable ``job -> s`` (e.g. from
+    :func:`measure_job_costs`); ``periodic_solve_s``: the same for the periodic state's solve
+    of a periodically started job. ``start``: see :func:`campaign_jobs`. ``overhead_s``:
+    per-job start-up (interpreter, imports, numba cache, sample reading).
+    ``prepare_s_per_sample``: preparation of one sample (all ``n_samples_total`` samples are
+    prepared, in parallel with nothing else: they precede the jobs that use them).
+    Wall time on P cores = max(total / P, longest job + one preparation) (one job per core,
+    perfect packing).
+    """
+    jobs = campaign_jobs(campaign, n_samples_total, bond_kinematics=bond_kinematics, start=start)
+
+    def cost(fn, job):
+        return fn(job) if callable(fn) else float(fn)
+
+    per_job, by_mode, steps_by_mode = [], {}, {}
     for j in jobs:
-        by_mode[j["mode"]] = by_mode.get(j["mode"], 0.0) + j["n_samples"] * (j["n_steps"] * s_per_step + overhead_s)
-    return {"n_jobs": len(per_job), "total_core_h": total / 3600, "longest_job_h": longest / 3600,
+        t = j["n_steps"] * cost(s_per_step, j) + overhead_s
+        if j["start"] == "periodic":
+            t += cost(periodic_solve_s, j)
+        per_job += [t] * j["n_samples"]
+        by_mode[j["mode"]] = by_mode.get(j["mode"], 0.0) + j["n_samples"] * t
+        steps_by_mode[j["mode"]] = steps_by_mode.get(j["mode"], 0) + j["n_samples"] * j["n_steps"]
+    prepare = n_samples_total * prepare_s_per_sample
+    total_jobs = float(np.sum(per_job))
+    total = total_jobs + prepare
+    longest = float(np.max(per_job)) + prepare_s_per_sample
+    n_jobs = {}
+    for j in jobs:
+        n_jobs[j["mode"]] = n_jobs.get(j["mode"], 0) + j["n_samples"]
+    return {"n_jobs": len(per_job), "total_core_h": total / 3600, "jobs_core_h": total_jobs / 3600,
+            "prepare_core_h": prepare / 3600, "longest_job_h": float(np.max(per_job)) / 3600,
             "core_h_by_mode": {k: v / 3600 for k, v in by_mode.items()},
+            "n_jobs_by_mode": n_jobs, "n_steps_by_mode": steps_by_mode,
+            "steps_per_job_by_mode": {k: steps_by_mode[k] / n_jobs[k] for k in n_jobs},
+            "start_by_mode": {j["mode"]: j["start"] for j in jobs},
             "wall_h": {str(p): max(total / p, longest) / 3600 for p in cores},
-            "s_per_step": s_per_step, "overhead_s": overhead_s,
+            "s_per_step": s_per_step if not callable(s_per_step) else "per job class",
+            "overhead_s": overhead_s, "prepare_s_per_sample": prepare_s_per_sample,
             "n_steps_total": int(sum(j["n_steps"] * j["n_samples"] for j in jobs))}

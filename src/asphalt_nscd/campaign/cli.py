@@ -9,6 +9,7 @@
 ``campaign-units``      the Table 3 units question (Pa versus kPa reading)
 ``campaign-dt-policy``  phase error of the time-step policy (bond law, phase_error_table)
 ``campaign-bench``      time per step of the 2PB test and projected campaign time (JSON)
+``periodic-check``      periodic start vs from-rest protocol on a sample at several (mode, T, f)
 """
 
 from __future__ import annotations
@@ -135,18 +136,126 @@ def register(subparsers) -> None:
     p.add_argument("--config", action="append", default=[],
                    help="workflow config (YAML) whose campaign is projected; repeatable")
     p.add_argument("--overhead-s", type=float, default=3.0, help="start-up time of one job, s")
+    p.add_argument("--per-job", action="store_true",
+                   help="time every job class (mode, T, f, dt) of each --config on --sample with the job's "
+                        "law, from rest and from the periodic start where configured (needs the law files)")
+    p.add_argument("--job-steps", type=int, default=10, help="timed steps per job class and start (--per-job)")
+    p.add_argument("--table3", default="data/paper/table3_burgers.csv", help="the paper's Table 3 (--per-job)")
+    p.add_argument("--parameters", default="results/calibration/burgers_parameters.csv",
+                   help="calibrated Burger's table, measured mode (--per-job)")
+    p.add_argument("--law-json", default="results/diagnosis/generalized_burgers.json",
+                   help="generalized Burger's law JSON, extended mode (--per-job)")
+    p.add_argument("--network-factor-json", default=None,
+                   help="transfer JSON of --sample, extended mode (--per-job; default: no correction)")
+    prep = p.add_mutually_exclusive_group()
+    prep.add_argument("--prepare-seconds", type=float, default=0.0,
+                      help="preparation time of one sample, s (added once per sample of the config)")
+    prep.add_argument("--prepare-json", default=None,
+                      help="JSON holding the preparation time of one sample, s (e.g. the sample summary of "
+                           "prepare-sample, or a prepare-bench output) at --prepare-key")
+    p.add_argument("--prepare-key", default="timings_s.total_s",
+                   help="dotted key of the preparation time in --prepare-json")
     p.add_argument("-o", "--output", required=True, help="output JSON")
     p.set_defaults(func=_bench)
 
+    _register_periodic_check(subparsers)
 
-def _settings(args):
+
+def _register_periodic_check(subparsers) -> None:
+    p = subparsers.add_parser(
+        "periodic-check", help="periodic start vs from-rest protocol of the 2PB test (table)",
+        description="For each case MODE:T:F run the 2PB test of the sample from rest for --long-cycles "
+        "cycles (the reference; its first n_cycles are the paper's protocol) and from the periodic steady "
+        "state (campaign.test.periodic_cycles), reduce each last cycle and tabulate |E*|, Phi, their "
+        "differences, steps and solver iterations (asphalt_nscd.campaign.periodic.check_case).")
+    p.add_argument("--sample", required=True, help="sample file (.h5)")
+    p.add_argument("--cases", nargs="+", required=True, metavar="MODE:T:F",
+                   help="mode (paper, measured, extended, dt_study, sensitivity, units_Pa, units_kPa, "
+                        "units_kPa_nobreak; its law and test settings), temperature degC, frequency Hz")
+    p.add_argument("--config", default=None,
+                   help="workflow config (YAML): the jobs' test settings per mode (campaign section, "
+                        "nscd.bond_kinematics, lab.simulation_window_cycles); default: --settings-json")
+    _settings_options(p)
+    p.add_argument("--table3", default="data/paper/table3_burgers.csv",
+                   help="the paper's Table 3 as printed (paper mode and studies)")
+    p.add_argument("--table3-units", choices=("Pa", "kPa"), default=None,
+                   help="reading of --table3 for the paper mode (default: the config's calibration.table3_units, else Pa)")
+    p.add_argument("--parameters", default=None, help="calibrated Burger's table (MPa; measured mode)")
+    p.add_argument("--law-json", default=None, help="generalized Burger's law JSON (extended mode)")
+    p.add_argument("--network-factor-json", default=None,
+                   help="transfer JSON of the sample (extended mode with the transfer correction)")
+    p.add_argument("--long-cycles", type=int, default=20, help="cycles of the from-rest reference run")
+    p.add_argument("--continuous", action="store_true",
+                   help="also start from the continuous steady state (s = i w) to measure the discrete correction")
+    p.add_argument("--cycles-table", default=None, help="output CSV of every from-rest cycle's |E*| and Phi")
+    p.add_argument("-o", "--output", required=True, help="output CSV (one row per case)")
+    p.set_defaults(func=_periodic_check)
+
+
+def _periodic_check(args) -> int:
+    import dataclasses
+    import sys
+    from pathlib import Path
+
+    import pandas as pd
+    import yaml
+
+    from ..io import InputError, write_csv
+    from . import periodic, study, twopb
+
+    cfg = None
+    if args.config:
+        try:
+            with open(args.config) as fh:
+                cfg = yaml.safe_load(fh)
+        except (OSError, yaml.YAMLError) as exc:
+            raise InputError(f"{args.config}: cannot read the config ({exc})") from exc
+        if not isinstance(cfg, dict) or "campaign" not in cfg:
+            raise InputError(f"{args.config}: no 'campaign' section")
+    name = Path(args.sample).stem
+    units = args.table3_units or (cfg or {}).get("calibration", {}).get("table3_units", "Pa")
+    laws = study.JobLaws(table3=args.table3, table3_units=units, parameters=args.parameters,
+                         law_json=args.law_json, network_factor_json=args.network_factor_json,
+                         sample_name=name)
+    rows, cycles = [], []
+    for case in args.cases:
+        parts = case.split(":")
+        try:
+            mode, T, f = parts[0], float(parts[1]), float(parts[2])
+            if len(parts) != 3:
+                raise ValueError
+        except (ValueError, IndexError):
+            raise InputError(f"--cases {case!r}: expected MODE:T:F (e.g. measured:54:0.1)") from None
+        base = None
+        if cfg is not None:
+            kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
+            base = twopb.mode_settings(cfg["campaign"], mode, kin)
+            base["window_cycles"] = cfg.get("lab", {}).get("simulation_window_cycles", 1.0)
+        settings = _settings(args, base)
+        law = laws.law(mode, T)
+        meta = {"mode": mode, "sample": name, "temperature_C": T, "n_kelvin": law.n_kelvin,
+                "start_config": settings.start}
+        print(f"periodic-check {case}", flush=True, file=sys.stderr)
+        row, cyc = periodic.check_case(args.sample, law, f, dataclasses.replace(settings, start="periodic"),
+                                       long_cycles=args.long_cycles, continuous=args.continuous, meta=meta)
+        rows.append(row)
+        cycles += cyc
+    write_csv(pd.DataFrame(rows), args.output)
+    if args.cycles_table:
+        write_csv(pd.DataFrame(cycles), args.cycles_table)
+    return 0
+
+
+def _settings(args, base: dict | None = None):
+    """TwoPBSettings from ``base`` (e.g. a mode's config settings) updated by --settings-json
+    and --window-cycles."""
     import json
 
     from ..io import InputError
     from .twopb import TwoPBSettings
 
     try:
-        cfg = json.loads(args.settings_json)
+        cfg = {**(base or {}), **json.loads(args.settings_json)}
     except ValueError as exc:
         raise InputError(f"--settings-json: not valid JSON ({exc})") from exc
     if getattr(args, "window_cycles", None) is not None:
@@ -344,24 +453,80 @@ def _dt_policy(args) -> int:
     return 0
 
 
+def _prepare_seconds(args) -> float:
+    """Preparation time of one sample, s: --prepare-seconds or the number at --prepare-key in
+    --prepare-json."""
+    from ..io import InputError, read_json
+
+    if args.prepare_json is None:
+        if args.prepare_seconds < 0:
+            raise InputError(f"--prepare-seconds must be >= 0, got {args.prepare_seconds}")
+        return float(args.prepare_seconds)
+    obj = read_json(args.prepare_json, "preparation JSON")
+    for part in args.prepare_key.split("."):
+        if not isinstance(obj, dict) or part not in obj:
+            keys = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
+            raise InputError(f"{args.prepare_json}: key {args.prepare_key!r} not found (at {part!r}; "
+                             f"available: {keys})")
+        obj = obj[part]
+    if isinstance(obj, bool) or not isinstance(obj, (int, float)) or not obj >= 0:
+        raise InputError(f"{args.prepare_json}: key {args.prepare_key!r}: expected a time in s >= 0, got {obj!r}")
+    return float(obj)
+
+
 def _bench(args) -> int:
+    from pathlib import Path
+
     import yaml
 
     from ..io import InputError, write_json
-    from . import bench
+    from . import bench, study
 
+    if args.per_job and args.sample is None:
+        raise InputError("campaign-bench --per-job needs --sample (a prepared sample file)")
+    prepare_s = _prepare_seconds(args)
     cost = bench.measure_step_cost(args.sample, n_spheres=args.n_spheres, n_steps=args.steps)
-    out = {"measurement": cost, "projections": {}}
+    out = {"measurement": cost, "prepare_s_per_sample": prepare_s, "projections": {}}
     for path in args.config:
         try:
             with open(path) as fh:
                 cfg = yaml.safe_load(fh)
         except (OSError, yaml.YAMLError) as exc:
             raise InputError(f"{path}: cannot read the config ({exc})") from exc
-        if "campaign" not in cfg:
+        if not isinstance(cfg, dict) or "campaign" not in cfg:
             raise InputError(f"{path}: no 'campaign' section")
+        camp = cfg["campaign"]
+        kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
         n_total = len(cfg.get("sample", {}).get("seeds", [1]))
-        out["projections"][path] = bench.project_campaign(cfg["campaign"], n_total, cost["s_per_step"],
-                                                          overhead_s=args.overhead_s)
+        common = dict(overhead_s=args.overhead_s, bond_kinematics=kin, prepare_s_per_sample=prepare_s)
+        single = {start or "configured": bench.project_campaign(camp, n_total, cost["s_per_step"], start=start,
+                                                                **common)
+                  for start in (None, "rest")}
+        if not args.per_job:
+            out["projections"][path] = single
+            continue
+        laws = study.JobLaws(table3=args.table3, table3_units=cfg.get("calibration", {}).get("table3_units", "Pa"),
+                             parameters=args.parameters, law_json=args.law_json,
+                             network_factor_json=args.network_factor_json, sample_name=Path(args.sample).stem)
+        jobs = bench.campaign_jobs(camp, n_total, bond_kinematics=kin)
+        costs = bench.measure_job_costs(args.sample, camp, jobs, laws, n_steps=args.job_steps,
+                                        bond_kinematics=kin)
+
+        def per_step(job, costs=costs):
+            return costs[bench.job_class(job)][job["start"]]["s_per_step"]
+
+        def solve(job, costs=costs):
+            return costs[bench.job_class(job)]["periodic"]["solve_s"]
+
+        out["projections"][path] = {
+            start or "configured": bench.project_campaign(camp, n_total, per_step, start=start,
+                                                          periodic_solve_s=solve, **common)
+            for start in (None, "rest")}
+        out["projections"][path]["single_law"] = single
+        out["projections"][path]["job_costs"] = [
+            {"mode": k[0], "temperature_C": k[1], "frequency_Hz": k[2], "dt_s": k[3], "start": start, **v}
+            for k, by_start in costs.items() for start, v in by_start.items()]
     write_json(out, args.output)
     return 0
+
+

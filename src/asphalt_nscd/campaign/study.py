@@ -181,6 +181,59 @@ def law_reference(laws: dict, temperature_C, frequency_Hz, where="law JSON") -> 
     return pd.DataFrame(rows)
 
 
+class JobLaws:
+    """The macro law of a job of any mode, from the law files the workflow passes to run-2pb
+    (workflow/rules/simulation.smk): the paper's Table 3 read under ``table3_units`` (paper
+    mode and the studies; units_Pa / units_kPa under their own reading), the calibrated
+    Burger's table (measured mode), the generalized law JSON (extended mode), divided by the
+    sample's network factor read from ``network_factor_json`` when given (transfer
+    correction). Files are read when first needed.
+
+    Raises
+    ------
+    InputError
+        naming the missing option when a mode's file was not given, or from the readers.
+    """
+
+    def __init__(self, table3=None, table3_units: str = "Pa", parameters=None, law_json=None,
+                 network_factor_json=None, sample_name: str | None = None):
+        self.table3, self.table3_units = table3, table3_units
+        self.parameters, self.law_json = parameters, law_json
+        self.network_factor_json, self.sample_name = network_factor_json, sample_name
+        self._cache = {}
+
+    def _read(self, key, fn):
+        if key not in self._cache:
+            self._cache[key] = fn()
+        return self._cache[key]
+
+    def law(self, mode: str, temperature_C: float, factors: dict | None = None):
+        """GeneralizedBurgers (Pa, Pa s) of a job of ``mode`` at ``temperature_C`` (degC),
+        Burger's parameters multiplied by ``factors`` ({'Em': 1.5, ...}; not for extended)."""
+        if mode == "extended":
+            if not self.law_json:
+                raise InputError("an extended-mode job needs the law JSON (--law-json)")
+            law = law_at(self._read("json", lambda: read_law_json(self.law_json)), temperature_C,
+                         where=self.law_json)
+            if self.network_factor_json:
+                from ..harmonic.transfer import read_transfer_json
+
+                nf = self._read("nf", lambda: read_transfer_json(self.network_factor_json,
+                                                                 sample=self.sample_name))["network_factor"]
+                law = law.scaled(1.0 / nf)
+            return law
+        if mode == "measured":
+            if not self.parameters:
+                raise InputError("a measured-mode job needs the calibrated Burger's table (--parameters)")
+            table = self._read("measured", lambda: parameter_table(self.parameters))
+            return law_of(parameters_at(table, temperature_C, factors, where=self.parameters))
+        if not self.table3:
+            raise InputError(f"a {mode}-mode job needs the paper's Table 3 (--table3)")
+        units = mode.split("_")[1] if mode.startswith("units_") else self.table3_units
+        table = self._read(f"table3_{units}", lambda: parameter_table(self.table3, units))
+        return law_of(parameters_at(table, temperature_C, factors, where=self.table3))
+
+
 def law_of(params: dict):
     """GeneralizedBurgers (Pa, Pa s) of a parameter row in MPa, MPa s."""
     from ..rheology.calibration import burgers_model

@@ -69,6 +69,14 @@ core: the tangential springs then resist the rigid rotation of bonded pairs and 
 stiffness of the sample is spurious (network factor ~90 instead of ~1.1-1.5, harmonic
 solver).
 
+Start (``start``, config ``campaign.test.start`` with per-mode overrides): ``rest`` (the
+paper's protocol) runs ``n_cycles`` cycles from rest; ``periodic`` starts the test in the
+time-discrete periodic steady state of the linear sample (:mod:`.periodic`: harmonic solution
+at the theta-method's effective Laplace variable, so the state is the exact periodic orbit of
+the step map) and runs ``periodic_cycles`` cycles. If that steady state would break a bond
+the test is not linear and the run falls back to ``rest`` (``start`` of the record and row
+says which start was used).
+
 Checkpoint and resume: every ``checkpoint_every`` steps the recorded arrays are written to
 ``<output>.partial.npz`` and then the core state to ``<output>.ckpt.h5`` (both atomic, in
 that order, so the arrays always cover the checkpoint); a rerun resumes from them when the
@@ -88,6 +96,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError, atomic_path, check_termination, remove_stale_temporaries
+from .periodic import START_MODES
 
 DT_POLICIES = ("fixed", "steps_per_cycle")
 HEAD_ROTATIONS = ("free", "clamped")
@@ -114,6 +123,10 @@ class TwoPBSettings:
     profile_bins, profile_instants : height bins and instants of the velocity profile.
     bond_kinematics : 'contact' | 'barycentre' (config ``nscd.bond_kinematics``);
     head_rotation : 'free' | 'clamped' (module docstring).
+    start : 'rest' (``n_cycles`` from rest, the paper) | 'periodic' (``periodic_cycles`` from
+        the periodic steady state, :mod:`.periodic`).
+    periodic_cycles : cycles simulated after a periodic start (the last ``window_cycles``
+        are reduced).
     """
 
     amplitude_m: float = 63e-6
@@ -136,8 +149,15 @@ class TwoPBSettings:
     profile_instants: int = 8
     bond_kinematics: str = "contact"
     head_rotation: str = "free"
+    start: str = "rest"
+    periodic_cycles: float = 1.0
 
     def __post_init__(self):
+        if self.start not in START_MODES:
+            raise ValueError(f"start must be one of {START_MODES}, got {self.start!r}")
+        if self.start == "periodic" and not (0 < self.window_cycles <= self.periodic_cycles):
+            raise ValueError(f"window_cycles must lie in (0, periodic_cycles={self.periodic_cycles}] "
+                             f"with start 'periodic', got {self.window_cycles}")
         if self.head_rotation not in HEAD_ROTATIONS:
             raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
                              f"got {self.head_rotation!r}")
@@ -154,6 +174,33 @@ class TwoPBSettings:
             raise ValueError(f"window_cycles must lie in (0, n_cycles={self.n_cycles}], got {self.window_cycles}")
 
 
+#: keys of a schedule section (campaign.paper, campaign.measured) that override campaign.test
+MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa", "start")
+
+
+def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact") -> dict:
+    """The test settings (keys of :class:`TwoPBSettings`, JSON-serialisable) of the jobs of
+    one mode of a ``campaign`` config section, as workflow/rules/simulation.smk runs them.
+
+    ``campaign.test`` with the overrides (:data:`MODE_OVERRIDES`) of the mode's schedule:
+    ``campaign.measured`` for the measured and extended modes, ``campaign.paper`` for the
+    paper mode and the studies (dt_study, sensitivity, units_*). The start may further be set
+    per study or mode section (``campaign.extended.start``, ``campaign.dt_study.start``,
+    ``campaign.sensitivity.start``, ``campaign.units_question.start`` for units_*). Modes
+    ending in ``_nobreak`` get unbreakable bonds; ``bond_kinematics`` is the core's
+    (config ``nscd.bond_kinematics``).
+    """
+    sched = campaign["measured"] if mode in ("measured", "extended") else campaign["paper"]
+    cfg = {**campaign["test"], **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
+    own = "units_question" if mode.startswith("units_") else mode
+    if own not in ("paper", "measured") and "start" in (campaign.get(own) or {}):
+        cfg["start"] = campaign[own]["start"]
+    if mode.endswith("_nobreak"):
+        cfg["yield_stress_Pa"] = None
+    cfg["bond_kinematics"] = bond_kinematics
+    return cfg
+
+
 def time_step(frequency_Hz: float, settings: TwoPBSettings) -> float:
     """Time step (s) of a test at ``frequency_Hz`` under the settings' dt policy."""
     if settings.dt_policy == "fixed":
@@ -161,9 +208,16 @@ def time_step(frequency_Hz: float, settings: TwoPBSettings) -> float:
     return float(min(1.0 / (frequency_Hz * settings.steps_per_cycle), settings.dt_max_s))
 
 
-def n_steps_of(frequency_Hz: float, dt: float, settings: TwoPBSettings) -> int:
-    """Number of steps covering ``n_cycles`` periods at step ``dt``."""
-    return int(math.ceil(settings.n_cycles / (frequency_Hz * dt) - 1e-9))
+def cycles_of(settings: TwoPBSettings, start: str | None = None) -> float:
+    """Loading cycles simulated with ``start`` (default ``settings.start``): ``n_cycles``
+    from rest, ``periodic_cycles`` from the periodic steady state."""
+    start = settings.start if start is None else start
+    return float(settings.periodic_cycles if start == "periodic" else settings.n_cycles)
+
+
+def n_steps_of(frequency_Hz: float, dt: float, settings: TwoPBSettings, start: str | None = None) -> int:
+    """Number of steps covering the cycles of ``start`` (:func:`cycles_of`) at step ``dt``."""
+    return int(math.ceil(cycles_of(settings, start) / (frequency_Hz * dt) - 1e-9))
 
 
 class HeadMotion:
@@ -221,8 +275,10 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     """
     from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
 
-    spheres = Spheres(position=sample.position, radius=sample.radius, mass=sample.mass,
-                      inertia=sample.inertia)
+    # a copy: Spheres keeps a contiguous array as given, and the run moves the spheres (the
+    # same SampleData may build several simulations, e.g. campaign-bench's job classes)
+    spheres = Spheres(position=np.array(sample.position, dtype=float), radius=sample.radius,
+                      mass=sample.mass, inertia=sample.inertia)
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
     head = {}
     if settings.head_rotation == "free":
@@ -247,6 +303,44 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     return Simulation(spheres, plates, bonds, params), motion
 
 
+def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
+               continuous: bool = False) -> dict:
+    """Put a freshly built simulation in its initial state: at rest, or, with ``settings.start
+    == 'periodic'``, in the periodic steady state (:mod:`.periodic`) unless that state would
+    break a bond (then at rest, with a message on stderr).
+
+    Returns dict: start ('rest' | 'periodic', the start used), requested, and for a
+    periodic request (``continuous``: the continuous steady state s = i w instead of the
+    theta-method's, :func:`.periodic.periodic_state`, for ``periodic-check``) solve_s and solve_cpu_s (wall and CPU time of the solve, counted in the
+    record's times), force_ratio (steady bond force / strength), gmres_iterations,
+    laplace_imag (the theta-method's effective angular frequency, rad/s) and fallback
+    (reason, when it starts from rest).
+    """
+    from . import periodic
+
+    info = {"start": "rest", "requested": settings.start}
+    if settings.start != "periodic":
+        return info
+    cpu = time.process_time()
+    state = periodic.periodic_state(sim, law, frequency_Hz, settings.amplitude_m,
+                                    head_rotation=settings.head_rotation, nu=settings.nu,
+                                    continuous=continuous)
+    info.update({"solve_s": state.solve_s, "solve_cpu_s": time.process_time() - cpu,
+                 "force_ratio": state.force_ratio,
+                 "gmres_iterations": state.gmres_iterations, "laplace_real": state.laplace.real,
+                 "laplace_imag": state.laplace.imag})
+    if state.breaks:
+        info["fallback"] = (f"the steady state would break bonds (force / strength up to "
+                            f"{state.force_ratio:.3g}): the test is not linear, started from rest")
+        print(f"periodic start: {info['fallback']}", file=sys.stderr, flush=True)
+        return info
+    periodic.apply_periodic_state(sim, state)
+    info["start"] = "periodic"
+    if continuous:
+        info["continuous"] = True
+    return info
+
+
 def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
     """Indices (0-based) of ``k`` steps evenly spread over the last period."""
     start = n_steps - steps_per_period
@@ -255,7 +349,8 @@ def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
 
 
 def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, output,
-             meta: dict | None = None, progress: bool = True, stop_after: int | None = None):
+             meta: dict | None = None, progress: bool = True, stop_after: int | None = None,
+             continuous_start: bool = False):
     """Run (or resume) the numerical 2PB test and write its record (HDF5) atomically.
 
     Parameters
@@ -269,6 +364,9 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     progress : tqdm progress bar on stderr.
     stop_after : stop (after checkpointing) once this many steps are done in total;
         used to test the resume path. None: run to the end.
+    continuous_start : with ``settings.start == 'periodic'``, start from the continuous
+        steady state (s = i w) instead of the theta-method's (``periodic-check`` measures
+        the difference).
 
     Returns
     -------
@@ -284,16 +382,15 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     output = Path(output)
     sample = read_sample(sample_path)
     dt = time_step(frequency_Hz, settings)
-    n_steps = n_steps_of(frequency_Hz, dt, settings)
     specimen = specimen_of(sample)
     ckpt = output.with_name(output.name + ".ckpt.h5")
     partial = output.with_name(output.name + ".partial.npz")
     for path in (output, ckpt, partial):  # left by a writer killed outright
         remove_stale_temporaries(path)
     key = json.dumps({"sample": str(sample_path), "law": law.as_dict(), "f": frequency_Hz, "dt": dt,
-                      "n_steps": n_steps, "settings": asdict(settings)}, sort_keys=True)
+                      "settings": asdict(settings), "continuous_start": bool(continuous_start)},
+                     sort_keys=True)
     per_period = 1.0 / (frequency_Hz * dt)
-    prof_steps = _profile_steps(n_steps, per_period, settings.profile_instants)
     z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
     edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
 
@@ -304,14 +401,23 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
         if str(arrays.pop("key")) == key:
             motion = HeadMotion(settings.amplitude_m, frequency_Hz)
             sim = Simulation.load_checkpoint(ckpt, drivers=[None, motion])
-            print(f"resuming from {ckpt} at step {sim.step_index} of {n_steps}", flush=True, file=sys.stderr)
+            start_info = json.loads(str(arrays["start_info"]))
+            print(f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True,
+                  file=sys.stderr)
     if sim is None:
         sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings)
+        start_info = start_test(sim, law, frequency_Hz, settings, continuous=continuous_start)
+        n_steps = n_steps_of(frequency_Hz, dt, settings, start_info["start"])
         arrays = {"t": np.zeros(n_steps), "plate_fx": np.zeros(n_steps), "driver_fx": np.zeros(n_steps),
-                  "profile_vx": np.zeros((len(prof_steps), settings.profile_bins)),
-                  "wall": np.zeros(1), "cpu": np.zeros(1)}
+                  "profile_vx": np.zeros((len(_profile_steps(n_steps, per_period, settings.profile_instants)),
+                                          settings.profile_bins)),
+                  "wall": np.array([start_info.get("solve_s", 0.0)]),
+                  "cpu": np.array([start_info.get("solve_cpu_s", 0.0)]),
+                  "start_info": np.array(json.dumps(start_info))}
         for k in STAT_KEYS:
             arrays[k] = np.zeros(n_steps)
+    n_steps = len(arrays["t"])
+    prof_steps = _profile_steps(n_steps, per_period, settings.profile_instants)
     zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
     counts = np.bincount(zbin, minlength=settings.profile_bins)
     prof_index = {int(s): n for n, s in enumerate(prof_steps)}
@@ -367,7 +473,10 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                   "cpu_per_sphere_step_s": cpu / (n_steps * sample.position.shape[0]),
                   "law": json.dumps(law.as_dict()), "settings": json.dumps(asdict(settings)),
                   "specimen": json.dumps(specimen.as_dict()), "sample_file": str(sample_path),
-                  "head_mass_kg": m_head, "amplitude_m": settings.amplitude_m},
+                  "head_mass_kg": m_head, "amplitude_m": settings.amplitude_m,
+                  "start": start_info["start"], "start_requested": settings.start,
+                  "n_cycles_simulated": cycles_of(settings, start_info["start"]),
+                  "start_info": json.dumps(start_info)},
     }
     record["force_N"] = record[f"force_{settings.force_reading}_N"]
     write_record(record, output)
@@ -414,6 +523,25 @@ def read_record(path) -> dict:
     return rec
 
 
+def truncate_record(record: dict, end_cycle: float) -> dict:
+    """The record up to the end of cycle ``end_cycle`` (steps whose end time is at most
+    end_cycle / f): what a run of ``end_cycle`` cycles from the same start would have
+    recorded, since the imposed motion does not depend on the run's length.
+
+    Raises ValueError if the record is shorter than ``end_cycle`` cycles.
+    """
+    a = record["attrs"]
+    n = int(math.ceil(end_cycle / (float(a["frequency_Hz"]) * float(a["dt_s"])) - 1e-9))
+    if n > len(record["time_s"]):
+        raise ValueError(f"record of {len(record['time_s'])} steps is shorter than {end_cycle} cycles ({n} steps)")
+    out = {k: np.asarray(record[k])[:n] for k in ("time_s", "displacement_m", "force_N", "force_bonds_N",
+                                                  "force_driver_N")}
+    out["stats"] = {k: np.asarray(v)[:n] for k, v in record["stats"].items()}
+    out["profile"] = record["profile"]
+    out["attrs"] = {**a, "n_steps": n}
+    return out
+
+
 def reduce_test(record: dict, window_cycles: float, force_reading: str | None = None) -> dict:
     """Reduce a record by EN 12697-26 (Eqs. 1-5) over its last ``window_cycles`` cycles.
 
@@ -437,7 +565,10 @@ def reduce_test(record: dict, window_cycles: float, force_reading: str | None = 
     row.update(reduce_record(record["time_s"], record["displacement_m"], record[f"force_{reading}_N"], **args))
     alt = reduce_record(record["time_s"], record["displacement_m"], record[f"force_{other}_N"], **args)
     s = record["stats"]
-    row.update({"force_reading": reading, "E_norm_MPa_other_reading": alt["E_norm_MPa"],
+    row.update({"start": a.get("start", "rest"),
+                "n_cycles_simulated": float(a.get("n_cycles_simulated", settings["n_cycles"])),
+                "iterations_mean": float(np.mean(record["stats"]["iterations"])),
+                "force_reading": reading, "E_norm_MPa_other_reading": alt["E_norm_MPa"],
                 "phase_deg_other_reading": alt["phase_deg"], "dt_s": float(a["dt_s"]),
                 "n_steps": int(a["n_steps"]), "n_spheres": int(a["n_spheres"]), "n_bonds": int(a["n_bonds"]),
                 "wall_time_s": float(a["wall_time_s"]), "cpu_time_s": float(a["cpu_time_s"]),

@@ -508,7 +508,7 @@ class HarmonicSystem:
         return lu, sigma, False
 
     def solve(self, kn, kt, omega: float, amplitude: float = 63e-6,
-              inertia: str = "full") -> HarmonicSolution:
+              inertia: str = "full", omega2: complex | None = None) -> HarmonicSolution:
         """Steady state for per-bond stiffnesses kn, kt (B,) complex N/m at w (rad/s).
 
         One complex sparse LU (SuperLU, symmetric mode, the system's ordering) per call: the
@@ -520,6 +520,9 @@ class HarmonicSystem:
             Head displacement amplitude A, m (paper: 63e-6).
         inertia : {"none", "full"}
             See the module docstring (masses in the dynamics, content of the force F).
+        omega2 : complex, optional
+            The factor of the mass matrix, -s^2 for the Laplace variable s (1/s^2); default
+            w^2 (s = i w). See :meth:`solve_law` (``laplace``).
 
         Raises
         ------
@@ -530,20 +533,22 @@ class HarmonicSystem:
         t0 = time.perf_counter()
         blk = self.blocks(np.asarray(kn, complex), np.asarray(kt, complex))
         up = np.array([amplitude, 0.0, 0.0], complex)
+        omega2 = omega**2 if omega2 is None else omega2
         a_ff = blk["ff"]
         if inertia != "none":
-            a_ff = (a_ff - omega**2 * sp.diags(self.mass_free.astype(complex),
-                                               format="csc")).tocsc()
+            a_ff = (a_ff - omega2 * sp.diags(self.mass_free.astype(complex),
+                                             format="csc")).tocsc()
         rhs = -(blk["fp"] @ up)
         uf = (self.factorise(a_ff, "complex K - w^2 M").solve(rhs) if self.n_free
               else np.zeros(0, complex))
         residual = _relative_residual(a_ff, uf, rhs)
         reaction = blk["pf"] @ uf + blk["pp"] @ up
-        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct")
+        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct",
+                              omega2=omega2)
 
     def solve_law(self, law, frequency_Hz: float, amplitude: float = 63e-6,
                   inertia: str = "full", solver: str = "reuse",
-                  rtol: float = 1e-12) -> HarmonicSolution:
+                  rtol: float = 1e-12, laplace: complex | None = None) -> HarmonicSolution:
         """Steady state with every bond following ``law`` scaled by a_b (Eqs. 30-33, 8-11).
 
         Parameters
@@ -563,20 +568,34 @@ class HarmonicSystem:
             G - Re(s) M is factorised and GMRES restarted; if that fails too the call falls
             back to ``direct`` (the solution's ``solver`` then reads "direct").
             ``direct``: one complex LU per call (:meth:`solve`).
+        laplace : complex, optional
+            Solve at the Laplace variable s instead of s = i w (1/s): every i w of the bond law
+            and of the inertia becomes s, i.e. E*(w) -> E(s) (:func:`laplace_modulus`) and
+            w^2 M -> -s^2 M. The time-discrete steady state of the Moreau-Jean theta-method
+            at w is the solution at its effective Laplace variable
+            (:func:`asphalt_nscd.campaign.periodic.theta_laplace`). The solution's
+            ``frequency_Hz`` stays ``frequency_Hz``.
 
         Raises
         ------
         ValueError
-            on an unknown option.
+            on an unknown option, or a ``laplace`` off the imaginary axis with a law that is
+            not a :class:`~asphalt_nscd.rheology.laws.GeneralizedBurgers`.
         """
         _check_inertia(inertia)
         if solver not in SOLVERS:
             raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
         omega = 2.0 * np.pi * float(frequency_Hz)
-        e = complex(law.complex_modulus(omega))
+        if laplace is None:
+            e = complex(law.complex_modulus(omega))
+            omega2 = omega**2
+        else:
+            e = laplace_modulus(law, laplace)
+            omega2 = -complex(laplace) ** 2
         if solver == "direct":
             kn = self.network.scale * e
-            return self.solve(kn, kn * self.t_ratio, omega, amplitude=amplitude, inertia=inertia)
+            return self.solve(kn, kn * self.t_ratio, omega, amplitude=amplitude, inertia=inertia,
+                              omega2=omega2)
         t0 = time.perf_counter()
         up = np.array([amplitude, 0.0, 0.0], complex)
         uf = np.zeros(self.n_free, complex)
@@ -592,14 +611,15 @@ class HarmonicSystem:
             ref = self._reference_blocks()
             rhs = -(ref["fp"] @ up)
             if self.n_free:
-                s = omega**2 / e
+                s = complex(omega2 / e)
                 uf, residual = self._gmres_shifted(ref["ff"], s, rhs, rtol)
                 if uf is None:
                     return self.solve(e * self.network.scale,
                                       e * self.network.scale * self.t_ratio, omega,
-                                      amplitude=amplitude, inertia=inertia)
+                                      amplitude=amplitude, inertia=inertia, omega2=omega2)
         reaction = e * (ref["pf"] @ uf + ref["pp"] @ up)
-        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "reuse")
+        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "reuse",
+                              omega2=omega2)
 
     def _gmres_shifted(self, g, s, rhs, rtol):
         """Solve (G - s M) u = rhs by GMRES preconditioned with a real factor of G - sigma M.
@@ -627,8 +647,12 @@ class HarmonicSystem:
                 count[0] += 1
 
             restart = max(1, min(100, GMRES_MAX_ITERATIONS))
+            # at least one restart: SciPy's GMRES stops a cycle on the preconditioned residual
+            # and checks the true one only at the restart; without a restart a solution whose
+            # true residual is just above rtol was rejected after 10 iterations and the call
+            # fell back to the (slow) complex LU (theta-method steady states, campaign.periodic)
             uf, info = spla.gmres(op, rhs, x0=x0, rtol=rtol, atol=0.0, M=prec, restart=restart,
-                                  maxiter=max(1, -(-GMRES_MAX_ITERATIONS // restart)),
+                                  maxiter=max(2, -(-GMRES_MAX_ITERATIONS // restart)),
                                   callback=tick, callback_type="pr_norm")
             self.last_gmres_iterations += count[0]
             if info == 0:
@@ -638,12 +662,14 @@ class HarmonicSystem:
                 break
         return None, float("nan")
 
-    def _solution(self, omega, uf, reaction, amplitude, inertia, residual, t0, solver):
+    def _solution(self, omega, uf, reaction, amplitude, inertia, residual, t0, solver,
+                  omega2=None):
         up = np.array([amplitude, 0.0, 0.0], complex)
         m_top = float(self.network.plate_mass[1])
         sample_mass = self.network.sample_mass
         mu = SPECIMEN_MASS_FACTOR * sample_mass + m_top
-        force = reaction - omega**2 * (m_top if inertia == "full" else mu) * up
+        omega2 = omega**2 if omega2 is None else omega2
+        force = reaction - omega2 * (m_top if inertia == "full" else mu) * up
         d = self.dof_per_sphere
         n_act = int(self.active.sum())
         q = np.asarray(uf)[:d * n_act].reshape(-1, d)
@@ -661,6 +687,31 @@ class HarmonicSystem:
             mu_kg=mu, sample_mass_kg=sample_mass, plate_mass_kg=m_top, inertia=inertia, n_free_dof=self.n_free,
             n_load_free=self.n_load_free, solve_time_s=time.perf_counter() - t0,
             residual=residual, solver=solver, rotation=rot, head_rotation=head)
+
+
+def laplace_modulus(law, s: complex) -> complex:
+    """Modulus E(s) of a law at the Laplace variable s (1/s), Pa.
+
+    ``s = i w`` (w > 0) gives the complex modulus E*(w) (``law.complex_modulus``, any law
+    object). Off the imaginary axis the law must be a generalized Burger's model (fields
+    ``Em, eta_m, Ek, eta_k, E_inf``): E(s) = E_inf + [1/Em + 1/(s eta_m) + sum_i
+    1/(Ek[i] + s eta_k[i])]^-1 (rheology.laws.GeneralizedBurgers with i w -> s).
+
+    Raises
+    ------
+    ValueError
+        if s is off the imaginary axis and the law has no generalized Burger's fields.
+    """
+    s = complex(s)
+    if s.real == 0.0 and s.imag > 0.0:
+        return complex(law.complex_modulus(s.imag))
+    if not all(hasattr(law, k) for k in ("Em", "eta_m", "Ek", "eta_k", "E_inf")):
+        raise ValueError(f"laplace_modulus: s = {s} is off the imaginary axis and the law "
+                         f"{type(law).__name__} is not a generalized Burger's model")
+    d = 1.0 / law.Em + (0.0 if np.isinf(law.eta_m) else 1.0 / (s * law.eta_m))
+    for ek, ck in zip(law.Ek, law.eta_k):
+        d += 1.0 / (ek + s * ck)
+    return complex(law.E_inf + 1.0 / d)
 
 
 def _lever(arm) -> np.ndarray:
