@@ -14,7 +14,8 @@ Procedure fitted inside each fold (:func:`fit_extended`), on the training rows o
     2. replicate means of the corrected table;
     3. the law's settings chosen by an inner cross-validation on those means
        (:func:`select_settings`: inner lofo folds and inner loto folds of the interior
-       training temperatures), the simplest setting within one standard error of the best
+       training temperatures, each fit started from the same setting's fit on all training
+       means), the simplest setting within one standard error of the best
        score (one-standard-error rule: the fewest fitted parameters, then the best score);
     4. :class:`~asphalt_nscd.diagnosis.extend.ThermoLaw` with those settings on all training
        means. Nothing computed from a held-out cell reaches the fold's law.
@@ -141,7 +142,8 @@ def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFra
     from .report import analyse
 
     try:
-        a = analyse(table, alpha=options.alpha, shift=options.artifact_shift, T_ref_C=options.T_ref_C)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of the fits
+            a = analyse(table, alpha=options.alpha, shift=options.artifact_shift, T_ref_C=options.T_ref_C)
     except FIT_ERRORS as exc:
         return table, [], [f"artifact search failed ({exc}); law fitted to the table as given"]
     names = [c.name for c in a["result"]["selected"]]
@@ -156,12 +158,14 @@ def _t_ref(cells: pd.DataFrame, options: Options) -> float:
     return float(temps[np.argmin(np.abs(temps - np.median(temps)))])
 
 
-def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances) -> dict:
+def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances, parents: dict | None = None) -> dict:
     """Backbones of every structure (``LawSettings.structure``) on ``cells``.
 
-    Simplest first; a structure is started from the fitted simpler structure of the same
-    shift law with the most parameters in common (its extra parameters from 0), the base
-    structures (no trend, vertical shift or refinement) from several cold starts.
+    Simplest first. With ``parents`` (structure -> Backbone fitted on a superset of ``cells``,
+    e.g. the training table of which ``cells`` is an inner fold) each structure starts from
+    its parent's solution. Otherwise a structure starts from the fitted simpler structure of
+    the same shift law with the most parameters in common (its extra parameters from 0), and
+    the base structures (no trend, vertical shift or refinement) from several cold starts.
 
     Returns
     -------
@@ -173,7 +177,10 @@ def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances) 
         settings = LawSettings(*st)
         base = not (settings.vertical or settings.refine or settings.static == "trend")
         start = None
-        if not base:
+        parent = (parents or {}).get(st)
+        if parent is not None and not isinstance(parent, str):
+            start = dict(zip(parent.names, parent.x))
+        elif not base:
             names = set(extend._backbone_names(settings, np.unique(cells["temperature_C"])))
             fitted = [bb for s2, bb in out.items() if not isinstance(bb, str) and s2[0] == st[0]
                       and set(bb.names) <= names]
@@ -227,26 +234,32 @@ def _fold_score(law: ThermoLaw, test: pd.DataFrame, tolerances) -> float:
     return float(max(eE.mean() / tolerances[0], eP.mean() / tolerances[1]))
 
 
-def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings | None, pd.DataFrame]:
+def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings | None, pd.DataFrame, dict]:
     """Choose the law settings by inner cross-validation on cell means (module docstring).
+
+    Every structure is fitted on all ``cells`` first (returned, reused by :func:`fit_extended`);
+    the inner folds start from those solutions (``cells`` holds no outer held-out cell).
 
     Returns
     -------
-    (settings, curve)
+    (settings, curve, backbones)
         ``curve``: one row per candidate: ``settings`` (label), its fields, ``n_params``,
         ``cv_score`` (mean over the inner folds), ``cv_score_se``, ``n_folds``, ``chosen``,
         ``reason`` (why a candidate has no score). With one candidate, or no computable inner
         fold, the first candidate is returned without a score (``reason`` says why).
+        ``backbones``: structure -> Backbone (or error text) fitted on all ``cells``.
     """
     cands = list(options.candidates)
     T_ref = _t_ref(cells, options)
     n_T = cells["temperature_C"].nunique()
+    structures = [c.structure for c in cands]
+    parents = fit_structures(cells, structures, T_ref, options.tolerances)
     folds = _inner_folds(cells) if len(cands) > 1 else []
     rows = {c: {"scores": [], "reason": ""} for c in cands}
     for scheme, value in folds:
         train, _ = fold_split(cells, scheme, value)
         tr, te = cells[train], cells[~train]
-        bbs = fit_structures(tr, {c.structure for c in cands}, T_ref, options.tolerances)
+        bbs = fit_structures(tr, structures, T_ref, options.tolerances, parents=parents)
         for c in cands:
             bb = bbs[c.structure]
             if isinstance(bb, str):
@@ -278,7 +291,7 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     scored = curve["cv_score"].notna()
     if not scored.any():  # nothing to choose from: the simplest candidate
         curve.loc[0, "chosen"] = True
-        return cands[0], curve
+        return cands[0], curve, parents
     best = int(curve.loc[scored, "cv_score"].idxmin())
     limit = curve.loc[best, "cv_score"]
     if options.one_se and np.isfinite(curve.loc[best, "cv_score_se"]):
@@ -289,7 +302,7 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     fewest = within[within["n_params"] == within["n_params"].min()]
     chosen = int(fewest["cv_score"].idxmin())
     curve.loc[chosen, "chosen"] = True
-    return cands[chosen], curve
+    return cands[chosen], curve, parents
 
 
 def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
@@ -304,13 +317,16 @@ def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
     if n_T < 2:
         return FitResult(None, None, pd.DataFrame(), corrected, artifacts, notes,
                          f"{n_T} temperature(s): the temperature-aware law needs >= 2")
-    settings, curve = select_settings(cells, options)
+    settings, curve, backbones = select_settings(cells, options)
     order = [settings] + [c for c in options.candidates if c != settings]
     T_ref = _t_ref(cells, options)
     last = ""
     for c in order:  # the chosen one; if it cannot be fitted on all cells, the next candidates
         try:
-            law = extend.fit_law(cells, c, T_ref, options.tolerances, options.margin_decades)
+            bb = backbones.get(c.structure)
+            if isinstance(bb, str):
+                raise ValueError(bb)
+            law = extend.fit_law(cells, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
         except FIT_ERRORS as exc:
             last = f"{c.label()}: {exc}"
             notes.append(f"setting {c.label()} not computable on the whole table ({exc})")

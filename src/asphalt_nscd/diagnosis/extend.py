@@ -198,6 +198,76 @@ class Backbone:
         return 10.0 ** (self.value("log10_E00_MPa") + self.value("static_trend_per_100K") * (T - self.T_ref_C) / 100.0
                         + self._deviation("E00", T))
 
+    def interp_weights(self, T) -> np.ndarray:
+        """(n, n_T) weights of the training isotherms in the linear interpolation (constant
+        beyond the ends) of a per-isotherm deviation at ``T`` (degC, shape (n,))."""
+        T = np.asarray(T, float)
+        t = self.temperatures
+        W = np.zeros((T.size, t.size))
+        for j in range(t.size):
+            e = np.zeros(t.size)
+            e[j] = 1.0
+            W[:, j] = np.interp(T, t, e)
+        return W
+
+    def log_jacobian(self, frequency_Hz, temperature_C) -> tuple[np.ndarray, np.ndarray]:
+        """E* (MPa, shape (n,)) and the derivatives of ln E* with respect to ``x`` (complex,
+        (n, len(x))): the exact Jacobian of the fit residuals (:func:`fit_backbone`)."""
+        f = np.asarray(frequency_Hz, float)
+        T = np.asarray(temperature_C, float)
+        c = self.core()
+        ln10 = np.log(10.0)
+        idx = {n: i for i, n in enumerate(self.names)}
+        J = np.zeros((f.size, len(self.names)), complex)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            L = self.log_shift(T)
+            x = 1j * 2 * np.pi * f * c["tau_s"] * 10.0 ** L
+            k, h, dl, beta = c["k"], c["h"], c["delta"], c["beta"]
+            xk, xh, xb = x ** (-k), x ** (-h), 1.0 / (x * beta)
+            D = 1.0 + dl * xk + xh + xb
+            E00 = self.static_modulus(T)
+            E0 = c["E0_MPa"]
+            chain = (E0 - E00) / D
+            core = E00 + chain
+            E = core * 10.0 ** self.log_vertical(T)
+            dcore_dD = -chain / D
+            lnx = np.log(x)
+            dD = {"log10_delta": ln10 * dl * xk, "log10_beta": -ln10 * xb,
+                  "k_over_h": -dl * xk * lnx * h, "h": -dl * xk * lnx * (k / h) - xh * lnx}
+            x_dDdx = -k * dl * xk - h * xh - xb  # x dD/dx
+            dD["log10_tau_s"] = ln10 * x_dDdx
+            for n, v in dD.items():
+                J[:, idx[n]] = dcore_dD * v / core
+            J[:, idx["log10_E0_MPa"]] = ln10 * E0 / D / core
+            dT = T - self.T_ref_C
+            if self.settings.shift == "wlf":
+                C1, C2 = self.value("C1"), self.value("C2_K")
+                dL = {"C1": -dT / (C2 + dT), "C2_K": C1 * dT / (C2 + dT) ** 2}
+            else:
+                from ..rheology.shift import KELVIN, R_GAS
+
+                dL = {"Ea_kJ_mol": 1e3 / (R_GAS * ln10) * (1.0 / (T + KELVIN) - 1.0 / (self.T_ref_C + KELVIN))}
+            W = self.interp_weights(T) if self.settings.refine else None
+            if W is not None:
+                for j, t in enumerate(self.temperatures):
+                    dL[f"dlog10_aT_{t:g}"] = W[:, j]
+            for n, v in dL.items():
+                J[:, idx[n]] = dcore_dD * ln10 * x_dDdx * v / core
+            if self.settings.static != "none":
+                dE00 = ln10 * E00 * (1.0 - 1.0 / D) / core  # d ln core / d log10 E00(T)
+                J[:, idx["log10_E00_MPa"]] = dE00
+                if "static_trend_per_100K" in idx:
+                    J[:, idx["static_trend_per_100K"]] = dE00 * dT / 100.0
+                if W is not None:
+                    for j, t in enumerate(self.temperatures):
+                        J[:, idx[f"dlog10_E00_{t:g}"]] = dE00 * W[:, j]
+            if "vertical_trend_per_100K" in idx:
+                J[:, idx["vertical_trend_per_100K"]] = ln10 * dT / 100.0
+            if W is not None:
+                for j, t in enumerate(self.temperatures):
+                    J[:, idx[f"dlog10_b_{t:g}"]] = ln10 * W[:, j]
+        return E, J
+
     def core(self) -> dict:
         """2S2P1D constants at T_ref: ``E0_MPa, E00_MPa, delta, k, h, beta, tau_s``."""
         h = self.value("h")
@@ -209,10 +279,11 @@ class Backbone:
         """Backbone complex modulus (MPa) at broadcast (f Hz, T degC)."""
         f, T = np.broadcast_arrays(np.asarray(frequency_Hz, float), np.asarray(temperature_C, float))
         c = self.core()
-        E00 = self.static_modulus(T)
-        tau = c["tau_s"] * 10.0 ** self.log_shift(T)
-        E = two_s2p1d_modulus(2 * np.pi * f, E00, c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], tau)
-        return E * 10.0 ** self.log_vertical(T)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of a fit
+            E00 = self.static_modulus(T)
+            tau = c["tau_s"] * 10.0 ** self.log_shift(T)
+            E = two_s2p1d_modulus(2 * np.pi * f, E00, c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], tau)
+            return E * 10.0 ** self.log_vertical(T)
 
 
 def _cell_arrays(cells: pd.DataFrame):
@@ -290,9 +361,19 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
 
     def resid(x):
         proto.x = x
-        r = np.log(proto.modulus(f, T) / E)
-        out = np.concatenate([r.real / tol_E, r.imag / (ph * tol_P), w_reg * x[reg]])
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            r = np.log(proto.modulus(f, T) / E)
+            out = np.concatenate([r.real / tol_E, r.imag / (ph * tol_P), w_reg * x[reg]])
         return np.where(np.isfinite(out), out, 1e3)
+
+    R = np.zeros((int(reg.sum()), len(names)))
+    R[np.arange(R.shape[0]), np.flatnonzero(reg)] = w_reg
+
+    def jac(x):
+        proto.x = x
+        _, D = proto.log_jacobian(f, T)
+        out = np.vstack([D.real / tol_E, D.imag / (ph * tol_P)[:, None], R])
+        return np.where(np.isfinite(out), out, 0.0)
 
     starts = [start] if start is not None else _cold_starts(names, T, E, T_ref_C)
     best = None
@@ -300,7 +381,7 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
         x0 = np.array([s.get(n, 0.0) for n in names], float)
         x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
         try:
-            res = least_squares(resid, x0, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=1.0,
+            res = least_squares(resid, x0, jac=jac, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=1.0,
                                 x_scale="jac", max_nfev=2000)
         except ValueError:
             continue
@@ -357,8 +438,12 @@ class ThermoLaw:
         if bb.settings.shift == "wlf" and bb.value("C2_K") + T - bb.T_ref_C <= 0:
             raise InputError(f"temperature {T:g} degC: outside the WLF domain (T - T_ref <= -C2 = "
                              f"{-bb.value('C2_K'):.4g} K, T_ref = {bb.T_ref_C:g} degC)")
-        aT = float(10.0 ** bb.log_shift(T))
-        b = float(10.0 ** bb.log_vertical(T))
+        with np.errstate(over="ignore"):
+            aT = float(10.0 ** bb.log_shift(T))
+            b = float(10.0 ** bb.log_vertical(T))
+        if not (np.isfinite(aT) and aT > 0 and np.isfinite(b) and b > 0):
+            raise InputError(f"temperature {T:g} degC: the shift factors overflow (log10 aT = "
+                             f"{float(bb.log_shift(T)):.4g}); the law is undefined there")
         E0 = bb.core()["E0_MPa"]
         E00_T = float(bb.static_modulus(T))
         if not E00_T < E0:

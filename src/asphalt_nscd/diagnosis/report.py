@@ -473,7 +473,19 @@ def heldout_report(rows: pd.DataFrame) -> dict:
         d["targets_met"] = (None if t is None else bool(d["worst_E_norm_pct"] <= t["E_norm_mre_pct"]
                                                         and d["worst_phase_pct"] <= t["phase_mre_pct"]))
         heads.append(d)
-    return json_safe({"mre": mre, "headline": heads,
+    td = []
+    held = rows[(rows["kind"] == "held_out") & rows["computable"]]
+    keys = ["scheme", "fold", "temperature_C", "frequency_Hz"]
+    both = held[held["model"] == "nscd_time_domain"].merge(held[held["model"] == "nscd_sample"], on=keys,
+                                                           suffixes=("_td", "_h"))
+    for _, r in both.iterrows():
+        td.append({"scheme": r["scheme"], "fold": str(r["fold"]), "temperature_C": r["temperature_C"],
+                   "frequency_Hz": r["frequency_Hz"], "E_norm_MPa_time_domain": r["E_norm_MPa_predicted_td"],
+                   "E_norm_MPa_harmonic": r["E_norm_MPa_predicted_h"],
+                   "phase_deg_time_domain": r["phase_deg_predicted_td"], "phase_deg_harmonic": r["phase_deg_predicted_h"],
+                   "E_norm_relative_difference": r["E_norm_MPa_predicted_td"] / r["E_norm_MPa_predicted_h"] - 1.0,
+                   "phase_difference_deg": r["phase_deg_predicted_td"] - r["phase_deg_predicted_h"]})
+    return json_safe({"mre": mre, "headline": heads, "time_domain_check": td,
                       "reference": "measured replicate means as given",
                       "protocol": "lofo: every row at one frequency left out; loto: one isotherm left out "
                                   "(the end temperatures are extrapolations, reported apart); the whole procedure "
@@ -696,6 +708,12 @@ def heldout_lines(report: dict) -> list:
                          f"{x['worst_phase_pct']:.2f} ({x['worst_phase_T_C']:g} degC) | {tgt} | "
                          f"{x['targets_met']} |")
         lines.append("")
+    for t in h.get("time_domain_check") or []:
+        lines += [f"Time domain vs harmonic solution of the NSCD sample with the law of the {t['scheme']} fold "
+                  f"{t['fold']} at {t['temperature_C']:g} degC, {t['frequency_Hz']:g} Hz (held out): norm of E* "
+                  f"{t['E_norm_MPa_time_domain']:.5g} vs {t['E_norm_MPa_harmonic']:.5g} MPa "
+                  f"({100 * t['E_norm_relative_difference']:+.3f} %), Phi {t['phase_deg_time_domain']:.3f} vs "
+                  f"{t['phase_deg_harmonic']:.3f} deg ({t['phase_difference_deg']:+.3f} deg).", ""]
     models = [m for m in HELDOUT_LABELS if any(m in (mre.get(s) or {}).get(k, {}) for s in mre
                                                 for k in ("held_out", "in_sample"))]
     temps = sorted({float(T) for s in mre.values() for k in s.values() for m in k.values() for T in m})
