@@ -97,6 +97,11 @@ def register(subparsers) -> None:
     p.add_argument("--time-domain", type=Path, nargs="+", default=None,
                    help="reduced rows of the time-domain NSCD test of the sample with one fold's law "
                         "(run-2pb --law-json <extend-law --exclude-...>): added as model nscd_time_domain")
+    p.add_argument("--no-burgers", action="store_true",
+                   help="skip the paper's Burger's law per isotherm (its fits are the slow part on tables far "
+                        "from any viscoelastic law)")
+    p.add_argument("--burgers-starts", type=int, default=8,
+                   help="local least-squares runs of each Burger's fit per isotherm (default 8)")
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="CSV, one row per (fold, model, cell): scheme, fold, kind (held_out | in_sample), "
                         "model, temperature_C, frequency_Hz, measured and predicted E_norm_MPa and phase_deg, "
@@ -310,7 +315,12 @@ def _crossval(args) -> int:
     if args.sample is not None:
         sample = cv.SampleModel.load(args.sample, args.transfer, inertia=args.inertia)
     td = read_simulated_many(args.time_domain) if args.time_domain else None
-    res = cv.crossval(measured, args.scheme, law_options(args), sample=sample, time_domain=td)
+    if args.burgers_starts < 1:
+        raise InputError(f"--burgers-starts: expected >= 1, got {args.burgers_starts}")
+    options = law_options(args)
+    options.burgers_starts = args.burgers_starts
+    options.burgers = not args.no_burgers
+    res = cv.crossval(measured, args.scheme, options, sample=sample, time_domain=td)
     write_csv(res.rows, args.output)
     if args.summary is not None:
         write_csv(cv.summarize(res.rows), args.summary)

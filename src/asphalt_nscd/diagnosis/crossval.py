@@ -90,7 +90,9 @@ class Options:
     :mod:`.extend`; ``artifacts``: search and correct data artifacts first; ``alpha``,
     ``artifact_shift``: significance level and master-curve shift of that search;
     ``T_ref_C``: reference temperature (None: the training temperature nearest the median);
-    ``one_se``: one-standard-error rule (else the best score).
+    ``one_se``: one-standard-error rule (else the best score); ``burgers_starts``: local
+    runs of each Burger's fit (``rheology.calibration.fit_burgers``); ``burgers``: predict
+    with the Burger's law per isotherm too (crossval).
     """
 
     candidates: tuple = (LawSettings(),)
@@ -101,6 +103,8 @@ class Options:
     artifact_shift: str = "wlf"
     T_ref_C: float | None = None
     one_se: bool = True
+    burgers_starts: int = 8
+    burgers: bool = True
 
     def __post_init__(self):
         self.candidates = tuple(self.candidates)
@@ -397,7 +401,8 @@ def _row(scheme, fold, kind, model, cell, pred=None, extrapolation=False, settin
             "reason": "" if ok else (reason or "prediction not finite")}
 
 
-def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFrame, extrapolation) -> list:
+def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFrame, extrapolation,
+                  n_starts: int = 8) -> list:
     from ..rheology.calibration import fit_burgers
     from ..rheology.laws import GeneralizedBurgers
 
@@ -409,7 +414,7 @@ def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFra
             reason = "a Burger's law per isotherm has no temperature dependence (lofo only)"
         else:
             try:
-                p = fit_burgers(tr["frequency_Hz"], tr["E_norm_MPa"], tr["phase_deg"])
+                p = fit_burgers(tr["frequency_Hz"], tr["E_norm_MPa"], tr["phase_deg"], n_starts=n_starts)
                 law = GeneralizedBurgers.burgers(p["Em_MPa"], p["eta_m_MPa_s"], p["Ek_MPa"], p["eta_k_MPa_s"])
             except FIT_ERRORS as exc:
                 reason = f"Burger's fit at {T:g} degC: {exc}"
@@ -506,7 +511,9 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
     full = full if full is not None else fit_extended(table, options)
     if not full.curve.empty:
         curves.append(full.curve.assign(scheme=scheme, fold="all"))
-    rows += _burgers_rows(scheme, "all", "in_sample", table, cells, lambda c: False)
+    nb = options.burgers_starts
+    if options.burgers:
+        rows += _burgers_rows(scheme, "all", "in_sample", table, cells, lambda c: False, nb)
     rows += _law_rows(scheme, "all", "in_sample", full, cells, sample, lambda c: False)
     for value in _fold_values(cells, scheme):
         label = fold_label(scheme, value)
@@ -528,7 +535,8 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
                 curves.append(fit.curve.assign(scheme=scheme, fold=label))
             if fit.law is None:
                 reason = fit.reason
-        rows += _burgers_rows(scheme, label, "held_out", train_rows, test, extrapolation)
+        if options.burgers:
+            rows += _burgers_rows(scheme, label, "held_out", train_rows, test, extrapolation, nb)
         rows += _law_rows(scheme, label, "held_out", fit, test, sample, extrapolation, reason)
     if time_domain is not None and len(time_domain):
         rows += _time_domain_rows(scheme, cells, time_domain, fits)
