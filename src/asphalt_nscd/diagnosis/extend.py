@@ -734,7 +734,8 @@ def laws_to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None =
     """JSON object keyed by temperature (``"%g"``) with the laws in Pa and Pa s.
 
     Fields per temperature: ``Em, eta_m, Ek (list), eta_k (list), E_inf`` (Pa, Pa s;
-    ``eta_m`` null means no Maxwell dashpot) and, if given, ``mre_E_norm_pct, mre_phase_pct``.
+    ``eta_m`` null means no Maxwell dashpot) and, if given, the in-sample MREs (%)
+    ``in_sample_mre_E_norm_pct, in_sample_mre_phase_pct``.
     """
     out = {"units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
            "law": "GeneralizedBurgers: Maxwell (Em, eta_m) in series with Kelvin-Voigt units "
@@ -745,8 +746,8 @@ def laws_to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None =
         if not np.isfinite(d["eta_m"]):
             d["eta_m"] = None
         if mre_E is not None:
-            d["mre_E_norm_pct"] = mre_E.get(T)
-            d["mre_phase_pct"] = mre_phase.get(T)
+            d["in_sample_mre_E_norm_pct"] = mre_E.get(T)
+            d["in_sample_mre_phase_pct"] = mre_phase.get(T)
         out["temperatures"][f"{T:g}"] = d
     return out
 
