@@ -1,7 +1,11 @@
 """Subcommands of the diagnosis step (registered by asphalt_nscd.cli).
 
-* ``extend-law``     — the extended (generalized Burger's) law per temperature from a measured
-                       table alone (law JSON, Pa and Pa s): the input of the extended campaign.
+* ``extend-law``     — the temperature-aware extended (generalized Burger's) law from a measured
+                       table alone, settings chosen by cross-validation, written at any
+                       temperatures (law JSON, Pa and Pa s): the input of the extended campaign.
+* ``crossval``       — held-out (lofo / loto) and in-sample predictions of the paper's Burger's
+                       law, the extended law and the NSCD sample (nested: every fold refits the
+                       whole extend-law procedure).
 * ``diagnose``       — what the simulation gets wrong: error budget, named causes, extended
                        law and gain (JSON report; optional law JSON, tables and figure).
 * ``synth``          — synthetic measured table (2S2P1D + WLF truth, planted effects) and its
@@ -342,9 +346,13 @@ def _diagnose(args) -> int:
 
     measured = load_measured(args.measured)
     time_errors = None if not args.time_integration else _read_time_errors(args.time_integration, args.theta)
-    laws = None
+    laws, law_info = None, None
     if args.law_json is not None:
         laws = {T: law.scaled(1e-6) for T, law in read_law_json(args.law_json).items()}
+        from ..io import read_json
+
+        obj = read_json(args.law_json, "law JSON")
+        law_info = {k: obj.get(k) for k in ("selection", "model")}
         missing = [float(T) for T in sorted(measured["temperature_C"].unique())
                    if not any(abs(T - k) < 1e-9 for k in laws)]
         if missing:
@@ -378,7 +386,7 @@ def _diagnose(args) -> int:
         measured, simulated=_read_optional(args.simulated), harmonic=_read_optional(args.harmonic),
         time_errors=time_errors, simulated_extended=_read_optional(args.simulated_extended),
         macro_params=macro, laws=laws, transfer=transfer, alpha=args.alpha, shift=args.shift,
-        T_ref_C=args.t_ref, law_options=law_options(args), crossval=crossval)
+        T_ref_C=args.t_ref, law_options=law_options(args), crossval=crossval, law_info=law_info)
     report["measured"]["path"] = str(args.measured)
     write_json(report, args.output)
     if args.laws is not None:

@@ -13,10 +13,16 @@
    data artifacts (measured vs corrected), model form (Burger's vs corrected data),
    micro-macro transfer (harmonic response vs its macro law), numerics (time-domain vs
    harmonic);
-6. extended law: a generalized Burger's law per temperature from the 2S2P1D/WLF master
-   curve of the corrected data (:mod:`asphalt_nscd.diagnosis.extend`; computed here, or
-   given: the workflow fits it first with :func:`extended_laws` (``asphalt-nscd
-   extend-law``), runs the NSCD campaign with it, then diagnoses), its MRE and the gain.
+6. extended law: the temperature-aware generalized Burger's law at the measured
+   temperatures (:mod:`asphalt_nscd.diagnosis.extend`, settings chosen by cross-validation in
+   :func:`asphalt_nscd.diagnosis.crossval.fit_extended`; computed here, or given: the workflow
+   fits it first with ``asphalt-nscd extend-law``, runs the NSCD campaign with it, then
+   diagnoses), its in-sample MRE and the gain;
+7. held-out errors (``crossval``, rows of ``asphalt-nscd crossval``): the MRE of every model
+   on the cells each fold held out, beside the in-sample MRE (:func:`heldout_report`,
+   :func:`gain_table`, :func:`heldout_lines` of the page). These are the headline numbers: the
+   "after" of the gain is in-sample (and the NSCD "after" reproduces its law by construction
+   of the transfer correction).
 
 Gain: MRE before -> after per temperature, from two sources, each row labelled:
 ``nscd`` (time-domain NSCD simulation with the Burger's bond law -> NSCD simulation rerun
@@ -213,7 +219,7 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
              simulated_extended: pd.DataFrame | None = None, macro_params: pd.DataFrame | None = None,
              alpha: float = 1e-3, shift: str = "wlf", T_ref_C: float | None = None,
              laws: dict | None = None, transfer: dict | None = None, law_options=None,
-             crossval: pd.DataFrame | None = None) -> tuple[dict, dict]:
+             crossval: pd.DataFrame | None = None, law_info: dict | None = None) -> tuple[dict, dict]:
     """Diagnose a measured table (and optional simulation results).
 
     Parameters
@@ -245,7 +251,10 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
     crossval : DataFrame, optional
         Rows of ``asphalt-nscd crossval`` (:func:`read_crossval`, lofo and/or loto): the gain
         table and the page give the held-out MRE beside the in-sample one
-        (:func:`heldout_gain`).
+        (:func:`heldout_report`).
+    law_info : dict, optional
+        ``selection`` and ``model`` of the law JSON (``extend-law``): the chosen settings and
+        their cross-validation curve, shown on the page.
     transfer : dict, optional
         Network factor NF_s (dimensionless) per sample name of the extended simulation
         (``harmonic-transfer`` JSONs): adds the ``law_only`` gain source, NF_s E*_law (mean
@@ -326,6 +335,9 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
         if fit.law is None:
             raise InputError(f"measured table: no extended law could be fitted: {fit.reason}")
         laws = fit.law.laws(temps)
+        law_info = {"selection": {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
+                                  "curve": fit.curve.to_dict(orient="records")},
+                    "model": fit.law.description()}
     else:
         laws = {float(T): law for T, law in laws.items()}
         missing = [T for T in temps if not any(np.isclose(T, k) for k in laws)]
@@ -399,7 +411,9 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
                      "mre_E_norm_pct_vs_measured": _by_T(ext_meas, "mre_E_norm_pct"),
                      "mre_phase_pct_vs_measured": _by_T(ext_meas, "mre_phase_pct"),
                      "law_mre_E_norm_pct": _by_T(law_ext, "mre_E_norm_pct"),
-                     "law_mre_phase_pct": _by_T(law_ext, "mre_phase_pct")},
+                     "law_mre_phase_pct": _by_T(law_ext, "mre_phase_pct"),
+                     "selection": (law_info or {}).get("selection"),
+                     "T_ref_C": ((law_info or {}).get("model") or {}).get("T_ref_C")},
         "gain": gain,
         "gain_sources": {**sources,
                          "models": {"nscd": {"before": "NSCD simulation (time domain, Burger's bond law)",
@@ -733,6 +747,30 @@ def heldout_lines(report: dict) -> list:
     return lines + [""]
 
 
+def selection_lines(report: dict) -> list:
+    """Markdown lines of the extended law's chosen settings and the best rows of their
+    cross-validation curve (empty when the report has no selection)."""
+    sel = (report.get("extended") or {}).get("selection")
+    if not sel:
+        return []
+    curve = pd.DataFrame(sel.get("curve") or [])
+    rule = sel.get("rule") or "simplest candidate within one standard error of the best inner-CV score"
+    lines = ["## Settings of the extended law, chosen by cross-validation", "",
+             f"Chosen: **{sel.get('chosen_label', '')}** ({rule}). Score: mean over the inner folds (every "
+             "frequency, every interior temperature left out) of max(MRE norm of E* / tol_E, MRE Phi / "
+             "tol_Phi); lower is better.", ""]
+    if len(curve) and "cv_score" in curve:
+        lines += ["| setting | fitted parameters | CV score | s.e. | chosen |", "|---|---|---|---|---|"]
+        shown = curve.sort_values("cv_score").head(6)
+        shown = pd.concat([shown, curve[curve["chosen"].astype(bool) & ~curve.index.isin(shown.index)]])
+        for _, r in shown.iterrows():
+            sc = "n/a" if pd.isna(r["cv_score"]) else f"{r['cv_score']:.3f}"
+            se = "n/a" if pd.isna(r.get("cv_score_se")) else f"{r['cv_score_se']:.3f}"
+            lines.append(f"| {r['settings']} | {int(r['n_params'])} | {sc} | {se} | {bool(r['chosen'])} |")
+        lines += ["", f"{len(curve)} candidates in all (the whole curve: extended_law_cv_curve.csv)."]
+    return lines + [""]
+
+
 def markdown_page(report: dict, figure: str | None = None) -> str:
     """The report page "What the simulation gets wrong" (Markdown) from a diagnose report."""
     src = report.get("gain_sources")
@@ -741,6 +779,7 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
              f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", ""]
     labels = {"nscd": "NSCD simulation", "macro": "macro law", "law_only": "extended law, no correction"}
     lines += heldout_lines(report)
+    lines += selection_lines(report)
     if src is not None:
         rows = gain_table(report)
         tr = report.get("transfer") or {}
