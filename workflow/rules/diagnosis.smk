@@ -115,63 +115,95 @@ rule extend_law:
 # the cross-validation: its sample (the extended mode's first), and the lofo fold run in the time domain
 CV = DIAG["crossval"]
 CV_SAMPLE = mode_samples("extended")[0]
-CV_TD = CV["time_domain"]
-CV_TD_CASE = case_name(CV_TD["temperature_C"], CV_TD["frequency_Hz"])
 
 
-rule crossval_fold_law:
-    # the law of the lofo fold without CV_TD's frequency, at CV_TD's temperature (the same
-    # procedure as that fold of rule crossval)
-    input:
-        measured="results/lab/measured.csv",
-    output:
-        f"results/diagnosis/crossval/fold_law_{CV_TD_CASE}.json",
-    params:
-        options=_fit_options(),
-        frequency=CV_TD["frequency_Hz"],
-        temperature=CV_TD["temperature_C"],
-    log:
-        "logs/diagnosis/crossval_fold_law.log",
-    benchmark:
-        "benchmarks/diagnosis/crossval_fold_law.tsv"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=15,
-    shell:
-        "asphalt-nscd extend-law --measured {input.measured} {params.options} "
-        "--exclude-frequency {params.frequency} --temperatures {params.temperature} -o {output} 2> {log}"
+def _time_domain_cell(value):
+    """The (T, f) of the time-domain check: given, or ``auto``: the median tested temperature
+    (the lower of the two middle ones) and its tested frequency nearest 10 Hz (read from config
+    measured.table); None when null. A given cell must be measured."""
+    import csv
+    import math
+
+    from snakemake.exceptions import WorkflowError
+
+    if value is None:
+        return None
+    try:
+        with open(config["measured"]["table"], newline="") as fh:
+            cells = {(float(r["temperature_C"]), float(r["frequency_Hz"])) for r in csv.DictReader(fh)}
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise WorkflowError(f"config diagnosis.crossval.time_domain: cannot read the measured cells of "
+                            f"{config['measured']['table']} ({exc!r}); set the cell or null")
+    if value == "auto":
+        temps = sorted({T for T, _ in cells})
+        T = temps[(len(temps) - 1) // 2]
+        f = min((f for t, f in cells if t == T), key=lambda f: (abs(math.log10(f) - 1.0), f))
+        return {"temperature_C": T, "frequency_Hz": f}
+    if (float(value["temperature_C"]), float(value["frequency_Hz"])) not in cells:
+        raise WorkflowError(f"config diagnosis.crossval.time_domain: {value['temperature_C']} degC, "
+                            f"{value['frequency_Hz']} Hz is not a measured cell of {config['measured']['table']}")
+    return value
 
 
-rule crossval_time_domain:
-    # one time-domain NSCD test of the sample with that fold's law (transfer correction on, the
-    # extended mode's test settings) at the held-out cell
-    input:
-        sample=sample_file(CV_SAMPLE),
-        law=rules.crossval_fold_law.output[0],
-        transfer=transfer_file(CV_SAMPLE),
-    output:
-        record=f"results/diagnosis/crossval/time_domain_{CV_TD_CASE}.h5",
-        row=f"results/diagnosis/crossval/time_domain_{CV_TD_CASE}.csv",
-    params:
-        sample=CV_SAMPLE,
-        temperature=CV_TD["temperature_C"],
-        frequency=CV_TD["frequency_Hz"],
-        settings=test_json("extended"),
-        window=WINDOW_CYCLES,
-    log:
-        "logs/diagnosis/crossval_time_domain.log",
-    benchmark:
-        "benchmarks/diagnosis/crossval_time_domain.tsv"
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=CAMP["job_runtime_min"],
-    shell:
-        "asphalt-nscd run-2pb --sample {input.sample} --sample-name {params.sample} --mode crossval"
-        " --law-json {input.law} --temperature {params.temperature} --frequency {params.frequency}"
-        " --network-factor-json {input.transfer} --settings-json {params.settings:q}"
-        " --window-cycles {params.window} -o {output.record} --row {output.row} 2> {log}"
+CV_TD = _time_domain_cell(CV["time_domain"])
+CV_TD_CASE = case_name(CV_TD["temperature_C"], CV_TD["frequency_Hz"]) if CV_TD else None
+
+
+if CV_TD:
+
+    rule crossval_fold_law:
+        # the law of the lofo fold without CV_TD's frequency, at CV_TD's temperature (the same
+        # procedure as that fold of rule crossval)
+        input:
+            measured="results/lab/measured.csv",
+        output:
+            f"results/diagnosis/crossval/fold_law_{CV_TD_CASE}.json",
+        params:
+            options=_fit_options(),
+            frequency=CV_TD["frequency_Hz"],
+            temperature=CV_TD["temperature_C"],
+        log:
+            "logs/diagnosis/crossval_fold_law.log",
+        benchmark:
+            "benchmarks/diagnosis/crossval_fold_law.tsv"
+        threads: 1
+        resources:
+            mem_mb=1000,
+            runtime=15,
+        shell:
+            "asphalt-nscd extend-law --measured {input.measured} {params.options} "
+            "--exclude-frequency {params.frequency} --temperatures {params.temperature} -o {output} 2> {log}"
+
+
+    rule crossval_time_domain:
+        # one time-domain NSCD test of the sample with that fold's law (transfer correction on, the
+        # extended mode's test settings) at the held-out cell
+        input:
+            sample=sample_file(CV_SAMPLE),
+            law=rules.crossval_fold_law.output[0],
+            transfer=transfer_file(CV_SAMPLE),
+        output:
+            record=f"results/diagnosis/crossval/time_domain_{CV_TD_CASE}.h5",
+            row=f"results/diagnosis/crossval/time_domain_{CV_TD_CASE}.csv",
+        params:
+            sample=CV_SAMPLE,
+            temperature=CV_TD["temperature_C"],
+            frequency=CV_TD["frequency_Hz"],
+            settings=test_json("extended"),
+            window=WINDOW_CYCLES,
+        log:
+            "logs/diagnosis/crossval_time_domain.log",
+        benchmark:
+            "benchmarks/diagnosis/crossval_time_domain.tsv"
+        threads: 1
+        resources:
+            mem_mb=2000,
+            runtime=CAMP["job_runtime_min"],
+        shell:
+            "asphalt-nscd run-2pb --sample {input.sample} --sample-name {params.sample} --mode crossval"
+            " --law-json {input.law} --temperature {params.temperature} --frequency {params.frequency}"
+            " --network-factor-json {input.transfer} --settings-json {params.settings:q}"
+            " --window-cycles {params.window} -o {output.record} --row {output.row} 2> {log}"
 
 
 rule crossval:
@@ -179,7 +211,7 @@ rule crossval:
         measured="results/lab/measured.csv",
         sample=sample_file(CV_SAMPLE),
         transfer=transfer_file(CV_SAMPLE),
-        time_domain=lambda wc: [rules.crossval_time_domain.output.row] if wc.scheme == "lofo" else [],
+        time_domain=lambda wc: [rules.crossval_time_domain.output.row] if wc.scheme == "lofo" and CV_TD else [],
     output:
         rows=report(
             "results/diagnosis/crossval/{scheme}.csv",

@@ -57,6 +57,7 @@ import pandas as pd
 
 from ..io import InputError
 from . import extend
+from .causes import cell_means  # replicate means per (temperature_C, frequency_Hz)
 from .extend import LawSettings, ThermoLaw
 
 SCHEMES = ("lofo", "loto")
@@ -125,12 +126,6 @@ class FitResult:
     artifacts: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     reason: str = ""
-
-
-def cell_means(table: pd.DataFrame) -> pd.DataFrame:
-    """Replicate means per (temperature_C, frequency_Hz): ``n, E_norm_MPa, phase_deg``."""
-    return (table.groupby(["temperature_C", "frequency_Hz"], as_index=False)
-            .agg(n=("E_norm_MPa", "size"), E_norm_MPa=("E_norm_MPa", "mean"), phase_deg=("phase_deg", "mean")))
 
 
 def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFrame, list, list]:
