@@ -40,7 +40,7 @@ def _fit_options(p) -> None:
     g.add_argument("--law-refines", nargs="+", default=list(LAW_DEFAULTS["refines"]),
                    help="per-isotherm refinement weights kappa tried, 'off' for none (default: off 1)")
     g.add_argument("--law-per-decades", nargs="+", type=float, default=list(LAW_DEFAULTS["per_decades"]),
-                   help="Prony retardation times per decade tried (default: 1 2 4)")
+                   help="Prony retardation times per decade tried (default: 2 4)")
     g.add_argument("--margin-decades", type=float, default=2.0,
                    help="decades beyond the tested band: Prony fit band and merging of far units (default 2)")
     g.add_argument("--tolerances-pct", type=float, nargs=2, default=[3.0, 5.0], metavar=("E", "PHI"),
@@ -54,7 +54,7 @@ def _fit_options(p) -> None:
 
 #: default candidate settings of the extended law (also config/*.yaml diagnosis.law)
 LAW_DEFAULTS = {"shifts": ("wlf", "arrhenius"), "statics": ("none", "constant", "trend"),
-                "verticals": ("off", "on"), "refines": ("off", "1"), "per_decades": (1.0, 2.0, 4.0)}
+                "verticals": ("off", "on"), "refines": ("off", "1"), "per_decades": (2.0, 4.0)}
 
 
 def register(subparsers) -> None:
@@ -286,7 +286,8 @@ def _extend_law(args) -> int:
     temps = args.temperatures if args.temperatures else sorted(measured["temperature_C"].unique())
     obj = fit.law.to_json(temps, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
     obj["selection"] = {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
-                        "rule": "simplest candidate within one standard error of the best inner-CV score"
+                        "rule": ("simplest candidate within one standard error of the best inner-CV score "
+                                 "(fewest fitted parameters, then coarsest Prony series)")
                         if not args.no_one_se else "best inner-CV score",
                         "curve": fit.curve.to_dict(orient="records")}
     obj["source"] = {"measured": str(args.measured),

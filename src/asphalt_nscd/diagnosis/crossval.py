@@ -16,7 +16,8 @@ Procedure fitted inside each fold (:func:`fit_extended`), on the training rows o
        (:func:`select_settings`: inner lofo folds and inner loto folds of the interior
        training temperatures, each fit started from the same setting's fit on all training
        means), the simplest setting within one standard error of the best
-       score (one-standard-error rule: the fewest fitted parameters, then the best score);
+       score (one-standard-error rule: the fewest fitted parameters, then the coarsest Prony
+       series, then the best score);
     4. :class:`~asphalt_nscd.diagnosis.extend.ThermoLaw` with those settings on all training
        means. Nothing computed from a held-out cell reaches the fold's law.
 Models predicted at the held-out cells
@@ -295,10 +296,11 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     limit = curve.loc[best, "cv_score"]
     if options.one_se and np.isfinite(curve.loc[best, "cv_score_se"]):
         limit += curve.loc[best, "cv_score_se"]
-    # the fewest fitted parameters within the limit; among those the best score (the Prony
-    # density and the shift law fit no extra parameter to the data)
+    # the fewest fitted parameters within the limit, then the coarsest Prony series (fewest
+    # internal variables per bond), then the best score (e.g. between the shift laws)
     within = curve[scored & (curve["cv_score"] <= limit + 1e-12)]
     fewest = within[within["n_params"] == within["n_params"].min()]
+    fewest = fewest[fewest["per_decade"] == fewest["per_decade"].min()]
     chosen = int(fewest["cv_score"].idxmin())
     curve.loc[chosen, "chosen"] = True
     return cands[chosen], curve, parents
