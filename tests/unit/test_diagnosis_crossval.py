@@ -11,7 +11,6 @@ import pytest
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis import crossval as cv
 from asphalt_nscd.diagnosis import synthetic
-from asphalt_nscd.diagnosis.extend import LawSettings
 from asphalt_nscd.harmonic.network import lattice_sample, write_sample
 from asphalt_nscd.harmonic.transfer import write_transfer
 

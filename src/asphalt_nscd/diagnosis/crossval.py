@@ -62,7 +62,6 @@ from .causes import cell_means  # replicate means per (temperature_C, frequency_
 from .extend import LawSettings, ThermoLaw
 
 SCHEMES = ("lofo", "loto")
-MODELS = ("burgers", "extended_law", "nscd_sample", "nscd_time_domain")
 ROW_COLUMNS = ("scheme", "fold", "kind", "model", "temperature_C", "frequency_Hz", "n_replicates",
                "E_norm_MPa_measured", "phase_deg_measured", "E_norm_MPa_predicted", "phase_deg_predicted",
                "rel_err_E_norm", "rel_err_phase", "extrapolation", "settings", "computable", "reason")
@@ -181,7 +180,7 @@ def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances, 
         if parent is not None and not isinstance(parent, str):
             start = dict(zip(parent.names, parent.x))
         elif not base:
-            names = set(extend._backbone_names(settings, np.unique(cells["temperature_C"])))
+            names = set(extend.backbone_names(settings, np.unique(cells["temperature_C"])))
             fitted = [bb for s2, bb in out.items() if not isinstance(bb, str) and s2[0] == st[0]
                       and set(bb.names) <= names]
             if fitted:

@@ -133,7 +133,9 @@ class LawSettings:
                 "refine": self.refine, "per_decade": self.per_decade}
 
 
-def _backbone_names(settings: LawSettings, temperatures) -> list:
+def backbone_names(settings: LawSettings, temperatures) -> list:
+    """Parameter names of the backbone of ``settings`` with training isotherms ``temperatures``
+    (degC): the core 2S2P1D ones, the shift constants, then the optional ones."""
     names = list(CORE_NAMES) + (["C1", "C2_K"] if settings.shift == "wlf" else ["Ea_kJ_mol"])
     if settings.static != "none":
         names.append("log10_E00_MPa")
@@ -349,7 +351,7 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
         raise ValueError("the temperature-aware law needs at least 2 temperatures")
     if T_ref_C is None:
         T_ref_C = float(temps[np.argmin(np.abs(temps - np.median(temps)))])
-    names = _backbone_names(settings, temps)
+    names = backbone_names(settings, temps)
     n_reg = sum(n.startswith("dlog10_") for n in names)
     if 2 * T.size < len(names) - n_reg:
         raise ValueError(f"{2 * T.size} residuals for {len(names) - n_reg} parameters of '{settings.label()}'")
@@ -649,18 +651,6 @@ def _minimax_lp(residuals, jacobian, p0, trust_floor, tolerances, prior_weight, 
     return p, f
 
 
-def target_ratios(law: GeneralizedBurgers, frequency_Hz, E_norm_MPa, phase_deg,
-                  tolerances=TOLERANCES) -> tuple[float, float]:
-    """(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) of ``law`` (MPa) on one isotherm (arrays (m,),
-    Hz, MPa, deg); phases below ``PHASE_FLOOR_DEG`` count as that floor. <= 1: target met."""
-    E = law.complex_modulus(2 * np.pi * np.asarray(frequency_Hz, float))
-    Ed = np.asarray(E_norm_MPa, float)
-    ph = np.asarray(phase_deg, float)
-    a = np.abs(E) / Ed - 1.0
-    b = (np.degrees(np.angle(E)) - ph) / np.maximum(ph, PHASE_FLOOR_DEG)
-    return float(np.mean(np.abs(a)) / tolerances[0]), float(np.mean(np.abs(b)) / tolerances[1])
-
-
 def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
                     per_decade: float = 4.0) -> dict:
     """Closest causal linear viscoelastic fit to one isotherm (a consistency diagnostic).
@@ -715,21 +705,6 @@ def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
             "mre_E_norm_pct": float(mE), "mre_phase_pct": float(mP), "n_modes": int(np.sum(p[1:] > 0))}
 
 
-def mre_of_laws(laws: dict, table: pd.DataFrame) -> tuple[dict, dict]:
-    """MRE (%) of |E*| and Phi of per-temperature laws (MPa) against the cell means of a table."""
-    from .causes import cell_means
-
-    cm = cell_means(table)
-    mE, mP = {}, {}
-    for T, g in cm.groupby("temperature_C"):
-        if float(T) not in laws:
-            continue
-        E = laws[float(T)].complex_modulus(2 * np.pi * g["frequency_Hz"].to_numpy(float))
-        mE[float(T)] = float(100 * np.mean(np.abs(np.abs(E) / g["E_norm_MPa"] - 1)))
-        mP[float(T)] = float(100 * np.mean(np.abs(np.degrees(np.angle(E)) / g["phase_deg"] - 1)))
-    return mE, mP
-
-
 def laws_to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None = None) -> dict:
     """JSON object keyed by temperature (``"%g"``) with the laws in Pa and Pa s.
 
@@ -749,13 +724,4 @@ def laws_to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None =
             d["in_sample_mre_E_norm_pct"] = mre_E.get(T)
             d["in_sample_mre_phase_pct"] = mre_phase.get(T)
         out["temperatures"][f"{T:g}"] = d
-    return out
-
-
-def laws_from_json(obj: dict) -> dict:
-    """Inverse of :func:`laws_to_json`: ``{T (float): GeneralizedBurgers in Pa, Pa s}``."""
-    out = {}
-    for key, d in obj["temperatures"].items():
-        out[float(key)] = GeneralizedBurgers(Em=d["Em"], eta_m=np.inf if d["eta_m"] is None else d["eta_m"],
-                                             Ek=tuple(d["Ek"]), eta_k=tuple(d["eta_k"]), E_inf=d["E_inf"])
     return out
