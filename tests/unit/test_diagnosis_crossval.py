@@ -214,3 +214,20 @@ def test_diagnose_puts_held_out_beside_in_sample(tmp_path, table):
     assert "## Held-out errors (headline" in page and page.index("Held-out") < page.index("in-sample)")
     rep = json.loads(out["r.json"].read_text())
     assert {h["scheme"] for h in rep["heldout"]["headline"]} == {"lofo", "loto"}
+
+
+def test_held_out_predictions_carry_the_folds_artifacts():
+    """A planted time lag (Phi + 360 f dt): each fold corrects it on its training rows, fits
+    the law to the corrected means, and predicts the measured held-out cells through its own
+    measurement model (law / R): the held-out phase error stays at the noise level, while the
+    bare law (the corrected material) is off by the lag."""
+    t, truth = synthetic.generate(4, ["time_lag"], schedule="paper_2pb", n_specimens=3)
+    dt = truth["effects"]["time_lag"]["time_lag_ms"] * 1e-3
+    res = cv.crossval(t, "lofo", cv.Options())
+    held = res.rows[(res.rows["kind"] == "held_out") & (res.rows["model"] == "extended_law")]
+    assert held["rel_err_phase"].mean() < 0.03
+    fit = res.fold_fits["40"]
+    assert fit.artifacts == ["time_lag"]
+    cell = held[held["fold"] == "40"].iloc[0]
+    bare = np.degrees(np.angle(fit.law.law_at(cell["temperature_C"]).complex_modulus(2 * np.pi * 40.0)))
+    assert cell["phase_deg_predicted"] - bare == pytest.approx(360 * 40.0 * dt, rel=0.2)

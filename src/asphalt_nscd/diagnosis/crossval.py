@@ -30,7 +30,10 @@ Models predicted at the held-out cells
     added as ``nscd_time_domain``. In-sample rows (``kind = in_sample``): the same models
     fitted on every row, at every cell.
 Scores
-    Reference: replicate means of the measured table as given. Relative error of |E*|:
+    Reference: replicate means of the measured table as given. The artifacts are part of the
+    model: a fold predicts a measured cell as its material law divided by its own artifact
+    correction at the held-out rows (:class:`MeasurementModel`; from their frequency, strain
+    and test order, never their measured values), averaged over the cell's replicates. Relative error of |E*|:
     | |E*|_pred / |E*|_mean - 1 |; of Phi: | Phi_pred - Phi_mean | / Phi_mean. MRE per
     temperature = mean over its held-out cells (%). Headline: the worst temperature (lofo)
     and the worst inner temperature (loto).
@@ -117,7 +120,8 @@ class Options:
 class FitResult:
     """Output of :func:`fit_extended`: the ``law`` (None if nothing could be fitted, see
     ``reason``), the chosen ``settings``, the selection ``curve`` (one row per candidate),
-    the ``corrected`` table, the ``artifacts`` corrected and free-text ``notes``."""
+    the ``corrected`` table, the ``artifacts`` corrected, free-text ``notes`` and the
+    ``measurement`` model of those artifacts (None without artifacts)."""
 
     law: ThermoLaw | None
     settings: LawSettings | None
@@ -126,28 +130,77 @@ class FitResult:
     artifacts: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     reason: str = ""
+    measurement: MeasurementModel | None = None
 
 
-def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFrame, list, list]:
+@dataclass
+class MeasurementModel:
+    """The artifacts fitted on a (training) table as a measurement model of any rows.
+
+    ``fit``: the final master-curve fit of the artifact search (its ``terms`` are the selected
+    artifacts, :mod:`asphalt_nscd.diagnosis.effects`); ``strain_ref``: the search's reference
+    strain (microstrain). :meth:`correction` gives, per row, the complex factor R that the
+    search multiplies a measured point by to correct it (corrected = measured x R): the ratio
+    of the fitted model without and with the artifacts, times exp(b eps_ref / 100) for a strain
+    nonlinearity b (the corrected table is at eps -> 0). The prediction of a measured value
+    from the material law L is then L / R.
+    """
+
+    fit: object
+    strain_ref: float = 0.0
+
+    def correction(self, rows: pd.DataFrame) -> np.ndarray:
+        """R (complex, shape (len(rows),)) at ``rows`` (columns of a measured table, and
+        ``test_step`` when self-heating was fitted). A specimen the fit has not seen takes the
+        reference specimen's factors.
+
+        Raises ValueError if the rows lack a column an artifact needs.
+        """
+        from ..rheology.master_curve import MasterCurveProblem, data_arrays
+
+        fit = self.fit
+        n_art = sum(len(t.names) for t in fit.terms)
+        if not n_art:
+            return np.ones(len(rows), complex)
+        d = data_arrays(rows)
+        d["spec"] = rows["specimen"].astype(str).map({s: i for i, s in enumerate(fit.specimens)}).fillna(0)\
+            .to_numpy(int)
+        d["specimens"], d["temperatures"] = list(fit.specimens), fit.temperatures
+        prob = MasterCurveProblem(d, shift=fit.shift, T_ref_C=fit.T_ref_C, static_modulus=fit.static_modulus,
+                                  terms=fit.terms, sigma_lnE=fit.sigma_lnE, sigma_phase_deg=fit.sigma_phase_deg)
+        if list(prob.names) != list(fit.names):
+            raise ValueError("the rows do not match the parameter layout of the artifact fit")
+        x_clean = fit.x.copy()
+        x_clean[-n_art:] = 0.0
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            R = prob.measured_modulus(x_clean) / prob.measured_modulus(fit.x)
+        if "modulus_drop_per_100_microstrain" in fit.names:
+            R = R * np.exp(fit.param("modulus_drop_per_100_microstrain") * self.strain_ref / 100.0)
+        return R
+
+
+def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFrame, list, list, MeasurementModel | None]:
     """Artifact-corrected copy of ``table`` (step 1 of the module docstring).
 
-    Returns (corrected table, names of the corrected artifacts, notes).
+    Returns (corrected table, names of the corrected artifacts, notes, measurement model or
+    None when no artifact was corrected).
     """
     if not options.artifacts:
-        return table, [], ["artifact search off"]
+        return table, [], ["artifact search off"], None
     n_f = table.groupby("temperature_C")["frequency_Hz"].nunique()
     if n_f.size < 2 or n_f.min() < 3:
-        return table, [], ["artifact search skipped: needs >= 2 temperatures and >= 3 frequencies at each"]
+        return table, [], ["artifact search skipped: needs >= 2 temperatures and >= 3 frequencies at each"], None
     from .report import analyse
 
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of the fits
             a = analyse(table, alpha=options.alpha, shift=options.artifact_shift, T_ref_C=options.T_ref_C)
     except FIT_ERRORS as exc:
-        return table, [], [f"artifact search failed ({exc}); law fitted to the table as given"]
+        return table, [], [f"artifact search failed ({exc}); law fitted to the table as given"], None
     names = [c.name for c in a["result"]["selected"]]
     corrected = a["corrected"].drop(columns=["test_step"], errors="ignore")
-    return corrected, names, [f"artifacts corrected: {', '.join(names) or 'none detected'}"]
+    model = MeasurementModel(a["result"]["final"], float(a["search"].strain_ref)) if names else None
+    return corrected, names, [f"artifacts corrected: {', '.join(names) or 'none detected'}"], model
 
 
 def _t_ref(cells: pd.DataFrame, options: Options) -> float:
@@ -311,12 +364,12 @@ def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
     Never raises on a table :func:`asphalt_nscd.lab.measured.load_measured` accepts: a failure
     returns ``law = None`` and the ``reason``.
     """
-    corrected, artifacts, notes = correct_artifacts(table, options)
+    corrected, artifacts, notes, measurement = correct_artifacts(table, options)
     cells = cell_means(corrected)
     n_T = cells["temperature_C"].nunique()
     if n_T < 2:
         return FitResult(None, None, pd.DataFrame(), corrected, artifacts, notes,
-                         f"{n_T} temperature(s): the temperature-aware law needs >= 2")
+                         f"{n_T} temperature(s): the temperature-aware law needs >= 2", measurement)
     settings, curve, backbones = select_settings(cells, options)
     order = [settings] + [c for c in options.candidates if c != settings]
     T_ref = _t_ref(cells, options)
@@ -334,8 +387,9 @@ def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
         if c != settings:
             curve["chosen"] = curve["settings"] == c.label()
         law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
-        return FitResult(law, c, curve, corrected, artifacts, notes)
-    return FitResult(None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})")
+        return FitResult(law, c, curve, corrected, artifacts, notes, measurement=measurement)
+    return FitResult(None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})",
+                     measurement)
 
 
 @dataclass
@@ -424,7 +478,29 @@ def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFra
     return out
 
 
-def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, extrapolation, reason="") -> list:
+def _as_measured(E_cells: np.ndarray, cells: pd.DataFrame, rows: pd.DataFrame, fit: FitResult) -> np.ndarray:
+    """Predicted replicate means (|E*| MPa, Phi deg; array (n_cells, 2)) of the measured
+    table from the material's E* per cell: each held-out row's prediction is E* / R (R of the
+    fold's artifact fit at that row, :class:`MeasurementModel`), averaged per cell like the
+    measured replicates. Without artifacts: |E*| and Phi of E*."""
+    E_cells = np.asarray(E_cells, complex)
+    if fit is None or fit.measurement is None:
+        return np.column_stack([np.abs(E_cells), np.degrees(np.angle(E_cells))])
+    R = fit.measurement.correction(rows)
+    key = {(float(T), float(f)): i for i, (T, f) in enumerate(zip(cells["temperature_C"], cells["frequency_Hz"]))}
+    idx = np.array([key[(float(T), float(f))] for T, f in zip(rows["temperature_C"], rows["frequency_Hz"])])
+    M = E_cells[idx] / R
+    out = np.zeros((len(cells), 2))
+    for i in range(len(cells)):
+        sel = idx == i
+        out[i] = np.abs(M[sel]).mean(), np.degrees(np.angle(M[sel])).mean()
+    return out
+
+
+def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, extrapolation, reason="",
+              rows: pd.DataFrame | None = None) -> list:
+    """Rows of the extended law (and of the sample) at the cells ``test``; ``rows``: the
+    measured rows of those cells (with ``test_step``), for the fold's measurement model."""
     out = []
     label = fit.settings.label() if fit is not None and fit.settings is not None else ""
     for T, g in test.groupby("temperature_C"):
@@ -439,12 +515,17 @@ def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, ex
         f = g["frequency_Hz"].to_numpy(float)
         pred_law = pred_nscd = None
         why_s = ""
+        g_rows = None if rows is None else rows[np.isclose(rows["temperature_C"].to_numpy(float), T)]
         if law is not None:
             E = law.complex_modulus(2 * np.pi * f)
-            pred_law = np.column_stack([np.abs(E), np.degrees(np.angle(E))])
-            if sample is not None:
+            try:
+                pred_law = _as_measured(E, g, g_rows, fit)
+            except FIT_ERRORS as exc:
+                why = f"measurement model of the fold's artifacts at {T:g} degC: {exc}"
+            if sample is not None and pred_law is not None:
                 try:
-                    pred_nscd = sample.predict(law, float(T), f)
+                    s = sample.predict(law, float(T), f)
+                    pred_nscd = _as_measured(s[:, 0] * np.exp(1j * np.radians(s[:, 1])), g, g_rows, fit)
                 except FIT_ERRORS as exc:
                     why_s = f"harmonic solve at {T:g} degC: {exc}"
         for i, (_, cell) in enumerate(g.iterrows()):
@@ -507,10 +588,13 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
     full = full if full is not None else fit_extended(table, options)
     if not full.curve.empty:
         curves.append(full.curve.assign(scheme=scheme, fold="all"))
+    from .effects import prepare_table
+
+    prepared = prepare_table(table)  # test_step: the test's rank in its isotherm, whole table
     nb = options.burgers_starts
     if options.burgers:
         rows += _burgers_rows(scheme, "all", "in_sample", table, cells, lambda c: False, nb)
-    rows += _law_rows(scheme, "all", "in_sample", full, cells, sample, lambda c: False)
+    rows += _law_rows(scheme, "all", "in_sample", full, cells, sample, lambda c: False, rows=prepared)
     for value in _fold_values(cells, scheme):
         label = fold_label(scheme, value)
         train_cells, reason = fold_split(cells, scheme, value)
@@ -533,7 +617,8 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
                 reason = fit.reason
         if options.burgers:
             rows += _burgers_rows(scheme, label, "held_out", train_rows, test, extrapolation, nb)
-        rows += _law_rows(scheme, label, "held_out", fit, test, sample, extrapolation, reason)
+        rows += _law_rows(scheme, label, "held_out", fit, test, sample, extrapolation, reason,
+                          rows=prepared[~fold_split(prepared, scheme, value)[0]])
     if time_domain is not None and len(time_domain):
         rows += _time_domain_rows(scheme, cells, time_domain, fits)
     out = pd.DataFrame(rows, columns=list(ROW_COLUMNS))
