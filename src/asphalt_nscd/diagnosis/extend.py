@@ -12,7 +12,10 @@ reference temperature T_ref, the training temperature nearest the median) with
 * a static modulus E00 (``static``): ``none`` (E00 = 0, a liquid), ``constant``, or
   ``trend``: log10 E00(T) = log10 E00 + s (T - T_ref) / 100 K (a temperature-dependent
   long-time modulus of the aggregate skeleton);
-* an optional vertical shift (``vertical``): log10 b(T) = v (T - T_ref) / 100 K;
+* an optional vertical shift (``vertical``): log10 b(T) = v (T - T_ref) / 100 K; both trends
+  carry a weak prior, a penalty (s / 1 decade per 100 K)^2 (the weight of one cell at its
+  tolerance), which keeps a trend the data do not resolve near 0 (a static modulus fitted on
+  cold isotherms only would otherwise extrapolate by decades);
 * an optional per-isotherm refinement (``refine`` = kappa): a deviation of log10 aT, of
   log10 b and (with a static modulus) of log10 E00 at each training isotherm, penalised by kappa (d / 0.05 decade)^2 each, linearly
   interpolated in T between the training isotherms and held at the end values outside them.
@@ -64,6 +67,9 @@ PHASE_FLOOR_DEG = 1.0
 TOLERANCES = (0.03, 0.05)
 #: deviation scale of the per-isotherm refinement, decades
 REFINE_SCALE_DECADES = 0.05
+#: the temperature trends of log10 E00 and log10 b, and their prior scale (decades per 100 K)
+TREND_NAMES = ("static_trend_per_100K", "vertical_trend_per_100K")
+TREND_SCALE = 1.0
 SHIFTS = ("wlf", "arrhenius")
 STATICS = ("none", "constant", "trend")
 #: quantities of the per-isotherm refinement: log10 aT, log10 b, log10 E00
@@ -302,7 +308,7 @@ def _bounds(name: str, T, E, T_ref) -> tuple[float, float]:
              "h": (0.1, 0.99), "log10_beta": (-1.0, 9.0), "log10_tau_s": (-12.0, 8.0), "C1": (0.5, 200.0),
              "C2_K": (max(T_ref - T.min() + 5.0, 5.0), 3000.0), "Ea_kJ_mol": (10.0, 1000.0),
              "log10_E00_MPa": (-2.0, min(np.log10(Emin) + 0.3, np.log10(Emax) - 0.1)),
-             "static_trend_per_100K": (-5.0, 5.0),
+             "static_trend_per_100K": (-3.0, 3.0),
              "vertical_trend_per_100K": (-3.0, 3.0)}
     return table.get(name, (-2.0, 2.0))
 
@@ -358,8 +364,12 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
     lo, hi = np.array([[*_bounds(n, T, E, T_ref_C)] for n in names]).T
     proto = Backbone(settings, float(T_ref_C), temps, names, np.zeros(len(names)))
     tol_E, tol_P = tolerances
-    reg = np.array([n.startswith("dlog10_") for n in names])
-    w_reg = np.sqrt(settings.refine or 0.0) / REFINE_SCALE_DECADES
+    # penalised parameters: the per-isotherm deviations (weight sqrt(kappa) / 0.05 decade) and
+    # the two temperature trends (weight 1 per TREND_SCALE: a weak prior that keeps a trend the
+    # data do not resolve, e.g. E00 over cold isotherms only, near 0)
+    reg = np.array([n.startswith("dlog10_") or n in TREND_NAMES for n in names])
+    w_reg = np.array([1.0 / TREND_SCALE if n in TREND_NAMES else np.sqrt(settings.refine or 0.0) / REFINE_SCALE_DECADES
+                      for n in np.array(names)[reg]])
 
     def resid(x):
         proto.x = x
