@@ -190,3 +190,18 @@ def test_tolerances_option_rejects_non_positive_values(tmp_path, capsys):
     assert main(["extend-law", "--measured", str(m), "--law-refines", "lots", "-o", str(tmp_path / "x.json")]) != 0
     assert "--law-refines" in capsys.readouterr().err
     assert not (tmp_path / "x.json").exists()
+
+
+def test_an_unresolved_static_trend_stays_near_zero():
+    """Cold isotherms (-10 ... 20 degC, |E*| >> E00) barely resolve the temperature trend of
+    E00: with noise, a free trend runs to its bounds (+-3 decades per 100 K on these tables);
+    the weak prior keeps it near 0."""
+    trends = []
+    for seed in range(6):
+        rng = np.random.default_rng(seed)
+        cells = truth_cells(temps=np.array([-10.0, 0.0, 10.0, 15.0, 20.0]), freqs=np.array([40., 25., 10., 6., 3.]))
+        cells = cells.assign(E_norm_MPa=cells["E_norm_MPa"] * np.exp(rng.normal(0, 0.01, len(cells))),
+                             phase_deg=cells["phase_deg"] + rng.normal(0, 0.2, len(cells)))
+        law = extend.fit_law(cells, LawSettings(static="trend"))
+        trends.append(law.backbone.value("static_trend_per_100K"))
+    assert np.max(np.abs(trends)) < 0.5
