@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from asphalt_nscd.campaign.study import read_law_json
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis import extend
 from asphalt_nscd.diagnosis.causes import burgers_predict
@@ -46,7 +47,10 @@ def test_real_data_report_structure_and_gain(real_report):
     assert by["static_modulus"]["estimate"]["static_modulus_MPa"] > 0
     for T, g in rep["gain"].items():
         assert g["phase"]["after"] < g["phase"]["before"] and g["E_norm"]["after"] < g["E_norm"]["before"]
-    assert sum(rep["targets"]["met"].values()) >= len(temps) - 1
+    # in-sample only: the law is one temperature-aware law (no per-isotherm overfit); its
+    # held-out errors are crossval's (tests/unit/test_diagnosis_crossval.py)
+    assert max(rep["extended"]["mre_E_norm_pct"].values()) < 10 and max(rep["extended"]["mre_phase_pct"].values()) < 12
+    assert rep["heldout"] is None
     assert (d / "budget.png").stat().st_size > 0
     page = (d / "page.md").read_text()
     assert page.startswith("# What the simulation gets wrong") and "broad_spectrum" in page
@@ -55,14 +59,15 @@ def test_real_data_report_structure_and_gain(real_report):
 
 def test_laws_json_round_trip_reproduces_mre(real_report):
     rep, d = real_report
-    laws = extend.laws_from_json(json.loads((d / "laws.json").read_text()))
+    laws = read_law_json(d / "laws.json")
     measured = load_measured(REAL)
-    mpa = {T: law.scaled(1e-6) for T, law in laws.items()}
-    mE, mP = extend.mre_of_laws(mpa, measured)
-    for T in mpa:
-        assert mE[T] == pytest.approx(rep["extended"]["mre_E_norm_pct_vs_measured"][f"{T:g}"], rel=1e-6)
-        assert mP[T] == pytest.approx(rep["extended"]["mre_phase_pct_vs_measured"][f"{T:g}"], rel=1e-6)
-        assert laws[T].n_kelvin >= 2 and laws[T].E_inf > 0
+    cells = measured.groupby(["temperature_C", "frequency_Hz"], as_index=False)[["E_norm_MPa", "phase_deg"]].mean()
+    m = extend.law_metrics({T: law.scaled(1e-6) for T, law in laws.items()}, cells)
+    mre = 100 * m.groupby("temperature_C")[["rel_err_E_norm", "rel_err_phase"]].mean()
+    for T in laws:
+        assert mre.loc[T, "rel_err_E_norm"] == pytest.approx(rep["extended"]["mre_E_norm_pct_vs_measured"][f"{T:g}"], rel=1e-6)
+        assert mre.loc[T, "rel_err_phase"] == pytest.approx(rep["extended"]["mre_phase_pct_vs_measured"][f"{T:g}"], rel=1e-6)
+        assert laws[T].n_kelvin >= 2
 
 
 def test_synth_then_diagnose_with_simulation_inputs(tmp_path):
@@ -133,13 +138,3 @@ def test_time_integration_from_paired_rows():
     t = derived_time_integration(sim, harm)
     assert list(t["phase_error_deg"]) == pytest.approx([0.1, 1.0])
     assert derived_time_integration(sim.drop(columns="dt_s"), harm) is None
-
-
-def test_prune_drops_only_negligible_units():
-    from asphalt_nscd.rheology.laws import GeneralizedBurgers
-
-    law = GeneralizedBurgers(Em=40e3, eta_m=1e6, Ek=(1e4, 1e9), eta_k=(10.0, 1e3), E_inf=50.0)
-    pruned = extend.prune(law)
-    assert pruned.Ek == (1e4,) and pruned.Em == law.Em and pruned.E_inf == law.E_inf
-    w = np.logspace(-1, 3, 20)
-    assert np.abs(pruned.complex_modulus(w) / law.complex_modulus(w) - 1).max() < 1e-3

@@ -104,7 +104,7 @@ def test_gain_table_nscd_before_after_and_macro(run):
     mb = _mre(burgers, measured)
     for T in TEMPS:
         assert macro.loc[T, "E_norm_mre_before_pct"] == pytest.approx(mb.loc[T, "aE"], rel=1e-9)
-        assert macro.loc[T, "phase_mre_after_pct"] == pytest.approx(laws_json[f"{T:g}"]["mre_phase_pct"], rel=1e-9)
+        assert macro.loc[T, "phase_mre_after_pct"] == pytest.approx(laws_json[f"{T:g}"]["in_sample_mre_phase_pct"], rel=1e-9)
     assert rep["gain_nscd"] == rep["gain"] and set(rep["gain_macro"]) == {f"{T:g}" for T in TEMPS}
 
 
@@ -132,7 +132,7 @@ def test_extend_law_equals_the_law_diagnose_fits_itself(run, tmp_path):
     b = json.loads((tmp_path / "l.json").read_text())["temperatures"]
     assert set(a) == set(b)
     for T in a:
-        for k in ("Em", "Ek", "eta_k", "E_inf", "mre_E_norm_pct", "mre_phase_pct"):
+        for k in ("Em", "Ek", "eta_k", "E_inf", "in_sample_mre_E_norm_pct", "in_sample_mre_phase_pct"):
             np.testing.assert_allclose(a[T][k], b[T][k], rtol=1e-9)
     rep = json.loads(out.read_text())
     assert rep["gain_sources"]["before"] == "macro" and rep["gain_nscd"] is None

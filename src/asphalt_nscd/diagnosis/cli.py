@@ -1,7 +1,11 @@
 """Subcommands of the diagnosis step (registered by asphalt_nscd.cli).
 
-* ``extend-law``     — the extended (generalized Burger's) law per temperature from a measured
-                       table alone (law JSON, Pa and Pa s): the input of the extended campaign.
+* ``extend-law``     — the temperature-aware extended (generalized Burger's) law from a measured
+                       table alone, settings chosen by cross-validation, written at any
+                       temperatures (law JSON, Pa and Pa s): the input of the extended campaign.
+* ``crossval``       — held-out (lofo / loto) and in-sample predictions of the paper's Burger's
+                       law, the extended law and the NSCD sample (nested: every fold refits the
+                       whole extend-law procedure).
 * ``diagnose``       — what the simulation gets wrong: error budget, named causes, extended
                        law and gain (JSON report; optional law JSON, tables and figure).
 * ``synth``          — synthetic measured table (2S2P1D + WLF truth, planted effects) and its
@@ -15,41 +19,104 @@ from pathlib import Path
 
 
 def _fit_options(p) -> None:
-    """Options of the artifact search, master curve and extended-law fit (diagnose, extend-law)."""
+    """Options of the artifact search and of the extended law (diagnose, extend-law, crossval)."""
     p.add_argument("--measured", type=Path, required=True,
                    help="measured table (specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg "
                         "[, strain_microstrain, test_order])")
     p.add_argument("--alpha", type=float, default=1e-3, help="significance level of the tests (default 1e-3)")
-    p.add_argument("--shift", choices=["wlf", "arrhenius"], default="wlf", help="shift law of the master curve")
+    p.add_argument("--shift", choices=["wlf", "arrhenius"], default="wlf",
+                   help="shift law of the master curve of the artifact search")
     p.add_argument("--t-ref", type=float, default=None,
-                   help="reference temperature of the master curve, degC (default: tested one nearest the median)")
-    p.add_argument("--per-decade", type=float, default=2.0,
-                   help="Kelvin-Voigt retardation times per decade of the extended law (default 2)")
-    p.add_argument("--margin-decades", type=float, default=1.0,
-                   help="decades added on both sides of the tested band for the extended law (default 1)")
-    p.add_argument("--no-refine", action="store_true",
-                   help="keep the extended law on the master curve (no per-isotherm refinement)")
-    p.add_argument("--prior-weight", type=float, default=0.01,
-                   help="penalty keeping the refined compliances near the master-curve law (default 0.01)")
-    p.add_argument("--no-balance", action="store_true",
-                   help="skip the minimax step of the per-isotherm refinement (least squares only)")
-    p.add_argument("--balance-tolerances-pct", type=float, nargs=2, default=[3.0, 5.0], metavar=("E", "PHI"),
-                   help="MRE of |E*| and of Phi (%%) normalising the two errors of the minimax step (default 3 5)")
+                   help="reference temperature, degC (default: tested one nearest the median)")
+    g = p.add_argument_group("extended law: candidate settings, chosen by cross-validation "
+                             "(asphalt_nscd.diagnosis.crossval)")
+    g.add_argument("--law-shifts", nargs="+", choices=["wlf", "arrhenius"], default=list(LAW_DEFAULTS["shifts"]),
+                   help="shift laws tried (default: wlf arrhenius)")
+    g.add_argument("--law-statics", nargs="+", choices=["none", "constant", "trend"], default=list(LAW_DEFAULTS["statics"]),
+                   help="static modulus forms tried: none (a liquid), constant, trend (log-linear in T) "
+                        "(default: all three)")
+    g.add_argument("--law-verticals", nargs="+", choices=["off", "on"], default=list(LAW_DEFAULTS["verticals"]),
+                   help="vertical shift (log-linear in T) tried (default: off on)")
+    g.add_argument("--law-refines", nargs="+", default=list(LAW_DEFAULTS["refines"]),
+                   help="per-isotherm refinement weights kappa tried, 'off' for none (default: off 1)")
+    g.add_argument("--law-per-decades", nargs="+", type=float, default=list(LAW_DEFAULTS["per_decades"]),
+                   help="Prony retardation times per decade tried (default: 2 4)")
+    g.add_argument("--margin-decades", type=float, default=2.0,
+                   help="decades beyond the tested band: Prony fit band and merging of far units (default 2)")
+    g.add_argument("--tolerances-pct", type=float, nargs=2, default=[3.0, 5.0], metavar=("E", "PHI"),
+                   help="MRE of |E*| and of Phi (%%) normalising the fit residuals and the selection score "
+                        "(default 3 5)")
+    g.add_argument("--no-one-se", action="store_true",
+                   help="choose the best cross-validation score, not the simplest within one standard error")
+    g.add_argument("--no-artifacts", action="store_true",
+                   help="fit the law to the table as given (no artifact search and correction)")
+
+
+#: default candidate settings of the extended law (also config/*.yaml diagnosis.law)
+LAW_DEFAULTS = {"shifts": ("wlf", "arrhenius"), "statics": ("none", "constant", "trend"),
+                "verticals": ("off", "on"), "refines": ("off", "1"), "per_decades": (2.0, 4.0)}
 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
-    p = subparsers.add_parser("extend-law", help="extended (generalized Burger's) law per temperature (law JSON)",
-                              description="Fit the generalized Burger's law per temperature (Maxwell + N "
-                              "Kelvin-Voigt units + static spring) to the 2S2P1D/WLF master curve of the "
-                              "artifact-corrected measured table, without any simulation input; write it as a "
-                              "law JSON (Pa, Pa s) for 'run-2pb --law-json' and 'diagnose --law-json'.")
+    p = subparsers.add_parser("extend-law", help="temperature-aware extended (generalized Burger's) law (law JSON)",
+                              description="Fit the temperature-aware generalized Burger's law (one 2S2P1D "
+                              "backbone and Prony chain at a reference temperature, a shift law, optional "
+                              "static-modulus trend, vertical shift and per-isotherm refinement; settings chosen "
+                              "by cross-validation) to the artifact-corrected measured table, without any "
+                              "simulation input, and write it at the requested temperatures as a law JSON (Pa, "
+                              "Pa s) for 'run-2pb --law-json' and 'diagnose --law-json'.")
     _fit_options(p)
+    p.add_argument("--temperatures", type=float, nargs="+", default=None,
+                   help="temperatures of the law JSON entries, degC (default: the measured ones); outside the "
+                        "calibrated range the entry is marked as an extrapolation")
+    p.add_argument("--exclude-frequency", type=float, nargs="+", default=[],
+                   help="fit without every row at these frequencies, Hz (the law of a lofo fold)")
+    p.add_argument("--exclude-temperature", type=float, nargs="+", default=[],
+                   help="fit without every row at these temperatures, degC (the law of a loto fold)")
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="law JSON: units, law, temperatures {T: Em, eta_m (null: no dashpot), Ek[], eta_k[], "
-                        "E_inf, mre_E_norm_pct, mre_phase_pct}, Pa and Pa s")
+                        "E_inf, in-sample MREs, extrapolation}, model, selection, source (Pa and Pa s)")
     p.add_argument("--corrected", type=Path, default=None, help="artifact-corrected measured table (CSV)")
+    p.add_argument("--cv-curve", type=Path, default=None,
+                   help="cross-validation curve of the selection: one row per candidate setting (CSV)")
     p.set_defaults(func=_extend_law)
+
+    p = subparsers.add_parser("crossval", help="held-out (lofo/loto) predictions of Burger's, the extended law "
+                                               "and the NSCD sample",
+                              description="Leave-one-frequency-out or leave-one-temperature-out validation "
+                              "(asphalt_nscd.diagnosis.crossval): every fold refits the whole procedure of "
+                              "'extend-law' (artifact correction, nested selection of the settings, law) without "
+                              "its held-out rows and predicts them; in-sample rows beside.")
+    _fit_options(p)
+    p.add_argument("--scheme", choices=["lofo", "loto"], required=True,
+                   help="lofo: leave one frequency out; loto: leave one temperature out")
+    p.add_argument("--sample", type=Path, default=None,
+                   help="numerical sample (results/samples/<s>.h5): adds the nscd_sample model (harmonic "
+                        "solver, bonds = fold's law / NF_s); needs --transfer")
+    p.add_argument("--transfer", type=Path, default=None,
+                   help="the sample's network factor JSON (asphalt-nscd harmonic-transfer): NF_s, kinematics, nu")
+    p.add_argument("--inertia", choices=["full", "none"], default="full",
+                   help="inertia of the harmonic solution of the sample (default full, as the 2PB test)")
+    p.add_argument("--time-domain", type=Path, nargs="+", default=None,
+                   help="reduced rows of the time-domain NSCD test of the sample with one fold's law "
+                        "(run-2pb --law-json <extend-law --exclude-...>): added as model nscd_time_domain")
+    p.add_argument("--no-burgers", action="store_true",
+                   help="skip the paper's Burger's law per isotherm (its fits are the slow part on tables far "
+                        "from any viscoelastic law)")
+    p.add_argument("--burgers-starts", type=int, default=8,
+                   help="local least-squares runs of each Burger's fit per isotherm (default 8)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="CSV, one row per (fold, model, cell): scheme, fold, kind (held_out | in_sample), "
+                        "model, temperature_C, frequency_Hz, measured and predicted E_norm_MPa and phase_deg, "
+                        "relative errors, extrapolation, settings, computable, reason")
+    p.add_argument("--summary", type=Path, default=None,
+                   help="CSV: MRE per scheme, kind, model and temperature (%%)")
+    p.add_argument("--curve", type=Path, default=None,
+                   help="CSV: the selection curve of the whole table (fold 'all') and of every fold")
+    p.add_argument("--figure", type=Path, default=None,
+                   help="figure: measured, in-sample and held-out isotherms of the extended law")
+    p.set_defaults(func=_crossval)
 
     p = subparsers.add_parser("diagnose", help="error budget, named causes, extended law and gain of the simulation")
     _fit_options(p)
@@ -75,7 +142,10 @@ def register(subparsers) -> None:
                         "response), separating the gain of the law from that of the correction")
     p.add_argument("--law-json", type=Path, default=None,
                    help="the extended law the extended simulation ran with (output of 'extend-law'); "
-                        "default: fitted here with --per-decade ... --prior-weight")
+                        "default: fitted here with the --law-* options")
+    p.add_argument("--crossval", type=Path, nargs="+", default=None,
+                   help="outputs of 'asphalt-nscd crossval' (lofo and/or loto): the gain table and the page "
+                        "give the held-out MRE beside the in-sample one")
     p.add_argument("--macro-params", type=Path, default=None,
                    help="Burger's parameters given to the simulation (temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, "
                         "eta_k_MPa_s); default: fitted to the measured table")
@@ -151,44 +221,118 @@ def _read_time_errors(paths, theta):
     return pd.concat(frames, ignore_index=True)
 
 
-def _fit_kwargs(args) -> dict:
-    return dict(alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref, per_decade=args.per_decade,
-                margin_decades=args.margin_decades, refine=not args.no_refine, prior_weight=args.prior_weight,
-                balance=not args.no_balance, tolerances=_tolerances(args))
+def law_options(args):
+    """:class:`~asphalt_nscd.diagnosis.crossval.Options` from the options of :func:`_fit_options`.
+
+    Raises InputError naming the option on a bad value.
+    """
+    from ..io import InputError
+    from .crossval import Options, candidate_grid
+
+    tol = tuple(float(v) / 100.0 for v in args.tolerances_pct)
+    if not all(t > 0 for t in tol):
+        raise InputError(f"--tolerances-pct: expected two positive percentages, got {args.tolerances_pct}")
+    refines = []
+    for v in args.law_refines:
+        if str(v).lower() in ("off", "none", "null"):
+            refines.append(None)
+            continue
+        try:
+            refines.append(float(v))
+        except ValueError:
+            raise InputError(f"--law-refines: expected 'off' or a positive number, got {v!r}") from None
+    if not args.margin_decades >= 0:
+        raise InputError(f"--margin-decades: expected >= 0, got {args.margin_decades}")
+    try:
+        grid = candidate_grid(shifts=args.law_shifts, statics=args.law_statics,
+                              verticals=[v == "on" for v in args.law_verticals], refines=refines,
+                              per_decades=args.law_per_decades)
+    except ValueError as exc:
+        raise InputError(f"--law-refines/--law-per-decades: {exc}") from None
+    return Options(candidates=tuple(grid), tolerances=tol, margin_decades=args.margin_decades,
+                   artifacts=not args.no_artifacts, alpha=args.alpha, artifact_shift=args.shift,
+                   T_ref_C=args.t_ref, one_se=not args.no_one_se)
 
 
-def _tolerances(args) -> tuple[float, float]:
+def _excluded(table, args):
+    """``table`` without the rows of --exclude-frequency/--exclude-temperature (InputError if a
+    value is not in the table or nothing is left)."""
+    import numpy as np
+
     from ..io import InputError
 
-    tol = tuple(float(v) / 100.0 for v in args.balance_tolerances_pct)
-    if not all(t > 0 for t in tol):
-        raise InputError(f"--balance-tolerances-pct: expected two positive percentages, got {args.balance_tolerances_pct}")
-    return tol
+    keep = np.ones(len(table), bool)
+    for col, values, opt in (("frequency_Hz", args.exclude_frequency, "--exclude-frequency"),
+                             ("temperature_C", args.exclude_temperature, "--exclude-temperature")):
+        for v in values:
+            hit = np.isclose(table[col].to_numpy(float), v, rtol=1e-12, atol=1e-12)
+            if not hit.any():
+                raise InputError(f"{opt} {v:g}: no row of {args.measured} has {col} = {v:g}")
+            keep &= ~hit
+    if not keep.any():
+        raise InputError(f"{args.measured}: no row left after --exclude-frequency/--exclude-temperature")
+    return table[keep].reset_index(drop=True)
 
 
 def _extend_law(args) -> int:
-    from ..io import write_csv, write_json
+    from ..io import InputError, write_csv, write_json
     from ..lab.measured import load_measured
-    from . import extend
-    from .report import extended_laws
+    from .crossval import cell_means, fit_extended
 
-    measured = load_measured(args.measured)
-    out = extended_laws(measured, **_fit_kwargs(args))
-    obj = extend.laws_to_json(out["laws"], out["mre_E"], out["mre_phase"])
-    for T, d in obj["temperatures"].items():
-        d["mre_E_norm_pct_vs_measured"] = out["mre_E_measured"].get(float(T))
-        d["mre_phase_pct_vs_measured"] = out["mre_phase_measured"].get(float(T))
-    a = out["analysis"]
-    obj["source"] = {"measured": str(args.measured), "master_curve": "2S2P1D", "shift": args.shift,
-                     "T_ref_C": float(a["master"].T_ref_C),
-                     "artifacts_corrected": [c.name for c in a["result"]["selected"]],
-                     "per_decade": args.per_decade, "margin_decades": args.margin_decades,
-                     "refine": not args.no_refine, "prior_weight": args.prior_weight,
-                     "balance": not args.no_balance, "balance_tolerances_pct": list(args.balance_tolerances_pct),
-                     "mre_reference": "artifact-corrected measured replicate means"}
+    measured = _excluded(load_measured(args.measured), args)
+    fit = fit_extended(measured, law_options(args))
+    if fit.law is None:
+        raise InputError(f"{args.measured}: no extended law could be fitted: {fit.reason}")
+    temps = args.temperatures if args.temperatures else sorted(measured["temperature_C"].unique())
+    obj = fit.law.to_json(temps, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
+    obj["selection"] = {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
+                        "rule": ("simplest candidate within one standard error of the best inner-CV score "
+                                 "(fewest fitted parameters, then coarsest Prony series)")
+                        if not args.no_one_se else "best inner-CV score",
+                        "curve": fit.curve.to_dict(orient="records")}
+    obj["source"] = {"measured": str(args.measured),
+                     "excluded_frequencies_Hz": list(args.exclude_frequency),
+                     "excluded_temperatures_C": list(args.exclude_temperature),
+                     "artifact_search": {"master_curve": "2S2P1D", "shift": args.shift, "alpha": args.alpha},
+                     "artifacts_corrected": fit.artifacts, "notes": fit.notes,
+                     "mre_reference": "in-sample: the artifact-corrected replicate means the law was fitted on "
+                                      "(and, _vs_measured, the measured ones); held-out errors: asphalt-nscd crossval"}
     write_json(obj, args.output)
     if args.corrected is not None:
-        write_csv(a["corrected"].drop(columns=["test_step"], errors="ignore"), args.corrected)
+        write_csv(fit.corrected, args.corrected)
+    if args.cv_curve is not None:
+        write_csv(fit.curve, args.cv_curve)
+    return 0
+
+
+def _crossval(args) -> int:
+    import pandas as pd
+
+    from ..io import InputError, write_csv
+    from ..lab.measured import load_measured
+    from . import crossval as cv
+    from .report import read_simulated_many
+
+    measured = load_measured(args.measured)
+    sample = None
+    if (args.sample is None) != (args.transfer is None):
+        raise InputError("--sample and --transfer: give both (the sample and its network factor JSON) or neither")
+    if args.sample is not None:
+        sample = cv.SampleModel.load(args.sample, args.transfer, inertia=args.inertia)
+    td = read_simulated_many(args.time_domain) if args.time_domain else None
+    if args.burgers_starts < 1:
+        raise InputError(f"--burgers-starts: expected >= 1, got {args.burgers_starts}")
+    options = law_options(args)
+    options.burgers_starts = args.burgers_starts
+    options.burgers = not args.no_burgers
+    res = cv.crossval(measured, args.scheme, options, sample=sample, time_domain=td)
+    write_csv(res.rows, args.output)
+    if args.summary is not None:
+        write_csv(cv.summarize(res.rows), args.summary)
+    if args.curve is not None:
+        write_csv(res.curves if len(res.curves) else pd.DataFrame(columns=["scheme", "fold", "settings"]), args.curve)
+    if args.figure is not None:
+        cv.figure(res.rows, res.full.law, args.figure)
     return 0
 
 
@@ -203,9 +347,13 @@ def _diagnose(args) -> int:
 
     measured = load_measured(args.measured)
     time_errors = None if not args.time_integration else _read_time_errors(args.time_integration, args.theta)
-    laws = None
+    laws, law_info = None, None
     if args.law_json is not None:
         laws = {T: law.scaled(1e-6) for T, law in read_law_json(args.law_json).items()}
+        from ..io import read_json
+
+        obj = read_json(args.law_json, "law JSON")
+        law_info = {k: obj.get(k) for k in ("selection", "model")}
         missing = [float(T) for T in sorted(measured["temperature_C"].unique())
                    if not any(abs(T - k) < 1e-9 for k in laws)]
         if missing:
@@ -230,10 +378,16 @@ def _diagnose(args) -> int:
             if obj["sample"] in transfer:
                 raise InputError(f"{path}: key 'sample': sample {obj['sample']!r} given twice in --transfer")
             transfer[obj["sample"]] = obj["network_factor"]
+    crossval = None
+    if args.crossval:
+        from .report import read_crossval
+
+        crossval = read_crossval(args.crossval)
     report, extra = diagnose(
         measured, simulated=_read_optional(args.simulated), harmonic=_read_optional(args.harmonic),
         time_errors=time_errors, simulated_extended=_read_optional(args.simulated_extended),
-        macro_params=macro, laws=laws, transfer=transfer, **_fit_kwargs(args))
+        macro_params=macro, laws=laws, transfer=transfer, alpha=args.alpha, shift=args.shift,
+        T_ref_C=args.t_ref, law_options=law_options(args), crossval=crossval, law_info=law_info)
     report["measured"]["path"] = str(args.measured)
     write_json(report, args.output)
     if args.laws is not None:

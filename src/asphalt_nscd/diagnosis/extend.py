@@ -1,137 +1,587 @@
-"""Extended bond law: a generalized Burger's law per temperature from the master curve.
+"""Extended bond law: one temperature-aware generalized Burger's law for a measured table.
 
-The 2S2P1D master curve (fitted with WLF shifts to the artifact-corrected data) is the
-calibration target. Its static modulus E00 becomes the parallel spring E_inf, its glassy
-modulus E0 - E00 the Maxwell spring Em; the rest of the chain compliance 1/(E* - E00) is
-turned by the non-negative least-squares Prony fit of
-:func:`asphalt_nscd.rheology.models.fit_generalized_kelvin` into the Maxwell dashpot
-eta_m in series with Kelvin-Voigt units on a log-spaced grid
-of retardation times (``per_decade`` per decade over the tested band of that isotherm
-widened by ``margin_decades`` on both sides). Units whose weight is zero are dropped.
+Model (:class:`ThermoLaw`): a *backbone* complex modulus defined at every temperature,
 
-Optional refinement (``refine=True``, default): the compliances of that Prony law are then
-adjusted by least squares to the replicate means of the isotherm itself (ln|E*| and Phi in
-relative terms), with a penalty that keeps them near the master-curve solution. This lets
-the law follow an isotherm that the single master curve misses by a few percent (real data
-are not exactly thermorheologically simple) without losing the physical, causal form.
+    E*(w, T) = b(T) [E00(T) + (E0 - E00(T)) / (1 + delta (i w tau_T)^-k + (i w tau_T)^-h
+                                                 + (i w beta tau_T)^-1)],   tau_T = tau aT(T)
 
-Balanced refinement (``balance=True``, default): the least-squares step above weighs
-squared errors, while the targets are mean relative errors (MRE) of |E*| and Phi. A second
-step then minimises the larger of MRE(|E*|)/tol_E and MRE(Phi)/tol_Phi (tolerances 3 % and
-5 %, the issue's targets) over the dashpot fluidity 1/eta_m and the Kelvin-Voigt
-compliances (all >= 0; Em, E_inf and the retardation times kept) by sequential
-linear programming (SciPy HiGHS, trust region on the parameters, exact L1 objective with
-slack variables; a small L1 penalty ``prior_weight`` on the relative changes keeps the law
-near the first step). Any such law is a positive retardation spectrum, hence causal and
-passive. It is kept only if it lowers that objective and loses no target the first step met.
+(2S2P1D, Olard & Di Benedetto 2003: a continuous, positive retardation spectrum at the
+reference temperature T_ref, the training temperature nearest the median) with
+
+* a shift law aT: WLF (C1, C2) or Arrhenius (Ea) (:mod:`asphalt_nscd.rheology.shift`);
+* a static modulus E00 (``static``): ``none`` (E00 = 0, a liquid), ``constant``, or
+  ``trend``: log10 E00(T) = log10 E00 + s (T - T_ref) / 100 K (a temperature-dependent
+  long-time modulus of the aggregate skeleton);
+* an optional vertical shift (``vertical``): log10 b(T) = v (T - T_ref) / 100 K; both trends
+  carry a weak prior, a penalty (s / 1 decade per 100 K)^2 (the weight of one cell at its
+  tolerance), which keeps a trend the data do not resolve near 0 (a static modulus fitted on
+  cold isotherms only would otherwise extrapolate by decades);
+* an optional per-isotherm refinement (``refine`` = kappa): a deviation of log10 aT, of
+  log10 b and (with a static modulus) of log10 E00 at each training isotherm, penalised by kappa (d / 0.05 decade)^2 each, linearly
+  interpolated in T between the training isotherms and held at the end values outside them.
+
+Fit (:func:`fit_backbone`): robust least squares (SciPy ``least_squares``, soft-L1 loss,
+scale 1) of the residuals of every training cell mean, ln(|E*|_model / |E*|) / tol_E and
+(Phi_model - Phi) / (max(Phi, 1 deg) tol_Phi) with tol = (3 %, 5 %) by default: the targets
+are mean relative errors, which a squared loss would trade for the largest residuals.
+Several starting points for the base model, nested models started from their simpler fit.
+
+Law at a temperature (:meth:`ThermoLaw.law_at`): the chain part at T_ref is turned once into a
+Prony series, the generalized Kelvin chain of
+:func:`~asphalt_nscd.rheology.models.fit_generalized_kelvin` (non-negative least squares on a
+log grid of ``per_decade`` retardation times per decade over the training reduced-frequency
+band widened by ``margin_decades``; a positive retardation spectrum, hence causal and
+passive). At T the retardation times and the dashpot viscosity are multiplied by aT(T), every
+chain modulus and viscosity by b(T) (E0 - E00(T)) / (E0 - E00(T_ref)), and E_inf = b(T) E00(T).
+Kelvin-Voigt units whose retardation time at T lies ``margin_decades`` outside the tested
+frequency band are merged into the Maxwell spring (fast units) or the Maxwell dashpot (slow
+units): an error below 10^-margin of that unit's compliance inside the band, and fewer
+internal variables per bond. The result is the per-temperature format of the law JSON
+(:func:`laws_to_json`), which the NSCD core and the harmonic solver take unchanged:
+E*(w) = E_inf + [1/Em + 1/(i w eta_m) + sum_i 1/(Ek_i + i w eta_k,i)]^-1.
+
+The settings (shift law, static modulus, vertical shift, refinement, spectrum density) are
+chosen by held-out error in :mod:`asphalt_nscd.diagnosis.crossval`, never by in-sample error.
 
 Diagnostic: :func:`best_causal_fit` gives, for one isotherm, the smallest
 max(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) that a dense positive relaxation spectrum
 (generalized Maxwell series with a static spring, 4 modes per decade over 14 decades) can
 reach: how far the data of an isotherm are from every causal linear viscoelastic law.
-
-The result is what the NSCD core and the harmonic solver take as their macro law
-(:class:`asphalt_nscd.rheology.laws.GeneralizedBurgers`, Pa and Pa s), written by
-:func:`laws_to_json` keyed by temperature.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 import pandas as pd
 
+from ..io import InputError
 from ..rheology.laws import GeneralizedBurgers
-from ..rheology.master_curve import MasterCurveFit
-from ..rheology.models import fit_generalized_kelvin, log_time_grid
+from ..rheology.models import fit_generalized_kelvin, log_time_grid, two_s2p1d_modulus
+from ..rheology.shift import arrhenius_log_shift
 
-#: phases below this (deg) are weighted as if they were this large in the refinement
+#: phases below this (deg) are weighted as if they were this large
 PHASE_FLOOR_DEG = 1.0
-#: targets of the issue (relative MRE of |E*| and of Phi): the default tolerances
+#: default normalising tolerances (relative MRE of |E*| and of Phi) of the fit residuals
 TOLERANCES = (0.03, 0.05)
+#: deviation scale of the per-isotherm refinement, decades
+REFINE_SCALE_DECADES = 0.05
+#: the temperature trends of log10 E00 and log10 b, and their prior scale (decades per 100 K)
+TREND_NAMES = ("static_trend_per_100K", "vertical_trend_per_100K")
+TREND_SCALE = 1.0
+SHIFTS = ("wlf", "arrhenius")
+STATICS = ("none", "constant", "trend")
+#: quantities of the per-isotherm refinement: log10 aT, log10 b, log10 E00
+REFINED = ("aT", "b", "E00")
+CORE_NAMES = ("log10_E0_MPa", "log10_delta", "k_over_h", "h", "log10_beta", "log10_tau_s")
 
 
-def prony_from_master(master: MasterCurveFit, temperature_C: float, f_min: float, f_max: float,
-                      per_decade: float = 1.0, margin_decades: float = 1.0) -> GeneralizedBurgers:
-    """Generalized Burger's law (MPa, MPa s) fitted to the master curve at one temperature.
+@dataclass(frozen=True)
+class LawSettings:
+    """Complexity settings of the temperature-aware law (see the module docstring).
 
-    Parameters
-    ----------
-    master : MasterCurveFit
-        2S2P1D master curve (E00 >= 0 becomes E_inf).
-    temperature_C : float
-        Temperature, degC.
-    f_min, f_max : float
-        Tested frequency band at that temperature, Hz.
-    per_decade, margin_decades : float
-        Density of the retardation-time grid and widening of the band (decades).
+    ``shift``: ``wlf`` | ``arrhenius``; ``static``: ``none`` | ``constant`` | ``trend``;
+    ``vertical``: bool; ``refine``: kappa > 0 of the per-isotherm refinement, or None (off);
+    ``per_decade``: retardation times per decade of the Prony series (> 0).
 
-    Returns
-    -------
-    GeneralizedBurgers in MPa and MPa s.
+    Raises
+    ------
+    ValueError
+        on an unknown shift or static option, a non-positive kappa or density.
     """
-    w_lo = 2 * np.pi * f_min / 10**margin_decades
-    w_hi = 2 * np.pi * f_max * 10**margin_decades
-    omega = np.logspace(np.log10(w_lo), np.log10(w_hi), 60)
-    E = master.modulus(omega / (2 * np.pi), temperature_C)
-    c = master.core()
-    scale = np.exp(master.specimen_mean[0])
-    tau = log_time_grid(w_lo, w_hi, per_decade=per_decade, margin_decades=0.5)
-    return fit_generalized_kelvin(omega, E, tau, E_inf=float(c["E00_MPa"] * scale), dashpot=True,
-                                  glassy_modulus=float((c["E0_MPa"] - c["E00_MPa"]) * scale))
+
+    shift: str = "wlf"
+    static: str = "constant"
+    vertical: bool = False
+    refine: float | None = None
+    per_decade: float = 2.0
+
+    def __post_init__(self):
+        if self.shift not in SHIFTS:
+            raise ValueError(f"shift: expected one of {list(SHIFTS)}, got {self.shift!r}")
+        if self.static not in STATICS:
+            raise ValueError(f"static: expected one of {list(STATICS)}, got {self.static!r}")
+        if self.refine is not None and not (np.isfinite(self.refine) and self.refine > 0):
+            raise ValueError(f"refine: expected a positive weight or None, got {self.refine!r}")
+        if not (np.isfinite(self.per_decade) and self.per_decade > 0):
+            raise ValueError(f"per_decade: expected a positive number, got {self.per_decade!r}")
+        object.__setattr__(self, "vertical", bool(self.vertical))
+        object.__setattr__(self, "per_decade", float(self.per_decade))
+        if self.refine is not None:
+            object.__setattr__(self, "refine", float(self.refine))
+
+    @property
+    def structure(self) -> tuple:
+        """The settings that change the backbone fit (all but ``per_decade``)."""
+        return (self.shift, self.static, self.vertical, self.refine)
+
+    def n_params(self, n_temperatures: int) -> int:
+        """Number of backbone parameters for ``n_temperatures`` training isotherms."""
+        return (len(CORE_NAMES) + (2 if self.shift == "wlf" else 1) + (self.static != "none")
+                + (self.static == "trend") + self.vertical
+                + ((2 + (self.static != "none")) * n_temperatures if self.refine else 0))
+
+    def complexity(self, n_temperatures: int = 5) -> tuple:
+        """Sort key from the simplest to the most flexible setting (a total order): number
+        of backbone parameters, then weaker refinement, density, shift, static, vertical."""
+        return (self.n_params(n_temperatures), -(self.refine or np.inf), self.per_decade,
+                SHIFTS.index(self.shift), STATICS.index(self.static), self.vertical)
+
+    def label(self) -> str:
+        """``wlf, static=constant, vertical=off, refine=off, 2/decade``."""
+        ref = "off" if self.refine is None else f"{self.refine:g}"
+        return (f"{self.shift}, static={self.static}, vertical={'on' if self.vertical else 'off'}, "
+                f"refine={ref}, {self.per_decade:g}/decade")
+
+    def as_dict(self) -> dict:
+        return {"shift": self.shift, "static": self.static, "vertical": self.vertical,
+                "refine": self.refine, "per_decade": self.per_decade}
 
 
-def _with_compliances(law: GeneralizedBurgers, logJ: np.ndarray, tau: np.ndarray) -> GeneralizedBurgers:
-    """``law`` with its dashpot fluidity and Kelvin-Voigt compliances set to exp(logJ) (Em kept)."""
-    J = np.exp(logJ)
-    return GeneralizedBurgers(Em=law.Em, eta_m=1.0 / J[0], Ek=tuple(1.0 / J[1:]),
-                              eta_k=tuple(tau / J[1:]), E_inf=law.E_inf)
+def backbone_names(settings: LawSettings, temperatures) -> list:
+    """Parameter names of the backbone of ``settings`` with training isotherms ``temperatures``
+    (degC): the core 2S2P1D ones, the shift constants, then the optional ones."""
+    names = list(CORE_NAMES) + (["C1", "C2_K"] if settings.shift == "wlf" else ["Ea_kJ_mol"])
+    if settings.static != "none":
+        names.append("log10_E00_MPa")
+    if settings.static == "trend":
+        names.append("static_trend_per_100K")
+    if settings.vertical:
+        names.append("vertical_trend_per_100K")
+    if settings.refine:
+        names += [f"dlog10_{kind}_{T:g}" for kind in REFINED for T in temperatures
+                  if kind != "E00" or settings.static != "none"]
+    return names
 
 
-def refine_to_isotherm(law: GeneralizedBurgers, frequency_Hz, E_norm_MPa, phase_deg,
-                       prior_weight: float = 0.01, tolerances=(0.03, 0.05)) -> GeneralizedBurgers:
-    """Adjust the compliances of ``law`` (retardation times, Em and E_inf fixed) to one isotherm.
+@dataclass
+class Backbone:
+    """Fitted backbone modulus of :class:`ThermoLaw` (module docstring), MPa.
 
-    The glassy modulus Em stays that of the master curve: it is not resolved by one isotherm
-    and it sets the stiffest spring of the bond law, hence the NSCD time step.
+    ``names``/``x``: parameter layout and values; ``temperatures``: training isotherms (degC,
+    sorted) of the refinement; ``cost``: the robust objective at the solution.
+    """
 
-    Residuals: ln|E*| model/data and (Phi model - Phi data) / max(Phi data, 1 deg), each
-    divided by its tolerance (default 3 % and 5 %, the issue's targets), and
-    ``prior_weight`` x the change of every ln compliance from ``law``. The refined law is
-    returned only if it lowers this objective. An infinite dashpot is first given a long time
-    (100 x the longest retardation time) so it can be adjusted.
+    settings: LawSettings
+    T_ref_C: float
+    temperatures: np.ndarray
+    names: list
+    x: np.ndarray
+    cost: float = np.nan
+
+    def value(self, name: str, default: float = 0.0) -> float:
+        return float(self.x[self.names.index(name)]) if name in self.names else default
+
+    def _deviation(self, kind: str, T) -> np.ndarray:
+        T = np.asarray(T, float)
+        if not self.settings.refine:
+            return np.zeros_like(T)
+        vals = np.array([self.value(f"dlog10_{kind}_{t:g}") for t in self.temperatures])
+        if not vals.any():
+            return np.zeros_like(T)
+        return np.interp(T, self.temperatures, vals)
+
+    def log_shift(self, T) -> np.ndarray:
+        """log10 aT (with the refinement deviation) at ``T`` (degC), same shape."""
+        T = np.asarray(T, float)
+        if self.settings.shift == "wlf":
+            C1, C2 = self.value("C1"), self.value("C2_K")
+            dT = T - self.T_ref_C
+            base = -C1 * dT / np.maximum(C2 + dT, 1e-6)
+        else:
+            base = arrhenius_log_shift(T, self.T_ref_C, self.value("Ea_kJ_mol") * 1e3)
+        return base + self._deviation("aT", T)
+
+    def log_vertical(self, T) -> np.ndarray:
+        """log10 b(T) at ``T`` (degC)."""
+        T = np.asarray(T, float)
+        return self.value("vertical_trend_per_100K") * (T - self.T_ref_C) / 100.0 + self._deviation("b", T)
+
+    def static_modulus(self, T) -> np.ndarray:
+        """E00(T) before the vertical shift, MPa (0 for ``static = none``)."""
+        T = np.asarray(T, float)
+        if self.settings.static == "none":
+            return np.zeros_like(T)
+        return 10.0 ** (self.value("log10_E00_MPa") + self.value("static_trend_per_100K") * (T - self.T_ref_C) / 100.0
+                        + self._deviation("E00", T))
+
+    def interp_weights(self, T) -> np.ndarray:
+        """(n, n_T) weights of the training isotherms in the linear interpolation (constant
+        beyond the ends) of a per-isotherm deviation at ``T`` (degC, shape (n,))."""
+        T = np.asarray(T, float)
+        t = self.temperatures
+        W = np.zeros((T.size, t.size))
+        for j in range(t.size):
+            e = np.zeros(t.size)
+            e[j] = 1.0
+            W[:, j] = np.interp(T, t, e)
+        return W
+
+    def log_jacobian(self, frequency_Hz, temperature_C) -> tuple[np.ndarray, np.ndarray]:
+        """E* (MPa, shape (n,)) and the derivatives of ln E* with respect to ``x`` (complex,
+        (n, len(x))): the exact Jacobian of the fit residuals (:func:`fit_backbone`)."""
+        f = np.asarray(frequency_Hz, float)
+        T = np.asarray(temperature_C, float)
+        c = self.core()
+        ln10 = np.log(10.0)
+        idx = {n: i for i, n in enumerate(self.names)}
+        J = np.zeros((f.size, len(self.names)), complex)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            L = self.log_shift(T)
+            x = 1j * 2 * np.pi * f * c["tau_s"] * 10.0 ** L
+            k, h, dl, beta = c["k"], c["h"], c["delta"], c["beta"]
+            xk, xh, xb = x ** (-k), x ** (-h), 1.0 / (x * beta)
+            D = 1.0 + dl * xk + xh + xb
+            E00 = self.static_modulus(T)
+            E0 = c["E0_MPa"]
+            chain = (E0 - E00) / D
+            core = E00 + chain
+            E = core * 10.0 ** self.log_vertical(T)
+            dcore_dD = -chain / D
+            lnx = np.log(x)
+            dD = {"log10_delta": ln10 * dl * xk, "log10_beta": -ln10 * xb,
+                  "k_over_h": -dl * xk * lnx * h, "h": -dl * xk * lnx * (k / h) - xh * lnx}
+            x_dDdx = -k * dl * xk - h * xh - xb  # x dD/dx
+            dD["log10_tau_s"] = ln10 * x_dDdx
+            for n, v in dD.items():
+                J[:, idx[n]] = dcore_dD * v / core
+            J[:, idx["log10_E0_MPa"]] = ln10 * E0 / D / core
+            dT = T - self.T_ref_C
+            if self.settings.shift == "wlf":
+                C1, C2 = self.value("C1"), self.value("C2_K")
+                dL = {"C1": -dT / (C2 + dT), "C2_K": C1 * dT / (C2 + dT) ** 2}
+            else:
+                from ..rheology.shift import KELVIN, R_GAS
+
+                dL = {"Ea_kJ_mol": 1e3 / (R_GAS * ln10) * (1.0 / (T + KELVIN) - 1.0 / (self.T_ref_C + KELVIN))}
+            W = self.interp_weights(T) if self.settings.refine else None
+            if W is not None:
+                for j, t in enumerate(self.temperatures):
+                    dL[f"dlog10_aT_{t:g}"] = W[:, j]
+            for n, v in dL.items():
+                J[:, idx[n]] = dcore_dD * ln10 * x_dDdx * v / core
+            if self.settings.static != "none":
+                dE00 = ln10 * E00 * (1.0 - 1.0 / D) / core  # d ln core / d log10 E00(T)
+                J[:, idx["log10_E00_MPa"]] = dE00
+                if "static_trend_per_100K" in idx:
+                    J[:, idx["static_trend_per_100K"]] = dE00 * dT / 100.0
+                if W is not None:
+                    for j, t in enumerate(self.temperatures):
+                        J[:, idx[f"dlog10_E00_{t:g}"]] = dE00 * W[:, j]
+            if "vertical_trend_per_100K" in idx:
+                J[:, idx["vertical_trend_per_100K"]] = ln10 * dT / 100.0
+            if W is not None:
+                for j, t in enumerate(self.temperatures):
+                    J[:, idx[f"dlog10_b_{t:g}"]] = ln10 * W[:, j]
+        return E, J
+
+    def core(self) -> dict:
+        """2S2P1D constants at T_ref: ``E0_MPa, E00_MPa, delta, k, h, beta, tau_s``."""
+        h = self.value("h")
+        return {"E0_MPa": 10 ** self.value("log10_E0_MPa"), "E00_MPa": float(self.static_modulus(self.T_ref_C)),
+                "delta": 10 ** self.value("log10_delta"), "k": self.value("k_over_h") * h, "h": h,
+                "beta": 10 ** self.value("log10_beta"), "tau_s": 10 ** self.value("log10_tau_s")}
+
+    def modulus(self, frequency_Hz, temperature_C) -> np.ndarray:
+        """Backbone complex modulus (MPa) at broadcast (f Hz, T degC)."""
+        f, T = np.broadcast_arrays(np.asarray(frequency_Hz, float), np.asarray(temperature_C, float))
+        c = self.core()
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of a fit
+            E00 = self.static_modulus(T)
+            tau = c["tau_s"] * 10.0 ** self.log_shift(T)
+            E = two_s2p1d_modulus(2 * np.pi * f, E00, c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], tau)
+            return E * 10.0 ** self.log_vertical(T)
+
+
+def _cell_arrays(cells: pd.DataFrame):
+    T = cells["temperature_C"].to_numpy(float)
+    f = cells["frequency_Hz"].to_numpy(float)
+    E = cells["E_norm_MPa"].to_numpy(float) * np.exp(1j * np.radians(cells["phase_deg"].to_numpy(float)))
+    ph = np.radians(np.maximum(cells["phase_deg"].to_numpy(float), PHASE_FLOOR_DEG))
+    return T, f, E, ph
+
+
+def _bounds(name: str, T, E, T_ref) -> tuple[float, float]:
+    Emax, Emin = float(np.abs(E).max()), float(np.abs(E).min())
+    table = {"log10_E0_MPa": (np.log10(Emax) - 0.05, max(5.3, np.log10(Emax) + 1.0)), "log10_delta": (-1.5, 1.7), "k_over_h": (0.03, 0.97),
+             "h": (0.1, 0.99), "log10_beta": (-1.0, 9.0), "log10_tau_s": (-12.0, 8.0), "C1": (0.5, 200.0),
+             "C2_K": (max(T_ref - T.min() + 5.0, 5.0), 3000.0), "Ea_kJ_mol": (10.0, 1000.0),
+             "log10_E00_MPa": (-2.0, min(np.log10(Emin) + 0.3, np.log10(Emax) - 0.1)),
+             "static_trend_per_100K": (-3.0, 3.0),
+             "vertical_trend_per_100K": (-3.0, 3.0)}
+    return table.get(name, (-2.0, 2.0))
+
+
+def _cold_starts(names, T, E, T_ref) -> list:
+    Emax, Emin = float(np.abs(E).max()), float(np.abs(E).min())
+    base = {"log10_E0_MPa": min(np.log10(Emax) + 0.25, 5.2), "log10_delta": np.log10(2.0), "k_over_h": 0.33,
+            "h": 0.6, "log10_beta": 3.0, "C1": 25.0, "C2_K": max(170.0, T_ref - T.min() + 40.0),
+            "Ea_kJ_mol": 200.0, "log10_E00_MPa": np.log10(Emin) - 0.7}
+    return [{**base, "log10_tau_s": lt} for lt in (-4.0, -2.5, -1.0, 0.5)]
+
+
+def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = None,
+                 tolerances=TOLERANCES, start: dict | None = None) -> Backbone:
+    """Fit the backbone of :class:`ThermoLaw` to cell means (module docstring).
 
     Parameters
     ----------
-    law : GeneralizedBurgers (MPa, MPa s);  frequency_Hz, E_norm_MPa, phase_deg : arrays (m,).
+    cells : DataFrame
+        ``temperature_C, frequency_Hz, E_norm_MPa, phase_deg`` (one row per cell: replicate
+        means; degC, Hz, MPa, deg), at least 2 temperatures.
+    settings : LawSettings
+    T_ref_C : float, optional
+        Reference temperature, degC (default: the tested one nearest the median).
+    tolerances : (float, float)
+        tol_E, tol_Phi normalising the residuals (fractions).
+    start : dict, optional
+        Starting values by parameter name (e.g. a simpler fit's); missing ones start at 0
+        (deviations, trends) or at the default starting point. Without it several cold
+        starts are tried.
 
     Returns
     -------
-    GeneralizedBurgers (MPa, MPa s).
+    Backbone
+
+    Raises
+    ------
+    ValueError
+        with fewer than 2 temperatures, fewer residuals than parameters, or no successful fit.
     """
     from scipy.optimize import least_squares
 
-    f = np.asarray(frequency_Hz, float)
-    lnE = np.log(np.asarray(E_norm_MPa, float))
-    ph = np.asarray(phase_deg, float)
-    tau = np.array([c / e for c, e in zip(law.eta_k, law.Ek)])
-    eta_m = law.eta_m if np.isfinite(law.eta_m) else 100 * law.Em * (tau.max() if tau.size else 1.0)
-    law = GeneralizedBurgers(Em=law.Em, eta_m=eta_m, Ek=law.Ek, eta_k=law.eta_k, E_inf=law.E_inf)
-    x0 = np.log(np.concatenate([[1 / eta_m], 1 / np.asarray(law.Ek)]))
-    omega = 2 * np.pi * f
-
-    ph_scale = np.maximum(ph, PHASE_FLOOR_DEG)
+    T, f, E, ph = _cell_arrays(cells)
+    temps = np.unique(T)
+    if temps.size < 2:
+        raise ValueError("the temperature-aware law needs at least 2 temperatures")
+    if T_ref_C is None:
+        T_ref_C = float(temps[np.argmin(np.abs(temps - np.median(temps)))])
+    names = backbone_names(settings, temps)
+    n_reg = sum(n.startswith("dlog10_") for n in names)
+    if 2 * T.size < len(names) - n_reg:
+        raise ValueError(f"{2 * T.size} residuals for {len(names) - n_reg} parameters of '{settings.label()}'")
+    lo, hi = np.array([[*_bounds(n, T, E, T_ref_C)] for n in names]).T
+    proto = Backbone(settings, float(T_ref_C), temps, names, np.zeros(len(names)))
+    tol_E, tol_P = tolerances
+    # penalised parameters: the per-isotherm deviations (weight sqrt(kappa) / 0.05 decade) and
+    # the two temperature trends (weight 1 per TREND_SCALE: a weak prior that keeps a trend the
+    # data do not resolve, e.g. E00 over cold isotherms only, near 0)
+    reg = np.array([n.startswith("dlog10_") or n in TREND_NAMES for n in names])
+    w_reg = np.array([1.0 / TREND_SCALE if n in TREND_NAMES else np.sqrt(settings.refine or 0.0) / REFINE_SCALE_DECADES
+                      for n in np.array(names)[reg]])
 
     def resid(x):
-        m = _with_compliances(law, x, tau)
-        E = m.complex_modulus(omega)
-        return np.concatenate([(np.log(np.abs(E)) - lnE) / tolerances[0],
-                               (np.degrees(np.angle(E)) - ph) / ph_scale / tolerances[1],
-                               prior_weight * (x - x0)])
+        proto.x = x
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            r = np.log(proto.modulus(f, T) / E)
+            out = np.concatenate([r.real / tol_E, r.imag / (ph * tol_P), w_reg * x[reg]])
+        return np.where(np.isfinite(out), out, 1e3)
 
-    res = least_squares(resid, x0, method="trf", x_scale=1.0)
-    if np.sum(res.fun**2) > np.sum(resid(x0) ** 2):  # never worse than the master-curve law
-        return law
-    return _with_compliances(law, res.x, tau)
+    R = np.zeros((int(reg.sum()), len(names)))
+    R[np.arange(R.shape[0]), np.flatnonzero(reg)] = w_reg
+
+    def jac(x):
+        proto.x = x
+        _, D = proto.log_jacobian(f, T)
+        out = np.vstack([D.real / tol_E, D.imag / (ph * tol_P)[:, None], R])
+        return np.where(np.isfinite(out), out, 0.0)
+
+    starts = [start] if start is not None else _cold_starts(names, T, E, T_ref_C)
+    best = None
+    for s in starts:
+        x0 = np.array([s.get(n, 0.0) for n in names], float)
+        x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+        try:
+            res = least_squares(resid, x0, jac=jac, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=1.0,
+                                x_scale="jac", max_nfev=2000)
+        except ValueError:
+            continue
+        if best is None or res.cost < best.cost:
+            best = res
+    if best is None:
+        raise ValueError(f"backbone fit '{settings.label()}' failed from every starting point")
+    return Backbone(settings, float(T_ref_C), temps, names, best.x.copy(), float(best.cost))
+
+
+@dataclass
+class ThermoLaw:
+    """Temperature-aware generalized Burger's law (module docstring), MPa and MPa s.
+
+    ``backbone``: the fitted :class:`Backbone`; ``prony``: the generalized Kelvin chain of
+    the backbone at T_ref (E_inf = E00(T_ref), MPa); ``band_Hz``: tested frequency band
+    (f_min, f_max) of the training table; ``temperature_range_C``: its tested temperatures
+    (min, max) -- the calibrated range; ``margin_decades``: see the module docstring.
+    """
+
+    backbone: Backbone
+    prony: GeneralizedBurgers
+    band_Hz: tuple
+    temperature_range_C: tuple
+    margin_decades: float = 2.0
+    info: dict = field(default_factory=dict)
+
+    @property
+    def settings(self) -> LawSettings:
+        return self.backbone.settings
+
+    @property
+    def T_ref_C(self) -> float:
+        return self.backbone.T_ref_C
+
+    def inside(self, temperature_C: float) -> bool:
+        """Whether ``temperature_C`` lies in the calibrated range (tested temperatures)."""
+        lo, hi = self.temperature_range_C
+        return bool(lo - 1e-9 <= temperature_C <= hi + 1e-9)
+
+    def law_at(self, temperature_C: float, reduce: bool = True) -> GeneralizedBurgers:
+        """The law at one temperature (MPa, MPa s; module docstring).
+
+        ``reduce``: merge the Kelvin-Voigt units whose retardation time lies
+        ``margin_decades`` outside the tested band into the Maxwell spring or dashpot.
+
+        Raises
+        ------
+        InputError
+            if the shift law is undefined at ``temperature_C`` (WLF: T - T_ref <= -C2).
+        """
+        bb = self.backbone
+        T = float(temperature_C)
+        if bb.settings.shift == "wlf" and bb.value("C2_K") + T - bb.T_ref_C <= 0:
+            raise InputError(f"temperature {T:g} degC: outside the WLF domain (T - T_ref <= -C2 = "
+                             f"{-bb.value('C2_K'):.4g} K, T_ref = {bb.T_ref_C:g} degC)")
+        with np.errstate(over="ignore"):
+            aT = float(10.0 ** bb.log_shift(T))
+            b = float(10.0 ** bb.log_vertical(T))
+        if not (np.isfinite(aT) and aT > 0 and np.isfinite(b) and b > 0):
+            raise InputError(f"temperature {T:g} degC: the shift factors overflow (log10 aT = "
+                             f"{float(bb.log_shift(T)):.4g}); the law is undefined there")
+        E0 = bb.core()["E0_MPa"]
+        E00_T = float(bb.static_modulus(T))
+        if not E00_T < E0:
+            raise InputError(f"temperature {T:g} degC: the static modulus trend reaches the glassy modulus "
+                             f"({E00_T:.4g} >= {E0:.4g} MPa); the law is undefined there")
+        c = b * (E0 - E00_T) / (E0 - float(bb.static_modulus(bb.T_ref_C)))
+        p = self.prony
+        Em, eta_m = p.Em * c, p.eta_m * c * aT
+        Ek = np.asarray(p.Ek, float) * c
+        eta_k = np.asarray(p.eta_k, float) * c * aT
+        E_inf = b * E00_T
+        if reduce and Ek.size:
+            w_lo = 2 * np.pi * self.band_Hz[0] / 10 ** self.margin_decades
+            w_hi = 2 * np.pi * self.band_Hz[1] * 10 ** self.margin_decades
+            t = eta_k / Ek
+            fast, slow = t < 1.0 / w_hi, t > 1.0 / w_lo
+            J0 = 1.0 / Em + np.sum(1.0 / Ek[fast])
+            phi = (0.0 if np.isinf(eta_m) else 1.0 / eta_m) + np.sum(1.0 / eta_k[slow])
+            keep = ~(fast | slow)
+            Em, eta_m = 1.0 / J0, (1.0 / phi if phi > 0 else np.inf)
+            Ek, eta_k = Ek[keep], eta_k[keep]
+        return GeneralizedBurgers(Em=Em, eta_m=eta_m, Ek=tuple(Ek), eta_k=tuple(eta_k), E_inf=E_inf)
+
+    def complex_modulus(self, frequency_Hz, temperature_C) -> np.ndarray:
+        """E* (MPa) of :meth:`law_at` at each (f Hz, T degC) pair (1-d arrays of equal length)."""
+        f = np.atleast_1d(np.asarray(frequency_Hz, float))
+        T = np.atleast_1d(np.asarray(temperature_C, float))
+        f, T = np.broadcast_arrays(f, T)
+        out = np.empty(f.shape, complex)
+        for t in np.unique(T):
+            sel = T == t
+            out[sel] = self.law_at(float(t)).complex_modulus(2 * np.pi * f[sel])
+        return out
+
+    def laws(self, temperatures) -> dict:
+        """{T (float): law_at(T)} for the given temperatures (degC)."""
+        return {float(T): self.law_at(float(T)) for T in temperatures}
+
+    def to_json(self, temperatures, references: dict | None = None) -> dict:
+        """The law JSON (:func:`laws_to_json` format) at ``temperatures`` (degC), plus
+        ``model`` (:meth:`description`).
+
+        Each entry also holds ``extrapolation`` (outside the calibrated range) and, at a
+        temperature of a reference cell table, the in-sample MREs (%) against it:
+        ``references`` maps a key suffix to cell means (``temperature_C, frequency_Hz,
+        E_norm_MPa, phase_deg``), giving ``in_sample_mre_E_norm_pct<suffix>`` and
+        ``in_sample_mre_phase_pct<suffix>``.
+
+        Raises InputError if the law is undefined at a requested temperature.
+        """
+        temps = sorted({float(T) for T in temperatures})
+        obj = laws_to_json(self.laws(temps))
+        for T in temps:
+            d = obj["temperatures"][f"{T:g}"]
+            d["extrapolation"] = not self.inside(T)
+            for suffix, cells in (references or {}).items():
+                g = cells[np.isclose(cells["temperature_C"].to_numpy(float), T, rtol=0, atol=1e-9)]
+                if len(g):
+                    m = law_metrics(self, g.assign(temperature_C=T))
+                    d[f"in_sample_mre_E_norm_pct{suffix}"] = float(100 * m["rel_err_E_norm"].mean())
+                    d[f"in_sample_mre_phase_pct{suffix}"] = float(100 * m["rel_err_phase"].mean())
+        obj["model"] = self.description()
+        return obj
+
+    def description(self) -> dict:
+        """JSON-ready model description (the ``model`` object of the law JSON)."""
+        bb = self.backbone
+        p = self.prony.scaled(1e6).as_dict()
+        if not np.isfinite(p["eta_m"]):
+            p["eta_m"] = None
+        shift = ({"law": "WLF", "C1": bb.value("C1"), "C2_K": bb.value("C2_K")} if bb.settings.shift == "wlf"
+                 else {"law": "Arrhenius", "Ea_kJ_mol": bb.value("Ea_kJ_mol")})
+        return {"form": "2S2P1D backbone at T_ref with shift law, static modulus, vertical shift and "
+                        "per-isotherm refinement; Prony (generalized Kelvin) chain at T_ref shifted by aT",
+                "settings": bb.settings.as_dict(), "T_ref_C": bb.T_ref_C,
+                "calibrated_temperature_range_C": list(self.temperature_range_C),
+                "frequency_band_Hz": list(self.band_Hz), "margin_decades": self.margin_decades,
+                "shift": shift, "backbone": {k: float(v) for k, v in zip(bb.names, bb.x)},
+                "backbone_2s2p1d_at_T_ref": {k: float(v) for k, v in bb.core().items()},
+                "prony_at_T_ref": {**p, "units": "Pa, Pa s"}, **self.info}
+
+
+def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = None,
+            tolerances=TOLERANCES, margin_decades: float = 2.0, backbone: Backbone | None = None) -> ThermoLaw:
+    """Fit :class:`ThermoLaw` to cell means (``temperature_C, frequency_Hz, E_norm_MPa,
+    phase_deg``); ``backbone``: an already fitted one of the same structure (reused).
+
+    Raises ValueError as :func:`fit_backbone`, or if the Prony fit fails.
+    """
+    bb = backbone if backbone is not None else fit_backbone(cells, settings, T_ref_C, tolerances)
+    if backbone is not None and backbone.settings.structure != settings.structure:
+        raise ValueError("fit_law: the given backbone has another structure than the settings")
+    bb = Backbone(settings, bb.T_ref_C, bb.temperatures, bb.names, bb.x, bb.cost)
+    T = cells["temperature_C"].to_numpy(float)
+    f = cells["frequency_Hz"].to_numpy(float)
+    wr = 2 * np.pi * f * 10.0 ** bb.log_shift(T)
+    w_lo, w_hi = wr.min() / 10 ** margin_decades, wr.max() * 10 ** margin_decades
+    omega = np.logspace(np.log10(w_lo), np.log10(w_hi), int(np.ceil(10 * np.log10(w_hi / w_lo))) + 1)
+    c = bb.core()
+    E_ref = two_s2p1d_modulus(omega, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], c["tau_s"])
+    tau = log_time_grid(w_lo, w_hi, per_decade=settings.per_decade, margin_decades=0.5)
+    prony = fit_generalized_kelvin(omega, E_ref, tau, E_inf=c["E00_MPa"], dashpot=True,
+                                   glassy_modulus=c["E0_MPa"] - c["E00_MPa"])
+    return ThermoLaw(bb, prony, (float(f.min()), float(f.max())), (float(T.min()), float(T.max())),
+                     float(margin_decades))
+
+
+def law_metrics(law, cells: pd.DataFrame) -> pd.DataFrame:
+    """Per-cell relative errors of a law against cell means.
+
+    ``law``: a :class:`ThermoLaw` or a dict {T: GeneralizedBurgers (MPa)}. Returns ``cells``
+    with ``E_norm_MPa_model, phase_deg_model, rel_err_E_norm, rel_err_phase`` (fractions:
+    | |E*|_model / |E*| - 1 | and | Phi_model - Phi | / Phi).
+    """
+    f = cells["frequency_Hz"].to_numpy(float)
+    T = cells["temperature_C"].to_numpy(float)
+    if isinstance(law, ThermoLaw):
+        E = law.complex_modulus(f, T)
+    else:
+        E = np.array([law[float(t)].complex_modulus(2 * np.pi * x) for t, x in zip(T, f)])
+    out = cells.copy()
+    out["E_norm_MPa_model"] = np.abs(E)
+    out["phase_deg_model"] = np.degrees(np.angle(E))
+    out["rel_err_E_norm"] = np.abs(out["E_norm_MPa_model"] / out["E_norm_MPa"] - 1.0)
+    out["rel_err_phase"] = np.abs(out["phase_deg_model"] - out["phase_deg"]) / out["phase_deg"]
+    return out
 
 
 def _minimax_lp(residuals, jacobian, p0, trust_floor, tolerances, prior_weight, max_iter=200, free=None):
@@ -211,94 +661,6 @@ def _minimax_lp(residuals, jacobian, p0, trust_floor, tolerances, prior_weight, 
     return p, f
 
 
-def target_ratios(law: GeneralizedBurgers, frequency_Hz, E_norm_MPa, phase_deg,
-                  tolerances=TOLERANCES) -> tuple[float, float]:
-    """(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) of ``law`` (MPa) on one isotherm (arrays (m,),
-    Hz, MPa, deg); phases below ``PHASE_FLOOR_DEG`` count as that floor. <= 1: target met."""
-    E = law.complex_modulus(2 * np.pi * np.asarray(frequency_Hz, float))
-    Ed = np.asarray(E_norm_MPa, float)
-    ph = np.asarray(phase_deg, float)
-    a = np.abs(E) / Ed - 1.0
-    b = (np.degrees(np.angle(E)) - ph) / np.maximum(ph, PHASE_FLOOR_DEG)
-    return float(np.mean(np.abs(a)) / tolerances[0]), float(np.mean(np.abs(b)) / tolerances[1])
-
-
-def minimax_score(law: GeneralizedBurgers, frequency_Hz, E_norm_MPa, phase_deg,
-                  tolerances=TOLERANCES) -> float:
-    """max of :func:`target_ratios`: the objective of :func:`balance_to_isotherm`."""
-    return max(target_ratios(law, frequency_Hz, E_norm_MPa, phase_deg, tolerances))
-
-
-def balance_to_isotherm(law: GeneralizedBurgers, frequency_Hz, E_norm_MPa, phase_deg,
-                        prior_weight: float = 0.01, tolerances=TOLERANCES,
-                        static_spring: bool = False) -> GeneralizedBurgers:
-    """Minimise max(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) of ``law`` on one isotherm.
-
-    Free parameters: the dashpot fluidity 1/eta_m and the Kelvin-Voigt compliances 1/Ek
-    (>= 0; Em and the retardation times eta_k/Ek kept), and E_inf if ``static_spring``
-    (default: kept, the long-time modulus of the master curve, which one isotherm does not
-    resolve and which a free fit may drop to 0); see the module docstring.
-    MRE as in :func:`mre_of_laws` (phases below ``PHASE_FLOOR_DEG`` weighted as that floor).
-    Units with a vanishing compliance are dropped. Returns ``law`` unchanged unless the
-    objective decreases.
-
-    Parameters
-    ----------
-    law : GeneralizedBurgers (MPa, MPa s);  frequency_Hz, E_norm_MPa, phase_deg : arrays (m,).
-
-    Returns
-    -------
-    GeneralizedBurgers (MPa, MPa s).
-    """
-    f = np.asarray(frequency_Hz, float)
-    Ed = np.asarray(E_norm_MPa, float)
-    ph_rad = np.radians(np.asarray(phase_deg, float))
-    ph_scale = np.radians(np.maximum(np.asarray(phase_deg, float), PHASE_FLOOR_DEG))
-    w = 2 * np.pi * f
-    tau = np.array([c / e for c, e in zip(law.eta_k, law.Ek)])
-    J0 = 1.0 / law.Em
-    # columns of dD/dp for p = (E_inf, phi, J_1..J_n); E = E_inf + 1/D
-    cols = np.column_stack([1.0 / (1j * w)] + [1.0 / (1.0 + 1j * w * t) for t in tau])
-
-    def modulus(p):
-        D = J0 + cols @ p[1:]
-        return p[0] + 1.0 / D, 1.0 / D
-
-    def residuals(p):
-        E, _ = modulus(p)
-        return np.abs(E) / Ed - 1.0, (np.angle(E) - ph_rad) / ph_scale
-
-    def jacobian(p):
-        E, C = modulus(p)
-        dE = np.column_stack([np.ones_like(E), -(C**2)[:, None] * cols])
-        Ja = np.real(np.conj(E)[:, None] * dE) / (np.abs(E) * Ed)[:, None]
-        Jb = np.imag(dE / E[:, None]) / ph_scale[:, None]
-        return Ja, Jb
-
-    phi0 = 0.0 if not np.isfinite(law.eta_m) else 1.0 / law.eta_m
-    J = 1.0 / np.asarray(law.Ek, float)
-    p0 = np.concatenate([[law.E_inf, phi0], J])
-    if np.any(modulus(p0)[0].real <= 0):
-        return law
-    Jscale = max(J.max() if J.size else J0, J0)
-    phi_scale = Jscale / max(tau.max() if tau.size else 1.0 / w.min(), 1.0 / w.min())
-    floor = np.concatenate([[1e-3 * Ed.min(), 1e-3 * phi_scale], np.full(J.size, 1e-3 * Jscale)])
-
-    def score(p):
-        a, b = residuals(p)
-        return max(np.mean(np.abs(a)) / tolerances[0], np.mean(np.abs(b)) / tolerances[1])
-
-    free = np.ones(p0.size, bool)
-    free[0] = static_spring
-    p, _ = _minimax_lp(residuals, jacobian, p0, floor, tolerances, prior_weight, free=free)
-    if not score(p) < score(p0):
-        return law
-    keep = p[2:] > 1e-12 * J0
-    return GeneralizedBurgers(Em=law.Em, eta_m=1.0 / p[1] if p[1] > 0 else np.inf,
-                              Ek=tuple(1.0 / p[2:][keep]), eta_k=tuple(tau[keep] / p[2:][keep]),
-                              E_inf=float(p[0]))
-
-
 def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
                     per_decade: float = 4.0) -> dict:
     """Closest causal linear viscoelastic fit to one isotherm (a consistency diagnostic).
@@ -353,71 +715,12 @@ def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
             "mre_E_norm_pct": float(mE), "mre_phase_pct": float(mP), "n_modes": int(np.sum(p[1:] > 0))}
 
 
-def calibrate(master: MasterCurveFit, corrected: pd.DataFrame, per_decade: float = 2.0,
-              margin_decades: float = 1.0, refine: bool = True, prior_weight: float = 0.01,
-              balance: bool = True, tolerances=TOLERANCES) -> dict:
-    """Generalized Burger's law per tested temperature (MPa, MPa s): ``{T: law}``.
-
-    ``refine``: least-squares refinement to each isotherm (:func:`refine_to_isotherm`);
-    ``balance`` (with ``refine``): then the minimax refinement (:func:`balance_to_isotherm`),
-    kept if it still lowers :func:`minimax_score` after :func:`prune` and does not lose a
-    target (|E*| or Phi) that the least-squares law met (on an isotherm whose phases are
-    within the noise, e.g. below 1 deg, the minimax trade would otherwise give up |E*|).
-    ``tolerances``: (MRE |E*|, MRE Phi) as fractions that normalise the two errors in the
-    minimax objective (default 3 % and 5 %; config ``diagnosis.balance_tolerances_pct``).
-    """
-    from .causes import cell_means
-
-    cm = cell_means(corrected)
-    laws = {}
-    for T, g in cm.groupby("temperature_C"):
-        law = prony_from_master(master, float(T), g["frequency_Hz"].min(), g["frequency_Hz"].max(),
-                                per_decade, margin_decades)
-        if refine:
-            law = refine_to_isotherm(law, g["frequency_Hz"], g["E_norm_MPa"], g["phase_deg"], prior_weight)
-        law = prune(law)
-        if refine and balance:
-            data = (g["frequency_Hz"], g["E_norm_MPa"], g["phase_deg"])
-            balanced = prune(balance_to_isotherm(law, *data, prior_weight, tolerances=tolerances))
-            r0 = target_ratios(law, *data, tolerances=tolerances)
-            r1 = target_ratios(balanced, *data, tolerances=tolerances)
-            # kept if it lowers the objective after pruning and loses no target the first law met
-            if max(r1) < max(r0) and all(b <= 1.0 for a, b in zip(r0, r1) if a <= 1.0):
-                law = balanced
-        laws[float(T)] = law
-    return laws
-
-
-def prune(law: GeneralizedBurgers, ratio: float = 1e3) -> GeneralizedBurgers:
-    """Drop Kelvin-Voigt units stiffer than ``ratio`` x Em: their compliance is below
-    1/ratio of the glassy one, negligible, and each unit costs an internal variable per bond."""
-    keep = [i for i, ek in enumerate(law.Ek) if ek <= ratio * law.Em]
-    if len(keep) == law.n_kelvin or not keep:
-        return law
-    return GeneralizedBurgers(Em=law.Em, eta_m=law.eta_m, Ek=tuple(law.Ek[i] for i in keep),
-                              eta_k=tuple(law.eta_k[i] for i in keep), E_inf=law.E_inf)
-
-
-def mre_of_laws(laws: dict, table: pd.DataFrame) -> tuple[dict, dict]:
-    """MRE (%) of |E*| and Phi of per-temperature laws (MPa) against the cell means of a table."""
-    from .causes import cell_means
-
-    cm = cell_means(table)
-    mE, mP = {}, {}
-    for T, g in cm.groupby("temperature_C"):
-        if float(T) not in laws:
-            continue
-        E = laws[float(T)].complex_modulus(2 * np.pi * g["frequency_Hz"].to_numpy(float))
-        mE[float(T)] = float(100 * np.mean(np.abs(np.abs(E) / g["E_norm_MPa"] - 1)))
-        mP[float(T)] = float(100 * np.mean(np.abs(np.degrees(np.angle(E)) / g["phase_deg"] - 1)))
-    return mE, mP
-
-
 def laws_to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None = None) -> dict:
     """JSON object keyed by temperature (``"%g"``) with the laws in Pa and Pa s.
 
     Fields per temperature: ``Em, eta_m, Ek (list), eta_k (list), E_inf`` (Pa, Pa s;
-    ``eta_m`` null means no Maxwell dashpot) and, if given, ``mre_E_norm_pct, mre_phase_pct``.
+    ``eta_m`` null means no Maxwell dashpot) and, if given, the in-sample MREs (%)
+    ``in_sample_mre_E_norm_pct, in_sample_mre_phase_pct``.
     """
     out = {"units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
            "law": "GeneralizedBurgers: Maxwell (Em, eta_m) in series with Kelvin-Voigt units "
@@ -428,16 +731,7 @@ def laws_to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None =
         if not np.isfinite(d["eta_m"]):
             d["eta_m"] = None
         if mre_E is not None:
-            d["mre_E_norm_pct"] = mre_E.get(T)
-            d["mre_phase_pct"] = mre_phase.get(T)
+            d["in_sample_mre_E_norm_pct"] = mre_E.get(T)
+            d["in_sample_mre_phase_pct"] = mre_phase.get(T)
         out["temperatures"][f"{T:g}"] = d
-    return out
-
-
-def laws_from_json(obj: dict) -> dict:
-    """Inverse of :func:`laws_to_json`: ``{T (float): GeneralizedBurgers in Pa, Pa s}``."""
-    out = {}
-    for key, d in obj["temperatures"].items():
-        out[float(key)] = GeneralizedBurgers(Em=d["Em"], eta_m=np.inf if d["eta_m"] is None else d["eta_m"],
-                                             Ek=tuple(d["Ek"]), eta_k=tuple(d["eta_k"]), E_inf=d["E_inf"])
     return out

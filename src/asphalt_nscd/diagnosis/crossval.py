@@ -1,0 +1,724 @@
+"""Held-out validation of the extended law: folds, nested selection of its settings, scores.
+
+Protocol (docs/choices.md, "Diagnosis: held-out validation"; the project's VALIDATION.md):
+
+Folds
+    ``lofo`` (leave one frequency out): for each tested frequency, every row at that
+    frequency (all temperatures, all specimens) is removed. ``loto`` (leave one temperature
+    out): for each tested temperature its isotherm is removed; a temperature at either end
+    of the tested range is an extrapolation (``extrapolation`` column) and is reported apart.
+    On an unbalanced table a fold removes what it names wherever it occurs.
+Procedure fitted inside each fold (:func:`fit_extended`), on the training rows only
+    1. artifact search and correction (:func:`asphalt_nscd.diagnosis.report.analyse`) when the
+       training table allows it (>= 2 temperatures, >= 3 frequencies each), else none (noted);
+    2. replicate means of the corrected table;
+    3. the law's settings chosen by an inner cross-validation on those means
+       (:func:`select_settings`: inner lofo folds and inner loto folds of the interior
+       training temperatures, each fit started from the same setting's fit on all training
+       means), the simplest setting within one standard error of the best
+       score (one-standard-error rule: the fewest fitted parameters, then the coarsest Prony
+       series, then the best score);
+    4. :class:`~asphalt_nscd.diagnosis.extend.ThermoLaw` with those settings on all training
+       means. Nothing computed from a held-out cell reaches the fold's law.
+Models predicted at the held-out cells
+    ``burgers`` (the paper's Burger's law fitted per isotherm, Eqs. 27-29, on the training
+    rows of that isotherm; lofo only: it has no temperature dependence), ``extended_law``
+    (the fold's law at the held-out temperature) and ``nscd_sample`` (the harmonic steady
+    state of the numerical sample whose bonds follow the fold's law divided by the sample's
+    network factor NF_s, as the extended campaign mode runs it; NF_s comes from the sample
+    alone). A time-domain NSCD row of one fold (``run-2pb`` with that fold's law) can be
+    added as ``nscd_time_domain``. In-sample rows (``kind = in_sample``): the same models
+    fitted on every row, at every cell.
+Scores
+    Reference: replicate means of the measured table as given. The artifacts are part of the
+    model: a fold predicts a measured cell as its material law divided by its own artifact
+    correction at the held-out rows (:class:`MeasurementModel`; from their frequency, strain
+    and test order, never their measured values), averaged over the cell's replicates. Relative error of |E*|:
+    | |E*|_pred / |E*|_mean - 1 |; of Phi: | Phi_pred - Phi_mean | / Phi_mean. MRE per
+    temperature = mean over its held-out cells (%). Headline: the worst temperature (lofo)
+    and the worst inner temperature (loto).
+Not computable
+    A fold (or a model at a cell) that cannot be computed is kept in the output with
+    ``computable = False`` and the reason: loto needs >= 3 training temperatures (two give
+    one shift factor for a two-constant shift law); a fold needs >= 2 training temperatures
+    and enough training cells for the simplest setting; the Burger's fit needs >= 4 points
+    at >= 2 frequencies with phases in (0, 90) deg at that isotherm.
+
+Selection score of a setting: for each inner fold, max(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) over
+the fold's held-out cells (tolerances 3 % and 5 % by default), averaged over the inner folds
+of both schemes; its standard error is the standard deviation over the folds / sqrt(n).
+The inner folds share the artifact correction of their outer training table (fitted without
+the outer held-out cells).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..io import InputError
+from . import extend
+from .causes import cell_means  # replicate means per (temperature_C, frequency_Hz)
+from .extend import LawSettings, ThermoLaw
+
+SCHEMES = ("lofo", "loto")
+ROW_COLUMNS = ("scheme", "fold", "kind", "model", "temperature_C", "frequency_Hz", "n_replicates",
+               "E_norm_MPa_measured", "phase_deg_measured", "E_norm_MPa_predicted", "phase_deg_predicted",
+               "rel_err_E_norm", "rel_err_phase", "extrapolation", "settings", "computable", "reason")
+#: fit failures that make a fold or a setting "not computable" (reported, not raised)
+FIT_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
+
+
+def candidate_grid(shifts=("wlf",), statics=("constant",), verticals=(False,), refines=(None,),
+                   per_decades=(2.0,)) -> list[LawSettings]:
+    """Every combination of the given options, simplest first (see ``LawSettings.complexity``).
+
+    Raises ValueError on an invalid option (``LawSettings``) or an empty grid.
+    """
+    grid = [LawSettings(shift=s, static=st, vertical=v, refine=r, per_decade=p)
+            for s, st, v, r, p in itertools.product(shifts, statics, verticals, refines, per_decades)]
+    if not grid:
+        raise ValueError("empty candidate grid")
+    return sorted(set(grid), key=lambda c: c.complexity())
+
+
+@dataclass
+class Options:
+    """Settings of the fitting procedure (:func:`fit_extended`).
+
+    ``candidates``: the law settings to choose from; ``tolerances``: tol_E, tol_Phi
+    (fractions) of the fit residuals and of the selection score; ``margin_decades``: see
+    :mod:`.extend`; ``artifacts``: search and correct data artifacts first; ``alpha``,
+    ``artifact_shift``: significance level and master-curve shift of that search;
+    ``T_ref_C``: reference temperature (None: the training temperature nearest the median);
+    ``one_se``: one-standard-error rule (else the best score); ``burgers_starts``: local
+    runs of each Burger's fit (``rheology.calibration.fit_burgers``); ``burgers``: predict
+    with the Burger's law per isotherm too (crossval).
+    """
+
+    candidates: tuple = (LawSettings(),)
+    tolerances: tuple = extend.TOLERANCES
+    margin_decades: float = 2.0
+    artifacts: bool = True
+    alpha: float = 1e-3
+    artifact_shift: str = "wlf"
+    T_ref_C: float | None = None
+    one_se: bool = True
+    burgers_starts: int = 8
+    burgers: bool = True
+
+    def __post_init__(self):
+        self.candidates = tuple(self.candidates)
+        if not self.candidates:
+            raise ValueError("Options: no candidate setting")
+
+
+@dataclass
+class FitResult:
+    """Output of :func:`fit_extended`: the ``law`` (None if nothing could be fitted, see
+    ``reason``), the chosen ``settings``, the selection ``curve`` (one row per candidate),
+    the ``corrected`` table, the ``artifacts`` corrected, free-text ``notes`` and the
+    ``measurement`` model of those artifacts (None without artifacts)."""
+
+    law: ThermoLaw | None
+    settings: LawSettings | None
+    curve: pd.DataFrame
+    corrected: pd.DataFrame
+    artifacts: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    reason: str = ""
+    measurement: MeasurementModel | None = None
+
+
+@dataclass
+class MeasurementModel:
+    """The artifacts fitted on a (training) table as a measurement model of any rows.
+
+    ``fit``: the final master-curve fit of the artifact search (its ``terms`` are the selected
+    artifacts, :mod:`asphalt_nscd.diagnosis.effects`); ``strain_ref``: the search's reference
+    strain (microstrain). :meth:`correction` gives, per row, the complex factor R that the
+    search multiplies a measured point by to correct it (corrected = measured x R): the ratio
+    of the fitted model without and with the artifacts, times exp(b eps_ref / 100) for a strain
+    nonlinearity b (the corrected table is at eps -> 0). The prediction of a measured value
+    from the material law L is then L / R.
+    """
+
+    fit: object
+    strain_ref: float = 0.0
+
+    def correction(self, rows: pd.DataFrame) -> np.ndarray:
+        """R (complex, shape (len(rows),)) at ``rows`` (columns of a measured table, and
+        ``test_step`` when self-heating was fitted). A specimen the fit has not seen takes the
+        reference specimen's factors.
+
+        Raises ValueError if the rows lack a column an artifact needs.
+        """
+        from ..rheology.master_curve import MasterCurveProblem, data_arrays
+
+        fit = self.fit
+        n_art = sum(len(t.names) for t in fit.terms)
+        if not n_art:
+            return np.ones(len(rows), complex)
+        d = data_arrays(rows)
+        d["spec"] = rows["specimen"].astype(str).map({s: i for i, s in enumerate(fit.specimens)}).fillna(0)\
+            .to_numpy(int)
+        d["specimens"], d["temperatures"] = list(fit.specimens), fit.temperatures
+        prob = MasterCurveProblem(d, shift=fit.shift, T_ref_C=fit.T_ref_C, static_modulus=fit.static_modulus,
+                                  terms=fit.terms, sigma_lnE=fit.sigma_lnE, sigma_phase_deg=fit.sigma_phase_deg)
+        if list(prob.names) != list(fit.names):
+            raise ValueError("the rows do not match the parameter layout of the artifact fit")
+        x_clean = fit.x.copy()
+        x_clean[-n_art:] = 0.0
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            R = prob.measured_modulus(x_clean) / prob.measured_modulus(fit.x)
+        if "modulus_drop_per_100_microstrain" in fit.names:
+            R = R * np.exp(fit.param("modulus_drop_per_100_microstrain") * self.strain_ref / 100.0)
+        return R
+
+
+def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFrame, list, list, MeasurementModel | None]:
+    """Artifact-corrected copy of ``table`` (step 1 of the module docstring).
+
+    Returns (corrected table, names of the corrected artifacts, notes, measurement model or
+    None when no artifact was corrected).
+    """
+    if not options.artifacts:
+        return table, [], ["artifact search off"], None
+    n_f = table.groupby("temperature_C")["frequency_Hz"].nunique()
+    if n_f.size < 2 or n_f.min() < 3:
+        return table, [], ["artifact search skipped: needs >= 2 temperatures and >= 3 frequencies at each"], None
+    from .report import analyse
+
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of the fits
+            a = analyse(table, alpha=options.alpha, shift=options.artifact_shift, T_ref_C=options.T_ref_C)
+    except FIT_ERRORS as exc:
+        return table, [], [f"artifact search failed ({exc}); law fitted to the table as given"], None
+    names = [c.name for c in a["result"]["selected"]]
+    corrected = a["corrected"].drop(columns=["test_step"], errors="ignore")
+    model = MeasurementModel(a["result"]["final"], float(a["search"].strain_ref)) if names else None
+    return corrected, names, [f"artifacts corrected: {', '.join(names) or 'none detected'}"], model
+
+
+def _t_ref(cells: pd.DataFrame, options: Options) -> float:
+    if options.T_ref_C is not None:
+        return float(options.T_ref_C)
+    temps = np.unique(cells["temperature_C"].to_numpy(float))
+    return float(temps[np.argmin(np.abs(temps - np.median(temps)))])
+
+
+def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances, parents: dict | None = None) -> dict:
+    """Backbones of every structure (``LawSettings.structure``) on ``cells``.
+
+    Simplest first. With ``parents`` (structure -> Backbone fitted on a superset of ``cells``,
+    e.g. the training table of which ``cells`` is an inner fold) each structure starts from
+    its parent's solution. Otherwise a structure starts from the fitted simpler structure of
+    the same shift law with the most parameters in common (its extra parameters from 0), and
+    the base structures (no trend, vertical shift or refinement) from several cold starts.
+
+    Returns
+    -------
+    dict structure -> Backbone, or the error message (str) when the fit is not computable.
+    """
+    out = {}
+    ordered = sorted(set(structures), key=lambda s: LawSettings(*s).complexity())  # a total order
+    for st in ordered:
+        settings = LawSettings(*st)
+        base = not (settings.vertical or settings.refine or settings.static == "trend")
+        start = None
+        parent = (parents or {}).get(st)
+        if parent is not None and not isinstance(parent, str):
+            start = dict(zip(parent.names, parent.x))
+        elif not base:
+            names = set(extend.backbone_names(settings, np.unique(cells["temperature_C"])))
+            fitted = [bb for s2, bb in out.items() if not isinstance(bb, str) and s2[0] == st[0]
+                      and set(bb.names) <= names]
+            if fitted:
+                ref = max(fitted, key=lambda bb: len(bb.names))
+                start = dict(zip(ref.names, ref.x))
+        try:
+            out[st] = extend.fit_backbone(cells, settings, T_ref_C, tolerances, start=start)
+        except FIT_ERRORS as exc:
+            out[st] = f"not computable: {exc}"
+    return out
+
+
+def _fold_values(cells: pd.DataFrame, scheme: str) -> np.ndarray:
+    key = "frequency_Hz" if scheme == "lofo" else "temperature_C"
+    return np.unique(cells[key].to_numpy(float))
+
+
+def fold_split(cells: pd.DataFrame, scheme: str, value: float):
+    """(training mask, reason or '') of one fold on a cell (or row) table."""
+    key = "frequency_Hz" if scheme == "lofo" else "temperature_C"
+    train = ~np.isclose(cells[key].to_numpy(float), value, rtol=1e-12, atol=1e-12)
+    temps = np.unique(cells["temperature_C"].to_numpy(float)[train])
+    if scheme == "loto" and temps.size < 3:
+        return train, (f"leaves {temps.size} temperature(s): the shift law (2 constants) needs >= 3 "
+                       "training temperatures to carry the law to another temperature")
+    if temps.size < 2:
+        return train, f"leaves {temps.size} temperature(s): the temperature-aware law needs >= 2"
+    if not train.any():
+        return train, "no training cell left"
+    return train, ""
+
+
+def _inner_folds(cells: pd.DataFrame) -> list:
+    """(scheme, value) of the inner folds: every frequency (lofo) and every interior
+    temperature (loto) whose training part is computable."""
+    out = [("lofo", v) for v in _fold_values(cells, "lofo")]
+    temps = _fold_values(cells, "loto")
+    out += [("loto", v) for v in temps[1:-1]]
+    return [(s, v) for s, v in out if not fold_split(cells, s, v)[1]]
+
+
+def _fold_score(law: ThermoLaw, test: pd.DataFrame, tolerances) -> float:
+    try:
+        m = extend.law_metrics(law, test)
+    except FIT_ERRORS:
+        return np.inf
+    eE, eP = m["rel_err_E_norm"].to_numpy(float), m["rel_err_phase"].to_numpy(float)
+    if not (np.all(np.isfinite(eE)) and np.all(np.isfinite(eP))):
+        return np.inf
+    return float(max(eE.mean() / tolerances[0], eP.mean() / tolerances[1]))
+
+
+def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings | None, pd.DataFrame, dict]:
+    """Choose the law settings by inner cross-validation on cell means (module docstring).
+
+    Every structure is fitted on all ``cells`` first (returned, reused by :func:`fit_extended`);
+    the inner folds start from those solutions (``cells`` holds no outer held-out cell).
+
+    Returns
+    -------
+    (settings, curve, backbones)
+        ``curve``: one row per candidate: ``settings`` (label), its fields, ``n_params``,
+        ``cv_score`` (mean over the inner folds), ``cv_score_se``, ``n_folds``, ``chosen``,
+        ``reason`` (why a candidate has no score). With one candidate, or no computable inner
+        fold, the first candidate is returned without a score (``reason`` says why).
+        ``backbones``: structure -> Backbone (or error text) fitted on all ``cells``.
+    """
+    cands = list(options.candidates)
+    T_ref = _t_ref(cells, options)
+    n_T = cells["temperature_C"].nunique()
+    structures = [c.structure for c in cands]
+    parents = fit_structures(cells, structures, T_ref, options.tolerances)
+    folds = _inner_folds(cells) if len(cands) > 1 else []
+    rows = {c: {"scores": [], "reason": ""} for c in cands}
+    for scheme, value in folds:
+        train, _ = fold_split(cells, scheme, value)
+        tr, te = cells[train], cells[~train]
+        bbs = fit_structures(tr, structures, T_ref, options.tolerances, parents=parents)
+        for c in cands:
+            bb = bbs[c.structure]
+            if isinstance(bb, str):
+                rows[c]["scores"].append(np.inf)
+                rows[c]["reason"] = bb
+                continue
+            try:
+                law = extend.fit_law(tr, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
+            except FIT_ERRORS as exc:
+                rows[c]["scores"].append(np.inf)
+                rows[c]["reason"] = f"not computable: {exc}"
+                continue
+            rows[c]["scores"].append(_fold_score(law, te, options.tolerances))
+    curve = []
+    for c in cands:
+        s = np.asarray(rows[c]["scores"], float)
+        ok = s.size > 0 and np.all(np.isfinite(s))
+        reason = rows[c]["reason"]
+        if not folds:
+            reason = ("single candidate: no selection" if len(cands) == 1
+                      else "no computable inner fold: first candidate kept")
+        elif not ok and not reason:
+            reason = "a prediction was not finite"
+        curve.append({"settings": c.label(), **c.as_dict(), "n_params": c.n_params(n_T),
+                      "cv_score": float(s.mean()) if ok else np.nan,
+                      "cv_score_se": float(s.std(ddof=1) / np.sqrt(s.size)) if ok and s.size > 1 else np.nan,
+                      "n_folds": int(s.size), "chosen": False, "reason": "" if ok else reason})
+    curve = pd.DataFrame(curve)
+    scored = curve["cv_score"].notna()
+    if not scored.any():  # nothing to choose from: the simplest candidate
+        curve.loc[0, "chosen"] = True
+        return cands[0], curve, parents
+    best = int(curve.loc[scored, "cv_score"].idxmin())
+    limit = curve.loc[best, "cv_score"]
+    if options.one_se and np.isfinite(curve.loc[best, "cv_score_se"]):
+        limit += curve.loc[best, "cv_score_se"]
+    # the fewest fitted parameters within the limit, then the coarsest Prony series (fewest
+    # internal variables per bond), then the best score (e.g. between the shift laws)
+    within = curve[scored & (curve["cv_score"] <= limit + 1e-12)]
+    fewest = within[within["n_params"] == within["n_params"].min()]
+    fewest = fewest[fewest["per_decade"] == fewest["per_decade"].min()]
+    chosen = int(fewest["cv_score"].idxmin())
+    curve.loc[chosen, "chosen"] = True
+    return cands[chosen], curve, parents
+
+
+def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
+    """The whole fitting procedure on a (training) table: steps 1-4 of the module docstring.
+
+    Never raises on a table :func:`asphalt_nscd.lab.measured.load_measured` accepts: a failure
+    returns ``law = None`` and the ``reason``.
+    """
+    corrected, artifacts, notes, measurement = correct_artifacts(table, options)
+    cells = cell_means(corrected)
+    n_T = cells["temperature_C"].nunique()
+    if n_T < 2:
+        return FitResult(None, None, pd.DataFrame(), corrected, artifacts, notes,
+                         f"{n_T} temperature(s): the temperature-aware law needs >= 2", measurement)
+    settings, curve, backbones = select_settings(cells, options)
+    order = [settings] + [c for c in options.candidates if c != settings]
+    T_ref = _t_ref(cells, options)
+    last = ""
+    for c in order:  # the chosen one; if it cannot be fitted on all cells, the next candidates
+        try:
+            bb = backbones.get(c.structure)
+            if isinstance(bb, str):
+                raise ValueError(bb)
+            law = extend.fit_law(cells, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
+        except FIT_ERRORS as exc:
+            last = f"{c.label()}: {exc}"
+            notes.append(f"setting {c.label()} not computable on the whole table ({exc})")
+            continue
+        if c != settings:
+            curve["chosen"] = curve["settings"] == c.label()
+        law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
+        return FitResult(law, c, curve, corrected, artifacts, notes, measurement=measurement)
+    return FitResult(None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})",
+                     measurement)
+
+
+@dataclass
+class SampleModel:
+    """The numerical sample for the ``nscd_sample`` predictions: a harmonic system, its
+    EN 12697-26 geometry, the network factor NF_s (transfer JSON) and the solver options."""
+
+    system: object
+    geometry_mm: dict
+    network_factor: float
+    name: str
+    inertia: str = "full"
+    amplitude_m: float = 63e-6
+
+    @classmethod
+    def load(cls, sample_path, transfer_path, inertia: str = "full") -> "SampleModel":
+        """Sample file + its transfer JSON (``asphalt-nscd harmonic-transfer``): the harmonic
+        system is built with the transfer JSON's kinematics and Poisson's ratio.
+
+        Raises InputError naming the file on a bad sample or transfer JSON.
+        """
+        from ..harmonic.network import read_sample
+        from ..harmonic.response import specimen_geometry_mm
+        from ..harmonic.solver import HarmonicSystem
+        from ..harmonic.transfer import read_transfer_json
+
+        tr = read_transfer_json(transfer_path)
+        network = read_sample(sample_path)
+        if str(tr["sample"]) != str(network.name):
+            raise InputError(f"{transfer_path}: key 'sample': the factor is of sample {tr['sample']!r}, "
+                             f"the sample file {sample_path} is {network.name!r}")
+        system = HarmonicSystem(network, nu=float(tr["nu"]), bond_kinematics=tr["bond_kinematics"],
+                                head_rotation=tr["head_rotation"])
+        return cls(system, specimen_geometry_mm(sample_path), float(tr["network_factor"]), str(network.name),
+                   inertia)
+
+    def predict(self, law, temperature_C: float, frequencies_Hz) -> np.ndarray:
+        """Sample |E*| (MPa) and Phi (deg) with bonds following ``law`` (MPa) / NF_s:
+        array (n, 2)."""
+        from ..harmonic.response import harmonic_rows
+
+        bond_law = law.scaled(1e6 / self.network_factor)
+        rows = harmonic_rows(self.system, bond_law, temperature_C, frequencies_Hz, self.geometry_mm,
+                             amplitude=self.amplitude_m, inertia=self.inertia)
+        return np.array([[r["E_norm_MPa"], r["phase_deg"]] for r in rows], float)
+
+
+def _row(scheme, fold, kind, model, cell, pred=None, extrapolation=False, settings="", reason=""):
+    E_m, P_m = float(cell["E_norm_MPa"]), float(cell["phase_deg"])
+    ok = pred is not None and np.all(np.isfinite(pred))
+    E_p, P_p = (float(pred[0]), float(pred[1])) if ok else (np.nan, np.nan)
+    return {"scheme": scheme, "fold": fold, "kind": kind, "model": model,
+            "temperature_C": float(cell["temperature_C"]), "frequency_Hz": float(cell["frequency_Hz"]),
+            "n_replicates": int(cell["n"]), "E_norm_MPa_measured": E_m, "phase_deg_measured": P_m,
+            "E_norm_MPa_predicted": E_p, "phase_deg_predicted": P_p,
+            "rel_err_E_norm": abs(E_p / E_m - 1.0) if ok else np.nan,
+            "rel_err_phase": abs(P_p - P_m) / P_m if ok and P_m > 0 else np.nan,
+            "extrapolation": bool(extrapolation), "settings": settings, "computable": bool(ok),
+            "reason": "" if ok else (reason or "prediction not finite")}
+
+
+def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFrame, extrapolation,
+                  n_starts: int = 8) -> list:
+    from ..rheology.calibration import fit_burgers
+    from ..rheology.laws import GeneralizedBurgers
+
+    out = []
+    for T, g in test.groupby("temperature_C"):
+        tr = train_rows[np.isclose(train_rows["temperature_C"].to_numpy(float), T)]
+        law, reason = None, ""
+        if scheme == "loto" and kind == "held_out":
+            reason = "a Burger's law per isotherm has no temperature dependence (lofo only)"
+        else:
+            try:
+                p = fit_burgers(tr["frequency_Hz"], tr["E_norm_MPa"], tr["phase_deg"], n_starts=n_starts)
+                law = GeneralizedBurgers.burgers(p["Em_MPa"], p["eta_m_MPa_s"], p["Ek_MPa"], p["eta_k_MPa_s"])
+            except FIT_ERRORS as exc:
+                reason = f"Burger's fit at {T:g} degC: {exc}"
+        for _, cell in g.iterrows():
+            pred = None
+            if law is not None:
+                E = law.complex_modulus(2 * np.pi * cell["frequency_Hz"])
+                pred = (abs(E), np.degrees(np.angle(E)))
+            out.append(_row(scheme, fold, kind, "burgers", cell, pred, extrapolation(cell),
+                            "Burger's per isotherm", reason))
+    return out
+
+
+def _as_measured(E_cells: np.ndarray, cells: pd.DataFrame, rows: pd.DataFrame, fit: FitResult) -> np.ndarray:
+    """Predicted replicate means (|E*| MPa, Phi deg; array (n_cells, 2)) of the measured
+    table from the material's E* per cell: each held-out row's prediction is E* / R (R of the
+    fold's artifact fit at that row, :class:`MeasurementModel`), averaged per cell like the
+    measured replicates. Without artifacts: |E*| and Phi of E*."""
+    E_cells = np.asarray(E_cells, complex)
+    if fit is None or fit.measurement is None:
+        return np.column_stack([np.abs(E_cells), np.degrees(np.angle(E_cells))])
+    R = fit.measurement.correction(rows)
+    key = {(float(T), float(f)): i for i, (T, f) in enumerate(zip(cells["temperature_C"], cells["frequency_Hz"]))}
+    idx = np.array([key[(float(T), float(f))] for T, f in zip(rows["temperature_C"], rows["frequency_Hz"])])
+    M = E_cells[idx] / R
+    out = np.zeros((len(cells), 2))
+    for i in range(len(cells)):
+        sel = idx == i
+        out[i] = np.abs(M[sel]).mean(), np.degrees(np.angle(M[sel])).mean()
+    return out
+
+
+def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, extrapolation, reason="",
+              rows: pd.DataFrame | None = None) -> list:
+    """Rows of the extended law (and of the sample) at the cells ``test``; ``rows``: the
+    measured rows of those cells (with ``test_step``), for the fold's measurement model."""
+    out = []
+    label = fit.settings.label() if fit is not None and fit.settings is not None else ""
+    for T, g in test.groupby("temperature_C"):
+        law, why = None, reason
+        if not why and (fit is None or fit.law is None):
+            why = fit.reason if fit is not None else "not fitted"
+        if not why:
+            try:
+                law = fit.law.law_at(float(T))
+            except (InputError, *FIT_ERRORS) as exc:
+                why = f"law at {T:g} degC: {exc}"
+        f = g["frequency_Hz"].to_numpy(float)
+        pred_law = pred_nscd = None
+        why_s = ""
+        g_rows = None if rows is None else rows[np.isclose(rows["temperature_C"].to_numpy(float), T)]
+        if law is not None:
+            E = law.complex_modulus(2 * np.pi * f)
+            try:
+                pred_law = _as_measured(E, g, g_rows, fit)
+            except FIT_ERRORS as exc:
+                why = f"measurement model of the fold's artifacts at {T:g} degC: {exc}"
+            if sample is not None and pred_law is not None:
+                try:
+                    s = sample.predict(law, float(T), f)
+                    pred_nscd = _as_measured(s[:, 0] * np.exp(1j * np.radians(s[:, 1])), g, g_rows, fit)
+                except FIT_ERRORS as exc:
+                    why_s = f"harmonic solve at {T:g} degC: {exc}"
+        for i, (_, cell) in enumerate(g.iterrows()):
+            x = extrapolation(cell)
+            out.append(_row(scheme, fold, kind, "extended_law", cell,
+                            None if pred_law is None else pred_law[i], x, label, why))
+            if sample is not None:
+                out.append(_row(scheme, fold, kind, "nscd_sample", cell,
+                                None if pred_nscd is None else pred_nscd[i], x, label,
+                                why or why_s))
+    return out
+
+
+@dataclass
+class CrossvalResult:
+    """Output of :func:`crossval`: ``rows`` (module docstring, columns :data:`ROW_COLUMNS`),
+    ``curves`` (the selection curve of the whole table, ``fold = all``, and of every outer
+    fold), ``full`` (FitResult on the whole table) and ``fold_fits`` ({fold label: FitResult})."""
+
+    rows: pd.DataFrame
+    curves: pd.DataFrame
+    full: FitResult
+    fold_fits: dict
+
+
+def fold_label(scheme: str, value: float) -> str:
+    """``10`` (Hz, lofo) or ``21`` (degC, loto): the held-out value, ``%g``."""
+    return f"{float(value):g}"
+
+
+def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleModel | None = None,
+             time_domain: pd.DataFrame | None = None, full: FitResult | None = None) -> CrossvalResult:
+    """Held-out and in-sample predictions of every model for one scheme (module docstring).
+
+    Parameters
+    ----------
+    table : DataFrame
+        Validated measured table (``lab.measured.load_measured``).
+    scheme : {"lofo", "loto"}
+    options : Options
+    sample : SampleModel, optional
+        Adds the ``nscd_sample`` model.
+    time_domain : DataFrame, optional
+        Reduced time-domain rows (``temperature_C, frequency_Hz, E_norm_MPa, phase_deg``) of
+        the sample run with one fold's law (lofo: the fold of their frequency; loto: of
+        their temperature): added as ``nscd_time_domain`` rows.
+    full : FitResult, optional
+        The procedure already run on the whole table (reused for the in-sample rows).
+
+    Raises
+    ------
+    InputError
+        on an unknown scheme or time-domain rows at a cell that is not measured.
+    """
+    if scheme not in SCHEMES:
+        raise InputError(f"--scheme: expected one of {list(SCHEMES)}, got {scheme!r}")
+    cells = cell_means(table)
+    T_all = np.unique(cells["temperature_C"].to_numpy(float))
+    rows, curves, fits = [], [], {}
+    full = full if full is not None else fit_extended(table, options)
+    if not full.curve.empty:
+        curves.append(full.curve.assign(scheme=scheme, fold="all"))
+    from .effects import prepare_table
+
+    prepared = prepare_table(table)  # test_step: the test's rank in its isotherm, whole table
+    nb = options.burgers_starts
+    if options.burgers:
+        rows += _burgers_rows(scheme, "all", "in_sample", table, cells, lambda c: False, nb)
+    rows += _law_rows(scheme, "all", "in_sample", full, cells, sample, lambda c: False, rows=prepared)
+    for value in _fold_values(cells, scheme):
+        label = fold_label(scheme, value)
+        train_cells, reason = fold_split(cells, scheme, value)
+        test = cells[~train_cells]
+        train_rows = table[fold_split(table, scheme, value)[0]]
+        if scheme == "loto":
+            edge = bool(value <= T_all.min() or value >= T_all.max())
+            extrapolation = lambda c, e=edge: e  # noqa: E731
+        else:
+            f_tr = train_rows["frequency_Hz"].to_numpy(float)
+            extrapolation = lambda c, f=f_tr: bool(f.size == 0 or c["frequency_Hz"] < f.min()  # noqa: E731
+                                                   or c["frequency_Hz"] > f.max())
+        fit = None
+        if not reason:
+            fit = fit_extended(train_rows, options)
+            fits[label] = fit
+            if not fit.curve.empty:
+                curves.append(fit.curve.assign(scheme=scheme, fold=label))
+            if fit.law is None:
+                reason = fit.reason
+        if options.burgers:
+            rows += _burgers_rows(scheme, label, "held_out", train_rows, test, extrapolation, nb)
+        rows += _law_rows(scheme, label, "held_out", fit, test, sample, extrapolation, reason,
+                          rows=prepared[~fold_split(prepared, scheme, value)[0]])
+    if time_domain is not None and len(time_domain):
+        rows += _time_domain_rows(scheme, cells, time_domain, fits)
+    out = pd.DataFrame(rows, columns=list(ROW_COLUMNS))
+    return CrossvalResult(out, pd.concat(curves, ignore_index=True) if curves else pd.DataFrame(), full, fits)
+
+
+def _time_domain_rows(scheme, cells, td: pd.DataFrame, fits) -> list:
+    rows = []
+    for _, r in td.iterrows():
+        sel = (np.isclose(cells["temperature_C"], r["temperature_C"], rtol=0, atol=1e-9)
+               & np.isclose(cells["frequency_Hz"], r["frequency_Hz"], rtol=1e-12, atol=0))
+        if not sel.any():
+            raise InputError(f"time-domain row at {r['temperature_C']:g} degC, {r['frequency_Hz']:g} Hz: not a "
+                             "measured cell")
+        cell = cells[sel].iloc[0]
+        label = fold_label(scheme, r["frequency_Hz"] if scheme == "lofo" else r["temperature_C"])
+        fit = fits.get(label)
+        rows.append(_row(scheme, label, "held_out", "nscd_time_domain", cell,
+                         (float(r["E_norm_MPa"]), float(r["phase_deg"])), False,
+                         fit.settings.label() if fit is not None and fit.settings else "",
+                         ""))
+    return rows
+
+
+def summarize(rows: pd.DataFrame) -> pd.DataFrame:
+    """MRE per (scheme, kind, model, temperature): ``mre_E_norm_pct, mre_phase_pct``
+    (mean over the computable cells, %), ``n_cells``, ``n_not_computable``,
+    ``extrapolation`` (every cell of that temperature is an extrapolation)."""
+    out = []
+    for key, g in rows.groupby(["scheme", "kind", "model", "temperature_C"], sort=True):
+        ok = g[g["computable"]]
+        out.append({"scheme": key[0], "kind": key[1], "model": key[2], "temperature_C": key[3],
+                    "mre_E_norm_pct": 100 * float(ok["rel_err_E_norm"].mean()) if len(ok) else np.nan,
+                    "mre_phase_pct": 100 * float(ok["rel_err_phase"].mean()) if len(ok) else np.nan,
+                    "n_cells": int(len(ok)), "n_not_computable": int(len(g) - len(ok)),
+                    "extrapolation": bool(g["extrapolation"].all())})
+    return pd.DataFrame(out, columns=["scheme", "kind", "model", "temperature_C", "mre_E_norm_pct",
+                                      "mre_phase_pct", "n_cells", "n_not_computable", "extrapolation"])
+
+
+def headline(summary: pd.DataFrame) -> pd.DataFrame:
+    """Worst temperature per (scheme, kind, model): lofo over every temperature, loto over
+    the inner (non-extrapolated) ones. Columns ``scheme, kind, model, worst_E_norm_pct,
+    worst_E_norm_T_C, worst_phase_pct, worst_phase_T_C``."""
+    out = []
+    for key, g in summary.groupby(["scheme", "kind", "model"], sort=True):
+        if key[0] == "loto" and key[1] == "held_out":
+            g = g[~g["extrapolation"]]
+        g = g.dropna(subset=["mre_E_norm_pct", "mre_phase_pct"])
+        if g.empty:
+            continue
+        iE, iP = g["mre_E_norm_pct"].idxmax(), g["mre_phase_pct"].idxmax()
+        out.append({"scheme": key[0], "kind": key[1], "model": key[2],
+                    "worst_E_norm_pct": float(g.loc[iE, "mre_E_norm_pct"]),
+                    "worst_E_norm_T_C": float(g.loc[iE, "temperature_C"]),
+                    "worst_phase_pct": float(g.loc[iP, "mre_phase_pct"]),
+                    "worst_phase_T_C": float(g.loc[iP, "temperature_C"])})
+    return pd.DataFrame(out)
+
+
+def figure(rows: pd.DataFrame, law: ThermoLaw | None, path, model: str = "extended_law") -> None:
+    """Measured, in-sample and held-out isotherms of one model (top |E*|, bottom Phi vs f),
+    saved atomically to ``path``; the in-sample law is drawn as curves when given."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io import savefig
+
+    sub = rows[rows["model"] == model]
+    meas = sub.drop_duplicates(["temperature_C", "frequency_Hz"])
+    temps = sorted(meas["temperature_C"].unique())
+    fig, axes = plt.subplots(2, 1, figsize=(7, 8), sharex=True)
+    colors = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(temps), 1)))
+    f_all = meas["frequency_Hz"].to_numpy(float)
+    fg = np.logspace(np.log10(f_all.min()) - 0.2, np.log10(f_all.max()) + 0.2, 80) if f_all.size else []
+    scheme = sub["scheme"].iloc[0] if len(sub) else ""
+    for T, color in zip(temps, colors):
+        m = meas[meas["temperature_C"] == T].sort_values("frequency_Hz")
+        h = sub[(sub["temperature_C"] == T) & (sub["kind"] == "held_out") & sub["computable"]]
+        axes[0].plot(m["frequency_Hz"], m["E_norm_MPa_measured"], "o", color=color, label=f"{T:g} degC measured")
+        axes[1].plot(m["frequency_Hz"], m["phase_deg_measured"], "o", color=color)
+        axes[0].plot(h["frequency_Hz"], h["E_norm_MPa_predicted"], "x", color=color, ms=9, mew=2)
+        axes[1].plot(h["frequency_Hz"], h["phase_deg_predicted"], "x", color=color, ms=9, mew=2)
+        if law is not None and len(fg):
+            try:
+                E = law.complex_modulus(fg, np.full(len(fg), T))
+            except (InputError, *FIT_ERRORS):
+                continue
+            axes[0].plot(fg, np.abs(E), "-", color=color, lw=1)
+            axes[1].plot(fg, np.degrees(np.angle(E)), "-", color=color, lw=1)
+    axes[0].plot([], [], "k-", lw=1, label="in-sample law (fitted on every cell)")
+    axes[0].plot([], [], "kx", ms=9, mew=2, label=f"held out ({scheme}: fold's law)")
+    axes[0].set_xscale("log")
+    axes[0].set_yscale("log")
+    axes[0].set_ylabel("norm of E* (MPa)")
+    axes[1].set_ylabel("phase angle (deg)")
+    axes[1].set_xlabel("frequency (Hz)")
+    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.suptitle(f"{model.replace('_', ' ')}: measured, in-sample and held-out ({scheme}) isotherms")
+    savefig(fig, path)
+    plt.close(fig)
