@@ -49,6 +49,7 @@ NOT_IDENTICAL = {
         "solve_time_s": "measured time of a harmonic solve",
         "wall_clock_s": "measured wall time of a sample preparation phase",
         "timings_s": "measured wall times of the sample preparation phases",
+        "cpu_s": "measured CPU time of a sample preparation phase",
         "seconds_per_table": "measured time per table of the detection benchmark",
     },
 }
