@@ -8,7 +8,7 @@ from asphalt_nscd.nscd.verify import LAW_15C, random_bonded_network
 
 
 def _run(fast, solver="cg", n_steps=30, contacts=False, gravity=(0, 0, 0), n=40, kick=0.0,
-         kinematics="contact"):
+         kinematics="contact", bonded_contact="after_break"):
     law = LAW_15C.scaled(1e-3) if kick else LAW_15C  # soft bonds: the thrown sphere hits
     s, plates, bonds = random_bonded_network(n=n, contacts=contacts, law=law)
     s.velocity[1, 0] = -kick  # sphere 1 thrown at its neighbour 0 (lattice along x)
@@ -16,7 +16,8 @@ def _run(fast, solver="cg", n_steps=30, contacts=False, gravity=(0, 0, 0), n=40,
         bonds.r_crit[:] = np.inf
     params = NSCDParameters(dt=5e-5, friction=0.7, tolerance=1e-11, max_iterations=50000,
                             gravity=gravity, fast_path=fast, linear_solver=solver,
-                            linear_tolerance=1e-13, bond_kinematics=kinematics)
+                            linear_tolerance=1e-13, bond_kinematics=kinematics,
+                            bonded_contact=bonded_contact)
     sim = Simulation(s, plates, bonds, params)
     df = sim.run(n_steps)
     return sim, df
@@ -41,11 +42,14 @@ def test_fast_path_matches_nlgs(solver, kinematics):
                                    sim_g.spheres.angular_velocity, atol=1e-7 * w_scale)
 
 
-def test_fast_path_falls_back_when_contacts_close():
-    """A sphere thrown at its neighbour: the contact activates, those steps are solved by
-    NLGS (the others by the linear path) and agree with a pure NLGS run."""
-    sim_f, df_f = _run(True, contacts=True, n_steps=60, kick=5.0)
-    sim_g, df_g = _run(False, contacts=True, n_steps=60, kick=5.0)
+@pytest.mark.parametrize("bonded_contact", ["always", "open_at_bonding"])
+def test_fast_path_falls_back_when_contacts_close(bonded_contact):
+    """A sphere thrown at its bonded neighbour (open gap at bonding), with the contact of
+    intact bonded pairs enabled: the contact activates, those steps are solved by NLGS (the
+    others by the linear path) and agree with a pure NLGS run."""
+    sim_f, df_f = _run(True, contacts=True, n_steps=60, kick=5.0, bonded_contact=bonded_contact)
+    sim_g, df_g = _run(False, contacts=True, n_steps=60, kick=5.0,
+                       bonded_contact=bonded_contact)
     assert (df_f.n_active_contacts > 0).any()
     assert set(df_f.solver[df_f.n_active_contacts > 0]) == {"nlgs"}
     assert (df_f.solver == "linear").any()

@@ -62,6 +62,7 @@ rule nscd_bench:
         settle_speed=NSCD["bench"].get("settle_speed_m_s", 5.0e-3),
         tol=lambda wc: NSCD["bench"]["granular_tolerance" if wc.case == "granular" else "tolerance"],
         kinematics=NSCD.get("bond_kinematics", "contact"),
+        bonded_contact=NSCD.get("bonded_contact", "after_break"),
     log:
         "logs/nscd/bench_{case}_n{n}.log",
     benchmark:
@@ -74,7 +75,8 @@ rule nscd_bench:
         "NUMBA_NUM_THREADS=1 asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} "
         "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
         "--settle-speed {params.settle_speed} "
-        "--tolerance {params.tol} --bond-kinematics {params.kinematics} -o {output} 2> {log}"
+        "--tolerance {params.tol} --bond-kinematics {params.kinematics} "
+        "--bonded-contact {params.bonded_contact} -o {output} 2> {log}"
 
 
 rule nscd_bench_summary:

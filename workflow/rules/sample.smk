@@ -7,6 +7,10 @@ import json
 SAMPLES = [f"s{seed}" for seed in config["sample"]["seeds"]]
 # the sample settings without the seed list: adding a seed does not rerun the other samples
 SAMPLE_SETTINGS = json.dumps({k: v for k, v in config["sample"].items() if k != "seeds"})
+# contact of the bonded pairs in the stabilisation: the NSCD core's setting
+BONDED_CONTACT = config["nscd"].get("bonded_contact", "after_break")
+# the preparation benchmark runs the first seed at the configuration's own size
+PREPARE_BENCH = f"results/bench/prepare_s{config['sample']['seeds'][0]}.json"
 
 
 def sample_names(cfg=None):
@@ -33,6 +37,7 @@ rule prepare_sample:
         ),
     params:
         cfg=SAMPLE_SETTINGS,
+        bonded_contact=BONDED_CONTACT,
     wildcard_constraints:
         seed=r"\d+",
     log:
@@ -45,7 +50,33 @@ rule prepare_sample:
         runtime=lambda wc: 30 if config["sample"]["scale"] < 0.9 else 24 * 60,
     shell:
         "asphalt-nscd prepare-sample --config-json {params.cfg:q} --seed {wildcards.seed}"
+        " --bonded-contact {params.bonded_contact}"
         " -o {output.h5} --summary {output.summary} --vtk-dir {output.vtk} --figure {output.figure} 2> {log}"
+
+
+rule prepare_bench:
+    output:
+        report(
+            "results/bench/prepare_s{seed}.json",
+            caption="../report/sample_prepare_bench.rst",
+            category="Numerical samples",
+        ),
+    params:
+        cfg=SAMPLE_SETTINGS,
+        bonded_contact=BONDED_CONTACT,
+    wildcard_constraints:
+        seed=r"\d+",
+    log:
+        "logs/samples/prepare_bench_s{seed}.log",
+    benchmark:
+        "benchmarks/samples/prepare_bench_s{seed}.tsv"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=lambda wc: 30 if config["sample"]["scale"] < 0.9 else 24 * 60,
+    shell:
+        "NUMBA_NUM_THREADS=1 asphalt-nscd prepare-bench --config-json {params.cfg:q} --seed {wildcards.seed}"
+        " --bonded-contact {params.bonded_contact} -o {output} 2> {log}"
 
 
 rule sample_table:
@@ -71,5 +102,5 @@ rule sample_table:
         "asphalt-nscd sample-table --config-json {params.cfg:q} --summaries {input.summaries} -o {output} 2> {log}"
 
 
-REPORT_FILES += ["results/samples/table2_counts.csv"]
+REPORT_FILES += ["results/samples/table2_counts.csv", PREPARE_BENCH]
 REPORT_FILES += expand("results/samples/{sample}_stages.png", sample=SAMPLES)

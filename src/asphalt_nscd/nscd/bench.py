@@ -167,7 +167,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
               tolerance: float = 1e-7, settle_steps: int = 5000, seed: int = 0,
               linear_tolerance: float = 1e-7, bond_kinematics: str = "contact",
               threads: int = 1, settle_speed: float = 5e-3,
-              linear_solver: str = "cg") -> dict:
+              linear_solver: str = "cg", bonded_contact: str = "after_break") -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
@@ -179,7 +179,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     conjugate gradient; 'cg_ssor': SSOR-preconditioned, linear.py); with 'cg_ssor' the same
     steps are also run with 'cg' on a copy of the sample, alternating chunks of 5 steps,
     and ``cg_s_per_particle_step``, ``cg_iterations_mean`` and ``speedup_vs_cg`` (CPU time
-    ratio) are reported.
+    ratio) are reported. ``bonded_contact``: NSCDParameters.bonded_contact of every run of
+    the bonded case.
 
     Raises
     ------
@@ -197,6 +198,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                  "tolerance": tolerance, "threads": int(threads),
                  "numba_threads_available": int(numba.config.NUMBA_NUM_THREADS),
                  "compile_s": comp, "seed": seed, "bond_kinematics": bond_kinematics,
+                 "bonded_contact": bonded_contact,
                  "cpu": platform.processor() or platform.machine(),
                  "python": platform.python_version(), "numba": numba.__version__}
     if case == "bonded":
@@ -204,7 +206,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                 max_iterations=5000, fast_path=True,
                                 linear_tolerance=linear_tolerance, linear_solver=linear_solver,
-                                bond_kinematics=bond_kinematics, threads=threads)
+                                bond_kinematics=bond_kinematics, threads=threads,
+                                bonded_contact=bonded_contact)
         sim = Simulation(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
@@ -224,7 +227,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
             sim5 = Simulation(s5, plates5, bonds5, NSCDParameters(
                 dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
                 fast_path=True, linear_tolerance=linear_tolerance, linear_solver="cg",
-                bond_kinematics=bond_kinematics, threads=threads))
+                bond_kinematics=bond_kinematics, threads=threads,
+                bonded_contact=bonded_contact))
             sim5.step()
             s6, plates6, bonds6 = bonded_sample(n, seed=seed)
             sim6 = Simulation(s6, plates6, bonds6, params)
@@ -242,7 +246,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
             sim4 = Simulation(s4, plates4, bonds4, NSCDParameters(
                 dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
                 fast_path=True, linear_tolerance=linear_tolerance,
-                bond_kinematics=bond_kinematics, threads=1))
+                bond_kinematics=bond_kinematics, threads=1, bonded_contact=bonded_contact))
             sim4.step()
             _, wall4, _, _ = _timed(sim4, steps)
             rec.update(threads1_wall_s_per_particle_step=wall4 / (steps * n),
@@ -256,7 +260,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         t3 = time.perf_counter()
         sim3 = Simulation(s3, plates3, bonds3, NSCDParameters(
             dt=5e-5, theta=0.5, friction=0.7, fast_path=True, linear_solver="direct",
-            bond_kinematics=bond_kinematics))
+            bond_kinematics=bond_kinematics, bonded_contact=bonded_contact))
         sim3.step()  # factorisation
         direct_setup = time.perf_counter() - t3
         cpu3, _, _, _ = _timed(sim3, steps)
@@ -270,7 +274,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         s2, plates2, bonds2 = bonded_sample(n, seed=seed)
         params2 = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                  max_iterations=20000, fast_path=False,
-                                 bond_kinematics=bond_kinematics)
+                                 bond_kinematics=bond_kinematics,
+                                 bonded_contact=bonded_contact)
         sim2 = Simulation(s2, plates2, bonds2, params2)
         wall2, _, df2, br2 = _timed(sim2, baseline_steps)
         rec.update(baseline_solver="nlgs", baseline_steps=int(baseline_steps),

@@ -26,7 +26,7 @@ _BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "
          "r_crit", "arm_i", "arm_j", "displacement", "force", "delta_c", "delta_k", "broken")
 _PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations",
            "relaxation",
-           "alert_distance", "fast_path", "linear_solver", "linear_tolerance", "bond_kinematics")
+           "alert_distance", "fast_path", "linear_solver", "linear_tolerance", "bond_kinematics", "bonded_contact")
 
 
 def write_checkpoint(sim, path) -> None:
@@ -115,7 +115,9 @@ def read_checkpoint(path, drivers=None, external_force=None):
         plates.rotation[:] = gp["rotation"][()]
         gb = f["bonds"]
         bonds = Bonds(**{k: gb[k][()] for k in _BOND}, law=json.loads(gb.attrs["law"]))
-        pa = {k: f["params"].attrs[k] for k in _PARAMS}
+        # checkpoints written before bonded_contact existed ran with the former behaviour
+        pa = {k: f["params"].attrs[k] for k in _PARAMS if k != "bonded_contact"}
+        pa["bonded_contact"] = str(f["params"].attrs.get("bonded_contact", "always"))
         ad = float(pa["alert_distance"])
         pa["alert_distance"] = None if np.isnan(ad) else ad
         pa["max_iterations"] = int(pa["max_iterations"])

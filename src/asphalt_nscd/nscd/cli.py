@@ -8,8 +8,11 @@
 ``asphalt-nscd bench --case bonded|granular --n N [--steps S] [--baseline-steps B]
 [--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
 [--bond-kinematics contact|barycentre] [--settle-speed V] [--threads T]
-[--linear-solver cg|cg_ssor] -o bench.json`` runs one benchmark.
+[--linear-solver cg|cg_ssor] [--bonded-contact after_break|open_at_bonding|always]
+-o bench.json`` runs one benchmark.
 """
+
+from .state import BONDED_CONTACT
 
 
 def register(subparsers) -> None:
@@ -49,6 +52,8 @@ def register(subparsers) -> None:
     b.add_argument("--linear-solver", choices=["cg", "cg_ssor"], default="cg",
                    help="conjugate gradient of the bonded case: block-Jacobi (cg) or SSOR "
                         "(cg_ssor, also times cg on the same steps)")
+    b.add_argument("--bonded-contact", choices=list(BONDED_CONTACT), default="after_break",
+                   help="contact of the bonded pairs (bonded case; NSCDParameters.bonded_contact)")
     b.add_argument("-o", "--output", required=True, help="JSON record")
     b.set_defaults(func=_bench)
 
@@ -112,7 +117,8 @@ def _bench(args) -> int:
                     tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed,
                     linear_tolerance=args.linear_tolerance,
                     bond_kinematics=args.bond_kinematics, threads=args.threads,
-                    settle_speed=args.settle_speed, linear_solver=args.linear_solver)
+                    settle_speed=args.settle_speed, linear_solver=args.linear_solver,
+                    bonded_contact=args.bonded_contact)
     write_json(rec, args.output)
     return 0
 

@@ -15,6 +15,12 @@ a fresh search at every step.
 
 Contact frames: n from the antagonist to the candidate (unit centre-to-centre vector, or
 the plate's inward normal), t = n x e (e the global axis least aligned with n), s = n x t.
+
+Excluded pairs (:class:`Exclusions`, from :func:`bonded_exclusions`): the pairs whose intact
+bond is their interaction law (``NSCDParameters.bonded_contact``) are skipped inside the
+search kernels, by a per-sphere list (CSR) of excluded sphere partners and a per-sphere,
+per-plate flag; they never enter the candidate list. A new exclusion set (a bond broke)
+forces a fresh search at the next call of :meth:`CandidateList.contacts`.
 """
 
 from __future__ import annotations
@@ -23,6 +29,57 @@ import numpy as np
 from numba import njit
 
 from ._jit import kernel
+
+
+class Exclusions:
+    """Pairs that contact detection skips (module docstring).
+
+    Attributes
+    ----------
+    ptr : (N+1,) int64, nbr : (M,) int64 — CSR: the excluded sphere partners of sphere a
+        are ``nbr[ptr[a]:ptr[a+1]]`` (both directions, sorted).
+    plate : (N, P) uint8 — 1 where the pair (sphere a, plate k) is excluded.
+    """
+
+    def __init__(self, ptr, nbr, plate):
+        self.ptr = np.ascontiguousarray(ptr, dtype=np.int64)
+        self.nbr = np.ascontiguousarray(nbr, dtype=np.int64)
+        self.plate = np.ascontiguousarray(plate, dtype=np.uint8)
+
+    @classmethod
+    def none(cls, n_spheres: int, n_plates: int) -> "Exclusions":
+        return cls(np.zeros(n_spheres + 1, np.int64), np.zeros(0, np.int64),
+                   np.zeros((n_spheres, n_plates), np.uint8))
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self.nbr) // 2 + int(self.plate.sum())
+
+
+def bonded_exclusions(n_spheres: int, n_plates: int, i, j) -> Exclusions:
+    """:class:`Exclusions` of the pairs (i[b], j[b]) (state.py convention: j a sphere index
+    or ``-1-k`` for plate k).
+
+    Raises
+    ------
+    ValueError if an index is out of range.
+    """
+    i = np.asarray(i, dtype=np.int64).reshape(-1)
+    j = np.asarray(j, dtype=np.int64).reshape(-1)
+    if len(i) != len(j):
+        raise ValueError("i and j differ in length")
+    if len(i) and (i.min() < 0 or i.max() >= n_spheres or j.max() >= n_spheres
+                   or j.min() < -n_plates):
+        raise ValueError("excluded pair index out of range")
+    sph = j >= 0
+    a = np.concatenate([i[sph], j[sph]])
+    b = np.concatenate([j[sph], i[sph]])
+    order = np.lexsort((b, a))
+    ptr = np.zeros(n_spheres + 1, np.int64)
+    np.cumsum(np.bincount(a, minlength=n_spheres), out=ptr[1:])
+    plate = np.zeros((n_spheres, n_plates), np.uint8)
+    plate[i[~sph], -1 - j[~sph]] = 1
+    return Exclusions(ptr, b[order], plate)
 
 
 @njit(cache=True)
@@ -61,7 +118,7 @@ def _grid(pos, cell):
 
 
 @njit(cache=True)
-def _pairs(pos, rad, max_gap, count_only, out_i, out_j, out_gap):
+def _pairs(pos, rad, max_gap, count_only, out_i, out_j, out_gap, ex_ptr, ex_nbr):
     n = pos.shape[0]
     if n < 2:
         return 0
@@ -95,6 +152,13 @@ def _pairs(pos, rad, max_gap, count_only, out_i, out_j, out_gap):
                         d2 = pos[a, 2] - pos[b, 2]
                         gap = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - rad[a] - rad[b]
                         if gap < max_gap:
+                            excluded = False
+                            for e in range(ex_ptr[a], ex_ptr[a + 1]):
+                                if ex_nbr[e] == b:
+                                    excluded = True
+                                    break
+                            if excluded:
+                                continue
                             if not count_only:
                                 out_i[m] = a
                                 out_j[m] = b
@@ -103,8 +167,9 @@ def _pairs(pos, rad, max_gap, count_only, out_i, out_j, out_gap):
     return m
 
 
-def sphere_pairs(position, radius, max_gap):
-    """Sphere pairs (a < b) with surface gap < max_gap (m).
+def sphere_pairs(position, radius, max_gap, exclude: Exclusions | None = None):
+    """Sphere pairs (a < b) with surface gap < max_gap (m), except the pairs ``exclude``
+    lists.
 
     Returns
     -------
@@ -112,21 +177,26 @@ def sphere_pairs(position, radius, max_gap):
     """
     pos = np.ascontiguousarray(position, dtype=float)
     rad = np.ascontiguousarray(radius, dtype=float)
+    if exclude is None:
+        exclude = Exclusions.none(len(rad), 0)
     dummy_i = np.empty(0, np.int64)
     dummy_g = np.empty(0)
-    m = _pairs(pos, rad, float(max_gap), True, dummy_i, dummy_i, dummy_g)
+    m = _pairs(pos, rad, float(max_gap), True, dummy_i, dummy_i, dummy_g, exclude.ptr,
+               exclude.nbr)
     out_i = np.empty(m, np.int64)
     out_j = np.empty(m, np.int64)
     out_g = np.empty(m)
-    _pairs(pos, rad, float(max_gap), False, out_i, out_j, out_g)
+    _pairs(pos, rad, float(max_gap), False, out_i, out_j, out_g, exclude.ptr, exclude.nbr)
     return out_i, out_j, out_g
 
 
 @njit(cache=True)
-def _plate_pairs(pos, rad, pts, nrm, max_gap, count_only, out_i, out_k, out_gap):
+def _plate_pairs(pos, rad, pts, nrm, max_gap, count_only, out_i, out_k, out_gap, ex_plate):
     m = 0
     for a in range(pos.shape[0]):
         for k in range(pts.shape[0]):
+            if ex_plate[a, k]:
+                continue
             gap = ((pos[a, 0] - pts[k, 0]) * nrm[k, 0] + (pos[a, 1] - pts[k, 1]) * nrm[k, 1]
                    + (pos[a, 2] - pts[k, 2]) * nrm[k, 2]) - rad[a]
             if gap < max_gap:
@@ -138,8 +208,10 @@ def _plate_pairs(pos, rad, pts, nrm, max_gap, count_only, out_i, out_k, out_gap)
     return m
 
 
-def plate_pairs(position, radius, plate_point, plate_normal, max_gap):
-    """Sphere-plate pairs with gap (centre-to-plane distance - radius) < max_gap (m).
+def plate_pairs(position, radius, plate_point, plate_normal, max_gap,
+                exclude: Exclusions | None = None):
+    """Sphere-plate pairs with gap (centre-to-plane distance - radius) < max_gap (m), except
+    the pairs ``exclude`` lists.
 
     Returns i (M,) sphere indices, k (M,) plate indices, gap (M,) m.
     """
@@ -147,13 +219,18 @@ def plate_pairs(position, radius, plate_point, plate_normal, max_gap):
     rad = np.ascontiguousarray(radius, dtype=float)
     pts = np.ascontiguousarray(plate_point, dtype=float).reshape(-1, 3)
     nrm = np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3)
+    if exclude is None:
+        exclude = Exclusions.none(len(rad), len(pts))
+    if exclude.plate.shape != (len(rad), len(pts)):
+        raise ValueError(f"exclude.plate: expected shape {(len(rad), len(pts))}, got "
+                         f"{exclude.plate.shape}")
     e_i = np.empty(0, np.int64)
     e_g = np.empty(0)
-    m = _plate_pairs(pos, rad, pts, nrm, float(max_gap), True, e_i, e_i, e_g)
+    m = _plate_pairs(pos, rad, pts, nrm, float(max_gap), True, e_i, e_i, e_g, exclude.plate)
     out_i = np.empty(m, np.int64)
     out_k = np.empty(m, np.int64)
     out_g = np.empty(m)
-    _plate_pairs(pos, rad, pts, nrm, float(max_gap), False, out_i, out_k, out_g)
+    _plate_pairs(pos, rad, pts, nrm, float(max_gap), False, out_i, out_k, out_g, exclude.plate)
     return out_i, out_k, out_g
 
 
@@ -205,16 +282,19 @@ def _frames(ci, cj, pos, nrm_plate, frame):
         frame[a, 2, 2] = n0 * t1 - n1 * t0
 
 
-def detect_contacts(position, radius, plate_point, plate_normal, alert_distance):
-    """Contact candidates (gap < alert_distance) with their frames.
+def detect_contacts(position, radius, plate_point, plate_normal, alert_distance,
+                    exclude: Exclusions | None = None):
+    """Contact candidates (gap < alert_distance) with their frames, except the pairs
+    ``exclude`` lists.
 
     Returns
     -------
     ci : (C,) int64 candidate spheres; cj : (C,) int64 antagonist sphere or ``-1-k``;
     gap : (C,) m; frame : (C, 3, 3) rows n, t, s.
     """
-    si, sj, sg = sphere_pairs(position, radius, alert_distance)
-    pi_, pk, pg = plate_pairs(position, radius, plate_point, plate_normal, alert_distance)
+    si, sj, sg = sphere_pairs(position, radius, alert_distance, exclude)
+    pi_, pk, pg = plate_pairs(position, radius, plate_point, plate_normal, alert_distance,
+                              exclude)
     ci = np.concatenate([si, pi_])
     cj = np.concatenate([sj, -1 - pk])
     gap = np.concatenate([sg, pg])
@@ -255,6 +335,12 @@ class CandidateList:
         self.x_ref = None
         self.p_ref = None
         self.n_searches = 0
+        self.exclude = None
+
+    def set_exclusions(self, exclude: Exclusions | None) -> None:
+        """Pairs to skip from now on (None: none); the next call searches afresh."""
+        self.exclude = exclude
+        self.x_ref = None
 
     def contacts(self, position, radius, plate_point, plate_normal):
         """Contacts (ci, cj, gap, frame) as :func:`detect_contacts` returns them."""
@@ -267,7 +353,8 @@ class CandidateList:
             dp = np.sqrt(((pts - self.p_ref) ** 2).sum(1)).max() if len(pts) else 0.0
             stale = 2.0 * dx + dp > self.skin
         if stale:
-            ci, cj, _, _ = detect_contacts(pos, radius, pts, nrm, self.alert + self.skin)
+            ci, cj, _, _ = detect_contacts(pos, radius, pts, nrm, self.alert + self.skin,
+                                           self.exclude)
             self.ci, self.cj = ci, cj
             self.x_ref = pos.copy()
             self.p_ref = pts.copy()

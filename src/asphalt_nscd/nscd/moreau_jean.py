@@ -7,7 +7,8 @@ One step of length h from t- to t+ = t- + h (Jean 1999; Eq. 14 of the paper):
    displacement for the whole step; a free plate's free velocity includes gravity;
 2. free velocities v_free = v- + h M^-1 (m g + f_ext,theta), f_ext,theta = theta f(t+) +
    (1-theta) f(t-) when the external force is a callable, else the array as given;
-3. detection at the start-of-step configuration (cell lists, gap < alert distance),
+3. detection at the start-of-step configuration (cell lists, gap < alert distance;
+   pairs whose intact bond is their only law skipped, ``NSCDParameters.bonded_contact``),
    warm start of contact impulses from the previous step (matched by pair), of bond
    impulses from the previous step;
 4. solve for the impulses: the linear fast path (linear.py) when allowed and valid, else
@@ -105,6 +106,7 @@ class Simulation:
         else:
             self.alert_distance = float(self.params.alert_distance)
         self._candidates = detection.CandidateList(self.alert_distance)
+        self._exclusion_key = None
 
     # ------------------------------------------------------------------ helpers
     def _external(self, t0, t1):
@@ -118,6 +120,32 @@ class Simulation:
 
     def n_intact_bonds(self) -> int:
         return int((~self.bonds.broken).sum())
+
+    def excluded_bonds(self) -> np.ndarray:
+        """(B,) bool: the bonds whose pair is not a contact candidate now
+        (``params.bonded_contact``: intact bonds; with 'open_at_bonding' only those with
+        delta0 <= 0; none with 'always')."""
+        bnd = self.bonds
+        policy = self.params.bonded_contact
+        if policy == "always":
+            return np.zeros(bnd.n, bool)
+        mask = ~bnd.broken
+        if policy == "open_at_bonding":
+            mask &= bnd.delta0 <= 0.0
+        return mask
+
+    def _update_exclusions(self) -> None:
+        """Give detection the pairs to skip when the policy or the intact-bond set changed
+        (bonds only break, so their count identifies the set)."""
+        bnd = self.bonds
+        key = (self.params.bonded_contact, bnd.n, int(bnd.broken.sum()), id(bnd.i))
+        if key == self._exclusion_key:
+            return
+        mask = self.excluded_bonds()
+        self._candidates.set_exclusions(
+            detection.bonded_exclusions(self.spheres.n, self.plates.n, bnd.i[mask], bnd.j[mask])
+            if mask.any() else None)
+        self._exclusion_key = key
 
     # ------------------------------------------------------------------ one step
     def step(self) -> StepStats:
@@ -180,6 +208,7 @@ class Simulation:
             self._candidates.skin = max(self._candidates.skin, self._candidates.alert)
             self._candidates.x_ref = None
             self.alert_distance = self._candidates.alert
+        self._update_exclusions()
         ci, cj, gap, cframe = self._candidates.contacts(sph.position, sph.radius, pls.point,
                                                         pls.normal)
         cP = self._warm_contacts(ci, cj, cframe)

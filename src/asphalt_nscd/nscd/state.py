@@ -34,6 +34,9 @@ CONVERGENCE_NORMS = {"quad": 0, "max": 1, "both": 2}
 #: Bond kinematics (NSCDParameters.bond_kinematics, Bonds).
 BOND_KINEMATICS = ("contact", "barycentre")
 
+#: Contact of an intact bonded pair (NSCDParameters.bonded_contact).
+BONDED_CONTACT = ("after_break", "open_at_bonding", "always")
+
 #: Yield stress of the bonds, Pa (paper, Section 3.1: 2.7 MPa).
 YIELD_STRESS = 2.7e6
 
@@ -425,6 +428,18 @@ class NSCDParameters:
     bond_kinematics : 'contact' (default; bond at the contact point, with torques, 6 DOF per
         sphere in the linear fast path) or 'barycentre' (the former core: at the barycentres,
         no torque). See :class:`Bonds`; same option as the harmonic solver.
+    bonded_contact : when a bonded pair (sphere-sphere or sphere-plate) is also a unilateral
+        contact (Signorini-Coulomb, Eqs. 6-7). 'after_break' (default): its intact bond is
+        its only interaction law and the contact exists from the step after the bond breaks
+        ("the frictional contact conditions (Eqs. 6 and 7) are applied instead", Section
+        3.1); 'open_at_bonding': also while the bond is intact, for the pairs with a
+        positive gap at bonding (delta0 > 0) -- the paper's "the viscoelastic Burger's model
+        acts together with the frictional contact law ... when a frictional contact is
+        produced (delta_n = 0) the generated contact forces are added", restricted to the
+        pairs the shrink of Section 3.2.1 opened; 'always': every pair, also those that
+        overlapped at bonding (the former core: a sphere cut by a plate plane at bonding
+        is a closed contact from the first step). Detection skips the excluded pairs
+        (detection.Exclusions). docs/choices.md gives the reasons and the cost.
     threads : numba threads of the parallel kernels (conjugate gradient of the fast path,
         bond laws); 1 (default) = the sequential kernels. At most the numba thread pool
         (NUMBA_NUM_THREADS). An execution setting, not stored in checkpoints; results agree
@@ -445,6 +460,7 @@ class NSCDParameters:
     linear_tolerance: float = 1e-10
     bond_kinematics: str = "contact"
     threads: int = 1
+    bonded_contact: str = "after_break"
 
     def __post_init__(self):
         import numba
@@ -457,6 +473,9 @@ class NSCDParameters:
         if self.bond_kinematics not in BOND_KINEMATICS:
             raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
                              f"got {self.bond_kinematics!r}")
+        if self.bonded_contact not in BONDED_CONTACT:
+            raise ValueError(f"bonded_contact must be one of {BONDED_CONTACT}, "
+                             f"got {self.bonded_contact!r}")
         if self.convergence not in CONVERGENCE_NORMS:
             raise ValueError(f"convergence must be one of {list(CONVERGENCE_NORMS)}, "
                              f"got {self.convergence!r}")
@@ -479,7 +498,7 @@ class NSCDParameters:
         """Parameters from the ``nscd`` section of the workflow config (solver keys) and
         the run's own dt (s), friction and gravity (m/s²)."""
         keys = ("theta", "tolerance", "convergence", "max_iterations", "relaxation", "fast_path",
-                "linear_solver", "linear_tolerance", "bond_kinematics", "threads")
+                "linear_solver", "linear_tolerance", "bond_kinematics", "threads", "bonded_contact")
         return cls(dt=dt, friction=friction, gravity=gravity,
                    **{k: section[k] for k in keys if k in section})
 

@@ -7,7 +7,8 @@ and puts the sample's descriptors beside the paper's (Section 3.2.1, Table 2):
 * ``phases``: for each phase, ``cpu_s`` and ``wall_s``: lattice, deposition, vibration
   (``shaking`` and ``settling`` split it, from the per-stage statistics), cut_flip,
   plates_shrink (plates, shrink, density), bonds, stabilisation, total;
-* ``nscd``: per dynamic stage, steps, mean NLGS sweeps, unconverged steps, CPU time per
+* ``nscd``: per dynamic stage, steps, mean NLGS sweeps (over the NLGS steps), unconverged
+  steps, linear fast-path steps and their mean conjugate-gradient iterations, CPU time per
   particle and step;
 * ``table2``: sphere counts of the layer per diameter beside the paper's Table 2
   (11798 / 1588 / 492 / 211 / 71) with the relative difference, and ``table2_max_abs_pct``;
@@ -36,6 +37,8 @@ def _stage(info: dict, n: int) -> dict:
         "mean_nlgs_iterations": info.get("mean_iterations"),
         "max_nlgs_iterations": info.get("max_iterations"),
         "unconverged_steps": info.get("unconverged_steps"),
+        "linear_steps": info.get("linear_steps"),
+        "mean_linear_iterations": info.get("mean_linear_iterations"),
         "cpu_s": cpu,
         "wall_s": float(info.get("wall_clock_s", 0.0)),
         "s_per_particle_step": cpu / (steps * n) if steps and n else None,
@@ -94,6 +97,7 @@ def bench_record(summary: dict) -> dict:
         "layer_height_paper_mm": 60.0,
         "max_overlap_after_vibration_mm": summary["max_overlap_after_vibration_mm"],
         "broken_bonds_stabilisation": summary["stabilisation"].get("broken_bonds"),
+        "bonded_contact": summary["stabilisation"].get("bonded_contact"),
     }
     return {
         "case": "prepare",

@@ -34,6 +34,14 @@ def _load_config(args):
     return settings.merge(settings.DEFAULTS, {})
 
 
+def _add_bonded_contact(p: argparse.ArgumentParser) -> None:
+    from ..nscd.state import BONDED_CONTACT
+
+    p.add_argument("--bonded-contact", choices=BONDED_CONTACT, default=None,
+                   help="contact of the bonded pairs in the stabilisation (config nscd.bonded_contact; "
+                   "default: the NSCD core's, after_break)")
+
+
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
     p = subparsers.add_parser(
@@ -48,6 +56,7 @@ def register(subparsers) -> None:
     p.add_argument("--vtk-dir", help="directory for the ParaView files of each stage (.vtu)")
     p.add_argument("--figure", help="Fig. 5-like picture of the stages (.png/.pdf)")
     p.add_argument("--summary", help="summary JSON (counts, porosity, coordination, bonds per sphere)")
+    _add_bonded_contact(p)
     p.set_defaults(func=_prepare)
 
     b = subparsers.add_parser(
@@ -63,6 +72,7 @@ def register(subparsers) -> None:
     b.add_argument("--sample", help="also write the sample file (.h5)")
     b.add_argument("--summary", help="also write the summary JSON of prepare-sample")
     b.add_argument("--progress", action="store_true", help="progress lines of the dynamic stages on stderr")
+    _add_bonded_contact(b)
     b.set_defaults(func=_bench)
 
     t = subparsers.add_parser(
@@ -82,7 +92,7 @@ def _prepare(args) -> int:
     from .prepare import prepare_sample, write_outputs
 
     cfg = _load_config(args)
-    result = prepare_sample(cfg, args.seed)
+    result = prepare_sample(cfg, args.seed, bonded_contact=args.bonded_contact)
     write_outputs(result, args.output, vtk_dir=args.vtk_dir)
     if args.summary:
         write_json(result.summary, args.summary)
@@ -110,7 +120,7 @@ def _bench(args) -> int:
 
     dynamics.PROGRESS = bool(args.progress)
     cfg = _load_config(args)
-    result = prepare_sample(cfg, args.seed)
+    result = prepare_sample(cfg, args.seed, bonded_contact=args.bonded_contact)
     if args.sample:
         write_outputs(result, args.sample)
     if args.summary:

@@ -30,7 +30,10 @@ Stages
 9. *Stabilisation*: ``stabilisation.steps`` steps (paper: 1000) of the bonded sample under
    gravity with friction 0.7 and a Burger's law (``stabilisation.*``, default Table 3 at
    15 degC read in Pa). The bonds keep the reference state of stage 8; the sample file stores
-   the stabilised positions.
+   the stabilised positions. An intact bond is its pair's only law (``nscd.bonded_contact``,
+   default 'after_break'): the spheres whose barycentre is inside the trapezoid but which
+   cross a plate plane are bonded to the plate, not closed contacts with it, so the steps
+   run on the core's linear fast path.
 
 The sample file is temperature independent: the campaign creates the bond laws of each
 temperature from ``delta0, l0, r_min``.
@@ -134,7 +137,7 @@ def counts_table(cfg: dict, summaries=()) -> "pandas.DataFrame":  # noqa: F821
     return table[first + [c for c in table.columns if c not in first]]
 
 
-def prepare_sample(cfg: dict, seed: int) -> PreparedSample:
+def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> PreparedSample:
     """Run stages 1-9 for one seed (see module docstring).
 
     Parameters
@@ -143,6 +146,9 @@ def prepare_sample(cfg: dict, seed: int) -> PreparedSample:
         sample section merged over :data:`.settings.DEFAULTS`.
     seed
         seed of the lattice placement (the only random step).
+    bonded_contact
+        contact of the bonded pairs during the stabilisation (config ``nscd.bonded_contact``,
+        NSCDParameters); None: the core's default.
 
     Returns
     -------
@@ -204,7 +210,8 @@ def prepare_sample(cfg: dict, seed: int) -> PreparedSample:
     clock.lap("bonds")
 
     # Stage 9: stabilisation.
-    stab_position, stab_info = dynamics.stabilise(spec, r_final, mass, plate_point, plate_normal, plate_mass, bonds, cfg)
+    stab_position, stab_info = dynamics.stabilise(spec, r_final, mass, plate_point, plate_normal, plate_mass, bonds, cfg,
+                                                  bonded_contact=bonded_contact)
     clock.lap("stabilisation")
     stages.append({"title": "sample after cut, flip, shrink and stabilisation", "frame": "specimen",
                    "position": stab_position, "radius": r_final})
