@@ -154,7 +154,7 @@ def read_simulated_many(paths) -> pd.DataFrame | None:
 
 
 def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
-            T_ref_C: float | None = None) -> dict:
+            T_ref_C: float | None = None, test=None) -> dict:
     """Artifact search and master curve of a measured table (steps 1-2 of the module docstring).
 
     Returns
@@ -163,20 +163,22 @@ def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
     (artifact-corrected table, same rows as ``measured``) and ``master`` (2S2P1D/WLF
     MasterCurveFit of the corrected table, MPa).
 
+    ``test``: the declared test geometry (:mod:`asphalt_nscd.lab.geometry`); default the
+    one :func:`asphalt_nscd.lab.measured.load_measured` attached to ``measured.attrs``.
+
     Raises
     ------
     InputError
-        if the measured table has fewer than 2 temperatures or 3 frequencies per isotherm.
+        if the measured table has fewer than 2 temperatures (no master curve).
     """
-    n_T = measured["temperature_C"].nunique()
-    if n_T < 2 or measured.groupby("temperature_C")["frequency_Hz"].nunique().min() < 3:
-        raise InputError("measured table: need >= 2 temperatures and >= 3 frequencies per temperature")
-    search = effects.ArtifactSearch(measured, alpha=alpha, T_ref_C=T_ref_C, shift=shift)
+    if measured["temperature_C"].nunique() < 2:
+        raise InputError("measured table: a master curve needs >= 2 temperatures")
+    test = test if test is not None else measured.attrs.get("test")
+    search = effects.ArtifactSearch(measured, alpha=alpha, T_ref_C=T_ref_C, shift=shift, test=test)
     result = search.run()
-    final = result["final"]
-    corrected = search.corrected(final)
-    master = fit_master_curve(corrected, shift=shift, T_ref_C=final.T_ref_C, sigma=search.sigma,
-                              x0=final.x[:len(final.x) - sum(len(t.names) for t in final.terms)])
+    corrected = search.corrected_table(result)
+    master = fit_master_curve(corrected, shift=shift, T_ref_C=T_ref_C if T_ref_C is not None else search.T_screen,
+                              sigma=search.sigma)
     return {"search": search, "result": result, "corrected": corrected, "master": master}
 
 
@@ -232,7 +234,7 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
              per_decade: float = 2.0, margin_decades: float = 1.0, refine: bool = True,
              prior_weight: float = 0.01, laws: dict | None = None,
              transfer: dict | None = None, balance: bool = True,
-             tolerances=extend.TOLERANCES) -> tuple[dict, dict]:
+             tolerances=extend.TOLERANCES, test=None, cause_tolerances: dict | None = None) -> tuple[dict, dict]:
     """Diagnose a measured table (and optional simulation results).
 
     Parameters
@@ -280,7 +282,7 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
         if the measured table has fewer than 2 temperatures or 3 frequencies per isotherm, or
         if an extended row ran with a network factor that differs from ``transfer``'s.
     """
-    a = analyse(measured, alpha=alpha, shift=shift, T_ref_C=T_ref_C)
+    a = analyse(measured, alpha=alpha, shift=shift, T_ref_C=T_ref_C, test=test)
     simulated, harmonic = split_simulated(simulated, harmonic)
     if time_errors is None:
         time_errors = derived_time_integration(simulated, harmonic)
@@ -288,7 +290,8 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
 
     meas_cells = causes.cell_means(search.df)
     corr_cells = causes.cell_means(corrected)
-    burgers = macro_params if macro_params is not None else causes.burgers_table(search.df)
+    burgers_measured = causes.burgers_table(search.df)
+    burgers = macro_params if macro_params is not None else burgers_measured
     burgers_cells = _cells_from_complex(meas_cells, causes.burgers_predict(
         burgers, meas_cells["temperature_C"], meas_cells["frequency_Hz"]))
     sim_cells, harm_cells = _sim_cells(simulated), _sim_cells(harmonic)
@@ -299,13 +302,14 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
         baseline_model, baseline_cells = "macro Burger's model (Eqs. 27-29) fitted per temperature", burgers_cells
     base = compare(baseline_cells, meas_cells)
 
+    tol = {**causes.TOLERANCES, **(cause_tolerances or {})}
     entries = effects.effect_entries(search, result)
-    entries.append(causes.broad_spectrum(corrected, master, causes.burgers_table(corrected), alpha))
+    entries.append(causes.broad_spectrum(search.df, master, burgers_measured, corrected))
     entries.append(causes.static_modulus(corrected, master, alpha))
     transfer_src = harmonic if harmonic is not None else simulated
-    entries.append(causes.network_factor(transfer_src, burgers, alpha,
-                                         "harmonic" if harmonic is not None else "simulated"))
-    entries.append(causes.time_integration(time_errors, alpha))
+    entries.append(causes.network_factor(transfer_src, burgers, "harmonic" if harmonic is not None else "simulated",
+                                         tolerance=tol["network_factor"]))
+    entries.append(causes.time_integration(time_errors, tolerance_deg=tol["time_integration_deg"]))
     order = {"data": 0, "model_form": 1, "simulation": 2}
     named = sorted([e for e in entries if e["detected"]], key=lambda e: -e["score"])
 
@@ -587,6 +591,11 @@ def _bracket(v) -> str:
     return "" if v is None or v != v else f" ({v:.2f})"
 
 
+def _p_text(p) -> str:
+    """``p = 0.0012``, ``p < 1e-6`` or ``no p-value (effect size)``."""
+    return "no p-value (effect size)" if p is None else effects.p_phrase(p)
+
+
 def markdown_page(report: dict, figure: str | None = None) -> str:
     """The report page "What the simulation gets wrong" (Markdown) from a diagnose report."""
     src = report.get("gain_sources")
@@ -645,16 +654,21 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
               f"Phi MRE <= {report['targets']['phase_mre_pct']:g} %.", "", "## Named causes (most important first)", ""]
     by = {e["name"]: e for e in report["effects"]}
     if not report["causes"]:
-        lines.append("None at the chosen significance level.")
+        lines.append("None at the chosen significance level and tolerances.")
     for name in report["causes"]:
         e = by[name]
-        p = "n/a" if e["p_value"] is None else f"{e['p_value']:.2g}"
-        lines.append(f"- **{name}** ({e['category']}, p = {p}, score {e['score']:.2f}): {e['evidence']}")
+        lines.append(f"- **{name}** ({e['category']}, {_p_text(e['p_value'])}, score {e['score']:.2f}): "
+                     f"{e['evidence']}")
     lines += ["", "## Candidates not named", ""]
     for e in report["effects"]:
         if not e["detected"]:
-            p = "" if e["p_value"] is None else f" (p = {e['p_value']:.2g})"
+            p = "" if e["p_value"] is None else f" ({_p_text(e['p_value'])})"
             lines.append(f"- {e['name']}{p}: {e['evidence']}")
+    lines += ["", "Data artifacts: nominal p-values of nested master-curve tests; the false-alarm rates of "
+              "these decisions are measured by `asphalt-nscd diagnose-bench` on tables drawn from truths "
+              "outside the detector's model (docs/choices.md, Diagnosis). broad_spectrum: held-out "
+              "(leave one frequency out) errors, no p-value; network_factor and time_integration: "
+              "deterministic effects with their numerical uncertainty against a tolerance, no p-value."]
     kk = report.get("kramers_kronig_mean_abs_residual_deg", {})
     if kk:
         lines += ["", "Kramers-Kronig consistency of the measured isotherms (mean |Phi - Phi_Booij-Thoone|, deg): "

@@ -179,8 +179,10 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     Parameters
     ----------
     frequency_Hz, E_norm_MPa, phase_deg : arrays, shape (m,)
-        Measured points (replicates allowed), Hz, MPa, degrees; m >= 4 and at least two
-        distinct frequencies.
+        Measured points (replicates allowed), Hz, MPa, degrees, at two or more distinct
+        frequencies: each point gives two real numbers (ln|E*| and Phi), so two frequencies
+        determine the four parameters and three (a lab testing 3 frequencies) leave two
+        degrees of freedom.
     weights : dict or (float, float), optional
         ``{"log_E": w_E, "phase_rad": w_Phi}`` weights of the ln|E*| and Phi (radian)
         residuals; default 1 and 1 (the complex-log residual, see the module docstring).
@@ -192,13 +194,13 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     -------
     dict
         ``Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s``, their standard errors ``*_se``
-        (NaN when m <= 4), fit errors ``rmse_log_E, rmse_phase_deg, mre_E_pct,
+        (NaN when 2 m <= 4: no residual degree of freedom), fit errors ``rmse_log_E, rmse_phase_deg, mre_E_pct,
         mre_phase_pct, max_abs_phase_err_deg``, ``n_points``, ``cost``, ``success``.
 
     Raises
     ------
     ValueError
-        on arrays of different shape, fewer than 4 points, non-positive or non-finite
+        on arrays of different shape, fewer than 2 distinct frequencies, non-positive or non-finite
         frequencies or |E*|, or phases outside (0, 90) degrees.
     """
     from scipy.optimize import least_squares
@@ -208,8 +210,9 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     phi = np.radians(np.asarray(phase_deg, dtype=float).ravel())
     if not (f.shape == E.shape == phi.shape):
         raise ValueError(f"frequency, |E*| and phase must have the same length, got {f.size}, {E.size}, {phi.size}")
-    if f.size < 4 or np.unique(f).size < 2:
-        raise ValueError(f"need at least 4 points at 2 or more frequencies to fit 4 parameters, got {f.size}")
+    if np.unique(f).size < 2:
+        raise ValueError(f"need points at 2 or more distinct frequencies (4 real numbers: |E*| and Phi at each) "
+                         f"to fit 4 parameters, got {np.unique(f).size} frequency")
     if not (np.all(f > 0) and np.all(E > 0) and np.all(np.isfinite(f)) and np.all(np.isfinite(E))):
         raise ValueError("frequencies and |E*| must be positive and finite")
     if not np.all((phi > 0) & (phi < np.pi / 2)):
@@ -252,7 +255,7 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     p = np.exp(x)
     m, n = 2 * f.size, 4
     se = np.full(4, np.nan)
-    if f.size > 4:
+    if m > n:
         J = best.jac
         s2 = 2.0 * best.cost / (m - n)
         cov = s2 * np.linalg.pinv(J.T @ J)
