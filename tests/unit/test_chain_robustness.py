@@ -54,7 +54,7 @@ def test_measured_and_fit_accept_every_generated_table(table):
     assert (params[list(PARAM_COLUMNS)].to_numpy() > 0).all()
 
 
-@settings(max_examples=12)
+@settings(max_examples=10)
 @given(measured_tables(max_specimens=4, max_temperatures=6, max_frequencies=7))
 def test_diagnose_runs_on_every_generated_table(table):
     with tempfile.TemporaryDirectory() as d:

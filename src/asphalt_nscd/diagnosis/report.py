@@ -338,10 +338,15 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
     budget = pd.DataFrame(budget_rows)
 
     # extended law and gain
+    law_failure = None
     if laws is None:
-        laws = extend.calibrate(master, corrected, per_decade=per_decade, margin_decades=margin_decades,
-                                refine=refine, prior_weight=prior_weight, balance=balance,
-                            tolerances=tolerances)
+        try:
+            laws = extend.calibrate(master, corrected, per_decade=per_decade, margin_decades=margin_decades,
+                                    refine=refine, prior_weight=prior_weight, balance=balance,
+                                    tolerances=tolerances)
+        except ValueError as exc:  # the Prony fit of the master curve failed (models.fit_generalized_kelvin)
+            law_failure = f"extended law not computable: {exc}"
+            laws = {float(r["temperature_C"]): causes.burgers_law(r) for _, r in burgers_measured.iterrows()}
     else:
         laws = {float(T): law for T, law in laws.items()}
         missing = [T for T in temps if not any(np.isclose(T, k) for k in laws)]
@@ -354,6 +359,8 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
     law_cells = _cells_from_complex(corr_cells, E_law)
     law_model = ("generalized Burger's law (Maxwell + N Kelvin-Voigt + static spring) per temperature "
                  "from the 2S2P1D/WLF master curve of the corrected data")
+    if law_failure is not None:
+        law_model = f"{law_failure}; the macro Burger's law per temperature stands in for it (no gain)"
     ext_sim_cells = _sim_cells(simulated_extended)
     tr = transfer_summary(simulated_extended, transfer)
     nscd_after = "NSCD simulation (time domain, generalized Burger's bond law" + (
