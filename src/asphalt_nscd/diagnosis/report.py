@@ -403,6 +403,7 @@ def diagnose(measured: pd.DataFrame, simulated: pd.DataFrame | None = None,
                      "frequencies_Hz": sorted(float(f) for f in measured["frequency_Hz"].unique())},
         "noise": {"sigma_lnE": search.sigma[0], "sigma_phase_deg": search.sigma[1],
                   "from_replicates": search.noise_from_replicates},
+        "artifact_screening": _screening_summary(search, result),
         "master_curve": {"model": "2S2P1D", "shift": shift, "T_ref_C": master.T_ref_C,
                          "parameters": {k: float(v) for k, v in core.items()},
                          "log10_aT": {_key(T): float(master.log_shift(T)) for T in temps},
@@ -598,6 +599,16 @@ def _bracket(v) -> str:
     return "" if v is None or v != v else f" ({v:.2f})"
 
 
+def _screening_summary(search: effects.ArtifactSearch, result: dict) -> dict:
+    """Reduced chi-square of the artifact screening model against the benchmark's clean
+    tables (:data:`effects.BENCH_SCREENING_CHI2`)."""
+    chi2 = search.chi2_per_dof(result["base"])
+    bench = effects.BENCH_SCREENING_CHI2
+    return {"model": "2S2P1D, free shift and vertical factor per isotherm, specimen factors",
+            "chi2_per_dof": chi2, "bench_clean_chi2_per_dof_q99": bench["q99"],
+            "bench_clean_chi2_per_dof_max": bench["max"], "within_bench_range": bool(chi2 <= bench["max"])}
+
+
 def _p_text(p) -> str:
     """``p = 0.0012``, ``p < 1e-6`` or ``no p-value (effect size)``."""
     return "no p-value (effect size)" if p is None else effects.p_phrase(p)
@@ -671,9 +682,19 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
         if not e["detected"]:
             p = "" if e["p_value"] is None else f" ({_p_text(e['p_value'])})"
             lines.append(f"- {e['name']}{p}: {e['evidence']}")
+    scr = report.get("artifact_screening") or {}
+    where = ""
+    if scr:
+        where = (f" The screening model fits this table with a reduced chi-square of {scr['chi2_per_dof']:.2f} "
+                 f"(clean benchmark tables: 99 % below {scr['bench_clean_chi2_per_dof_q99']:.2f}, all below "
+                 f"{scr['bench_clean_chi2_per_dof_max']:.2f}): "
+                 + ("inside the range where the false-alarm rates were measured."
+                    if scr["within_bench_range"] else
+                    "outside the range where the false-alarm rates were measured; read the data-artifact "
+                    "p-values with that in mind."))
     lines += ["", "Data artifacts: nominal p-values of nested master-curve tests; the false-alarm rates of "
               "these decisions are measured by `asphalt-nscd diagnose-bench` on tables drawn from truths "
-              "outside the detector's model (docs/choices.md, Diagnosis). broad_spectrum: held-out "
+              "outside the detector's model (docs/choices.md, Diagnosis)." + where + " broad_spectrum: held-out "
               "(leave one frequency out) errors, no p-value; network_factor and time_integration: "
               "deterministic effects with their numerical uncertainty against a tolerance, no p-value."]
     kk = report.get("kramers_kronig_mean_abs_residual_deg", {})
