@@ -113,8 +113,8 @@ def test_synth_then_diagnose_with_simulation_inputs(tmp_path):
     ti = by["time_integration"]
     assert ti["testable"] and ti["p_value"] is None
     assert ti["estimate"]["phase_error_per_phase_step"] == pytest.approx(0.5, rel=1e-6)
-    # 0.5 x 360 x 40 Hz x 5e-5 s = 0.36 deg at the largest f dt, exactly proportional: above 0.1 deg
-    assert ti["estimate"]["phase_error_deg_at_max_f_dt"] == pytest.approx(0.36, rel=1e-6)
+    # 0.5 x 360 x 40 Hz x 1e-4 s = 0.72 deg at the largest f dt, exactly proportional: above 0.1 deg
+    assert ti["estimate"]["phase_error_deg_at_max_f_dt"] == pytest.approx(0.72, rel=1e-6)
     assert ti["estimate"]["uncertainty_deg"] == pytest.approx(0.0, abs=1e-9) and ti["detected"]
     assert rep["baseline"]["model"].startswith("NSCD")
     budget = rep["error_budget"]["10"]

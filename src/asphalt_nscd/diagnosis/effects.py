@@ -619,7 +619,8 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
                 f"{est['mass_factor_g']:.0f} +- {est['mass_factor_g_se']:.0f} g, "
                 f"i.e. E1 lowered by {dE1:.3g} MPa at {f_max:g} Hz ({stat})")
     if name == "temperature_offset":
-        return (f"the isotherm labelled {est['temperature_C']:g} degC (the most significant inner one) has "
+        return (f"the isotherm labelled {est['temperature_C']:g} degC (the inner one whose removal leaves the "
+                f"others most consistent with the law) has "
                 f"the shift of {est['temperature_C'] + est['offset_C']:.1f} degC on the {search.shift.upper()} "
                 f"law through the other isotherms' free shifts (offset {est['offset_C']:+.2f} +- "
                 f"{est['offset_C_se']:.2f} degC, z = {est['z']:.3g}, {p_phrase(p)}, Bonferroni over "
