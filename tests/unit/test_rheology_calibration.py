@@ -98,8 +98,8 @@ def test_fit_table_of_measured_mix_reports_errors_per_temperature():
 
 
 def test_fit_rejects_bad_input():
-    with pytest.raises(ValueError, match="at least 4"):
-        fit_burgers([1, 2, 3], [1, 2, 3], [10, 10, 10])
+    with pytest.raises(ValueError, match="2 or more distinct frequencies"):
+        fit_burgers([2, 2, 2], [1, 2, 3], [10, 10, 10])
     with pytest.raises(ValueError, match=r"\(0, 90\)"):
         fit_burgers([1, 2, 3, 4], [1, 2, 3, 4], [10, 10, 0, 10])
 
@@ -151,3 +151,17 @@ def test_burgers_curves_shape():
     curves = burgers_curves(load_table3(TABLE3), np.array([1.0, 10.0]))
     assert len(curves) == 12
     np.testing.assert_allclose(np.hypot(curves["E1_MPa"], curves["E2_MPa"]), curves["E_norm_MPa"])
+
+
+def test_analytic_jacobian_of_the_fit_matches_finite_differences():
+    from asphalt_nscd.rheology.calibration import _log_modulus, _log_modulus_jacobian
+
+    x = np.log([24.3, 3.71, 48.4, 0.773])
+    w = 2 * np.pi * np.array([0.1, 3.0, 40.0])
+    J = _log_modulus_jacobian(x, w)
+    h = 1e-6
+    for j in range(4):
+        e = np.zeros(4)
+        e[j] = h
+        fd = (_log_modulus(x + e, w) - _log_modulus(x - e, w)) / (2 * h)
+        np.testing.assert_allclose(J[:, j], fd, rtol=1e-6, atol=1e-9)

@@ -265,6 +265,7 @@ rule diagnose:
         macro="results/calibration/burgers_parameters.csv",
         laws=LAW_JSON,
         crossval=CROSSVAL_ROWS,
+        test="results/lab/measured.test.json",
         simulations=[p for paths in DIAG_INPUTS.values() for p in paths],
     output:
         report="results/diagnosis/report.json",
@@ -291,6 +292,10 @@ rule diagnose:
         page="results/diagnosis/what_the_simulation_gets_wrong.md",
     params:
         options=_diagnose_options(),
+        tolerances=(
+            f"--tolerance-network-factor {DIAG.get('cause_tolerances', {}).get('network_factor', 0.01)} "
+            f"--tolerance-phase-deg {DIAG.get('cause_tolerances', {}).get('time_integration_deg', 0.1)}"
+        ),
     log:
         "logs/diagnosis/diagnose.log",
     benchmark:
@@ -300,21 +305,29 @@ rule diagnose:
         mem_mb=1000,
         runtime=15,
     shell:
-        "asphalt-nscd diagnose --measured {input.measured} --macro-params {input.macro} --law-json {input.laws} "
-        "--crossval {input.crossval} {params.options} -o {output.report} "
+        "asphalt-nscd diagnose --measured {input.measured} --test {input.test} --macro-params {input.macro} "
+        "--law-json {input.laws} --crossval {input.crossval} {params.options} {params.tolerances} -o {output.report} "
         "--budget-csv {output.budget} --effects-csv {output.effects} --gain-csv {output.gain} "
         "--figure {output.figure} --page {output.page} 2> {log}"
 
 
 rule diagnose_bench:
     output:
-        report(
+        bench=report(
             "results/diagnosis/detection_bench.json",
             caption="../report/diagnosis_bench.rst",
             category=DIAG_CATEGORY,
         ),
+        table=report(
+            "results/diagnosis/detection_bench.csv",
+            caption="../report/diagnosis_bench_table.rst",
+            category=DIAG_CATEGORY,
+        ),
     params:
-        seeds=DIAG["bench_seeds"],
+        clean=DIAG["bench"]["clean"],
+        planted=DIAG["bench"]["planted"],
+        base_seed=DIAG["bench"]["base_seed"],
+        families=",".join(DIAG["bench"]["families"]),
         alpha=DIAG["alpha"],
     log:
         "logs/diagnosis/diagnose_bench.log",
@@ -323,9 +336,11 @@ rule diagnose_bench:
     threads: 1
     resources:
         mem_mb=1000,
-        runtime=60,
+        runtime=120,
     shell:
-        "asphalt-nscd diagnose-bench --seeds {params.seeds} --alpha {params.alpha} -o {output} 2> {log}"
+        "asphalt-nscd diagnose-bench --clean {params.clean} --planted {params.planted} "
+        "--base-seed {params.base_seed} --families {params.families} --alpha {params.alpha} "
+        "-o {output.bench} --table {output.table} 2> {log}"
 
 
 REPORT_FILES += [
@@ -339,6 +354,7 @@ REPORT_FILES += [
     "results/diagnosis/extended_law_cv_curve.csv",
     "results/diagnosis/corrected_measured.csv",
     "results/diagnosis/detection_bench.json",
+    "results/diagnosis/detection_bench.csv",
 ]
 REPORT_FILES += [
     f"results/diagnosis/crossval/{scheme}{suffix}"

@@ -8,9 +8,10 @@
                        whole extend-law procedure).
 * ``diagnose``       — what the simulation gets wrong: error budget, named causes, extended
                        law and gain (JSON report; optional law JSON, tables and figure).
-* ``synth``          — synthetic measured table (2S2P1D + WLF truth, planted effects) and its
-                       truth as a JSON sidecar.
-* ``diagnose-bench`` — detection and false-alarm rates of the artifact detection over seeds.
+* ``synth``          — synthetic measured table (2S2P1D truth of a family, planted effects), its
+                       truth and its test geometry as JSON sidecars.
+* ``diagnose-bench`` — false-alarm and detection rates of the artifact detection, with 95 %
+                       intervals, per truth family (:mod:`asphalt_nscd.diagnosis.bench`).
 """
 
 from __future__ import annotations
@@ -149,6 +150,13 @@ def register(subparsers) -> None:
     p.add_argument("--macro-params", type=Path, default=None,
                    help="Burger's parameters given to the simulation (temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, "
                         "eta_k_MPa_s); default: fitted to the measured table")
+    p.add_argument("--test", type=Path, default=None,
+                   help="test-geometry JSON of the measured table (default: the sidecar <measured stem>.test.json "
+                        "next to it, else an unknown test: inertia not testable)")
+    p.add_argument("--tolerance-network-factor", type=float, default=0.01,
+                   help="tolerance of the network factor's departure from 1 (relative, default 0.01)")
+    p.add_argument("--tolerance-phase-deg", type=float, default=0.1,
+                   help="tolerance of the time-integration phase error, deg (default 0.1)")
     p.add_argument("-o", "--output", type=Path, required=True, help="report JSON")
     p.add_argument("--laws", type=Path, default=None,
                    help="generalized Burger's law per temperature (JSON, Pa and Pa s)")
@@ -168,19 +176,39 @@ def register(subparsers) -> None:
     p.add_argument("--effects", type=str, default="",
                    help="comma-separated effects: time_lag, inertia_uncorrected, temperature_offset, "
                         "strain_nonlinearity, self_heating (default: none)")
-    p.add_argument("--schedule", choices=["paper_2pb", "aashto_t342"], default=None,
+    p.add_argument("--schedule", choices=["paper_2pb", "aashto_t342", "ampt_pp61"], default=None,
                    help="test schedule (default: drawn from the seed)")
-    p.add_argument("--specimens", type=int, default=None, help="number of replicates 1-4 (default: drawn, 2-4)")
+    p.add_argument("--family", choices=["wlf", "glassy_drift", "arrhenius", "static_drift", "poly_shift", "mixed"],
+                   default="wlf", help="truth family (default wlf: 2S2P1D + WLF, the detector's own model)")
+    p.add_argument("--specimens", type=int, default=None, help="number of replicates 1-5 (default: drawn, 2-4)")
     p.add_argument("-o", "--output", type=Path, required=True, help="measured-table CSV")
     p.add_argument("--truth", type=Path, default=None, help="truth JSON (default: <output stem>.truth.json)")
+    p.add_argument("--no-test-sidecar", action="store_true",
+                   help="do not write the test-geometry sidecar <output stem>.test.json")
     p.set_defaults(func=_synth)
 
-    p = subparsers.add_parser("diagnose-bench", help="detection and false-alarm rates over synthetic seeds")
-    p.add_argument("--seeds", type=int, default=200, help="number of synthetic tables (default 200)")
-    p.add_argument("--base-seed", type=int, default=0, help="base seed of the scenario draws (default 0)")
+    p = subparsers.add_parser("diagnose-bench",
+                              help="false-alarm and detection rates of the artifact detection (with 95 % intervals)",
+                              description="Draw clean and planted synthetic tables from truth families inside "
+                              "and outside the detector's model, diagnose their artifacts and report per artifact "
+                              "and family the false-alarm rate (clean tables) and the detection rate at the stated "
+                              "effect sizes, with exact binomial 95 % confidence intervals.")
+    p.add_argument("--clean", type=int, default=200, help="clean tables per family (default 200)")
+    p.add_argument("--planted", type=int, default=40,
+                   help="planted tables per family and artifact (default 40)")
+    p.add_argument("--families", type=str, default=None,
+                   help="comma-separated truth families (default: all: wlf, glassy_drift, arrhenius, "
+                        "static_drift, poly_shift, mixed)")
+    p.add_argument("--base-seed", type=int, default=None,
+                   help="base seed of every table's seed (default: a fresh one, recorded in the JSON)")
     p.add_argument("--alpha", type=float, default=1e-3, help="significance level (default 1e-3)")
+    p.add_argument("--effect-scale", type=float, default=1.0,
+                   help="factor on every stated effect size (default 1; e.g. 0.5 for the power curve)")
     p.add_argument("--tolerance", type=float, default=0.25, help="relative tolerance of the estimates (default 0.25)")
-    p.add_argument("-o", "--output", type=Path, required=True, help="benchmark JSON")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="benchmark JSON (summary and every table's outcome)")
+    p.add_argument("--table", type=Path, default=None,
+                   help="bench table CSV: per artifact and family, detection and false-alarm counts, rates, 95 %% CIs")
     p.set_defaults(func=_bench)
 
 
@@ -345,7 +373,10 @@ def _diagnose(args) -> int:
     from . import extend
     from .report import budget_figure, diagnose, markdown_page
 
-    measured = load_measured(args.measured)
+    measured = load_measured(args.measured, test=args.test)
+    if not (args.tolerance_network_factor > 0 and args.tolerance_phase_deg > 0):
+        raise InputError("--tolerance-network-factor and --tolerance-phase-deg: expected positive numbers, got "
+                         f"{args.tolerance_network_factor}, {args.tolerance_phase_deg}")
     time_errors = None if not args.time_integration else _read_time_errors(args.time_integration, args.theta)
     laws, law_info = None, None
     if args.law_json is not None:
@@ -387,7 +418,10 @@ def _diagnose(args) -> int:
         measured, simulated=_read_optional(args.simulated), harmonic=_read_optional(args.harmonic),
         time_errors=time_errors, simulated_extended=_read_optional(args.simulated_extended),
         macro_params=macro, laws=laws, transfer=transfer, alpha=args.alpha, shift=args.shift,
-        T_ref_C=args.t_ref, law_options=law_options(args), crossval=crossval, law_info=law_info)
+        T_ref_C=args.t_ref, law_options=law_options(args), crossval=crossval, law_info=law_info,
+        cause_tolerances={"network_factor": args.tolerance_network_factor,
+                          "time_integration_deg": args.tolerance_phase_deg})
+    report["measured"]["test"] = measured.attrs["test"].to_json()
     report["measured"]["path"] = str(args.measured)
     write_json(report, args.output)
     if args.laws is not None:
@@ -420,20 +454,38 @@ def _synth(args) -> int:
     unknown = [e for e in effects if e not in synthetic.EFFECTS]
     if unknown:
         raise InputError(f"--effects: unknown effect(s) {unknown}; expected {list(synthetic.EFFECTS)}")
-    if args.specimens is not None and not 1 <= args.specimens <= 4:
-        raise InputError(f"--specimens: expected 1-4, got {args.specimens}")
-    table, truth = synthetic.generate(args.seed, effects, schedule=args.schedule, n_specimens=args.specimens)
+    if args.specimens is not None and not 1 <= args.specimens <= 5:
+        raise InputError(f"--specimens: expected 1-5, got {args.specimens}")
+    table, truth = synthetic.generate(args.seed, effects, schedule=args.schedule, n_specimens=args.specimens,
+                                      family=args.family)
     truth_path = args.truth or args.output.with_name(args.output.stem + ".truth.json")
     write_csv(table, args.output)
     write_json(truth, truth_path)
+    if not args.no_test_sidecar:
+        from ..lab.geometry import sidecar_path
+
+        write_json(truth["test"], sidecar_path(args.output))
     return 0
 
 
 def _bench(args) -> int:
-    from ..io import InputError, write_json
-    from .bench import run_bench
+    from ..io import InputError, write_csv, write_json
+    from . import synthetic
+    from .bench import bench_table, run_bench
 
-    if args.seeds < 1:
-        raise InputError(f"--seeds: expected >= 1, got {args.seeds}")
-    write_json(run_bench(args.seeds, args.base_seed, args.alpha, args.tolerance), args.output)
+    if args.clean < 0 or args.planted < 0 or args.clean + args.planted == 0:
+        raise InputError(f"--clean, --planted: expected >= 0 and not both 0, got {args.clean}, {args.planted}")
+    if args.jobs < 1:
+        raise InputError(f"--jobs: expected >= 1, got {args.jobs}")
+    if not 0 < args.alpha < 1 or not args.effect_scale > 0:
+        raise InputError(f"--alpha in (0, 1) and --effect-scale > 0 expected, got {args.alpha}, {args.effect_scale}")
+    families = list(synthetic.FAMILIES) if args.families is None else [f.strip() for f in args.families.split(",") if f.strip()]
+    unknown = [f for f in families if f not in synthetic.FAMILIES]
+    if unknown or not families:
+        raise InputError(f"--families: unknown {unknown}; expected some of {list(synthetic.FAMILIES)}")
+    result = run_bench(args.clean, args.planted, args.base_seed, families, args.alpha, args.effect_scale,
+                       args.tolerance, args.jobs)
+    write_json(result, args.output)
+    if args.table is not None:
+        write_csv(bench_table(result), args.table, float_format="%.4g")
     return 0

@@ -7,7 +7,14 @@ Benedetto 2003; Mangiafico et al. 2015; Nguyen et al. 2009)::
     E0 28-45 GPa, E00 30-300 MPa, delta 1.5-3.5, k 0.15-0.25, h 0.5-0.7,
     beta 100-3000, tau(15 degC) 0.01-0.5 s, C1 20-35, C2 130-230 K.
 
-Replicates: each specimen has a log-normal |E*| factor (sigma 2-6 %) and a small constant
+Truth families (:func:`random_family`): ``wlf`` is exactly that, the detector's own model;
+the others depart from it mildly, as real mixes do (glassy modulus drifting with
+temperature, Arrhenius or quadratic shift laws, temperature-dependent static modulus, all
+at once). Schedules (:data:`SCHEDULES`): the paper's 2PB (6 x 5), AASHTO T 342 (5 x 6) and
+AMPT PP 61 (3 x 6) schedules, each with its declared test geometry (the paper's 2PB
+trapezoid; a 100 x 150 mm cylinder), recorded in the truth as a sidecar would give it.
+
+Replicates: each specimen has a log-normal |E*| factor (sigma 2-5 %) and a small constant
 phase offset (sigma 0.15 deg); every point has noise of ln|E*| (sigma 0.5-2 %) and of Phi
 (sigma 0.1-0.4 deg). Every table carries ``strain_microstrain`` (30-150 microstrain per
 point) and ``test_order`` (per specimen: temperatures ascending, frequencies descending
@@ -18,10 +25,12 @@ diagnosis report):
 
 ===================  =====================================================================
 time_lag             Phi_meas = Phi + 360 f dt; dt 0.2-1.5 ms (``time_lag_ms``)
-inertia_uncorrected  E1_meas = E1 - gamma 1e-6 dmu w^2 (2PB Eq. 1, paper geometry);
-                     dmu = +-(100-400) g (``mass_factor_g``; > 0: mass term missing),
-                     reduced if needed so that no E1 changes by more than 30 %
-temperature_offset   one isotherm generated at T + dT, labelled T; |dT| 1.5-4 degC
+inertia_uncorrected  E1_meas = E1 - gamma 1e-6 dmu w^2 (gamma of the schedule's test: 2PB
+                     Eq. 1, or h/A of the cylinder); dmu = +-(100-400) g on the 2PB,
+                     +-(2-20) kg on a uniaxial machine (``mass_factor_g``; > 0: mass term
+                     missing), or set by its size ``E_deficit_pct`` (largest E1 deficit, %
+                     of |E*|); reduced if needed so that no E1 changes by more than 30 %
+temperature_offset   one inner isotherm generated at T + dT, labelled T; |dT| 3-5 degC
                      (``temperature_C``, ``offset_C``)
 strain_nonlinearity  |E*| * exp(-b eps/100 microstrain); b 0.02-0.06
                      (``modulus_drop_per_100_microstrain``)
@@ -45,13 +54,21 @@ import numpy as np
 import pandas as pd
 
 from ..rheology.models import two_s2p1d_modulus
-from ..rheology.shift import wlf_log_shift
+from ..rheology.shift import arrhenius_log_shift, wlf_log_shift
 
 #: Test schedules (temperatures degC, frequencies Hz in test order).
 SCHEDULES = {
     "paper_2pb": ([-10.0, 0.0, 10.0, 15.0, 20.0, 30.0], [40.0, 25.0, 10.0, 6.0, 3.0]),
     "aashto_t342": ([-10.0, 4.0, 21.0, 37.0, 54.0], [25.0, 10.0, 5.0, 1.0, 0.5, 0.1]),
+    "ampt_pp61": ([4.0, 21.0, 37.0], [25.0, 10.0, 5.0, 1.0, 0.5, 0.1]),
 }
+#: Test of each schedule: the paper's 2PB trapezoid, or a uniaxial cylinder of 100 mm x
+#: 150 mm (AASHTO T 342 / PP 61 specimen).
+SCHEDULE_TESTS = {"paper_2pb": "2pb_trapezoid", "aashto_t342": "uniaxial_cylinder",
+                  "ampt_pp61": "uniaxial_cylinder"}
+#: Truth families: the detector's own model (wlf) and mild departures from it (see
+#: :func:`random_family`).
+FAMILIES = ("wlf", "glassy_drift", "arrhenius", "static_drift", "poly_shift", "mixed")
 #: Names of the effects the generator can plant.
 EFFECTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
            "self_heating")
@@ -60,12 +77,11 @@ T_REF_TRUTH_C = 15.0
 INERTIA_MAX_FRACTION = 0.3
 
 
-def gamma_and_mu() -> tuple[float, float]:
-    """gamma (1/mm) and mu (g) of the paper's 2PB specimen (EN 12697-26, paper Eq. 3)."""
-    from ..lab.en12697 import Specimen2PB
+def schedule_test(schedule: str):
+    """Declared test (:class:`asphalt_nscd.lab.geometry.DeclaredTest`) of a schedule."""
+    from ..lab.geometry import AASHTO_CYLINDER, PAPER_2PB
 
-    spec = Specimen2PB()
-    return float(spec.gamma_per_mm), float(spec.mu_g)
+    return PAPER_2PB if SCHEDULE_TESTS[schedule] == "2pb_trapezoid" else AASHTO_CYLINDER
 
 
 def random_truth(rng: np.random.Generator) -> dict:
@@ -84,23 +100,73 @@ def random_truth(rng: np.random.Generator) -> dict:
     }
 
 
+def random_family(name: str, rng: np.random.Generator) -> dict:
+    """Departures of truth family ``name`` from 2S2P1D + WLF (keys merged into the truth).
+
+    =============  ======================================================================
+    wlf            none: the detector's own model
+    glassy_drift   E0(T) = E0 exp(-g (T - Tref)), g 0.2-0.4 % per degC (``E0_drift_per_C``)
+    arrhenius      log10 aT = Ea/(R ln 10) (1/T - 1/Tref), Ea 150-250 kJ/mol (``Ea_kJ_mol``;
+                   replaces C1, C2)
+    static_drift   E00(T) = E00 exp(-s (T - Tref)), s 0.5-1.5 % per degC (``E00_drift_per_C``)
+    poly_shift     log10 aT = -a (T - Tref) + c (T - Tref)^2 (MEPDG-like quadratic), a 0.10-0.20
+                   per degC, c 2e-4-1.2e-3 per degC^2 (``shift_slope_per_C``,
+                   ``shift_curvature_per_C2``; replaces C1, C2)
+    mixed          glassy_drift + static_drift + poly_shift at once
+    =============  ======================================================================
+
+    Raises ValueError on an unknown family.
+    """
+    if name not in FAMILIES:
+        raise ValueError(f"unknown truth family '{name}'; expected one of {', '.join(FAMILIES)}")
+    out = {"family": name}
+    if name in ("glassy_drift", "mixed"):
+        out["E0_drift_per_C"] = float(rng.uniform(0.002, 0.004))
+    if name in ("static_drift", "mixed"):
+        out["E00_drift_per_C"] = float(rng.uniform(0.005, 0.015))
+    if name == "arrhenius":
+        out["Ea_kJ_mol"] = float(rng.uniform(150.0, 250.0))
+    if name in ("poly_shift", "mixed"):
+        out["shift_slope_per_C"] = float(rng.uniform(0.10, 0.20))
+        out["shift_curvature_per_C2"] = float(rng.uniform(2e-4, 1.2e-3))
+    return out
+
+
+def truth_log_shift(truth: dict, temperature_C) -> np.ndarray:
+    """log10 aT of the truth's shift law (WLF, Arrhenius or quadratic; see :func:`random_family`)."""
+    T = np.asarray(temperature_C, float)
+    if "Ea_kJ_mol" in truth:
+        return arrhenius_log_shift(T, truth["T_ref_C"], truth["Ea_kJ_mol"] * 1e3)
+    if "shift_slope_per_C" in truth:
+        d = T - truth["T_ref_C"]
+        return -truth["shift_slope_per_C"] * d + truth["shift_curvature_per_C2"] * d**2
+    return wlf_log_shift(T, truth["T_ref_C"], truth["C1"], truth["C2_K"])
+
+
 def truth_modulus(truth: dict, frequency_Hz, temperature_C) -> np.ndarray:
     """Complex modulus (MPa) of the truth at arrays of frequency (Hz) and temperature (degC)."""
-    tau = truth["tau_ref_s"] * 10.0 ** wlf_log_shift(temperature_C, truth["T_ref_C"], truth["C1"], truth["C2_K"])
-    return two_s2p1d_modulus(2 * np.pi * np.asarray(frequency_Hz, float), truth["E00_MPa"], truth["E0_MPa"],
+    T = np.asarray(temperature_C, float)
+    tau = truth["tau_ref_s"] * 10.0 ** truth_log_shift(truth, T)
+    dT = T - truth["T_ref_C"]
+    E0 = truth["E0_MPa"] * np.exp(-truth.get("E0_drift_per_C", 0.0) * dT)
+    E00 = truth["E00_MPa"] * np.exp(-truth.get("E00_drift_per_C", 0.0) * dT)
+    return two_s2p1d_modulus(2 * np.pi * np.asarray(frequency_Hz, float), E00, E0,
                              truth["delta"], truth["k"], truth["h"], truth["beta"], tau)
 
 
-def random_effect(name: str, rng: np.random.Generator, temperatures) -> dict:
-    """Random magnitude of one planted effect (keys as in the diagnosis estimates)."""
+def random_effect(name: str, rng: np.random.Generator, temperatures, test: str = "2pb_trapezoid") -> dict:
+    """Random magnitude of one planted effect (keys as in the diagnosis estimates);
+    ``test``: the schedule's test (the uncorrected mass of a uniaxial machine is 2-20 kg)."""
     if name == "time_lag":
         return {"time_lag_ms": float(np.exp(rng.uniform(np.log(0.2), np.log(1.5))))}
     if name == "inertia_uncorrected":
         sign = 1.0 if rng.random() < 0.7 else -1.0
-        return {"mass_factor_g": float(sign * rng.uniform(100.0, 400.0))}
-    if name == "temperature_offset":
-        return {"temperature_C": float(rng.choice(temperatures)),
-                "offset_C": float(rng.choice([-1.0, 1.0]) * rng.uniform(1.5, 4.0))}
+        lo, hi = (100.0, 400.0) if test == "2pb_trapezoid" else (2000.0, 20000.0)
+        return {"mass_factor_g": float(sign * rng.uniform(lo, hi))}
+    if name == "temperature_offset":  # an inner isotherm (the detector does not test the ends)
+        inner = list(temperatures)[1:-1] or list(temperatures)
+        return {"temperature_C": float(rng.choice(inner)),
+                "offset_C": float(rng.choice([-1.0, 1.0]) * rng.uniform(3.0, 5.0))}
     if name == "strain_nonlinearity":
         return {"modulus_drop_per_100_microstrain": float(rng.uniform(0.02, 0.06))}
     if name == "self_heating":
@@ -110,33 +176,38 @@ def random_effect(name: str, rng: np.random.Generator, temperatures) -> dict:
 
 
 def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: int | None = None,
-             magnitudes: dict | None = None) -> tuple[pd.DataFrame, dict]:
+             magnitudes: dict | None = None, family: str = "wlf") -> tuple[pd.DataFrame, dict]:
     """Generate a synthetic measured table and its truth.
 
     Parameters
     ----------
     seed : int
-        Seed of the NumPy generator (everything is drawn from it).
+        Seed of the NumPy generator (everything is drawn from it; the family's departures
+        from a child generator ``default_rng([seed, 1])``, so that a ``wlf`` table does not
+        depend on the family code).
     effects : sequence of str
         Planted effects (names of :data:`EFFECTS`), zero, one or more.
     schedule : str, optional
         Key of :data:`SCHEDULES`; default drawn at random.
     n_specimens : int, optional
-        Number of replicates (1-4); default drawn in 2-4.
+        Number of replicates (1-5); default drawn in 2-4.
     magnitudes : dict, optional
         ``{effect: {key: value}}`` overriding the random magnitudes.
+    family : str
+        Truth family (:data:`FAMILIES`, :func:`random_family`).
 
     Returns
     -------
     (DataFrame, dict)
         Table with the measured-table columns ``specimen, temperature_C, frequency_Hz,
         E_norm_MPa, phase_deg, strain_microstrain, test_order``; truth with ``seed,
-        schedule, n_specimens, parameters, noise, effects``.
+        schedule, family, test`` (the declared test geometry, as a sidecar would give it),
+        ``n_specimens, parameters, noise, effects``.
 
     Raises
     ------
     ValueError
-        on an unknown effect or schedule, or n_specimens outside 1-4.
+        on an unknown effect, schedule or family, or n_specimens outside 1-5.
     """
     rng = np.random.default_rng(seed)
     effects = list(dict.fromkeys(effects))
@@ -148,28 +219,35 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
     if schedule not in SCHEDULES:
         raise ValueError(f"unknown schedule '{schedule}'; expected one of {', '.join(SCHEDULES)}")
     temps, freqs = SCHEDULES[schedule]
+    test = schedule_test(schedule)
     if n_specimens is None:
         n_specimens = int(rng.integers(2, 5))
-    if not 1 <= n_specimens <= 4:
-        raise ValueError(f"n_specimens must lie in 1-4, got {n_specimens}")
+    if not 1 <= n_specimens <= 5:
+        raise ValueError(f"n_specimens must lie in 1-5, got {n_specimens}")
     truth = random_truth(rng)
-    noise = {"specimen_lnE_sigma": float(rng.uniform(0.02, 0.06)),
+    truth.update(random_family(family, np.random.default_rng([seed, 1])))
+    noise = {"specimen_lnE_sigma": float(rng.uniform(0.02, 0.05)),
              "specimen_phase_sigma_deg": 0.15,
              "point_lnE_sigma": float(rng.uniform(0.005, 0.02)),
              "point_phase_sigma_deg": float(rng.uniform(0.1, 0.4))}
-    planted = {e: random_effect(e, rng, temps) for e in effects}
+    planted = {e: random_effect(e, rng, temps, test.test) for e in effects}
     for e, values in (magnitudes or {}).items():
         if e in planted:
             planted[e].update(values)
-    gamma, _ = gamma_and_mu()
+    gamma = test.form_factor_per_mm
     if "inertia_uncorrected" in planted:
-        # a lab would not report E1 changed by more than INERTIA_MAX_FRACTION (phase near 90 deg)
         TT, FF = np.meshgrid(temps, freqs)
-        E1 = truth_modulus(truth, FF, TT).real
-        dmu_max = INERTIA_MAX_FRACTION * np.min(E1 / (gamma * 1e-6 * (2 * np.pi * FF) ** 2))
-        dmu = planted["inertia_uncorrected"]["mass_factor_g"]
-        if abs(dmu) > dmu_max:
-            planted["inertia_uncorrected"]["mass_factor_g"] = float(np.sign(dmu) * dmu_max)
+        E = truth_modulus(truth, FF, TT)
+        per_g = gamma * 1e-6 * (2 * np.pi * FF) ** 2  # E1 deficit per g of mass, MPa
+        inertia = planted["inertia_uncorrected"]
+        if "E_deficit_pct" in inertia:  # size given: the largest E1 deficit, % of |E*|
+            inertia["mass_factor_g"] = float(np.sign(inertia.get("mass_factor_g", 1.0))
+                                             * inertia["E_deficit_pct"] / 100 * np.min(np.abs(E) / per_g))
+        # a lab would not report E1 changed by more than INERTIA_MAX_FRACTION (phase near 90 deg)
+        dmu_max = INERTIA_MAX_FRACTION * np.min(E.real / per_g)
+        if abs(inertia["mass_factor_g"]) > dmu_max:
+            inertia["mass_factor_g"] = float(np.sign(inertia["mass_factor_g"]) * dmu_max)
+        inertia["E_deficit_pct"] = float(100 * np.max(abs(inertia["mass_factor_g"]) * per_g / np.abs(E)))
 
     rows = []
     for s in range(n_specimens):
@@ -200,6 +278,6 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
                              "E_norm_MPa": float(np.exp(lnE)), "phase_deg": float(np.clip(phase, 0.01, 89.9)),
                              "strain_microstrain": round(float(strain), 2), "test_order": order})
     table = pd.DataFrame(rows).sort_values(["temperature_C", "frequency_Hz", "specimen"]).reset_index(drop=True)
-    info = {"seed": int(seed), "schedule": schedule, "n_specimens": n_specimens,
-            "parameters": truth, "noise": noise, "effects": planted}
+    info = {"seed": int(seed), "schedule": schedule, "family": family, "test": test.to_json(),
+            "n_specimens": n_specimens, "parameters": truth, "noise": noise, "effects": planted}
     return table, info

@@ -36,6 +36,11 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, help="validated tidy table (CSV)")
     p.add_argument("--summary", type=Path, required=True,
                    help="replicate mean and std per (temperature_C, frequency_Hz) (CSV)")
+    p.add_argument("--test", type=Path, default=None,
+                   help="test-geometry JSON of the table (default: the sidecar <table stem>.test.json next to "
+                        "it, else an unknown test); see asphalt_nscd.lab.geometry")
+    p.add_argument("--test-output", type=Path, default=None,
+                   help="write the declared test (validated) as JSON, e.g. next to -o as <stem>.test.json")
     p.set_defaults(func=_measured)
 
 
@@ -59,11 +64,13 @@ def _reduce(args) -> int:
 
 
 def _measured(args) -> int:
-    from ..io import write_csv
+    from ..io import write_csv, write_json
     from .measured import load_measured, summarize
 
-    frame = load_measured(args.table)
+    frame = load_measured(args.table, test=args.test)
     summary = summarize(frame)
     write_csv(frame, args.output)
     write_csv(summary, args.summary, float_format="%.6g")
+    if args.test_output is not None:
+        write_json(frame.attrs["test"].to_json(), args.test_output)
     return 0

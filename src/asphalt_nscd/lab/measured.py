@@ -15,7 +15,10 @@ test_order          –         optional, integer
 (any other)         –         carried along unchanged
 ==================  ========  ===========================================
 
-(specimen, temperature_C, frequency_Hz) must be unique. Any violation raises
+(specimen, temperature_C, frequency_Hz) must be unique. The test that produced the table
+(2PB trapezoid, uniaxial cylinder or unknown, with its dimensions) is declared in a JSON
+sidecar ``<table stem>.test.json`` or an explicit file (:mod:`asphalt_nscd.lab.geometry`);
+:func:`load_measured` attaches it to the frame as ``frame.attrs["test"]``. Any violation raises
 :class:`asphalt_nscd.io.InputError` naming the file, the file line (the header is line 1)
 and the column; nothing is written by the callers in that case.
 
@@ -56,28 +59,35 @@ def _line(index: int) -> int:
     return int(index) + 2
 
 
-def load_measured(path) -> pd.DataFrame:
+def load_measured(path, test=None) -> pd.DataFrame:
     """Read and validate a measured complex-modulus table.
 
     Parameters
     ----------
     path : str or Path
         CSV file with the columns of the module docstring.
+    test : str or Path, optional
+        Test-geometry JSON of the table; default the sidecar ``<stem>.test.json`` next to
+        it if present, else an unknown test (:func:`asphalt_nscd.lab.geometry.declared_test`).
 
     Returns
     -------
     DataFrame, shape (n_rows, n_columns)
         Required columns first (specimen as str, the others float), optional ones next
         (test_order as int), other columns carried along; rows sorted by temperature,
-        frequency and specimen.
+        frequency and specimen. ``attrs["test"]``: the declared test
+        (:class:`asphalt_nscd.lab.geometry.DeclaredTest`).
 
     Raises
     ------
     InputError
         if the file is missing, empty, not a CSV text table, lacks a required column,
         holds a non-numeric, NaN or out-of-range value, or repeats a
-        (specimen, temperature_C, frequency_Hz) key — naming file, line and column.
+        (specimen, temperature_C, frequency_Hz) key — naming file, line and column; or if
+        the test-geometry JSON is invalid (naming that file and the key).
     """
+    from .geometry import declared_test
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: file not found")
@@ -148,7 +158,9 @@ def load_measured(path) -> pd.DataFrame:
                 out[column] = pd.to_numeric(frame[column])
             except (ValueError, TypeError):
                 out[column] = frame[column]
-    return out.sort_values(["temperature_C", "frequency_Hz", "specimen"], kind="stable").reset_index(drop=True)
+    out = out.sort_values(["temperature_C", "frequency_Hz", "specimen"], kind="stable").reset_index(drop=True)
+    out.attrs["test"] = declared_test(path, test)
+    return out
 
 
 def summarize(df: pd.DataFrame) -> pd.DataFrame:

@@ -16,10 +16,12 @@ Unknowns are the logarithms of (Em, eta_m, Ek, eta_k) in MPa and MPa s, bounded 
 
 With w_E = w_Phi = 1 (default) this is the complex logarithm ln E*_model - ln E*_i, which
 weighs a 1 % error on |E*| like a 0.57 deg error on Phi. The cost sum r^2 is minimised by
-SciPy's bounded trust-region least squares (``least_squares``, method "trf") started from
-the best ``n_starts`` points of a grid of starting values built from the data (upper
-plateau from max |E*|, Maxwell viscosity from the loss compliance at the lowest
-frequency, Kelvin-Voigt time near the geometric mean period). Every replicate point is
+SciPy's bounded trust-region least squares (``least_squares``, method "trf", analytic
+Jacobian) started from the best ``n_starts`` points of a grid of starting values built from
+the data (upper plateau from max |E*|, Maxwell viscosity from the loss compliance at the
+lowest frequency, Kelvin-Voigt time near the geometric mean period): a short run of
+``EXPLORE_NFEV`` evaluations from each start, then the two best continue to convergence
+(a start still running after that crawls along a bound). Every replicate point is
 fitted (not the means), so the standard errors reflect the replicate scatter:
 ``se(ln p) = sqrt(diag(s^2 (J^T J)^-1))``, s^2 = cost / (m - 4), ``se(p) = p se(ln p)``.
 
@@ -59,6 +61,8 @@ TABLE3_UNITS = {"Pa": 1e-6, "kPa": 1e-3}
 #: Bounds of every parameter in MPa or MPa s.
 PARAM_BOUNDS = (1e-6, 1e9)
 DEFAULT_WEIGHTS = {"log_E": 1.0, "phase_rad": 1.0}
+#: evaluations of the exploratory run from every start of :func:`fit_burgers`
+EXPLORE_NFEV = 200
 
 
 def load_table3(path, units: str = "Pa") -> pd.DataFrame:
@@ -173,14 +177,27 @@ def _log_modulus(x: np.ndarray, omega: np.ndarray) -> np.ndarray:
     return -np.log(d)
 
 
+def _log_modulus_jacobian(x: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """d ln E* / d x of :func:`_log_modulus` for one parameter set ``x`` (4,): complex, shape
+    (k, 4). With D the complex compliance (Eqs. 28-29), d ln E*/d ln p = -(dD/d ln p) / D."""
+    Em, eta_m, Ek, eta_k = np.exp(np.asarray(x, dtype=float))
+    kv = Ek + 1j * omega * eta_k
+    D = 1.0 / Em + 1.0 / (1j * omega * eta_m) + 1.0 / kv
+    dD = np.column_stack([np.full(omega.shape, -1.0 / Em, dtype=complex), -1.0 / (1j * omega * eta_m),
+                          -Ek / kv**2, -1j * omega * eta_k / kv**2])
+    return -dD / D[:, None]
+
+
 def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int = 8) -> dict:
     """Fit the four Burger's parameters to one measured isotherm (Eqs. 27-29).
 
     Parameters
     ----------
     frequency_Hz, E_norm_MPa, phase_deg : arrays, shape (m,)
-        Measured points (replicates allowed), Hz, MPa, degrees; m >= 4 and at least two
-        distinct frequencies.
+        Measured points (replicates allowed), Hz, MPa, degrees, at two or more distinct
+        frequencies: each point gives two real numbers (ln|E*| and Phi), so two frequencies
+        determine the four parameters and three (a lab testing 3 frequencies) leave two
+        degrees of freedom.
     weights : dict or (float, float), optional
         ``{"log_E": w_E, "phase_rad": w_Phi}`` weights of the ln|E*| and Phi (radian)
         residuals; default 1 and 1 (the complex-log residual, see the module docstring).
@@ -192,13 +209,13 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     -------
     dict
         ``Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s``, their standard errors ``*_se``
-        (NaN when m <= 4), fit errors ``rmse_log_E, rmse_phase_deg, mre_E_pct,
+        (NaN when 2 m <= 4: no residual degree of freedom), fit errors ``rmse_log_E, rmse_phase_deg, mre_E_pct,
         mre_phase_pct, max_abs_phase_err_deg``, ``n_points``, ``cost``, ``success``.
 
     Raises
     ------
     ValueError
-        on arrays of different shape, fewer than 4 points, non-positive or non-finite
+        on arrays of different shape, fewer than 2 distinct frequencies, non-positive or non-finite
         frequencies or |E*|, or phases outside (0, 90) degrees.
     """
     from scipy.optimize import least_squares
@@ -208,8 +225,9 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     phi = np.radians(np.asarray(phase_deg, dtype=float).ravel())
     if not (f.shape == E.shape == phi.shape):
         raise ValueError(f"frequency, |E*| and phase must have the same length, got {f.size}, {E.size}, {phi.size}")
-    if f.size < 4 or np.unique(f).size < 2:
-        raise ValueError(f"need at least 4 points at 2 or more frequencies to fit 4 parameters, got {f.size}")
+    if np.unique(f).size < 2:
+        raise ValueError(f"need points at 2 or more distinct frequencies (4 real numbers: |E*| and Phi at each) "
+                         f"to fit 4 parameters, got {np.unique(f).size} frequency")
     if not (np.all(f > 0) and np.all(E > 0) and np.all(np.isfinite(f)) and np.all(np.isfinite(E))):
         raise ValueError("frequencies and |E*| must be positive and finite")
     if not np.all((phi > 0) & (phi < np.pi / 2)):
@@ -221,6 +239,10 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     def residuals(x):
         d = _log_modulus(x, omega) - target
         return np.concatenate([w_e * d.real, w_p * d.imag])
+
+    def jacobian(x):
+        J = _log_modulus_jacobian(x, omega)
+        return np.vstack([w_e * J.real, w_p * J.imag])
 
     # Grid of starting values from the data (MPa, MPa s).
     E_max = E.max()
@@ -242,17 +264,24 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     cost_grid = np.sum((w_e * d_grid.real) ** 2 + (w_p * d_grid.imag) ** 2, axis=-1)
     starts = grid[np.argsort(cost_grid)[: max(1, int(n_starts))]]
 
+    def solve(x0, max_nfev):
+        return least_squares(residuals, x0, jac=jacobian, bounds=(lo, hi), method="trf", x_scale=1.0,
+                             xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=max_nfev)
+
+    # every start for a short run, then the two best to convergence (a start that has not
+    # converged in EXPLORE_NFEV evaluations is slow because it crawls along a bound)
+    runs = sorted((solve(x0, EXPLORE_NFEV) for x0 in starts), key=lambda r: r.cost)
     best = None
-    for x0 in starts:
-        res = least_squares(residuals, x0, bounds=(lo, hi), method="trf", x_scale=1.0,
-                            xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=4000)
+    for res in runs[:2]:
+        if res.status == 0:  # stopped by the evaluation budget
+            res = solve(res.x, 4000)
         if best is None or res.cost < best.cost:
             best = res
     x = best.x
     p = np.exp(x)
     m, n = 2 * f.size, 4
     se = np.full(4, np.nan)
-    if f.size > 4:
+    if m > n:
         J = best.jac
         s2 = 2.0 * best.cost / (m - n)
         cov = s2 * np.linalg.pinv(J.T @ J)

@@ -1,0 +1,72 @@
+"""diagnose-bench: seeds, plan, binomial intervals, summary and the command."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+from asphalt_nscd.cli import main
+from asphalt_nscd.diagnosis import bench, synthetic
+
+
+def test_exact_binomial_interval():
+    lo, hi = bench.binomial_ci(0, 200)
+    assert lo == 0.0 and hi == pytest.approx(1 - 0.025 ** (1 / 200), rel=1e-9)  # Clopper-Pearson, k = 0
+    lo, hi = bench.binomial_ci(200, 200)
+    assert hi == 1.0 and lo == pytest.approx(0.025 ** (1 / 200), rel=1e-9)
+    lo, hi = bench.binomial_ci(10, 100)
+    assert lo < 0.1 < hi and bench.binomial_ci(0, 0) == (None, None)
+
+
+def test_plan_is_reproducible_and_plants_at_the_stated_size():
+    a = bench.plan(5, ["wlf", "mixed"], 3, 2)
+    b = bench.plan(5, ["wlf", "mixed"], 3, 2)
+    assert a == b and len(a) == 2 * (3 + 2 * 5)
+    assert a != bench.plan(6, ["wlf", "mixed"], 3, 2)
+    assert len({c["seed"] for c in a}) == len(a)
+    for c in a:
+        if c["kind"] == "clean":
+            assert c["effects"] == [] and c["magnitudes"] == {}
+            continue
+        size = c["magnitudes"][c["kind"]]
+        for k, v in bench.EFFECT_SIZES[c["kind"]].items():
+            assert abs(size[k]) == v
+        assert c["schedule"] in bench.PLANTED_SCHEDULES.get(c["kind"], tuple(synthetic.SCHEDULES))
+        if c["kind"] == "temperature_offset":
+            temps = synthetic.SCHEDULES[c["schedule"]][0]
+            assert temps[0] < size["temperature_C"] < temps[-1]
+
+
+def test_summary_counts_false_alarms_on_clean_tables_only():
+    runs = [{"family": "wlf", "kind": "clean", "detected": ["time_lag"], "testable": list(bench.KINDS[1:]),
+             "estimate_ok": {}},
+            {"family": "wlf", "kind": "clean", "detected": [], "testable": list(bench.KINDS[1:]), "estimate_ok": {}},
+            {"family": "wlf", "kind": "time_lag", "detected": ["time_lag", "self_heating"],
+             "testable": list(bench.KINDS[1:]), "estimate_ok": {"time_lag": True}}]
+    s = bench.summarize(runs, ["wlf"])
+    assert s["time_lag"]["wlf"]["false_alarm"]["k"] == 1 and s["time_lag"]["wlf"]["false_alarm"]["n"] == 2
+    assert s["time_lag"]["wlf"]["detection"]["rate"] == 1.0
+    assert s["self_heating"]["wlf"]["false_alarm"]["k"] == 0
+    assert s["self_heating"]["wlf"]["cross_talk"]["k"] == 1
+    assert s["time_lag"]["all"]["false_alarm"]["n"] == 2
+
+
+def test_bench_command_is_reproducible_from_its_base_seed(tmp_path):
+    args = ["diagnose-bench", "--clean", "1", "--planted", "1", "--families", "mixed", "--base-seed", "3"]
+    assert main(args + ["-o", str(tmp_path / "a.json"), "--table", str(tmp_path / "a.csv")]) == 0
+    a = json.loads((tmp_path / "a.json").read_text())
+    assert a["base_seed"] == 3 and a["n_tables"] == 6 and a["families"] == ["mixed"]
+    table = pd.read_csv(tmp_path / "a.csv")
+    assert set(table["artifact"]) == set(bench.KINDS[1:]) and set(table["family"]) == {"mixed", "all"}
+    assert {"detection_ci_low", "false_alarm_ci_high", "effect_size"} <= set(table.columns)
+    assert main(["diagnose-bench", "--clean", "1", "--planted", "0", "--families", "mixed", "--base-seed", "3",
+                 "-o", str(tmp_path / "b.json")]) == 0
+    b = json.loads((tmp_path / "b.json").read_text())
+    assert b["runs"][0] == a["runs"][0]  # the clean table of the same seed, the same outcome
+    # default: a fresh base seed, recorded
+    assert main(["diagnose-bench", "--clean", "1", "--planted", "0", "--families", "wlf",
+                 "-o", str(tmp_path / "c.json")]) == 0
+    assert isinstance(json.loads((tmp_path / "c.json").read_text())["base_seed"], int)
+    assert main(["diagnose-bench", "--families", "bogus", "-o", str(tmp_path / "d.json")]) == 2
