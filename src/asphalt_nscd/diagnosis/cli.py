@@ -188,7 +188,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=_synth)
 
     p = subparsers.add_parser("diagnose-bench",
-                              help="false-alarm and detection rates of the artifact detection (with 95 % intervals)",
+                              help="false-alarm and detection rates of the artifact detection (with 95 %% intervals)",
                               description="Draw clean and planted synthetic tables from truth families inside "
                               "and outside the detector's model, diagnose their artifacts and report per artifact "
                               "and family the false-alarm rate (clean tables) and the detection rate at the stated "
