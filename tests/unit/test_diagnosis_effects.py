@@ -186,6 +186,12 @@ def test_temperature_offset_is_found_on_its_inner_isotherm_and_corrected():
     again = ArtifactSearch(search.corrected_table(result)).run()["offset"]
     assert not again["detected"]
     assert abs(next(r for r in again["per_isotherm"] if r["temperature_C"] == 10.0)["offset_C"]) < 0.5
+    # a planted offset passes the consistency check: the corrected table fits the master curve better
+    corrected, _ = search.consistent_correction(result)
+    assert off["correction_applied"] and off["master_curve_rss"]["offset_corrected"] < off["master_curve_rss"]["not_corrected"]
+    assert np.allclose(corrected["E_norm_MPa"], search.corrected_table(result)["E_norm_MPa"])
+    entry = next(e for e in fx.effect_entries(search, result) if e["name"] == "temperature_offset")
+    assert entry["detected"] and "corrected in the table" in entry["evidence"]
 
 
 def test_format_of_small_p_values():

@@ -131,6 +131,8 @@ def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
                                       magnitudes=case["magnitudes"], family=case["family"])
     search = ArtifactSearch(table, alpha=alpha, test=from_dict(truth["test"], "synthetic"))
     result = search.run()
+    if result["offset"] is not None and result["offset"].get("detected"):
+        search.consistent_correction(result)  # the report's consistency check of an offset
     entries = {e["name"]: e for e in effect_entries(search, result)}
     out = {k: case[k] for k in ("family", "kind", "index", "seed", "schedule")}
     out.update({"n_specimens": truth["n_specimens"], "planted": list(case["effects"]),

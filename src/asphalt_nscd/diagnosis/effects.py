@@ -585,6 +585,36 @@ class ArtifactSearch:
         out["phase_deg"] = np.degrees(np.angle(Ec))
         return out
 
+    def consistent_correction(self, result: dict, shift: str | None = None,
+                              T_ref_C: float | None = None) -> tuple[pd.DataFrame, MasterCurveFit]:
+        """Corrected table of a :meth:`run` result and its master curve (2S2P1D, ``shift``,
+        default the search's; ``T_ref_C``, default the screening isotherm), with the
+        consistency check of a detected temperature offset.
+
+        The offset is corrected by moving its isotherm onto the smooth shift law of the
+        others, a correction that presumes that law. It is kept only if the corrected table
+        fits the master curve better (smaller residual sum of squares) than the table
+        without it; otherwise the table keeps the isotherm as measured and
+        ``result["offset"]["correction_applied"]`` is False, which :func:`effect_entries`
+        reports as not named (a shift-law or model-form departure, not an offset). Sets
+        ``correction_applied`` and ``master_curve_rss`` on a detected offset.
+        """
+        from ..rheology.master_curve import fit_master_curve
+
+        shift = shift or self.shift
+        T_ref_C = self.T_screen if T_ref_C is None else T_ref_C
+        corrected = self.corrected_table(result)
+        master = fit_master_curve(corrected, shift=shift, T_ref_C=T_ref_C, sigma=self.sigma)
+        off = result.get("offset")
+        if off is not None and off.get("detected"):
+            plain = self.corrected(result["final"], None)
+            master_plain = fit_master_curve(plain, shift=shift, T_ref_C=T_ref_C, sigma=self.sigma)
+            off["correction_applied"] = bool(master.rss < master_plain.rss)
+            off["master_curve_rss"] = {"offset_corrected": float(master.rss), "not_corrected": float(master_plain.rss)}
+            if not off["correction_applied"]:
+                corrected, master = plain, master_plain
+        return corrected, master
+
     def corrected_table(self, result: dict) -> pd.DataFrame:
         """:meth:`corrected` of a :meth:`run` result (with its offset if detected)."""
         off = result.get("offset")

@@ -52,7 +52,6 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError
-from ..rheology.master_curve import fit_master_curve
 from ..rheology.kramers_kronig import kk_residuals
 from . import causes, effects, extend
 
@@ -189,21 +188,7 @@ def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
     search = effects.ArtifactSearch(measured, alpha=alpha, T_ref_C=T_ref_C, shift=shift, test=test)
     result = search.run()
     T_mc = T_ref_C if T_ref_C is not None else search.T_screen
-    corrected = search.corrected_table(result)
-    master = fit_master_curve(corrected, shift=shift, T_ref_C=T_mc, sigma=search.sigma)
-    off = result.get("offset")
-    if off is not None and off.get("detected"):
-        # A detected temperature offset is corrected by moving its isotherm onto the smooth
-        # shift law of the others. That correction presumes the law: it is applied only if
-        # the corrected table is described better by the 2S2P1D master curve with that shift
-        # law (smaller residual sum of squares) than the table without it; otherwise the
-        # offset is reported (named) but the table keeps the isotherm where it was measured.
-        plain = search.corrected(result["final"], None)
-        master_plain = fit_master_curve(plain, shift=shift, T_ref_C=T_mc, sigma=search.sigma)
-        off["correction_applied"] = bool(master.rss < master_plain.rss)
-        off["master_curve_rss"] = {"offset_corrected": float(master.rss), "not_corrected": float(master_plain.rss)}
-        if not off["correction_applied"]:
-            corrected, master = plain, master_plain
+    corrected, master = search.consistent_correction(result, shift=shift, T_ref_C=T_mc)
     return {"search": search, "result": result, "corrected": corrected, "master": master}
 
 
