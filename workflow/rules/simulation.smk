@@ -29,7 +29,11 @@ def test_json(mode):
     asphalt_nscd.campaign.twopb.mode_settings, shared with campaign-bench."""
     from asphalt_nscd.campaign.twopb import mode_settings
 
-    return json.dumps(mode_settings(CAMP, mode, config["nscd"].get("bond_kinematics", "contact")))
+    return json.dumps(
+        mode_settings(
+            CAMP, mode, config["nscd"].get("bond_kinematics", "contact"), config["nscd"].get("linear_solver", "cg")
+        )
+    )
 
 
 WINDOW_CYCLES = config["lab"]["simulation_window_cycles"]

@@ -229,7 +229,7 @@ def _periodic_check(args) -> int:
         base = None
         if cfg is not None:
             kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
-            base = twopb.mode_settings(cfg["campaign"], mode, kin)
+            base = twopb.mode_settings(cfg["campaign"], mode, kin, cfg.get("nscd", {}).get("linear_solver", "cg"))
             base["window_cycles"] = cfg.get("lab", {}).get("simulation_window_cycles", 1.0)
         settings = _settings(args, base)
         law = laws.law(mode, T)
@@ -510,7 +510,8 @@ def _bench(args) -> int:
                              network_factor_json=args.network_factor_json, sample_name=Path(args.sample).stem)
         jobs = bench.campaign_jobs(camp, n_total, bond_kinematics=kin)
         costs = bench.measure_job_costs(args.sample, camp, jobs, laws, n_steps=args.job_steps,
-                                        bond_kinematics=kin)
+                                        bond_kinematics=kin,
+                                        linear_solver=cfg.get("nscd", {}).get("linear_solver", "cg"))
 
         def per_step(job, costs=costs):
             return costs[bench.job_class(job)][job["start"]]["s_per_step"]

@@ -125,6 +125,9 @@ class TwoPBSettings:
     head_rotation : 'free' | 'clamped' (module docstring).
     start : 'rest' (``n_cycles`` from rest, the paper) | 'periodic' (``periodic_cycles`` from
         the periodic steady state, :mod:`.periodic`).
+    linear_solver : the core's linear fast-path solver, 'cg' | 'cg_ssor' | 'direct'
+        (config ``nscd.linear_solver``, per mode ``campaign.paper|measured.linear_solver``;
+        :mod:`asphalt_nscd.nscd.linear`).
     periodic_cycles : cycles simulated after a periodic start (the last ``window_cycles``
         are reduced).
     """
@@ -151,6 +154,7 @@ class TwoPBSettings:
     head_rotation: str = "free"
     start: str = "rest"
     periodic_cycles: float = 1.0
+    linear_solver: str = "cg"
 
     def __post_init__(self):
         if self.start not in START_MODES:
@@ -175,10 +179,10 @@ class TwoPBSettings:
 
 
 #: keys of a schedule section (campaign.paper, campaign.measured) that override campaign.test
-MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa", "start")
+MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa", "start", "linear_solver")
 
 
-def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact") -> dict:
+def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", linear_solver: str = "cg") -> dict:
     """The test settings (keys of :class:`TwoPBSettings`, JSON-serialisable) of the jobs of
     one mode of a ``campaign`` config section, as workflow/rules/simulation.smk runs them.
 
@@ -187,11 +191,12 @@ def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact") -
     paper mode and the studies (dt_study, sensitivity, units_*). The start may further be set
     per study or mode section (``campaign.extended.start``, ``campaign.dt_study.start``,
     ``campaign.sensitivity.start``, ``campaign.units_question.start`` for units_*). Modes
-    ending in ``_nobreak`` get unbreakable bonds; ``bond_kinematics`` is the core's
-    (config ``nscd.bond_kinematics``).
+    ending in ``_nobreak`` get unbreakable bonds; ``bond_kinematics`` and ``linear_solver``
+    are the core's (config ``nscd.bond_kinematics``, ``nscd.linear_solver``); a schedule's
+    own ``linear_solver`` wins (e.g. ``direct`` for mix-like bonds, docs/choices.md).
     """
     sched = campaign["measured"] if mode in ("measured", "extended") else campaign["paper"]
-    cfg = {**campaign["test"], **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
+    cfg = {**campaign["test"], "linear_solver": linear_solver, **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
     own = "units_question" if mode.startswith("units_") else mode
     if own not in ("paper", "measured") and "start" in (campaign.get(own) or {}):
         cfg["start"] = campaign[own]["start"]
@@ -299,7 +304,7 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     gravity = (0.0, 0.0, -9.81) if settings.gravity else (0.0, 0.0, 0.0)
     params = NSCDParameters(dt=dt, theta=settings.theta, gravity=gravity, friction=settings.friction,
                             tolerance=settings.tolerance, max_iterations=settings.max_iterations,
-                            bond_kinematics=settings.bond_kinematics)
+                            bond_kinematics=settings.bond_kinematics, linear_solver=settings.linear_solver)
     return Simulation(spheres, plates, bonds, params), motion
 
 
