@@ -2,6 +2,8 @@
 # Run: `make run` (default config) or `snakemake --cores 2 --configfile config/smoke.yaml`.
 from snakemake.utils import min_version, validate
 
+from asphalt_nscd.campaign import plan
+
 min_version("9.0")
 
 
@@ -27,5 +29,5 @@ include: "workflow/rules/report.smk"
 
 rule all:
     input:
-        report_targets(),
+        plan.REPORT_INDEX,
     default_target: True

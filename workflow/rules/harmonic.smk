@@ -11,45 +11,21 @@
 # kinematics of the NSCD core.
 # Rerun one target: `snakemake --cores 1 results/harmonic/jobs/s1_paper.csv --forcerun harmonic_jobs`.
 
-HARM = config["harmonic"]
-HARMONIC_MODES = ["paper", "measured"]
-HARMONIC_PLOTS = ["isotherms-modulus", "isotherms-phase", "black", "cole-cole"]
-HARMONIC_PARAMETERS = {
-    "paper": "results/calibration/paper_table3.csv",
-    "measured": "results/calibration/burgers_parameters.csv",
-}
-# The sample of the single-sample studies (sensitivity, time-domain check): the first one.
-HARMONIC_SAMPLE = SAMPLES[0]
-
-
-def _harmonic_frequencies(wc, input):
-    """Frequency option of a mode: the paper's list, or the measured (T, f) of the lab summary."""
-    if wc.mode == "paper":
-        return "--frequency " + " ".join(str(f) for f in HARM["paper_frequencies_Hz"])
-    return f"--frequencies-from {input.summary}"
-
-
-def _kinematics_options():
-    return f"--bond-kinematics {HARM['bond_kinematics']} --head-rotation {HARM['head_rotation']}"
-
-
-def _solver_options():
-    return (f"--inertia {HARM['inertia']} --solver {HARM['solver']} --rtol {HARM['rtol']} "
-            + _kinematics_options())
+from asphalt_nscd.campaign import plan
 
 
 rule harmonic_jobs:
     input:
         sample="results/samples/{sample}.h5",
-        parameters=lambda wc: HARMONIC_PARAMETERS[wc.mode],
+        parameters=plan.harmonic_parameters_function(config),
         summary="results/lab/measured_summary.csv",
     output:
         "results/harmonic/jobs/{sample}_{mode}.csv",
     wildcard_constraints:
         mode="paper|measured",
     params:
-        frequencies=_harmonic_frequencies,
-        options=_solver_options(),
+        frequencies=plan.harmonic_frequency_option_function(config),
+        options=plan.harmonic_solver_options(config),
     log:
         "logs/harmonic/jobs_{sample}_{mode}.log",
     benchmark:
@@ -58,6 +34,8 @@ rule harmonic_jobs:
     resources:
         mem_mb=4000,
         runtime=10,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
         "{params.frequencies} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
@@ -66,14 +44,14 @@ rule harmonic_jobs:
 rule harmonic_sweep:
     input:
         sample="results/samples/{sample}.h5",
-        parameters=lambda wc: HARMONIC_PARAMETERS[wc.mode],
+        parameters=plan.harmonic_parameters_function(config),
     output:
         "results/harmonic/sweep/{sample}_{mode}.csv",
     wildcard_constraints:
         mode="paper|measured",
     params:
-        sweep=f"{HARM['sweep']['fmin_Hz']} {HARM['sweep']['fmax_Hz']} {HARM['sweep']['points']}",
-        options=_solver_options(),
+        sweep=plan.harmonic_sweep(config),
+        options=plan.harmonic_solver_options(config),
     log:
         "logs/harmonic/sweep_{sample}_{mode}.log",
     benchmark:
@@ -82,6 +60,8 @@ rule harmonic_sweep:
     resources:
         mem_mb=4000,
         runtime=30,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
         "--sweep {params.sweep} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
@@ -89,7 +69,7 @@ rule harmonic_sweep:
 
 rule harmonic_figures:
     input:
-        sweeps=expand("results/harmonic/sweep/{sample}_{{mode}}.csv", sample=SAMPLES),
+        sweeps=expand("results/harmonic/sweep/{sample}_{{mode}}.csv", sample=plan.sample_names(config)),
         summary="results/lab/measured_summary.csv",
     output:
         isotherms_modulus=report(
@@ -126,6 +106,8 @@ rule harmonic_figures:
     resources:
         mem_mb=1000,
         runtime=10,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-plot --harmonic {input.sweeps} --measured {input.summary} "
         "--title '{wildcards.mode} parameters' "
@@ -135,7 +117,7 @@ rule harmonic_figures:
 
 rule harmonic_network_factor:
     input:
-        expand("results/harmonic/jobs/{sample}_{mode}.csv", sample=SAMPLES, mode=HARMONIC_MODES),
+        expand("results/harmonic/jobs/{sample}_{mode}.csv", sample=plan.sample_names(config), mode=plan.HARMONIC_MODES),
     output:
         table=report(
             "results/harmonic/network_factor.csv",
@@ -155,14 +137,16 @@ rule harmonic_network_factor:
     resources:
         mem_mb=500,
         runtime=5,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-network-factor {input} -o {output.table} --summary {output.summary} 2> {log}"
 
 
 rule harmonic_sensitivity:
     input:
-        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
-        parameters=HARMONIC_PARAMETERS["paper"],
+        sample=plan.sample_file(plan.sample_names(config)[0]),
+        parameters=plan.HARMONIC_PARAMETERS["paper"],
     output:
         table=report(
             "results/harmonic/sensitivity.csv",
@@ -175,11 +159,11 @@ rule harmonic_sensitivity:
             category="Harmonic solver",
         ),
     params:
-        temperature=HARM["sensitivity"]["temperature_C"],
-        frequencies=" ".join(str(f) for f in HARM["sensitivity"]["frequencies_Hz"]),
-        levels=" ".join(str(p) for p in HARM["sensitivity"]["levels_percent"]),
-        inertia=HARM["inertia"],
-        kinematics=_kinematics_options(),
+        temperature=config["harmonic"]["sensitivity"]["temperature_C"],
+        frequencies=plan.spaced(config["harmonic"]["sensitivity"]["frequencies_Hz"]),
+        levels=plan.spaced(config["harmonic"]["sensitivity"]["levels_percent"]),
+        inertia=config["harmonic"]["inertia"],
+        kinematics=plan.harmonic_kinematics_options(config),
     log:
         "logs/harmonic/sensitivity.log",
     benchmark:
@@ -188,6 +172,8 @@ rule harmonic_sensitivity:
     resources:
         mem_mb=4000,
         runtime=30,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-sensitivity --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperature} --frequency {params.frequencies} --levels {params.levels} "
@@ -196,8 +182,8 @@ rule harmonic_sensitivity:
 
 rule harmonic_compare:
     input:
-        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
-        parameters=HARMONIC_PARAMETERS["paper"],
+        sample=plan.sample_file(plan.sample_names(config)[0]),
+        parameters=plan.HARMONIC_PARAMETERS["paper"],
     output:
         table=report(
             "results/harmonic/compare_time_domain.csv",
@@ -210,16 +196,16 @@ rule harmonic_compare:
             category="Harmonic solver",
         ),
     params:
-        temperatures=" ".join(str(t) for t in HARM["compare"]["temperatures_C"]),
-        frequencies=" ".join(str(f) for f in HARM["compare"]["frequencies_Hz"]),
-        dts=" ".join(str(d) for d in HARM["compare"]["dt_s"]),
-        rtols=" ".join(str(r) for r in HARM["compare"]["rtol"]),
-        cycles=HARM["compare"]["cycles"],
-        settle=HARM["compare"]["settle_factor"],
+        temperatures=plan.spaced(config["harmonic"]["compare"]["temperatures_C"]),
+        frequencies=plan.spaced(config["harmonic"]["compare"]["frequencies_Hz"]),
+        dts=plan.spaced(config["harmonic"]["compare"]["dt_s"]),
+        rtols=plan.spaced(config["harmonic"]["compare"]["rtol"]),
+        cycles=config["harmonic"]["compare"]["cycles"],
+        settle=config["harmonic"]["compare"]["settle_factor"],
         # the time-domain core's kinematics (config nscd.bond_kinematics and
         # campaign.test.head_rotation), used by both sides of the comparison
-        bond_kinematics=config["nscd"].get("bond_kinematics", "contact"),
-        head_rotation=config["campaign"]["test"].get("head_rotation", "free"),
+        bond_kinematics=plan.bond_kinematics(config),
+        head_rotation=plan.head_rotation(config),
     log:
         "logs/harmonic/compare_time_domain.log",
     benchmark:
@@ -227,7 +213,9 @@ rule harmonic_compare:
     threads: 1
     resources:
         mem_mb=4000,
-        runtime=lambda wc: HARM["compare"]["runtime_min"],
+        runtime=config["harmonic"]["compare"]["runtime_min"],
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} --dt {params.dts} "
@@ -238,8 +226,8 @@ rule harmonic_compare:
 
 rule harmonic_kinematics:
     input:
-        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
-        parameters=HARMONIC_PARAMETERS["paper"],
+        sample=plan.sample_file(plan.sample_names(config)[0]),
+        parameters=plan.HARMONIC_PARAMETERS["paper"],
     output:
         report(
             "results/harmonic/kinematics_study.csv",
@@ -247,9 +235,9 @@ rule harmonic_kinematics:
             category="Harmonic solver",
         ),
     params:
-        temperatures=" ".join(str(t) for t in HARM["kinematics_study"]["temperatures_C"]),
-        frequencies=" ".join(str(f) for f in HARM["kinematics_study"]["frequencies_Hz"]),
-        inertia=" ".join(HARM["kinematics_study"]["inertia"]),
+        temperatures=plan.spaced(config["harmonic"]["kinematics_study"]["temperatures_C"]),
+        frequencies=plan.spaced(config["harmonic"]["kinematics_study"]["frequencies_Hz"]),
+        inertia=plan.spaced(config["harmonic"]["kinematics_study"]["inertia"]),
     log:
         "logs/harmonic/kinematics_study.log",
     benchmark:
@@ -258,6 +246,8 @@ rule harmonic_kinematics:
     resources:
         mem_mb=4000,
         runtime=15,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-kinematics --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} "
@@ -273,9 +263,9 @@ rule harmonic_transfer:
     output:
         "results/harmonic/transfer/{sample}.json",
     params:
-        bond_kinematics=config["nscd"].get("bond_kinematics", "contact"),
-        head_rotation=config["campaign"]["test"].get("head_rotation", "free"),
-        nu=config["campaign"]["test"].get("nu", 0.35),
+        bond_kinematics=plan.bond_kinematics(config),
+        head_rotation=plan.head_rotation(config),
+        nu=plan.twopb_poisson_ratio(config),
     log:
         "logs/harmonic/transfer_{sample}.log",
     benchmark:
@@ -284,6 +274,8 @@ rule harmonic_transfer:
     resources:
         mem_mb=4000,
         runtime=15,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-transfer --sample {input.sample} --nu {params.nu} "
         "--bond-kinematics {params.bond_kinematics} --head-rotation {params.head_rotation} "
@@ -294,8 +286,9 @@ rule harmonic_bench:
     output:
         "results/harmonic/bench.json",
     params:
-        n=HARM["bench"]["n_spheres"],
-        td_steps=HARM["bench"]["time_domain_steps"],
+        n=config["harmonic"]["bench"]["n_spheres"],
+        td_steps=config["harmonic"]["bench"]["time_domain_steps"],
+        kinematics=plan.harmonic_kinematics_options(config),
     log:
         "logs/harmonic/bench.log",
     benchmark:
@@ -304,20 +297,8 @@ rule harmonic_bench:
     resources:
         mem_mb=4000,
         runtime=15,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
-        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} "
-        + _kinematics_options()
-        + " -o {output} 2> {log}"
-
-
-REPORT_FILES += expand("results/harmonic/figures/{mode}_{plot}.png", mode=HARMONIC_MODES, plot=HARMONIC_PLOTS)
-REPORT_FILES += [
-    "results/harmonic/network_factor.csv",
-    "results/harmonic/network_factor_summary.csv",
-    "results/harmonic/sensitivity.csv",
-    "results/harmonic/sensitivity.png",
-    "results/harmonic/compare_time_domain.csv",
-    "results/harmonic/compare_time_domain.png",
-    "results/harmonic/kinematics_study.csv",
-    "results/harmonic/bench.json",
-]
+        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} {params.kinematics} "
+        "-o {output} 2> {log}"

@@ -2,15 +2,7 @@
 # chosen unit reading, its refit check, micro (bond) parameters (Eqs. 30-33, 8-11), and the
 # rheology figures (isotherms, Black diagram, Cole-Cole plane).
 
-CAL = config["calibration"]
-RHEOLOGY_PLOTS = ["isotherms-modulus", "isotherms-phase", "black", "cole-cole"]
-
-
-def _fit_options():
-    return (
-        f"--weight-log-modulus {CAL['weight_log_modulus']} --weight-phase {CAL['weight_phase']} "
-        f"--n-starts {CAL['n_starts']}"
-    )
+from asphalt_nscd.campaign import plan
 
 
 rule fit_burgers:
@@ -23,8 +15,8 @@ rule fit_burgers:
             category="Calibration",
         ),
     params:
-        options=_fit_options(),
-        model=CAL["model"],
+        options=plan.calibration_fit_options(config),
+        model=config["calibration"]["model"],
     log:
         "logs/calibration/fit_burgers.log",
     benchmark:
@@ -33,17 +25,19 @@ rule fit_burgers:
     resources:
         mem_mb=1000,
         runtime=10,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd fit --measured {input} --model {params.model} {params.options} -o {output} 2> {log}"
 
 
 rule paper_table3:
     input:
-        CAL["table3"],
+        config["calibration"]["table3"],
     output:
         "results/calibration/paper_table3.csv",
     params:
-        units=CAL["table3_units"],
+        units=config["calibration"]["table3_units"],
     log:
         "logs/calibration/paper_table3.log",
     benchmark:
@@ -52,6 +46,8 @@ rule paper_table3:
     resources:
         mem_mb=500,
         runtime=5,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd table3 {input} --units {params.units} -o {output} 2> {log}"
 
@@ -66,8 +62,8 @@ rule table3_refit_check:
             category="Calibration",
         ),
     params:
-        options=_fit_options(),
-        frequencies=" ".join(str(f) for f in CAL["refit_frequencies_Hz"]),
+        options=plan.calibration_fit_options(config),
+        frequencies=plan.spaced(config["calibration"]["refit_frequencies_Hz"]),
     log:
         "logs/calibration/table3_refit_check.log",
     benchmark:
@@ -76,6 +72,8 @@ rule table3_refit_check:
     resources:
         mem_mb=1000,
         runtime=10,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd refit-check --parameters {input} --frequencies {params.frequencies} "
         "{params.options} -o {output} 2> {log}"
@@ -89,9 +87,9 @@ rule burgers_curves:
     wildcard_constraints:
         table="burgers_parameters|paper_table3",
     params:
-        fmin=CAL["curves"]["fmin_Hz"],
-        fmax=CAL["curves"]["fmax_Hz"],
-        points=CAL["curves"]["points"],
+        fmin=config["calibration"]["curves"]["fmin_Hz"],
+        fmax=config["calibration"]["curves"]["fmax_Hz"],
+        points=config["calibration"]["curves"]["points"],
     log:
         "logs/calibration/{table}_curves.log",
     benchmark:
@@ -100,6 +98,8 @@ rule burgers_curves:
     resources:
         mem_mb=500,
         runtime=5,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd burgers-curves --parameters {input} --fmin {params.fmin} --fmax {params.fmax} "
         "--points {params.points} -o {output} 2> {log}"
@@ -117,10 +117,10 @@ rule micro_parameters:
     wildcard_constraints:
         table="burgers_parameters|paper_table3",
     params:
-        r_min=" ".join(str(r) for r in CAL["micro"]["r_min_mm"]),
-        l0=" ".join(str(l) for l in CAL["micro"]["l0_mm"]),
-        nu=CAL["micro"]["poisson_ratio"],
-        mass=CAL["micro"]["grain_mass_kg"],
+        r_min=plan.spaced(config["calibration"]["micro"]["r_min_mm"]),
+        l0=plan.spaced(config["calibration"]["micro"]["l0_mm"]),
+        nu=config["calibration"]["micro"]["poisson_ratio"],
+        mass=config["calibration"]["micro"]["grain_mass_kg"],
     log:
         "logs/calibration/{table}_micro.log",
     benchmark:
@@ -129,6 +129,8 @@ rule micro_parameters:
     resources:
         mem_mb=500,
         runtime=5,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd micro --parameters {input} --r-min-mm {params.r_min} --l0-mm {params.l0} "
         "--nu {params.nu} --grain-mass-kg {params.mass} -o {output} 2> {log}"
@@ -167,6 +169,8 @@ rule rheology_figures:
     resources:
         mem_mb=1000,
         runtime=10,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd plot-rheology --points 'measured (mean ± sd)={input.summary}' "
         "--lines \"Burger's fit={input.curves}\" "
@@ -189,7 +193,7 @@ rule paper_table3_figures:
             category="Calibration",
         ),
     params:
-        units=CAL["table3_units"],
+        units=config["calibration"]["table3_units"],
     log:
         "logs/calibration/paper_table3_figures.log",
     benchmark:
@@ -198,17 +202,8 @@ rule paper_table3_figures:
     resources:
         mem_mb=1000,
         runtime=10,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd plot-rheology --lines \"paper Table 3 ({params.units} reading)={input}\" "
         "--isotherms-modulus {output.modulus} --isotherms-phase {output.phase} 2> {log}"
-
-
-REPORT_FILES += [
-    "results/calibration/burgers_parameters.csv",
-    "results/calibration/table3_refit_check.csv",
-    "results/calibration/burgers_parameters_micro.csv",
-    "results/calibration/paper_table3_micro.csv",
-    *expand("results/calibration/figures/measured_{plot}.png", plot=RHEOLOGY_PLOTS),
-    "results/calibration/figures/paper_table3_isotherms-modulus.png",
-    "results/calibration/figures/paper_table3_isotherms-phase.png",
-]
