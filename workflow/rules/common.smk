@@ -15,5 +15,5 @@ from asphalt_nscd.campaign import plan
 # script installs the package from ASPHALT_NSCD_SOURCE, the repository holding this workflow.
 os.environ.update(plan.job_environment(sys.executable, workflow.basedir, os.environ.get("PATH", "")))
 
-for section, schema in plan.section_schemas(config, Path(workflow.basedir) / "workflow" / "schemas").items():
-    validate(config[section], schema)
+for _section, _schema in plan.section_schemas(config, Path(workflow.basedir) / "workflow" / "schemas").items():
+    validate(config[_section], _schema)

@@ -42,18 +42,18 @@ rule extend_law:
             caption="../report/diagnosis_cv_curve.rst",
             category=DIAG_CATEGORY,
         ),
-    params:
-        options=plan.diagnosis_fit_options(config),
     log:
         "logs/diagnosis/extend_law.log",
     benchmark:
         "benchmarks/diagnosis/extend_law.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=15,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        options=plan.diagnosis_fit_options(config),
     shell:
         "asphalt-nscd extend-law --measured {input.measured} {params.options} -o {output.laws} "
         "--corrected {output.corrected} --cv-curve {output.curve} 2> {log}"
@@ -68,24 +68,23 @@ if plan.crossval_time_domain_cell(config):
             measured="results/lab/measured.csv",
         output:
             f"results/diagnosis/crossval/fold_law_{plan.crossval_time_domain_case(config)}.json",
-        params:
-            options=plan.diagnosis_fit_options(config),
-            frequency=plan.crossval_time_domain_cell(config)["frequency_Hz"],
-            temperature=plan.crossval_time_domain_cell(config)["temperature_C"],
         log:
             "logs/diagnosis/crossval_fold_law.log",
         benchmark:
             "benchmarks/diagnosis/crossval_fold_law.tsv"
+        conda:
+            "../envs/asphalt-nscd.yaml"
         threads: 1
         resources:
             mem_mb=1000,
             runtime=15,
-        conda:
-            "../envs/asphalt-nscd.yaml"
+        params:
+            options=plan.diagnosis_fit_options(config),
+            frequency=plan.crossval_time_domain_cell(config)["frequency_Hz"],
+            temperature=plan.crossval_time_domain_cell(config)["temperature_C"],
         shell:
             "asphalt-nscd extend-law --measured {input.measured} {params.options} "
             "--exclude-frequency {params.frequency} --temperatures {params.temperature} -o {output} 2> {log}"
-
 
     rule crossval_time_domain:
         # one time-domain NSCD test of the sample with that fold's law (transfer correction on, the
@@ -97,22 +96,22 @@ if plan.crossval_time_domain_cell(config):
         output:
             record=f"results/diagnosis/crossval/time_domain_{plan.crossval_time_domain_case(config)}.h5",
             row=plan.crossval_time_domain_row(config),
+        log:
+            "logs/diagnosis/crossval_time_domain.log",
+        benchmark:
+            "benchmarks/diagnosis/crossval_time_domain.tsv"
+        conda:
+            "../envs/asphalt-nscd.yaml"
+        threads: 1
+        resources:
+            mem_mb=2000,
+            runtime=config["campaign"]["job_runtime_min"],
         params:
             sample=plan.crossval_sample(config),
             temperature=plan.crossval_time_domain_cell(config)["temperature_C"],
             frequency=plan.crossval_time_domain_cell(config)["frequency_Hz"],
             settings=plan.mode_settings_json(config, "extended"),
             window=config["lab"]["simulation_window_cycles"],
-        log:
-            "logs/diagnosis/crossval_time_domain.log",
-        benchmark:
-            "benchmarks/diagnosis/crossval_time_domain.tsv"
-        threads: 1
-        resources:
-            mem_mb=2000,
-            runtime=config["campaign"]["job_runtime_min"],
-        conda:
-            "../envs/asphalt-nscd.yaml"
         shell:
             "asphalt-nscd run-2pb --sample {input.sample} --sample-name {params.sample} --mode crossval"
             " --law-json {input.law} --temperature {params.temperature} --frequency {params.frequency}"
@@ -151,21 +150,21 @@ rule crossval:
             category=DIAG_CATEGORY,
             subcategory="Held-out validation",
         ),
-    wildcard_constraints:
-        scheme="lofo|loto",
-    params:
-        options=plan.diagnosis_fit_options(config),
-        time_domain=plan.time_domain_option,
     log:
         "logs/diagnosis/crossval_{scheme}.log",
     benchmark:
         "benchmarks/diagnosis/crossval_{scheme}.tsv"
+    wildcard_constraints:
+        scheme="lofo|loto",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=60,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        options=plan.diagnosis_fit_options(config),
+        time_domain=plan.time_domain_option,
     shell:
         "asphalt-nscd crossval --measured {input.measured} --scheme {wildcards.scheme} {params.options} "
         "--sample {input.sample} --transfer {input.transfer} {params.time_domain} -o {output.rows} "
@@ -203,19 +202,19 @@ rule diagnose:
             category=DIAG_CATEGORY,
         ),
         page="results/diagnosis/what_the_simulation_gets_wrong.md",
-    params:
-        options=plan.diagnose_options(config),
-        tolerances=plan.diagnose_tolerances(config),
     log:
         "logs/diagnosis/diagnose.log",
     benchmark:
         "benchmarks/diagnosis/diagnose.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=15,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        options=plan.diagnose_options(config),
+        tolerances=plan.diagnose_tolerances(config),
     shell:
         "asphalt-nscd diagnose --measured {input.measured} --test {input.test} --macro-params {input.macro} "
         "--law-json {input.laws} --crossval {input.crossval} {params.options} {params.tolerances} -o {output.report} "
@@ -235,22 +234,22 @@ rule diagnose_bench:
             caption="../report/diagnosis_bench_table.rst",
             category=DIAG_CATEGORY,
         ),
+    log:
+        "logs/diagnosis/diagnose_bench.log",
+    benchmark:
+        "benchmarks/diagnosis/diagnose_bench.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=120,
     params:
         clean=config["diagnosis"]["bench"]["clean"],
         planted=config["diagnosis"]["bench"]["planted"],
         base_seed=config["diagnosis"]["bench"]["base_seed"],
         families=plan.comma_list(config["diagnosis"]["bench"]["families"]),
         alpha=config["diagnosis"]["alpha"],
-    log:
-        "logs/diagnosis/diagnose_bench.log",
-    benchmark:
-        "benchmarks/diagnosis/diagnose_bench.tsv"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=120,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd diagnose-bench --clean {params.clean} --planted {params.planted} "
         "--base-seed {params.base_seed} --families {params.families} --alpha {params.alpha} "

@@ -21,21 +21,21 @@ rule harmonic_jobs:
         summary="results/lab/measured_summary.csv",
     output:
         "results/harmonic/jobs/{sample}_{mode}.csv",
-    wildcard_constraints:
-        mode="paper|measured",
-    params:
-        frequencies=plan.harmonic_frequency_option_function(config),
-        options=plan.harmonic_solver_options(config),
     log:
         "logs/harmonic/jobs_{sample}_{mode}.log",
     benchmark:
         "benchmarks/harmonic/jobs_{sample}_{mode}.tsv"
+    wildcard_constraints:
+        mode="paper|measured",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        frequencies=plan.harmonic_frequency_option_function(config),
+        options=plan.harmonic_solver_options(config),
     shell:
         "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
         "{params.frequencies} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
@@ -47,21 +47,21 @@ rule harmonic_sweep:
         parameters=plan.harmonic_parameters_function(config),
     output:
         "results/harmonic/sweep/{sample}_{mode}.csv",
-    wildcard_constraints:
-        mode="paper|measured",
-    params:
-        sweep=plan.harmonic_sweep(config),
-        options=plan.harmonic_solver_options(config),
     log:
         "logs/harmonic/sweep_{sample}_{mode}.log",
     benchmark:
         "benchmarks/harmonic/sweep_{sample}_{mode}.tsv"
+    wildcard_constraints:
+        mode="paper|measured",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=30,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        sweep=plan.harmonic_sweep(config),
+        options=plan.harmonic_solver_options(config),
     shell:
         "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
         "--sweep {params.sweep} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
@@ -96,18 +96,18 @@ rule harmonic_figures:
             category="Harmonic solver",
             subcategory="{mode} parameters",
         ),
-    wildcard_constraints:
-        mode="paper|measured",
     log:
         "logs/harmonic/figures_{mode}.log",
     benchmark:
         "benchmarks/harmonic/figures_{mode}.tsv"
+    wildcard_constraints:
+        mode="paper|measured",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-plot --harmonic {input.sweeps} --measured {input.summary} "
         "--title '{wildcards.mode} parameters' "
@@ -133,12 +133,12 @@ rule harmonic_network_factor:
         "logs/harmonic/network_factor.log",
     benchmark:
         "benchmarks/harmonic/network_factor.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-network-factor {input} -o {output.table} --summary {output.summary} 2> {log}"
 
@@ -158,22 +158,22 @@ rule harmonic_sensitivity:
             caption="../report/harmonic_sensitivity.rst",
             category="Harmonic solver",
         ),
+    log:
+        "logs/harmonic/sensitivity.log",
+    benchmark:
+        "benchmarks/harmonic/sensitivity.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=30,
     params:
         temperature=config["harmonic"]["sensitivity"]["temperature_C"],
         frequencies=plan.spaced(config["harmonic"]["sensitivity"]["frequencies_Hz"]),
         levels=plan.spaced(config["harmonic"]["sensitivity"]["levels_percent"]),
         inertia=config["harmonic"]["inertia"],
         kinematics=plan.harmonic_kinematics_options(config),
-    log:
-        "logs/harmonic/sensitivity.log",
-    benchmark:
-        "benchmarks/harmonic/sensitivity.tsv"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=30,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-sensitivity --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperature} --frequency {params.frequencies} --levels {params.levels} "
@@ -195,6 +195,16 @@ rule harmonic_compare:
             caption="../report/harmonic_compare.rst",
             category="Harmonic solver",
         ),
+    log:
+        "logs/harmonic/compare_time_domain.log",
+    benchmark:
+        "benchmarks/harmonic/compare_time_domain.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=config["harmonic"]["compare"]["runtime_min"],
     params:
         temperatures=plan.spaced(config["harmonic"]["compare"]["temperatures_C"]),
         frequencies=plan.spaced(config["harmonic"]["compare"]["frequencies_Hz"]),
@@ -206,16 +216,6 @@ rule harmonic_compare:
         # campaign.test.head_rotation), used by both sides of the comparison
         bond_kinematics=plan.bond_kinematics(config),
         head_rotation=plan.head_rotation(config),
-    log:
-        "logs/harmonic/compare_time_domain.log",
-    benchmark:
-        "benchmarks/harmonic/compare_time_domain.tsv"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=config["harmonic"]["compare"]["runtime_min"],
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} --dt {params.dts} "
@@ -234,20 +234,20 @@ rule harmonic_kinematics:
             caption="../report/harmonic_kinematics.rst",
             category="Harmonic solver",
         ),
-    params:
-        temperatures=plan.spaced(config["harmonic"]["kinematics_study"]["temperatures_C"]),
-        frequencies=plan.spaced(config["harmonic"]["kinematics_study"]["frequencies_Hz"]),
-        inertia=plan.spaced(config["harmonic"]["kinematics_study"]["inertia"]),
     log:
         "logs/harmonic/kinematics_study.log",
     benchmark:
         "benchmarks/harmonic/kinematics_study.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=15,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        temperatures=plan.spaced(config["harmonic"]["kinematics_study"]["temperatures_C"]),
+        frequencies=plan.spaced(config["harmonic"]["kinematics_study"]["frequencies_Hz"]),
+        inertia=plan.spaced(config["harmonic"]["kinematics_study"]["inertia"]),
     shell:
         "asphalt-nscd harmonic-kinematics --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} "
@@ -262,20 +262,20 @@ rule harmonic_transfer:
         sample="results/samples/{sample}.h5",
     output:
         "results/harmonic/transfer/{sample}.json",
-    params:
-        bond_kinematics=plan.bond_kinematics(config),
-        head_rotation=plan.head_rotation(config),
-        nu=plan.twopb_poisson_ratio(config),
     log:
         "logs/harmonic/transfer_{sample}.log",
     benchmark:
         "benchmarks/harmonic/transfer_{sample}.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=15,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        bond_kinematics=plan.bond_kinematics(config),
+        head_rotation=plan.head_rotation(config),
+        nu=plan.twopb_poisson_ratio(config),
     shell:
         "asphalt-nscd harmonic-transfer --sample {input.sample} --nu {params.nu} "
         "--bond-kinematics {params.bond_kinematics} --head-rotation {params.head_rotation} "
@@ -285,20 +285,20 @@ rule harmonic_transfer:
 rule harmonic_bench:
     output:
         "results/harmonic/bench.json",
-    params:
-        n=config["harmonic"]["bench"]["n_spheres"],
-        td_steps=config["harmonic"]["bench"]["time_domain_steps"],
-        kinematics=plan.harmonic_kinematics_options(config),
     log:
         "logs/harmonic/bench.log",
     benchmark:
         "benchmarks/harmonic/bench.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=15,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        n=config["harmonic"]["bench"]["n_spheres"],
+        td_steps=config["harmonic"]["bench"]["time_domain_steps"],
+        kinematics=plan.harmonic_kinematics_options(config),
     shell:
         "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} {params.kinematics} "
         "-o {output} 2> {log}"

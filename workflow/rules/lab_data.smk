@@ -22,18 +22,18 @@ rule measured_table:
             category="Lab data",
         ),
         test="results/lab/measured.test.json",
-    params:
-        test=plan.measured_test_option,
     log:
         "logs/lab/measured_table.log",
     benchmark:
         "benchmarks/lab/measured_table.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        test=plan.measured_test_option,
     shell:
         "asphalt-nscd measured {input.table} {params.test} -o {output.table} --summary {output.summary} "
         "--test-output {output.test} 2> {log}"
@@ -49,17 +49,17 @@ rule reduce_record:
             caption="../report/lab_reduced.rst",
             category="Lab data",
         ),
-    params:
-        window_s=config["lab"]["window_s"],
     log:
         "logs/lab/reduce_{record}.log",
     benchmark:
         "benchmarks/lab/reduce_{record}.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        window_s=config["lab"]["window_s"],
     shell:
         "asphalt-nscd reduce {input.record} --meta {input.meta} --window-s {params.window_s} -o {output} 2> {log}"

@@ -24,20 +24,20 @@ rule nscd_verify:
             caption="../report/nscd_phase_error.rst",
             category="NSCD core",
         ),
-    params:
-        freqs=plan.comma_list(config["nscd"]["verify"]["phase_frequencies_Hz"]),
-        dts=plan.comma_list(config["nscd"]["verify"]["phase_dts_s"]),
-        thetas=plan.comma_list(config["nscd"]["verify"]["phase_thetas"]),
     log:
         "logs/nscd/verify.log",
     benchmark:
         "benchmarks/nscd/verify.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1500,
         runtime=20,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        freqs=plan.comma_list(config["nscd"]["verify"]["phase_frequencies_Hz"]),
+        dts=plan.comma_list(config["nscd"]["verify"]["phase_dts_s"]),
+        thetas=plan.comma_list(config["nscd"]["verify"]["phase_thetas"]),
     shell:
         "asphalt-nscd verify -o {output.json} --csv {output.csv} --phase-table {output.phase} "
         "--figure {output.figure} --phase-frequencies {params.freqs} --phase-dts {params.dts} "
@@ -47,9 +47,19 @@ rule nscd_verify:
 rule nscd_bench:
     output:
         "results/bench/nscd_{case}_n{n}.json",
+    log:
+        "logs/nscd/bench_{case}_n{n}.log",
+    benchmark:
+        "benchmarks/nscd/bench_{case}_n{n}.tsv"
     wildcard_constraints:
         case="bonded|granular",
         n=r"\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=3000,
+        runtime=60,
     params:
         steps=config["nscd"]["bench"]["steps"],
         baseline=config["nscd"]["bench"]["baseline_steps"],
@@ -58,16 +68,6 @@ rule nscd_bench:
         tol=plan.bench_tolerance_function(config),
         kinematics=plan.bond_kinematics(config),
         bonded_contact=plan.bonded_contact(config),
-    log:
-        "logs/nscd/bench_{case}_n{n}.log",
-    benchmark:
-        "benchmarks/nscd/bench_{case}_n{n}.tsv"
-    threads: 1
-    resources:
-        mem_mb=3000,
-        runtime=60,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "NUMBA_NUM_THREADS=1 asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} "
         "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
@@ -89,11 +89,11 @@ rule nscd_bench_summary:
         "logs/nscd/bench_summary.log",
     benchmark:
         "benchmarks/nscd/bench_summary.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd bench-summary {input} -o {output} 2> {log}"

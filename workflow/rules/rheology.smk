@@ -14,19 +14,19 @@ rule fit_burgers:
             caption="../report/calibration_burgers_parameters.rst",
             category="Calibration",
         ),
-    params:
-        options=plan.calibration_fit_options(config),
-        model=config["calibration"]["model"],
     log:
         "logs/calibration/fit_burgers.log",
     benchmark:
         "benchmarks/calibration/fit_burgers.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        options=plan.calibration_fit_options(config),
+        model=config["calibration"]["model"],
     shell:
         "asphalt-nscd fit --measured {input} --model {params.model} {params.options} -o {output} 2> {log}"
 
@@ -36,18 +36,18 @@ rule paper_table3:
         config["calibration"]["table3"],
     output:
         "results/calibration/paper_table3.csv",
-    params:
-        units=config["calibration"]["table3_units"],
     log:
         "logs/calibration/paper_table3.log",
     benchmark:
         "benchmarks/calibration/paper_table3.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        units=config["calibration"]["table3_units"],
     shell:
         "asphalt-nscd table3 {input} --units {params.units} -o {output} 2> {log}"
 
@@ -61,19 +61,19 @@ rule table3_refit_check:
             caption="../report/calibration_table3_refit_check.rst",
             category="Calibration",
         ),
-    params:
-        options=plan.calibration_fit_options(config),
-        frequencies=plan.spaced(config["calibration"]["refit_frequencies_Hz"]),
     log:
         "logs/calibration/table3_refit_check.log",
     benchmark:
         "benchmarks/calibration/table3_refit_check.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        options=plan.calibration_fit_options(config),
+        frequencies=plan.spaced(config["calibration"]["refit_frequencies_Hz"]),
     shell:
         "asphalt-nscd refit-check --parameters {input} --frequencies {params.frequencies} "
         "{params.options} -o {output} 2> {log}"
@@ -84,22 +84,22 @@ rule burgers_curves:
         "results/calibration/{table}.csv",
     output:
         "results/calibration/{table}_curves.csv",
-    wildcard_constraints:
-        table="burgers_parameters|paper_table3",
-    params:
-        fmin=config["calibration"]["curves"]["fmin_Hz"],
-        fmax=config["calibration"]["curves"]["fmax_Hz"],
-        points=config["calibration"]["curves"]["points"],
     log:
         "logs/calibration/{table}_curves.log",
     benchmark:
         "benchmarks/calibration/{table}_curves.tsv"
+    wildcard_constraints:
+        table="burgers_parameters|paper_table3",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        fmin=config["calibration"]["curves"]["fmin_Hz"],
+        fmax=config["calibration"]["curves"]["fmax_Hz"],
+        points=config["calibration"]["curves"]["points"],
     shell:
         "asphalt-nscd burgers-curves --parameters {input} --fmin {params.fmin} --fmax {params.fmax} "
         "--points {params.points} -o {output} 2> {log}"
@@ -114,23 +114,23 @@ rule micro_parameters:
             caption="../report/calibration_micro.rst",
             category="Calibration",
         ),
+    log:
+        "logs/calibration/{table}_micro.log",
+    benchmark:
+        "benchmarks/calibration/{table}_micro.tsv"
     wildcard_constraints:
         table="burgers_parameters|paper_table3",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
     params:
         r_min=plan.spaced(config["calibration"]["micro"]["r_min_mm"]),
         l0=plan.spaced(config["calibration"]["micro"]["l0_mm"]),
         nu=config["calibration"]["micro"]["poisson_ratio"],
         mass=config["calibration"]["micro"]["grain_mass_kg"],
-    log:
-        "logs/calibration/{table}_micro.log",
-    benchmark:
-        "benchmarks/calibration/{table}_micro.tsv"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd micro --parameters {input} --r-min-mm {params.r_min} --l0-mm {params.l0} "
         "--nu {params.nu} --grain-mass-kg {params.mass} -o {output} 2> {log}"
@@ -165,15 +165,15 @@ rule rheology_figures:
         "logs/calibration/rheology_figures.log",
     benchmark:
         "benchmarks/calibration/rheology_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd plot-rheology --points 'measured (mean ± sd)={input.summary}' "
-        "--lines \"Burger's fit={input.curves}\" "
+        '--lines "Burger\'s fit={input.curves}" '
         "--isotherms-modulus {output.isotherms_modulus} --isotherms-phase {output.isotherms_phase} "
         "--black {output.black} --cole-cole {output.cole_cole} 2> {log}"
 
@@ -192,18 +192,18 @@ rule paper_table3_figures:
             caption="../report/calibration_paper_table3.rst",
             category="Calibration",
         ),
-    params:
-        units=config["calibration"]["table3_units"],
     log:
         "logs/calibration/paper_table3_figures.log",
     benchmark:
         "benchmarks/calibration/paper_table3_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        units=config["calibration"]["table3_units"],
     shell:
-        "asphalt-nscd plot-rheology --lines \"paper Table 3 ({params.units} reading)={input}\" "
+        'asphalt-nscd plot-rheology --lines "paper Table 3 ({params.units} reading)={input}" '
         "--isotherms-modulus {output.modulus} --isotherms-phase {output.phase} 2> {log}"

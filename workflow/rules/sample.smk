@@ -16,21 +16,21 @@ rule prepare_sample:
             category="Numerical samples",
             subcategory="s{seed}",
         ),
-    params:
-        cfg=plan.sample_settings(config),
-        bonded_contact=plan.bonded_contact(config),
-    wildcard_constraints:
-        seed=r"\d+",
     log:
         "logs/samples/s{seed}.log",
     benchmark:
         "benchmarks/samples/s{seed}.tsv"
+    wildcard_constraints:
+        seed=r"\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=plan.sample_runtime_min(config),
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        cfg=plan.sample_settings(config),
+        bonded_contact=plan.bonded_contact(config),
     shell:
         "asphalt-nscd prepare-sample --config-json {params.cfg:q} --seed {wildcards.seed}"
         " --bonded-contact {params.bonded_contact}"
@@ -44,21 +44,21 @@ rule prepare_bench:
             caption="../report/sample_prepare_bench.rst",
             category="Numerical samples",
         ),
-    params:
-        cfg=plan.sample_settings(config),
-        bonded_contact=plan.bonded_contact(config),
-    wildcard_constraints:
-        seed=r"\d+",
     log:
         "logs/samples/prepare_bench_s{seed}.log",
     benchmark:
         "benchmarks/samples/prepare_bench_s{seed}.tsv"
+    wildcard_constraints:
+        seed=r"\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=plan.sample_runtime_min(config),
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        cfg=plan.sample_settings(config),
+        bonded_contact=plan.bonded_contact(config),
     shell:
         "NUMBA_NUM_THREADS=1 asphalt-nscd prepare-bench --config-json {params.cfg:q} --seed {wildcards.seed}"
         " --bonded-contact {params.bonded_contact} -o {output} 2> {log}"
@@ -73,17 +73,17 @@ rule sample_table:
             caption="../report/sample_table2.rst",
             category="Numerical samples",
         ),
-    params:
-        cfg=plan.sample_settings(config),
     log:
         "logs/samples/table2_counts.log",
     benchmark:
         "benchmarks/samples/table2_counts.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        cfg=plan.sample_settings(config),
     shell:
         "asphalt-nscd sample-table --config-json {params.cfg:q} --summaries {input.summaries} -o {output} 2> {log}"

@@ -22,24 +22,24 @@ rule run_2pb:
     output:
         record="results/sim/{mode}/{sample}/{case}.h5",
         row="results/sim/{mode}/{sample}/{case}.csv",
+    log:
+        "logs/sim/{mode}/{sample}/{case}.log",
+    benchmark:
+        "benchmarks/sim/{mode}/{sample}/{case}.tsv"
     wildcard_constraints:
         mode=plan.JOB_MODES,
         sample=r"s\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=config["campaign"]["job_runtime_min"],
     params:
         source=plan.law_option_function(config),
         args=plan.case_options_function(config),
         settings=plan.mode_settings_function(config),
         window=config["lab"]["simulation_window_cycles"],
-    log:
-        "logs/sim/{mode}/{sample}/{case}.log",
-    benchmark:
-        "benchmarks/sim/{mode}/{sample}/{case}.tsv"
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=config["campaign"]["job_runtime_min"],
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd run-2pb --sample {input.sample} --sample-name {wildcards.sample} --mode {wildcards.mode}"
         " {params.source} {input.parameters} {params.args} --settings-json {params.settings:q}"
@@ -71,22 +71,22 @@ rule campaign_isotherms:
             category="Campaign",
             subcategory="{mode}",
         ),
-    wildcard_constraints:
-        mode=plan.ISOTHERM_MODES,
-    params:
-        source=plan.law_option_function(config),
-        options=plan.mode_options_function(config),
-        title=plan.isotherms_title_function(config),
     log:
         "logs/campaign/{mode}_isotherms.log",
     benchmark:
         "benchmarks/campaign/{mode}_isotherms.tsv"
+    wildcard_constraints:
+        mode=plan.ISOTHERM_MODES,
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        source=plan.law_option_function(config),
+        options=plan.mode_options_function(config),
+        title=plan.isotherms_title_function(config),
     shell:
         "asphalt-nscd campaign-isotherms --rows {input.rows} {params.source} {input.parameters} {params.options}"
         " --isotherms {output.isotherms} --table4 {output.table4} --figure-modulus {output.modulus}"
@@ -107,18 +107,18 @@ rule campaign_dt_study:
             caption="../report/campaign_dt_study.rst",
             category="Campaign",
         ),
-    params:
-        units=config["calibration"]["table3_units"],
     log:
         "logs/campaign/dt_study.log",
     benchmark:
         "benchmarks/campaign/dt_study.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        units=config["calibration"]["table3_units"],
     shell:
         "asphalt-nscd campaign-dt-study --records {input.records} --rows {input.rows}"
         " --parameters {input.parameters} --table3-units {params.units}"
@@ -143,12 +143,12 @@ rule campaign_last_cycle:
         "logs/campaign/last_cycle.log",
     benchmark:
         "benchmarks/campaign/last_cycle.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd campaign-last-cycle --record {input.record} --figure-cycle {output.cycle}"
         " --figure-profile {output.profile} 2> {log}"
@@ -170,19 +170,19 @@ rule campaign_sensitivity:
             caption="../report/campaign_sensitivity.rst",
             category="Campaign",
         ),
-    params:
-        units=config["calibration"]["table3_units"],
-        T=config["campaign"]["sensitivity"]["temperature_C"],
     log:
         "logs/campaign/sensitivity.log",
     benchmark:
         "benchmarks/campaign/sensitivity.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
+    params:
+        units=config["calibration"]["table3_units"],
+        T=config["campaign"]["sensitivity"]["temperature_C"],
     shell:
         "asphalt-nscd campaign-sensitivity --rows {input.rows} --baseline {input.baseline}"
         " --parameters {input.parameters} --table3-units {params.units} --temperature {params.T}"
@@ -202,21 +202,21 @@ rule campaign_units_question:
             caption="../report/campaign_units_question.rst",
             category="Campaign",
         ),
+    log:
+        "logs/campaign/units_question.log",
+    benchmark:
+        "benchmarks/campaign/units_question.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
     params:
         T=config["campaign"]["units_question"]["temperature_C"],
         mass=config["calibration"]["micro"]["grain_mass_kg"],
         r_min=config["calibration"]["micro"]["r_min_mm"][0],
         l0=config["calibration"]["micro"]["l0_mm"][0],
-    log:
-        "logs/campaign/units_question.log",
-    benchmark:
-        "benchmarks/campaign/units_question.tsv"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd campaign-units --table3 {input.table3} --rows-pa {input.rows_pa} --rows-kpa {input.rows_kpa}"
         " --rows-kpa-nobreak {input.rows_kpa_nobreak} --sample {input.sample} --temperature {params.T} --grain-mass-kg {params.mass}"
@@ -233,23 +233,23 @@ rule campaign_dt_policy:
             category="Campaign",
             subcategory="{mode}",
         ),
+    log:
+        "logs/campaign/{mode}_dt_policy.log",
+    benchmark:
+        "benchmarks/campaign/{mode}_dt_policy.tsv"
     wildcard_constraints:
         mode="paper|measured",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=20,
     params:
         units=plan.policy_units_option_function(config),
         T=plan.policy_temperature_function(config),
         freqs=plan.mode_frequencies_function(config),
         settings=plan.mode_settings_function(config),
-    log:
-        "logs/campaign/{mode}_dt_policy.log",
-    benchmark:
-        "benchmarks/campaign/{mode}_dt_policy.tsv"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=20,
-    conda:
-        "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd campaign-dt-policy --parameters {input.parameters} {params.units} --temperature {params.T}"
         " --frequencies {params.freqs} --settings-json {params.settings:q} -o {output} 2> {log}"
