@@ -2,6 +2,8 @@
 # Run: `make run` (default config) or `snakemake --cores 2 --configfile config/smoke.yaml`.
 from snakemake.utils import min_version, validate
 
+from asphalt_nscd.campaign import plan
+
 min_version("9.0")
 
 
@@ -26,6 +28,6 @@ include: "workflow/rules/report.smk"
 
 
 rule all:
-    input:
-        report_targets(),
     default_target: True
+    input:
+        plan.REPORT_INDEX,

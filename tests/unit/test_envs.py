@@ -56,3 +56,19 @@ def test_env_covers_the_runtime_dependencies():
     assert not missing, f"{ENV.name} lacks runtime dependencies {sorted(missing)}"
     assert env_pins()["python"].startswith("3.11")
 
+
+
+def test_every_rule_uses_the_env():
+    """Every rule of workflow/rules/*.smk (also those under an ``if``, indented) declares the
+    environment; snakefmt puts directives in its own order, so the block is searched."""
+    n_rules = 0
+    for smk in (REPO / "workflow" / "rules").glob("*.smk"):
+        text = smk.read_text()
+        rules = re.findall(r"^\s*rule (\w+):", text, re.M)
+        blocks = re.split(r"^\s*rule \w+:", text, flags=re.M)[1:]
+        n_rules += len(rules)
+        for name, block in zip(rules, blocks):
+            assert re.search(r'^\s+conda:\s*\n\s+"\.\./envs/asphalt-nscd\.yaml"', block, re.M), (
+                f"{smk.name}: rule {name} has no conda env"
+            )
+    assert n_rules >= 38, f"only {n_rules} rules found in workflow/rules/*.smk"

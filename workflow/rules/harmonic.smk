@@ -11,53 +11,31 @@
 # kinematics of the NSCD core.
 # Rerun one target: `snakemake --cores 1 results/harmonic/jobs/s1_paper.csv --forcerun harmonic_jobs`.
 
-HARM = config["harmonic"]
-HARMONIC_MODES = ["paper", "measured"]
-HARMONIC_PLOTS = ["isotherms-modulus", "isotherms-phase", "black", "cole-cole"]
-HARMONIC_PARAMETERS = {
-    "paper": "results/calibration/paper_table3.csv",
-    "measured": "results/calibration/burgers_parameters.csv",
-}
-# The sample of the single-sample studies (sensitivity, time-domain check): the first one.
-HARMONIC_SAMPLE = SAMPLES[0]
-
-
-def _harmonic_frequencies(wc, input):
-    """Frequency option of a mode: the paper's list, or the measured (T, f) of the lab summary."""
-    if wc.mode == "paper":
-        return "--frequency " + " ".join(str(f) for f in HARM["paper_frequencies_Hz"])
-    return f"--frequencies-from {input.summary}"
-
-
-def _kinematics_options():
-    return f"--bond-kinematics {HARM['bond_kinematics']} --head-rotation {HARM['head_rotation']}"
-
-
-def _solver_options():
-    return (f"--inertia {HARM['inertia']} --solver {HARM['solver']} --rtol {HARM['rtol']} "
-            + _kinematics_options())
+from asphalt_nscd.campaign import plan
 
 
 rule harmonic_jobs:
     input:
         sample="results/samples/{sample}.h5",
-        parameters=lambda wc: HARMONIC_PARAMETERS[wc.mode],
+        parameters=plan.harmonic_parameters_function(config),
         summary="results/lab/measured_summary.csv",
     output:
         "results/harmonic/jobs/{sample}_{mode}.csv",
-    wildcard_constraints:
-        mode="paper|measured",
-    params:
-        frequencies=_harmonic_frequencies,
-        options=_solver_options(),
     log:
         "logs/harmonic/jobs_{sample}_{mode}.log",
     benchmark:
         "benchmarks/harmonic/jobs_{sample}_{mode}.tsv"
+    wildcard_constraints:
+        mode="paper|measured",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=10,
+    params:
+        frequencies=plan.harmonic_frequency_option_function(config),
+        options=plan.harmonic_solver_options(config),
     shell:
         "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
         "{params.frequencies} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
@@ -66,22 +44,24 @@ rule harmonic_jobs:
 rule harmonic_sweep:
     input:
         sample="results/samples/{sample}.h5",
-        parameters=lambda wc: HARMONIC_PARAMETERS[wc.mode],
+        parameters=plan.harmonic_parameters_function(config),
     output:
         "results/harmonic/sweep/{sample}_{mode}.csv",
-    wildcard_constraints:
-        mode="paper|measured",
-    params:
-        sweep=f"{HARM['sweep']['fmin_Hz']} {HARM['sweep']['fmax_Hz']} {HARM['sweep']['points']}",
-        options=_solver_options(),
     log:
         "logs/harmonic/sweep_{sample}_{mode}.log",
     benchmark:
         "benchmarks/harmonic/sweep_{sample}_{mode}.tsv"
+    wildcard_constraints:
+        mode="paper|measured",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=30,
+    params:
+        sweep=plan.harmonic_sweep(config),
+        options=plan.harmonic_solver_options(config),
     shell:
         "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
         "--sweep {params.sweep} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
@@ -89,7 +69,7 @@ rule harmonic_sweep:
 
 rule harmonic_figures:
     input:
-        sweeps=expand("results/harmonic/sweep/{sample}_{{mode}}.csv", sample=SAMPLES),
+        sweeps=expand("results/harmonic/sweep/{sample}_{{mode}}.csv", sample=plan.sample_names(config)),
         summary="results/lab/measured_summary.csv",
     output:
         isotherms_modulus=report(
@@ -116,12 +96,14 @@ rule harmonic_figures:
             category="Harmonic solver",
             subcategory="{mode} parameters",
         ),
-    wildcard_constraints:
-        mode="paper|measured",
     log:
         "logs/harmonic/figures_{mode}.log",
     benchmark:
         "benchmarks/harmonic/figures_{mode}.tsv"
+    wildcard_constraints:
+        mode="paper|measured",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
@@ -135,7 +117,7 @@ rule harmonic_figures:
 
 rule harmonic_network_factor:
     input:
-        expand("results/harmonic/jobs/{sample}_{mode}.csv", sample=SAMPLES, mode=HARMONIC_MODES),
+        expand("results/harmonic/jobs/{sample}_{mode}.csv", sample=plan.sample_names(config), mode=plan.HARMONIC_MODES),
     output:
         table=report(
             "results/harmonic/network_factor.csv",
@@ -151,6 +133,8 @@ rule harmonic_network_factor:
         "logs/harmonic/network_factor.log",
     benchmark:
         "benchmarks/harmonic/network_factor.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
@@ -161,8 +145,8 @@ rule harmonic_network_factor:
 
 rule harmonic_sensitivity:
     input:
-        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
-        parameters=HARMONIC_PARAMETERS["paper"],
+        sample=plan.sample_file(plan.sample_names(config)[0]),
+        parameters=plan.HARMONIC_PARAMETERS["paper"],
     output:
         table=report(
             "results/harmonic/sensitivity.csv",
@@ -174,20 +158,22 @@ rule harmonic_sensitivity:
             caption="../report/harmonic_sensitivity.rst",
             category="Harmonic solver",
         ),
-    params:
-        temperature=HARM["sensitivity"]["temperature_C"],
-        frequencies=" ".join(str(f) for f in HARM["sensitivity"]["frequencies_Hz"]),
-        levels=" ".join(str(p) for p in HARM["sensitivity"]["levels_percent"]),
-        inertia=HARM["inertia"],
-        kinematics=_kinematics_options(),
     log:
         "logs/harmonic/sensitivity.log",
     benchmark:
         "benchmarks/harmonic/sensitivity.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=30,
+    params:
+        temperature=config["harmonic"]["sensitivity"]["temperature_C"],
+        frequencies=plan.spaced(config["harmonic"]["sensitivity"]["frequencies_Hz"]),
+        levels=plan.spaced(config["harmonic"]["sensitivity"]["levels_percent"]),
+        inertia=config["harmonic"]["inertia"],
+        kinematics=plan.harmonic_kinematics_options(config),
     shell:
         "asphalt-nscd harmonic-sensitivity --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperature} --frequency {params.frequencies} --levels {params.levels} "
@@ -196,8 +182,8 @@ rule harmonic_sensitivity:
 
 rule harmonic_compare:
     input:
-        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
-        parameters=HARMONIC_PARAMETERS["paper"],
+        sample=plan.sample_file(plan.sample_names(config)[0]),
+        parameters=plan.HARMONIC_PARAMETERS["paper"],
     output:
         table=report(
             "results/harmonic/compare_time_domain.csv",
@@ -209,25 +195,27 @@ rule harmonic_compare:
             caption="../report/harmonic_compare.rst",
             category="Harmonic solver",
         ),
-    params:
-        temperatures=" ".join(str(t) for t in HARM["compare"]["temperatures_C"]),
-        frequencies=" ".join(str(f) for f in HARM["compare"]["frequencies_Hz"]),
-        dts=" ".join(str(d) for d in HARM["compare"]["dt_s"]),
-        rtols=" ".join(str(r) for r in HARM["compare"]["rtol"]),
-        cycles=HARM["compare"]["cycles"],
-        settle=HARM["compare"]["settle_factor"],
-        # the time-domain core's kinematics (config nscd.bond_kinematics and
-        # campaign.test.head_rotation), used by both sides of the comparison
-        bond_kinematics=config["nscd"].get("bond_kinematics", "contact"),
-        head_rotation=config["campaign"]["test"].get("head_rotation", "free"),
     log:
         "logs/harmonic/compare_time_domain.log",
     benchmark:
         "benchmarks/harmonic/compare_time_domain.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
-        runtime=lambda wc: HARM["compare"]["runtime_min"],
+        runtime=config["harmonic"]["compare"]["runtime_min"],
+    params:
+        temperatures=plan.spaced(config["harmonic"]["compare"]["temperatures_C"]),
+        frequencies=plan.spaced(config["harmonic"]["compare"]["frequencies_Hz"]),
+        dts=plan.spaced(config["harmonic"]["compare"]["dt_s"]),
+        rtols=plan.spaced(config["harmonic"]["compare"]["rtol"]),
+        cycles=config["harmonic"]["compare"]["cycles"],
+        settle=config["harmonic"]["compare"]["settle_factor"],
+        # the time-domain core's kinematics (config nscd.bond_kinematics and
+        # campaign.test.head_rotation), used by both sides of the comparison
+        bond_kinematics=plan.bond_kinematics(config),
+        head_rotation=plan.head_rotation(config),
     shell:
         "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} --dt {params.dts} "
@@ -238,26 +226,28 @@ rule harmonic_compare:
 
 rule harmonic_kinematics:
     input:
-        sample=f"results/samples/{HARMONIC_SAMPLE}.h5",
-        parameters=HARMONIC_PARAMETERS["paper"],
+        sample=plan.sample_file(plan.sample_names(config)[0]),
+        parameters=plan.HARMONIC_PARAMETERS["paper"],
     output:
         report(
             "results/harmonic/kinematics_study.csv",
             caption="../report/harmonic_kinematics.rst",
             category="Harmonic solver",
         ),
-    params:
-        temperatures=" ".join(str(t) for t in HARM["kinematics_study"]["temperatures_C"]),
-        frequencies=" ".join(str(f) for f in HARM["kinematics_study"]["frequencies_Hz"]),
-        inertia=" ".join(HARM["kinematics_study"]["inertia"]),
     log:
         "logs/harmonic/kinematics_study.log",
     benchmark:
         "benchmarks/harmonic/kinematics_study.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=15,
+    params:
+        temperatures=plan.spaced(config["harmonic"]["kinematics_study"]["temperatures_C"]),
+        frequencies=plan.spaced(config["harmonic"]["kinematics_study"]["frequencies_Hz"]),
+        inertia=plan.spaced(config["harmonic"]["kinematics_study"]["inertia"]),
     shell:
         "asphalt-nscd harmonic-kinematics --sample {input.sample} --parameters {input.parameters} "
         "--temperature {params.temperatures} --frequency {params.frequencies} "
@@ -272,18 +262,20 @@ rule harmonic_transfer:
         sample="results/samples/{sample}.h5",
     output:
         "results/harmonic/transfer/{sample}.json",
-    params:
-        bond_kinematics=config["nscd"].get("bond_kinematics", "contact"),
-        head_rotation=config["campaign"]["test"].get("head_rotation", "free"),
-        nu=config["campaign"]["test"].get("nu", 0.35),
     log:
         "logs/harmonic/transfer_{sample}.log",
     benchmark:
         "benchmarks/harmonic/transfer_{sample}.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=15,
+    params:
+        bond_kinematics=plan.bond_kinematics(config),
+        head_rotation=plan.head_rotation(config),
+        nu=plan.twopb_poisson_ratio(config),
     shell:
         "asphalt-nscd harmonic-transfer --sample {input.sample} --nu {params.nu} "
         "--bond-kinematics {params.bond_kinematics} --head-rotation {params.head_rotation} "
@@ -293,31 +285,20 @@ rule harmonic_transfer:
 rule harmonic_bench:
     output:
         "results/harmonic/bench.json",
-    params:
-        n=HARM["bench"]["n_spheres"],
-        td_steps=HARM["bench"]["time_domain_steps"],
     log:
         "logs/harmonic/bench.log",
     benchmark:
         "benchmarks/harmonic/bench.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=4000,
         runtime=15,
+    params:
+        n=config["harmonic"]["bench"]["n_spheres"],
+        td_steps=config["harmonic"]["bench"]["time_domain_steps"],
+        kinematics=plan.harmonic_kinematics_options(config),
     shell:
-        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} "
-        + _kinematics_options()
-        + " -o {output} 2> {log}"
-
-
-REPORT_FILES += expand("results/harmonic/figures/{mode}_{plot}.png", mode=HARMONIC_MODES, plot=HARMONIC_PLOTS)
-REPORT_FILES += [
-    "results/harmonic/network_factor.csv",
-    "results/harmonic/network_factor_summary.csv",
-    "results/harmonic/sensitivity.csv",
-    "results/harmonic/sensitivity.png",
-    "results/harmonic/compare_time_domain.csv",
-    "results/harmonic/compare_time_domain.png",
-    "results/harmonic/kinematics_study.csv",
-    "results/harmonic/bench.json",
-]
+        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} {params.kinematics} "
+        "-o {output} 2> {log}"

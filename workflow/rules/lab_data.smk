@@ -3,16 +3,13 @@
 # and EN 12697-26 reduction (Eqs. 1-5) of raw 2PB records listed under lab.records.
 # Rerun one target: `snakemake --cores 1 results/lab/measured.csv --forcerun measured_table`.
 
-LAB_RECORDS = {Path(p).stem: p for p in config["lab"].get("records", [])}
-# the test-geometry JSON of the measured table: config measured.test, else its sidecar
-_MEASURED_TABLE = Path(config["measured"]["table"])
-MEASURED_TEST = config["measured"].get("test") or str(_MEASURED_TABLE.with_name(_MEASURED_TABLE.stem + ".test.json"))
+from asphalt_nscd.campaign import plan
 
 
 rule measured_table:
     input:
         table=config["measured"]["table"],
-        test=[MEASURED_TEST] if Path(MEASURED_TEST).is_file() or config["measured"].get("test") else [],
+        test=plan.measured_test_input(config),
     output:
         table=report(
             "results/lab/measured.csv",
@@ -25,16 +22,18 @@ rule measured_table:
             category="Lab data",
         ),
         test="results/lab/measured.test.json",
-    params:
-        test=lambda wc, input: f"--test {input.test[0]}" if input.test else "",
     log:
         "logs/lab/measured_table.log",
     benchmark:
         "benchmarks/lab/measured_table.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
+    params:
+        test=plan.measured_test_option,
     shell:
         "asphalt-nscd measured {input.table} {params.test} -o {output.table} --summary {output.summary} "
         "--test-output {output.test} 2> {log}"
@@ -42,27 +41,25 @@ rule measured_table:
 
 rule reduce_record:
     input:
-        record=lambda wc: LAB_RECORDS[wc.record],
-        meta=lambda wc: str(Path(LAB_RECORDS[wc.record]).with_suffix(".json")),
+        record=plan.record_file_function(config),
+        meta=plan.record_meta_function(config),
     output:
         report(
             "results/lab/reduced/{record}.csv",
             caption="../report/lab_reduced.rst",
             category="Lab data",
         ),
-    params:
-        window_s=config["lab"]["window_s"],
     log:
         "logs/lab/reduce_{record}.log",
     benchmark:
         "benchmarks/lab/reduce_{record}.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
+    params:
+        window_s=config["lab"]["window_s"],
     shell:
         "asphalt-nscd reduce {input.record} --meta {input.meta} --window-s {params.window_s} -o {output} 2> {log}"
-
-
-REPORT_FILES += ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
-REPORT_FILES += expand("results/lab/reduced/{record}.csv", record=sorted(LAB_RECORDS))

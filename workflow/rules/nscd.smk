@@ -3,14 +3,7 @@
 # fast path vs NLGS) with the phase error of the time-discrete bond law vs omega dt and theta,
 # and benchmarks at reduced N (bonded 2PB-like sample; frictional granular bed).
 
-NSCD = config["nscd"]
-NSCD_BENCH = [f"results/bench/nscd_bonded_n{n}.json" for n in NSCD["bench"]["bonded_n"]] + [
-    f"results/bench/nscd_granular_n{n}.json" for n in NSCD["bench"]["granular_n"]
-]
-
-
-def _csv_list(values):
-    return ",".join(str(v) for v in values)
+from asphalt_nscd.campaign import plan
 
 
 rule nscd_verify:
@@ -31,18 +24,20 @@ rule nscd_verify:
             caption="../report/nscd_phase_error.rst",
             category="NSCD core",
         ),
-    params:
-        freqs=_csv_list(NSCD["verify"]["phase_frequencies_Hz"]),
-        dts=_csv_list(NSCD["verify"]["phase_dts_s"]),
-        thetas=_csv_list(NSCD["verify"]["phase_thetas"]),
     log:
         "logs/nscd/verify.log",
     benchmark:
         "benchmarks/nscd/verify.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1500,
         runtime=20,
+    params:
+        freqs=plan.comma_list(config["nscd"]["verify"]["phase_frequencies_Hz"]),
+        dts=plan.comma_list(config["nscd"]["verify"]["phase_dts_s"]),
+        thetas=plan.comma_list(config["nscd"]["verify"]["phase_thetas"]),
     shell:
         "asphalt-nscd verify -o {output.json} --csv {output.csv} --phase-table {output.phase} "
         "--figure {output.figure} --phase-frequencies {params.freqs} --phase-dts {params.dts} "
@@ -52,25 +47,27 @@ rule nscd_verify:
 rule nscd_bench:
     output:
         "results/bench/nscd_{case}_n{n}.json",
-    wildcard_constraints:
-        case="bonded|granular",
-        n=r"\d+",
-    params:
-        steps=NSCD["bench"]["steps"],
-        baseline=NSCD["bench"]["baseline_steps"],
-        settle=NSCD["bench"]["settle_steps"],
-        settle_speed=NSCD["bench"].get("settle_speed_m_s", 5.0e-3),
-        tol=lambda wc: NSCD["bench"]["granular_tolerance" if wc.case == "granular" else "tolerance"],
-        kinematics=NSCD.get("bond_kinematics", "contact"),
-        bonded_contact=NSCD.get("bonded_contact", "after_break"),
     log:
         "logs/nscd/bench_{case}_n{n}.log",
     benchmark:
         "benchmarks/nscd/bench_{case}_n{n}.tsv"
+    wildcard_constraints:
+        case="bonded|granular",
+        n=r"\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=3000,
         runtime=60,
+    params:
+        steps=config["nscd"]["bench"]["steps"],
+        baseline=config["nscd"]["bench"]["baseline_steps"],
+        settle=config["nscd"]["bench"]["settle_steps"],
+        settle_speed=config["nscd"]["bench"].get("settle_speed_m_s", 5.0e-3),
+        tol=plan.bench_tolerance_function(config),
+        kinematics=plan.bond_kinematics(config),
+        bonded_contact=plan.bonded_contact(config),
     shell:
         "NUMBA_NUM_THREADS=1 asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} "
         "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
@@ -81,7 +78,7 @@ rule nscd_bench:
 
 rule nscd_bench_summary:
     input:
-        NSCD_BENCH,
+        plan.nscd_bench_files(config),
     output:
         report(
             "results/bench/nscd_bench.csv",
@@ -92,19 +89,11 @@ rule nscd_bench_summary:
         "logs/nscd/bench_summary.log",
     benchmark:
         "benchmarks/nscd/bench_summary.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
     shell:
         "asphalt-nscd bench-summary {input} -o {output} 2> {log}"
-
-
-REPORT_FILES.extend(
-    [
-        "results/nscd/verify.csv",
-        "results/nscd/phase_error.csv",
-        "results/nscd/phase_error.png",
-        "results/bench/nscd_bench.csv",
-    ]
-)

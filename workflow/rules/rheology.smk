@@ -2,15 +2,7 @@
 # chosen unit reading, its refit check, micro (bond) parameters (Eqs. 30-33, 8-11), and the
 # rheology figures (isotherms, Black diagram, Cole-Cole plane).
 
-CAL = config["calibration"]
-RHEOLOGY_PLOTS = ["isotherms-modulus", "isotherms-phase", "black", "cole-cole"]
-
-
-def _fit_options():
-    return (
-        f"--weight-log-modulus {CAL['weight_log_modulus']} --weight-phase {CAL['weight_phase']} "
-        f"--n-starts {CAL['n_starts']}"
-    )
+from asphalt_nscd.campaign import plan
 
 
 rule fit_burgers:
@@ -22,36 +14,40 @@ rule fit_burgers:
             caption="../report/calibration_burgers_parameters.rst",
             category="Calibration",
         ),
-    params:
-        options=_fit_options(),
-        model=CAL["model"],
     log:
         "logs/calibration/fit_burgers.log",
     benchmark:
         "benchmarks/calibration/fit_burgers.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
+    params:
+        options=plan.calibration_fit_options(config),
+        model=config["calibration"]["model"],
     shell:
         "asphalt-nscd fit --measured {input} --model {params.model} {params.options} -o {output} 2> {log}"
 
 
 rule paper_table3:
     input:
-        CAL["table3"],
+        config["calibration"]["table3"],
     output:
         "results/calibration/paper_table3.csv",
-    params:
-        units=CAL["table3_units"],
     log:
         "logs/calibration/paper_table3.log",
     benchmark:
         "benchmarks/calibration/paper_table3.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
+    params:
+        units=config["calibration"]["table3_units"],
     shell:
         "asphalt-nscd table3 {input} --units {params.units} -o {output} 2> {log}"
 
@@ -65,17 +61,19 @@ rule table3_refit_check:
             caption="../report/calibration_table3_refit_check.rst",
             category="Calibration",
         ),
-    params:
-        options=_fit_options(),
-        frequencies=" ".join(str(f) for f in CAL["refit_frequencies_Hz"]),
     log:
         "logs/calibration/table3_refit_check.log",
     benchmark:
         "benchmarks/calibration/table3_refit_check.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
+    params:
+        options=plan.calibration_fit_options(config),
+        frequencies=plan.spaced(config["calibration"]["refit_frequencies_Hz"]),
     shell:
         "asphalt-nscd refit-check --parameters {input} --frequencies {params.frequencies} "
         "{params.options} -o {output} 2> {log}"
@@ -86,20 +84,22 @@ rule burgers_curves:
         "results/calibration/{table}.csv",
     output:
         "results/calibration/{table}_curves.csv",
-    wildcard_constraints:
-        table="burgers_parameters|paper_table3",
-    params:
-        fmin=CAL["curves"]["fmin_Hz"],
-        fmax=CAL["curves"]["fmax_Hz"],
-        points=CAL["curves"]["points"],
     log:
         "logs/calibration/{table}_curves.log",
     benchmark:
         "benchmarks/calibration/{table}_curves.tsv"
+    wildcard_constraints:
+        table="burgers_parameters|paper_table3",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
+    params:
+        fmin=config["calibration"]["curves"]["fmin_Hz"],
+        fmax=config["calibration"]["curves"]["fmax_Hz"],
+        points=config["calibration"]["curves"]["points"],
     shell:
         "asphalt-nscd burgers-curves --parameters {input} --fmin {params.fmin} --fmax {params.fmax} "
         "--points {params.points} -o {output} 2> {log}"
@@ -114,21 +114,23 @@ rule micro_parameters:
             caption="../report/calibration_micro.rst",
             category="Calibration",
         ),
-    wildcard_constraints:
-        table="burgers_parameters|paper_table3",
-    params:
-        r_min=" ".join(str(r) for r in CAL["micro"]["r_min_mm"]),
-        l0=" ".join(str(l) for l in CAL["micro"]["l0_mm"]),
-        nu=CAL["micro"]["poisson_ratio"],
-        mass=CAL["micro"]["grain_mass_kg"],
     log:
         "logs/calibration/{table}_micro.log",
     benchmark:
         "benchmarks/calibration/{table}_micro.tsv"
+    wildcard_constraints:
+        table="burgers_parameters|paper_table3",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
+    params:
+        r_min=plan.spaced(config["calibration"]["micro"]["r_min_mm"]),
+        l0=plan.spaced(config["calibration"]["micro"]["l0_mm"]),
+        nu=config["calibration"]["micro"]["poisson_ratio"],
+        mass=config["calibration"]["micro"]["grain_mass_kg"],
     shell:
         "asphalt-nscd micro --parameters {input} --r-min-mm {params.r_min} --l0-mm {params.l0} "
         "--nu {params.nu} --grain-mass-kg {params.mass} -o {output} 2> {log}"
@@ -163,13 +165,15 @@ rule rheology_figures:
         "logs/calibration/rheology_figures.log",
     benchmark:
         "benchmarks/calibration/rheology_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
     shell:
         "asphalt-nscd plot-rheology --points 'measured (mean ± sd)={input.summary}' "
-        "--lines \"Burger's fit={input.curves}\" "
+        '--lines "Burger\'s fit={input.curves}" '
         "--isotherms-modulus {output.isotherms_modulus} --isotherms-phase {output.isotherms_phase} "
         "--black {output.black} --cole-cole {output.cole_cole} 2> {log}"
 
@@ -188,27 +192,18 @@ rule paper_table3_figures:
             caption="../report/calibration_paper_table3.rst",
             category="Calibration",
         ),
-    params:
-        units=CAL["table3_units"],
     log:
         "logs/calibration/paper_table3_figures.log",
     benchmark:
         "benchmarks/calibration/paper_table3_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
+    params:
+        units=config["calibration"]["table3_units"],
     shell:
-        "asphalt-nscd plot-rheology --lines \"paper Table 3 ({params.units} reading)={input}\" "
+        'asphalt-nscd plot-rheology --lines "paper Table 3 ({params.units} reading)={input}" '
         "--isotherms-modulus {output.modulus} --isotherms-phase {output.phase} 2> {log}"
-
-
-REPORT_FILES += [
-    "results/calibration/burgers_parameters.csv",
-    "results/calibration/table3_refit_check.csv",
-    "results/calibration/burgers_parameters_micro.csv",
-    "results/calibration/paper_table3_micro.csv",
-    *expand("results/calibration/figures/measured_{plot}.png", plot=RHEOLOGY_PLOTS),
-    "results/calibration/figures/paper_table3_isotherms-modulus.png",
-    "results/calibration/figures/paper_table3_isotherms-phase.png",
-]

@@ -2,26 +2,7 @@
 # after config["sample"]["seeds"]. The sample section is passed to the CLI as JSON, so any
 # change of it reruns the samples (params are tracked).
 # Rerun one sample: `snakemake --cores 1 results/samples/s1.h5 --forcerun prepare_sample`.
-import json
-
-SAMPLES = [f"s{seed}" for seed in config["sample"]["seeds"]]
-# the sample settings without the seed list: adding a seed does not rerun the other samples
-SAMPLE_SETTINGS = json.dumps({k: v for k, v in config["sample"].items() if k != "seeds"})
-# contact of the bonded pairs in the stabilisation: the NSCD core's setting
-BONDED_CONTACT = config["nscd"].get("bonded_contact", "after_break")
-# the preparation benchmark runs the first seed at the configuration's own size
-PREPARE_BENCH = f"results/bench/prepare_s{config['sample']['seeds'][0]}.json"
-
-
-def sample_names(cfg=None):
-    """Sample names (wildcard values) of the workflow: s{seed} for each seed of the config."""
-    cfg = config if cfg is None else cfg
-    return [f"s{seed}" for seed in cfg["sample"]["seeds"]]
-
-
-def sample_file(name):
-    """Path of the HDF5 sample file of sample `name` (e.g. s1), for downstream rules."""
-    return f"results/samples/{name}.h5"
+from asphalt_nscd.campaign import plan
 
 
 rule prepare_sample:
@@ -35,19 +16,21 @@ rule prepare_sample:
             category="Numerical samples",
             subcategory="s{seed}",
         ),
-    params:
-        cfg=SAMPLE_SETTINGS,
-        bonded_contact=BONDED_CONTACT,
-    wildcard_constraints:
-        seed=r"\d+",
     log:
         "logs/samples/s{seed}.log",
     benchmark:
         "benchmarks/samples/s{seed}.tsv"
+    wildcard_constraints:
+        seed=r"\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=2000,
-        runtime=lambda wc: 30 if config["sample"]["scale"] < 0.9 else 24 * 60,
+        runtime=plan.sample_runtime_min(config),
+    params:
+        cfg=plan.sample_settings(config),
+        bonded_contact=plan.bonded_contact(config),
     shell:
         "asphalt-nscd prepare-sample --config-json {params.cfg:q} --seed {wildcards.seed}"
         " --bonded-contact {params.bonded_contact}"
@@ -61,19 +44,21 @@ rule prepare_bench:
             caption="../report/sample_prepare_bench.rst",
             category="Numerical samples",
         ),
-    params:
-        cfg=SAMPLE_SETTINGS,
-        bonded_contact=BONDED_CONTACT,
-    wildcard_constraints:
-        seed=r"\d+",
     log:
         "logs/samples/prepare_bench_s{seed}.log",
     benchmark:
         "benchmarks/samples/prepare_bench_s{seed}.tsv"
+    wildcard_constraints:
+        seed=r"\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=2000,
-        runtime=lambda wc: 30 if config["sample"]["scale"] < 0.9 else 24 * 60,
+        runtime=plan.sample_runtime_min(config),
+    params:
+        cfg=plan.sample_settings(config),
+        bonded_contact=plan.bonded_contact(config),
     shell:
         "NUMBA_NUM_THREADS=1 asphalt-nscd prepare-bench --config-json {params.cfg:q} --seed {wildcards.seed}"
         " --bonded-contact {params.bonded_contact} -o {output} 2> {log}"
@@ -81,26 +66,24 @@ rule prepare_bench:
 
 rule sample_table:
     input:
-        summaries=expand("results/samples/{sample}_summary.json", sample=SAMPLES),
+        summaries=expand("results/samples/{sample}_summary.json", sample=plan.sample_names(config)),
     output:
         report(
             "results/samples/table2_counts.csv",
             caption="../report/sample_table2.rst",
             category="Numerical samples",
         ),
-    params:
-        cfg=SAMPLE_SETTINGS,
     log:
         "logs/samples/table2_counts.log",
     benchmark:
         "benchmarks/samples/table2_counts.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
+    params:
+        cfg=plan.sample_settings(config),
     shell:
         "asphalt-nscd sample-table --config-json {params.cfg:q} --summaries {input.summaries} -o {output} 2> {log}"
-
-
-REPORT_FILES += ["results/samples/table2_counts.csv", PREPARE_BENCH]
-REPORT_FILES += expand("results/samples/{sample}_stages.png", sample=SAMPLES)

@@ -1,0 +1,787 @@
+"""The workflow's plan: which jobs, files and command-line options the Snakemake rules need.
+
+Every piece of Python logic of the rule files (``workflow/rules/*.smk``, ``Snakefile``) lives
+here, so that the rule files only declare rules and the logic is unit-tested
+(tests/unit/test_campaign_plan.py): the sample names and paths, the campaign modes and their
+cases (one job per mode, sample, temperature, frequency and variant), the result files a target
+needs, the CLI options of a case, the diagnosis inputs and the files the report collects.
+
+Two kinds of functions:
+
+* plain functions take the workflow's config dict (validated, defaults filled) and wildcard
+  values, and return strings, lists or dicts;
+* ``*_function`` factories take the config dict and return a Snakemake input or params function
+  (an argument ``wildcards`` with attribute access, and ``input`` for params functions that read
+  the job's input files).
+
+No Snakemake import: a path that is wrong or a config that cannot be planned raises
+:class:`asphalt_nscd.io.InputError` naming the key or the file.
+
+Case names: ``{T}C_{f}Hz`` with an optional ``_dt{dt}`` (time-step study) or ``_{p}x{factor}``
+(sensitivity study) suffix, numbers written with ``:g``; :func:`parse_case` turns a case name
+back into its values and :func:`case_options` into the ``asphalt-nscd run-2pb`` options.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import re
+from pathlib import Path
+
+from ..io import InputError
+
+#: the index of results/report/, the default target (rule all)
+REPORT_INDEX = "results/report/index.md"
+#: the extended bond law per temperature (rule extend_law) run by the extended mode
+LAW_JSON = "results/diagnosis/generalized_burgers.json"
+#: main campaign modes with a numerical isotherms / Table 4 aggregation (wildcard constraint)
+ISOTHERM_MODES = "paper|measured|extended"
+#: every job mode of rule run_2pb (wildcard constraint)
+JOB_MODES = "paper|measured|extended|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak|units_kPa_nobreak"
+#: the Burger's parameters of the sensitivity study, in the order of its figures 11-14
+SENS_PARAMETERS = ["Em", "eta_m", "Ek", "eta_k"]
+#: the rheology plots of rule rheology_figures and the harmonic figures
+RHEOLOGY_PLOTS = ["isotherms-modulus", "isotherms-phase", "black", "cole-cole"]
+#: parameter modes of the harmonic solver
+HARMONIC_MODES = ["paper", "measured"]
+#: the Burger's parameter table of each harmonic mode
+HARMONIC_PARAMETERS = {
+    "paper": "results/calibration/paper_table3.csv",
+    "measured": "results/calibration/burgers_parameters.csv",
+}
+#: simulation inputs of rule diagnose (config diagnosis.<key>: auto, null or a CSV path)
+DIAGNOSIS_INPUT_KEYS = ("simulated", "harmonic", "time_integration", "simulated_extended", "transfer")
+#: the lab summary the measured and extended modes compare with
+MEASURED_SUMMARY = "results/lab/measured_summary.csv"
+
+_CASE = re.compile(
+    r"^(?P<T>-?[\d.]+)C_(?P<f>[\d.e+-]+)Hz(?:_dt(?P<dt>[\d.e+-]+)|_(?P<p>Em|eta_m|Ek|eta_k)x(?P<x>[\d.]+))?$"
+)
+
+
+# ---------------------------------------------------------------------------------------------
+# generic helpers
+
+
+def number(x) -> str:
+    """A number as written in case names and options: ``float(x)`` with ``:g`` (15 -> '15')."""
+    return f"{float(x):g}"
+
+
+def spaced(values) -> str:
+    """Values joined by spaces with ``str`` (a multi-value CLI option)."""
+    return " ".join(str(v) for v in values)
+
+
+def comma_list(values) -> str:
+    """Values joined by commas with ``str`` (a comma-separated CLI option)."""
+    return ",".join(str(v) for v in values)
+
+
+def job_environment(python_executable: str, basedir: str, path: str) -> dict:
+    """Environment variables the workflow sets for its jobs: PATH with the directory of the
+    Python running Snakemake first (so that ``.venv/bin/snakemake`` finds the ``asphalt-nscd``
+    console script installed beside it), and ASPHALT_NSCD_SOURCE, the repository holding the
+    workflow (the conda environment's post-deploy script installs the package from it)."""
+    return {
+        "PATH": f"{Path(python_executable).parent}{os.pathsep}{path}",
+        "ASPHALT_NSCD_SOURCE": str(Path(basedir).resolve()),
+    }
+
+
+def section_schemas(config: dict, schema_dir) -> dict:
+    """Config section -> its JSON schema file (``{schema_dir}/{section}.schema.yaml``), for the
+    sections that have one."""
+    schemas = {}
+    for section in config:
+        schema = Path(schema_dir) / f"{section}.schema.yaml"
+        if schema.exists():
+            schemas[section] = str(schema)
+    return schemas
+
+
+def _wildcard_function(func, config, *names):
+    """Input function of the wildcards ``names``: ``func(config, *values)``."""
+
+    def input_function(wildcards):
+        return func(config, *(getattr(wildcards, name) for name in names))
+
+    input_function.__doc__ = f"{func.__name__}(config, {', '.join(names)}) of a job's wildcards"
+    return input_function
+
+
+# ---------------------------------------------------------------------------------------------
+# lab data
+
+
+def lab_records(config: dict) -> dict:
+    """Raw 2PB records of lab.records: record name (file stem) -> path."""
+    return {Path(p).stem: p for p in config["lab"].get("records", [])}
+
+
+def measured_test(config: dict) -> str:
+    """The test-geometry JSON of the measured table: config measured.test, else the table's
+    sidecar ``{stem}.test.json`` beside it."""
+    given = config["measured"].get("test")
+    if given:
+        return given
+    table = Path(config["measured"]["table"])
+    return str(table.with_name(f"{table.stem}.test.json"))
+
+
+def measured_test_input(config: dict) -> list:
+    """Input of rule measured_table: the test JSON when configured or present, else none."""
+    test = measured_test(config)
+    return [test] if Path(test).is_file() or config["measured"].get("test") else []
+
+
+def measured_test_option(wildcards, input) -> str:
+    """Params function of rule measured_table: ``--test {json}`` when the job has one."""
+    return f"--test {input.test[0]}" if input.test else ""
+
+
+def record_file(config: dict, record: str) -> str:
+    """Path of the raw lab record ``record`` (lab.records)."""
+    records = lab_records(config)
+    if record not in records:
+        raise InputError(f"config lab.records: no record named {record!r} (have {sorted(records)})")
+    return records[record]
+
+
+def record_meta(config: dict, record: str) -> str:
+    """The metadata JSON beside a raw lab record (same stem, ``.json``)."""
+    return str(Path(record_file(config, record)).with_suffix(".json"))
+
+
+def record_file_function(config: dict):
+    """Input function of rule reduce_record: the raw record of wildcard ``record``."""
+    return _wildcard_function(record_file, config, "record")
+
+
+def record_meta_function(config: dict):
+    """Input function of rule reduce_record: the metadata JSON of wildcard ``record``."""
+    return _wildcard_function(record_meta, config, "record")
+
+
+# ---------------------------------------------------------------------------------------------
+# calibration
+
+
+def calibration_fit_options(config: dict) -> str:
+    """Options of the Burger's fits (rules fit_burgers, table3_refit_check): weights and starts
+    of config calibration."""
+    cal = config["calibration"]
+    return (
+        f"--weight-log-modulus {cal['weight_log_modulus']} --weight-phase {cal['weight_phase']} "
+        f"--n-starts {cal['n_starts']}"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# NSCD core
+
+
+def nscd_bench_files(config: dict) -> list:
+    """Benchmark JSONs of the NSCD core: bonded then granular, per nscd.bench sizes."""
+    bench = config["nscd"]["bench"]
+    return [f"results/bench/nscd_bonded_n{n}.json" for n in bench["bonded_n"]] + [
+        f"results/bench/nscd_granular_n{n}.json" for n in bench["granular_n"]
+    ]
+
+
+def bench_tolerance(config: dict, case: str) -> float:
+    """Solver tolerance of a benchmark case: nscd.bench.granular_tolerance or .tolerance."""
+    return config["nscd"]["bench"]["granular_tolerance" if case == "granular" else "tolerance"]
+
+
+def bench_tolerance_function(config: dict):
+    """Params function of rule nscd_bench: the tolerance of wildcard ``case``."""
+    return _wildcard_function(bench_tolerance, config, "case")
+
+
+def bond_kinematics(config: dict) -> str:
+    """The NSCD core's bond kinematics (nscd.bond_kinematics, default contact)."""
+    return config["nscd"].get("bond_kinematics", "contact")
+
+
+def bonded_contact(config: dict) -> str:
+    """Contact of the bonded pairs (nscd.bonded_contact, default after_break)."""
+    return config["nscd"].get("bonded_contact", "after_break")
+
+
+# ---------------------------------------------------------------------------------------------
+# samples
+
+
+def sample_names(config: dict) -> list:
+    """Sample names (wildcard values): s{seed} for each seed of sample.seeds."""
+    return [f"s{seed}" for seed in config["sample"]["seeds"]]
+
+
+def sample_file(name: str) -> str:
+    """Path of the HDF5 sample file of sample ``name`` (e.g. s1)."""
+    return f"results/samples/{name}.h5"
+
+
+def sample_settings(config: dict) -> str:
+    """The sample section as JSON without the seed list (adding a seed reruns no other sample)."""
+    return json.dumps({k: v for k, v in config["sample"].items() if k != "seeds"})
+
+
+def prepare_bench_file(config: dict) -> str:
+    """The preparation benchmark: the first seed at the configuration's own size."""
+    return f"results/bench/prepare_s{config['sample']['seeds'][0]}.json"
+
+
+def sample_runtime_min(config: dict) -> int:
+    """Runtime (min) of a sample preparation: 30 for reduced samples (scale < 0.9), else 24 h."""
+    return 30 if config["sample"]["scale"] < 0.9 else 24 * 60
+
+
+# ---------------------------------------------------------------------------------------------
+# campaign: modes, cases, rows
+
+
+def case_name(T, f, suffix: str = "") -> str:
+    """Case name of a test at T (degC) and f (Hz): ``{T}C_{f}Hz{suffix}``."""
+    return f"{number(T)}C_{number(f)}Hz{suffix}"
+
+
+def parse_case(case: str) -> dict:
+    """Values of a case name as written: T, f and, when present, dt (time-step study) or p, x
+    (sensitivity parameter and factor); absent parts are None. Raises InputError on a name
+    :func:`case_name` cannot write."""
+    m = _CASE.match(case)
+    if m is None:
+        raise InputError(f"bad campaign case name {case!r}: expected {{T}}C_{{f}}Hz[_dt{{dt}}|_{{p}}x{{factor}}]")
+    return m.groupdict()
+
+
+def campaign_samples(config: dict, n) -> list:
+    """The first n samples of the sample list (all when n is None)."""
+    samples = sample_names(config)
+    return samples if n is None else samples[: int(n)]
+
+
+def mode_samples(config: dict, mode: str) -> list:
+    """Samples of the main campaign of one mode: campaign.n_samples (paper, measured) or
+    campaign.extended.n_samples (extended)."""
+    camp = config["campaign"]
+    return campaign_samples(config, camp["extended"]["n_samples"] if mode == "extended" else camp["n_samples"])
+
+
+def mode_rows(config: dict, mode: str, samples=None) -> list:
+    """Reduced rows of the main campaign of one mode (paper, measured or extended; the extended
+    mode runs the measured schedule), on ``samples`` (default: the mode's)."""
+    sched = config["campaign"]["measured" if mode == "extended" else mode]
+    return [
+        f"results/sim/{mode}/{s}/{case_name(T, f)}.csv"
+        for s in (mode_samples(config, mode) if samples is None else samples)
+        for T in sched["temperatures_C"]
+        for f in sched["frequencies_Hz"]
+    ]
+
+
+def mode_rows_function(config: dict):
+    """Input function of rule campaign_isotherms: the rows of wildcard ``mode``."""
+    return _wildcard_function(mode_rows, config, "mode")
+
+
+def dt_study_files(config: dict, ext: str) -> list:
+    """Files (``ext``: h5 records or csv rows) of the time-step study (campaign.dt_study)."""
+    d = config["campaign"]["dt_study"]
+    return [
+        f"results/sim/dt_study/{s}/{case_name(d['temperature_C'], d['frequency_Hz'], f'_dt{number(dt)}')}.{ext}"
+        for s in campaign_samples(config, d["n_samples"])
+        for dt in d["dt_s"]
+    ]
+
+
+def sensitivity_rows(config: dict) -> list:
+    """Rows of the sensitivity study: sample x parameter x factor x frequency."""
+    d = config["campaign"]["sensitivity"]
+    return [
+        f"results/sim/sensitivity/{s}/{case_name(d['temperature_C'], f, f'_{p}x{number(x)}')}.csv"
+        for s in campaign_samples(config, d["n_samples"])
+        for p in SENS_PARAMETERS
+        for x in d["factors"]
+        for f in d["frequencies_Hz"]
+    ]
+
+
+def sensitivity_baseline(config: dict) -> list:
+    """The x1 baseline of the sensitivity study: paper-mode rows at its temperature."""
+    d = config["campaign"]["sensitivity"]
+    return [
+        f"results/sim/paper/{s}/{case_name(d['temperature_C'], f)}.csv"
+        for s in campaign_samples(config, d["n_samples"])
+        for f in d["frequencies_Hz"]
+    ]
+
+
+def sensitivity_figures() -> list:
+    """Figures 11-14 of the sensitivity study, one per Burger's parameter."""
+    return [f"results/campaign/paper/figures/fig{11 + k}_sensitivity_{p}.png" for k, p in enumerate(SENS_PARAMETERS)]
+
+
+def units_rows(config: dict, reading: str, nobreak: bool = False) -> list:
+    """Rows of the units question under one reading (nobreak: unbreakable bonds); the
+    paper-mode rows serve the reading the paper mode already runs with."""
+    d = config["campaign"]["units_question"]
+    mode = "paper" if reading == config["calibration"]["table3_units"] else f"units_{reading}"
+    if nobreak:
+        mode = f"units_{reading}_nobreak"
+    return [
+        f"results/sim/{mode}/{s}/{case_name(d['temperature_C'], f)}.csv"
+        for s in campaign_samples(config, d["n_samples"])
+        for f in d["frequencies_Hz"]
+    ]
+
+
+def last_cycle_record(config: dict) -> str:
+    """The paper-mode record of the first sample at campaign.last_cycle (Figs. 7-8)."""
+    last = config["campaign"]["last_cycle"]
+    return f"results/sim/paper/{sample_names(config)[0]}/{case_name(last['temperature_C'], last['frequency_Hz'])}.h5"
+
+
+# ---------------------------------------------------------------------------------------------
+# campaign: one job's law and options
+
+
+def mode_settings_json(config: dict, mode: str) -> str:
+    """The test settings of a job mode as JSON: campaign.test with the mode's overrides of
+    dt_policy, yield_stress_Pa and start, and the core's bond kinematics
+    (:func:`asphalt_nscd.campaign.twopb.mode_settings`, shared with campaign-bench)."""
+    from .twopb import mode_settings
+
+    return json.dumps(mode_settings(config["campaign"], mode, bond_kinematics(config),
+                                    config["nscd"].get("linear_solver", "cg")))
+
+
+def mode_settings_function(config: dict):
+    """Params function: the settings JSON of wildcard ``mode``."""
+    return _wildcard_function(mode_settings_json, config, "mode")
+
+
+def transfer_correction(config: dict) -> bool:
+    """Whether the extended mode calibrates its bonds with E*(w) / NF_s (the sample's network
+    factor; campaign.extended.transfer_correction, default true)."""
+    return bool(config["campaign"]["extended"].get("transfer_correction", True))
+
+
+def transfer_file(sample: str) -> str:
+    """Network factor JSON of a sample (rule harmonic_transfer)."""
+    return f"results/harmonic/transfer/{sample}.json"
+
+
+def job_transfer(config: dict, mode: str, sample: str) -> list:
+    """The transfer JSON a job needs: the extended mode's when the correction is on, else none."""
+    return [transfer_file(sample)] if mode == "extended" and transfer_correction(config) else []
+
+
+def job_transfer_function(config: dict):
+    """Input function of rule run_2pb: the transfer JSON of wildcards ``mode``, ``sample``."""
+    return _wildcard_function(job_transfer, config, "mode", "sample")
+
+
+def mode_parameters(config: dict, mode: str) -> str:
+    """Law file of a mode: calibrated Burger's table (measured), law JSON (extended), else the
+    paper's Table 3 (calibration.table3)."""
+    if mode == "measured":
+        return "results/calibration/burgers_parameters.csv"
+    if mode == "extended":
+        return LAW_JSON
+    return config["calibration"]["table3"]
+
+
+def mode_parameters_function(config: dict):
+    """Input function: the law file of wildcard ``mode``."""
+    return _wildcard_function(mode_parameters, config, "mode")
+
+
+def law_option(config: dict, mode: str) -> str:
+    """CLI option of the mode's law file: --law-json (extended) or --parameters."""
+    return "--law-json" if mode == "extended" else "--parameters"
+
+
+def law_option_function(config: dict):
+    """Params function: the law-file option of wildcard ``mode``."""
+    return _wildcard_function(law_option, config, "mode")
+
+
+def case_options(config: dict, mode: str, sample: str, case: str) -> str:
+    """``asphalt-nscd run-2pb`` options of one job: temperature and frequency of the case name,
+    its time step or sensitivity factor, the network factor JSON (extended mode with the
+    transfer correction) and the Table 3 unit reading (paper-parameter modes)."""
+    c = parse_case(case)
+    opts = f"--temperature {c['T']} --frequency {c['f']}"
+    if c["dt"]:
+        opts += f" --dt {c['dt']}"
+    if c["p"]:
+        opts += f" --factor {c['p']}={c['x']}"
+    if mode == "extended" and transfer_correction(config):
+        opts += f" --network-factor-json {transfer_file(sample)}"
+    if mode in ("measured", "extended"):
+        return opts
+    units = mode.split("_")[1] if mode.startswith("units_") else config["calibration"]["table3_units"]
+    return f"{opts} --table3-units {units}"
+
+
+def case_options_function(config: dict):
+    """Params function of rule run_2pb: the options of wildcards ``mode``, ``sample``, ``case``."""
+    return _wildcard_function(case_options, config, "mode", "sample", "case")
+
+
+def mode_summary(config: dict, mode: str) -> list:
+    """The lab summary the isotherms of a mode are compared with (measured, extended), else none."""
+    return [MEASURED_SUMMARY] if mode in ("measured", "extended") else []
+
+
+def mode_summary_function(config: dict):
+    """Input function of rule campaign_isotherms: the lab summary of wildcard ``mode``."""
+    return _wildcard_function(mode_summary, config, "mode")
+
+
+def mode_options(config: dict, mode: str) -> str:
+    """campaign-isotherms options of a mode: the measured summary, or the Table 3 reading and
+    the paper's Table 4."""
+    if mode in ("measured", "extended"):
+        return f"--measured-summary {MEASURED_SUMMARY}"
+    return f"--table3-units {config['calibration']['table3_units']} --paper-table4 data/paper/table4_mre.csv"
+
+
+def mode_options_function(config: dict):
+    """Params function of rule campaign_isotherms: the options of wildcard ``mode``."""
+    return _wildcard_function(mode_options, config, "mode")
+
+
+def isotherms_title(config: dict, mode: str) -> str:
+    """Title of the isotherm figures of a mode."""
+    law = "Table 3 Burger's" if mode == "paper" else "measured"
+    return f"NSCD vs {law} ({mode} mode)"
+
+
+def isotherms_title_function(config: dict):
+    """Params function of rule campaign_isotherms: the title of wildcard ``mode``."""
+    return _wildcard_function(isotherms_title, config, "mode")
+
+
+def policy_temperature(config: dict, mode: str) -> float:
+    """Temperature of the dt-policy phase error of a mode: the upper median of its schedule."""
+    temps = sorted(config["campaign"][mode]["temperatures_C"])
+    return temps[len(temps) // 2]
+
+
+def policy_temperature_function(config: dict):
+    """Params function of rule campaign_dt_policy: the temperature of wildcard ``mode``."""
+    return _wildcard_function(policy_temperature, config, "mode")
+
+
+def policy_units_option(config: dict, mode: str) -> str:
+    """The Table 3 reading option of the dt-policy check (none for the measured mode)."""
+    return "" if mode == "measured" else f"--table3-units {config['calibration']['table3_units']}"
+
+
+def policy_units_option_function(config: dict):
+    """Params function of rule campaign_dt_policy: the units option of wildcard ``mode``."""
+    return _wildcard_function(policy_units_option, config, "mode")
+
+
+def mode_frequencies(config: dict, mode: str) -> str:
+    """The frequencies of a mode's schedule, space-separated (``:g``)."""
+    return " ".join(number(f) for f in config["campaign"][mode]["frequencies_Hz"])
+
+
+def mode_frequencies_function(config: dict):
+    """Params function of rule campaign_dt_policy: the frequencies of wildcard ``mode``."""
+    return _wildcard_function(mode_frequencies, config, "mode")
+
+
+# ---------------------------------------------------------------------------------------------
+# harmonic solver
+
+
+def harmonic_parameters(config: dict, mode: str) -> str:
+    """Burger's table of a harmonic mode (paper: Table 3 read; measured: calibrated)."""
+    return HARMONIC_PARAMETERS[mode]
+
+
+def harmonic_parameters_function(config: dict):
+    """Input function of the harmonic rules: the table of wildcard ``mode``."""
+    return _wildcard_function(harmonic_parameters, config, "mode")
+
+
+def harmonic_frequency_option_function(config: dict):
+    """Params function of rule harmonic_jobs: the paper's frequency list (paper mode), or the
+    measured (T, f) of the lab summary, the job's ``input.summary``."""
+    frequencies = config["harmonic"]["paper_frequencies_Hz"]
+
+    def frequency_option(wildcards, input):
+        if wildcards.mode == "paper":
+            return f"--frequency {spaced(frequencies)}"
+        return f"--frequencies-from {input.summary}"
+
+    return frequency_option
+
+
+def harmonic_kinematics_options(config: dict) -> str:
+    """Bond kinematics and head rotation options of the harmonic solver (config harmonic)."""
+    harm = config["harmonic"]
+    return f"--bond-kinematics {harm['bond_kinematics']} --head-rotation {harm['head_rotation']}"
+
+
+def harmonic_solver_options(config: dict) -> str:
+    """Inertia, solver, tolerance and kinematics options of the harmonic solver."""
+    harm = config["harmonic"]
+    return f"--inertia {harm['inertia']} --solver {harm['solver']} --rtol {harm['rtol']} " + harmonic_kinematics_options(
+        config
+    )
+
+
+def harmonic_sweep(config: dict) -> str:
+    """The frequency sweep option values: fmin, fmax (Hz), points."""
+    sweep = config["harmonic"]["sweep"]
+    return f"{sweep['fmin_Hz']} {sweep['fmax_Hz']} {sweep['points']}"
+
+
+def head_rotation(config: dict) -> str:
+    """Head-plate rotation of the time-domain test (campaign.test.head_rotation, default free)."""
+    return config["campaign"]["test"].get("head_rotation", "free")
+
+
+def twopb_poisson_ratio(config: dict) -> float:
+    """Poisson ratio of the time-domain test (campaign.test.nu, default 0.35)."""
+    return config["campaign"]["test"].get("nu", 0.35)
+
+
+# ---------------------------------------------------------------------------------------------
+# diagnosis
+
+
+def diagnosis_auto_input(config: dict, key: str) -> list:
+    """The workflow's own output(s) for a simulation input of rule diagnose (``auto``), on the
+    extended mode's samples."""
+    samples = mode_samples(config, "extended")
+    if key == "simulated":
+        return mode_rows(config, "measured", samples)
+    if key == "simulated_extended":
+        return mode_rows(config, "extended", samples)
+    if key == "harmonic":
+        return [f"results/harmonic/jobs/{s}_measured.csv" for s in samples]
+    if key == "time_integration":
+        return ["results/campaign/measured/dt_policy_phase_error.csv"]
+    if key == "transfer":
+        return [transfer_file(s) for s in samples]
+    raise InputError(f"config diagnosis: unknown simulation input {key!r} (expected one of {DIAGNOSIS_INPUT_KEYS})")
+
+
+def diagnosis_inputs(config: dict) -> dict:
+    """Simulation inputs of rule diagnose: key -> files, for the keys of diagnosis that are
+    ``auto`` (the workflow's outputs) or a path; null keys are left out."""
+    inputs = {}
+    for key in DIAGNOSIS_INPUT_KEYS:
+        value = config["diagnosis"].get(key, "auto")
+        if value == "auto":
+            inputs[key] = diagnosis_auto_input(config, key)
+        elif value:
+            inputs[key] = [value]
+    return inputs
+
+
+def diagnosis_input_files(config: dict) -> list:
+    """Every simulation file of rule diagnose, in the order of :func:`diagnosis_inputs`."""
+    return [p for paths in diagnosis_inputs(config).values() for p in paths]
+
+
+def diagnosis_fit_options(config: dict) -> str:
+    """Options of the artifact search and of the extended law's candidates (diagnosis.law)."""
+    diag = config["diagnosis"]
+    law = diag["law"]
+    refines = " ".join("off" if r is None else str(r) for r in law["refines"])
+    opts = (
+        f"--alpha {diag['alpha']} --shift {diag['shift']} "
+        f"--law-shifts {' '.join(law['shifts'])} --law-statics {' '.join(law['statics'])} "
+        f"--law-verticals {' '.join('on' if v else 'off' for v in law['verticals'])} "
+        f"--law-refines {refines} --law-per-decades {spaced(law['per_decades'])} "
+        f"--margin-decades {law['margin_decades']} "
+        f"--tolerances-pct {law['tolerances_pct'][0]} {law['tolerances_pct'][1]}"
+    )
+    if diag.get("T_ref_C") is not None:
+        opts += f" --t-ref {diag['T_ref_C']}"
+    if not law.get("one_se", True):
+        opts += " --no-one-se"
+    if not law.get("artifacts", True):
+        opts += " --no-artifacts"
+    return opts
+
+
+def diagnose_options(config: dict) -> str:
+    """Options of rule diagnose: the fit options, the simulation inputs and, with the time
+    integration input, the campaign's Moreau-Jean theta (rows of other thetas are dropped)."""
+    opts = diagnosis_fit_options(config)
+    inputs = diagnosis_inputs(config)
+    for key, paths in inputs.items():
+        opts += f" --{key.replace('_', '-')} " + " ".join(paths)
+    if "time_integration" in inputs:
+        opts += f" --theta {config['campaign']['test']['theta']}"
+    return opts
+
+
+def diagnose_tolerances(config: dict) -> str:
+    """Cause tolerances of rule diagnose (diagnosis.cause_tolerances; defaults 0.01 on the
+    network factor, 0.1 degree on the phase)."""
+    tol = config["diagnosis"].get("cause_tolerances", {})
+    return (
+        f"--tolerance-network-factor {tol.get('network_factor', 0.01)} "
+        f"--tolerance-phase-deg {tol.get('time_integration_deg', 0.1)}"
+    )
+
+
+def crossval_sample(config: dict) -> str:
+    """The sample of the cross-validation: the extended mode's first."""
+    return mode_samples(config, "extended")[0]
+
+
+def crossval_time_domain_cell(config: dict):
+    """The (T, f) of the time-domain check of the lofo cross-validation
+    (diagnosis.crossval.time_domain): given, or ``auto``: the median tested temperature (the
+    lower of the two middle ones) and its tested frequency nearest 10 Hz, read from
+    measured.table; None when null. Returns a dict temperature_C, frequency_Hz. Raises
+    InputError when the table cannot be read or a given cell is not measured."""
+    value = config["diagnosis"]["crossval"]["time_domain"]
+    if value is None:
+        return None
+    table = config["measured"]["table"]
+    try:
+        with open(table, newline="") as fh:
+            cells = {(float(r["temperature_C"]), float(r["frequency_Hz"])) for r in csv.DictReader(fh)}
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise InputError(
+            f"config diagnosis.crossval.time_domain: cannot read the measured cells of {table} ({exc!r}); "
+            "set the cell or null"
+        ) from exc
+    if value == "auto":
+        temps = sorted({T for T, _ in cells})
+        T = temps[(len(temps) - 1) // 2]
+        f = min((f for t, f in cells if t == T), key=lambda f: (abs(math.log10(f) - 1.0), f))
+        return {"temperature_C": T, "frequency_Hz": f}
+    if (float(value["temperature_C"]), float(value["frequency_Hz"])) not in cells:
+        raise InputError(
+            f"config diagnosis.crossval.time_domain: {value['temperature_C']} degC, "
+            f"{value['frequency_Hz']} Hz is not a measured cell of {table}"
+        )
+    return value
+
+
+def crossval_time_domain_case(config: dict):
+    """Case name of the time-domain check, None without one."""
+    cell = crossval_time_domain_cell(config)
+    return case_name(cell["temperature_C"], cell["frequency_Hz"]) if cell else None
+
+
+def crossval_time_domain_row(config: dict) -> str:
+    """The reduced row of the time-domain check (rule crossval_time_domain)."""
+    return f"results/diagnosis/crossval/time_domain_{crossval_time_domain_case(config)}.csv"
+
+
+def crossval_time_domain_input(config: dict, scheme: str) -> list:
+    """The time-domain row a cross-validation scheme reads: lofo with a time-domain cell."""
+    if scheme == "lofo" and crossval_time_domain_cell(config):
+        return [crossval_time_domain_row(config)]
+    return []
+
+
+def crossval_time_domain_function(config: dict):
+    """Input function of rule crossval: the time-domain row of wildcard ``scheme``."""
+    return _wildcard_function(crossval_time_domain_input, config, "scheme")
+
+
+def time_domain_option(wildcards, input) -> str:
+    """Params function of rule crossval: ``--time-domain {row}`` when the job has the row."""
+    return f"--time-domain {input.time_domain}" if input.time_domain else ""
+
+
+# ---------------------------------------------------------------------------------------------
+# report
+
+
+def report_files(config: dict) -> list:
+    """Every figure and table rule report_index collects into results/report/, in the order of
+    the rule files (lab data, rheology, NSCD core, samples, campaign, harmonic, diagnosis)."""
+    samples = sample_names(config)
+    camp = config["campaign"]
+    files = ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
+    files += [f"results/lab/reduced/{record}.csv" for record in sorted(lab_records(config))]
+    files += [
+        "results/calibration/burgers_parameters.csv",
+        "results/calibration/table3_refit_check.csv",
+        "results/calibration/burgers_parameters_micro.csv",
+        "results/calibration/paper_table3_micro.csv",
+        *(f"results/calibration/figures/measured_{plot}.png" for plot in RHEOLOGY_PLOTS),
+        "results/calibration/figures/paper_table3_isotherms-modulus.png",
+        "results/calibration/figures/paper_table3_isotherms-phase.png",
+    ]
+    files += [
+        "results/nscd/verify.csv",
+        "results/nscd/phase_error.csv",
+        "results/nscd/phase_error.png",
+        "results/bench/nscd_bench.csv",
+    ]
+    files += ["results/samples/table2_counts.csv", prepare_bench_file(config)]
+    files += [f"results/samples/{sample}_stages.png" for sample in samples]
+    for mode in camp["modes"]:
+        files += [
+            f"results/campaign/{mode}/table4_{mode}.csv",
+            f"results/campaign/{mode}/figures/fig09_isotherms_modulus.png",
+            f"results/campaign/{mode}/figures/fig10_isotherms_phase.png",
+            f"results/campaign/{mode}/dt_policy_phase_error.csv",
+        ]
+    # the extended mode always runs: the diagnosis compares it with the measured mode
+    files += [
+        "results/campaign/extended/table4_extended.csv",
+        "results/campaign/extended/figures/fig09_isotherms_modulus.png",
+        "results/campaign/extended/figures/fig10_isotherms_phase.png",
+    ]
+    if "paper" in camp["modes"]:
+        files += [
+            "results/campaign/paper/dt_study.csv",
+            "results/campaign/paper/figures/fig06_dt_study.png",
+            "results/campaign/paper/figures/fig07_last_cycle.png",
+            "results/campaign/paper/figures/fig08_velocity_profile.png",
+            "results/campaign/paper/sensitivity.csv",
+            *sensitivity_figures(),
+            "results/campaign/units_question.csv",
+        ]
+    files += [f"results/harmonic/figures/{mode}_{plot}.png" for mode in HARMONIC_MODES for plot in RHEOLOGY_PLOTS]
+    files += [
+        "results/harmonic/network_factor.csv",
+        "results/harmonic/network_factor_summary.csv",
+        "results/harmonic/sensitivity.csv",
+        "results/harmonic/sensitivity.png",
+        "results/harmonic/compare_time_domain.csv",
+        "results/harmonic/compare_time_domain.png",
+        "results/harmonic/kinematics_study.csv",
+        "results/harmonic/bench.json",
+    ]
+    files += [
+        "results/diagnosis/what_the_simulation_gets_wrong.md",
+        "results/diagnosis/error_budget.png",
+        "results/diagnosis/error_budget.csv",
+        "results/diagnosis/causes.csv",
+        "results/diagnosis/gain.csv",
+        "results/diagnosis/report.json",
+        LAW_JSON,
+        "results/diagnosis/extended_law_cv_curve.csv",
+        "results/diagnosis/corrected_measured.csv",
+        "results/diagnosis/detection_bench.json",
+        "results/diagnosis/detection_bench.csv",
+    ]
+    files += [
+        f"results/diagnosis/crossval/{scheme}{suffix}"
+        for scheme in config["diagnosis"]["crossval"]["schemes"]
+        for suffix in (".csv", "_summary.csv", "_curve.csv", ".png")
+    ]
+    return files

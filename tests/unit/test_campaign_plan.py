@@ -1,0 +1,321 @@
+"""The workflow's plan (asphalt_nscd.campaign.plan) on the repository's three configurations.
+
+The configs are loaded as the Snakefile loads them: config/config.yaml extended by the chosen
+config file, validated (defaults filled) by the workflow's schemas. Expected counts and command
+options are those of `snakemake -n -p -F --configfile CONFIG` before the logic moved out of the
+rule files (smoke: 16 run_2pb jobs, default: 184, paper: 576)."""
+
+from __future__ import annotations
+
+import copy
+import inspect
+import json
+from collections import Counter
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+import yaml
+
+from asphalt_nscd.campaign import plan
+from asphalt_nscd.io import InputError
+
+REPO = Path(__file__).resolve().parents[2]
+SCHEMAS = REPO / "workflow" / "schemas"
+
+
+def load_config(name: str) -> dict:
+    """config/config.yaml extended by config/{name}.yaml, validated with defaults (as the Snakefile)."""
+    from snakemake.utils import update_config, validate
+
+    cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
+    if name != "config":
+        update_config(cfg, yaml.safe_load((REPO / "config" / f"{name}.yaml").read_text()))
+    validate(cfg, str(SCHEMAS / "config.schema.yaml"))
+    for section, schema in plan.section_schemas(cfg, SCHEMAS).items():
+        validate(cfg[section], schema)
+    return cfg
+
+
+@pytest.fixture(autouse=True)
+def _in_repo(monkeypatch):
+    """Config paths (data/...) are relative to the repository, the workflow's working directory."""
+    monkeypatch.chdir(REPO)
+
+
+@pytest.fixture(scope="module", params=["smoke", "config", "paper"])
+def named_config(request):
+    return request.param, load_config(request.param)
+
+
+def job_rows(cfg: dict) -> set:
+    """Every run_2pb row the rules consume: isotherms of each main mode and the extended mode,
+    dt study, sensitivity and its baseline, units question, last cycle and diagnosis inputs."""
+    rows = set()
+    for mode in [*cfg["campaign"]["modes"], "extended"]:
+        rows |= set(plan.mode_rows(cfg, mode))
+    if "paper" in cfg["campaign"]["modes"]:
+        rows |= set(plan.dt_study_files(cfg, "csv"))
+        rows |= set(plan.sensitivity_rows(cfg)) | set(plan.sensitivity_baseline(cfg))
+        rows |= set(plan.units_rows(cfg, "Pa")) | set(plan.units_rows(cfg, "kPa"))
+        rows |= set(plan.units_rows(cfg, "kPa", nobreak=True))
+        rows.add(plan.last_cycle_record(cfg).replace(".h5", ".csv"))
+    rows |= {p for p in plan.diagnosis_input_files(cfg) if p.startswith("results/sim/")}
+    return rows
+
+
+JOBS_PER_MODE = {
+    "smoke": {"dt_study": 2, "extended": 1, "measured": 1, "paper": 2, "sensitivity": 8, "units_kPa": 1,
+              "units_kPa_nobreak": 1},
+    "config": {"dt_study": 4, "extended": 30, "measured": 60, "paper": 60, "sensitivity": 24, "units_kPa": 3,
+               "units_kPa_nobreak": 3},
+    "paper": {"dt_study": 16, "extended": 120, "measured": 120, "paper": 120, "sensitivity": 160, "units_kPa": 20,
+              "units_kPa_nobreak": 20},
+}
+
+
+def test_jobs_per_mode(named_config):
+    name, cfg = named_config
+    rows = job_rows(cfg)
+    assert Counter(r.split("/")[2] for r in rows) == JOBS_PER_MODE[name]
+    # every row is a case name the CLI options can be built from
+    for r in rows:
+        _, _, mode, sample, case = r[: -len(".csv")].split("/")
+        assert plan.case_options(cfg, mode, sample, case).startswith("--temperature ")
+
+
+def test_case_names_round_trip():
+    assert plan.case_name(-10, 0.1) == "-10C_0.1Hz"
+    assert plan.case_name(15.0, 40, "_dt" + plan.number(2e-4)) == "15C_40Hz_dt0.0002"
+    assert plan.parse_case("15C_40Hz_dt5e-05") == {"T": "15", "f": "40", "dt": "5e-05", "p": None, "x": None}
+    assert plan.parse_case("20C_10Hz_eta_mx0.5") == {"T": "20", "f": "10", "dt": None, "p": "eta_m", "x": "0.5"}
+    for bad in ("15C_40Hz_nux2", "40Hz", "15C_40Hz_dt"):
+        with pytest.raises(InputError, match="bad campaign case name"):
+            plan.parse_case(bad)
+
+
+def test_case_options_of_known_cases():
+    cfg = load_config("smoke")
+    assert plan.case_options(cfg, "extended", "s1", "21C_10Hz") == (
+        "--temperature 21 --frequency 10 --network-factor-json results/harmonic/transfer/s1.json"
+    )
+    assert plan.case_options(cfg, "measured", "s1", "21C_10Hz") == "--temperature 21 --frequency 10"
+    assert plan.case_options(cfg, "sensitivity", "s1", "20C_40Hz_eta_kx0.5") == (
+        "--temperature 20 --frequency 40 --factor eta_k=0.5 --table3-units Pa"
+    )
+    assert plan.case_options(cfg, "dt_study", "s1", "15C_40Hz_dt0.0002") == (
+        "--temperature 15 --frequency 40 --dt 0.0002 --table3-units Pa"
+    )
+    assert plan.case_options(cfg, "units_kPa_nobreak", "s1", "20C_40Hz").endswith("--table3-units kPa")
+    off = copy.deepcopy(cfg)
+    off["campaign"]["extended"]["transfer_correction"] = False
+    assert plan.case_options(off, "extended", "s1", "21C_10Hz") == "--temperature 21 --frequency 10"
+    assert plan.job_transfer(off, "extended", "s1") == []
+    assert plan.job_transfer(cfg, "extended", "s2") == ["results/harmonic/transfer/s2.json"]
+    assert plan.job_transfer(cfg, "measured", "s1") == []
+    # the same through the rule's params function of the wildcards
+    fn = plan.case_options_function(cfg)
+    assert fn(SimpleNamespace(mode="dt_study", sample="s1", case="15C_40Hz_dt0.0002")) == (
+        "--temperature 15 --frequency 40 --dt 0.0002 --table3-units Pa"
+    )
+
+
+def test_mode_laws_and_options():
+    cfg = load_config("config")
+    assert plan.mode_parameters(cfg, "measured") == "results/calibration/burgers_parameters.csv"
+    assert plan.mode_parameters(cfg, "extended") == plan.LAW_JSON
+    assert plan.mode_parameters(cfg, "units_kPa") == cfg["calibration"]["table3"] == "data/paper/table3_burgers.csv"
+    assert plan.law_option(cfg, "extended") == "--law-json" and plan.law_option(cfg, "paper") == "--parameters"
+    assert plan.mode_summary(cfg, "extended") == [plan.MEASURED_SUMMARY] and plan.mode_summary(cfg, "paper") == []
+    assert plan.mode_options(cfg, "paper") == "--table3-units Pa --paper-table4 data/paper/table4_mre.csv"
+    assert plan.mode_options(cfg, "measured") == "--measured-summary results/lab/measured_summary.csv"
+    assert plan.isotherms_title(cfg, "paper") == "NSCD vs Table 3 Burger's (paper mode)"
+    assert plan.isotherms_title(cfg, "extended") == "NSCD vs measured (extended mode)"
+    # dt-policy check: upper median temperature and the schedule's frequencies
+    assert plan.policy_temperature(cfg, "paper") == 15 and plan.policy_temperature(cfg, "measured") == 21
+    assert plan.mode_frequencies(cfg, "measured") == "0.1 0.5 1 5 10 25"
+    assert plan.policy_units_option(cfg, "measured") == ""
+    assert plan.policy_units_option(cfg, "paper") == "--table3-units Pa"
+    settings = json.loads(plan.mode_settings_json(cfg, "extended"))
+    assert settings["bond_kinematics"] == plan.bond_kinematics(cfg) and settings["start"] in ("rest", "periodic")
+    wc = SimpleNamespace(mode="paper")
+    assert plan.mode_rows_function(cfg)(wc) == plan.mode_rows(cfg, "paper")
+    assert plan.mode_settings_function(cfg)(wc) == plan.mode_settings_json(cfg, "paper")
+    assert plan.policy_temperature_function(cfg)(wc) == 15
+    assert plan.mode_parameters_function(cfg)(wc) == "data/paper/table3_burgers.csv"
+
+
+def test_mode_rows_and_samples():
+    cfg = load_config("config")
+    assert plan.sample_names(cfg) == ["s1", "s2", "s3", "s4"]
+    assert plan.mode_samples(cfg, "paper") == ["s1", "s2"] and plan.mode_samples(cfg, "extended") == ["s1"]
+    rows = plan.mode_rows(cfg, "extended")
+    assert rows[0] == "results/sim/extended/s1/-10C_0.1Hz.csv" and len(rows) == 30
+    # the extended mode runs the measured schedule
+    assert [r.replace("extended", "measured") for r in rows] == plan.mode_rows(cfg, "measured", ["s1"])
+    assert plan.last_cycle_record(cfg).startswith("results/sim/paper/s1/")
+    assert plan.sensitivity_figures()[0] == "results/campaign/paper/figures/fig11_sensitivity_Em.png"
+    paper = load_config("paper")
+    assert plan.campaign_samples(paper, None) == ["s1", "s2", "s3", "s4"]
+    assert plan.campaign_samples(paper, 2) == ["s1", "s2"]
+
+
+def test_diagnosis_inputs_with_auto_settings():
+    cfg = load_config("smoke")
+    assert plan.diagnosis_inputs(cfg) == {
+        "simulated": ["results/sim/measured/s1/21C_10Hz.csv"],
+        "harmonic": ["results/harmonic/jobs/s1_measured.csv"],
+        "time_integration": ["results/campaign/measured/dt_policy_phase_error.csv"],
+        "simulated_extended": ["results/sim/extended/s1/21C_10Hz.csv"],
+        "transfer": ["results/harmonic/transfer/s1.json"],
+    }
+    opts = plan.diagnose_options(cfg)
+    assert opts.startswith("--alpha 0.001 --shift wlf --law-shifts wlf --law-statics constant trend")
+    assert opts.endswith(
+        "--simulated results/sim/measured/s1/21C_10Hz.csv --harmonic results/harmonic/jobs/s1_measured.csv"
+        " --time-integration results/campaign/measured/dt_policy_phase_error.csv"
+        " --simulated-extended results/sim/extended/s1/21C_10Hz.csv --transfer results/harmonic/transfer/s1.json"
+        " --theta 0.5"
+    )
+    assert plan.diagnose_tolerances(cfg) == "--tolerance-network-factor 0.01 --tolerance-phase-deg 0.1"
+    # null leaves an input out (and the theta with the time integration), a path is used as is
+    other = copy.deepcopy(cfg)
+    other["diagnosis"]["harmonic"] = None
+    other["diagnosis"]["time_integration"] = None
+    other["diagnosis"]["simulated"] = "data/my_rows.csv"
+    inputs = plan.diagnosis_inputs(other)
+    assert "harmonic" not in inputs and inputs["simulated"] == ["data/my_rows.csv"]
+    assert "--theta" not in plan.diagnose_options(other)
+    assert plan.diagnosis_input_files(other)[0] == "data/my_rows.csv"
+    with pytest.raises(InputError, match="unknown simulation input"):
+        plan.diagnosis_auto_input(cfg, "nope")
+    # the default config: the extended mode's sample (n_samples 1) before and after
+    full = load_config("config")
+    assert len(plan.diagnosis_inputs(full)["simulated"]) == 30
+    assert plan.diagnosis_inputs(full)["transfer"] == ["results/harmonic/transfer/s1.json"]
+    fit = plan.diagnosis_fit_options(full)
+    assert "--law-verticals off on --law-refines off 1.0 --law-per-decades 2 4" in fit
+
+
+def test_crossval_time_domain_cell(tmp_path):
+    cfg = load_config("smoke")
+    # auto: median tested temperature (lower middle) and its frequency nearest 10 Hz
+    assert plan.crossval_time_domain_cell(cfg) == {"temperature_C": 21.0, "frequency_Hz": 10.0}
+    assert plan.crossval_time_domain_case(cfg) == "21C_10Hz"
+    assert plan.crossval_time_domain_row(cfg) == "results/diagnosis/crossval/time_domain_21C_10Hz.csv"
+    assert plan.crossval_time_domain_input(cfg, "lofo") == [plan.crossval_time_domain_row(cfg)]
+    assert plan.crossval_time_domain_input(cfg, "loto") == []
+    assert plan.crossval_time_domain_function(cfg)(SimpleNamespace(scheme="loto")) == []
+    assert plan.crossval_sample(cfg) == "s1"
+    table = tmp_path / "t.csv"
+    table.write_text("temperature_C,frequency_Hz\n-5,1\n-5,30\n10,3\n10,20\n30,8\n30,15\n40,1\n")
+    other = copy.deepcopy(cfg)
+    other["measured"]["table"] = str(table)
+    assert plan.crossval_time_domain_cell(other) == {"temperature_C": 10.0, "frequency_Hz": 20.0}
+    other["diagnosis"]["crossval"]["time_domain"] = {"temperature_C": 30, "frequency_Hz": 8}
+    assert plan.crossval_time_domain_case(other) == "30C_8Hz"
+    other["diagnosis"]["crossval"]["time_domain"] = {"temperature_C": 30, "frequency_Hz": 9}
+    with pytest.raises(InputError, match="is not a measured cell of"):
+        plan.crossval_time_domain_cell(other)
+    other["diagnosis"]["crossval"]["time_domain"] = None
+    assert plan.crossval_time_domain_cell(other) is None and plan.crossval_time_domain_case(other) is None
+    assert plan.crossval_time_domain_input(other, "lofo") == []
+    other["diagnosis"]["crossval"]["time_domain"] = "auto"
+    other["measured"]["table"] = str(tmp_path / "missing.csv")
+    with pytest.raises(InputError, match="missing.csv"):
+        plan.crossval_time_domain_cell(other)
+
+
+def test_report_files_are_the_report_index_inputs(named_config):
+    name, cfg = named_config
+    files = plan.report_files(cfg)
+    # counts of the collect-report command of the dry runs (smoke: one sample, else four)
+    assert len(files) == {"smoke": 75, "config": 78, "paper": 78}[name]
+    assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
+    assert files[-1] == "results/diagnosis/crossval/loto.png"
+    assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files
+    assert "results/campaign/extended/table4_extended.csv" in files
+    assert all(f.startswith("results/") for f in files)
+    no_paper = copy.deepcopy(cfg)
+    no_paper["campaign"]["modes"] = ["measured"]
+    assert not any("sensitivity_" in f or "units_question" in f for f in plan.report_files(no_paper))
+
+
+def test_lab_inputs(tmp_path):
+    cfg = load_config("smoke")
+    table = cfg["measured"]["table"]
+    assert plan.measured_test(cfg) == str(Path(table).with_name(Path(table).stem + ".test.json"))
+    assert plan.measured_test_input(cfg) == ([plan.measured_test(cfg)] if Path(plan.measured_test(cfg)).is_file() else [])
+    other = copy.deepcopy(cfg)
+    other["measured"]["table"] = str(tmp_path / "m.csv")
+    other["measured"]["test"] = None
+    assert plan.measured_test(other) == str(tmp_path / "m.test.json") and plan.measured_test_input(other) == []
+    other["measured"]["test"] = "given.json"
+    assert plan.measured_test_input(other) == ["given.json"]
+    assert plan.measured_test_option(None, SimpleNamespace(test=["a.json"])) == "--test a.json"
+    assert plan.measured_test_option(None, SimpleNamespace(test=[])) == ""
+    other["lab"]["records"] = ["data/lab/r1.csv", "data/lab/r2.csv"]
+    assert plan.lab_records(other) == {"r1": "data/lab/r1.csv", "r2": "data/lab/r2.csv"}
+    assert plan.record_meta_function(other)(SimpleNamespace(record="r2")) == "data/lab/r2.json"
+    assert plan.record_file_function(other)(SimpleNamespace(record="r1")) == "data/lab/r1.csv"
+    with pytest.raises(InputError, match="r3"):
+        plan.record_file(other, "r3")
+
+
+def test_settings_and_options_of_other_rules():
+    cfg = load_config("smoke")
+    paper = load_config("paper")
+    assert plan.sample_runtime_min(cfg) == 30 and plan.sample_runtime_min(paper) == 24 * 60
+    settings = json.loads(plan.sample_settings(cfg))
+    assert "seeds" not in settings and settings["scale"] == cfg["sample"]["scale"]
+    assert plan.sample_file("s3") == "results/samples/s3.h5"
+    assert plan.prepare_bench_file(paper) == "results/bench/prepare_s1.json"
+    assert plan.calibration_fit_options(cfg).startswith("--weight-log-modulus ")
+    bench = cfg["nscd"]["bench"]
+    assert plan.nscd_bench_files(cfg) == [f"results/bench/nscd_bonded_n{n}.json" for n in bench["bonded_n"]] + [
+        f"results/bench/nscd_granular_n{n}.json" for n in bench["granular_n"]
+    ]
+    assert plan.bench_tolerance_function(cfg)(SimpleNamespace(case="granular")) == bench["granular_tolerance"]
+    assert plan.bench_tolerance(cfg, "bonded") == bench["tolerance"]
+    assert plan.spaced([3, 6.5]) == "3 6.5" and plan.comma_list([1e-4, 2]) == "0.0001,2"
+    assert plan.number(40.0) == "40" and plan.number("1e-05") == "1e-05"
+    # harmonic solver
+    fn = plan.harmonic_frequency_option_function(cfg)
+    assert fn(SimpleNamespace(mode="paper"), None) == "--frequency 3 6 10 25 40"
+    assert fn(SimpleNamespace(mode="measured"), SimpleNamespace(summary="s.csv")) == "--frequencies-from s.csv"
+    assert plan.harmonic_solver_options(cfg).startswith("--inertia full --solver ")
+    assert plan.harmonic_solver_options(cfg).endswith(plan.harmonic_kinematics_options(cfg))
+    assert plan.harmonic_parameters_function(cfg)(SimpleNamespace(mode="measured")) == plan.HARMONIC_PARAMETERS["measured"]
+    sweep = cfg["harmonic"]["sweep"]
+    assert plan.harmonic_sweep(cfg) == f"{sweep['fmin_Hz']} {sweep['fmax_Hz']} {sweep['points']}"
+    assert plan.head_rotation(cfg) in ("free", "clamped") and 0 < plan.twopb_poisson_ratio(cfg) < 0.5
+    assert plan.time_domain_option(None, SimpleNamespace(time_domain="r.csv")) == "--time-domain r.csv"
+    assert plan.time_domain_option(None, SimpleNamespace(time_domain=[])) == ""
+
+
+def test_environment_and_schemas(tmp_path):
+    env = plan.job_environment("/opt/venv/bin/python", str(tmp_path), "/usr/bin")
+    assert env["PATH"].split(":") == ["/opt/venv/bin", "/usr/bin"]
+    assert env["ASPHALT_NSCD_SOURCE"] == str(tmp_path.resolve())
+    cfg = load_config("smoke")
+    schemas = plan.section_schemas(cfg, SCHEMAS)
+    assert {"campaign", "diagnosis", "harmonic", "sample"} <= set(schemas)
+    assert all(Path(p).is_file() for p in schemas.values())
+
+
+def test_every_public_function_is_documented():
+    functions = [f for name, f in inspect.getmembers(plan, inspect.isfunction)
+                 if not name.startswith("_") and f.__module__ == plan.__name__]
+    assert len(functions) > 50
+    undocumented = [f.__name__ for f in functions if not inspect.getdoc(f)]
+    assert not undocumented
+
+
+def test_each_mode_runs_its_configured_linear_solver(named_config):
+    """The 2PB jobs get the core's linear solver (nscd.linear_solver) unless their schedule sets
+    its own: the measured and extended modes run the direct solver in every shipped config."""
+    _, cfg = named_config
+    settings = {m: json.loads(plan.mode_settings_json(cfg, m)) for m in ("paper", "measured", "extended", "dt_study")}
+    assert settings["measured"]["linear_solver"] == settings["extended"]["linear_solver"] == "direct"
+    expected = cfg["campaign"]["paper"].get("linear_solver", cfg["nscd"]["linear_solver"])
+    assert settings["paper"]["linear_solver"] == settings["dt_study"]["linear_solver"] == expected
