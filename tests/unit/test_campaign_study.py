@@ -219,7 +219,9 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
     periodic = [c for c in costs if c["start"] == "periodic"]
     assert {c["mode"] for c in periodic} == {"measured", "extended"}
     assert all(c["start_used"] == "periodic" and c["solve_s"] > 0 for c in periodic)
-    assert all(c["s_per_step"] > 0 and c["iterations_mean"] > 0 for c in costs)
+    # the direct solver of the measured and extended modes reports no iterations on linear steps
+    assert all(c["s_per_step"] > 0 and c["iterations_mean"] >= 0 for c in costs)
+    assert all(c["iterations_mean"] > 0 for c in costs if c["mode"] not in ("measured", "extended"))
     assert proj["configured"]["n_steps_total"] < proj["rest"]["n_steps_total"]
     assert "single_law" in proj
     bad = tmp_path / "bad.json"
