@@ -312,14 +312,18 @@ def sensitivity_rows(config: dict) -> list:
     ]
 
 
+def _study_rows(config: dict, mode: str, study: dict) -> list:
+    """Rows of ``mode`` at a study's temperature: its samples x its frequencies."""
+    return [
+        f"results/sim/{mode}/{s}/{case_name(study['temperature_C'], f)}.csv"
+        for s in campaign_samples(config, study["n_samples"])
+        for f in study["frequencies_Hz"]
+    ]
+
+
 def sensitivity_baseline(config: dict) -> list:
     """The x1 baseline of the sensitivity study: paper-mode rows at its temperature."""
-    d = config["campaign"]["sensitivity"]
-    return [
-        f"results/sim/paper/{s}/{case_name(d['temperature_C'], f)}.csv"
-        for s in campaign_samples(config, d["n_samples"])
-        for f in d["frequencies_Hz"]
-    ]
+    return _study_rows(config, "paper", config["campaign"]["sensitivity"])
 
 
 def sensitivity_figures() -> list:
@@ -334,11 +338,7 @@ def units_rows(config: dict, reading: str, nobreak: bool = False) -> list:
     mode = "paper" if reading == config["calibration"]["table3_units"] else f"units_{reading}"
     if nobreak:
         mode = f"units_{reading}_nobreak"
-    return [
-        f"results/sim/{mode}/{s}/{case_name(d['temperature_C'], f)}.csv"
-        for s in campaign_samples(config, d["n_samples"])
-        for f in d["frequencies_Hz"]
-    ]
+    return _study_rows(config, mode, d)
 
 
 def last_cycle_record(config: dict) -> str:
