@@ -1,5 +1,8 @@
 # Complex modulus of asphalt concrete by NSCD: the reproducible workflow.
 # Run: `make run` (default config) or `snakemake --cores 2 --configfile config/smoke.yaml`.
+# One rule file per package it drives (workflow/rules/{lab,rheology,nscd,sample,campaign,harmonic,
+# diagnosis,figures}.smk). Threads and resources live in the workflow profiles: profiles/default
+# (loaded automatically, a 2-core workstation) and profiles/slurm (`--workflow-profile profiles/slurm`).
 from snakemake.utils import min_version, validate
 
 from asphalt_nscd.campaign import plan
@@ -17,14 +20,14 @@ report: "workflow/report/workflow.rst"
 
 
 include: "workflow/rules/common.smk"
-include: "workflow/rules/lab_data.smk"
+include: "workflow/rules/lab.smk"
 include: "workflow/rules/rheology.smk"
 include: "workflow/rules/nscd.smk"
 include: "workflow/rules/sample.smk"
-include: "workflow/rules/simulation.smk"
+include: "workflow/rules/campaign.smk"
 include: "workflow/rules/harmonic.smk"
 include: "workflow/rules/diagnosis.smk"
-include: "workflow/rules/report.smk"
+include: "workflow/rules/figures.smk"
 
 
 rule all:

@@ -265,7 +265,6 @@ def test_lab_inputs(tmp_path):
 def test_settings_and_options_of_other_rules():
     cfg = load_config("smoke")
     paper = load_config("paper")
-    assert plan.sample_runtime_min(cfg) == 30 and plan.sample_runtime_min(paper) == 24 * 60
     settings = json.loads(plan.sample_settings(cfg))
     assert "seeds" not in settings and settings["scale"] == cfg["sample"]["scale"]
     assert plan.sample_file("s3") == "results/samples/s3.h5"
@@ -319,3 +318,17 @@ def test_each_mode_runs_its_configured_linear_solver(named_config):
     assert settings["measured"]["linear_solver"] == settings["extended"]["linear_solver"] == "direct"
     expected = cfg["campaign"]["paper"].get("linear_solver", cfg["nscd"]["linear_solver"])
     assert settings["paper"]["linear_solver"] == settings["dt_study"]["linear_solver"] == expected
+
+
+def test_former_resource_keys_are_rejected_with_their_new_place(named_config):
+    _, cfg = named_config
+    plan.reject_resource_keys(cfg)  # the repository's configs hold no resource
+    for key, value in (("campaign.job_runtime_min", 30), ("harmonic.compare.runtime_min", 30), ("nscd.threads", 1)):
+        old = copy.deepcopy(cfg)
+        node = old
+        *parents, leaf = key.split(".")
+        for part in parents:
+            node = node[part]
+        node[leaf] = value
+        with pytest.raises(InputError, match=rf"{key}.*profiles/default/config.yaml"):
+            plan.reject_resource_keys(old)

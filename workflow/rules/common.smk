@@ -1,7 +1,7 @@
 # Shared setup. Every config section has its own JSON schema, validated at load.
 # The logic of the rule files (samples, campaign cases, options, report files) is the tested
 # module asphalt_nscd.campaign.plan; each rule file imports it and only declares rules.
-# Rule report_index (report.smk) collects plan.report_files(config) into results/report/.
+# Rule report_index (figures.smk) collects plan.report_files(config) into results/report/.
 import os
 import sys
 from pathlib import Path
@@ -15,5 +15,8 @@ from asphalt_nscd.campaign import plan
 # script installs the package from ASPHALT_NSCD_SOURCE, the repository holding this workflow.
 os.environ.update(plan.job_environment(sys.executable, workflow.basedir, os.environ.get("PATH", "")))
 
+# Threads and runtimes are resources of the workflow profiles (profiles/default, profiles/slurm):
+# a config that still sets one of the former keys stops here with the key's new place.
+plan.reject_resource_keys(config)
 for _section, _schema in plan.section_schemas(config, Path(workflow.basedir) / "workflow" / "schemas").items():
     validate(config[_section], _schema)

@@ -48,10 +48,6 @@ rule extend_law:
         "benchmarks/diagnosis/extend_law.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=15,
     params:
         options=plan.diagnosis_fit_options(config),
     shell:
@@ -74,10 +70,6 @@ if plan.crossval_time_domain_cell(config):
             "benchmarks/diagnosis/crossval_fold_law.tsv"
         conda:
             "../envs/asphalt-nscd.yaml"
-        threads: 1
-        resources:
-            mem_mb=1000,
-            runtime=15,
         params:
             options=plan.diagnosis_fit_options(config),
             frequency=plan.crossval_time_domain_cell(config)["frequency_Hz"],
@@ -102,10 +94,6 @@ if plan.crossval_time_domain_cell(config):
             "benchmarks/diagnosis/crossval_time_domain.tsv"
         conda:
             "../envs/asphalt-nscd.yaml"
-        threads: 1
-        resources:
-            mem_mb=2000,
-            runtime=config["campaign"]["job_runtime_min"],
         params:
             sample=plan.crossval_sample(config),
             temperature=plan.crossval_time_domain_cell(config)["temperature_C"],
@@ -158,10 +146,6 @@ rule crossval:
         scheme="lofo|loto",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=60,
     params:
         options=plan.diagnosis_fit_options(config),
         time_domain=plan.time_domain_option,
@@ -208,10 +192,6 @@ rule diagnose:
         "benchmarks/diagnosis/diagnose.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=15,
     params:
         options=plan.diagnose_options(config),
         tolerances=plan.diagnose_tolerances(config),
@@ -240,10 +220,6 @@ rule diagnose_bench:
         "benchmarks/diagnosis/diagnose_bench.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=120,
     params:
         clean=config["diagnosis"]["bench"]["clean"],
         planted=config["diagnosis"]["bench"]["planted"],

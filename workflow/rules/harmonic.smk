@@ -29,10 +29,6 @@ rule harmonic_jobs:
         mode="paper|measured",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=10,
     params:
         frequencies=plan.harmonic_frequency_option_function(config),
         options=plan.harmonic_solver_options(config),
@@ -55,10 +51,6 @@ rule harmonic_sweep:
         mode="paper|measured",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=30,
     params:
         sweep=plan.harmonic_sweep(config),
         options=plan.harmonic_solver_options(config),
@@ -104,10 +96,6 @@ rule harmonic_figures:
         mode="paper|measured",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     shell:
         "asphalt-nscd harmonic-plot --harmonic {input.sweeps} --measured {input.summary} "
         "--title '{wildcards.mode} parameters' "
@@ -135,10 +123,6 @@ rule harmonic_network_factor:
         "benchmarks/harmonic/network_factor.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
     shell:
         "asphalt-nscd harmonic-network-factor {input} -o {output.table} --summary {output.summary} 2> {log}"
 
@@ -164,10 +148,6 @@ rule harmonic_sensitivity:
         "benchmarks/harmonic/sensitivity.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=30,
     params:
         temperature=config["harmonic"]["sensitivity"]["temperature_C"],
         frequencies=plan.spaced(config["harmonic"]["sensitivity"]["frequencies_Hz"]),
@@ -201,10 +181,6 @@ rule harmonic_compare:
         "benchmarks/harmonic/compare_time_domain.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=config["harmonic"]["compare"]["runtime_min"],
     params:
         temperatures=plan.spaced(config["harmonic"]["compare"]["temperatures_C"]),
         frequencies=plan.spaced(config["harmonic"]["compare"]["frequencies_Hz"]),
@@ -240,10 +216,6 @@ rule harmonic_kinematics:
         "benchmarks/harmonic/kinematics_study.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=15,
     params:
         temperatures=plan.spaced(config["harmonic"]["kinematics_study"]["temperatures_C"]),
         frequencies=plan.spaced(config["harmonic"]["kinematics_study"]["frequencies_Hz"]),
@@ -268,10 +240,6 @@ rule harmonic_transfer:
         "benchmarks/harmonic/transfer_{sample}.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=15,
     params:
         bond_kinematics=plan.bond_kinematics(config),
         head_rotation=plan.head_rotation(config),
@@ -291,10 +259,6 @@ rule harmonic_bench:
         "benchmarks/harmonic/bench.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=4000,
-        runtime=15,
     params:
         n=config["harmonic"]["bench"]["n_spheres"],
         td_steps=config["harmonic"]["bench"]["time_domain_steps"],

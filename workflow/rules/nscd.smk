@@ -30,10 +30,6 @@ rule nscd_verify:
         "benchmarks/nscd/verify.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1500,
-        runtime=20,
     params:
         freqs=plan.comma_list(config["nscd"]["verify"]["phase_frequencies_Hz"]),
         dts=plan.comma_list(config["nscd"]["verify"]["phase_dts_s"]),
@@ -56,10 +52,6 @@ rule nscd_bench:
         n=r"\d+",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=3000,
-        runtime=60,
     params:
         steps=config["nscd"]["bench"]["steps"],
         baseline=config["nscd"]["bench"]["baseline_steps"],
@@ -69,7 +61,7 @@ rule nscd_bench:
         kinematics=plan.bond_kinematics(config),
         bonded_contact=plan.bonded_contact(config),
     shell:
-        "NUMBA_NUM_THREADS=1 asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} "
+        "NUMBA_NUM_THREADS={threads} asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} --threads {threads} "
         "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
         "--settle-speed {params.settle_speed} "
         "--tolerance {params.tol} --bond-kinematics {params.kinematics} "
@@ -91,9 +83,5 @@ rule nscd_bench_summary:
         "benchmarks/nscd/bench_summary.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
     shell:
         "asphalt-nscd bench-summary {input} -o {output} 2> {log}"

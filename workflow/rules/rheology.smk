@@ -1,6 +1,6 @@
 # Rheology: Burger's calibration of the measured mix (Eqs. 27-29), the paper's Table 3 under the
-# chosen unit reading, its refit check, micro (bond) parameters (Eqs. 30-33, 8-11), and the
-# rheology figures (isotherms, Black diagram, Cole-Cole plane).
+# chosen unit reading, its refit check and the micro (bond)
+# parameters (Eqs. 30-33, 8-11). The rheology figures (asphalt-nscd plot-rheology) are in figures.smk.
 
 from asphalt_nscd.campaign import plan
 
@@ -20,10 +20,6 @@ rule fit_burgers:
         "benchmarks/calibration/fit_burgers.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     params:
         options=plan.calibration_fit_options(config),
         model=config["calibration"]["model"],
@@ -42,10 +38,6 @@ rule paper_table3:
         "benchmarks/calibration/paper_table3.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
     params:
         units=config["calibration"]["table3_units"],
     shell:
@@ -67,10 +59,6 @@ rule table3_refit_check:
         "benchmarks/calibration/table3_refit_check.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     params:
         options=plan.calibration_fit_options(config),
         frequencies=plan.spaced(config["calibration"]["refit_frequencies_Hz"]),
@@ -92,10 +80,6 @@ rule burgers_curves:
         table="burgers_parameters|paper_table3",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
     params:
         fmin=config["calibration"]["curves"]["fmin_Hz"],
         fmax=config["calibration"]["curves"]["fmax_Hz"],
@@ -122,10 +106,6 @@ rule micro_parameters:
         table="burgers_parameters|paper_table3",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
     params:
         r_min=plan.spaced(config["calibration"]["micro"]["r_min_mm"]),
         l0=plan.spaced(config["calibration"]["micro"]["l0_mm"]),
@@ -134,76 +114,3 @@ rule micro_parameters:
     shell:
         "asphalt-nscd micro --parameters {input} --r-min-mm {params.r_min} --l0-mm {params.l0} "
         "--nu {params.nu} --grain-mass-kg {params.mass} -o {output} 2> {log}"
-
-
-rule rheology_figures:
-    input:
-        summary="results/lab/measured_summary.csv",
-        curves="results/calibration/burgers_parameters_curves.csv",
-    output:
-        isotherms_modulus=report(
-            "results/calibration/figures/measured_isotherms-modulus.png",
-            caption="../report/calibration_isotherms_modulus.rst",
-            category="Calibration",
-        ),
-        isotherms_phase=report(
-            "results/calibration/figures/measured_isotherms-phase.png",
-            caption="../report/calibration_isotherms_phase.rst",
-            category="Calibration",
-        ),
-        black=report(
-            "results/calibration/figures/measured_black.png",
-            caption="../report/calibration_black.rst",
-            category="Calibration",
-        ),
-        cole_cole=report(
-            "results/calibration/figures/measured_cole-cole.png",
-            caption="../report/calibration_cole_cole.rst",
-            category="Calibration",
-        ),
-    log:
-        "logs/calibration/rheology_figures.log",
-    benchmark:
-        "benchmarks/calibration/rheology_figures.tsv"
-    conda:
-        "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
-    shell:
-        "asphalt-nscd plot-rheology --points 'measured (mean ± sd)={input.summary}' "
-        '--lines "Burger\'s fit={input.curves}" '
-        "--isotherms-modulus {output.isotherms_modulus} --isotherms-phase {output.isotherms_phase} "
-        "--black {output.black} --cole-cole {output.cole_cole} 2> {log}"
-
-
-rule paper_table3_figures:
-    input:
-        "results/calibration/paper_table3_curves.csv",
-    output:
-        modulus=report(
-            "results/calibration/figures/paper_table3_isotherms-modulus.png",
-            caption="../report/calibration_paper_table3.rst",
-            category="Calibration",
-        ),
-        phase=report(
-            "results/calibration/figures/paper_table3_isotherms-phase.png",
-            caption="../report/calibration_paper_table3.rst",
-            category="Calibration",
-        ),
-    log:
-        "logs/calibration/paper_table3_figures.log",
-    benchmark:
-        "benchmarks/calibration/paper_table3_figures.tsv"
-    conda:
-        "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
-    params:
-        units=config["calibration"]["table3_units"],
-    shell:
-        'asphalt-nscd plot-rheology --lines "paper Table 3 ({params.units} reading)={input}" '
-        "--isotherms-modulus {output.modulus} --isotherms-phase {output.phase} 2> {log}"

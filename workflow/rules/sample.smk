@@ -24,10 +24,6 @@ rule prepare_sample:
         seed=r"\d+",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=plan.sample_runtime_min(config),
     params:
         cfg=plan.sample_settings(config),
         bonded_contact=plan.bonded_contact(config),
@@ -52,15 +48,11 @@ rule prepare_bench:
         seed=r"\d+",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=plan.sample_runtime_min(config),
     params:
         cfg=plan.sample_settings(config),
         bonded_contact=plan.bonded_contact(config),
     shell:
-        "NUMBA_NUM_THREADS=1 asphalt-nscd prepare-bench --config-json {params.cfg:q} --seed {wildcards.seed}"
+        "NUMBA_NUM_THREADS={threads} asphalt-nscd prepare-bench --config-json {params.cfg:q} --seed {wildcards.seed}"
         " --bonded-contact {params.bonded_contact} -o {output} 2> {log}"
 
 
@@ -79,10 +71,6 @@ rule sample_table:
         "benchmarks/samples/table2_counts.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
     params:
         cfg=plan.sample_settings(config),
     shell:

@@ -57,6 +57,13 @@ DIAGNOSIS_INPUT_KEYS = ("simulated", "harmonic", "time_integration", "simulated_
 #: the lab summary the measured and extended modes compare with
 MEASURED_SUMMARY = "results/lab/measured_summary.csv"
 
+#: config keys that were resources, removed from the configs -> where the profiles set them now
+RESOURCE_KEYS = {
+    "campaign.job_runtime_min": "set-resources of run_2pb and crossval_time_domain, runtime",
+    "harmonic.compare.runtime_min": "set-resources of harmonic_compare, runtime",
+    "nscd.threads": "set-threads of nscd_bench, passed to `asphalt-nscd bench --threads`",
+}
+
 _CASE = re.compile(
     r"^(?P<T>-?[\d.]+)C_(?P<f>[\d.e+-]+)Hz(?:_dt(?P<dt>[\d.e+-]+)|_(?P<p>Em|eta_m|Ek|eta_k)x(?P<x>[\d.]+))?$"
 )
@@ -101,6 +108,22 @@ def section_schemas(config: dict, schema_dir) -> dict:
         if schema.exists():
             schemas[section] = str(schema)
     return schemas
+
+
+def reject_resource_keys(config: dict) -> None:
+    """Raise InputError if ``config`` holds a key of :data:`RESOURCE_KEYS`: threads and runtimes
+    are resources of the workflow profiles (profiles/default, profiles/slurm), not science, and
+    a config that still sets them would be silently ignored (docs/choices.md)."""
+    for key, where in RESOURCE_KEYS.items():
+        node = config
+        for part in key.split("."):
+            if not isinstance(node, dict) or part not in node:
+                break
+            node = node[part]
+        else:
+            raise InputError(f"config key {key} is a resource, not science: it moved to the workflow "
+                             f"profiles (profiles/default/config.yaml, profiles/slurm/config.yaml: "
+                             f"{where}); remove it from the config file")
 
 
 def _wildcard_function(func, config, *names):
@@ -234,11 +257,6 @@ def sample_settings(config: dict) -> str:
 def prepare_bench_file(config: dict) -> str:
     """The preparation benchmark: the first seed at the configuration's own size."""
     return f"results/bench/prepare_s{config['sample']['seeds'][0]}.json"
-
-
-def sample_runtime_min(config: dict) -> int:
-    """Runtime (min) of a sample preparation: 30 for reduced samples (scale < 0.9), else 24 h."""
-    return 30 if config["sample"]["scale"] < 0.9 else 24 * 60
 
 
 # ---------------------------------------------------------------------------------------------

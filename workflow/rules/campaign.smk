@@ -1,4 +1,4 @@
-# Numerical 2PB complex modulus test (paper Section 3.2.2), the campaign over samples x
+# Campaign (src/asphalt_nscd/campaign): the numerical 2PB complex modulus test (paper Section 3.2.2), the campaign over samples x
 # temperatures x frequencies in two modes, the time-step study, the sensitivity study and the
 # Table 3 units question (Sections 3.2-4). One job per (mode, sample, T, f[, variant]):
 #   results/sim/{mode}/{sample}/{T}C_{f}Hz[_dt{dt} | _{param}x{factor}].h5 (record) + .csv (row)
@@ -31,10 +31,6 @@ rule run_2pb:
         sample=r"s\d+",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=config["campaign"]["job_runtime_min"],
     params:
         source=plan.law_option_function(config),
         args=plan.case_options_function(config),
@@ -79,10 +75,6 @@ rule campaign_isotherms:
         mode=plan.ISOTHERM_MODES,
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     params:
         source=plan.law_option_function(config),
         options=plan.mode_options_function(config),
@@ -113,10 +105,6 @@ rule campaign_dt_study:
         "benchmarks/campaign/dt_study.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     params:
         units=config["calibration"]["table3_units"],
     shell:
@@ -145,10 +133,6 @@ rule campaign_last_cycle:
         "benchmarks/campaign/last_cycle.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     shell:
         "asphalt-nscd campaign-last-cycle --record {input.record} --figure-cycle {output.cycle}"
         " --figure-profile {output.profile} 2> {log}"
@@ -176,10 +160,6 @@ rule campaign_sensitivity:
         "benchmarks/campaign/sensitivity.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     params:
         units=config["calibration"]["table3_units"],
         T=config["campaign"]["sensitivity"]["temperature_C"],
@@ -208,10 +188,6 @@ rule campaign_units_question:
         "benchmarks/campaign/units_question.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
     params:
         T=config["campaign"]["units_question"]["temperature_C"],
         mass=config["calibration"]["micro"]["grain_mass_kg"],
@@ -241,10 +217,6 @@ rule campaign_dt_policy:
         mode="paper|measured",
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=20,
     params:
         units=plan.policy_units_option_function(config),
         T=plan.policy_temperature_function(config),

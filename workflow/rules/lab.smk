@@ -1,4 +1,4 @@
-# Lab data: validation of the measured complex-modulus table (tidy table + replicate summary
+# Lab data (src/asphalt_nscd/lab): validation of the measured complex-modulus table (tidy table + replicate summary
 # + its declared test geometry, results/lab/measured.test.json, read by the diagnosis)
 # and EN 12697-26 reduction (Eqs. 1-5) of raw 2PB records listed under lab.records.
 # Rerun one target: `snakemake --cores 1 results/lab/measured.csv --forcerun measured_table`.
@@ -28,10 +28,6 @@ rule measured_table:
         "benchmarks/lab/measured_table.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
     params:
         test=plan.measured_test_option,
     shell:
@@ -55,10 +51,6 @@ rule reduce_record:
         "benchmarks/lab/reduce_{record}.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=5,
     params:
         window_s=config["lab"]["window_s"],
     shell:

@@ -1,0 +1,85 @@
+# Figures and the report (src/asphalt_nscd/figures): the rheology figures of the measured mix and
+# of the paper's Table 3 (isotherms, Black diagram, Cole-Cole plane; asphalt-nscd plot-rheology),
+# and the report index: every figure and table of plan.report_files(config) collected into
+# results/report/ (asphalt-nscd collect-report); `snakemake --report` shows the same files with
+# their captions.
+
+from asphalt_nscd.campaign import plan
+
+
+rule rheology_figures:
+    input:
+        summary="results/lab/measured_summary.csv",
+        curves="results/calibration/burgers_parameters_curves.csv",
+    output:
+        isotherms_modulus=report(
+            "results/calibration/figures/measured_isotherms-modulus.png",
+            caption="../report/calibration_isotherms_modulus.rst",
+            category="Calibration",
+        ),
+        isotherms_phase=report(
+            "results/calibration/figures/measured_isotherms-phase.png",
+            caption="../report/calibration_isotherms_phase.rst",
+            category="Calibration",
+        ),
+        black=report(
+            "results/calibration/figures/measured_black.png",
+            caption="../report/calibration_black.rst",
+            category="Calibration",
+        ),
+        cole_cole=report(
+            "results/calibration/figures/measured_cole-cole.png",
+            caption="../report/calibration_cole_cole.rst",
+            category="Calibration",
+        ),
+    log:
+        "logs/calibration/rheology_figures.log",
+    benchmark:
+        "benchmarks/calibration/rheology_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    shell:
+        "asphalt-nscd plot-rheology --points 'measured (mean ± sd)={input.summary}' "
+        '--lines "Burger\'s fit={input.curves}" '
+        "--isotherms-modulus {output.isotherms_modulus} --isotherms-phase {output.isotherms_phase} "
+        "--black {output.black} --cole-cole {output.cole_cole} 2> {log}"
+
+
+rule paper_table3_figures:
+    input:
+        "results/calibration/paper_table3_curves.csv",
+    output:
+        modulus=report(
+            "results/calibration/figures/paper_table3_isotherms-modulus.png",
+            caption="../report/calibration_paper_table3.rst",
+            category="Calibration",
+        ),
+        phase=report(
+            "results/calibration/figures/paper_table3_isotherms-phase.png",
+            caption="../report/calibration_paper_table3.rst",
+            category="Calibration",
+        ),
+    log:
+        "logs/calibration/paper_table3_figures.log",
+    benchmark:
+        "benchmarks/calibration/paper_table3_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    params:
+        units=config["calibration"]["table3_units"],
+    shell:
+        'asphalt-nscd plot-rheology --lines "paper Table 3 ({params.units} reading)={input}" '
+        "--isotherms-modulus {output.modulus} --isotherms-phase {output.phase} 2> {log}"
+
+
+rule report_index:
+    input:
+        plan.report_files(config),
+    output:
+        plan.REPORT_INDEX,
+    log:
+        "logs/report/index.log",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    shell:
+        "asphalt-nscd collect-report {input} --out-dir results/report -o {output} 2> {log}"
