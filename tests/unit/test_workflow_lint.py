@@ -41,3 +41,74 @@ def test_rule_files_hold_no_python_logic():
         code = "\n".join(line.split("#")[0] for line in smk.read_text().splitlines())
         for word in ("def ", "lambda", "import re", "re.compile", "re.match"):
             assert word not in code, f"{smk.relative_to(REPO)}: {word.strip()!r} belongs in asphalt_nscd.campaign.plan"
+
+
+def _rules() -> dict:
+    """Rule name -> its rule file, for every rule of workflow/rules/*.smk."""
+    import re
+
+    rules = {}
+    for smk in sorted((REPO / "workflow" / "rules").glob("*.smk")):
+        for name in re.findall(r"^\s*rule (\w+):", smk.read_text(), flags=re.M):
+            rules[name] = smk.name
+    return rules
+
+
+def test_threads_and_resources_live_in_the_profiles():
+    """Every rule has its threads, mem_mb and runtime in both workflow profiles (profiles/default,
+    profiles/slurm) and none in its rule file; the profiles name no rule that does not exist."""
+    import yaml
+
+    rules = _rules()
+    assert len(rules) > 30
+    for smk in (REPO / "workflow" / "rules").glob("*.smk"):
+        code = "\n".join(line.split("#")[0] for line in smk.read_text().splitlines())
+        for word in ("threads:", "resources:"):
+            assert word not in code, f"{smk.name}: {word} belongs in profiles/default and profiles/slurm"
+    for profile in ("default", "slurm"):
+        cfg = yaml.safe_load((REPO / "profiles" / profile / "config.yaml").read_text())
+        assert set(cfg["set-threads"]) == set(rules), profile
+        assert set(cfg["set-resources"]) == set(rules), profile
+        for rule, res in cfg["set-resources"].items():
+            assert set(res) == {"mem_mb", "runtime"}, (profile, rule)
+        assert {"mem_mb", "runtime"} == set(cfg["default-resources"]), profile
+
+
+def _dry_run(tmp_path: Path, config: str) -> subprocess.CompletedProcess:
+    """`snakemake -n -p -F` of the repository's Snakefile in a fresh working directory."""
+    import os
+
+    for name in ("data", "config"):
+        (tmp_path / name).symlink_to(REPO / name)
+    env = dict(os.environ)
+    env["PATH"] = f"{BIN}{os.pathsep}{env.get('PATH', '')}"
+    return subprocess.run(
+        [str(BIN / "snakemake"), "-s", str(REPO / "Snakefile"), "--directory", str(tmp_path),
+         "-n", "-p", "-F", "--configfile", config],
+        cwd=tmp_path, capture_output=True, text=True, env=env, timeout=600,
+    )
+
+
+def test_default_profile_reaches_the_jobs_from_any_directory(tmp_path):
+    """Started from another directory with -s, Snakemake still loads profiles/default beside the
+    Snakefile: its per-rule resources reach the jobs and nscd_bench's threads reach the command."""
+    proc = _dry_run(tmp_path, "config/smoke.yaml")
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out[-6000:]
+    assert f"workflow specific profile {REPO / 'profiles' / 'default'}" in out
+    block = out[out.index("rule nscd_bench:"):]
+    block = block[: block.index("\n\n")]
+    assert "runtime=60" in block and "mem_mb=3000" in block
+    assert "NUMBA_NUM_THREADS=1 asphalt-nscd bench" in block and " --threads 1 " in block
+
+
+def test_config_with_a_former_resource_key_is_rejected_with_its_new_place(tmp_path):
+    import yaml
+
+    cfg = yaml.safe_load((REPO / "config" / "smoke.yaml").read_text())
+    cfg["campaign"]["job_runtime_min"] = 10
+    (tmp_path / "old.yaml").write_text(yaml.safe_dump(cfg))
+    proc = _dry_run(tmp_path, str(tmp_path / "old.yaml"))
+    out = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert "campaign.job_runtime_min" in out and "profiles/default/config.yaml" in out

@@ -16,6 +16,7 @@ PROFILE = REPO / "profiles" / "slurm"
 
 
 def test_profile_uses_slurm_executor_with_per_rule_resources():
+    """(Every rule's entries in both profiles: tests/unit/test_workflow_lint.py.)"""
     cfg = yaml.safe_load((PROFILE / "config.yaml").read_text())
     assert cfg["executor"] == "slurm"
     assert {"mem_mb", "runtime"} <= set(cfg["default-resources"])
@@ -39,7 +40,7 @@ def test_dry_run_with_slurm_profile_builds_dag(tmp_path, config):
     env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), str(tools)])
     assert shutil.which("sbatch", path=env["PATH"]) is None
     cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(tmp_path),
-           "-n", "--profile", str(PROFILE), "--configfile", config]
+           "-n", "--workflow-profile", str(PROFILE), "--configfile", config]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-6000:]
@@ -49,3 +50,9 @@ def test_dry_run_with_slurm_profile_builds_dag(tmp_path, config):
     block = out[out.index("rule fit_burgers:"):]
     block = block[: block.index("\n\n")] if "\n\n" in block else block
     assert "runtime=20" in block and "mem_mb=2000" in block
+    # the SLURM workflow profile replaces profiles/default; a 2PB job's limit is the paper-scale
+    # expression 240 * attempt, evaluated at the first attempt
+    assert f"workflow specific profile {PROFILE}" in out and "profiles/default" not in out
+    block = out[out.index("rule run_2pb:"):]
+    block = block[: block.index("\n\n")] if "\n\n" in block else block
+    assert "runtime=240" in block and "mem_mb=2000" in block
