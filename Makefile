@@ -1,5 +1,6 @@
 # Two entry points (see README): `make run` and `make test`.
 # Both create .venv with Python 3.11 if missing and install the pinned dependencies.
+# Threads and resources of the rules: profiles/default/config.yaml, which Snakemake loads by itself.
 PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
