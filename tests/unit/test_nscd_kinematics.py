@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from asphalt_nscd.harmonic.network import lattice_sample, read_sample, write_sample
+from asphalt_nscd.harmonic.network import network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample
+from asphalt_nscd.sample.store import read_sample, write_sample
 from asphalt_nscd.harmonic.response import harmonic_rows
 from asphalt_nscd.harmonic.solver import HarmonicSystem
 from asphalt_nscd.harmonic.timedomain import time_domain_row
@@ -78,9 +80,9 @@ def test_bonded_cantilever_matches_the_harmonic_solver(tmp_path, head_rotation):
     """A 12-sphere column (lattice 1 x 1 x 12 cells, bonded to both plates) bent by the head
     at 3 Hz: time domain (contact kinematics) vs the harmonic solver, same options."""
     path = tmp_path / "column.h5"
-    write_sample(path, **lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
+    write_sample(path, lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
     options = {"bond_kinematics": "contact", "head_rotation": head_rotation}
-    system = HarmonicSystem(read_sample(path), **options)
+    system = HarmonicSystem(network_from_sample(read_sample(path)), **options)
     ref = harmonic_rows(system, LAW_30, 30.0, [3.0], GEOMETRY, inertia="full",
                         solver="direct")[0]
     td = time_domain_row(path, LAW_30, 3.0, GEOMETRY, 1e-4, **options)
@@ -91,7 +93,7 @@ def test_bonded_cantilever_matches_the_harmonic_solver(tmp_path, head_rotation):
 
 def test_free_head_is_softer_than_clamped_and_barycentre(tmp_path):
     path = tmp_path / "column.h5"
-    write_sample(path, **lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
+    write_sample(path, lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
     e = {}
     for kin, head in (("contact", "free"), ("contact", "clamped"), ("barycentre", "clamped")):
         e[kin, head] = time_domain_row(path, LAW_30, 10.0, GEOMETRY, 2e-4, bond_kinematics=kin,

@@ -2,7 +2,7 @@
 
 :func:`measure_step_cost` times ``n_steps`` steps of the 2PB test (Moreau-Jean, bonds of the
 paper's Table 3 at 15 degC read in Pa) on a sample file, or on a bonded lattice sample of
-``n_spheres`` spheres (:func:`asphalt_nscd.harmonic.network.lattice_sample`, the stand-in of
+``n_spheres`` spheres (:func:`asphalt_nscd.sample.lattice.lattice_sample`, the stand-in of
 a prepared sample with 6-12 bonds per sphere) after ``warmup`` steps (numba compilation).
 
 The cost of a step is not the same in every job: the conjugate gradient of the linear fast
@@ -44,14 +44,14 @@ def measure_step_cost(sample_path=None, n_spheres: int = 2000, n_steps: int = 20
     import tempfile
     from pathlib import Path
 
-    from ..harmonic.network import lattice_sample, write_sample
-    from ..sample.store import read_sample
+    from ..sample.lattice import lattice_sample
+    from ..sample.store import read_sample, write_sample
 
     settings = settings or TwoPBSettings()
     with tempfile.TemporaryDirectory() as tmp:
         if sample_path is None:
             sample_path = Path(tmp) / "lattice.h5"
-            write_sample(sample_path, **lattice_sample(n_spheres, seed=seed, radius_range=(0.9e-3, 1.6e-3)))
+            write_sample(sample_path, lattice_sample(n_spheres, seed=seed, radius_range=(0.9e-3, 1.6e-3)))
         sample = read_sample(sample_path)
     dt = time_step(frequency_Hz, settings)
     sim, _ = build_simulation(sample, LAW_15C_PA, frequency_Hz, dt, settings)

@@ -288,6 +288,7 @@ def _run(args) -> int:
     import pandas as pd
 
     from ..io import InputError, write_csv
+    from ..rheology.calibration import burgers_model
     from . import study, twopb
 
     settings = _settings(args)
@@ -308,16 +309,14 @@ def _run(args) -> int:
     else:
         table = study.parameter_table(args.parameters, args.table3_units)
         params = study.parameters_at(table, args.temperature, factors, where=args.parameters)
-        law = study.law_of(params)
+        law = burgers_model(params)
     name = args.sample_name or Path(args.sample).stem
     if args.network_factor_json is not None:
-        from ..harmonic.transfer import read_transfer_json
+        from ..harmonic.transfer import corrected_law
 
-        transfer = read_transfer_json(args.network_factor_json, sample=name,
-                                      bond_kinematics=settings.bond_kinematics,
-                                      head_rotation=settings.head_rotation, nu=settings.nu)
-        nf = transfer["network_factor"]
-        law = law.scaled(1.0 / nf)  # bonds calibrated with E*(w) / NF_s: the whole complex modulus
+        law, nf = corrected_law(law, args.network_factor_json, sample=name,
+                                bond_kinematics=settings.bond_kinematics,
+                                head_rotation=settings.head_rotation, nu=settings.nu)
         params = {**params, "transfer_network_factor": nf, "transfer_json": str(args.network_factor_json)}
     meta = {"mode": args.mode, "sample": name, "temperature_C": args.temperature,
             "table3_units": args.table3_units or "", "variant": ";".join(args.factor) or "base",
@@ -355,7 +354,9 @@ def _isotherms(args) -> int:
         model = "Burger's"
     points = None
     if args.measured_summary:
-        summary = pd.read_csv(args.measured_summary)
+        from ..lab.measured import read_summary
+
+        summary = read_summary(args.measured_summary)
         ref = study.measured_reference(summary)
         points = summary[summary["temperature_C"].isin(temps)]
         label = "measured (mean ± sd)"

@@ -96,10 +96,11 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError, atomic_path, check_termination, remove_stale_temporaries
+from ..nscd.state import BOND_KINEMATICS, HEAD_ROTATIONS
+from ..rheology.laws import POISSON_RATIO
 from .periodic import START_MODES
 
 DT_POLICIES = ("fixed", "steps_per_cycle")
-HEAD_ROTATIONS = ("free", "clamped")
 FORCE_READINGS = ("bonds", "driver")
 #: per-step statistics stored under ``stats/``
 STAT_KEYS = ("iterations", "residual_quad", "residual_max", "converged", "n_contacts",
@@ -144,7 +145,7 @@ class TwoPBSettings:
     max_iterations: int = 500
     friction: float = 0.7
     gravity: bool = False
-    nu: float = 0.35
+    nu: float = POISSON_RATIO
     yield_stress_Pa: float | None = 2.7e6
     force_reading: str = "bonds"
     checkpoint_every: int = 5000
@@ -165,8 +166,8 @@ class TwoPBSettings:
         if self.head_rotation not in HEAD_ROTATIONS:
             raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
                              f"got {self.head_rotation!r}")
-        if self.bond_kinematics not in ("contact", "barycentre"):
-            raise ValueError(f"bond_kinematics must be 'contact' or 'barycentre', "
+        if self.bond_kinematics not in BOND_KINEMATICS:
+            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
                              f"got {self.bond_kinematics!r}")
         if self.dt_policy not in DT_POLICIES:
             raise ValueError(f"dt_policy must be one of {DT_POLICIES}, got {self.dt_policy!r}")
@@ -240,37 +241,21 @@ class HeadMotion:
 
 
 def specimen_of(sample) -> "Specimen2PB":  # noqa: F821
-    """EN 12697-26 specimen of a sample: scaled geometry from the root attributes
-    ``b_m, B_m, e_m, h_m`` when present (else the standard trapezoid), M = sum of the sphere
-    masses, m = top-plate mass (kg)."""
+    """EN 12697-26 specimen of a sample: the scaled geometry of the sample store
+    (:func:`asphalt_nscd.sample.store.specimen_geometry_mm`), M = sum of the sphere masses,
+    m = top-plate mass (kg)."""
     from ..lab.en12697 import Specimen2PB
+    from ..sample.store import specimen_geometry_mm
 
-    geo = {}
-    if all(k in sample.attrs for k in ("b_m", "B_m", "e_m", "h_m")):
-        geo = {f"{k[0]}_mm": float(sample.attrs[k]) * 1e3 for k in ("b_m", "B_m", "e_m", "h_m")}
-    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **geo)
-
-
-def head_inertia_of(sample) -> np.ndarray:
-    """Principal moments of inertia (3,) kg m² of the head about ``plates/point[1]``: the
-    harmonic model's steel cuboid (module docstring)."""
-    from ..harmonic.network import contact_points, head_inertia
-
-    if "b_m" in sample.attrs and "e_m" in sample.attrs:
-        size = (float(sample.attrs["b_m"]), float(sample.attrs["e_m"]))
-    else:
-        i = np.asarray(sample.bonds["i"])
-        j = np.asarray(sample.bonds["j"])
-        c = contact_points(sample.position, sample.radius, sample.plate_normal, i, j,
-                           np.asarray(sample.bonds["l0"]))[j == -2]
-        size = tuple(np.ptp(c[:, :2], axis=0)) if len(c) else (0.0, 0.0)
-    return head_inertia(float(sample.plate_mass[1]), *map(float, size))
+    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]),
+                       **specimen_geometry_mm(sample))
 
 
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
     """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
     fixed, top plate driven by :class:`HeadMotion` (and free to rotate when
-    ``settings.head_rotation == 'free'``, inertia :func:`head_inertia_of`), bonds with the
+    ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid,
+    :mod:`asphalt_nscd.harmonic.network`), bonds with the
     macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``.
     Returns (Simulation, HeadMotion).
 
@@ -287,7 +272,9 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
     head = {}
     if settings.head_rotation == "free":
-        inertia = head_inertia_of(sample)
+        from ..harmonic.network import network_from_sample
+
+        inertia = network_from_sample(sample).plate_inertia
         if not np.all((inertia > 0) & np.isfinite(inertia)):
             raise InputError(f"head_rotation 'free': the head has no positive finite rotational "
                              f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "

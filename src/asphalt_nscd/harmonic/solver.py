@@ -154,13 +154,12 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from ..nscd.linear import PermutedLU, splu_symmetric
-from ..rheology.laws import tangential_ratio
+from ..nscd.state import BOND_KINEMATICS, HEAD_ROTATIONS
+from ..rheology.laws import POISSON_RATIO, tangential_ratio
 from .network import BondNetwork
 from .ordering import ORDERINGS, nested_dissection
 
 INERTIA_MODES = ("none", "full")
-BOND_KINEMATICS = ("contact", "barycentre")
-HEAD_ROTATIONS = ("free", "clamped")
 #: Relative stiffness eps of the regularising rotational bond spring (module docstring).
 ROTATIONAL_REGULARISATION = 1e-10
 SOLVERS = ("reuse", "direct")
@@ -260,7 +259,7 @@ class HarmonicSystem:
         on an unknown option, negative ``regularisation``, or ``contact`` without radii.
     """
 
-    def __init__(self, network: BondNetwork, nu: float = 0.35,
+    def __init__(self, network: BondNetwork, nu: float = POISSON_RATIO,
                  bond_kinematics: str = "contact", head_rotation: str = "free",
                  regularisation: float = ROTATIONAL_REGULARISATION, ordering: str = "metis"):
         if bond_kinematics not in BOND_KINEMATICS:

@@ -11,7 +11,8 @@ State::
           displacement=callable t -> (3,) | (times (T,), disp (T,3)),   # driven plates
           rotation=False, inertia=inf (scalar or (3,) kg m², about point))  # free rotation
     Plates([Plate, ...])   # infinite planes; .angular_velocity, .rotation (P,3) if rotating
-    Bonds.create(spheres, plates, i, j, law: GeneralizedBurgers, nu=0.35, yield_stress=2.7e6)
+    Bonds.create(spheres, plates, i, j, law: GeneralizedBurgers, nu=POISSON_RATIO (0.35, rheology.laws),
+                 yield_stress=2.7e6)
         # j = sphere index or -1-k for plate k; rest state = current configuration
     NSCDParameters(dt, theta=0.5, gravity=(0,0,-9.81), friction=0.7, tolerance=1e-6,
                    convergence='quad'|'max'|'both', max_iterations=2000, relaxation=1.0,

@@ -12,7 +12,7 @@
 -o bench.json`` runs one benchmark.
 """
 
-from .state import BONDED_CONTACT
+from .state import BOND_KINEMATICS, BONDED_CONTACT
 
 
 def register(subparsers) -> None:
@@ -47,7 +47,7 @@ def register(subparsers) -> None:
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--linear-tolerance", type=float, default=1e-7,
                    help="relative residual of the conjugate gradient (bonded case)")
-    b.add_argument("--bond-kinematics", choices=["contact", "barycentre"], default="contact",
+    b.add_argument("--bond-kinematics", choices=list(BOND_KINEMATICS), default="contact",
                    help="where the bonds act (bonded case; NSCDParameters.bond_kinematics)")
     b.add_argument("--linear-solver", choices=["cg", "cg_ssor"], default="cg",
                    help="conjugate gradient of the bonded case: block-Jacobi (cg) or SSOR "

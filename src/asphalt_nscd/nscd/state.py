@@ -31,8 +31,12 @@ PLATE_MODES = {"fixed": FIXED, "free": FREE, "driven": DRIVEN}
 #: NLGS convergence norms (gauss_seidel.nlgs): quadratic mean, maximum, both.
 CONVERGENCE_NORMS = {"quad": 0, "max": 1, "both": 2}
 
-#: Bond kinematics (NSCDParameters.bond_kinematics, Bonds).
+#: Bond kinematics (NSCDParameters.bond_kinematics, Bonds; also the harmonic solver's).
 BOND_KINEMATICS = ("contact", "barycentre")
+
+#: Head (top plate) rotation of the 2PB test: free to rotate (a Plate with ``rotation=True``)
+#: or clamped (translation only); the campaign's and the harmonic solver's option.
+HEAD_ROTATIONS = ("free", "clamped")
 
 #: Contact of an intact bonded pair (NSCDParameters.bonded_contact).
 BONDED_CONTACT = ("after_break", "open_at_bonding", "always")

@@ -47,7 +47,7 @@ import numpy as np
 import pandas as pd
 import scipy.linalg
 
-from ..rheology.laws import GeneralizedBurgers, bond_scale, tangential_ratio
+from ..rheology.laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tangential_ratio
 from .moreau_jean import Simulation
 from .state import Bonds, NSCDParameters, Plate, Plates, Spheres
 
@@ -84,7 +84,7 @@ def _pair(mass1, inertia1=None, law=LAW_15C, gap_axis=0):
     return s, b
 
 
-def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = 0.35,
+def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = POISSON_RATIO,
              r_min: float = R_SPHERE, l0: float = L0) -> GeneralizedBurgers:
     """Micro law (N/m, N s/m) of a bond of the verification geometry (Eqs. 30-33, 8-11)."""
     a = float(bond_scale(r_min, l0)) * (tangential_ratio(nu) if tangential else 1.0)
