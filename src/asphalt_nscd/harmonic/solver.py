@@ -396,15 +396,6 @@ class HarmonicSystem:
             return np.zeros((0, 6, 6), entry.dtype)
         return np.add.reduceat(entry[self._order], self._starts, axis=0)
 
-    def bond_stiffness(self, law, omega: float) -> tuple[np.ndarray, np.ndarray]:
-        """Complex normal and tangential stiffness of every bond, (B,) each, N/m.
-
-        k_n = a_b E*(w) (Eqs. 30-33), k_t = k_n / (2 (1 + nu)) (Eqs. 8-11).
-        """
-        e = complex(law.complex_modulus(omega))
-        kn = self.network.scale * e
-        return kn, kn * self.t_ratio
-
     def blocks(self, kn, kt) -> dict:
         """Sparse blocks ff, fp, pf, pp of K(w) for per-bond stiffnesses kn, kt (B,) N/m.
 

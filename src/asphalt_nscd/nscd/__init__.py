@@ -18,7 +18,6 @@ State::
                    convergence='quad'|'max'|'both', max_iterations=2000, relaxation=1.0,
                    alert_distance=None, fast_path=True, linear_solver='cg'|'direct',
                    linear_tolerance=1e-10, bond_kinematics='contact'|'barycentre')
-    NSCDParameters.from_config(config['nscd'], dt, friction, gravity)
 
 Time stepping::
 

@@ -458,19 +458,6 @@ class Simulation:
         bP[:] = P_try
         return True
 
-    # ------------------------------------------------------------------ energy
-    def kinetic_energy(self) -> float:
-        """Kinetic energy of the mobile spheres and free plates, J."""
-        s = self.spheres
-        fin = np.isfinite(s.mass)
-        e = 0.5 * (s.mass[fin] * (s.velocity[fin] ** 2).sum(1)).sum()
-        e += 0.5 * (s.inertia[fin] * (s.angular_velocity[fin] ** 2).sum(1)).sum()
-        free = self.plates.mode == FREE
-        e += 0.5 * (self.plates.mass[free] * (self.plates.velocity[free] ** 2).sum(1)).sum()
-        rp = self.plates.rotates
-        e += 0.5 * (self.plates.inertia[rp] * self.plates.angular_velocity[rp] ** 2).sum()
-        return float(e)
-
     # ------------------------------------------------------------------ checkpoint
     def save_checkpoint(self, path) -> None:
         """Write the full state to HDF5 (see checkpoint.py)."""

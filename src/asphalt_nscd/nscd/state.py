@@ -496,15 +496,6 @@ class NSCDParameters:
             raise ValueError("friction >= 0, tolerance > 0 and max_iterations >= 1 required")
         self.gravity = np.asarray(self.gravity, dtype=float).reshape(3)
 
-    @classmethod
-    def from_config(cls, section: dict, dt: float, friction: float,
-                    gravity=(0.0, 0.0, -9.81)) -> "NSCDParameters":
-        """Parameters from the ``nscd`` section of the workflow config (solver keys) and
-        the run's own dt (s), friction and gravity (m/s²)."""
-        keys = ("theta", "tolerance", "convergence", "max_iterations", "relaxation", "fast_path",
-                "linear_solver", "linear_tolerance", "bond_kinematics", "threads", "bonded_contact")
-        return cls(dt=dt, friction=friction, gravity=gravity,
-                   **{k: section[k] for k in keys if k in section})
 
 
 @dataclass
