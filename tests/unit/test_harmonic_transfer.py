@@ -15,7 +15,7 @@ from asphalt_nscd.sample.lattice import lattice_sample
 from asphalt_nscd.sample.store import read_sample, specimen_geometry_mm, write_sample
 from asphalt_nscd.harmonic.response import harmonic_rows
 from asphalt_nscd.harmonic.solver import HarmonicSystem
-from asphalt_nscd.harmonic.transfer import network_factor, read_transfer_json, unit_elastic_law
+from asphalt_nscd.harmonic.transfer import corrected_law, network_factor, read_transfer_json, unit_elastic_law
 from asphalt_nscd.io import InputError
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
@@ -112,6 +112,17 @@ def test_transfer_json_must_match_the_run(transfer, tmp_path):
             read_transfer_json(transfer, **kw)
     with pytest.raises(InputError, match="nope.json: cannot read"):
         read_transfer_json(tmp_path / "nope.json")
+
+
+
+def test_corrected_law_divides_the_complex_modulus_by_the_network_factor(transfer):
+    nf = read_transfer_json(transfer)["network_factor"]
+    law, got = corrected_law(LAWS[1], transfer, sample="s1", bond_kinematics="contact", head_rotation="free", nu=0.35)
+    assert got == nf and nf != 1.0
+    for omega in (0.3, 60.0):
+        assert law.complex_modulus(omega) == pytest.approx(LAWS[1].complex_modulus(omega) / nf, rel=1e-12)
+    with pytest.raises(InputError, match="key 'sample'"):
+        corrected_law(LAWS[1], transfer, sample="s2")
 
 
 SETTINGS = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40, "dt_max_s": 1.0,

@@ -11,6 +11,9 @@ from asphalt_nscd.nscd import (Bonds, NSCDParameters, Plate, Plates, Simulation,
 from asphalt_nscd.nscd import detection
 from asphalt_nscd.nscd.verify import LAW_15C
 
+#: every test here also runs as Python (tests/unit/test_nscd_kernels_python.py)
+pytestmark = pytest.mark.kernels
+
 R = 2e-3
 RHO = 2600.0
 

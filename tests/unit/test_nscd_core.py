@@ -9,6 +9,9 @@ from asphalt_nscd.nscd.delassus import contact_blocks
 from asphalt_nscd.nscd.detection import detect_contacts
 from asphalt_nscd.nscd.verify import LAW_15C, random_bonded_network
 
+#: every test here also runs as Python (tests/unit/test_nscd_kernels_python.py)
+pytestmark = pytest.mark.kernels
+
 
 def dense_delassus(n_spheres, ci, cj, frames, radius, inv_mass, inv_inertia,
                    inv_mass_plate, rotation=True) -> np.ndarray:
@@ -153,6 +156,7 @@ def test_checkpoint_restart_is_exact(tmp_path):
 def test_bonds_create_micro_parameters():
     s = Spheres(position=[[0, 0, 0], [0.005, 0, 0]], radius=[0.002, 0.0015], mass=[1, 1],
                 inertia=[1, 1])
+
     b = Bonds.create(s, Plates([]), [1], [0], LAW_15C)
     a = np.pi * 0.0015**2 / 0.005
     assert b.Km[0, 0] == pytest.approx(LAW_15C.Em * a)

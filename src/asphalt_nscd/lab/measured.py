@@ -79,8 +79,8 @@ def _numeric_column(path, frame: pd.DataFrame, column: str, ranges: dict, allow_
     Raises InputError naming the file, the line and the column on a non-numeric or missing
     value (unless ``allow_nan``) or a value out of range."""
     raw = frame[column]
-    text = raw.str.strip() if raw.dtype == object else raw.astype(str)
-    values = pd.to_numeric(text if raw.dtype == object else raw, errors="coerce").to_numpy(dtype=float)
+    text = pd.Series([str(v).strip() for v in raw], index=raw.index, dtype=object)
+    values = pd.to_numeric(raw if pd.api.types.is_numeric_dtype(raw) else text, errors="coerce").to_numpy(dtype=float)
     check, expected = ranges[column]
     for i in range(len(values)):
         if not np.isfinite(values[i]) and not (allow_nan and np.isnan(values[i])
