@@ -27,6 +27,7 @@ import time
 
 import numpy as np
 
+from ..io import InputError
 from ..rheology.laws import GeneralizedBurgers
 from .twopb import TwoPBSettings, build_simulation, n_steps_of, time_step
 
@@ -240,3 +241,26 @@ def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_
             "s_per_step": s_per_step if not callable(s_per_step) else "per job class",
             "overhead_s": overhead_s, "prepare_s_per_sample": prepare_s_per_sample,
             "n_steps_total": int(sum(j["n_steps"] * j["n_samples"] for j in jobs))}
+
+
+def read_prepare_seconds(path, key: str) -> float:
+    """Preparation time of one sample, s: the number at the dotted ``key`` (e.g.
+    ``timings_s.total``) of the JSON at ``path`` (a sample summary of ``prepare-sample``).
+
+    Raises
+    ------
+    InputError
+        naming the file and the key: unreadable or not JSON, the key absent (with the keys
+        available where it stops), or its value not a number >= 0.
+    """
+    from ..io import read_json
+
+    obj = read_json(path, "preparation JSON")
+    for part in key.split("."):
+        if not isinstance(obj, dict) or part not in obj:
+            keys = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
+            raise InputError(f"{path}: key {key!r} not found (at {part!r}; available: {keys})")
+        obj = obj[part]
+    if isinstance(obj, bool) or not isinstance(obj, (int, float)) or not obj >= 0:
+        raise InputError(f"{path}: key {key!r}: expected a time in s >= 0, got {obj!r}")
+    return float(obj)

@@ -207,6 +207,45 @@ def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", l
     return cfg
 
 
+def settings_from(cfg: dict, where: str = "--settings-json") -> TwoPBSettings:
+    """:class:`TwoPBSettings` from a dict of its fields (e.g. :func:`mode_settings` updated by
+    the command line's JSON).
+
+    Raises
+    ------
+    InputError
+        naming ``where``: an unknown key (with the known ones), or a value the settings reject.
+    """
+    names = set(TwoPBSettings.__dataclass_fields__)
+    unknown = sorted(set(cfg) - names)
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {unknown}; expected some of {sorted(names)}")
+    try:
+        return TwoPBSettings(**cfg)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{where}: {exc}") from exc
+
+
+def read_config(path) -> dict:
+    """The workflow config (YAML) at ``path``, which must hold a ``campaign`` section.
+
+    Raises
+    ------
+    InputError
+        naming the file: unreadable, not YAML, not a mapping, or without ``campaign``.
+    """
+    import yaml
+
+    try:
+        with open(path) as fh:
+            cfg = yaml.safe_load(fh)
+    except (OSError, yaml.YAMLError) as exc:
+        raise InputError(f"{path}: cannot read the config ({exc})") from exc
+    if not isinstance(cfg, dict) or "campaign" not in cfg:
+        raise InputError(f"{path}: no 'campaign' section")
+    return cfg
+
+
 def time_step(frequency_Hz: float, settings: TwoPBSettings) -> float:
     """Time step (s) of a test at ``frequency_Hz`` under the settings' dt policy."""
     if settings.dt_policy == "fixed":
