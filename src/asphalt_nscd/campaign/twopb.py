@@ -96,7 +96,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError, atomic_path, check_termination, remove_stale_temporaries
-from ..nscd.state import BOND_KINEMATICS, HEAD_ROTATIONS
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
 from ..rheology.laws import POISSON_RATIO
 from .periodic import START_MODES
 
@@ -133,7 +133,7 @@ class TwoPBSettings:
         are reduced).
     """
 
-    amplitude_m: float = 63e-6
+    amplitude_m: float = HEAD_AMPLITUDE_M
     n_cycles: float = 5.0
     window_cycles: float = 1.0
     dt_policy: str = "fixed"
@@ -146,7 +146,7 @@ class TwoPBSettings:
     friction: float = 0.7
     gravity: bool = False
     nu: float = POISSON_RATIO
-    yield_stress_Pa: float | None = 2.7e6
+    yield_stress_Pa: float | None = YIELD_STRESS
     force_reading: str = "bonds"
     checkpoint_every: int = 5000
     profile_bins: int = 10
@@ -407,7 +407,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     ------
     InputError if the sample file is missing or malformed.
     """
-    from ..nscd import Simulation
+    from ..nscd import read_checkpoint, write_checkpoint
     from ..sample.store import read_sample
 
     output = Path(output)
@@ -431,7 +431,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
             arrays = {k: z[k].copy() for k in z.files}
         if str(arrays.pop("key")) == key:
             motion = HeadMotion(settings.amplitude_m, frequency_Hz)
-            sim = Simulation.load_checkpoint(ckpt, drivers=[None, motion])
+            sim = read_checkpoint(ckpt, drivers=[None, motion])
             start_info = json.loads(str(arrays["start_info"]))
             print(f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True,
                   file=sys.stderr)
@@ -481,7 +481,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
             with atomic_path(partial) as tmp:
                 with open(tmp, "wb") as fh:
                     np.savez(fh, key=np.array(key), **arrays)
-            sim.save_checkpoint(ckpt)
+            write_checkpoint(sim, ckpt)
             if stop_after is not None and done == stop_after:
                 bar.close()
                 return None

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from ..rheology.calibration import burgers_model
+from ..nscd.state import HEAD_AMPLITUDE_M
 from ..rheology.laws import POISSON_RATIO
 from .response import PARAM_COLUMNS, harmonic_rows
 
@@ -312,7 +313,7 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
         f = float(frequencies_Hz[0])
         omega = 2 * np.pi * f
         s = omega**2 / complex(law.complex_modulus(omega))
-        up = np.array([63e-6, 0.0, 0.0], complex)
+        up = np.array([HEAD_AMPLITUDE_M, 0.0, 0.0], complex)
         rhs = -(ref["fp"] @ up)
         m = system.mass_free
         t0 = time.perf_counter()
@@ -383,7 +384,7 @@ def _time_domain_step_time(sample, law, frequency_Hz, dt, n_steps) -> float:
     w = 2 * np.pi * frequency_Hz
     plates = Plates([Plate(point[0], normal[0], mode="fixed"),
                      Plate(point[1], normal[1], mode="driven", mass=m_top,
-                           displacement=lambda t: (63e-6 * np.sin(w * t), 0.0, 0.0))])
+                           displacement=lambda t: (HEAD_AMPLITUDE_M * np.sin(w * t), 0.0, 0.0))])
     sim = Simulation(spheres, plates, Bonds.create(spheres, plates, bi, bj, law),
                      NSCDParameters(dt=dt, gravity=(0.0, 0.0, 0.0)))
     sim.step()  # JIT compilation and first factorisation excluded

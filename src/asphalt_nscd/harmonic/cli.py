@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..nscd.state import BOND_KINEMATICS, HEAD_ROTATIONS
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS
 from ..rheology.laws import POISSON_RATIO
 
 
@@ -44,7 +44,7 @@ def _add_law_options(p, temperature_required: bool = False, bond_kinematics: str
     p.add_argument("--temperature", type=float, nargs="+" if not temperature_required else 1,
                    required=temperature_required, default=[],
                    help="temperatures, degC (default: every row of --parameters)")
-    p.add_argument("--amplitude-m", type=float, default=63e-6, help="head amplitude A, m (63e-6)")
+    p.add_argument("--amplitude-m", type=float, default=HEAD_AMPLITUDE_M, help=f"head amplitude A, m ({HEAD_AMPLITUDE_M})")
     p.add_argument("--nu", type=float, default=POISSON_RATIO,
                    help=f"Poisson's ratio of Eqs. 8-11 ({POISSON_RATIO})")
     _add_kinematics_options(p, bond_kinematics, head_rotation)
@@ -127,7 +127,7 @@ def register(subparsers) -> None:
     p.add_argument("--temperature", type=float, nargs="+", default=[],
                    help="temperatures, degC (default: every row of --parameters)")
     p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
-    p.add_argument("--amplitude-m", type=float, default=63e-6, help="head amplitude A, m (63e-6)")
+    p.add_argument("--amplitude-m", type=float, default=HEAD_AMPLITUDE_M, help=f"head amplitude A, m ({HEAD_AMPLITUDE_M})")
     p.add_argument("--nu", type=float, default=POISSON_RATIO,
                    help=f"Poisson's ratio of Eqs. 8-11 ({POISSON_RATIO})")
     p.add_argument("--inertia", choices=["full", "none"], nargs="+", default=["none", "full"],

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError
+from ..nscd.state import HEAD_AMPLITUDE_M
 from .solver import HarmonicSystem
 
 #: Paper frequencies of the campaign, Hz.
@@ -41,7 +42,7 @@ def specimen_for(system: HarmonicSystem, geometry_mm: dict):
 
 
 def harmonic_rows(system: HarmonicSystem, law, temperature_C: float, frequencies_Hz,
-                  geometry_mm: dict, amplitude: float = 63e-6, inertia: str = "full",
+                  geometry_mm: dict, amplitude: float = HEAD_AMPLITUDE_M, inertia: str = "full",
                   solver: str = "reuse", rtol: float = 1e-12) -> list[dict]:
     """Reduced complex-modulus rows of the sample at one temperature.
 

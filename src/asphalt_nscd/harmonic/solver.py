@@ -154,7 +154,7 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from ..nscd.linear import PermutedLU, splu_symmetric
-from ..nscd.state import BOND_KINEMATICS, HEAD_ROTATIONS
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS
 from ..rheology.laws import POISSON_RATIO, tangential_ratio
 from .network import BondNetwork
 from .ordering import ORDERINGS, nested_dissection
@@ -497,7 +497,7 @@ class HarmonicSystem:
         self._shifted[sigma] = lu
         return lu, sigma, False
 
-    def solve(self, kn, kt, omega: float, amplitude: float = 63e-6,
+    def solve(self, kn, kt, omega: float, amplitude: float = HEAD_AMPLITUDE_M,
               inertia: str = "full", omega2: complex | None = None) -> HarmonicSolution:
         """Steady state for per-bond stiffnesses kn, kt (B,) complex N/m at w (rad/s).
 
@@ -536,7 +536,7 @@ class HarmonicSystem:
         return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct",
                               omega2=omega2)
 
-    def solve_law(self, law, frequency_Hz: float, amplitude: float = 63e-6,
+    def solve_law(self, law, frequency_Hz: float, amplitude: float = HEAD_AMPLITUDE_M,
                   inertia: str = "full", solver: str = "reuse",
                   rtol: float = 1e-12, laplace: complex | None = None) -> HarmonicSolution:
         """Steady state with every bond following ``law`` scaled by a_b (Eqs. 30-33, 8-11).

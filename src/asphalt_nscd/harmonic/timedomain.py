@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError
-from ..nscd.state import HEAD_ROTATIONS
+from ..nscd.state import HEAD_AMPLITUDE_M, HEAD_ROTATIONS
 from ..rheology.laws import POISSON_RATIO
 
 
@@ -47,7 +47,7 @@ def relaxation_bound_s(law) -> float:
 
 
 def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_mm: dict,
-                    dt: float, amplitude: float = 63e-6, n_cycles: int = 5,
+                    dt: float, amplitude: float = HEAD_AMPLITUDE_M, n_cycles: int = 5,
                     settle_factor: float = 6.0, window_cycles: int = 1, theta: float = 0.5,
                     tolerance: float = 1e-8, nu: float = POISSON_RATIO, max_steps: int = 2_000_000,
                     force_reading: str = "bonds", bond_kinematics: str = "contact",

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError, read_json
-from ..nscd.state import BOND_KINEMATICS, HEAD_ROTATIONS
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS
 from ..rheology.laws import POISSON_RATIO
 from .solver import HarmonicSystem
 
@@ -55,7 +55,7 @@ def unit_elastic_law():
 
 
 def network_factor(system: HarmonicSystem, geometry_mm: dict, law=None, frequency_Hz: float = 1.0,
-                   amplitude: float = 63e-6, solver: str = "reuse") -> complex:
+                   amplitude: float = HEAD_AMPLITUDE_M, solver: str = "reuse") -> complex:
     """Complex network factor E_sample(w) / E*(w) of the inertia-free sample (module docstring).
 
     Parameters

@@ -12,7 +12,7 @@ State::
           rotation=False, inertia=inf (scalar or (3,) kg m², about point))  # free rotation
     Plates([Plate, ...])   # infinite planes; .angular_velocity, .rotation (P,3) if rotating
     Bonds.create(spheres, plates, i, j, law: GeneralizedBurgers, nu=POISSON_RATIO (0.35, rheology.laws),
-                 yield_stress=2.7e6)
+                 yield_stress=YIELD_STRESS (2.7e6 Pa))
         # j = sphere index or -1-k for plate k; rest state = current configuration
     NSCDParameters(dt, theta=0.5, gravity=(0,0,-9.81), friction=0.7, tolerance=1e-6,
                    convergence='quad'|'max'|'both', max_iterations=2000, relaxation=1.0,
@@ -30,7 +30,7 @@ Time stepping::
                               # imposed acceleration, theta-averaged; none if mass inf),
                               # dissipated J
     df = sim.run(n_steps, callback=None)      # DataFrame of StepStats.as_row()
-    sim.save_checkpoint("x.h5"); Simulation.load_checkpoint("x.h5", drivers=[...])
+    write_checkpoint(sim, "x.h5"); read_checkpoint("x.h5", drivers=[...])  # callable drivers again
     sim.bonds.force (B,3) N, bonds.broken (B,), sim.contact_impulse (C,3) N s (/dt = force)
     sim.plate_torque (P,3) N m  # bond torque on each plate about its point, last step
 

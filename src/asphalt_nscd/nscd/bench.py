@@ -61,7 +61,7 @@ from ..io import InputError, read_json
 from ..rheology.laws import GeneralizedBurgers
 from .detection import plate_pairs, sphere_pairs
 from .moreau_jean import Simulation
-from .state import Bonds, NSCDParameters, Plate, Plates, Spheres
+from .state import HEAD_AMPLITUDE_M, Bonds, NSCDParameters, Plate, Plates, Spheres
 
 LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
 BOX = (0.056, 0.025, 0.250)  # m: bounding box of the trapezoid (B, e, h)
@@ -82,7 +82,7 @@ def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
     s = Spheres.from_density(pos, rad, density)
     # top plate just above the highest sphere (the last lattice layer may be partial)
     z_top = float((pos[:, 2] + rad).max()) + 0.1 * pitch
-    omega, amp = 2 * np.pi * 40.0, 63e-6
+    omega, amp = 2 * np.pi * 40.0, HEAD_AMPLITUDE_M
     plates = Plates([
         Plate([0, 0, 0], [0, 0, 1]),
         Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,

@@ -457,19 +457,3 @@ class Simulation:
         wp[:] = wp_try
         bP[:] = P_try
         return True
-
-    # ------------------------------------------------------------------ checkpoint
-    def save_checkpoint(self, path) -> None:
-        """Write the full state to HDF5 (see checkpoint.py)."""
-        from .checkpoint import write_checkpoint
-
-        write_checkpoint(self, path)
-
-    @classmethod
-    def load_checkpoint(cls, path, drivers=None, external_force=None) -> "Simulation":
-        """Rebuild a Simulation from an HDF5 checkpoint. Callable plate drivers cannot be
-        stored: pass them as ``drivers`` (list of P entries, None for non-driven plates);
-        sampled (times, disp) drivers are restored from the file."""
-        from .checkpoint import read_checkpoint
-
-        return read_checkpoint(path, drivers=drivers, external_force=external_force)
