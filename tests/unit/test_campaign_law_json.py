@@ -11,9 +11,10 @@ import pytest
 from asphalt_nscd.campaign import study
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis.extend import laws_to_json
-from asphalt_nscd.harmonic.network import lattice_sample, write_sample
+from asphalt_nscd.sample.lattice import lattice_sample
+from asphalt_nscd.sample.store import write_sample
 from asphalt_nscd.io import InputError
-from asphalt_nscd.rheology.calibration import load_table3
+from asphalt_nscd.rheology.calibration import burgers_model, load_table3
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
 TABLE3 = "data/paper/table3_burgers.csv"
@@ -102,7 +103,7 @@ def test_law_curves_and_reference_match_the_law():
 @pytest.fixture(scope="module")
 def sample(tmp_path_factory):
     path = tmp_path_factory.mktemp("sample") / "s1.h5"
-    write_sample(path, **lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    write_sample(path, lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     return path
 
 
@@ -119,7 +120,7 @@ def _run(sample, tmp_path, name, source, freq=10):
 def test_run_2pb_law_json_equals_the_burgers_table_run(sample, tmp_path):
     """A law JSON holding the Table 3 Burger's law at 20 degC gives the same test as --parameters."""
     params = study.parameters_at(load_table3(TABLE3, units="Pa"), 20)
-    law = study.law_of(params)
+    law = burgers_model(params)
     path = _write(tmp_path / "laws.json", _json({20.0: law}))
     assert _run(sample, tmp_path, "table", ["--parameters", TABLE3, "--table3-units", "Pa"]) == 0
     assert _run(sample, tmp_path, "json", ["--law-json", str(path)]) == 0

@@ -9,10 +9,10 @@ import pytest
 
 from asphalt_nscd.campaign import study
 from asphalt_nscd.cli import main
-from asphalt_nscd.harmonic.network import lattice_sample, write_sample
+from asphalt_nscd.sample.lattice import lattice_sample
 from asphalt_nscd.io import InputError
 from asphalt_nscd.rheology.calibration import load_table3
-from asphalt_nscd.sample.store import read_sample
+from asphalt_nscd.sample.store import read_sample, write_sample
 
 TABLE3 = "data/paper/table3_burgers.csv"
 
@@ -75,7 +75,7 @@ def test_sensitivity_table(table):
 
 def test_units_question_scaling(tmp_path):
     path = tmp_path / "s.h5"
-    write_sample(path, **lattice_sample(30, seed=1))
+    write_sample(path, lattice_sample(30, seed=1))
     sample = read_sample(path)
     rows = {}
     for units, k in (("Pa", 1.0), ("kPa", 1e3)):
@@ -94,7 +94,7 @@ def test_units_question_scaling(tmp_path):
 
 def test_cli_run_2pb_and_bad_input(tmp_path):
     sample = tmp_path / "s1.h5"
-    write_sample(sample, **lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    write_sample(sample, lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     settings = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40,
                            "dt_max_s": 0.02, "checkpoint_every": 0})
     base = ["run-2pb", "--sample", str(sample), "--parameters", TABLE3, "--table3-units", "Pa",
@@ -110,7 +110,7 @@ def test_cli_run_2pb_and_bad_input(tmp_path):
 
 def test_cli_aggregation_and_figures(tmp_path):
     sample = tmp_path / "s1.h5"
-    write_sample(sample, **lattice_sample(30, seed=4, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    write_sample(sample, lattice_sample(30, seed=4, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     settings = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40,
                            "dt_max_s": 0.02, "checkpoint_every": 0, "profile_instants": 4})
     rows, recs = [], []
@@ -193,7 +193,7 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
     import yaml
 
     sample = tmp_path / "s1.h5"
-    write_sample(sample, **lattice_sample(60, seed=2, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    write_sample(sample, lattice_sample(60, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     params = tmp_path / "burgers.csv"
     pd.DataFrame([{"temperature_C": 21.0, "Em_MPa": 1.0e4, "eta_m_MPa_s": 1.2e4, "Ek_MPa": 7.7e3,
                    "eta_k_MPa_s": 830.0}]).to_csv(params, index=False)

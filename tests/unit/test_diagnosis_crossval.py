@@ -11,7 +11,8 @@ import pytest
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis import crossval as cv
 from asphalt_nscd.diagnosis import synthetic
-from asphalt_nscd.harmonic.network import lattice_sample, write_sample
+from asphalt_nscd.sample.lattice import lattice_sample
+from asphalt_nscd.sample.store import write_sample
 from asphalt_nscd.harmonic.transfer import write_transfer
 
 #: two candidates: the nested selection runs in every fold
@@ -142,7 +143,7 @@ def test_unbalanced_table_fold_removes_what_it_names(table):
 def sample(tmp_path_factory):
     d = tmp_path_factory.mktemp("cv_sample")
     path = d / "s1.h5"
-    write_sample(path, **lattice_sample(40, seed=4, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    write_sample(path, lattice_sample(40, seed=4, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     transfer = d / "s1.json"
     write_transfer(path, transfer)
     return path, transfer

@@ -10,8 +10,9 @@ import pandas as pd
 import pytest
 
 from asphalt_nscd.cli import main
-from asphalt_nscd.harmonic.network import (head_inertia, lattice_sample, network_from_arrays,
-                                           read_sample, write_sample)
+from asphalt_nscd.harmonic.network import head_inertia, network_from_arrays, network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
+from asphalt_nscd.sample.store import read_sample, write_sample
 from asphalt_nscd.harmonic.solver import HarmonicSystem
 from asphalt_nscd.rheology.laws import GeneralizedBurgers, bond_scale, tangential_ratio
 
@@ -106,8 +107,8 @@ def pair_system(kinematics):
 @pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
 def test_rigid_rotation_of_a_bonded_pair(tmp_path, kinematics):
     pos, radius, args = pair_system(kinematics)
-    write_sample(tmp_path / "pair.h5", **args)
-    system = HarmonicSystem(read_sample(tmp_path / "pair.h5"), bond_kinematics=kinematics,
+    write_sample(tmp_path / "pair.h5", sample_from_bonds(**args))
+    system = HarmonicSystem(network_from_sample(read_sample(tmp_path / "pair.h5")), bond_kinematics=kinematics,
                             head_rotation="clamped")
     kn = np.array([1.0e5, 0.0, 0.0])  # only the sphere-sphere bond (plate bonds off)
     K = system.blocks(kn, kn * RT)["ff"].toarray().real
@@ -195,9 +196,9 @@ def ladder(n_levels, spacing=3e-3, width=3e-3, r=1.2e-3):
 @pytest.mark.parametrize("head", ["free", "clamped"])
 def test_ladder_cantilever_against_dense_assembly(tmp_path, head):
     pos, radius, i, j, top = ladder(5)
-    write_sample(tmp_path / "ladder.h5", pos, radius, np.full(len(pos), 1e-4),
-                 [[0, 0, 0], [0, 0, top]], i, j)
-    system = HarmonicSystem(read_sample(tmp_path / "ladder.h5"), bond_kinematics="contact",
+    write_sample(tmp_path / "ladder.h5", sample_from_bonds(pos, radius, np.full(len(pos), 1e-4),
+                 [[0, 0, 0], [0, 0, top]], i, j))
+    system = HarmonicSystem(network_from_sample(read_sample(tmp_path / "ladder.h5")), bond_kinematics="contact",
                             head_rotation=head)
     w = 2 * np.pi * 10.0
     e = LAW.complex_modulus(w)
@@ -238,8 +239,8 @@ def test_long_ladder_follows_euler_bernoulli():
 
 def test_regularisation_does_not_change_the_head_force(tmp_path):
     path = tmp_path / "lattice.h5"
-    write_sample(path, **lattice_sample(150, seed=5))
-    net = read_sample(path)
+    write_sample(path, lattice_sample(150, seed=5))
+    net = network_from_sample(read_sample(path))
     forces = []
     for eps in (1e-8, 1e-12):
         system = HarmonicSystem(net, bond_kinematics="contact", head_rotation="free",
@@ -258,8 +259,8 @@ def test_regularisation_does_not_change_the_head_force(tmp_path):
 
 def test_rotation_lowers_the_bending_stiffness(tmp_path):
     path = tmp_path / "lattice.h5"
-    write_sample(path, **lattice_sample(150, seed=5))
-    net = read_sample(path)
+    write_sample(path, lattice_sample(150, seed=5))
+    net = network_from_sample(read_sample(path))
     k = {opt: HarmonicSystem(net, bond_kinematics=opt[0], head_rotation=opt[1]).solve_law(
         LAW, 10.0, inertia="none").reaction[0].real for opt in OPTIONS}
     assert k[("contact", "free")] < k[("contact", "clamped")] < k[("barycentre", "clamped")]
@@ -276,8 +277,8 @@ def test_head_inertia_of_a_steel_cuboid():
 
 def test_bad_kinematics_options(tmp_path):
     path = tmp_path / "lattice.h5"
-    write_sample(path, **lattice_sample(20, seed=1))
-    net = read_sample(path)
+    write_sample(path, lattice_sample(20, seed=1))
+    net = network_from_sample(read_sample(path))
     with pytest.raises(ValueError, match="bond_kinematics"):
         HarmonicSystem(net, bond_kinematics="centre")
     with pytest.raises(ValueError, match="head_rotation"):
@@ -288,7 +289,7 @@ def test_bad_kinematics_options(tmp_path):
 
 def test_kinematics_study_cli(tmp_path):
     path = tmp_path / "lattice.h5"
-    write_sample(path, **lattice_sample(60, seed=4))
+    write_sample(path, lattice_sample(60, seed=4))
     params = tmp_path / "params.csv"
     pd.DataFrame({"temperature_C": [20.0, 30.0], "Em_MPa": [20.2, 13.0],
                   "eta_m_MPa_s": [1.79, 0.345], "Ek_MPa": [27.2, 9.31],

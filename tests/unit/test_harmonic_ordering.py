@@ -8,7 +8,9 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
 from asphalt_nscd.harmonic import solver as solver_module
-from asphalt_nscd.harmonic.network import lattice_sample, read_sample, write_sample
+from asphalt_nscd.harmonic.network import network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample
+from asphalt_nscd.sample.store import read_sample, write_sample
 from asphalt_nscd.harmonic.ordering import expand_blocks, nested_dissection
 from asphalt_nscd.harmonic.solver import HarmonicSystem
 from asphalt_nscd.nscd.linear import splu_symmetric
@@ -20,8 +22,8 @@ LAW = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e
 @pytest.fixture(scope="module")
 def network(tmp_path_factory):
     path = tmp_path_factory.mktemp("ord") / "lattice.h5"
-    write_sample(path, **lattice_sample(120, seed=4))
-    return read_sample(path)
+    write_sample(path, lattice_sample(120, seed=4))
+    return network_from_sample(read_sample(path))
 
 
 def test_nested_dissection_of_a_path_is_a_permutation_with_a_separator_last():

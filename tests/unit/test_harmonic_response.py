@@ -7,8 +7,10 @@ import pandas as pd
 import pytest
 
 from asphalt_nscd.cli import main
-from asphalt_nscd.harmonic.network import lattice_sample, read_sample, write_sample
-from asphalt_nscd.harmonic.response import harmonic_rows, specimen_geometry_mm
+from asphalt_nscd.harmonic.network import network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
+from asphalt_nscd.sample.store import read_sample, specimen_geometry_mm, write_sample
+from asphalt_nscd.harmonic.response import harmonic_rows
 from asphalt_nscd.harmonic.solver import HarmonicSystem
 from asphalt_nscd.harmonic.timedomain import time_domain_row
 from asphalt_nscd.lab.en12697 import Specimen2PB
@@ -26,8 +28,8 @@ BARY_CLI = ["--bond-kinematics", "barycentre", "--head-rotation", "clamped"]
 def column(tmp_path):
     """One sphere (r = 1 mm, 0.1 g) bonded to both plates, 4 mm below the head plate."""
     path = tmp_path / "col.h5"
-    write_sample(path, [[0, 0, 6e-3]], [1e-3], [1e-4], [[0, 0, 0], [0, 0, 0.01]], [0, 0],
-                 [-1, -2], plate_mass=(np.inf, 0.235))
+    write_sample(path, sample_from_bonds([[0, 0, 6e-3]], [1e-3], [1e-4], [[0, 0, 0], [0, 0, 0.01]], [0, 0],
+                 [-1, -2], plate_mass=(np.inf, 0.235)))
     return path
 
 
@@ -43,7 +45,7 @@ def params_csv(tmp_path):
 def test_quasi_static_row_is_gamma_times_network_stiffness(column):
     # inertia "none": Eq. 1 with mu = 0.135 M + m returns gamma |K| exactly, and the network
     # factor is the closed form gamma RT / (1/a_bottom + 1/a_top) (SI), real, at every f
-    system = HarmonicSystem(read_sample(column), **BARY)
+    system = HarmonicSystem(network_from_sample(read_sample(column)), **BARY)
     a_eff = 1.0 / (1.0 / bond_scale(1e-3, 6e-3) + 1.0 / bond_scale(1e-3, 4e-3))
     gamma = Specimen2PB(**GEOMETRY).gamma_per_mm
     factor = gamma * 1e3 * tangential_ratio(0.35) * a_eff  # gamma in 1/m times a in m
@@ -60,10 +62,10 @@ def test_quasi_static_row_is_gamma_times_network_stiffness(column):
 def test_geometry_from_sample_attributes(tmp_path, column):
     import h5py
 
-    assert specimen_geometry_mm(column) == GEOMETRY
+    assert specimen_geometry_mm(read_sample(column)) == GEOMETRY
     with h5py.File(column, "a") as h5:
         h5.attrs["h_m"] = 0.175
-    assert specimen_geometry_mm(column)["h_mm"] == pytest.approx(175.0)
+    assert specimen_geometry_mm(read_sample(column))["h_mm"] == pytest.approx(175.0)
 
 
 @pytest.mark.parametrize("options", [BARY, {"bond_kinematics": "contact",
@@ -71,8 +73,8 @@ def test_geometry_from_sample_attributes(tmp_path, column):
 @pytest.mark.parametrize("f", [10.0, 40.0])
 def test_time_domain_converges_to_the_harmonic_solution(tmp_path, f, options):
     path = tmp_path / "lattice.h5"
-    write_sample(path, **lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
-    system = HarmonicSystem(read_sample(path), **options)
+    write_sample(path, lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
+    system = HarmonicSystem(network_from_sample(read_sample(path)), **options)
     ref = harmonic_rows(system, LAW_30, 30.0, [f], GEOMETRY, inertia="full", solver="direct")[0]
     errors = []
     for dt in (2e-4, 1e-4):

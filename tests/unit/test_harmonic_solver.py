@@ -5,7 +5,9 @@ import h5py
 import numpy as np
 import pytest
 
-from asphalt_nscd.harmonic.network import lattice_sample, read_sample, write_sample
+from asphalt_nscd.harmonic.network import network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
+from asphalt_nscd.sample.store import read_sample, write_sample
 from asphalt_nscd.harmonic.solver import HarmonicSystem
 from asphalt_nscd.io import InputError
 from asphalt_nscd.rheology.laws import GeneralizedBurgers, bond_scale, tangential_ratio
@@ -23,9 +25,9 @@ def make(tmp_path, position, radius, i, j, mass=None, top_z=0.01, plate_mass=0.2
     radius = np.broadcast_to(np.asarray(radius, float), (len(position),))
     mass = np.full(len(position), 1e-4) if mass is None else np.asarray(mass, float)
     path = tmp_path / f"{name}.h5"
-    write_sample(path, position, radius, mass, [[0, 0, 0], [0, 0, top_z]], i, j,
-                 plate_mass=(np.inf, plate_mass))
-    return path, HarmonicSystem(read_sample(path), **BARY)
+    write_sample(path, sample_from_bonds(position, radius, mass, [[0, 0, 0], [0, 0, top_z]], i, j,
+                 plate_mass=(np.inf, plate_mass)))
+    return path, HarmonicSystem(network_from_sample(read_sample(path)), **BARY)
 
 
 def k_of(r_min, l0, omega, law=LAW):
@@ -133,8 +135,8 @@ def test_generalized_law_complex_stiffness(tmp_path):
 def test_reuse_and_direct_agree_on_a_lattice(tmp_path):
     g = lattice_sample(200, seed=3)
     path = tmp_path / "lattice.h5"
-    write_sample(path, **g)
-    system = HarmonicSystem(read_sample(path), **BARY)
+    write_sample(path, g)
+    system = HarmonicSystem(network_from_sample(read_sample(path)), **BARY)
     for f in (0.1, 10.0, 100.0):
         a = system.solve_law(LAW, f, inertia="full", solver="reuse", rtol=1e-13)
         b = system.solve_law(LAW, f, inertia="full", solver="direct")
@@ -146,8 +148,8 @@ def test_quasi_static_response_is_the_law_times_a_real_stiffness(tmp_path):
     # K(w) = E*(w) G: without inertia F/A / E*(w) is one real number at every frequency
     g = lattice_sample(150, seed=5)
     path = tmp_path / "lattice.h5"
-    write_sample(path, **g)
-    system = HarmonicSystem(read_sample(path), **BARY)
+    write_sample(path, g)
+    system = HarmonicSystem(network_from_sample(read_sample(path)), **BARY)
     ratios = []
     for f in (0.01, 1.0, 30.0, 100.0):
         sol = system.solve_law(LAW, f, inertia="none")
@@ -177,13 +179,13 @@ def test_bad_inputs(tmp_path):
     with pytest.raises(ValueError, match="solver"):
         system.solve_law(LAW, 10.0, solver="cg")
     with pytest.raises(InputError, match="not found"):
-        read_sample(tmp_path / "missing.h5")
+        network_from_sample(read_sample(tmp_path / "missing.h5"))
     with h5py.File(path, "a") as h5:
         del h5["bonds/l0"]
     with pytest.raises(InputError, match="bonds/l0"):
-        read_sample(path)
+        network_from_sample(read_sample(path))
     path2, _ = make(tmp_path, [[0, 0, 5e-3]], 1e-3, [0, 0], [-1, -2], name="bad")
     with h5py.File(path2, "a") as h5:
         h5["bonds/j"][0] = 5
     with pytest.raises(InputError, match="bonds/j"):
-        read_sample(path2)
+        network_from_sample(read_sample(path2))

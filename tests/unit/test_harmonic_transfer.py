@@ -10,10 +10,12 @@ import pytest
 
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis.extend import laws_to_json
-from asphalt_nscd.harmonic.network import lattice_sample, read_sample, write_sample
-from asphalt_nscd.harmonic.response import harmonic_rows, specimen_geometry_mm
+from asphalt_nscd.harmonic.network import network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample
+from asphalt_nscd.sample.store import read_sample, specimen_geometry_mm, write_sample
+from asphalt_nscd.harmonic.response import harmonic_rows
 from asphalt_nscd.harmonic.solver import HarmonicSystem
-from asphalt_nscd.harmonic.transfer import network_factor, read_transfer_json, unit_elastic_law
+from asphalt_nscd.harmonic.transfer import corrected_law, network_factor, read_transfer_json, unit_elastic_law
 from asphalt_nscd.io import InputError
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
@@ -28,7 +30,7 @@ LAWS = (unit_elastic_law(),
 @pytest.fixture(scope="module")
 def sample(tmp_path_factory):
     path = tmp_path_factory.mktemp("transfer") / "s1.h5"
-    write_sample(path, **lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3)), plate_mass=(np.inf, 1e-3))
+    write_sample(path, lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     return path
 
 
@@ -43,8 +45,8 @@ def transfer(sample):
 def test_network_factor_is_real_and_independent_of_law_and_frequency(sample, kinematics, head):
     """One complex LU of E*(w) G per (law, f) (solver 'direct', independent of the real
     factorisation of the 'reuse' path): the same real factor for every law and frequency."""
-    system = HarmonicSystem(read_sample(sample), bond_kinematics=kinematics, head_rotation=head)
-    geometry = specimen_geometry_mm(sample)
+    system = HarmonicSystem(network_from_sample(read_sample(sample)), bond_kinematics=kinematics, head_rotation=head)
+    geometry = specimen_geometry_mm(read_sample(sample))
     ref = network_factor(system, geometry)  # unit elastic law, 1 Hz, reuse
     assert ref.imag == 0.0 and ref.real > 0
     for law in LAWS:
@@ -61,16 +63,16 @@ def test_network_factor_is_real_and_independent_of_law_and_frequency(sample, kin
 
 def test_network_factor_depends_on_the_kinematics(sample):
     """The factor is a property of the discrete model: the barycentre kinematics stiffens bending."""
-    geometry = specimen_geometry_mm(sample)
-    nf = {k: network_factor(HarmonicSystem(read_sample(sample), bond_kinematics=k, head_rotation=h), geometry).real
+    geometry = specimen_geometry_mm(read_sample(sample))
+    nf = {k: network_factor(HarmonicSystem(network_from_sample(read_sample(sample)), bond_kinematics=k, head_rotation=h), geometry).real
           for k, h in (("contact", "free"), ("barycentre", "clamped"))}
     assert nf["barycentre"] > 1.5 * nf["contact"]
 
 
 def test_cli_writes_the_transfer_json(sample, transfer):
     obj = json.loads(transfer.read_text())
-    system = HarmonicSystem(read_sample(sample))
-    assert obj["network_factor"] == pytest.approx(network_factor(system, specimen_geometry_mm(sample)).real, rel=1e-12)
+    system = HarmonicSystem(network_from_sample(read_sample(sample)))
+    assert obj["network_factor"] == pytest.approx(network_factor(system, specimen_geometry_mm(read_sample(sample))).real, rel=1e-12)
     assert obj["sample"] == "s1" and obj["bond_kinematics"] == "contact" and obj["head_rotation"] == "free"
     assert obj["nu"] == 0.35 and obj["inertia"] == "none" and "network_factor" in obj["units"]
     assert abs(obj["imag_relative"]) < 1e-12 and obj["residual"] < 1e-10
@@ -110,6 +112,17 @@ def test_transfer_json_must_match_the_run(transfer, tmp_path):
             read_transfer_json(transfer, **kw)
     with pytest.raises(InputError, match="nope.json: cannot read"):
         read_transfer_json(tmp_path / "nope.json")
+
+
+
+def test_corrected_law_divides_the_complex_modulus_by_the_network_factor(transfer):
+    nf = read_transfer_json(transfer)["network_factor"]
+    law, got = corrected_law(LAWS[1], transfer, sample="s1", bond_kinematics="contact", head_rotation="free", nu=0.35)
+    assert got == nf and nf != 1.0
+    for omega in (0.3, 60.0):
+        assert law.complex_modulus(omega) == pytest.approx(LAWS[1].complex_modulus(omega) / nf, rel=1e-12)
+    with pytest.raises(InputError, match="key 'sample'"):
+        corrected_law(LAWS[1], transfer, sample="s2")
 
 
 SETTINGS = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40, "dt_max_s": 1.0,

@@ -7,7 +7,7 @@ import pytest
 
 from asphalt_nscd.cli import main
 from asphalt_nscd.io import InputError
-from asphalt_nscd.lab.measured import load_measured, summarize
+from asphalt_nscd.lab.measured import load_measured, read_summary, summarize
 
 REPO = Path(__file__).resolve().parents[2]
 UIUC = REPO / "data" / "measured" / "uiuc_fdmix1_utm" / "complex_modulus.csv"
@@ -99,3 +99,26 @@ def test_cli_writes_table_and_summary(tmp_path):
     assert out.exists() and summary.exists()
     back = load_measured(out)
     assert "temperature_F_original" in back.columns and len(back) == 90
+
+
+def test_read_summary_round_trip_and_errors(tmp_path):
+    summary = summarize(load_measured(write(tmp_path, GOOD)))
+    summary.loc[len(summary)] = [20.0, 3.0, 1, 900.0, np.nan, 30.0, np.nan]  # one specimen: std NaN
+    path = tmp_path / "summary.csv"
+    summary.to_csv(path, index=False)
+    back = read_summary(path)
+    assert back.equals(summary.astype({"n": int}))
+    text = path.read_text()
+    for bad, message in ((text.replace("phase_deg_mean", "phase"), r"line 1.*'phase_deg_mean'"),
+                         (text.replace("12500", "12k5"), r"line 2, column 'E_norm_MPa_mean'.*non-numeric"),
+                         (text.replace(",900.0,", ",-900.0,"), r"line 4, column 'E_norm_MPa_mean'.*out of range"),
+                         (text.replace("20.0,3.0,1,", "20.0,3.0,0,"), r"line 4, column 'n'.*out of range"),
+                         (text.replace("20.0,3.0,", "10.0,3.0,"), r"lines 2, 4: repeated"),
+                         ("temperature_C,frequency_Hz,n,E_norm_MPa_mean,E_norm_MPa_std,phase_deg_mean,phase_deg_std\n",
+                          "no data rows")):
+        bad_path = write(tmp_path, bad, "bad_summary.csv")
+        with pytest.raises(InputError, match=message) as err:
+            read_summary(bad_path)
+        assert str(err.value).startswith(str(bad_path))
+    with pytest.raises(InputError, match="file not found"):
+        read_summary(tmp_path / "missing.csv")

@@ -67,3 +67,19 @@ def test_bench_ssor_record_times_the_jacobi_kernel_too(tmp_path):
     assert rec["speedup_vs_cg"] > 0 and rec["cg_s_per_particle_step"] > 0
     assert rec["cg_iterations_mean"] > rec["nlgs_iterations_mean"] > 0
     assert rec["cg_max_force_difference"] < 1e-5
+
+
+def test_bench_summary_table_checks_the_records(tmp_path):
+    from asphalt_nscd.io import InputError
+    from asphalt_nscd.nscd.bench import summary_table
+
+    good = tmp_path / "a.json"
+    good.write_text(json.dumps({"case": "bonded", "n_particles": 60, "s_per_particle_step": 1e-6,
+                                "time_breakdown": {"solve": 0.7, "detect": 0.3}, "nested": {"x": 1}}))
+    table = summary_table([good])
+    assert table.to_dict("records") == [{"case": "bonded", "n_particles": 60, "s_per_particle_step": 1e-6,
+                                         "fraction_solve": 0.7, "fraction_detect": 0.3}]
+    bad = tmp_path / "b.json"
+    bad.write_text(json.dumps({"case": "bonded", "n_particles": 60}))
+    with pytest.raises(InputError, match="b.json: key 's_per_particle_step' missing"):
+        summary_table([good, bad])

@@ -7,9 +7,12 @@ import numpy as np
 import pytest
 
 from asphalt_nscd.nscd import (Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres,
-                               read_checkpoint)
+                               read_checkpoint, write_checkpoint)
 from asphalt_nscd.nscd import detection
 from asphalt_nscd.nscd.verify import LAW_15C
+
+#: every test here also runs as Python (tests/unit/test_nscd_kernels_python.py)
+pytestmark = pytest.mark.kernels
 
 R = 2e-3
 RHO = 2600.0
@@ -152,7 +155,7 @@ def test_open_at_bonding_and_checkpoint(tmp_path):
     st = sim.step()
     assert st.n_contacts == 1  # the open sphere pair only, not the overlapping plate pair
     assert sorted([sim.contact_i[0], sim.contact_j[0]]) == [0, 1]
-    sim.save_checkpoint(tmp_path / "ck.h5")
+    write_checkpoint(sim, tmp_path / "ck.h5")
     assert read_checkpoint(tmp_path / "ck.h5").params.bonded_contact == "open_at_bonding"
     with h5py.File(tmp_path / "ck.h5", "a") as f:
         del f["params"].attrs["bonded_contact"]

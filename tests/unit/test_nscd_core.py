@@ -4,10 +4,48 @@ import numpy as np
 import pytest
 
 from asphalt_nscd.nscd import (Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres,
-                               read_checkpoint)
-from asphalt_nscd.nscd.delassus import contact_blocks, dense_delassus
+                               read_checkpoint, write_checkpoint)
+from asphalt_nscd.nscd.delassus import contact_blocks
 from asphalt_nscd.nscd.detection import detect_contacts
 from asphalt_nscd.nscd.verify import LAW_15C, random_bonded_network
+
+#: every test here also runs as Python (tests/unit/test_nscd_kernels_python.py)
+pytestmark = pytest.mark.kernels
+
+
+def dense_delassus(n_spheres, ci, cj, frames, radius, inv_mass, inv_inertia,
+                   inv_mass_plate, rotation=True) -> np.ndarray:
+    """Dense global Delassus operator W = H^T M^-1 H (3C, 3C): the reference the kernel's
+    diagonal blocks are checked against (small problems).
+
+    Parameters
+    ----------
+    ci, cj : (C,) candidate and antagonist (plate ``-1-k``); frames : (C, 3, 3) rows n, t, s.
+    rotation : include the lever arms (contacts) or not (bonds, barycentric).
+    """
+    c = len(ci)
+    ndof = 6 * n_spheres + 3 * len(inv_mass_plate)
+    H = np.zeros((ndof, 3 * c))
+    minv = np.zeros(ndof)
+    for s in range(n_spheres):
+        minv[6 * s:6 * s + 3] = inv_mass[s]
+        minv[6 * s + 3:6 * s + 6] = inv_inertia[s]
+    for k in range(len(inv_mass_plate)):
+        minv[6 * n_spheres + 3 * k:6 * n_spheres + 3 * k + 3] = inv_mass_plate[k]
+    for a in range(c):
+        F = frames[a]
+        n = F[0]
+        for sign, body, arm in ((1.0, ci[a], -radius[ci[a]] * n),
+                                (-1.0, cj[a], radius[cj[a]] * n if cj[a] >= 0 else None)):
+            if body >= 0:
+                H[6 * body:6 * body + 3, 3 * a:3 * a + 3] = sign * F.T
+                if rotation:
+                    # torque of a unit impulse along each local axis: arm x e
+                    H[6 * body + 3:6 * body + 6, 3 * a:3 * a + 3] = sign * np.cross(arm, F).T
+            else:
+                k = -1 - body
+                H[6 * n_spheres + 3 * k:6 * n_spheres + 3 * k + 3, 3 * a:3 * a + 3] = sign * F.T
+    return H.T @ (minv[:, None] * H)
 
 
 def test_contact_blocks_equal_dense_delassus_diagonal():
@@ -105,7 +143,7 @@ def test_checkpoint_restart_is_exact(tmp_path):
     ref.run(20)
     sim = make()
     sim.run(10)
-    sim.save_checkpoint(tmp_path / "ck.h5")
+    write_checkpoint(sim, tmp_path / "ck.h5")
     drivers = sim.plates.drivers
     back = read_checkpoint(tmp_path / "ck.h5", drivers=drivers)
     assert back.step_index == 10 and back.time == pytest.approx(sim.time)
@@ -118,6 +156,7 @@ def test_checkpoint_restart_is_exact(tmp_path):
 def test_bonds_create_micro_parameters():
     s = Spheres(position=[[0, 0, 0], [0.005, 0, 0]], radius=[0.002, 0.0015], mass=[1, 1],
                 inertia=[1, 1])
+
     b = Bonds.create(s, Plates([]), [1], [0], LAW_15C)
     a = np.pi * 0.0015**2 / 0.005
     assert b.Km[0, 0] == pytest.approx(LAW_15C.Em * a)

@@ -1,8 +1,12 @@
 """Cell-list detection equals brute force; the Verlet skin list equals a fresh search."""
 
 import numpy as np
+import pytest
 
 from asphalt_nscd.nscd import detection
+
+#: every test here also runs as Python (tests/unit/test_nscd_kernels_python.py)
+pytestmark = pytest.mark.kernels
 
 
 def _brute(pos, rad, max_gap):

@@ -3,12 +3,14 @@
 import numpy as np
 import pytest
 
-from asphalt_nscd.harmonic.network import lattice_sample, read_sample, write_sample
+from asphalt_nscd.harmonic.network import network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample
+from asphalt_nscd.sample.store import read_sample, write_sample
 from asphalt_nscd.harmonic.response import harmonic_rows
 from asphalt_nscd.harmonic.solver import HarmonicSystem
 from asphalt_nscd.harmonic.timedomain import time_domain_row
 from asphalt_nscd.nscd import (Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres,
-                               read_checkpoint)
+                               read_checkpoint, write_checkpoint)
 from asphalt_nscd.nscd.verify import (LAW_15C, case_creep, random_bonded_network,
                                       rigid_rotation_force)
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
@@ -17,6 +19,7 @@ GEOMETRY = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
 LAW_30 = GeneralizedBurgers.burgers(Em=1.30e7, eta_m=3.45e5, Ek=9.31e6, eta_k=1.31e5)
 
 
+@pytest.mark.kernels
 @pytest.mark.parametrize("with_plate", [False, True])
 def test_rigid_rotation_strains_no_bond_with_contact_kinematics(with_plate):
     contact = rigid_rotation_force("contact", with_plate)
@@ -25,6 +28,7 @@ def test_rigid_rotation_strains_no_bond_with_contact_kinematics(with_plate):
     assert contact <= 1e-12 * barycentre
 
 
+@pytest.mark.kernels
 def test_contact_point_and_lever_arms():
     s = Spheres(position=[[0, 0, 0], [0.005, 0, 0.004]], radius=[0.002, 0.001], mass=[1, 1],
                 inertia=[1, 1])
@@ -41,6 +45,7 @@ def test_contact_point_and_lever_arms():
     np.testing.assert_allclose(b.arm_j[1], [0, 0, 0.0005], atol=1e-15)
 
 
+@pytest.mark.kernels
 @pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
 @pytest.mark.parametrize("direction", ["normal", "tangential"])
 def test_two_sphere_creep_closed_form(direction, kinematics):
@@ -49,6 +54,7 @@ def test_two_sphere_creep_closed_form(direction, kinematics):
     assert max(r["relative_error"] for r in rows) < 1e-3
 
 
+@pytest.mark.kernels
 def test_bond_torque_rotates_a_free_sphere():
     """A tangential force at the barycentre of a sphere bonded to a fixed one: with 'contact'
     the bond (at c) applies a torque a_i x R, and the angular momentum balance of the
@@ -78,9 +84,9 @@ def test_bonded_cantilever_matches_the_harmonic_solver(tmp_path, head_rotation):
     """A 12-sphere column (lattice 1 x 1 x 12 cells, bonded to both plates) bent by the head
     at 3 Hz: time domain (contact kinematics) vs the harmonic solver, same options."""
     path = tmp_path / "column.h5"
-    write_sample(path, **lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
+    write_sample(path, lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
     options = {"bond_kinematics": "contact", "head_rotation": head_rotation}
-    system = HarmonicSystem(read_sample(path), **options)
+    system = HarmonicSystem(network_from_sample(read_sample(path)), **options)
     ref = harmonic_rows(system, LAW_30, 30.0, [3.0], GEOMETRY, inertia="full",
                         solver="direct")[0]
     td = time_domain_row(path, LAW_30, 3.0, GEOMETRY, 1e-4, **options)
@@ -91,7 +97,7 @@ def test_bonded_cantilever_matches_the_harmonic_solver(tmp_path, head_rotation):
 
 def test_free_head_is_softer_than_clamped_and_barycentre(tmp_path):
     path = tmp_path / "column.h5"
-    write_sample(path, **lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
+    write_sample(path, lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
     e = {}
     for kin, head in (("contact", "free"), ("contact", "clamped"), ("barycentre", "clamped")):
         e[kin, head] = time_domain_row(path, LAW_30, 10.0, GEOMETRY, 2e-4, bond_kinematics=kin,
@@ -111,6 +117,7 @@ def test_dissipation_is_non_negative_with_contact_kinematics():
     assert np.abs(sim.plate_torque[1]).max() > 0
 
 
+@pytest.mark.kernels
 @pytest.mark.parametrize("fast_path", [True, False])
 def test_rotating_head_angular_momentum_balance(fast_path):
     """The head's angular velocity changes by the bond torque impulse / its inertia."""
@@ -128,6 +135,7 @@ def test_rotating_head_angular_momentum_balance(fast_path):
                                    rtol=1e-6, atol=1e-9 * np.abs(5e-5 * sim.plate_torque[1]).max())
 
 
+@pytest.mark.kernels
 def test_checkpoint_restart_with_rotating_head_is_exact(tmp_path):
     def make():
         s, plates, bonds = random_bonded_network(n=27)
@@ -139,7 +147,7 @@ def test_checkpoint_restart_with_rotating_head_is_exact(tmp_path):
     ref.run(20)
     sim = make()
     sim.run(10)
-    sim.save_checkpoint(tmp_path / "ck.h5")
+    write_checkpoint(sim, tmp_path / "ck.h5")
     back = read_checkpoint(tmp_path / "ck.h5", drivers=sim.plates.drivers)
     assert back.params.bond_kinematics == "contact" and back.plates.rotates[1]
     back.run(10)
@@ -148,6 +156,7 @@ def test_checkpoint_restart_with_rotating_head_is_exact(tmp_path):
     np.testing.assert_array_equal(back.bonds.force, ref.bonds.force)
 
 
+@pytest.mark.kernels
 def test_bad_options():
     with pytest.raises(ValueError, match="bond_kinematics"):
         NSCDParameters(dt=1e-4, bond_kinematics="centre")

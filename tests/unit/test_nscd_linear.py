@@ -23,6 +23,7 @@ def _run(fast, solver="cg", n_steps=30, contacts=False, gravity=(0, 0, 0), n=40,
     return sim, df
 
 
+@pytest.mark.kernels
 @pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
 @pytest.mark.parametrize("solver", ["cg", "cg_ssor", "direct"])
 def test_fast_path_matches_nlgs(solver, kinematics):
@@ -42,6 +43,7 @@ def test_fast_path_matches_nlgs(solver, kinematics):
                                    sim_g.spheres.angular_velocity, atol=1e-7 * w_scale)
 
 
+@pytest.mark.kernels
 @pytest.mark.parametrize("bonded_contact", ["always", "open_at_bonding"])
 def test_fast_path_falls_back_when_contacts_close(bonded_contact):
     """A sphere thrown at its bonded neighbour (open gap at bonding), with the contact of
@@ -57,6 +59,7 @@ def test_fast_path_falls_back_when_contacts_close(bonded_contact):
     np.testing.assert_allclose(sim_f.bonds.force, sim_g.bonds.force, atol=1e-6 * scale)
 
 
+@pytest.mark.kernels
 def test_fast_path_refactorises_after_breakage():
     s, plates, bonds = random_bonded_network(n=27)
     bonds.r_crit[:] = np.inf
@@ -102,6 +105,7 @@ def test_cg_tolerance_resolves_phase_angle():
     assert abs(_phase_deg("cg", 1e-7) - exact) < 1e-3
 
 
+@pytest.mark.kernels
 @pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
 @pytest.mark.parametrize("top", ["driven", "free", "rotating"])
 def test_ssor_cg_matches_direct_solve(kinematics, top):
@@ -139,6 +143,7 @@ def test_ssor_cg_matches_direct_solve(kinematics, top):
     assert results["cg_ssor"][4] < results["cg"][4]
 
 
+@pytest.mark.kernels
 def test_ssor_structure_reproduces_the_matrix():
     """D + L + U assembled from the SSOR structure (body blocks and packed bond entries)
     equals the step matrix of the direct path."""

@@ -9,7 +9,10 @@ import pytest
 
 from asphalt_nscd.cli import main
 from asphalt_nscd.io import InputError
-from asphalt_nscd.sample.store import SampleData, read_sample, write_sample, write_bonds_vtu, write_vtu
+from asphalt_nscd.harmonic.network import network_from_sample
+from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
+from asphalt_nscd.sample.store import (SampleData, read_sample, specimen_geometry_mm, write_bonds_vtu,
+                                       write_sample, write_vtu)
 
 
 def _sample():
@@ -80,3 +83,54 @@ def test_sample_table_cli(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("sample:\n  scal: 0.5\n")
     assert main(["sample-table", "--config", str(bad), "-o", str(out)]) == 2
+
+
+def test_bond_geometry_of_a_built_sample():
+    # sphere 0 at z = 5 mm (r = 1 mm), sphere 1 at 3 mm distance (r = 1.2 mm); plates z = 0, 10 mm
+    s = sample_from_bonds([[0, 0, 5e-3], [3e-3, 0, 5e-3]], [1e-3, 1.2e-3], [1e-4, 2e-4],
+                          [[0, 0, 0], [0, 0, 0.01]], [0, 0, 1], [1, -1, -2])
+    np.testing.assert_allclose(s.bonds["l0"], [3e-3, 5e-3, 5e-3])
+    np.testing.assert_allclose(s.bonds["r_min"], [1e-3, 1e-3, 1.2e-3])
+    np.testing.assert_allclose(s.bonds["delta0"], [0.8e-3, 4e-3, 3.8e-3])
+
+
+def test_one_store_for_the_core_and_the_harmonic_solver(tmp_path):
+    """The harmonic solver's network is built from the store's data: same arrays, the file's
+    name, the specimen size of the root attributes for the head inertia."""
+    path = tmp_path / "lat.h5"
+    write_sample(path, lattice_sample(30, seed=2, plate_mass=(np.inf, 1e-3)))
+    s = read_sample(path)
+    net = network_from_sample(s)
+    assert net.name == s.name == "lat" and net.n_spheres == 30 and net.n_bonds == len(s.bonds["i"])
+    np.testing.assert_array_equal(net.position, s.position)
+    np.testing.assert_array_equal(net.rotational_inertia, s.inertia)
+    np.testing.assert_allclose(net.scale, np.pi * s.bonds["r_min"] ** 2 / s.bonds["l0"])
+    assert specimen_geometry_mm(s) == {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
+    with h5py.File(path, "a") as f:
+        f.attrs["b_m"], f.attrs["e_m"], f.attrs["h_m"] = 0.02, 0.01, 0.2
+    s = read_sample(path)
+    assert specimen_geometry_mm(s) == {"b_mm": 20.0, "B_mm": 56.0, "e_mm": 10.0, "h_mm": 200.0}
+    t = 1e-3 / (7850 * 0.02 * 0.01)  # head inertia of a 1 g steel cuboid 20 x 10 mm
+    assert network_from_sample(s).plate_inertia[2] == pytest.approx(1e-3 * (0.02**2 + 0.01**2) / 12)
+    assert network_from_sample(s).plate_inertia[0] == pytest.approx(1e-3 * (0.01**2 + t**2) / 12 + 1e-3 * t**2 / 4)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda f: f.__delitem__("spheres/inertia"), "dataset 'spheres/inertia' missing"),
+    (lambda f: (f.__delitem__("bonds/r_min"), f.create_dataset("bonds/r_min", data=np.ones(2))),
+     "dataset 'bonds/r_min' has 2 rows, expected 3"),
+    (lambda f: (f.__delitem__("plates/point"), f.create_dataset("plates/point", data=np.zeros((2, 2)))),
+     r"dataset 'plates/point' has shape \(2, 2\)"),
+    (lambda f: f["bonds/i"].__setitem__(0, 9), "dataset 'bonds/i' must lie in"),
+    (lambda f: f["bonds/j"].__setitem__(0, 0), "dataset 'bonds/j' must lie in"),
+    (lambda f: f["bonds/l0"].__setitem__(1, 0.0), "dataset 'bonds/l0' must be positive"),
+    (lambda f: f["spheres/mass"].__setitem__(1, np.nan), "dataset 'spheres/mass' must be positive"),
+])
+def test_bad_sample_file_names_the_dataset(tmp_path, edit, message):
+    path = tmp_path / "s7.h5"
+    write_sample(path, _sample())
+    with h5py.File(path, "a") as f:
+        edit(f)
+    with pytest.raises(InputError, match=message) as err:
+        read_sample(path)
+    assert str(err.value).startswith(str(path))

@@ -17,7 +17,8 @@ import pandas as pd
 import pytest
 
 from asphalt_nscd.campaign import twopb
-from asphalt_nscd.harmonic.network import lattice_sample, write_sample
+from asphalt_nscd.sample.lattice import lattice_sample
+from asphalt_nscd.sample.store import write_sample
 
 REPO = Path(__file__).resolve().parents[2]
 SETTINGS = {"n_cycles": 40, "dt_policy": "steps_per_cycle", "steps_per_cycle": 400, "dt_max_s": 0.02,
@@ -27,8 +28,7 @@ SETTINGS = {"n_cycles": 40, "dt_policy": "steps_per_cycle", "steps_per_cycle": 4
 @pytest.fixture(scope="module")
 def sample(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("sample") / "s1.h5"
-    d = lattice_sample(60, seed=5, radius_range=(0.9e-3, 1.5e-3))
-    write_sample(path, **d, plate_mass=(np.inf, 1e-3))
+    write_sample(path, lattice_sample(60, seed=5, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     return path
 
 

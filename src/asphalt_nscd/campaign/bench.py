@@ -2,7 +2,7 @@
 
 :func:`measure_step_cost` times ``n_steps`` steps of the 2PB test (Moreau-Jean, bonds of the
 paper's Table 3 at 15 degC read in Pa) on a sample file, or on a bonded lattice sample of
-``n_spheres`` spheres (:func:`asphalt_nscd.harmonic.network.lattice_sample`, the stand-in of
+``n_spheres`` spheres (:func:`asphalt_nscd.sample.lattice.lattice_sample`, the stand-in of
 a prepared sample with 6-12 bonds per sphere) after ``warmup`` steps (numba compilation).
 
 The cost of a step is not the same in every job: the conjugate gradient of the linear fast
@@ -27,6 +27,7 @@ import time
 
 import numpy as np
 
+from ..io import InputError
 from ..rheology.laws import GeneralizedBurgers
 from .twopb import TwoPBSettings, build_simulation, n_steps_of, time_step
 
@@ -44,14 +45,14 @@ def measure_step_cost(sample_path=None, n_spheres: int = 2000, n_steps: int = 20
     import tempfile
     from pathlib import Path
 
-    from ..harmonic.network import lattice_sample, write_sample
-    from ..sample.store import read_sample
+    from ..sample.lattice import lattice_sample
+    from ..sample.store import read_sample, write_sample
 
     settings = settings or TwoPBSettings()
     with tempfile.TemporaryDirectory() as tmp:
         if sample_path is None:
             sample_path = Path(tmp) / "lattice.h5"
-            write_sample(sample_path, **lattice_sample(n_spheres, seed=seed, radius_range=(0.9e-3, 1.6e-3)))
+            write_sample(sample_path, lattice_sample(n_spheres, seed=seed, radius_range=(0.9e-3, 1.6e-3)))
         sample = read_sample(sample_path)
     dt = time_step(frequency_Hz, settings)
     sim, _ = build_simulation(sample, LAW_15C_PA, frequency_Hz, dt, settings)
@@ -240,3 +241,26 @@ def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_
             "s_per_step": s_per_step if not callable(s_per_step) else "per job class",
             "overhead_s": overhead_s, "prepare_s_per_sample": prepare_s_per_sample,
             "n_steps_total": int(sum(j["n_steps"] * j["n_samples"] for j in jobs))}
+
+
+def read_prepare_seconds(path, key: str) -> float:
+    """Preparation time of one sample, s: the number at the dotted ``key`` (e.g.
+    ``timings_s.total``) of the JSON at ``path`` (a sample summary of ``prepare-sample``).
+
+    Raises
+    ------
+    InputError
+        naming the file and the key: unreadable or not JSON, the key absent (with the keys
+        available where it stops), or its value not a number >= 0.
+    """
+    from ..io import read_json
+
+    obj = read_json(path, "preparation JSON")
+    for part in key.split("."):
+        if not isinstance(obj, dict) or part not in obj:
+            keys = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
+            raise InputError(f"{path}: key {key!r} not found (at {part!r}; available: {keys})")
+        obj = obj[part]
+    if isinstance(obj, bool) or not isinstance(obj, (int, float)) or not obj >= 0:
+        raise InputError(f"{path}: key {key!r}: expected a time in s >= 0, got {obj!r}")
+    return float(obj)

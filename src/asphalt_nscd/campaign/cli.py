@@ -198,20 +198,11 @@ def _periodic_check(args) -> int:
     from pathlib import Path
 
     import pandas as pd
-    import yaml
 
     from ..io import InputError, write_csv
     from . import periodic, study, twopb
 
-    cfg = None
-    if args.config:
-        try:
-            with open(args.config) as fh:
-                cfg = yaml.safe_load(fh)
-        except (OSError, yaml.YAMLError) as exc:
-            raise InputError(f"{args.config}: cannot read the config ({exc})") from exc
-        if not isinstance(cfg, dict) or "campaign" not in cfg:
-            raise InputError(f"{args.config}: no 'campaign' section")
+    cfg = twopb.read_config(args.config) if args.config else None
     name = Path(args.sample).stem
     units = args.table3_units or (cfg or {}).get("calibration", {}).get("table3_units", "Pa")
     laws = study.JobLaws(table3=args.table3, table3_units=units, parameters=args.parameters,
@@ -252,7 +243,7 @@ def _settings(args, base: dict | None = None):
     import json
 
     from ..io import InputError
-    from .twopb import TwoPBSettings
+    from .twopb import settings_from
 
     try:
         cfg = {**(base or {}), **json.loads(args.settings_json)}
@@ -260,25 +251,15 @@ def _settings(args, base: dict | None = None):
         raise InputError(f"--settings-json: not valid JSON ({exc})") from exc
     if getattr(args, "window_cycles", None) is not None:
         cfg["window_cycles"] = args.window_cycles
-    names = set(TwoPBSettings.__dataclass_fields__)
-    unknown = sorted(set(cfg) - names)
-    if unknown:
-        raise InputError(f"--settings-json: unknown key(s) {unknown}; expected some of {sorted(names)}")
-    try:
-        return TwoPBSettings(**cfg)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"--settings-json: {exc}") from exc
+    return settings_from(cfg)
 
 
 def _read_rows(paths):
     import pandas as pd
 
-    from ..io import InputError
+    from ..io import read_csv
 
-    try:
-        return pd.concat([pd.read_csv(p) for p in paths], ignore_index=True)
-    except FileNotFoundError as exc:
-        raise InputError(f"reduced row not found: {exc.filename}") from exc
+    return pd.concat([read_csv(p) for p in paths], ignore_index=True)
 
 
 def _run(args) -> int:
@@ -288,6 +269,7 @@ def _run(args) -> int:
     import pandas as pd
 
     from ..io import InputError, write_csv
+    from ..rheology.calibration import burgers_model
     from . import study, twopb
 
     settings = _settings(args)
@@ -308,16 +290,14 @@ def _run(args) -> int:
     else:
         table = study.parameter_table(args.parameters, args.table3_units)
         params = study.parameters_at(table, args.temperature, factors, where=args.parameters)
-        law = study.law_of(params)
+        law = burgers_model(params)
     name = args.sample_name or Path(args.sample).stem
     if args.network_factor_json is not None:
-        from ..harmonic.transfer import read_transfer_json
+        from ..harmonic.transfer import corrected_law
 
-        transfer = read_transfer_json(args.network_factor_json, sample=name,
-                                      bond_kinematics=settings.bond_kinematics,
-                                      head_rotation=settings.head_rotation, nu=settings.nu)
-        nf = transfer["network_factor"]
-        law = law.scaled(1.0 / nf)  # bonds calibrated with E*(w) / NF_s: the whole complex modulus
+        law, nf = corrected_law(law, args.network_factor_json, sample=name,
+                                bond_kinematics=settings.bond_kinematics,
+                                head_rotation=settings.head_rotation, nu=settings.nu)
         params = {**params, "transfer_network_factor": nf, "transfer_json": str(args.network_factor_json)}
     meta = {"mode": args.mode, "sample": name, "temperature_C": args.temperature,
             "table3_units": args.table3_units or "", "variant": ";".join(args.factor) or "base",
@@ -355,7 +335,9 @@ def _isotherms(args) -> int:
         model = "Burger's"
     points = None
     if args.measured_summary:
-        summary = pd.read_csv(args.measured_summary)
+        from ..lab.measured import read_summary
+
+        summary = read_summary(args.measured_summary)
         ref = study.measured_reference(summary)
         points = summary[summary["temperature_C"].isin(temps)]
         label = "measured (mean ± sd)"
@@ -456,31 +438,21 @@ def _dt_policy(args) -> int:
 def _prepare_seconds(args) -> float:
     """Preparation time of one sample, s: --prepare-seconds or the number at --prepare-key in
     --prepare-json."""
-    from ..io import InputError, read_json
+    from ..io import InputError
+    from .bench import read_prepare_seconds
 
     if args.prepare_json is None:
         if args.prepare_seconds < 0:
             raise InputError(f"--prepare-seconds must be >= 0, got {args.prepare_seconds}")
         return float(args.prepare_seconds)
-    obj = read_json(args.prepare_json, "preparation JSON")
-    for part in args.prepare_key.split("."):
-        if not isinstance(obj, dict) or part not in obj:
-            keys = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
-            raise InputError(f"{args.prepare_json}: key {args.prepare_key!r} not found (at {part!r}; "
-                             f"available: {keys})")
-        obj = obj[part]
-    if isinstance(obj, bool) or not isinstance(obj, (int, float)) or not obj >= 0:
-        raise InputError(f"{args.prepare_json}: key {args.prepare_key!r}: expected a time in s >= 0, got {obj!r}")
-    return float(obj)
+    return read_prepare_seconds(args.prepare_json, args.prepare_key)
 
 
 def _bench(args) -> int:
     from pathlib import Path
 
-    import yaml
-
     from ..io import InputError, write_json
-    from . import bench, study
+    from . import bench, study, twopb
 
     if args.per_job and args.sample is None:
         raise InputError("campaign-bench --per-job needs --sample (a prepared sample file)")
@@ -488,13 +460,7 @@ def _bench(args) -> int:
     cost = bench.measure_step_cost(args.sample, n_spheres=args.n_spheres, n_steps=args.steps)
     out = {"measurement": cost, "prepare_s_per_sample": prepare_s, "projections": {}}
     for path in args.config:
-        try:
-            with open(path) as fh:
-                cfg = yaml.safe_load(fh)
-        except (OSError, yaml.YAMLError) as exc:
-            raise InputError(f"{path}: cannot read the config ({exc})") from exc
-        if not isinstance(cfg, dict) or "campaign" not in cfg:
-            raise InputError(f"{path}: no 'campaign' section")
+        cfg = twopb.read_config(path)
         camp = cfg["campaign"]
         kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
         n_total = len(cfg.get("sample", {}).get("seeds", [1]))

@@ -80,6 +80,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..rheology.laws import POISSON_RATIO
+
 START_MODES = ("rest", "periodic")
 
 
@@ -158,7 +160,7 @@ def network_of(sim):
 
 
 def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
-                   head_rotation: str = "free", nu: float = 0.35,
+                   head_rotation: str = "free", nu: float = POISSON_RATIO,
                    continuous: bool = False, system=None) -> PeriodicState:
     """Periodic steady state of the 2PB test built by ``twopb.build_simulation`` (module
     docstring), before its first step.

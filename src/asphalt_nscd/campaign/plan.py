@@ -571,8 +571,11 @@ def head_rotation(config: dict) -> str:
 
 
 def twopb_poisson_ratio(config: dict) -> float:
-    """Poisson ratio of the time-domain test (campaign.test.nu, default 0.35)."""
-    return config["campaign"]["test"].get("nu", 0.35)
+    """Poisson ratio of the time-domain test (campaign.test.nu, default
+    :data:`asphalt_nscd.rheology.laws.POISSON_RATIO`)."""
+    from ..rheology.laws import POISSON_RATIO
+
+    return config["campaign"]["test"].get("nu", POISSON_RATIO)
 
 
 # ---------------------------------------------------------------------------------------------

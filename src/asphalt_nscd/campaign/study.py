@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError, read_json
+from ..rheology.calibration import burgers_model
 
 #: Burger's parameters that the sensitivity study varies, with their table columns.
 SENSITIVITY_PARAMETERS = {"Em": "Em_MPa", "eta_m": "eta_m_MPa_s", "Ek": "Ek_MPa", "eta_k": "eta_k_MPa_s"}
@@ -216,29 +217,20 @@ class JobLaws:
             law = law_at(self._read("json", lambda: read_law_json(self.law_json)), temperature_C,
                          where=self.law_json)
             if self.network_factor_json:
-                from ..harmonic.transfer import read_transfer_json
+                from ..harmonic.transfer import corrected_law
 
-                nf = self._read("nf", lambda: read_transfer_json(self.network_factor_json,
-                                                                 sample=self.sample_name))["network_factor"]
-                law = law.scaled(1.0 / nf)
+                law, _ = corrected_law(law, self.network_factor_json, sample=self.sample_name)
             return law
         if mode == "measured":
             if not self.parameters:
                 raise InputError("a measured-mode job needs the calibrated Burger's table (--parameters)")
             table = self._read("measured", lambda: parameter_table(self.parameters))
-            return law_of(parameters_at(table, temperature_C, factors, where=self.parameters))
+            return burgers_model(parameters_at(table, temperature_C, factors, where=self.parameters))
         if not self.table3:
             raise InputError(f"a {mode}-mode job needs the paper's Table 3 (--table3)")
         units = mode.split("_")[1] if mode.startswith("units_") else self.table3_units
         table = self._read(f"table3_{units}", lambda: parameter_table(self.table3, units))
-        return law_of(parameters_at(table, temperature_C, factors, where=self.table3))
-
-
-def law_of(params: dict):
-    """GeneralizedBurgers (Pa, Pa s) of a parameter row in MPa, MPa s."""
-    from ..rheology.calibration import burgers_model
-
-    return burgers_model(params)
+        return burgers_model(parameters_at(table, temperature_C, factors, where=self.table3))
 
 
 def burgers_reference(table: pd.DataFrame, temperature_C, frequency_Hz) -> pd.DataFrame:
@@ -427,7 +419,7 @@ def dt_policy_phase_table(table: pd.DataFrame, temperature_C: float, frequencies
     from ..nscd.verify import phase_error_table
     from .twopb import time_step
 
-    law = law_of(parameters_at(table, temperature_C, where="dt policy"))
+    law = burgers_model(parameters_at(table, temperature_C, where="dt policy"))
     th = settings.theta if theta is None else theta
     frames = []
     for f in frequencies_Hz:

@@ -96,10 +96,11 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError, atomic_path, check_termination, remove_stale_temporaries
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
+from ..rheology.laws import POISSON_RATIO
 from .periodic import START_MODES
 
 DT_POLICIES = ("fixed", "steps_per_cycle")
-HEAD_ROTATIONS = ("free", "clamped")
 FORCE_READINGS = ("bonds", "driver")
 #: per-step statistics stored under ``stats/``
 STAT_KEYS = ("iterations", "residual_quad", "residual_max", "converged", "n_contacts",
@@ -132,7 +133,7 @@ class TwoPBSettings:
         are reduced).
     """
 
-    amplitude_m: float = 63e-6
+    amplitude_m: float = HEAD_AMPLITUDE_M
     n_cycles: float = 5.0
     window_cycles: float = 1.0
     dt_policy: str = "fixed"
@@ -144,8 +145,8 @@ class TwoPBSettings:
     max_iterations: int = 500
     friction: float = 0.7
     gravity: bool = False
-    nu: float = 0.35
-    yield_stress_Pa: float | None = 2.7e6
+    nu: float = POISSON_RATIO
+    yield_stress_Pa: float | None = YIELD_STRESS
     force_reading: str = "bonds"
     checkpoint_every: int = 5000
     profile_bins: int = 10
@@ -165,8 +166,8 @@ class TwoPBSettings:
         if self.head_rotation not in HEAD_ROTATIONS:
             raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
                              f"got {self.head_rotation!r}")
-        if self.bond_kinematics not in ("contact", "barycentre"):
-            raise ValueError(f"bond_kinematics must be 'contact' or 'barycentre', "
+        if self.bond_kinematics not in BOND_KINEMATICS:
+            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
                              f"got {self.bond_kinematics!r}")
         if self.dt_policy not in DT_POLICIES:
             raise ValueError(f"dt_policy must be one of {DT_POLICIES}, got {self.dt_policy!r}")
@@ -206,6 +207,45 @@ def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", l
     return cfg
 
 
+def settings_from(cfg: dict, where: str = "--settings-json") -> TwoPBSettings:
+    """:class:`TwoPBSettings` from a dict of its fields (e.g. :func:`mode_settings` updated by
+    the command line's JSON).
+
+    Raises
+    ------
+    InputError
+        naming ``where``: an unknown key (with the known ones), or a value the settings reject.
+    """
+    names = set(TwoPBSettings.__dataclass_fields__)
+    unknown = sorted(set(cfg) - names)
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {unknown}; expected some of {sorted(names)}")
+    try:
+        return TwoPBSettings(**cfg)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{where}: {exc}") from exc
+
+
+def read_config(path) -> dict:
+    """The workflow config (YAML) at ``path``, which must hold a ``campaign`` section.
+
+    Raises
+    ------
+    InputError
+        naming the file: unreadable, not YAML, not a mapping, or without ``campaign``.
+    """
+    import yaml
+
+    try:
+        with open(path) as fh:
+            cfg = yaml.safe_load(fh)
+    except (OSError, yaml.YAMLError) as exc:
+        raise InputError(f"{path}: cannot read the config ({exc})") from exc
+    if not isinstance(cfg, dict) or "campaign" not in cfg:
+        raise InputError(f"{path}: no 'campaign' section")
+    return cfg
+
+
 def time_step(frequency_Hz: float, settings: TwoPBSettings) -> float:
     """Time step (s) of a test at ``frequency_Hz`` under the settings' dt policy."""
     if settings.dt_policy == "fixed":
@@ -240,37 +280,21 @@ class HeadMotion:
 
 
 def specimen_of(sample) -> "Specimen2PB":  # noqa: F821
-    """EN 12697-26 specimen of a sample: scaled geometry from the root attributes
-    ``b_m, B_m, e_m, h_m`` when present (else the standard trapezoid), M = sum of the sphere
-    masses, m = top-plate mass (kg)."""
+    """EN 12697-26 specimen of a sample: the scaled geometry of the sample store
+    (:func:`asphalt_nscd.sample.store.specimen_geometry_mm`), M = sum of the sphere masses,
+    m = top-plate mass (kg)."""
     from ..lab.en12697 import Specimen2PB
+    from ..sample.store import specimen_geometry_mm
 
-    geo = {}
-    if all(k in sample.attrs for k in ("b_m", "B_m", "e_m", "h_m")):
-        geo = {f"{k[0]}_mm": float(sample.attrs[k]) * 1e3 for k in ("b_m", "B_m", "e_m", "h_m")}
-    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **geo)
-
-
-def head_inertia_of(sample) -> np.ndarray:
-    """Principal moments of inertia (3,) kg m² of the head about ``plates/point[1]``: the
-    harmonic model's steel cuboid (module docstring)."""
-    from ..harmonic.network import contact_points, head_inertia
-
-    if "b_m" in sample.attrs and "e_m" in sample.attrs:
-        size = (float(sample.attrs["b_m"]), float(sample.attrs["e_m"]))
-    else:
-        i = np.asarray(sample.bonds["i"])
-        j = np.asarray(sample.bonds["j"])
-        c = contact_points(sample.position, sample.radius, sample.plate_normal, i, j,
-                           np.asarray(sample.bonds["l0"]))[j == -2]
-        size = tuple(np.ptp(c[:, :2], axis=0)) if len(c) else (0.0, 0.0)
-    return head_inertia(float(sample.plate_mass[1]), *map(float, size))
+    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]),
+                       **specimen_geometry_mm(sample))
 
 
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
     """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
     fixed, top plate driven by :class:`HeadMotion` (and free to rotate when
-    ``settings.head_rotation == 'free'``, inertia :func:`head_inertia_of`), bonds with the
+    ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid,
+    :mod:`asphalt_nscd.harmonic.network`), bonds with the
     macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``.
     Returns (Simulation, HeadMotion).
 
@@ -287,7 +311,9 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
     head = {}
     if settings.head_rotation == "free":
-        inertia = head_inertia_of(sample)
+        from ..harmonic.network import network_from_sample
+
+        inertia = network_from_sample(sample).plate_inertia
         if not np.all((inertia > 0) & np.isfinite(inertia)):
             raise InputError(f"head_rotation 'free': the head has no positive finite rotational "
                              f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "
@@ -381,7 +407,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     ------
     InputError if the sample file is missing or malformed.
     """
-    from ..nscd import Simulation
+    from ..nscd import read_checkpoint, write_checkpoint
     from ..sample.store import read_sample
 
     output = Path(output)
@@ -405,7 +431,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
             arrays = {k: z[k].copy() for k in z.files}
         if str(arrays.pop("key")) == key:
             motion = HeadMotion(settings.amplitude_m, frequency_Hz)
-            sim = Simulation.load_checkpoint(ckpt, drivers=[None, motion])
+            sim = read_checkpoint(ckpt, drivers=[None, motion])
             start_info = json.loads(str(arrays["start_info"]))
             print(f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True,
                   file=sys.stderr)
@@ -455,7 +481,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
             with atomic_path(partial) as tmp:
                 with open(tmp, "wb") as fh:
                     np.savez(fh, key=np.array(key), **arrays)
-            sim.save_checkpoint(ckpt)
+            write_checkpoint(sim, ckpt)
             if stop_after is not None and done == stop_after:
                 bar.close()
                 return None

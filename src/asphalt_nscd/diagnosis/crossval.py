@@ -411,19 +411,20 @@ class SampleModel:
 
         Raises InputError naming the file on a bad sample or transfer JSON.
         """
-        from ..harmonic.network import read_sample
-        from ..harmonic.response import specimen_geometry_mm
+        from ..harmonic.network import network_from_sample
+        from ..sample.store import read_sample, specimen_geometry_mm
         from ..harmonic.solver import HarmonicSystem
         from ..harmonic.transfer import read_transfer_json
 
         tr = read_transfer_json(transfer_path)
-        network = read_sample(sample_path)
+        sample = read_sample(sample_path)
+        network = network_from_sample(sample)
         if str(tr["sample"]) != str(network.name):
             raise InputError(f"{transfer_path}: key 'sample': the factor is of sample {tr['sample']!r}, "
                              f"the sample file {sample_path} is {network.name!r}")
         system = HarmonicSystem(network, nu=float(tr["nu"]), bond_kinematics=tr["bond_kinematics"],
                                 head_rotation=tr["head_rotation"])
-        return cls(system, specimen_geometry_mm(sample_path), float(tr["network_factor"]), str(network.name),
+        return cls(system, specimen_geometry_mm(sample), float(tr["network_factor"]), str(network.name),
                    inertia)
 
     def predict(self, law, temperature_C: float, frequencies_Hz) -> np.ndarray:

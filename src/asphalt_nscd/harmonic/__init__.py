@@ -3,15 +3,17 @@ the discrete model under the 2PB head motion, one complex sparse solve per (T, f
 
 Public API (SI inside; MPa, degrees, Hz, degC at the edges)::
 
-    from asphalt_nscd.harmonic.network import read_sample, write_sample, lattice_sample
+    from asphalt_nscd.sample.store import read_sample, specimen_geometry_mm  # the sample store
+    from asphalt_nscd.harmonic.network import network_from_sample
     from asphalt_nscd.harmonic.solver import HarmonicSystem
     from asphalt_nscd.harmonic.response import harmonic_rows
 
-    system = HarmonicSystem(read_sample("results/samples/s1.h5"), nu=0.35,
+    sample = read_sample("results/samples/s1.h5")
+    system = HarmonicSystem(network_from_sample(sample), nu=0.35,   # rheology.laws.POISSON_RATIO
                             bond_kinematics="contact", head_rotation="free")  # the defaults
     sol = system.solve_law(law, frequency_Hz=10.0, inertia="full")   # law: any object with
     sol.force, sol.psi_deg, sol.mu_kg                                 # complex_modulus(omega)
-    rows = harmonic_rows(system, law, 15.0, [3, 10, 40], geometry_mm)  # Eqs. 1-5 + network factor
+    rows = harmonic_rows(system, law, 15.0, [3, 10, 40], specimen_geometry_mm(sample))  # Eqs. 1-5
     system.solve(kn, kt, omega)        # per-bond complex stiffnesses (B,) N/m (general laws)
 
 Bond kinematics: ``contact`` (6 DOF per sphere, bond force at the contact point with torques;
@@ -19,7 +21,7 @@ default) or ``barycentre`` (3 DOF, no torque: the NSCD core, which spuriously st
 head rotation ``free`` (default, the cantilever of EN 12697-26 Eq. 3) or ``clamped``. See
 :mod:`.solver`.
 
-Modules: :mod:`.network` (sample file <-> bond network), :mod:`.solver` (assembly, solvers,
+Modules: :mod:`.network` (sample -> bond network), :mod:`.solver` (assembly, solvers,
 content of the force), :mod:`.response` (EN 12697-26 rows, macro law, network factor),
 :mod:`.ordering` (METIS nested-dissection ordering of the sparse factorisations),
 :mod:`.timedomain` (the same test through the NSCD core), :mod:`.analysis` (sensitivity,

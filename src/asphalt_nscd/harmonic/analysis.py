@@ -23,7 +23,10 @@ import time
 import numpy as np
 import pandas as pd
 
-from .response import PARAM_COLUMNS, harmonic_rows, law_of_row
+from ..rheology.calibration import burgers_model
+from ..nscd.state import HEAD_AMPLITUDE_M
+from ..rheology.laws import POISSON_RATIO
+from .response import PARAM_COLUMNS, harmonic_rows
 
 NETWORK_FACTOR_KEYS = ("sample", "mode", "temperature_C", "frequency_Hz")
 
@@ -56,7 +59,7 @@ def sensitivity_table(system, row: pd.Series, frequencies_Hz, levels_percent, ge
         r = row.copy()
         if name != "reference":
             r[name] = float(r[name]) * (1.0 + change / 100.0)
-        rows = harmonic_rows(system, law_of_row(r), float(row["temperature_C"]), frequencies_Hz,
+        rows = harmonic_rows(system, burgers_model(r), float(row["temperature_C"]), frequencies_Hz,
                              geometry_mm, **solve_kwargs)
         frame = pd.DataFrame(rows)
         frame.insert(0, "change_percent", change)
@@ -94,7 +97,7 @@ def compare_time_domain(sample_path, system, params: pd.DataFrame, frequencies_H
 
     out = []
     for _, prow in params.iterrows():
-        law = law_of_row(prow)
+        law = burgers_model(prow)
         T = float(prow["temperature_C"])
         for f in frequencies_Hz:
             ref = harmonic_rows(system, law, T, [f], geometry_mm, inertia="full",
@@ -156,7 +159,7 @@ def network_factor_table(frames: list[pd.DataFrame]) -> tuple[pd.DataFrame, pd.D
 
 
 def kinematics_study(network, params: pd.DataFrame, frequencies_Hz, geometry_mm,
-                     nu: float = 0.35, inertia_modes=("none", "full"),
+                     nu: float = POISSON_RATIO, inertia_modes=("none", "full"),
                      **solve_kwargs) -> pd.DataFrame:
     """Network factor and phase difference per (bond_kinematics, head_rotation, inertia, T, f).
 
@@ -182,7 +185,8 @@ def kinematics_study(network, params: pd.DataFrame, frequencies_Hz, geometry_mm,
     (``temperature_C, frequency_Hz, E_norm_MPa, phase_deg, macro_E_norm_MPa,
     macro_phase_deg, network_factor, phase_difference_deg, n_free_dof, ...``).
     """
-    from .solver import BOND_KINEMATICS, HEAD_ROTATIONS, HarmonicSystem
+    from ..nscd.state import BOND_KINEMATICS, HEAD_ROTATIONS
+    from .solver import HarmonicSystem
 
     frames = []
     for kinematics in BOND_KINEMATICS:
@@ -190,7 +194,7 @@ def kinematics_study(network, params: pd.DataFrame, frequencies_Hz, geometry_mm,
             system = HarmonicSystem(network, nu=nu, bond_kinematics=kinematics,
                                     head_rotation=head)
             for inertia, (_, prow) in itertools.product(inertia_modes, params.iterrows()):
-                rows = harmonic_rows(system, law_of_row(prow), float(prow["temperature_C"]),
+                rows = harmonic_rows(system, burgers_model(prow), float(prow["temperature_C"]),
                                      frequencies_Hz, geometry_mm, inertia=inertia,
                                      **solve_kwargs)
                 frame = pd.DataFrame(rows)
@@ -238,11 +242,13 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     from scipy.sparse.linalg import splu
 
     from ..nscd.linear import splu_symmetric
-    from .network import read_sample
+    from ..sample.store import read_sample
+    from .network import network_from_sample
     from .solver import HarmonicSystem, _fill
 
     t0 = time.perf_counter()
-    network = read_sample(sample_path)
+    sample = read_sample(sample_path)
+    network = network_from_sample(sample)
     system = HarmonicSystem(network, bond_kinematics=bond_kinematics,
                             head_rotation=head_rotation)
     t_setup = time.perf_counter() - t0
@@ -307,7 +313,7 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
         f = float(frequencies_Hz[0])
         omega = 2 * np.pi * f
         s = omega**2 / complex(law.complex_modulus(omega))
-        up = np.array([63e-6, 0.0, 0.0], complex)
+        up = np.array([HEAD_AMPLITUDE_M, 0.0, 0.0], complex)
         rhs = -(ref["fp"] @ up)
         m = system.mass_free
         t0 = time.perf_counter()
@@ -344,7 +350,7 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
         harmonic_rows(system, law, 0.0, [frequencies_Hz[0]], geometry_mm, inertia="full",
                       solver="direct")
         direct_s = time.perf_counter() - t0
-    td = (_time_domain_step_time(sample_path, law, float(frequencies_Hz[0]), td_dt, td_steps)
+    td = (_time_domain_step_time(sample, law, float(frequencies_Hz[0]), td_dt, td_steps)
           if td_steps > 0 else float("nan"))
     n_td = int(round(td_cycles / (float(frequencies_Hz[0]) * td_dt)))
     first = per_f[0]
@@ -367,22 +373,18 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     }
 
 
-def _time_domain_step_time(sample_path, law, frequency_Hz, dt, n_steps) -> float:
-    import h5py
-
+def _time_domain_step_time(sample, law, frequency_Hz, dt, n_steps) -> float:
     from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
 
-    with h5py.File(sample_path, "r") as h5:
-        m, r = h5["spheres/mass"][()], h5["spheres/radius"][()]
-        spheres = Spheres(position=h5["spheres/position"][()], radius=r, mass=m,
-                          inertia=0.4 * m * r**2)
-        point, normal = h5["plates/point"][()], h5["plates/normal"][()]
-        m_top = float(h5["plates/mass"][1])
-        bi, bj = h5["bonds/i"][()], h5["bonds/j"][()]
+    spheres = Spheres(position=np.array(sample.position), radius=sample.radius, mass=sample.mass,
+                      inertia=sample.inertia)
+    point, normal = sample.plate_point, sample.plate_normal
+    m_top = float(sample.plate_mass[1])
+    bi, bj = sample.bonds["i"], sample.bonds["j"]
     w = 2 * np.pi * frequency_Hz
     plates = Plates([Plate(point[0], normal[0], mode="fixed"),
                      Plate(point[1], normal[1], mode="driven", mass=m_top,
-                           displacement=lambda t: (63e-6 * np.sin(w * t), 0.0, 0.0))])
+                           displacement=lambda t: (HEAD_AMPLITUDE_M * np.sin(w * t), 0.0, 0.0))])
     sim = Simulation(spheres, plates, Bonds.create(spheres, plates, bi, bj, law),
                      NSCDParameters(dt=dt, gravity=(0.0, 0.0, 0.0)))
     sim.step()  # JIT compilation and first factorisation excluded

@@ -19,15 +19,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS
+from ..rheology.laws import POISSON_RATIO
+
 
 def _add_kinematics_options(p, bond_kinematics: str = "contact",
                             head_rotation: str = "free") -> None:
-    p.add_argument("--bond-kinematics", choices=["contact", "barycentre"],
+    p.add_argument("--bond-kinematics", choices=list(BOND_KINEMATICS),
                    default=bond_kinematics,
                    help="contact: 6 DOF per sphere, bond acting at the contact point (torques); "
                         "barycentre: 3 DOF per sphere, bond at the barycentres (the NSCD core) "
                         f"(default {bond_kinematics}; see asphalt_nscd.harmonic.solver)")
-    p.add_argument("--head-rotation", choices=["free", "clamped"], default=head_rotation,
+    p.add_argument("--head-rotation", choices=list(HEAD_ROTATIONS), default=head_rotation,
                    help="free: the head plate rotates under the bond moments (cantilever of "
                         f"Eq. 3); clamped: it only translates (default {head_rotation})")
 
@@ -41,8 +44,9 @@ def _add_law_options(p, temperature_required: bool = False, bond_kinematics: str
     p.add_argument("--temperature", type=float, nargs="+" if not temperature_required else 1,
                    required=temperature_required, default=[],
                    help="temperatures, degC (default: every row of --parameters)")
-    p.add_argument("--amplitude-m", type=float, default=63e-6, help="head amplitude A, m (63e-6)")
-    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (0.35)")
+    p.add_argument("--amplitude-m", type=float, default=HEAD_AMPLITUDE_M, help=f"head amplitude A, m ({HEAD_AMPLITUDE_M})")
+    p.add_argument("--nu", type=float, default=POISSON_RATIO,
+                   help=f"Poisson's ratio of Eqs. 8-11 ({POISSON_RATIO})")
     _add_kinematics_options(p, bond_kinematics, head_rotation)
 
 
@@ -123,8 +127,9 @@ def register(subparsers) -> None:
     p.add_argument("--temperature", type=float, nargs="+", default=[],
                    help="temperatures, degC (default: every row of --parameters)")
     p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
-    p.add_argument("--amplitude-m", type=float, default=63e-6, help="head amplitude A, m (63e-6)")
-    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (0.35)")
+    p.add_argument("--amplitude-m", type=float, default=HEAD_AMPLITUDE_M, help=f"head amplitude A, m ({HEAD_AMPLITUDE_M})")
+    p.add_argument("--nu", type=float, default=POISSON_RATIO,
+                   help=f"Poisson's ratio of Eqs. 8-11 ({POISSON_RATIO})")
     p.add_argument("--inertia", choices=["full", "none"], nargs="+", default=["none", "full"],
                    help="inertia modes (see 'harmonic'; default both)")
     p.add_argument("-o", "--output", type=Path, required=True,
@@ -140,7 +145,8 @@ def register(subparsers) -> None:
                               "Use the kinematics of the time-domain test it corrects (config "
                               "nscd.bond_kinematics, campaign.test.head_rotation, campaign.test.nu).")
     p.add_argument("--sample", type=Path, required=True, help="sample file results/samples/<s>.h5")
-    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (0.35)")
+    p.add_argument("--nu", type=float, default=POISSON_RATIO,
+                   help=f"Poisson's ratio of Eqs. 8-11 ({POISSON_RATIO})")
     _add_kinematics_options(p)
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="transfer JSON: network_factor, sample, bond_kinematics, head_rotation, nu, units")
@@ -171,32 +177,36 @@ def register(subparsers) -> None:
 
 def _load(args):
     from ..io import InputError
-    from .network import read_sample
-    from .response import read_parameter_table, select_temperatures, specimen_geometry_mm
+    from ..rheology.calibration import read_parameters
+    from ..sample.store import read_sample, specimen_geometry_mm
+    from .network import network_from_sample
+    from .response import select_temperatures
     from .solver import HarmonicSystem
 
-    network = read_sample(args.sample)
+    sample = read_sample(args.sample)
+    network = network_from_sample(sample)
     try:
         system = HarmonicSystem(network, nu=args.nu, bond_kinematics=args.bond_kinematics,
                                 head_rotation=args.head_rotation)
     except ValueError as exc:
         raise InputError(f"{args.sample}: --nu/--bond-kinematics/--head-rotation: {exc}") from None
-    params = select_temperatures(read_parameter_table(args.parameters), args.temperature,
+    params = select_temperatures(read_parameters(args.parameters), args.temperature,
                                  args.parameters)
-    return system, params, specimen_geometry_mm(args.sample)
+    return system, params, specimen_geometry_mm(sample)
 
 
 def _harmonic(args) -> int:
     import pandas as pd
 
     from ..io import write_csv
-    from .response import frequency_plan, harmonic_rows, law_of_row
+    from ..rheology.calibration import burgers_model
+    from .response import frequency_plan, harmonic_rows
 
     system, params, geometry = _load(args)
     plan = frequency_plan(params, args.frequency, args.frequencies_from, args.sweep)
     rows = []
     for prow, freqs in plan:
-        rows += harmonic_rows(system, law_of_row(prow), prow["temperature_C"], freqs, geometry,
+        rows += harmonic_rows(system, burgers_model(prow), prow["temperature_C"], freqs, geometry,
                               amplitude=args.amplitude_m, inertia=args.inertia,
                               solver=args.solver, rtol=args.rtol)
     frame = pd.DataFrame(rows)
@@ -246,20 +256,11 @@ def _sensitivity(args) -> int:
 
 
 def _network_factor(args) -> int:
-    import pandas as pd
-
-    from ..io import InputError, write_csv
+    from ..io import write_csv
     from .analysis import network_factor_table
+    from .response import read_harmonic_rows
 
-    frames = []
-    for path in args.inputs:
-        frame = pd.read_csv(path)
-        missing = {"sample", "mode", "network_factor", "phase_difference_deg"} - set(frame.columns)
-        if missing:
-            raise InputError(f"{path}: missing column(s) {sorted(missing)}; expected an output "
-                             "of 'asphalt-nscd harmonic'")
-        frames.append(frame)
-    table, summary = network_factor_table(frames)
+    table, summary = network_factor_table([read_harmonic_rows(path) for path in args.inputs])
     write_csv(table, args.output)
     write_csv(summary, args.summary)
     return 0
@@ -275,18 +276,21 @@ def _transfer(args) -> int:
 
 def _kinematics(args) -> int:
     from ..io import write_csv
+    from ..rheology.calibration import read_parameters
+    from ..sample.store import read_sample, specimen_geometry_mm
     from .analysis import kinematics_study
-    from .network import read_sample
-    from .response import read_parameter_table, select_temperatures, specimen_geometry_mm
+    from .network import network_from_sample
+    from .response import select_temperatures
 
-    network = read_sample(args.sample)
-    params = select_temperatures(read_parameter_table(args.parameters), args.temperature,
+    sample = read_sample(args.sample)
+    network = network_from_sample(sample)
+    params = select_temperatures(read_parameters(args.parameters), args.temperature,
                                  args.parameters)
     if any(f <= 0 for f in args.frequency):
         from ..io import InputError
 
         raise InputError(f"--frequency: frequencies must be positive, got {args.frequency}")
-    frame = kinematics_study(network, params, args.frequency, specimen_geometry_mm(args.sample),
+    frame = kinematics_study(network, params, args.frequency, specimen_geometry_mm(sample),
                              nu=args.nu, inertia_modes=args.inertia, amplitude=args.amplitude_m)
     write_csv(frame, args.output)
     return 0
@@ -297,12 +301,11 @@ def _plot(args) -> int:
     import pandas as pd
 
     from ..figures.rheology_plots import CurveSet, rheology_figure
-    from ..io import InputError, savefig
+    from ..io import savefig
+    from ..lab.measured import read_summary
+    from .response import read_harmonic_rows
 
-    frames = [pd.read_csv(p) for p in args.harmonic]
-    sweep = pd.concat(frames, ignore_index=True)
-    if "macro_E_norm_MPa" not in sweep.columns:
-        raise InputError(f"{args.harmonic[0]}: not an output of 'asphalt-nscd harmonic'")
+    sweep = pd.concat([read_harmonic_rows(p, extra=("sample",)) for p in args.harmonic], ignore_index=True)
     sets = []
     macro = sweep.drop_duplicates(["temperature_C", "frequency_Hz"])[
         ["temperature_C", "frequency_Hz", "macro_E_norm_MPa", "macro_phase_deg"]].rename(
@@ -313,7 +316,7 @@ def _plot(args) -> int:
                              style={"alpha": 0.8}))
     if args.measured is not None:
         temps = set(sweep["temperature_C"].round(6))
-        measured = pd.read_csv(args.measured)
+        measured = read_summary(args.measured)
         measured = measured[measured["temperature_C"].round(6).isin(temps)]
         if len(measured):
             sets.append(CurveSet("measured", measured, kind="points"))
@@ -331,20 +334,20 @@ def _bench(args) -> int:
 
     from ..io import write_json
     from ..rheology.laws import GeneralizedBurgers
+    from ..sample.lattice import lattice_sample
+    from ..sample.store import STANDARD_SPECIMEN_MM, read_sample, specimen_geometry_mm, write_sample
     from .analysis import benchmark
-    from .network import lattice_sample, write_sample
-    from .response import specimen_geometry_mm
 
     # Table 3 of the paper at 15 degC, read in Pa (docs: data/paper/table3_burgers.csv).
     law = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
-    geometry = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
+    geometry = dict(STANDARD_SPECIMEN_MM)
     with tempfile.TemporaryDirectory() as tmp:
         path = args.sample
         if path is None:
             path = Path(tmp) / f"lattice_{args.n}.h5"
-            write_sample(path, **lattice_sample(args.n, seed=args.seed))
+            write_sample(path, lattice_sample(args.n, seed=args.seed))
         if args.sample is not None:
-            geometry = specimen_geometry_mm(path)
+            geometry = specimen_geometry_mm(read_sample(path))
         result = benchmark(path, law, args.frequency, geometry, td_steps=args.td_steps,
                            bond_kinematics=args.bond_kinematics,
                            head_rotation=args.head_rotation, direct=not args.skip_direct,

@@ -1,8 +1,9 @@
-"""The bonded sample as a linear network: reading and writing the sample file, test samples.
+"""The bonded sample as a linear network.
 
-A numerical sample (``results/samples/<sample>.h5``, format of docs/design.md) is read into a
-:class:`BondNetwork`: sphere barycentres and masses, the two plates, and for every bond the
-two bodies, the unit vector n of the bond frame in the initial configuration and the
+A numerical sample (``results/samples/<sample>.h5``, format of docs/design.md), read by the
+sample store (:func:`asphalt_nscd.sample.store.read_sample`), becomes a :class:`BondNetwork`
+(:func:`network_from_sample`): sphere barycentres and masses, the two plates, and for every
+bond the two bodies, the unit vector n of the bond frame in the initial configuration and the
 geometric factor a_b = pi r_min^2 / l0 of Eqs. 30-33.
 
 Bond frame (docs/design.md): for a sphere-sphere bond n = (x_j - x_i)/|x_j - x_i|; for a
@@ -24,35 +25,17 @@ m (t/2)^2 diag(1, 1, 0) (parallel-axis term of the face offset). The mass coupli
 the imposed head translation and the head rotation (centre of mass t/2 above the face) is
 neglected.
 
-:func:`write_sample` writes the same format; :func:`lattice_sample` builds a bonded sample of
-spheres on a jittered cubic lattice between two plates (for tests and the benchmark; the
-physical samples come from ``asphalt_nscd.sample``).
+Test samples (a jittered lattice, given spheres and bonds) come from
+:mod:`asphalt_nscd.sample.lattice`.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..io import InputError, atomic_path
 from ..rheology.laws import bond_scale
-
-#: Datasets the harmonic solver needs, with their expected trailing shape.
-REQUIRED = {
-    "spheres/position": (3,),
-    "spheres/radius": (),
-    "spheres/mass": (),
-    "plates/point": (3,),
-    "plates/normal": (3,),
-    "plates/mass": (),
-    "bonds/i": (),
-    "bonds/j": (),
-    "bonds/l0": (),
-    "bonds/r_min": (),
-}
 #: Steel density of the head plate (rotational inertia, module docstring), kg/m^3.
 PLATE_DENSITY_KG_M3 = 7850.0
 
@@ -179,28 +162,14 @@ def network_from_arrays(position, mass, plate_normal, plate_mass, i, j, l0, r_mi
     ``radius`` (N,) m: without it there are no contact points and only the barycentre
     kinematics is available; ``rotational_inertia`` (N,) kg m^2 defaults to
     2/5 m r^2; ``plate_point`` (2, 3) m to the origin; ``head_size_m`` = (b, e) m of the head
-    (default: x-y extent of the contact points of the top-plate bonds).
-
-    Raises
-    ------
-    ValueError
-        on inconsistent shapes or indices, non-positive masses, r_min or l0.
+    (default: x-y extent of the contact points of the top-plate bonds). The arrays are taken
+    as consistent: the sample store checks a file's (:func:`asphalt_nscd.sample.store.
+    read_sample`), the core's state is consistent by construction.
     """
     position = np.asarray(position, float).reshape(-1, 3)
     mass = np.asarray(mass, float).ravel()
     i = np.asarray(i, np.int64).ravel()
     j = np.asarray(j, np.int64).ravel()
-    n_sph = position.shape[0]
-    if mass.shape != (n_sph,):
-        raise ValueError(f"spheres/mass has shape {mass.shape}, expected ({n_sph},)")
-    if np.any(~(mass > 0)):
-        raise ValueError("sphere masses must be positive")
-    if i.shape != j.shape or np.shape(l0) != i.shape or np.shape(r_min) != i.shape:
-        raise ValueError("bonds/i, bonds/j, bonds/l0 and bonds/r_min must have the same length")
-    if np.any((i < 0) | (i >= n_sph)):
-        raise ValueError(f"bonds/i must lie in [0, {n_sph})")
-    if np.any((j >= n_sph) | (j < -2) | (j == i)):
-        raise ValueError(f"bonds/j must lie in [0, {n_sph}) (other sphere) or be -1/-2 (plates)")
     plate_normal = np.asarray(plate_normal, float).reshape(2, 3)
     plate_normal = plate_normal / np.linalg.norm(plate_normal, axis=1, keepdims=True)
     plate_mass = np.asarray(plate_mass, float).ravel()
@@ -209,13 +178,9 @@ def network_from_arrays(position, mass, plate_normal, plate_mass, i, j, l0, r_mi
     contact = inertia = None
     if radius is not None:
         radius = np.asarray(radius, float).ravel()
-        if radius.shape != (n_sph,) or np.any(~(radius > 0)):
-            raise ValueError(f"spheres/radius must be positive with shape ({n_sph},)")
         contact = contact_points(position, radius, plate_normal, i, j, l0)
         inertia = (0.4 * mass * radius**2 if rotational_inertia is None
                    else np.asarray(rotational_inertia, float).ravel())
-        if inertia.shape != (n_sph,) or np.any(~(inertia > 0)):
-            raise ValueError(f"spheres/inertia must be positive with shape ({n_sph},)")
     if head_size_m is None:
         top = contact[j == -2] if contact is not None else position[i[j == -2]]
         head_size_m = np.ptp(top[:, :2], axis=0) if len(top) else (0.0, 0.0)
@@ -237,150 +202,15 @@ def network_from_arrays(position, mass, plate_normal, plate_mass, i, j, l0, r_mi
     )
 
 
-def read_sample(path: str | Path) -> BondNetwork:
-    """Read a sample file (docs/design.md format) into a :class:`BondNetwork`.
-
-    Raises
-    ------
-    InputError
-        if the file is missing, a dataset is absent or has the wrong shape, or the bond
-        data are inconsistent; the message names the file and the dataset.
-    """
-    import h5py
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: sample file not found")
-    data = {}
-    try:
-        with h5py.File(path, "r") as h5:
-            for key, tail in REQUIRED.items():
-                if key not in h5:
-                    raise InputError(f"{path}: dataset '{key}' missing (see docs/design.md)")
-                value = h5[key][()]
-                if value.shape[1:] != tail:
-                    raise InputError(f"{path}: dataset '{key}' has shape {value.shape}, "
-                                     f"expected (n,{','.join(map(str, tail))})")
-                data[key] = value
-            if "spheres/inertia" in h5:
-                data["spheres/inertia"] = h5["spheres/inertia"][()]
-            head = None
-            if "b_m" in h5.attrs and "e_m" in h5.attrs:
-                head = (float(h5.attrs["b_m"]), float(h5.attrs["e_m"]))
-    except OSError as exc:
-        raise InputError(f"{path}: not a readable HDF5 sample file ({exc})") from exc
-    if data["plates/point"].shape[0] != 2:
-        raise InputError(f"{path}: 'plates/point' must have 2 rows (bottom, top)")
-    try:
-        return network_from_arrays(
-            data["spheres/position"], data["spheres/mass"], data["plates/normal"],
-            data["plates/mass"], data["bonds/i"], data["bonds/j"], data["bonds/l0"],
-            data["bonds/r_min"], name=path.stem, radius=data["spheres/radius"],
-            rotational_inertia=data.get("spheres/inertia"), plate_point=data["plates/point"],
-            head_size_m=head)
-    except ValueError as exc:
-        raise InputError(f"{path}: {exc}") from exc
-
-
-def write_sample(path: str | Path, position, radius, mass, plate_point, i, j,
-                 plate_mass=(np.inf, 0.235), density_kg_m3: float = 3415.0,
-                 seed: int = 0, d_min_m: float = 2e-3, config: dict | None = None) -> None:
-    """Write a bonded sample in the docs/design.md format (atomically).
-
-    Plates are horizontal (normals +z at the bottom, -z at the top, into the sample).
-    ``delta0``, ``l0`` and ``r_min`` of every bond are computed from the geometry.
-
-    Parameters
-    ----------
-    position : (N, 3) m; radius, mass : (N,) m, kg; plate_point : (2, 3) m;
-    i, j : (B,) bond bodies (j = -1 bottom, -2 top plate); plate_mass : (2,) kg.
-    """
-    import h5py
-
-    position = np.asarray(position, float)
-    radius = np.asarray(radius, float)
-    i = np.asarray(i, np.int64)
-    j = np.asarray(j, np.int64)
-    plate_point = np.asarray(plate_point, float)
-    plate_normal = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
-    l0 = np.empty(len(i))
-    r_min = np.empty(len(i))
-    delta0 = np.empty(len(i))
-    sph = j >= 0
-    l0[sph] = np.linalg.norm(position[j[sph]] - position[i[sph]], axis=1)
-    r_min[sph] = np.minimum(radius[i[sph]], radius[j[sph]])
-    delta0[sph] = l0[sph] - radius[i[sph]] - radius[j[sph]]
-    k = -1 - j[~sph]
-    l0[~sph] = np.abs(np.einsum("bk,bk->b", position[i[~sph]] - plate_point[k], plate_normal[k]))
-    r_min[~sph] = radius[i[~sph]]
-    delta0[~sph] = l0[~sph] - radius[i[~sph]]
-    units = {"spheres/position": "m", "spheres/radius": "m", "spheres/mass": "kg",
-             "spheres/inertia": "kg m2", "plates/point": "m", "plates/normal": "1",
-             "plates/mass": "kg", "bonds/i": "1", "bonds/j": "1", "bonds/delta0": "m",
-             "bonds/l0": "m", "bonds/r_min": "m"}
-    with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h5:
-            h5["spheres/position"] = position
-            h5["spheres/radius"] = radius
-            h5["spheres/mass"] = np.asarray(mass, float)
-            h5["spheres/inertia"] = 0.4 * np.asarray(mass, float) * radius**2
-            h5["plates/point"] = plate_point
-            h5["plates/normal"] = plate_normal
-            h5["plates/mass"] = np.asarray(plate_mass, float)
-            h5["bonds/i"] = i
-            h5["bonds/j"] = j
-            h5["bonds/delta0"] = delta0
-            h5["bonds/l0"] = l0
-            h5["bonds/r_min"] = r_min
-            h5.attrs["units"] = json.dumps(units)
-            h5.attrs["seed"] = int(seed)
-            h5.attrs["scale"] = 1.0
-            h5.attrs["density_kg_m3"] = float(density_kg_m3)
-            h5.attrs["friction"] = 0.7
-            h5.attrs["d_min_m"] = float(d_min_m)
-            h5.attrs["config"] = json.dumps(config or {})
-            h5.attrs["stage"] = "final"
-
-
-def lattice_sample(n_spheres: int, seed: int = 0, spacing: float = 4.0e-3,
-                   aspect=(1.0, 0.5, 4.0), radius_range=(1.0e-3, 1.6e-3), jitter: float = 0.05,
-                   density_kg_m3: float = 3415.0, d_min: float = 2e-3):
-    """Spheres on a jittered cubic lattice with bonds where the gap is below ``d_min``.
-
-    A stand-in for a prepared sample (same file format) for tests and the benchmark. Sites are
-    jittered by up to ``jitter`` x spacing per axis; with the defaults no two spheres touch
-    (2 r_max + 2 sqrt(3) jitter spacing < spacing, so the time-domain run has no contact) and
-    the face neighbours are bonded (coordination about 6). The lattice has ``aspect`` cells along (x, y, z) scaled so that it
-    holds at least ``n_spheres`` sites; the first ``n_spheres`` sites are kept. Spheres of the
-    lowest (highest) layer are bonded to the bottom (top) plate.
-
-    Returns
-    -------
-    dict with position (N, 3) m, radius (N,) m, mass (N,) kg, plate_point (2, 3) m,
-    i, j (B,) — the arguments of :func:`write_sample`.
-    """
-    from scipy.spatial import cKDTree
-
-    rng = np.random.default_rng(seed)
-    a = np.asarray(aspect, float)
-    k = (n_spheres / np.prod(a)) ** (1.0 / 3.0)
-    nx, ny = (max(1, int(np.ceil(k * a[0]))), max(1, int(np.ceil(k * a[1]))))
-    nz = int(np.ceil(n_spheres / (nx * ny)))
-    grid = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1)
-    sites = grid.reshape(-1, 3)
-    sites = sites[np.lexsort((sites[:, 0], sites[:, 1], sites[:, 2]))][:n_spheres]
-    position = (sites + 0.5) * spacing + rng.uniform(-jitter, jitter, size=sites.shape) * spacing
-    radius = rng.uniform(*radius_range, size=n_spheres)
-    mass = density_kg_m3 * 4.0 / 3.0 * np.pi * radius**3
-    tree = cKDTree(position)
-    pairs = tree.query_pairs(2 * radius_range[1] + d_min, output_type="ndarray")
-    gap = (np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
-           - radius[pairs[:, 0]] - radius[pairs[:, 1]])
-    pairs = pairs[gap < d_min]
-    z_bottom, z_top = 0.0, (sites[:, 2].max() + 1.0) * spacing
-    bottom = np.flatnonzero(sites[:, 2] == 0)
-    top = np.flatnonzero(sites[:, 2] == sites[:, 2].max())
-    i = np.concatenate([pairs[:, 0], bottom, top])
-    j = np.concatenate([pairs[:, 1], np.full(len(bottom), -1), np.full(len(top), -2)])
-    return {"position": position, "radius": radius, "mass": mass,
-            "plate_point": np.array([[0.0, 0.0, z_bottom], [0.0, 0.0, z_top]]), "i": i, "j": j}
+def network_from_sample(sample) -> BondNetwork:
+    """The :class:`BondNetwork` of a sample read by the store (:class:`asphalt_nscd.sample.store.
+    SampleData`, arrays checked there), named after it; the head size (b, e) is the root
+    attributes ``b_m, e_m`` when present (module docstring)."""
+    head = None
+    if "b_m" in sample.attrs and "e_m" in sample.attrs:
+        head = (float(sample.attrs["b_m"]), float(sample.attrs["e_m"]))
+    return network_from_arrays(
+        sample.position, sample.mass, sample.plate_normal, sample.plate_mass, sample.bonds["i"],
+        sample.bonds["j"], sample.bonds["l0"], sample.bonds["r_min"], name=sample.name,
+        radius=sample.radius, rotational_inertia=sample.inertia, plate_point=sample.plate_point,
+        head_size_m=head)

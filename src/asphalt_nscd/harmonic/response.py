@@ -12,9 +12,8 @@ factor measures how far the discrete sample is from that assumption. It depends 
 the bond kinematics of :mod:`.solver` (about 1.1-1.4 with ``contact`` + free head, about 80
 with ``barycentre`` on the default samples; :func:`.analysis.kinematics_study`).
 
-Specimen geometry for gamma (Eq. 3): the root attributes ``b_m, B_m, e_m, h_m`` of the
-sample file (written by ``asphalt_nscd.sample``, already scaled), else the EN 12697-26
-trapezoid (25, 56, 25, 250 mm) — a file without them is a test sample.
+Specimen geometry for gamma (Eq. 3): :func:`asphalt_nscd.sample.store.specimen_geometry_mm`
+(the sample file's scaled dimensions, else the EN 12697-26 trapezoid of a test sample).
 """
 
 from __future__ import annotations
@@ -25,25 +24,13 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError
+from ..nscd.state import HEAD_AMPLITUDE_M
 from .solver import HarmonicSystem
 
 #: Paper frequencies of the campaign, Hz.
 PAPER_FREQUENCIES_HZ = (3.0, 6.0, 10.0, 25.0, 40.0)
 #: Burger's parameter columns (MPa, MPa s), as in asphalt_nscd.rheology.calibration.
 PARAM_COLUMNS = ("Em_MPa", "eta_m_MPa_s", "Ek_MPa", "eta_k_MPa_s")
-
-
-def specimen_geometry_mm(path: str | Path) -> dict:
-    """Specimen dimensions ``b_mm, B_mm, e_mm, h_mm`` of a sample file (see module docstring)."""
-    import h5py
-
-    geometry = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
-    with h5py.File(path, "r") as h5:
-        for key in geometry:
-            attr = key.replace("_mm", "_m")
-            if attr in h5.attrs:
-                geometry[key] = float(h5.attrs[attr]) * 1e3
-    return geometry
 
 
 def specimen_for(system: HarmonicSystem, geometry_mm: dict):
@@ -55,7 +42,7 @@ def specimen_for(system: HarmonicSystem, geometry_mm: dict):
 
 
 def harmonic_rows(system: HarmonicSystem, law, temperature_C: float, frequencies_Hz,
-                  geometry_mm: dict, amplitude: float = 63e-6, inertia: str = "full",
+                  geometry_mm: dict, amplitude: float = HEAD_AMPLITUDE_M, inertia: str = "full",
                   solver: str = "reuse", rtol: float = 1e-12) -> list[dict]:
     """Reduced complex-modulus rows of the sample at one temperature.
 
@@ -107,24 +94,29 @@ def harmonic_rows(system: HarmonicSystem, law, temperature_C: float, frequencies
     return rows
 
 
-def read_parameter_table(path) -> pd.DataFrame:
-    """Burger's parameters in MPa, MPa s (``temperature_C`` + ``PARAM_COLUMNS``).
+#: Columns of the rows of :func:`harmonic_rows` that the readers of ``asphalt-nscd harmonic``
+#: outputs need (:func:`read_harmonic_rows`).
+ROW_COLUMNS = ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg", "macro_E_norm_MPa",
+               "macro_phase_deg", "network_factor", "phase_difference_deg", "inertia")
+
+
+def read_harmonic_rows(path, extra=("sample", "mode")) -> pd.DataFrame:
+    """Read an output table of ``asphalt-nscd harmonic`` (rows of :func:`harmonic_rows` with
+    the ``sample`` and ``mode`` columns the command adds).
 
     Raises
     ------
     InputError
-        naming the file and the column (via asphalt_nscd.rheology.calibration.read_parameters).
+        naming the file: missing or not a CSV table, or a column of :data:`ROW_COLUMNS` or
+        ``extra`` missing.
     """
-    from ..rheology.calibration import read_parameters
+    from ..io import read_csv
 
-    return read_parameters(path)
-
-
-def law_of_row(row):
-    """GeneralizedBurgers (Pa, Pa s) of a parameter row in MPa, MPa s (Eqs. 27-29)."""
-    from ..rheology.calibration import burgers_model
-
-    return burgers_model(row)
+    frame = read_csv(path)
+    missing = [c for c in (*extra, *ROW_COLUMNS) if c not in frame.columns]
+    if missing:
+        raise InputError(f"{path}: missing column(s) {missing}; expected an output of 'asphalt-nscd harmonic'")
+    return frame
 
 
 def select_temperatures(params: pd.DataFrame, temperatures, path="parameters") -> pd.DataFrame:

@@ -154,13 +154,12 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from ..nscd.linear import PermutedLU, splu_symmetric
-from ..rheology.laws import tangential_ratio
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS
+from ..rheology.laws import POISSON_RATIO, tangential_ratio
 from .network import BondNetwork
 from .ordering import ORDERINGS, nested_dissection
 
 INERTIA_MODES = ("none", "full")
-BOND_KINEMATICS = ("contact", "barycentre")
-HEAD_ROTATIONS = ("free", "clamped")
 #: Relative stiffness eps of the regularising rotational bond spring (module docstring).
 ROTATIONAL_REGULARISATION = 1e-10
 SOLVERS = ("reuse", "direct")
@@ -260,7 +259,7 @@ class HarmonicSystem:
         on an unknown option, negative ``regularisation``, or ``contact`` without radii.
     """
 
-    def __init__(self, network: BondNetwork, nu: float = 0.35,
+    def __init__(self, network: BondNetwork, nu: float = POISSON_RATIO,
                  bond_kinematics: str = "contact", head_rotation: str = "free",
                  regularisation: float = ROTATIONAL_REGULARISATION, ordering: str = "metis"):
         if bond_kinematics not in BOND_KINEMATICS:
@@ -397,15 +396,6 @@ class HarmonicSystem:
             return np.zeros((0, 6, 6), entry.dtype)
         return np.add.reduceat(entry[self._order], self._starts, axis=0)
 
-    def bond_stiffness(self, law, omega: float) -> tuple[np.ndarray, np.ndarray]:
-        """Complex normal and tangential stiffness of every bond, (B,) each, N/m.
-
-        k_n = a_b E*(w) (Eqs. 30-33), k_t = k_n / (2 (1 + nu)) (Eqs. 8-11).
-        """
-        e = complex(law.complex_modulus(omega))
-        kn = self.network.scale * e
-        return kn, kn * self.t_ratio
-
     def blocks(self, kn, kt) -> dict:
         """Sparse blocks ff, fp, pf, pp of K(w) for per-bond stiffnesses kn, kt (B,) N/m.
 
@@ -507,7 +497,7 @@ class HarmonicSystem:
         self._shifted[sigma] = lu
         return lu, sigma, False
 
-    def solve(self, kn, kt, omega: float, amplitude: float = 63e-6,
+    def solve(self, kn, kt, omega: float, amplitude: float = HEAD_AMPLITUDE_M,
               inertia: str = "full", omega2: complex | None = None) -> HarmonicSolution:
         """Steady state for per-bond stiffnesses kn, kt (B,) complex N/m at w (rad/s).
 
@@ -546,7 +536,7 @@ class HarmonicSystem:
         return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct",
                               omega2=omega2)
 
-    def solve_law(self, law, frequency_Hz: float, amplitude: float = 63e-6,
+    def solve_law(self, law, frequency_Hz: float, amplitude: float = HEAD_AMPLITUDE_M,
                   inertia: str = "full", solver: str = "reuse",
                   rtol: float = 1e-12, laplace: complex | None = None) -> HarmonicSolution:
         """Steady state with every bond following ``law`` scaled by a_b (Eqs. 30-33, 8-11).

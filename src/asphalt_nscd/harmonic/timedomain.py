@@ -35,6 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError
+from ..nscd.state import HEAD_AMPLITUDE_M, HEAD_ROTATIONS
+from ..rheology.laws import POISSON_RATIO
 
 
 def relaxation_bound_s(law) -> float:
@@ -45,9 +47,9 @@ def relaxation_bound_s(law) -> float:
 
 
 def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_mm: dict,
-                    dt: float, amplitude: float = 63e-6, n_cycles: int = 5,
+                    dt: float, amplitude: float = HEAD_AMPLITUDE_M, n_cycles: int = 5,
                     settle_factor: float = 6.0, window_cycles: int = 1, theta: float = 0.5,
-                    tolerance: float = 1e-8, nu: float = 0.35, max_steps: int = 2_000_000,
+                    tolerance: float = 1e-8, nu: float = POISSON_RATIO, max_steps: int = 2_000_000,
                     force_reading: str = "bonds", bond_kinematics: str = "contact",
                     head_rotation: str = "free") -> dict:
     """Run the time-domain 2PB test of a sample at one (law, f, dt) and reduce it.
@@ -81,26 +83,23 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
     """
     if force_reading not in ("bonds", "driver"):
         raise ValueError(f"force_reading must be 'bonds' or 'driver', got {force_reading!r}")
-    if head_rotation not in ("free", "clamped"):
-        raise ValueError(f"head_rotation must be 'free' or 'clamped', got {head_rotation!r}")
-    import h5py
-
+    if head_rotation not in HEAD_ROTATIONS:
+        raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {head_rotation!r}")
     from ..lab.en12697 import Specimen2PB, reduce_record
     from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
+    from ..sample.store import read_sample
+    from .network import network_from_sample
 
-    with h5py.File(sample_path, "r") as h5:
-        spheres = Spheres(position=h5["spheres/position"][()], radius=h5["spheres/radius"][()],
-                          mass=h5["spheres/mass"][()],
-                          inertia=0.4 * h5["spheres/mass"][()] * h5["spheres/radius"][()] ** 2)
-        point, normal = h5["plates/point"][()], h5["plates/normal"][()]
-        plate_mass = h5["plates/mass"][()]
-        bi, bj = h5["bonds/i"][()], h5["bonds/j"][()]
+    sample = read_sample(sample_path)
+    spheres = Spheres(position=sample.position, radius=sample.radius, mass=sample.mass,
+                      inertia=sample.inertia)
+    point, normal = sample.plate_point, sample.plate_normal
+    plate_mass = sample.plate_mass
+    bi, bj = sample.bonds["i"], sample.bonds["j"]
     omega = 2.0 * np.pi * frequency_Hz
     head = {}
     if head_rotation == "free":
-        from .network import read_sample
-
-        head = {"rotation": True, "inertia": read_sample(sample_path).plate_inertia}
+        head = {"rotation": True, "inertia": network_from_sample(sample).plate_inertia}
     plates = Plates([
         Plate(point[0], normal[0], mode="fixed"),
         Plate(point[1], normal[1], mode="driven", mass=float(plate_mass[1]),

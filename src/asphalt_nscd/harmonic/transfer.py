@@ -39,7 +39,9 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError, read_json
-from .solver import BOND_KINEMATICS, HEAD_ROTATIONS, HarmonicSystem
+from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS
+from ..rheology.laws import POISSON_RATIO
+from .solver import HarmonicSystem
 
 #: Keys a transfer JSON must hold (:func:`read_transfer_json`).
 TRANSFER_KEYS = ("network_factor", "sample", "bond_kinematics", "head_rotation", "nu")
@@ -53,7 +55,7 @@ def unit_elastic_law():
 
 
 def network_factor(system: HarmonicSystem, geometry_mm: dict, law=None, frequency_Hz: float = 1.0,
-                   amplitude: float = 63e-6, solver: str = "reuse") -> complex:
+                   amplitude: float = HEAD_AMPLITUDE_M, solver: str = "reuse") -> complex:
     """Complex network factor E_sample(w) / E*(w) of the inertia-free sample (module docstring).
 
     Parameters
@@ -61,7 +63,7 @@ def network_factor(system: HarmonicSystem, geometry_mm: dict, law=None, frequenc
     system : HarmonicSystem
         The prepared sample (its bond kinematics, head rotation and nu).
     geometry_mm : dict
-        ``b_mm, B_mm, e_mm, h_mm`` of the specimen (gamma, Eq. 3; :func:`.response.specimen_geometry_mm`).
+        ``b_mm, B_mm, e_mm, h_mm`` of the specimen (gamma, Eq. 3; :func:`asphalt_nscd.sample.store.specimen_geometry_mm`).
     law : object with ``complex_modulus(omega)`` (Pa), optional
         Any macro law; default :func:`unit_elastic_law`. The result does not depend on it.
     frequency_Hz : float
@@ -94,7 +96,7 @@ def network_factor(system: HarmonicSystem, geometry_mm: dict, law=None, frequenc
     return e_sample / complex(law.complex_modulus(2.0 * np.pi * frequency_Hz))
 
 
-def transfer_json(sample_path, nu: float = 0.35, bond_kinematics: str = "contact",
+def transfer_json(sample_path, nu: float = POISSON_RATIO, bond_kinematics: str = "contact",
                   head_rotation: str = "free") -> dict:
     """The network factor of a sample file as the transfer JSON (module docstring).
 
@@ -119,10 +121,11 @@ def transfer_json(sample_path, nu: float = 0.35, bond_kinematics: str = "contact
         if the sample file is missing or malformed, an option is invalid, or NF_s is not a
         positive finite number (e.g. a sample whose head carries no bond).
     """
-    from .network import read_sample
-    from .response import specimen_geometry_mm
+    from ..sample.store import read_sample, specimen_geometry_mm
+    from .network import network_from_sample
 
-    network = read_sample(sample_path)
+    sample = read_sample(sample_path)
+    network = network_from_sample(sample)
     try:
         system = HarmonicSystem(network, nu=nu, bond_kinematics=bond_kinematics, head_rotation=head_rotation)
     except ValueError as exc:
@@ -130,7 +133,7 @@ def transfer_json(sample_path, nu: float = 0.35, bond_kinematics: str = "contact
     law = unit_elastic_law()
     f = 1.0
     sol = system.solve_law(law, f, inertia="none", solver="reuse")
-    nf = network_factor(system, specimen_geometry_mm(sample_path), law=law, frequency_Hz=f)
+    nf = network_factor(system, specimen_geometry_mm(sample), law=law, frequency_Hz=f)
     if not (np.isfinite(nf.real) and nf.real > 0):
         raise InputError(f"{sample_path}: network factor {nf.real!r} is not a positive finite number "
                          "(does any bond reach the head?)")
@@ -199,6 +202,34 @@ def read_transfer_json(path, sample: str | None = None, bond_kinematics: str | N
                              f"the run uses {want!r}")
     obj["network_factor"] = float(nf)
     return obj
+
+
+def corrected_law(law, transfer_path, sample: str | None = None, bond_kinematics: str | None = None,
+                  head_rotation: str | None = None, nu: float | None = None):
+    """The transfer correction of a macro law for one sample (module docstring): the law
+    divided by the sample's network factor NF_s read from ``transfer_path``
+    (``law.scaled(1 / NF_s)``: every modulus and viscosity), so that the bonds are calibrated
+    with E*(w) / NF_s.
+
+    Parameters
+    ----------
+    law : GeneralizedBurgers (Pa, Pa s).
+    transfer_path : the sample's transfer JSON (output of ``asphalt-nscd harmonic-transfer``).
+    sample, bond_kinematics, head_rotation, nu : the run's sample name and settings; each
+        given one must match the file's (:func:`read_transfer_json`).
+
+    Returns
+    -------
+    (GeneralizedBurgers, float): the corrected law and NF_s.
+
+    Raises
+    ------
+    InputError
+        from :func:`read_transfer_json`, naming the file and the key.
+    """
+    nf = read_transfer_json(transfer_path, sample=sample, bond_kinematics=bond_kinematics,
+                            head_rotation=head_rotation, nu=nu)["network_factor"]
+    return law.scaled(1.0 / nf), nf
 
 
 def write_transfer(sample_path, output, **options) -> dict:

@@ -23,7 +23,9 @@ sidecar ``<table stem>.test.json`` or an explicit file (:mod:`asphalt_nscd.lab.g
 and the column; nothing is written by the callers in that case.
 
 ``summarize`` gives the replicate mean and the sample standard deviation (ddof = 1; NaN
-for a single specimen) of |E*| and Phi per (temperature, frequency).
+for a single specimen) of |E*| and Phi per (temperature, frequency) (the measured summary,
+``results/lab/measured_summary.csv``); :func:`read_summary` reads it back and checks it
+(columns :data:`SUMMARY_COLUMNS`, one row per (temperature, frequency)).
 """
 
 from __future__ import annotations
@@ -54,9 +56,44 @@ _RANGES = {
 }
 
 
+#: summary column -> (check on the values, expectation); the std columns may be NaN (n = 1)
+_SUMMARY_RANGES = {
+    "temperature_C": _RANGES["temperature_C"],
+    "frequency_Hz": _RANGES["frequency_Hz"],
+    "n": (lambda v: (v >= 1) & (v == np.round(v)), "a replicate count, an integer >= 1"),
+    "E_norm_MPa_mean": _RANGES["E_norm_MPa"],
+    "E_norm_MPa_std": (lambda v: np.isnan(v) | (v >= 0), "a standard deviation >= 0 MPa (or NaN for n = 1)"),
+    "phase_deg_mean": _RANGES["phase_deg"],
+    "phase_deg_std": (lambda v: np.isnan(v) | (v >= 0), "a standard deviation >= 0 degrees (or NaN for n = 1)"),
+}
+
+
 def _line(index: int) -> int:
     """File line of data row ``index`` (0-based; header on line 1)."""
     return int(index) + 2
+
+
+def _numeric_column(path, frame: pd.DataFrame, column: str, ranges: dict, allow_nan: bool = False) -> np.ndarray:
+    """The values of ``frame[column]`` as floats, checked against ``ranges[column]``.
+
+    Raises InputError naming the file, the line and the column on a non-numeric or missing
+    value (unless ``allow_nan``) or a value out of range."""
+    raw = frame[column]
+    text = pd.Series([str(v).strip() for v in raw], index=raw.index, dtype=object)
+    values = pd.to_numeric(raw if pd.api.types.is_numeric_dtype(raw) else text, errors="coerce").to_numpy(dtype=float)
+    check, expected = ranges[column]
+    for i in range(len(values)):
+        if not np.isfinite(values[i]) and not (allow_nan and np.isnan(values[i])
+                                               and text.iloc[i].lower() in {"", "nan", "na", "null"}):
+            kind = "missing value (NaN)" if text.iloc[i] == "" or text.iloc[i].lower() in {"nan", "na", "null"} else "non-numeric value"
+            raise InputError(
+                f"{path}: line {_line(i)}, column '{column}': {kind} {raw.iloc[i]!r}; expected {expected}"
+            )
+    bad = np.flatnonzero(~check(values))
+    if bad.size:
+        i = bad[0]
+        raise InputError(f"{path}: line {_line(i)}, column '{column}': value {values[i]:g} out of range; expected {expected}")
+    return values
 
 
 def load_measured(path, test=None) -> pd.DataFrame:
@@ -123,19 +160,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
     out["specimen"] = spec
     numeric = [c for c in (*REQUIRED_COLUMNS[1:], *OPTIONAL_COLUMNS) if c in frame.columns]
     for column in numeric:
-        text = frame[column].str.strip()
-        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
-        check, expected = _RANGES[column]
-        for i in range(len(values)):
-            if not np.isfinite(values[i]):
-                kind = "missing value (NaN)" if text.iloc[i] == "" or text.iloc[i].lower() in {"nan", "na", "null"} else "non-numeric value"
-                raise InputError(
-                    f"{path}: line {_line(i)}, column '{column}': {kind} {frame[column].iloc[i]!r}; expected {expected}"
-                )
-        bad = np.flatnonzero(~check(values))
-        if bad.size:
-            i = bad[0]
-            raise InputError(f"{path}: line {_line(i)}, column '{column}': value {values[i]:g} out of range; expected {expected}")
+        values = _numeric_column(path, frame, column, _RANGES)
         out[column] = values.astype(int) if column == "test_order" else values
 
     dup = out.duplicated(subset=list(KEY_COLUMNS), keep=False).to_numpy()
@@ -187,3 +212,42 @@ def summarize(df: pd.DataFrame) -> pd.DataFrame:
         phase_deg_std=("phase_deg", "std"),
     ).reset_index()
     return out[list(SUMMARY_COLUMNS)]
+
+
+def read_summary(path) -> pd.DataFrame:
+    """Read and check a measured summary written from :func:`summarize` (the measured means
+    per (temperature, frequency), ``results/lab/measured_summary.csv``).
+
+    Returns
+    -------
+    DataFrame, one row per (temperature_C, frequency_Hz), columns as in the file (at least
+    :data:`SUMMARY_COLUMNS`; MPa, degrees), values as pandas parses them.
+
+    Raises
+    ------
+    InputError
+        naming the file, and the line and column where it applies: the file is missing or not
+        a CSV table, a column of :data:`SUMMARY_COLUMNS` is missing, a value is non-numeric,
+        missing (a std may be NaN) or out of range (frequency > 0 Hz, mean |E*| > 0 MPa, mean
+        phase in [0, 90) degrees, n an integer >= 1, std >= 0), or a (temperature_C,
+        frequency_Hz) pair is repeated.
+    """
+    from ..io import read_csv
+
+    frame = read_csv(path)
+    missing = [c for c in SUMMARY_COLUMNS if c not in frame.columns]
+    if missing:
+        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; "
+                         f"found {list(frame.columns)}, expected {list(SUMMARY_COLUMNS)} "
+                         "(a measured summary of 'asphalt-nscd measured')")
+    if len(frame) == 0:
+        raise InputError(f"{path}: no data rows after the header")
+    for column in SUMMARY_COLUMNS:
+        _numeric_column(path, frame, column, _SUMMARY_RANGES, allow_nan=column.endswith("_std"))
+    dup = np.flatnonzero(frame.duplicated(subset=["temperature_C", "frequency_Hz"], keep=False).to_numpy())
+    if dup.size:
+        row = frame.iloc[dup[0]]
+        raise InputError(f"{path}: lines {', '.join(str(_line(i)) for i in dup)}: repeated (temperature_C, "
+                         f"frequency_Hz) = ({row['temperature_C']:g}, {row['frequency_Hz']:g}); expected one "
+                         "row per (temperature, frequency)")
+    return frame

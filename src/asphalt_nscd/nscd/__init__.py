@@ -11,13 +11,13 @@ State::
           displacement=callable t -> (3,) | (times (T,), disp (T,3)),   # driven plates
           rotation=False, inertia=inf (scalar or (3,) kg m², about point))  # free rotation
     Plates([Plate, ...])   # infinite planes; .angular_velocity, .rotation (P,3) if rotating
-    Bonds.create(spheres, plates, i, j, law: GeneralizedBurgers, nu=0.35, yield_stress=2.7e6)
+    Bonds.create(spheres, plates, i, j, law: GeneralizedBurgers, nu=POISSON_RATIO (0.35, rheology.laws),
+                 yield_stress=YIELD_STRESS (2.7e6 Pa))
         # j = sphere index or -1-k for plate k; rest state = current configuration
     NSCDParameters(dt, theta=0.5, gravity=(0,0,-9.81), friction=0.7, tolerance=1e-6,
                    convergence='quad'|'max'|'both', max_iterations=2000, relaxation=1.0,
                    alert_distance=None, fast_path=True, linear_solver='cg'|'direct',
                    linear_tolerance=1e-10, bond_kinematics='contact'|'barycentre')
-    NSCDParameters.from_config(config['nscd'], dt, friction, gravity)
 
 Time stepping::
 
@@ -30,7 +30,7 @@ Time stepping::
                               # imposed acceleration, theta-averaged; none if mass inf),
                               # dissipated J
     df = sim.run(n_steps, callback=None)      # DataFrame of StepStats.as_row()
-    sim.save_checkpoint("x.h5"); Simulation.load_checkpoint("x.h5", drivers=[...])
+    write_checkpoint(sim, "x.h5"); read_checkpoint("x.h5", drivers=[...])  # callable drivers again
     sim.bonds.force (B,3) N, bonds.broken (B,), sim.contact_impulse (C,3) N s (/dt = force)
     sim.plate_torque (P,3) N m  # bond torque on each plate about its point, last step
 

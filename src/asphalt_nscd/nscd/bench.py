@@ -57,10 +57,11 @@ import time
 
 import numpy as np
 
+from ..io import InputError, read_json
 from ..rheology.laws import GeneralizedBurgers
 from .detection import plate_pairs, sphere_pairs
 from .moreau_jean import Simulation
-from .state import Bonds, NSCDParameters, Plate, Plates, Spheres
+from .state import HEAD_AMPLITUDE_M, Bonds, NSCDParameters, Plate, Plates, Spheres
 
 LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
 BOX = (0.056, 0.025, 0.250)  # m: bounding box of the trapezoid (B, e, h)
@@ -81,7 +82,7 @@ def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
     s = Spheres.from_density(pos, rad, density)
     # top plate just above the highest sphere (the last lattice layer may be partial)
     z_top = float((pos[:, 2] + rad).max()) + 0.1 * pitch
-    omega, amp = 2 * np.pi * 40.0, 63e-6
+    omega, amp = 2 * np.pi * 40.0, HEAD_AMPLITUDE_M
     plates = Plates([
         Plate([0, 0, 0], [0, 0, 1]),
         Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
@@ -184,14 +185,20 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
 
     Raises
     ------
-    ValueError for an unknown case, n < 2, steps < 1 or a bad threads value.
+    InputError (a ValueError) naming the option (``--n`` ...) for an unknown case, n < 2,
+    steps < 1, threads outside [1, NUMBA_NUM_THREADS] or settle_speed <= 0.
     """
     import numba
 
     if case not in ("bonded", "granular"):
-        raise ValueError(f"case must be 'bonded' or 'granular', got {case!r}")
+        raise InputError(f"--case must be 'bonded' or 'granular', got {case!r}")
     if n < 2 or steps < 1:
-        raise ValueError("n >= 2 and steps >= 1 required")
+        raise InputError(f"--n must be >= 2 and --steps >= 1 (got {n}, {steps})")
+    if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+        raise InputError(f"--threads must lie in [1, {numba.config.NUMBA_NUM_THREADS}] "
+                         f"(NUMBA_NUM_THREADS), got {threads}")
+    if not settle_speed > 0:
+        raise InputError(f"--settle-speed must be > 0 m/s, got {settle_speed}")
     comp = compile_time()
     t0 = time.perf_counter()
     rec: dict = {"case": case, "n_particles": int(n), "steps": int(steps),
@@ -315,3 +322,30 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     rec["peak_rss_mb"] = _peak_rss_mb()
     rec["load_average_1min"] = float(os.getloadavg()[0])
     return rec
+
+
+def summary_table(paths):
+    """One row per benchmark JSON record (output of :func:`run_bench`): its scalar keys and
+    ``fraction_<phase>`` for each entry of ``time_breakdown``.
+
+    Raises
+    ------
+    InputError
+        naming the file: unreadable or not JSON, or a key ``case``, ``n_particles`` or
+        ``s_per_particle_step`` missing.
+    """
+    import pandas as pd
+
+    rows = []
+    for path in paths:
+        rec = read_json(path, "bench JSON")
+        if not isinstance(rec, dict):
+            raise InputError(f"{path}: expected a JSON object (a record of 'asphalt-nscd bench')")
+        for key in ("case", "n_particles", "s_per_particle_step"):
+            if key not in rec:
+                raise InputError(f"{path}: key '{key}' missing")
+        flat = {k: v for k, v in rec.items() if not isinstance(v, dict)}
+        for k, v in rec.get("time_breakdown", {}).items():
+            flat[f"fraction_{k}"] = v
+        rows.append(flat)
+    return pd.DataFrame(rows)

@@ -57,40 +57,6 @@ def bond_blocks(bi, bj, inv_mass, inv_mass_plate, w):
             w[b] = inv_mass[i] + inv_mass_plate[-1 - j]
 
 
-def dense_delassus(n_spheres, ci, cj, frames, radius, inv_mass, inv_inertia,
-                   inv_mass_plate, rotation=True) -> np.ndarray:
-    """Dense global Delassus operator W = H^T M^-1 H (3C, 3C) for small test problems.
-
-    Parameters
-    ----------
-    ci, cj : (C,) candidate and antagonist (plate ``-1-k``); frames : (C, 3, 3) rows n, t, s.
-    rotation : include the lever arms (contacts) or not (bonds, barycentric).
-    """
-    c = len(ci)
-    ndof = 6 * n_spheres + 3 * len(inv_mass_plate)
-    H = np.zeros((ndof, 3 * c))
-    minv = np.zeros(ndof)
-    for s in range(n_spheres):
-        minv[6 * s:6 * s + 3] = inv_mass[s]
-        minv[6 * s + 3:6 * s + 6] = inv_inertia[s]
-    for k in range(len(inv_mass_plate)):
-        minv[6 * n_spheres + 3 * k:6 * n_spheres + 3 * k + 3] = inv_mass_plate[k]
-    for a in range(c):
-        F = frames[a]
-        n = F[0]
-        for sign, body, arm in ((1.0, ci[a], -radius[ci[a]] * n),
-                                (-1.0, cj[a], radius[cj[a]] * n if cj[a] >= 0 else None)):
-            if body >= 0:
-                H[6 * body:6 * body + 3, 3 * a:3 * a + 3] = sign * F.T
-                if rotation:
-                    # torque of a unit impulse along each local axis: arm x e
-                    H[6 * body + 3:6 * body + 6, 3 * a:3 * a + 3] = sign * np.cross(arm, F).T
-            else:
-                k = -1 - body
-                H[6 * n_spheres + 3 * k:6 * n_spheres + 3 * k + 3, 3 * a:3 * a + 3] = sign * F.T
-    return H.T @ (minv[:, None] * H)
-
-
 @helper
 def _add_rot(W, a0, a1, a2, d0, d1, d2):
     """W += [a]x^T diag(d) [a]x (3x3, global axes)."""

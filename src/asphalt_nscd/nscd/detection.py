@@ -51,10 +51,6 @@ class Exclusions:
         return cls(np.zeros(n_spheres + 1, np.int64), np.zeros(0, np.int64),
                    np.zeros((n_spheres, n_plates), np.uint8))
 
-    @property
-    def n_pairs(self) -> int:
-        return len(self.nbr) // 2 + int(self.plate.sum())
-
 
 def bonded_exclusions(n_spheres: int, n_plates: int, i, j) -> Exclusions:
     """:class:`Exclusions` of the pairs (i[b], j[b]) (state.py convention: j a sphere index

@@ -457,32 +457,3 @@ class Simulation:
         wp[:] = wp_try
         bP[:] = P_try
         return True
-
-    # ------------------------------------------------------------------ energy
-    def kinetic_energy(self) -> float:
-        """Kinetic energy of the mobile spheres and free plates, J."""
-        s = self.spheres
-        fin = np.isfinite(s.mass)
-        e = 0.5 * (s.mass[fin] * (s.velocity[fin] ** 2).sum(1)).sum()
-        e += 0.5 * (s.inertia[fin] * (s.angular_velocity[fin] ** 2).sum(1)).sum()
-        free = self.plates.mode == FREE
-        e += 0.5 * (self.plates.mass[free] * (self.plates.velocity[free] ** 2).sum(1)).sum()
-        rp = self.plates.rotates
-        e += 0.5 * (self.plates.inertia[rp] * self.plates.angular_velocity[rp] ** 2).sum()
-        return float(e)
-
-    # ------------------------------------------------------------------ checkpoint
-    def save_checkpoint(self, path) -> None:
-        """Write the full state to HDF5 (see checkpoint.py)."""
-        from .checkpoint import write_checkpoint
-
-        write_checkpoint(self, path)
-
-    @classmethod
-    def load_checkpoint(cls, path, drivers=None, external_force=None) -> "Simulation":
-        """Rebuild a Simulation from an HDF5 checkpoint. Callable plate drivers cannot be
-        stored: pass them as ``drivers`` (list of P entries, None for non-driven plates);
-        sampled (times, disp) drivers are restored from the file."""
-        from .checkpoint import read_checkpoint
-
-        return read_checkpoint(path, drivers=drivers, external_force=external_force)

@@ -31,8 +31,16 @@ PLATE_MODES = {"fixed": FIXED, "free": FREE, "driven": DRIVEN}
 #: NLGS convergence norms (gauss_seidel.nlgs): quadratic mean, maximum, both.
 CONVERGENCE_NORMS = {"quad": 0, "max": 1, "both": 2}
 
-#: Bond kinematics (NSCDParameters.bond_kinematics, Bonds).
+#: Bond kinematics (NSCDParameters.bond_kinematics, Bonds; also the harmonic solver's).
 BOND_KINEMATICS = ("contact", "barycentre")
+
+#: Head (top plate) rotation of the 2PB test: free to rotate (a Plate with ``rotation=True``)
+#: or clamped (translation only); the campaign's and the harmonic solver's option.
+HEAD_ROTATIONS = ("free", "clamped")
+
+#: Head displacement amplitude A of the paper's 2PB test, m (Section 3.2.2: 63 µm), the
+#: default of the time-domain campaign, the harmonic solver and the verification cases.
+HEAD_AMPLITUDE_M = 63e-6
 
 #: Contact of an intact bonded pair (NSCDParameters.bonded_contact).
 BONDED_CONTACT = ("after_break", "open_at_bonding", "always")
@@ -492,15 +500,6 @@ class NSCDParameters:
             raise ValueError("friction >= 0, tolerance > 0 and max_iterations >= 1 required")
         self.gravity = np.asarray(self.gravity, dtype=float).reshape(3)
 
-    @classmethod
-    def from_config(cls, section: dict, dt: float, friction: float,
-                    gravity=(0.0, 0.0, -9.81)) -> "NSCDParameters":
-        """Parameters from the ``nscd`` section of the workflow config (solver keys) and
-        the run's own dt (s), friction and gravity (m/s²)."""
-        keys = ("theta", "tolerance", "convergence", "max_iterations", "relaxation", "fast_path",
-                "linear_solver", "linear_tolerance", "bond_kinematics", "threads", "bonded_contact")
-        return cls(dt=dt, friction=friction, gravity=gravity,
-                   **{k: section[k] for k in keys if k in section})
 
 
 @dataclass

@@ -47,9 +47,9 @@ import numpy as np
 import pandas as pd
 import scipy.linalg
 
-from ..rheology.laws import GeneralizedBurgers, bond_scale, tangential_ratio
+from ..rheology.laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tangential_ratio
 from .moreau_jean import Simulation
-from .state import Bonds, NSCDParameters, Plate, Plates, Spheres
+from .state import HEAD_AMPLITUDE_M, Bonds, NSCDParameters, Plate, Plates, Spheres
 
 #: Table 3 of the paper at 15 degC read in Pa, Pa s.
 LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
@@ -84,7 +84,7 @@ def _pair(mass1, inertia1=None, law=LAW_15C, gap_axis=0):
     return s, b
 
 
-def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = 0.35,
+def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = POISSON_RATIO,
              r_min: float = R_SPHERE, l0: float = L0) -> GeneralizedBurgers:
     """Micro law (N/m, N s/m) of a bond of the verification geometry (Eqs. 30-33, 8-11)."""
     a = float(bond_scale(r_min, l0)) * (tangential_ratio(nu) if tangential else 1.0)
@@ -238,7 +238,7 @@ def case_sinusoid(freq: float = 10.0, dt: float = 1e-5, theta: float = 0.5,
 
 def phase_error_table(law: GeneralizedBurgers = LAW_15C, omegas=(2 * np.pi * 40.0,),
                       dts=(5e-5,), thetas=(0.5, 1.0), n_cycles: int = 2,
-                      amplitude: float = 63e-6) -> pd.DataFrame:
+                      amplitude: float = HEAD_AMPLITUDE_M) -> pd.DataFrame:
     """Phase and amplitude error of the time-discrete bond law (Moreau-Jean theta, internal
     variables by the theta-method) under an imposed sinusoidal gap.
 
@@ -537,7 +537,7 @@ def random_bonded_network(n: int = 40, seed: int = 0, law: GeneralizedBurgers = 
     z_top = pos[:, 2].max() + 4e-3
     plates = Plates([Plate([0, 0, 0], [0, 0, 1]),
                      Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
-                           displacement=lambda t: np.array([63e-6 * np.sin(2 * np.pi * 40 * t),
+                           displacement=lambda t: np.array([HEAD_AMPLITUDE_M * np.sin(2 * np.pi * 40 * t),
                                                             0, 0]))])
     from .detection import plate_pairs, sphere_pairs
 

@@ -1,4 +1,11 @@
-"""Sample file (HDF5, docs/design.md "Sample file") and ParaView output (meshio VTU).
+"""The sample store: the sample file (HDF5, docs/design.md "Sample file") and ParaView output
+(meshio VTU).
+
+One reader and one writer for the file format: the preparation writes it
+(:mod:`.prepare`), the NSCD campaign (:mod:`asphalt_nscd.campaign.twopb`) and the harmonic
+solver (:func:`asphalt_nscd.harmonic.network.network_from_sample`) read it as a
+:class:`SampleData`. :func:`read_sample` checks every dataset's presence and shape and the
+consistency of the bond data, so the readers downstream get valid arrays.
 
 Besides the attributes of docs/design.md the root carries the scaled specimen dimensions
 ``B_m, b_m, e_m, h_m`` (the ``scale`` option changes them) and ``n_spheres``.
@@ -28,6 +35,9 @@ UNITS = {
     "bonds/l0": "m",
     "bonds/r_min": "m",
 }
+#: Trailing shape of each dataset (the leading axis is the number of spheres, plates or bonds).
+SHAPES = {name: ((3,) if name in ("spheres/position", "plates/point", "plates/normal") else ())
+          for name in UNITS}
 
 
 @dataclass
@@ -42,11 +52,25 @@ class SampleData:
     plate_mass: np.ndarray  # (2,) kg, bottom inf
     bonds: dict  # i, j, delta0, l0, r_min
     attrs: dict = field(default_factory=dict)
+    name: str = "sample"  # the file stem when read
 
     @property
     def inertia(self) -> np.ndarray:
         """2/5 m r^2 (kg m^2), (N,)."""
         return 0.4 * self.mass * self.radius**2
+
+
+#: Standard 2PB trapezoid (EN 12697-26 Annex A, the paper's specimen), mm.
+STANDARD_SPECIMEN_MM = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
+
+
+def specimen_geometry_mm(sample: SampleData) -> dict:
+    """Specimen dimensions ``b_mm, B_mm, e_mm, h_mm`` of a sample, mm: the root attributes
+    ``b_m, B_m, e_m, h_m`` (the scaled specimen) where present, else the standard trapezoid
+    (:data:`STANDARD_SPECIMEN_MM`)."""
+    return {key: float(sample.attrs[key.replace("_mm", "_m")]) * 1e3
+            if key.replace("_mm", "_m") in sample.attrs else value
+            for key, value in STANDARD_SPECIMEN_MM.items()}
 
 
 def write_sample(path: str | Path, data: SampleData) -> None:
@@ -74,39 +98,74 @@ def write_sample(path: str | Path, data: SampleData) -> None:
 
 
 def read_sample(path: str | Path) -> SampleData:
-    """Read a sample file written by :func:`write_sample`.
+    """Read and check a sample file written by :func:`write_sample` (``name``: the file stem).
 
     Raises
     ------
     InputError
-        if the file is missing or lacks a dataset of docs/design.md.
+        naming the file and the dataset: the file is missing or not HDF5, a dataset of
+        docs/design.md is absent or has the wrong shape, the sphere, plate or bond arrays
+        disagree in length, a bond index is out of range (``bonds/i`` in [0, N), ``bonds/j``
+        in [0, N) other than i, or -1/-2 for the plates), or a mass, radius, ``l0`` or
+        ``r_min`` is not positive.
     """
     import h5py
 
     path = Path(path)
-    if not path.exists():
+    if not path.is_file():
         raise InputError(f"{path}: sample file not found")
-    with h5py.File(path, "r") as f:
-        missing = [name for name in UNITS if name not in f]
-        if missing:
-            raise InputError(f"{path}: missing datasets {missing}")
-        attrs = {}
-        for key, value in f.attrs.items():
-            if isinstance(value, bytes):
-                value = value.decode()
-            if key in ("units", "config") and isinstance(value, str):
-                value = json.loads(value)
-            attrs[key] = value.item() if isinstance(value, np.generic) else value
-        return SampleData(
-            position=f["spheres/position"][()],
-            radius=f["spheres/radius"][()],
-            mass=f["spheres/mass"][()],
-            plate_point=f["plates/point"][()],
-            plate_normal=f["plates/normal"][()],
-            plate_mass=f["plates/mass"][()],
-            bonds={k: f[f"bonds/{k}"][()] for k in ("i", "j", "delta0", "l0", "r_min")},
-            attrs=attrs,
-        )
+    data = {}
+    try:
+        with h5py.File(path, "r") as f:
+            for name, tail in SHAPES.items():
+                if name not in f:
+                    raise InputError(f"{path}: dataset '{name}' missing (see docs/design.md)")
+                value = f[name][()]
+                if value.shape[1:] != tail:
+                    raise InputError(f"{path}: dataset '{name}' has shape {value.shape}, "
+                                     f"expected (n,{','.join(map(str, tail))})")
+                data[name] = value
+            attrs = {}
+            for key, value in f.attrs.items():
+                if isinstance(value, bytes):
+                    value = value.decode()
+                if key in ("units", "config") and isinstance(value, str):
+                    value = json.loads(value)
+                attrs[key] = value.item() if isinstance(value, np.generic) else value
+    except OSError as exc:
+        raise InputError(f"{path}: not a readable HDF5 sample file ({exc})") from exc
+    _check_arrays(path, data)
+    return SampleData(
+        position=data["spheres/position"],
+        radius=data["spheres/radius"],
+        mass=data["spheres/mass"],
+        plate_point=data["plates/point"],
+        plate_normal=data["plates/normal"],
+        plate_mass=data["plates/mass"],
+        bonds={k: data[f"bonds/{k}"] for k in ("i", "j", "delta0", "l0", "r_min")},
+        attrs=attrs,
+        name=path.stem,
+    )
+
+
+def _check_arrays(path, data: dict) -> None:
+    """The consistency checks of :func:`read_sample` on the datasets ``data`` (name -> array)."""
+    n = len(data["spheres/position"])
+    rows = {"spheres": (n, "one per sphere"), "plates": (2, "bottom and top plate"),
+            "bonds": (len(data["bonds/i"]), "one per bond, as 'bonds/i'")}
+    for name, value in data.items():
+        want, what = rows[name.split("/")[0]]
+        if len(value) != want:
+            raise InputError(f"{path}: dataset '{name}' has {len(value)} rows, expected {want} ({what})")
+    i, j = data["bonds/i"], data["bonds/j"]
+    if np.any((i < 0) | (i >= n)):
+        raise InputError(f"{path}: dataset 'bonds/i' must lie in [0, {n})")
+    if np.any((j >= n) | (j < -2) | (j == i)):
+        raise InputError(f"{path}: dataset 'bonds/j' must lie in [0, {n}) (another sphere) "
+                         "or be -1/-2 (bottom/top plate)")
+    for name in ("spheres/mass", "spheres/radius", "bonds/l0", "bonds/r_min"):
+        if np.any(~(data[name] > 0)):
+            raise InputError(f"{path}: dataset '{name}' must be positive")
 
 
 def write_vtu(path: str | Path, position, radius, point_data: dict | None = None) -> None:
