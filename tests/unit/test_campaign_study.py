@@ -137,7 +137,7 @@ def test_cli_aggregation_and_figures(tmp_path):
 
 
 def test_projection_counts_the_workflow_jobs():
-    """The projection enumerates the same jobs as workflow/rules/simulation.smk (smoke: 16)."""
+    """The projection enumerates the same jobs as workflow/rules/campaign.smk (smoke: 16)."""
     import yaml
 
     from asphalt_nscd.campaign.bench import campaign_jobs, project_campaign

@@ -76,7 +76,7 @@ def campaign_jobs(campaign: dict, n_samples_total: int, bond_kinematics: str = "
     """Every test job of a ``campaign`` config section: mode, n_samples, T, f, dt, start,
     n_steps.
 
-    As workflow/rules/simulation.smk: the main modes (``campaign.modes``, ``campaign.n_samples``
+    As workflow/rules/campaign.smk: the main modes (``campaign.modes``, ``campaign.n_samples``
     samples), the extended mode (the measured schedule and settings on
     ``campaign.extended.n_samples`` samples; always run), the dt study, the sensitivity study
     and the units question, each with its settings (:func:`.twopb.mode_settings`). The

@@ -184,7 +184,7 @@ def law_reference(laws: dict, temperature_C, frequency_Hz, where="law JSON") -> 
 
 class JobLaws:
     """The macro law of a job of any mode, from the law files the workflow passes to run-2pb
-    (workflow/rules/simulation.smk): the paper's Table 3 read under ``table3_units`` (paper
+    (workflow/rules/campaign.smk): the paper's Table 3 read under ``table3_units`` (paper
     mode and the studies; units_Pa / units_kPa under their own reading), the calibrated
     Burger's table (measured mode), the generalized law JSON (extended mode), divided by the
     sample's network factor read from ``network_factor_json`` when given (transfer

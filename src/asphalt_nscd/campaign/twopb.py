@@ -185,7 +185,7 @@ MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa", "start", "linear_solver")
 
 def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", linear_solver: str = "cg") -> dict:
     """The test settings (keys of :class:`TwoPBSettings`, JSON-serialisable) of the jobs of
-    one mode of a ``campaign`` config section, as workflow/rules/simulation.smk runs them.
+    one mode of a ``campaign`` config section, as workflow/rules/campaign.smk runs them.
 
     ``campaign.test`` with the overrides (:data:`MODE_OVERRIDES`) of the mode's schedule:
     ``campaign.measured`` for the measured and extended modes, ``campaign.paper`` for the
