@@ -51,6 +51,7 @@ import pandas as pd
 
 from ..io import InputError, read_csv
 from .laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tangential_ratio
+from .metrics import mre_pct
 
 #: Burger's parameter columns (MPa, MPa s) of a calibrated or converted table.
 PARAM_COLUMNS = ("Em_MPa", "eta_m_MPa_s", "Ek_MPa", "eta_k_MPa_s")
@@ -294,8 +295,8 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     out.update({
         "rmse_log_E": float(np.sqrt(np.mean(d.real**2))),
         "rmse_phase_deg": float(np.degrees(np.sqrt(np.mean(d.imag**2)))),
-        "mre_E_pct": float(100.0 * np.mean(np.abs(E_model - E) / E)),
-        "mre_phase_pct": float(100.0 * np.mean(np.abs(phi_model - phi) / phi)),
+        "mre_E_pct": mre_pct(E_model, E),
+        "mre_phase_pct": mre_pct(phi_model, phi),
         "max_abs_phase_err_deg": float(np.degrees(np.max(np.abs(d.imag)))),
         "n_points": int(f.size),
         "cost": float(best.cost),
