@@ -783,7 +783,6 @@ def report_files(config: dict) -> list:
         LAW_JSON,
         "results/diagnosis/extended_law_cv_curve.csv",
         "results/diagnosis/corrected_measured.csv",
-        "results/diagnosis/master_curve.json",
         "results/diagnosis/detection_bench.json",
         "results/diagnosis/detection_bench.csv",
     ]

@@ -180,14 +180,9 @@ def read_corrected(path) -> pd.DataFrame:
 
     Raises InputError naming the file and the missing column or the row of a bad value.
     """
+    from .inputs import checked
+
     table = read_csv(path, dtype={"specimen": str}, float_precision="round_trip")
-    missing = [c for c in CORRECTED_COLUMNS if c not in table.columns]
-    if missing:
-        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}")
-    for c in CORRECTED_COLUMNS[1:]:
-        v = pd.to_numeric(table[c], errors="coerce").to_numpy(float)
-        bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in ("frequency_Hz", "E_norm_MPa") else False))
-        if bad.size:
-            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number"
-                             + (" > 0" if c in ("frequency_Hz", "E_norm_MPa") else ""))
-    return table
+    if "specimen" not in table.columns:
+        raise InputError(f"{path}: line 1 (header): missing column(s) ['specimen']")
+    return checked(table, path, CORRECTED_COLUMNS[1:], positive=("frequency_Hz", "E_norm_MPa"))

@@ -9,9 +9,29 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..io import InputError
+from ..io import InputError, read_csv
 
 SIM_COLUMNS = ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg")
+
+
+def checked(df: pd.DataFrame, path, columns, positive=()) -> pd.DataFrame:
+    """``df`` (read from ``path``) with its numeric ``columns`` checked (finite numbers;
+    ``positive``: > 0) and made floats, in place.
+
+    Raises InputError naming the file and the missing column, or the line and column of a bad
+    value.
+    """
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(columns)}")
+    for c in columns:
+        v = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
+        bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in positive else False))
+        if bad.size:
+            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number"
+                             + (" > 0" if c in positive else ""))
+        df[c] = v
+    return df
 
 
 def read_simulated(path) -> pd.DataFrame:
@@ -22,26 +42,11 @@ def read_simulated(path) -> pd.DataFrame:
 
     Raises InputError naming the file and the missing column or bad row.
     """
-    try:
-        df = pd.read_csv(path)
-    except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    df = read_csv(path)
     if "E_norm_MPa" not in df.columns and {"E_norm_MPa_mean", "phase_deg_mean"} <= set(df.columns):
         df = df.drop(columns=[c for c in ("phase_deg",) if c in df.columns]).rename(
             columns={"E_norm_MPa_mean": "E_norm_MPa", "phase_deg_mean": "phase_deg"})
-    missing = [c for c in SIM_COLUMNS if c not in df.columns]
-    if missing:
-        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(SIM_COLUMNS)}")
-    for c in SIM_COLUMNS:
-        v = pd.to_numeric(df[c], errors="coerce")
-        bad = np.flatnonzero(~np.isfinite(v.to_numpy(float)))
-        if bad.size:
-            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number")
-        df[c] = v.astype(float)
-    bad = np.flatnonzero((df["E_norm_MPa"] <= 0).to_numpy() | (df["frequency_Hz"] <= 0).to_numpy())
-    if bad.size:
-        raise InputError(f"{path}: line {bad[0] + 2}: E_norm_MPa and frequency_Hz must be > 0")
-    return df
+    return checked(df, path, SIM_COLUMNS, positive=("E_norm_MPa", "frequency_Hz"))
 
 
 def read_simulated_many(paths) -> pd.DataFrame | None:
@@ -66,10 +71,7 @@ def read_crossval(paths) -> pd.DataFrame:
 
     frames = []
     for path in [paths] if isinstance(paths, (str, bytes)) or not hasattr(paths, "__iter__") else paths:
-        try:
-            df = pd.read_csv(path)
-        except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-            raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+        df = read_csv(path)
         missing = [c for c in ROW_COLUMNS if c not in df.columns]
         if missing:
             raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected the output of "
@@ -92,19 +94,7 @@ def read_time_errors(paths, theta: float | None = None) -> pd.DataFrame:
     column. Raises InputError naming the file and the column or row."""
     frames = []
     for path in paths:
-        try:
-            t = pd.read_csv(path)
-        except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-            raise InputError(f"{path}: not a readable CSV file ({exc})") from None
-        missing = set(TIME_ERROR_COLUMNS) - set(t.columns)
-        if missing:
-            raise InputError(f"{path}: line 1 (header): missing column(s) {sorted(missing)}")
-        for c in TIME_ERROR_COLUMNS:
-            v = pd.to_numeric(t[c], errors="coerce").to_numpy(float)
-            bad = np.flatnonzero(~np.isfinite(v))
-            if bad.size:
-                raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number")
-            t[c] = v
+        t = checked(read_csv(path), path, TIME_ERROR_COLUMNS)
         if theta is not None and "theta" in t.columns:
             t = t[np.isclose(t["theta"].astype(float), theta)]
             if t.empty:
@@ -116,14 +106,7 @@ def read_time_errors(paths, theta: float | None = None) -> pd.DataFrame:
 def read_macro_params(path) -> pd.DataFrame:
     """The Burger's parameters (``temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s``)
     the simulation was given. Raises InputError naming the file and the missing column."""
-    try:
-        macro = pd.read_csv(path)
-    except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
-    missing = set(MACRO_COLUMNS) - set(macro.columns)
-    if missing:
-        raise InputError(f"{path}: line 1 (header): missing column(s) {sorted(missing)}")
-    return macro
+    return checked(read_csv(path), path, MACRO_COLUMNS)
 
 
 def read_network_factors(paths) -> dict:
