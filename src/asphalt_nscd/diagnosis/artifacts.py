@@ -182,7 +182,7 @@ def read_corrected(path) -> pd.DataFrame:
     """
     from .inputs import checked
 
-    table = read_csv(path, dtype={"specimen": str}, float_precision="round_trip")
+    table = read_csv(path, dtype={"specimen": str})  # pandas >= 3 parses floats round-trip exactly
     if "specimen" not in table.columns:
         raise InputError(f"{path}: line 1 (header): missing column(s) ['specimen']")
     return checked(table, path, CORRECTED_COLUMNS[1:], positive=("frequency_Hz", "E_norm_MPa"))

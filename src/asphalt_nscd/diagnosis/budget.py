@@ -56,7 +56,7 @@ import pandas as pd
 
 from ..io import InputError, json_safe
 from ..rheology import law_file
-from ..rheology.calibration import fit_table
+from ..rheology.calibration import burgers_model, fit_table
 from ..rheology.kramers_kronig import kk_residuals
 from ..rheology.metrics import cell_means, temperature_key
 from . import causes, effects
@@ -272,7 +272,7 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
     # extended law and gain
     if laws is None:  # the report goes on with the paper's Burger's law per isotherm standing in
         law_failure = f"extended law not computable: {law_failure or 'no law given'}"
-        laws = {float(r["temperature_C"]): causes.burgers_law(r) for _, r in burgers_measured.iterrows()}
+        laws = {float(r["temperature_C"]): burgers_model(r, unit=1.0) for _, r in burgers_measured.iterrows()}
     else:
         law_failure = None
         missing = [float(T) for T in temps if temperature_key(laws, T) is None]

@@ -54,17 +54,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..rheology.laws import GeneralizedBurgers
+from ..rheology.calibration import burgers_model
 from ..rheology.master_curve import MasterCurveFit, fit_master_curve
 from ..rheology.metrics import cell_means, same_frequency, same_temperature
 from ..rheology.models import fit_generalized_kelvin, log_time_grid
 from .effects import f_test, p_phrase
-
-
-def burgers_law(row) -> GeneralizedBurgers:
-    """Burger's law (MPa, MPa s) of one row of a parameter table
-    (:func:`asphalt_nscd.rheology.calibration.fit_table`)."""
-    return GeneralizedBurgers.burgers(row["Em_MPa"], row["eta_m_MPa_s"], row["Ek_MPa"], row["eta_k_MPa_s"])
 
 
 def burgers_predict(params: pd.DataFrame, temperature_C, frequency_Hz) -> np.ndarray:
@@ -74,7 +68,7 @@ def burgers_predict(params: pd.DataFrame, temperature_C, frequency_Hz) -> np.nda
     out = np.full(T.shape, np.nan, dtype=complex)
     for _, row in params.iterrows():
         sel = same_temperature(T, row["temperature_C"])
-        out[sel] = burgers_law(row).complex_modulus(2 * np.pi * f[sel])
+        out[sel] = burgers_model(row, unit=1.0).complex_modulus(2 * np.pi * f[sel])
     return out
 
 

@@ -104,11 +104,12 @@ def load_table3(path, units: str = "Pa") -> pd.DataFrame:
     return out
 
 
-def burgers_model(row) -> GeneralizedBurgers:
-    """The Burger's model (SI: Pa, Pa s) of a parameter row in MPa, MPa s (dict or Series)."""
+def burgers_model(row, unit: float = 1e6) -> GeneralizedBurgers:
+    """The Burger's model of a parameter row in MPa, MPa s (dict or Series), in SI (Pa, Pa s)
+    by default; ``unit`` = 1.0 keeps MPa and MPa s (the diagnosis' units)."""
     return GeneralizedBurgers.burgers(
-        Em=float(row["Em_MPa"]) * 1e6, eta_m=float(row["eta_m_MPa_s"]) * 1e6,
-        Ek=float(row["Ek_MPa"]) * 1e6, eta_k=float(row["eta_k_MPa_s"]) * 1e6,
+        Em=float(row["Em_MPa"]) * unit, eta_m=float(row["eta_m_MPa_s"]) * unit,
+        Ek=float(row["Ek_MPa"]) * unit, eta_k=float(row["eta_k_MPa_s"]) * unit,
     )
 
 
