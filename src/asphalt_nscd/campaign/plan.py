@@ -634,7 +634,7 @@ def diagnose_options(config: dict) -> str:
         opts += f" --{key.replace('_', '-')} " + " ".join(paths)
     if "time_integration" in inputs:
         opts += f" --theta {config['campaign']['test']['theta']}"
-    return opts
+    return opts.strip()
 
 
 def diagnose_tolerances(config: dict) -> str:
