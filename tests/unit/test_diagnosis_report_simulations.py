@@ -85,7 +85,7 @@ def test_gain_table_nscd_before_after_and_macro(run):
     assert gain.loc[gain["source"] == "nscd", "before_model"].str.startswith("NSCD").all()
     assert gain.loc[gain["source"] == "macro", "after_model"].str.startswith("generalized Burger's law").all()
     measured = cell_means(pd.read_csv(run["measured"]))
-    corrected = cell_means(pd.read_csv(run["dir"] / "C.csv"))
+    corrected = cell_means(pd.read_csv(run["chain"]["corrected"]))
     E = run["E"]
     sim = grid.assign(E_norm_MPa=1.2 * np.abs(E), phase_deg=np.degrees(np.angle(E)) + 0.5 * 360 * grid["frequency_Hz"] * DT)
     ext = grid.assign(E_norm_MPa=1.2 * np.abs(run["Ex"]), phase_deg=np.degrees(np.angle(run["Ex"])))
