@@ -10,7 +10,7 @@ import pytest
 
 from asphalt_nscd.campaign import study
 from asphalt_nscd.cli import main
-from asphalt_nscd.diagnosis.extend import laws_to_json
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.sample.lattice import lattice_sample
 from asphalt_nscd.sample.store import write_sample
 from asphalt_nscd.io import InputError
@@ -24,8 +24,8 @@ LIQUID = GeneralizedBurgers(Em=2.4e7, eta_m=3.7e6, Ek=(4.8e7,), eta_k=(7.7e5,), 
 
 
 def _json(laws):
-    """Law JSON text of laws in Pa (laws_to_json takes MPa)."""
-    return laws_to_json({T: law.scaled(1e-6) for T, law in laws.items()})
+    """Law JSON text of laws in Pa (law_file.to_json takes MPa)."""
+    return law_file.to_json({T: law.scaled(1e-6) for T, law in laws.items()})
 
 
 def _write(path, obj):
@@ -39,7 +39,7 @@ def good(tmp_path):
 
 
 def test_reader_round_trips_the_extend_law_output(good):
-    laws = study.read_law_json(good)
+    laws = law_file.read(good)
     assert sorted(laws) == [-10.0, 21.0]
     for T, ref in ((-10.0, SOLID), (21.0, LIQUID)):  # null eta_m -> no dashpot (inf)
         got = laws[T].as_dict()
@@ -47,9 +47,9 @@ def test_reader_round_trips_the_extend_law_output(good):
             np.testing.assert_allclose(got[k], v, rtol=1e-14)
     assert laws[-10.0].eta_m == np.inf
     w = 2 * np.pi * np.array([0.1, 10.0])
-    np.testing.assert_allclose(study.law_at(laws, 21.0).complex_modulus(w), LIQUID.complex_modulus(w), rtol=1e-14)
+    np.testing.assert_allclose(law_file.law_at(laws, 21.0).complex_modulus(w), LIQUID.complex_modulus(w), rtol=1e-14)
     with pytest.raises(InputError, match=r"laws.json.*no law at 4 degC.*available"):
-        study.law_at(laws, 4.0, where=str(good))
+        law_file.law_at(laws, 4.0, where=str(good))
     row = study.law_summary(laws[-10.0])
     assert row == {"n_kelvin": 2, "Em_MPa": 3e3, "eta_m_MPa_s": math.inf, "E_inf_MPa": 40.0}
 
@@ -79,13 +79,13 @@ def test_reader_round_trips_the_extend_law_output(good):
 def test_reader_rejects_bad_files_naming_file_and_key(tmp_path, good, edit, message):
     bad = _write(tmp_path / "bad.json", edit(json.loads(good.read_text())))
     with pytest.raises(InputError, match=message) as err:
-        study.read_law_json(bad)
+        law_file.read(bad)
     assert str(err.value).startswith(str(bad))
 
 
 def test_reader_missing_file(tmp_path):
     with pytest.raises(InputError, match="nope.json: cannot read"):
-        study.read_law_json(tmp_path / "nope.json")
+        law_file.read(tmp_path / "nope.json")
 
 
 def test_law_curves_and_reference_match_the_law():

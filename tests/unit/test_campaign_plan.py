@@ -170,7 +170,11 @@ def test_diagnosis_inputs_with_auto_settings():
         "transfer": ["results/harmonic/transfer/s1.json"],
     }
     opts = plan.diagnose_options(cfg)
-    assert opts.startswith("--alpha 0.001 --shift wlf --law-shifts wlf --law-statics constant trend")
+    # diagnose reads the artifact search and the law (rules master_curve, extend_law): no fit options
+    assert opts.startswith("--simulated ") and "--law-" not in opts and "--alpha" not in opts
+    assert plan.artifact_search_options(cfg) == "--alpha 0.001 --shift wlf"
+    assert plan.diagnosis_fit_options(cfg).startswith("--alpha 0.001 --shift wlf --law-shifts wlf --law-statics "
+                                                      "constant trend")
     assert opts.endswith(
         "--simulated results/sim/measured/s1/21C_10Hz.csv --harmonic results/harmonic/jobs/s1_measured.csv"
         " --time-integration results/campaign/measured/dt_policy_phase_error.csv"

@@ -18,10 +18,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from diagnosis_chain import diagnose_table as diagnose
 from hypothesis import given, settings
 from strategies import measured_tables, write_table
 
-from asphalt_nscd.diagnosis.report import diagnose, json_safe, markdown_page
+from asphalt_nscd.diagnosis.render import markdown_page
+from asphalt_nscd.io import json_safe
 from asphalt_nscd.lab.measured import load_measured
 from asphalt_nscd.rheology.calibration import PARAM_COLUMNS, fit_table
 
@@ -149,7 +151,7 @@ def test_prony_without_glassy_compliance_does_not_stop_diagnose(monkeypatch):
 
 @pytest.mark.parametrize("name", ["ampt_like_3x3x6.csv", "three_frequencies.csv"])
 def test_cli_chain_runs_on_regression_tables(tmp_path, name):
-    """measured -> fit -> extend-law -> diagnose, as the workflow calls them."""
+    """measured -> fit -> master-curve -> extend-law -> diagnose, as the workflow calls them."""
     exe = [sys.executable, "-m", "asphalt_nscd.cli"]
     src = DATA / name
 
@@ -161,8 +163,12 @@ def test_cli_chain_runs_on_regression_tables(tmp_path, name):
     run("measured", str(src), "-o", str(tmp_path / "measured.csv"), "--summary", str(tmp_path / "summary.csv"),
         "--test-output", str(tmp_path / "measured.test.json"))
     run("fit", "--measured", str(tmp_path / "measured.csv"), "--model", "burgers", "-o", str(tmp_path / "burgers.csv"))
-    run("extend-law", "--measured", str(tmp_path / "measured.csv"), "-o", str(tmp_path / "law.json"))
-    run("diagnose", "--measured", str(tmp_path / "measured.csv"), "--macro-params", str(tmp_path / "burgers.csv"),
+    run("master-curve", "--measured", str(tmp_path / "measured.csv"), "-o", str(tmp_path / "mc.json"),
+        "--corrected", str(tmp_path / "corrected.csv"))
+    run("extend-law", "--measured", str(tmp_path / "measured.csv"), "--master-curve", str(tmp_path / "mc.json"),
+        "--corrected-table", str(tmp_path / "corrected.csv"), "-o", str(tmp_path / "law.json"))
+    run("diagnose", "--measured", str(tmp_path / "measured.csv"), "--master-curve", str(tmp_path / "mc.json"),
+        "--corrected-table", str(tmp_path / "corrected.csv"), "--macro-params", str(tmp_path / "burgers.csv"),
         "--law-json", str(tmp_path / "law.json"), "-o", str(tmp_path / "report.json"), "--page", str(tmp_path / "p.md"))
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["measured"]["test"]["test"] == json.loads((tmp_path / "measured.test.json").read_text())["test"]

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from asphalt_nscd.diagnosis import causes, synthetic
-from asphalt_nscd.rheology.calibration import burgers_isotherm
+from asphalt_nscd.rheology.calibration import burgers_isotherm, fit_table
 from asphalt_nscd.rheology.master_curve import fit_master_curve
 
 
@@ -47,12 +47,12 @@ def test_lofo_prediction_does_not_see_its_held_out_frequency():
 def test_broad_spectrum_named_on_a_2s2p1d_mix_not_on_a_burgers_material():
     mix, _ = synthetic.generate(8, [], schedule="aashto_t342", n_specimens=3)
     master = fit_master_curve(mix)
-    e = causes.broad_spectrum(mix, master, causes.burgers_table(mix))
+    e = causes.broad_spectrum(mix, master, fit_table(mix))
     assert e["testable"] and e["detected"] and e["p_value"] is None
     est = e["estimate"]
     assert est["held_out_difference_phase_points"] > est["threshold_phase_points"]
     liquid = _burgers_table(1)
-    e = causes.broad_spectrum(liquid, fit_master_curve(liquid), causes.burgers_table(liquid))
+    e = causes.broad_spectrum(liquid, fit_master_curve(liquid), fit_table(liquid))
     assert e["testable"] and not e["detected"], e["evidence"]
     # per-isotherm Burger's laws predict their own held-out frequencies to within the noise
     assert e["estimate"]["burgers_mre_phase_pct_held_out"] < 3.0
@@ -61,7 +61,7 @@ def test_broad_spectrum_named_on_a_2s2p1d_mix_not_on_a_burgers_material():
 def test_broad_spectrum_not_testable_with_two_frequencies_left():
     mix, _ = synthetic.generate(8, [], schedule="aashto_t342", n_specimens=2)
     two = mix[mix["frequency_Hz"].isin([10.0, 1.0])]
-    e = causes.broad_spectrum(two, fit_master_curve(two), causes.burgers_table(two))
+    e = causes.broad_spectrum(two, fit_master_curve(two), fit_table(two))
     assert not e["testable"] and e["evidence"].startswith("not testable: ")
 
 

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from diagnosis_chain import cli_chain
 
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis import crossval as cv
@@ -199,7 +200,8 @@ def test_diagnose_puts_held_out_beside_in_sample(tmp_path, table):
         assert main(["crossval", "--measured", str(m), "--scheme", scheme, *opts,
                      "-o", str(tmp_path / f"{scheme}.csv")]) == 0
     out = {k: tmp_path / k for k in ("r.json", "gain.csv", "page.md")}
-    assert main(["diagnose", "--measured", str(m), *opts, "--crossval", str(tmp_path / "lofo.csv"),
+    chain = cli_chain(m, tmp_path / "chain", opts)
+    assert main(["diagnose", *chain["args"], "--crossval", str(tmp_path / "lofo.csv"),
                  str(tmp_path / "loto.csv"), "-o", str(out["r.json"]), "--gain-csv", str(out["gain.csv"]),
                  "--page", str(out["page.md"])]) == 0
     gain = pd.read_csv(out["gain.csv"]).set_index("temperature_C")

@@ -11,7 +11,7 @@ import pandas as pd
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from asphalt_nscd.campaign.study import read_law_json
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis.crossval import ROW_COLUMNS
 from asphalt_nscd.lab.measured import load_measured
@@ -82,7 +82,7 @@ def test_extend_law_goes_through_any_accepted_table(tmp_path_factory, drawn):
     assert main(["extend-law", "--measured", str(path), *LAW, "--temperatures",
                  *[str(t) for t in sorted(table["temperature_C"].unique())], str(unmeasured),
                  "-o", str(out), "--cv-curve", str(d / "c.csv")]) == 0
-    laws = read_law_json(out)  # the campaign's reader accepts it: positive, finite
+    laws = law_file.read(out)  # the campaign's reader accepts it: positive, finite
     assert len(laws) == table["temperature_C"].nunique() + (unmeasured not in set(table["temperature_C"]))
     w = 2 * np.pi * np.array([0.01, 1.0, 100.0])
     for law in laws.values():
@@ -134,8 +134,8 @@ def test_ampt_shaped_regression_table(tmp_path):
     assert "strain_nonlinearity" in " ".join(obj["source"]["notes"]) or obj["source"]["artifacts_corrected"] == []
     for T in ("4", "21", "37"):
         assert obj["temperatures"][T]["in_sample_mre_E_norm_pct_vs_measured"] < 3.0
-    law30 = read_law_json(out)[30.0]
-    E21, E30, E37 = (read_law_json(out)[T].complex_modulus(2 * np.pi * 1.0) for T in (21.0, 30.0, 37.0))
+    law30 = law_file.read(out)[30.0]
+    E21, E30, E37 = (law_file.read(out)[T].complex_modulus(2 * np.pi * 1.0) for T in (21.0, 30.0, 37.0))
     assert abs(E37) < abs(E30) < abs(E21) and law30.n_kelvin >= 2
     for scheme in ("lofo", "loto"):
         assert main(["crossval", "--measured", str(AMPT), "--scheme", scheme, *LAW, "-o",

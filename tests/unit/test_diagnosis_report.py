@@ -7,10 +7,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from diagnosis_chain import cli_chain
 
-from asphalt_nscd.campaign.study import read_law_json
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.cli import main
-from asphalt_nscd.diagnosis import extend
+from asphalt_nscd.rheology import extended
 from asphalt_nscd.diagnosis.causes import burgers_predict
 from asphalt_nscd.lab.measured import load_measured
 
@@ -23,7 +24,9 @@ NAMES = {"broad_spectrum", "static_modulus", "time_lag", "inertia_uncorrected", 
 def real_report(tmp_path_factory):
     d = tmp_path_factory.mktemp("real")
     out = d / "report.json"
-    assert main(["diagnose", "--measured", str(REAL), "-o", str(out), "--laws", str(d / "laws.json"),
+    chain = cli_chain(REAL, d)
+    (d / "laws.json").write_text(chain["law"].read_text())
+    assert main(["diagnose", *chain["args"], "-o", str(out),
                  "--budget-csv", str(d / "budget.csv"), "--gain-csv", str(d / "gain.csv"),
                  "--effects-csv", str(d / "effects.csv"), "--figure", str(d / "budget.png"),
                  "--page", str(d / "page.md")]) == 0
@@ -73,10 +76,10 @@ def test_real_data_report_structure_and_gain(real_report):
 
 def test_laws_json_round_trip_reproduces_mre(real_report):
     rep, d = real_report
-    laws = read_law_json(d / "laws.json")
+    laws = law_file.read(d / "laws.json")
     measured = load_measured(REAL)
     cells = measured.groupby(["temperature_C", "frequency_Hz"], as_index=False)[["E_norm_MPa", "phase_deg"]].mean()
-    m = extend.law_metrics({T: law.scaled(1e-6) for T, law in laws.items()}, cells)
+    m = extended.law_metrics({T: law.scaled(1e-6) for T, law in laws.items()}, cells)
     mre = 100 * m.groupby("temperature_C")[["rel_err_E_norm", "rel_err_phase"]].mean()
     for T in laws:
         assert mre.loc[T, "rel_err_E_norm"] == pytest.approx(rep["extended"]["mre_E_norm_pct_vs_measured"][f"{T:g}"], rel=1e-6)
@@ -108,7 +111,8 @@ def test_synth_then_diagnose_with_simulation_inputs(tmp_path):
                       columns=["frequency_Hz", "dt_s", "theta", "phase_error_deg"])
     ti.to_csv(tmp_path / "ti.csv", index=False)
     out = tmp_path / "r.json"
-    assert main(["diagnose", "--measured", str(m), "--simulated", str(tmp_path / "S.csv"),
+    chain = cli_chain(m, tmp_path / "chain")
+    assert main(["diagnose", *chain["args"], "--simulated", str(tmp_path / "S.csv"),
                  "--time-integration", str(tmp_path / "ti.csv"), "--theta", "0.5",
                  "--macro-params", str(tmp_path / "macro.csv"), "-o", str(out)]) == 0
     rep = json.loads(out.read_text())
@@ -133,17 +137,37 @@ def test_synth_then_diagnose_with_simulation_inputs(tmp_path):
     assert budget["data_artifacts"]["mre_phase_pct"] > 1.0
 
 
-def test_input_errors(tmp_path, capsys):
+def _real_args(d):
+    return ["--measured", str(REAL), "--master-curve", str(d / "master_curve.json"),
+            "--corrected-table", str(d / "corrected.csv"), "--law-json", str(d / "law.json")]
+
+
+def test_input_errors(real_report, tmp_path, capsys):
+    _, d = real_report
     bad = tmp_path / "S.csv"
     pd.DataFrame({"temperature_C": [10.0], "frequency_Hz": [3.0]}).to_csv(bad, index=False)
-    assert main(["diagnose", "--measured", str(REAL), "--simulated", str(bad), "-o", str(tmp_path / "r.json")]) == 2
+    assert main(["diagnose", *_real_args(d), "--simulated", str(bad), "-o", str(tmp_path / "r.json")]) == 2
     assert "missing column" in capsys.readouterr().err
+    # what the earlier steps wrote is validated too: a corrected table without a column, a
+    # master-curve JSON without its master curve
+    pd.read_csv(d / "corrected.csv").drop(columns="phase_deg").to_csv(bad, index=False)
+    args = _real_args(d)
+    args[args.index("--corrected-table") + 1] = str(bad)
+    assert main(["diagnose", *args, "-o", str(tmp_path / "r.json")]) == 2
+    assert f"{bad}: line 1 (header): missing column(s) ['phase_deg']" in capsys.readouterr().err
+    mc = tmp_path / "mc.json"
+    mc.write_text(json.dumps({k: v for k, v in json.loads((d / "master_curve.json").read_text()).items()
+                              if k != "master_curve"}))
+    args = _real_args(d)
+    args[args.index("--master-curve") + 1] = str(mc)
+    assert main(["diagnose", *args, "-o", str(tmp_path / "r.json")]) == 2
+    assert f"{mc}: key 'master_curve': missing" in capsys.readouterr().err
     assert main(["synth", "--seed", "1", "--effects", "nonsense", "-o", str(tmp_path / "m.csv")]) == 2
     assert not (tmp_path / "r.json").exists()
 
 
 def test_time_integration_from_paired_rows():
-    from asphalt_nscd.diagnosis.report import derived_time_integration
+    from asphalt_nscd.diagnosis.budget import derived_time_integration
 
     harm = pd.DataFrame({"temperature_C": [10.0, 10.0], "frequency_Hz": [3.0, 40.0],
                          "E_norm_MPa": [1e4, 1.2e4], "phase_deg": [20.0, 15.0]})

@@ -7,10 +7,12 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from diagnosis_chain import cli_chain
 
-from asphalt_nscd.campaign.study import read_law_json
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.cli import main
-from asphalt_nscd.diagnosis.causes import burgers_predict, cell_means
+from asphalt_nscd.diagnosis.causes import burgers_predict
+from asphalt_nscd.rheology.metrics import cell_means
 
 TEMPS = [-10.0, 0.0, 10.0, 15.0, 20.0, 30.0]
 MACRO = pd.DataFrame({"temperature_C": TEMPS, "Em_MPa": 30e3, "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3],
@@ -31,8 +33,8 @@ def run(tmp_path_factory):
     d = tmp_path_factory.mktemp("diag")
     m = d / "M.csv"
     assert main(["synth", "--seed", "5", "--schedule", "paper_2pb", "--specimens", "3", "-o", str(m)]) == 0
-    laws_path = d / "laws.json"
-    assert main(["extend-law", "--measured", str(m), "-o", str(laws_path), "--corrected", str(d / "C.csv")]) == 0
+    chain = cli_chain(m, d)
+    laws_path = chain["law"]
     MACRO.to_csv(d / "macro.csv", index=False)
     grid = pd.DataFrame([(T, f) for T in TEMPS for f in (3.0, 10.0, 40.0)], columns=["temperature_C", "frequency_Hz"])
     E = burgers_predict(MACRO, grid["temperature_C"], grid["frequency_Hz"])
@@ -46,7 +48,7 @@ def run(tmp_path_factory):
         sim.to_csv(d / f"{s}_nscd.csv", index=False)
         paths["sim"].append(str(d / f"{s}_nscd.csv"))
     # the extended run: 1.2 x the extended law, as numerical isotherms (sample means)
-    laws = read_law_json(laws_path)
+    laws = law_file.read(laws_path)
     Ex = np.array([laws[T].complex_modulus(2 * np.pi * f) * 1e-6 for T, f in zip(grid["temperature_C"], grid["frequency_Hz"])])
     ext = grid.assign(n_samples=2, E_norm_MPa_mean=1.2 * np.abs(Ex), phase_deg_mean=np.degrees(np.angle(Ex)))
     ext.to_csv(d / "iso_extended.csv", index=False)
@@ -54,13 +56,13 @@ def run(tmp_path_factory):
                        for th, c in ((0.5, 0.5), (1.0, 2.0))], columns=["frequency_Hz", "dt_s", "theta", "phase_error_deg"])
     ti.to_csv(d / "ti.csv", index=False)
     out = {k: d / k for k in ("r.json", "gain.csv", "budget.csv", "page.md", "effects.csv", "fig.png")}
-    assert main(["diagnose", "--measured", str(m), "--macro-params", str(d / "macro.csv"), "--law-json", str(laws_path),
+    assert main(["diagnose", *chain["args"], "--macro-params", str(d / "macro.csv"),
                  "--simulated", *paths["sim"], "--harmonic", *paths["harm"], "--simulated-extended",
                  str(d / "iso_extended.csv"), "--time-integration", str(d / "ti.csv"), "--theta", "0.5",
                  "-o", str(out["r.json"]), "--gain-csv", str(out["gain.csv"]), "--budget-csv", str(out["budget.csv"]),
                  "--page", str(out["page.md"]), "--effects-csv", str(out["effects.csv"]),
                  "--figure", str(out["fig.png"])]) == 0
-    return {"dir": d, "measured": m, "laws": laws_path, "grid": grid, "E": E, "Ex": Ex, "out": out,
+    return {"dir": d, "measured": m, "laws": laws_path, "chain": chain, "grid": grid, "E": E, "Ex": Ex, "out": out,
             "report": json.loads(out["r.json"].read_text())}
 
 
@@ -83,7 +85,7 @@ def test_gain_table_nscd_before_after_and_macro(run):
     assert gain.loc[gain["source"] == "nscd", "before_model"].str.startswith("NSCD").all()
     assert gain.loc[gain["source"] == "macro", "after_model"].str.startswith("generalized Burger's law").all()
     measured = cell_means(pd.read_csv(run["measured"]))
-    corrected = cell_means(pd.read_csv(run["dir"] / "C.csv"))
+    corrected = cell_means(pd.read_csv(run["chain"]["corrected"]))
     E = run["E"]
     sim = grid.assign(E_norm_MPa=1.2 * np.abs(E), phase_deg=np.degrees(np.angle(E)) + 0.5 * 360 * grid["frequency_Hz"] * DT)
     ext = grid.assign(E_norm_MPa=1.2 * np.abs(run["Ex"]), phase_deg=np.degrees(np.angle(run["Ex"])))
@@ -124,18 +126,14 @@ def test_page_labels_nscd_and_macro_rows(run):
     assert "total = the NSCD simulation vs the measured means" in page
 
 
-def test_extend_law_equals_the_law_diagnose_fits_itself(run, tmp_path):
-    """The split keeps the law: diagnose without --law-json fits the same law as extend-law."""
-    out = tmp_path / "r.json"
-    assert main(["diagnose", "--measured", str(run["measured"]), "-o", str(out), "--laws", str(tmp_path / "l.json")]) == 0
-    a = json.loads(run["laws"].read_text())["temperatures"]
-    b = json.loads((tmp_path / "l.json").read_text())["temperatures"]
-    assert set(a) == set(b)
-    for T in a:
-        for k in ("Em", "Ek", "eta_k", "E_inf", "in_sample_mre_E_norm_pct", "in_sample_mre_phase_pct"):
-            np.testing.assert_allclose(a[T][k], b[T][k], rtol=1e-9)
-    rep = json.loads(out.read_text())
-    assert rep["gain_sources"]["before"] == "macro" and rep["gain_nscd"] is None
+def test_extend_law_from_the_written_search_equals_its_own_search(run, tmp_path):
+    """The split keeps the law: extend-law on the search that master-curve wrote gives the very
+    law file of extend-law searching the table itself (the workflow's outputs do not change)."""
+    out = tmp_path / "l.json"
+    assert main(["extend-law", "--measured", str(run["measured"]), "-o", str(out),
+                 "--corrected", str(tmp_path / "c.csv")]) == 0
+    assert json.loads(out.read_text()) == json.loads(run["laws"].read_text())
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "c.csv"), pd.read_csv(run["chain"]["corrected"]))
 
 
 def test_diagnose_law_json_must_cover_the_measured_temperatures(run, tmp_path, capsys):
@@ -143,7 +141,9 @@ def test_diagnose_law_json_must_cover_the_measured_temperatures(run, tmp_path, c
     del obj["temperatures"]["15"]
     bad = tmp_path / "laws.json"
     bad.write_text(json.dumps(obj))
-    assert main(["diagnose", "--measured", str(run["measured"]), "--law-json", str(bad), "-o", str(tmp_path / "r.json")]) == 2
+    args = run["chain"]["args"]
+    args = args[:args.index("--law-json")] + ["--law-json", str(bad)]
+    assert main(["diagnose", *args, "-o", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err
     assert f"{bad}: key 'temperatures': no law at [15.0] degC" in err
     assert not (tmp_path / "r.json").exists()

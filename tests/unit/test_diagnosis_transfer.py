@@ -7,10 +7,12 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from diagnosis_chain import cli_chain
 
-from asphalt_nscd.campaign.study import read_law_json
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.cli import main
-from asphalt_nscd.diagnosis.causes import burgers_predict, cell_means
+from asphalt_nscd.diagnosis.causes import burgers_predict
+from asphalt_nscd.rheology.metrics import cell_means
 
 TEMPS = [-10.0, 0.0, 10.0, 15.0, 20.0, 30.0]
 MACRO = pd.DataFrame({"temperature_C": TEMPS, "Em_MPa": 30e3, "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3],
@@ -35,12 +37,12 @@ def setup(tmp_path_factory):
     d = tmp_path_factory.mktemp("diag_transfer")
     m = d / "M.csv"
     assert main(["synth", "--seed", "7", "--schedule", "paper_2pb", "--specimens", "3", "-o", str(m)]) == 0
-    laws_path = d / "laws.json"
-    assert main(["extend-law", "--measured", str(m), "-o", str(laws_path), "--corrected", str(d / "C.csv")]) == 0
+    chain = cli_chain(m, d)
+    laws_path = chain["law"]
     MACRO.to_csv(d / "macro.csv", index=False)
     grid = pd.DataFrame([(T, f) for T in TEMPS for f in (3.0, 10.0, 40.0)], columns=["temperature_C", "frequency_Hz"])
     E = burgers_predict(MACRO, grid["temperature_C"], grid["frequency_Hz"])
-    laws = read_law_json(laws_path)
+    laws = law_file.read(laws_path)
     Ex = np.array([laws[T].complex_modulus(2 * np.pi * f) * 1e-6 for T, f in zip(grid["temperature_C"], grid["frequency_Hz"])])
     sims, exts, transfers = [], [], []
     for s, nf in NF.items():
@@ -54,7 +56,7 @@ def setup(tmp_path_factory):
         exts.append(str(d / f"{s}_extended.csv"))
         transfers.append(_transfer_json(d / f"{s}_transfer.json", s, nf))
     out = {k: d / k for k in ("r.json", "gain.csv", "page.md")}
-    args = ["diagnose", "--measured", str(m), "--macro-params", str(d / "macro.csv"), "--law-json", str(laws_path),
+    args = ["diagnose", *chain["args"], "--macro-params", str(d / "macro.csv"),
             "--simulated", *sims, "--simulated-extended", *exts]
     assert main([*args, "--transfer", *transfers, "-o", str(out["r.json"]), "--gain-csv", str(out["gain.csv"]),
                  "--page", str(out["page.md"])]) == 0
@@ -78,7 +80,7 @@ def test_gain_table_separates_law_and_correction(setup):
     assert np.allclose(by["nscd"]["network_factor"], 0.91) and np.allclose(by["law_only"]["network_factor"], 0.91)
     assert by["macro"]["network_factor"].isna().all() and not by["macro"]["transfer_correction"].any()
     assert by["nscd"]["after_model"].str.contains("transfer correction").all()
-    corrected = cell_means(pd.read_csv(setup["dir"] / "C.csv"))
+    corrected = cell_means(pd.read_csv(setup["dir"] / "corrected.csv"))
     grid, Ex = setup["grid"], setup["Ex"]
     law_only = _mre_E(grid.assign(E_norm_MPa=0.91 * np.abs(Ex)), corrected)
     nscd = _mre_E(grid.assign(E_norm_MPa=1.005 * np.abs(Ex)), corrected)

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from asphalt_nscd.cli import main
-from asphalt_nscd.diagnosis.extend import laws_to_json
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.harmonic.network import network_from_sample
 from asphalt_nscd.sample.lattice import lattice_sample
 from asphalt_nscd.sample.store import read_sample, specimen_geometry_mm, write_sample
@@ -138,7 +138,7 @@ def _run(sample, tmp_path, name, extra, settings=SETTINGS):
 def test_corrected_time_domain_run_matches_the_law(sample, transfer, tmp_path):
     """Time-domain NSCD test at 1 Hz: without the correction |E*| = NF_s |E*_law|; with it
     |E*| = |E*_law| within 1 % (inertia and time integration are small at 1 Hz)."""
-    (tmp_path / "laws.json").write_text(json.dumps(laws_to_json({20.0: SOLID.scaled(1e-6)})))
+    (tmp_path / "laws.json").write_text(json.dumps(law_file.to_json({20.0: SOLID.scaled(1e-6)})))
     nf = json.loads(transfer.read_text())["network_factor"]
     assert abs(nf - 1) > 0.3  # the lattice is far from NF = 1: the test can fail
     assert _run(sample, tmp_path, "raw", []) == 0
@@ -154,7 +154,7 @@ def test_corrected_time_domain_run_matches_the_law(sample, transfer, tmp_path):
 
 
 def test_run_2pb_rejects_a_mismatched_or_bad_transfer_json(sample, transfer, tmp_path, capsys):
-    (tmp_path / "laws.json").write_text(json.dumps(laws_to_json({20.0: SOLID.scaled(1e-6)})))
+    (tmp_path / "laws.json").write_text(json.dumps(law_file.to_json({20.0: SOLID.scaled(1e-6)})))
     clamped = json.dumps({**json.loads(SETTINGS), "head_rotation": "clamped"})
     assert _run(sample, tmp_path, "x", ["--network-factor-json", str(transfer)], settings=clamped) == 2
     assert "key 'head_rotation': the factor was computed for 'free'" in capsys.readouterr().err

@@ -1,9 +1,12 @@
 # Diagnosis: what the simulation gets wrong. Steps:
+# 0. master_curve: artifact search (nested master-curve fits) and master curve of the measured table,
+#    written once (results/diagnosis/master_curve.json) with the artifact-corrected table
+#    (results/diagnosis/corrected_measured.csv); extend_law and diagnose read them.
 # 1. extend_law: the temperature-aware extended generalized Burger's law (one 2S2P1D backbone and
 #    Prony chain at a reference temperature + shift law; static-modulus trend, vertical shift,
 #    per-isotherm refinement and spectrum density chosen by cross-validation among
 #    diagnosis.law's candidates), written at the measured temperatures
-#    (results/diagnosis/generalized_burgers.json, Pa and Pa s) from the measured table alone,
+#    (results/diagnosis/generalized_burgers.json, Pa and Pa s) from the corrected table of step 0,
 #    with the selection's cross-validation curve. The extended campaign mode runs with it.
 # 2. crossval: held-out errors (lofo: leave one frequency out; loto: leave one temperature out)
 #    of the paper's Burger's law per isotherm, the extended law and the NSCD sample (harmonic
@@ -11,7 +14,7 @@
 #    refits the whole procedure of step 1 without its held-out rows (nested selection). One lofo
 #    fold (diagnosis.crossval.time_domain) also runs in the time domain (run-2pb) to show that
 #    time domain and harmonic solution agree.
-# 3. diagnose: error budget per temperature, named causes (statistical tests on nested
+# 3. diagnose (reads steps 0-2, refits nothing upstream): error budget per temperature, named causes (statistical tests on nested
 #    master-curve fits; simulation causes from the NSCD campaign, the harmonic solver and the
 #    time-step phase error) and the gain per temperature, NSCD before -> NSCD after and macro
 #    law before -> after, in-sample with the held-out MRE of step 2 beside; plus the detection
@@ -27,16 +30,37 @@ from asphalt_nscd.campaign import plan
 DIAG_CATEGORY = "What the simulation gets wrong"
 
 
+rule master_curve:
+    input:
+        measured="results/lab/measured.csv",
+        test="results/lab/measured.test.json",
+    output:
+        search="results/diagnosis/master_curve.json",
+        corrected="results/diagnosis/corrected_measured.csv",
+    log:
+        "logs/diagnosis/master_curve.log",
+    benchmark:
+        "benchmarks/diagnosis/master_curve.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    params:
+        options=plan.artifact_search_options(config),
+    shell:
+        "asphalt-nscd master-curve --measured {input.measured} --test {input.test} {params.options} "
+        "-o {output.search} --corrected {output.corrected} 2> {log}"
+
+
 rule extend_law:
     input:
         measured="results/lab/measured.csv",
+        search=rules.master_curve.output.search,
+        corrected=rules.master_curve.output.corrected,
     output:
         laws=report(
             plan.LAW_JSON,
             caption="../report/diagnosis_extended_law.rst",
             category=DIAG_CATEGORY,
         ),
-        corrected="results/diagnosis/corrected_measured.csv",
         curve=report(
             "results/diagnosis/extended_law_cv_curve.csv",
             caption="../report/diagnosis_cv_curve.rst",
@@ -51,8 +75,8 @@ rule extend_law:
     params:
         options=plan.diagnosis_fit_options(config),
     shell:
-        "asphalt-nscd extend-law --measured {input.measured} {params.options} -o {output.laws} "
-        "--corrected {output.corrected} --cv-curve {output.curve} 2> {log}"
+        "asphalt-nscd extend-law --measured {input.measured} {params.options} --master-curve {input.search} "
+        "--corrected-table {input.corrected} -o {output.laws} --cv-curve {output.curve} 2> {log}"
 
 
 if plan.crossval_time_domain_cell(config):
@@ -158,6 +182,8 @@ rule crossval:
 rule diagnose:
     input:
         measured="results/lab/measured.csv",
+        search=rules.master_curve.output.search,
+        corrected=rules.master_curve.output.corrected,
         macro="results/calibration/burgers_parameters.csv",
         laws=plan.LAW_JSON,
         crossval=expand("results/diagnosis/crossval/{scheme}.csv", scheme=config["diagnosis"]["crossval"]["schemes"]),
@@ -196,8 +222,9 @@ rule diagnose:
         options=plan.diagnose_options(config),
         tolerances=plan.diagnose_tolerances(config),
     shell:
-        "asphalt-nscd diagnose --measured {input.measured} --test {input.test} --macro-params {input.macro} "
-        "--law-json {input.laws} --crossval {input.crossval} {params.options} {params.tolerances} -o {output.report} "
+        "asphalt-nscd diagnose --measured {input.measured} --test {input.test} --master-curve {input.search} "
+        "--corrected-table {input.corrected} --macro-params {input.macro} --law-json {input.laws} "
+        "--crossval {input.crossval} {params.options} {params.tolerances} -o {output.report} "
         "--budget-csv {output.budget} --effects-csv {output.effects} --gain-csv {output.gain} "
         "--figure {output.figure} --page {output.page} 2> {log}"
 

@@ -285,7 +285,9 @@ def _run(args) -> int:
     if args.law_json is not None:
         if factors or args.table3_units:
             raise InputError("--law-json: --factor and --table3-units apply to a Burger's --parameters table only")
-        law = study.law_at(study.read_law_json(args.law_json), args.temperature, where=args.law_json)
+        from ..rheology import law_file
+
+        law = law_file.law_at(law_file.read(args.law_json), args.temperature, where=args.law_json)
         params = {**study.law_summary(law), "law_json": str(args.law_json)}
     else:
         table = study.parameter_table(args.parameters, args.table3_units)
@@ -326,7 +328,9 @@ def _isotherms(args) -> int:
     temps = sorted(rows["temperature_C"].unique())
     freqs = np.geomspace(args.fmin, args.fmax, 61)
     if args.law_json is not None:
-        laws = study.read_law_json(args.law_json)
+        from ..rheology import law_file
+
+        laws = law_file.read(args.law_json)
         curves = study.law_curves(laws, temps, freqs, where=args.law_json)
         model = "generalized Burger's law"
     else:

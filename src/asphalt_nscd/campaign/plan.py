@@ -617,21 +617,28 @@ def diagnosis_input_files(config: dict) -> list:
     return [p for paths in diagnosis_inputs(config).values() for p in paths]
 
 
+def artifact_search_options(config: dict) -> str:
+    """Options of the artifact search (diagnosis.alpha, shift, T_ref_C): rule master_curve."""
+    diag = config["diagnosis"]
+    opts = f"--alpha {diag['alpha']} --shift {diag['shift']}"
+    if diag.get("T_ref_C") is not None:
+        opts += f" --t-ref {diag['T_ref_C']}"
+    return opts
+
+
 def diagnosis_fit_options(config: dict) -> str:
     """Options of the artifact search and of the extended law's candidates (diagnosis.law)."""
     diag = config["diagnosis"]
     law = diag["law"]
     refines = " ".join("off" if r is None else str(r) for r in law["refines"])
     opts = (
-        f"--alpha {diag['alpha']} --shift {diag['shift']} "
+        f"{artifact_search_options(config)} "
         f"--law-shifts {' '.join(law['shifts'])} --law-statics {' '.join(law['statics'])} "
         f"--law-verticals {' '.join('on' if v else 'off' for v in law['verticals'])} "
         f"--law-refines {refines} --law-per-decades {spaced(law['per_decades'])} "
         f"--margin-decades {law['margin_decades']} "
         f"--tolerances-pct {law['tolerances_pct'][0]} {law['tolerances_pct'][1]}"
     )
-    if diag.get("T_ref_C") is not None:
-        opts += f" --t-ref {diag['T_ref_C']}"
     if not law.get("one_se", True):
         opts += " --no-one-se"
     if not law.get("artifacts", True):
@@ -640,15 +647,15 @@ def diagnosis_fit_options(config: dict) -> str:
 
 
 def diagnose_options(config: dict) -> str:
-    """Options of rule diagnose: the fit options, the simulation inputs and, with the time
-    integration input, the campaign's Moreau-Jean theta (rows of other thetas are dropped)."""
-    opts = diagnosis_fit_options(config)
+    """Options of rule diagnose: the simulation inputs and, with the time integration input,
+    the campaign's Moreau-Jean theta (rows of other thetas are dropped)."""
+    opts = ""
     inputs = diagnosis_inputs(config)
     for key, paths in inputs.items():
         opts += f" --{key.replace('_', '-')} " + " ".join(paths)
     if "time_integration" in inputs:
         opts += f" --theta {config['campaign']['test']['theta']}"
-    return opts
+    return opts.strip()
 
 
 def diagnose_tolerances(config: dict) -> str:

@@ -13,7 +13,7 @@ Modes (config ``campaign.modes``)
   frequencies; reference = the measured means (``results/lab/measured_summary.csv``).
 * ``extended``: the measured mode's schedule with the extended bond law of the diagnosis, a
   generalized Burger's law per temperature (``results/diagnosis/generalized_burgers.json``,
-  read by :func:`read_law_json`); reference = the measured means. With
+  read by :func:`asphalt_nscd.rheology.law_file.read`); reference = the measured means. With
   ``campaign.extended.transfer_correction`` (default) the bonds are calibrated with
   E*(w) / NF_s, NF_s the sample's network factor (``run-2pb --network-factor-json``,
   :mod:`asphalt_nscd.harmonic.transfer`); the measured mode keeps Eqs. 30-33 as printed.
@@ -31,7 +31,9 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError, read_json
+from ..rheology import law_file
 from ..rheology.calibration import burgers_model
+from ..rheology.metrics import at_temperature
 
 #: Burger's parameters that the sensitivity study varies, with their table columns.
 SENSITIVITY_PARAMETERS = {"Em": "Em_MPa", "eta_m": "eta_m_MPa_s", "Ek": "Ek_MPa", "eta_k": "eta_k_MPa_s"}
@@ -51,7 +53,7 @@ def parameters_at(table: pd.DataFrame, temperature_C: float, factors: dict | Non
 
     Raises InputError if the temperature is not in the table or a factor name is unknown.
     """
-    hit = table[np.isclose(table["temperature_C"].astype(float), float(temperature_C))]
+    hit = at_temperature(table, temperature_C)
     if hit.empty:
         raise InputError(f"{where}: no Burger's parameters at {temperature_C} degC; "
                          f"available: {sorted(table['temperature_C'].astype(float))}")
@@ -61,92 +63,6 @@ def parameters_at(table: pd.DataFrame, temperature_C: float, factors: dict | Non
             raise InputError(f"factor {name!r}: expected one of {list(SENSITIVITY_PARAMETERS)}")
         row[SENSITIVITY_PARAMETERS[name]] *= float(factor)
     return row
-
-
-#: Fields of one temperature of a law JSON (output of ``asphalt-nscd extend-law``).
-LAW_FIELDS = ("Em", "eta_m", "Ek", "eta_k", "E_inf")
-
-
-def read_law_json(path) -> dict:
-    """Generalized Burger's laws per temperature from a law JSON file.
-
-    The file is the output of ``asphalt-nscd extend-law`` (``diagnosis.extend.laws_to_json``):
-    ``{"units": {...}, "temperatures": {"<T degC>": {"Em": Pa, "eta_m": Pa s or null (no
-    Maxwell dashpot), "Ek": [Pa, ...], "eta_k": [Pa s, ...], "E_inf": Pa, ...}}}``.
-
-    Returns
-    -------
-    dict {temperature_C (float): rheology.laws.GeneralizedBurgers in Pa, Pa s}
-
-    Raises
-    ------
-    InputError
-        naming the file and the key: unreadable or not JSON, no ``temperatures`` object or an
-        empty one, a temperature key that is not a number, a missing field, a field that is
-        not a (list of) positive finite number(s) (``E_inf`` >= 0, ``eta_m`` may be null),
-        ``Ek``/``eta_k`` of different lengths, or ``units`` other than Pa and Pa s.
-    """
-    from ..rheology.laws import GeneralizedBurgers
-
-    obj = read_json(path, "law JSON")
-    if not isinstance(obj, dict) or not isinstance(obj.get("temperatures"), dict) or not obj["temperatures"]:
-        raise InputError(f"{path}: key 'temperatures': expected a non-empty object keyed by temperature (degC)")
-    units = obj.get("units")
-    if units is not None:
-        expected = {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"}
-        bad = [k for k, u in expected.items() if isinstance(units, dict) and k in units and units[k] != u]
-        if not isinstance(units, dict) or bad:
-            raise InputError(f"{path}: key 'units': expected {expected}, got {units}")
-
-    def number(value, key, allow_zero=False):
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
-        if not ok or value < 0 or (value == 0 and not allow_zero):
-            raise InputError(f"{path}: key {key}: expected a {'non-negative' if allow_zero else 'positive'} "
-                             f"finite number, got {value!r}")
-        return float(value)
-
-    laws = {}
-    for key, d in obj["temperatures"].items():
-        where = f"'temperatures.{key}'"
-        try:
-            T = float(key)
-        except ValueError:
-            raise InputError(f"{path}: key {where}: expected a temperature in degC") from None
-        if not np.isfinite(T):
-            raise InputError(f"{path}: key {where}: expected a finite temperature in degC")
-        if not isinstance(d, dict):
-            raise InputError(f"{path}: key {where}: expected an object with {list(LAW_FIELDS)}")
-        missing = [k for k in LAW_FIELDS if k not in d]
-        if missing:
-            raise InputError(f"{path}: key {where}: missing field(s) {missing}")
-        Em = number(d["Em"], f"'temperatures.{key}.Em'")
-        eta_m = np.inf if d["eta_m"] is None else number(d["eta_m"], f"'temperatures.{key}.eta_m'")
-        units_lists = []
-        for k in ("Ek", "eta_k"):
-            if not isinstance(d[k], list):
-                raise InputError(f"{path}: key 'temperatures.{key}.{k}': expected a list of positive numbers")
-            units_lists.append([number(v, f"'temperatures.{key}.{k}[{i}]'") for i, v in enumerate(d[k])])
-        if len(units_lists[0]) != len(units_lists[1]):
-            raise InputError(f"{path}: key 'temperatures.{key}': Ek has {len(units_lists[0])} units but "
-                             f"eta_k has {len(units_lists[1])}")
-        E_inf = number(d["E_inf"], f"'temperatures.{key}.E_inf'", allow_zero=True)
-        if T in laws:
-            raise InputError(f"{path}: key {where}: temperature {T:g} degC given twice")
-        laws[T] = GeneralizedBurgers(Em=Em, eta_m=eta_m, Ek=tuple(units_lists[0]), eta_k=tuple(units_lists[1]),
-                                     E_inf=E_inf)
-    return laws
-
-
-def law_at(laws: dict, temperature_C: float, where="") -> "GeneralizedBurgers":  # noqa: F821
-    """The law of :func:`read_law_json` at ``temperature_C`` (matched within 1e-9 degC).
-
-    Raises InputError naming ``where`` and the available temperatures if it is missing.
-    """
-    for T, law in laws.items():
-        if np.isclose(T, float(temperature_C), rtol=0.0, atol=1e-9):
-            return law
-    raise InputError(f"{where}: key 'temperatures': no law at {float(temperature_C):g} degC; "
-                     f"available: {sorted(laws)}")
 
 
 def law_summary(law) -> dict:
@@ -166,7 +82,7 @@ def law_curves(laws: dict, temperatures_C, frequency_Hz, where="law JSON") -> pd
     f = np.asarray(frequency_Hz, dtype=float).ravel()
     frames = []
     for T in sorted({float(t) for t in np.atleast_1d(temperatures_C)}):
-        e = law_at(laws, T, where).complex_modulus(2.0 * np.pi * f) * 1e-6
+        e = law_file.law_at(laws, T, where).complex_modulus(2.0 * np.pi * f) * 1e-6
         frames.append(pd.DataFrame({"temperature_C": T, "frequency_Hz": f, "E_norm_MPa": np.abs(e),
                                     "phase_deg": np.degrees(np.angle(e)), "E1_MPa": e.real, "E2_MPa": e.imag}))
     return pd.concat(frames, ignore_index=True)
@@ -176,7 +92,7 @@ def law_reference(laws: dict, temperature_C, frequency_Hz, where="law JSON") -> 
     """|E*| (MPa) and Phi (deg) of the laws (Pa) at each (T, f) pair, as :func:`burgers_reference`."""
     rows = []
     for T, f in zip(np.atleast_1d(temperature_C), np.atleast_1d(frequency_Hz)):
-        e = complex(law_at(laws, T, where).complex_modulus(2.0 * np.pi * float(f))) * 1e-6
+        e = complex(law_file.law_at(laws, T, where).complex_modulus(2.0 * np.pi * float(f))) * 1e-6
         rows.append({"temperature_C": float(T), "frequency_Hz": float(f),
                      "E_norm_MPa_ref": abs(e), "phase_deg_ref": float(np.degrees(np.angle(e)))})
     return pd.DataFrame(rows)
@@ -214,7 +130,7 @@ class JobLaws:
         if mode == "extended":
             if not self.law_json:
                 raise InputError("an extended-mode job needs the law JSON (--law-json)")
-            law = law_at(self._read("json", lambda: read_law_json(self.law_json)), temperature_C,
+            law = law_file.law_at(self._read("json", lambda: law_file.read(self.law_json)), temperature_C,
                          where=self.law_json)
             if self.network_factor_json:
                 from ..harmonic.transfer import corrected_law

@@ -54,30 +54,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..rheology.laws import GeneralizedBurgers
+from ..rheology.calibration import burgers_model
 from ..rheology.master_curve import MasterCurveFit, fit_master_curve
+from ..rheology.metrics import cell_means, same_frequency, same_temperature
 from ..rheology.models import fit_generalized_kelvin, log_time_grid
 from .effects import f_test, p_phrase
-
-
-def cell_means(df: pd.DataFrame) -> pd.DataFrame:
-    """Replicate means per (temperature_C, frequency_Hz): ``n, E_norm_MPa, phase_deg, lnE``."""
-    d = df.assign(lnE=np.log(df["E_norm_MPa"]))
-    return (d.groupby(["temperature_C", "frequency_Hz"], as_index=False)
-            .agg(n=("E_norm_MPa", "size"), E_norm_MPa=("E_norm_MPa", "mean"),
-                 phase_deg=("phase_deg", "mean"), lnE=("lnE", "mean")))
-
-
-def burgers_table(df: pd.DataFrame) -> pd.DataFrame:
-    """Per-temperature Burger's fits (``rheology.calibration.fit_table``), MPa and MPa s."""
-    from ..rheology.calibration import fit_table
-
-    return fit_table(df)
-
-
-def burgers_law(row) -> GeneralizedBurgers:
-    """Burger's law (MPa, MPa s) of one row of :func:`burgers_table`."""
-    return GeneralizedBurgers.burgers(row["Em_MPa"], row["eta_m_MPa_s"], row["Ek_MPa"], row["eta_k_MPa_s"])
 
 
 def burgers_predict(params: pd.DataFrame, temperature_C, frequency_Hz) -> np.ndarray:
@@ -86,8 +67,8 @@ def burgers_predict(params: pd.DataFrame, temperature_C, frequency_Hz) -> np.nda
     f = np.asarray(frequency_Hz, float)
     out = np.full(T.shape, np.nan, dtype=complex)
     for _, row in params.iterrows():
-        sel = np.isclose(T, row["temperature_C"])
-        out[sel] = burgers_law(row).complex_modulus(2 * np.pi * f[sel])
+        sel = same_temperature(T, row["temperature_C"])
+        out[sel] = burgers_model(row, unit=1.0).complex_modulus(2 * np.pi * f[sel])
     return out
 
 
@@ -117,8 +98,8 @@ def lofo_predictions(df: pd.DataFrame, shift: str = "wlf", T_ref_C: float | None
     cm = cell_means(df)
     rows = []
     for f_k in np.sort(df["frequency_Hz"].unique()):
-        train = df[~np.isclose(df["frequency_Hz"], f_k)]
-        held = cm[np.isclose(cm["frequency_Hz"], f_k)]
+        train = df[~same_frequency(df["frequency_Hz"], f_k)]
+        held = cm[same_frequency(cm["frequency_Hz"], f_k)]
         n_f = train.groupby("temperature_C")["frequency_Hz"].nunique()
         ok_T = [T for T in held["temperature_C"] if n_f.get(T, 0) >= 2]
         if not ok_T or train["temperature_C"].nunique() < 2:

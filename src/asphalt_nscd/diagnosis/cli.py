@@ -1,13 +1,19 @@
-"""Subcommands of the diagnosis step (registered by asphalt_nscd.cli).
+"""Subcommands of the diagnosis step (registered by asphalt_nscd.cli). They parse arguments and
+call the library; reading, validation and physics live in the modules they call.
 
+* ``master-curve``   — artifact search and master curve of a measured table, written once
+                       (JSON) with the artifact-corrected table (CSV)
+                       (:mod:`asphalt_nscd.diagnosis.artifacts`).
 * ``extend-law``     — the temperature-aware extended (generalized Burger's) law from a measured
                        table alone, settings chosen by cross-validation, written at any
-                       temperatures (law JSON, Pa and Pa s): the input of the extended campaign.
+                       temperatures (law file, Pa and Pa s, :mod:`asphalt_nscd.rheology.law_file`):
+                       the input of the extended campaign.
 * ``crossval``       — held-out (lofo / loto) and in-sample predictions of the paper's Burger's
                        law, the extended law and the NSCD sample (nested: every fold refits the
                        whole extend-law procedure).
-* ``diagnose``       — what the simulation gets wrong: error budget, named causes, extended
-                       law and gain (JSON report; optional law JSON, tables and figure).
+* ``diagnose``       — what the simulation gets wrong: error budget, named causes and gain of
+                       the extended law (JSON report; optional tables, figure and page), from
+                       the outputs of ``master-curve`` and ``extend-law``.
 * ``synth``          — synthetic measured table (2S2P1D truth of a family, planted effects), its
                        truth and its test geometry as JSON sidecars.
 * ``diagnose-bench`` — false-alarm and detection rates of the artifact detection, with 95 %
@@ -19,16 +25,25 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def _fit_options(p) -> None:
-    """Options of the artifact search and of the extended law (diagnose, extend-law, crossval)."""
+def _measured_option(p) -> None:
     p.add_argument("--measured", type=Path, required=True,
                    help="measured table (specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg "
                         "[, strain_microstrain, test_order])")
+
+
+def _search_options(p) -> None:
+    """Options of the artifact search (master-curve, extend-law, crossval)."""
+    _measured_option(p)
     p.add_argument("--alpha", type=float, default=1e-3, help="significance level of the tests (default 1e-3)")
     p.add_argument("--shift", choices=["wlf", "arrhenius"], default="wlf",
                    help="shift law of the master curve of the artifact search")
     p.add_argument("--t-ref", type=float, default=None,
                    help="reference temperature, degC (default: tested one nearest the median)")
+
+
+def _fit_options(p) -> None:
+    """Options of the artifact search and of the extended law (extend-law, crossval)."""
+    _search_options(p)
     g = p.add_argument_group("extended law: candidate settings, chosen by cross-validation "
                              "(asphalt_nscd.diagnosis.crossval)")
     g.add_argument("--law-shifts", nargs="+", choices=["wlf", "arrhenius"], default=list(LAW_DEFAULTS["shifts"]),
@@ -60,6 +75,22 @@ LAW_DEFAULTS = {"shifts": ("wlf", "arrhenius"), "statics": ("none", "constant", 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser("master-curve", help="artifact search and master curve of a measured table (JSON) "
+                                                   "and the artifact-corrected table (CSV)",
+                              description="Search the measured table for data artifacts (nested master-curve "
+                              "fits, asphalt_nscd.diagnosis.effects), correct them and fit the 2S2P1D master "
+                              "curve of the corrected table; write the result for 'extend-law --master-curve' and "
+                              "'diagnose --master-curve'.")
+    _search_options(p)
+    p.add_argument("--test", type=Path, default=None,
+                   help="test-geometry JSON of the measured table (default: the sidecar <measured stem>.test.json "
+                        "next to it, else an unknown test: inertia not testable)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="master-curve JSON: settings, noise, artifact screening and entries, corrected "
+                        "artifacts, master curve (MPa)")
+    p.add_argument("--corrected", type=Path, required=True, help="artifact-corrected measured table (CSV)")
+    p.set_defaults(func=_master_curve)
+
     p = subparsers.add_parser("extend-law", help="temperature-aware extended (generalized Burger's) law (law JSON)",
                               description="Fit the temperature-aware generalized Burger's law (one 2S2P1D "
                               "backbone and Prony chain at a reference temperature, a shift law, optional "
@@ -78,7 +109,13 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="law JSON: units, law, temperatures {T: Em, eta_m (null: no dashpot), Ek[], eta_k[], "
                         "E_inf, in-sample MREs, extrapolation}, model, selection, source (Pa and Pa s)")
-    p.add_argument("--corrected", type=Path, default=None, help="artifact-corrected measured table (CSV)")
+    p.add_argument("--master-curve", type=Path, default=None,
+                   help="the artifact search of 'master-curve' on the same --measured table (with "
+                        "--corrected-table): used instead of searching again")
+    p.add_argument("--corrected-table", type=Path, default=None,
+                   help="the artifact-corrected table of 'master-curve' (with --master-curve)")
+    p.add_argument("--corrected", type=Path, default=None,
+                   help="output: the table the law was fitted on (artifact-corrected unless --no-artifacts) (CSV)")
     p.add_argument("--cv-curve", type=Path, default=None,
                    help="cross-validation curve of the selection: one row per candidate setting (CSV)")
     p.set_defaults(func=_extend_law)
@@ -119,8 +156,15 @@ def register(subparsers) -> None:
                    help="figure: measured, in-sample and held-out isotherms of the extended law")
     p.set_defaults(func=_crossval)
 
-    p = subparsers.add_parser("diagnose", help="error budget, named causes, extended law and gain of the simulation")
-    _fit_options(p)
+    p = subparsers.add_parser("diagnose", help="error budget, named causes, extended law and gain of the simulation",
+                              description="Read the measured table, the artifact search and master curve "
+                              "('master-curve'), the extended law ('extend-law') and the simulation results, "
+                              "and write what the simulation gets wrong; nothing upstream is refitted.")
+    _measured_option(p)
+    p.add_argument("--master-curve", type=Path, required=True,
+                   help="artifact search and master curve of the measured table (output of 'master-curve')")
+    p.add_argument("--corrected-table", type=Path, required=True,
+                   help="artifact-corrected measured table (output of 'master-curve')")
     p.add_argument("--simulated", type=Path, nargs="+", default=None,
                    help="time-domain (NSCD) results with the Burger's bond law: reduced rows (temperature_C, "
                         "frequency_Hz, E_norm_MPa, phase_deg [, solver, dt_s]) or numerical isotherms "
@@ -141,9 +185,8 @@ def register(subparsers) -> None:
                         "'harmonic-transfer', e.g. results/harmonic/transfer/s1.json): the gain table adds "
                         "the extended law without the transfer correction (NF_s x E*, inertia-free harmonic "
                         "response), separating the gain of the law from that of the correction")
-    p.add_argument("--law-json", type=Path, default=None,
-                   help="the extended law the extended simulation ran with (output of 'extend-law'); "
-                        "default: fitted here with the --law-* options")
+    p.add_argument("--law-json", type=Path, required=True,
+                   help="the extended law the extended simulation ran with (output of 'extend-law')")
     p.add_argument("--crossval", type=Path, nargs="+", default=None,
                    help="outputs of 'asphalt-nscd crossval' (lofo and/or loto): the gain table and the page "
                         "give the held-out MRE beside the in-sample one")
@@ -158,14 +201,11 @@ def register(subparsers) -> None:
     p.add_argument("--tolerance-phase-deg", type=float, default=0.1,
                    help="tolerance of the time-integration phase error, deg (default 0.1)")
     p.add_argument("-o", "--output", type=Path, required=True, help="report JSON")
-    p.add_argument("--laws", type=Path, default=None,
-                   help="generalized Burger's law per temperature (JSON, Pa and Pa s)")
     p.add_argument("--budget-csv", type=Path, default=None, help="error budget table (CSV)")
     p.add_argument("--effects-csv", type=Path, default=None, help="candidate causes table (CSV)")
     p.add_argument("--gain-csv", type=Path, default=None,
                    help="MRE before/after per temperature and source (nscd: NSCD simulations; macro: macro "
                         "laws) (CSV)")
-    p.add_argument("--corrected", type=Path, default=None, help="artifact-corrected measured table (CSV)")
     p.add_argument("--figure", type=Path, default=None, help="stacked error-budget figure (PNG/PDF/SVG)")
     p.add_argument("--page", type=Path, default=None,
                    help="Markdown page 'What the simulation gets wrong' (links the figure by its file name)")
@@ -212,43 +252,6 @@ def register(subparsers) -> None:
     p.set_defaults(func=_bench)
 
 
-def _read_optional(paths):
-    from .report import read_simulated_many
-
-    return None if not paths else read_simulated_many(paths)
-
-
-def _read_time_errors(paths, theta):
-    """Time-integration phase-error tables (concatenated), rows of ``theta`` only when the
-    table has a theta column. Raises InputError naming the file and column."""
-    import numpy as np
-    import pandas as pd
-
-    from ..io import InputError
-
-    frames = []
-    for path in paths:
-        try:
-            t = pd.read_csv(path)
-        except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-            raise InputError(f"{path}: not a readable CSV file ({exc})") from None
-        missing = {"frequency_Hz", "dt_s", "phase_error_deg"} - set(t.columns)
-        if missing:
-            raise InputError(f"{path}: line 1 (header): missing column(s) {sorted(missing)}")
-        for c in ("frequency_Hz", "dt_s", "phase_error_deg"):
-            v = pd.to_numeric(t[c], errors="coerce").to_numpy(float)
-            bad = np.flatnonzero(~np.isfinite(v))
-            if bad.size:
-                raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number")
-            t[c] = v
-        if theta is not None and "theta" in t.columns:
-            t = t[np.isclose(t["theta"].astype(float), theta)]
-            if t.empty:
-                raise InputError(f"{path}: column 'theta': no row with theta = {theta:g}")
-        frames.append(t)
-    return pd.concat(frames, ignore_index=True)
-
-
 def law_options(args):
     """:class:`~asphalt_nscd.diagnosis.crossval.Options` from the options of :func:`_fit_options`.
 
@@ -282,50 +285,44 @@ def law_options(args):
                    T_ref_C=args.t_ref, one_se=not args.no_one_se)
 
 
-def _excluded(table, args):
-    """``table`` without the rows of --exclude-frequency/--exclude-temperature (InputError if a
-    value is not in the table or nothing is left)."""
-    import numpy as np
+def _master_curve(args) -> int:
+    from ..io import write_csv, write_json
+    from ..lab.measured import load_measured
+    from . import artifacts
 
-    from ..io import InputError
-
-    keep = np.ones(len(table), bool)
-    for col, values, opt in (("frequency_Hz", args.exclude_frequency, "--exclude-frequency"),
-                             ("temperature_C", args.exclude_temperature, "--exclude-temperature")):
-        for v in values:
-            hit = np.isclose(table[col].to_numpy(float), v, rtol=1e-12, atol=1e-12)
-            if not hit.any():
-                raise InputError(f"{opt} {v:g}: no row of {args.measured} has {col} = {v:g}")
-            keep &= ~hit
-    if not keep.any():
-        raise InputError(f"{args.measured}: no row left after --exclude-frequency/--exclude-temperature")
-    return table[keep].reset_index(drop=True)
+    measured = load_measured(args.measured, test=args.test)
+    analysis = artifacts.analyse(measured, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref)
+    rec = artifacts.record(analysis, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref)
+    write_json(artifacts.to_json(rec, {"measured": str(args.measured)}), args.output)
+    write_csv(analysis["corrected"].drop(columns=["test_step"], errors="ignore"), args.corrected)
+    return 0
 
 
 def _extend_law(args) -> int:
-    from ..io import InputError, write_csv, write_json
+    from ..io import InputError, write_csv
     from ..lab.measured import load_measured
-    from .crossval import cell_means, fit_extended
+    from ..rheology import law_file
+    from . import artifacts
+    from .crossval import exclude_rows, fit_extended, law_file_object
 
-    measured = _excluded(load_measured(args.measured), args)
-    fit = fit_extended(measured, law_options(args))
+    if (args.master_curve is None) != (args.corrected_table is None):
+        raise InputError("--master-curve and --corrected-table: give both (the outputs of 'master-curve') or neither")
+    if args.master_curve is not None and (args.exclude_frequency or args.exclude_temperature):
+        raise InputError("--master-curve: the artifact search of the whole table; not with --exclude-frequency/"
+                         "--exclude-temperature (a fold searches its own rows)")
+    measured = exclude_rows(load_measured(args.measured), args.exclude_frequency, args.exclude_temperature,
+                            where=args.measured)
+    given = None
+    if args.master_curve is not None:
+        given = (artifacts.read_corrected(args.corrected_table), artifacts.read(args.master_curve))
+    options = law_options(args)
+    fit = fit_extended(measured, options, artifacts=given)
     if fit.law is None:
         raise InputError(f"{args.measured}: no extended law could be fitted: {fit.reason}")
     temps = args.temperatures if args.temperatures else sorted(measured["temperature_C"].unique())
-    obj = fit.law.to_json(temps, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
-    obj["selection"] = {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
-                        "rule": ("simplest candidate within one standard error of the best inner-CV score "
-                                 "(fewest fitted parameters, then coarsest Prony series)")
-                        if not args.no_one_se else "best inner-CV score",
-                        "curve": fit.curve.to_dict(orient="records")}
-    obj["source"] = {"measured": str(args.measured),
-                     "excluded_frequencies_Hz": list(args.exclude_frequency),
-                     "excluded_temperatures_C": list(args.exclude_temperature),
-                     "artifact_search": {"master_curve": "2S2P1D", "shift": args.shift, "alpha": args.alpha},
-                     "artifacts_corrected": fit.artifacts, "notes": fit.notes,
-                     "mre_reference": "in-sample: the artifact-corrected replicate means the law was fitted on "
-                                      "(and, _vs_measured, the measured ones); held-out errors: asphalt-nscd crossval"}
-    write_json(obj, args.output)
+    law_file.write(law_file_object(fit, measured, temps, options, {
+        "measured": str(args.measured), "excluded_frequencies_Hz": list(args.exclude_frequency),
+        "excluded_temperatures_C": list(args.exclude_temperature)}), args.output)
     if args.corrected is not None:
         write_csv(fit.corrected, args.corrected)
     if args.cv_curve is not None:
@@ -339,7 +336,7 @@ def _crossval(args) -> int:
     from ..io import InputError, write_csv
     from ..lab.measured import load_measured
     from . import crossval as cv
-    from .report import read_simulated_many
+    from .inputs import read_simulated_many
 
     measured = load_measured(args.measured)
     sample = None
@@ -365,84 +362,41 @@ def _crossval(args) -> int:
 
 
 def _diagnose(args) -> int:
-    import pandas as pd
-
-    from ..campaign.study import read_law_json
     from ..io import InputError, write_csv, write_json, write_text
     from ..lab.measured import load_measured
-    from . import extend
-    from .report import budget_figure, diagnose, markdown_page
+    from ..rheology import law_file
+    from . import artifacts, inputs, render
+    from .budget import diagnose
 
     measured = load_measured(args.measured, test=args.test)
     if not (args.tolerance_network_factor > 0 and args.tolerance_phase_deg > 0):
         raise InputError("--tolerance-network-factor and --tolerance-phase-deg: expected positive numbers, got "
                          f"{args.tolerance_network_factor}, {args.tolerance_phase_deg}")
-    time_errors = None if not args.time_integration else _read_time_errors(args.time_integration, args.theta)
-    laws, law_info = None, None
-    if args.law_json is not None:
-        laws = {T: law.scaled(1e-6) for T, law in read_law_json(args.law_json).items()}
-        from ..io import read_json
-
-        obj = read_json(args.law_json, "law JSON")
-        law_info = {k: obj.get(k) for k in ("selection", "model")}
-        missing = [float(T) for T in sorted(measured["temperature_C"].unique())
-                   if not any(abs(T - k) < 1e-9 for k in laws)]
-        if missing:
-            raise InputError(f"{args.law_json}: key 'temperatures': no law at {missing} degC (measured "
-                             f"temperatures); given: {sorted(laws)}")
-    macro = None
-    if args.macro_params is not None:
-        try:
-            macro = pd.read_csv(args.macro_params)
-        except (OSError, pd.errors.ParserError) as exc:
-            raise InputError(f"{args.macro_params}: not a readable CSV file ({exc})") from None
-        missing = {"temperature_C", "Em_MPa", "eta_m_MPa_s", "Ek_MPa", "eta_k_MPa_s"} - set(macro.columns)
-        if missing:
-            raise InputError(f"{args.macro_params}: line 1 (header): missing column(s) {sorted(missing)}")
-    transfer = None
-    if args.transfer:
-        from ..harmonic.transfer import read_transfer_json
-
-        transfer = {}
-        for path in args.transfer:
-            obj = read_transfer_json(path)
-            if obj["sample"] in transfer:
-                raise InputError(f"{path}: key 'sample': sample {obj['sample']!r} given twice in --transfer")
-            transfer[obj["sample"]] = obj["network_factor"]
-    crossval = None
-    if args.crossval:
-        from .report import read_crossval
-
-        crossval = read_crossval(args.crossval)
+    temps = sorted(measured["temperature_C"].unique())
     report, extra = diagnose(
-        measured, simulated=_read_optional(args.simulated), harmonic=_read_optional(args.harmonic),
-        time_errors=time_errors, simulated_extended=_read_optional(args.simulated_extended),
-        macro_params=macro, laws=laws, transfer=transfer, alpha=args.alpha, shift=args.shift,
-        T_ref_C=args.t_ref, law_options=law_options(args), crossval=crossval, law_info=law_info,
+        measured, artifacts.read(args.master_curve), artifacts.read_corrected(args.corrected_table),
+        laws=law_file.read_mpa(args.law_json, temps), law_info=law_file.read_info(args.law_json),
+        simulated=inputs.read_simulated_many(args.simulated), harmonic=inputs.read_simulated_many(args.harmonic),
+        time_errors=inputs.read_time_errors(args.time_integration, args.theta) if args.time_integration else None,
+        simulated_extended=inputs.read_simulated_many(args.simulated_extended),
+        macro_params=inputs.read_macro_params(args.macro_params) if args.macro_params is not None else None,
+        transfer=inputs.read_network_factors(args.transfer) if args.transfer else None,
+        crossval=inputs.read_crossval(args.crossval) if args.crossval else None,
         cause_tolerances={"network_factor": args.tolerance_network_factor,
                           "time_integration_deg": args.tolerance_phase_deg})
     report["measured"]["test"] = measured.attrs["test"].to_json()
     report["measured"]["path"] = str(args.measured)
     write_json(report, args.output)
-    if args.laws is not None:
-        write_json(extend.laws_to_json(extra["laws"], extra["mre_E"], extra["mre_phase"]), args.laws)
     if args.budget_csv is not None:
         write_csv(extra["budget"], args.budget_csv)
     if args.effects_csv is not None:
-        rows = [{"name": e["name"], "category": e["category"], "detected": e["detected"],
-                 "testable": e["testable"], "score": e["score"], "p_value": e["p_value"],
-                 "estimate": "; ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                                       for k, v in e["estimate"].items()),
-                 "evidence": e["evidence"]} for e in report["effects"]]
-        write_csv(pd.DataFrame(rows), args.effects_csv)
+        write_csv(render.effects_table(report), args.effects_csv)
     if args.gain_csv is not None:
-        write_csv(extra["gain_rows"], args.gain_csv)
-    if args.corrected is not None:
-        write_csv(extra["corrected"].drop(columns=["test_step"], errors="ignore"), args.corrected)
+        write_csv(render.gain_table(report), args.gain_csv)
     if args.figure is not None:
-        budget_figure(extra["budget"], args.figure)
+        render.budget_figure(extra["budget"], args.figure)
     if args.page is not None:
-        write_text(markdown_page(report, args.figure.name if args.figure is not None else None), args.page)
+        write_text(render.markdown_page(report, args.figure.name if args.figure is not None else None), args.page)
     return 0
 
 

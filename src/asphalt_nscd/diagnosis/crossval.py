@@ -9,7 +9,7 @@ Folds
     of the tested range is an extrapolation (``extrapolation`` column) and is reported apart.
     On an unbalanced table a fold removes what it names wherever it occurs.
 Procedure fitted inside each fold (:func:`fit_extended`), on the training rows only
-    1. artifact search and correction (:func:`asphalt_nscd.diagnosis.report.analyse`) when the
+    1. artifact search and correction (:func:`asphalt_nscd.diagnosis.artifacts.analyse`) when the
        training table allows it (>= 2 temperatures, >= 3 frequencies each), else none (noted);
     2. replicate means of the corrected table;
     3. the law's settings chosen by an inner cross-validation on those means
@@ -18,7 +18,7 @@ Procedure fitted inside each fold (:func:`fit_extended`), on the training rows o
        means), the simplest setting within one standard error of the best
        score (one-standard-error rule: the fewest fitted parameters, then the coarsest Prony
        series, then the best score);
-    4. :class:`~asphalt_nscd.diagnosis.extend.ThermoLaw` with those settings on all training
+    4. :class:`~asphalt_nscd.rheology.extended.ThermoLaw` with those settings on all training
        means. Nothing computed from a held-out cell reaches the fold's law.
 Models predicted at the held-out cells
     ``burgers`` (the paper's Burger's law fitted per isotherm, Eqs. 27-29, on the training
@@ -60,9 +60,9 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError
-from . import extend
-from .causes import cell_means  # replicate means per (temperature_C, frequency_Hz)
-from .extend import LawSettings, ThermoLaw
+from ..rheology import extended
+from ..rheology.extended import LawSettings, ThermoLaw
+from ..rheology.metrics import at_temperature, cell_means, same_frequency, same_temperature
 
 SCHEMES = ("lofo", "loto")
 ROW_COLUMNS = ("scheme", "fold", "kind", "model", "temperature_C", "frequency_Hz", "n_replicates",
@@ -91,7 +91,7 @@ class Options:
 
     ``candidates``: the law settings to choose from; ``tolerances``: tol_E, tol_Phi
     (fractions) of the fit residuals and of the selection score; ``margin_decades``: see
-    :mod:`.extend`; ``artifacts``: search and correct data artifacts first; ``alpha``,
+    :mod:`asphalt_nscd.rheology.extended`; ``artifacts``: search and correct data artifacts first; ``alpha``,
     ``artifact_shift``: significance level and master-curve shift of that search;
     ``T_ref_C``: reference temperature (None: the training temperature nearest the median);
     ``one_se``: one-standard-error rule (else the best score); ``burgers_starts``: local
@@ -100,7 +100,7 @@ class Options:
     """
 
     candidates: tuple = (LawSettings(),)
-    tolerances: tuple = extend.TOLERANCES
+    tolerances: tuple = extended.TOLERANCES
     margin_decades: float = 2.0
     artifacts: bool = True
     alpha: float = 1e-3
@@ -179,8 +179,12 @@ class MeasurementModel:
         return R
 
 
-def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFrame, list, list, MeasurementModel | None]:
+def correct_artifacts(table: pd.DataFrame, options: Options, given=None) -> tuple[pd.DataFrame, list, list, MeasurementModel | None]:
     """Artifact-corrected copy of ``table`` (step 1 of the module docstring).
+
+    ``given``: (corrected table, :class:`~asphalt_nscd.diagnosis.artifacts.ArtifactRecord`)
+    of ``asphalt-nscd master-curve`` on this very table, used instead of searching again
+    (then no measurement model is returned).
 
     Returns (corrected table, names of the corrected artifacts, notes, measurement model or
     None when no artifact was corrected).
@@ -190,7 +194,13 @@ def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFra
     n_f = table.groupby("temperature_C")["frequency_Hz"].nunique()
     if n_f.size < 2 or n_f.min() < 3:
         return table, [], ["artifact search skipped: needs >= 2 temperatures and >= 3 frequencies at each"], None
-    from .report import analyse
+    if given is not None:
+        corrected, rec = given
+        if len(corrected) != len(table):
+            raise InputError(f"corrected table: {len(corrected)} rows, the measured table {len(table)}: not the "
+                             "artifact search of this table")
+        return corrected, list(rec.artifacts), list(rec.notes), None
+    from .artifacts import analyse
 
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of the fits
@@ -201,6 +211,27 @@ def correct_artifacts(table: pd.DataFrame, options: Options) -> tuple[pd.DataFra
     corrected = a["corrected"].drop(columns=["test_step"], errors="ignore")
     model = MeasurementModel(a["result"]["final"], float(a["search"].strain_ref)) if names else None
     return corrected, names, [f"artifacts corrected: {', '.join(names) or 'none detected'}"], model
+
+
+def exclude_rows(table: pd.DataFrame, frequencies=(), temperatures=(), where="measured table") -> pd.DataFrame:
+    """``table`` without every row at the given frequencies (Hz) and temperatures (degC; the
+    rule of :func:`asphalt_nscd.rheology.metrics.same_temperature`): the training rows of a
+    lofo or loto fold.
+
+    Raises InputError naming ``where`` if a value is not in the table or no row is left.
+    """
+    keep = np.ones(len(table), bool)
+    for col, values, opt, same in (
+            ("frequency_Hz", frequencies, "--exclude-frequency", same_frequency),
+            ("temperature_C", temperatures, "--exclude-temperature", same_temperature)):
+        for v in values:
+            hit = same(table[col].to_numpy(float), v)
+            if not hit.any():
+                raise InputError(f"{opt} {v:g}: no row of {where} has {col} = {v:g}")
+            keep &= ~hit
+    if not keep.any():
+        raise InputError(f"{where}: no row left after --exclude-frequency/--exclude-temperature")
+    return table[keep].reset_index(drop=True)
 
 
 def _t_ref(cells: pd.DataFrame, options: Options) -> float:
@@ -233,14 +264,14 @@ def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances, 
         if parent is not None and not isinstance(parent, str):
             start = dict(zip(parent.names, parent.x))
         elif not base:
-            names = set(extend.backbone_names(settings, np.unique(cells["temperature_C"])))
+            names = set(extended.backbone_names(settings, np.unique(cells["temperature_C"])))
             fitted = [bb for s2, bb in out.items() if not isinstance(bb, str) and s2[0] == st[0]
                       and set(bb.names) <= names]
             if fitted:
                 ref = max(fitted, key=lambda bb: len(bb.names))
                 start = dict(zip(ref.names, ref.x))
         try:
-            out[st] = extend.fit_backbone(cells, settings, T_ref_C, tolerances, start=start)
+            out[st] = extended.fit_backbone(cells, settings, T_ref_C, tolerances, start=start)
         except FIT_ERRORS as exc:
             out[st] = f"not computable: {exc}"
     return out
@@ -253,8 +284,8 @@ def _fold_values(cells: pd.DataFrame, scheme: str) -> np.ndarray:
 
 def fold_split(cells: pd.DataFrame, scheme: str, value: float):
     """(training mask, reason or '') of one fold on a cell (or row) table."""
-    key = "frequency_Hz" if scheme == "lofo" else "temperature_C"
-    train = ~np.isclose(cells[key].to_numpy(float), value, rtol=1e-12, atol=1e-12)
+    key, same = ("frequency_Hz", same_frequency) if scheme == "lofo" else ("temperature_C", same_temperature)
+    train = ~same(cells[key].to_numpy(float), value)
     temps = np.unique(cells["temperature_C"].to_numpy(float)[train])
     if scheme == "loto" and temps.size < 3:
         return train, (f"leaves {temps.size} temperature(s): the shift law (2 constants) needs >= 3 "
@@ -277,7 +308,7 @@ def _inner_folds(cells: pd.DataFrame) -> list:
 
 def _fold_score(law: ThermoLaw, test: pd.DataFrame, tolerances) -> float:
     try:
-        m = extend.law_metrics(law, test)
+        m = extended.law_metrics(law, test)
     except FIT_ERRORS:
         return np.inf
     eE, eP = m["rel_err_E_norm"].to_numpy(float), m["rel_err_phase"].to_numpy(float)
@@ -319,7 +350,7 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
                 rows[c]["reason"] = bb
                 continue
             try:
-                law = extend.fit_law(tr, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
+                law = extended.fit_law(tr, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
             except FIT_ERRORS as exc:
                 rows[c]["scores"].append(np.inf)
                 rows[c]["reason"] = f"not computable: {exc}"
@@ -358,13 +389,15 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     return cands[chosen], curve, parents
 
 
-def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
+def fit_extended(table: pd.DataFrame, options: Options, artifacts=None) -> FitResult:
     """The whole fitting procedure on a (training) table: steps 1-4 of the module docstring.
 
-    Never raises on a table :func:`asphalt_nscd.lab.measured.load_measured` accepts: a failure
-    returns ``law = None`` and the ``reason``.
+    ``artifacts``: the artifact search already written for this table (``given`` of
+    :func:`correct_artifacts`). Never raises on a table
+    :func:`asphalt_nscd.lab.measured.load_measured` accepts: a failure returns ``law = None``
+    and the ``reason``.
     """
-    corrected, artifacts, notes, measurement = correct_artifacts(table, options)
+    corrected, artifacts, notes, measurement = correct_artifacts(table, options, artifacts)
     cells = cell_means(corrected)
     n_T = cells["temperature_C"].nunique()
     if n_T < 2:
@@ -379,7 +412,7 @@ def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
             bb = backbones.get(c.structure)
             if isinstance(bb, str):
                 raise ValueError(bb)
-            law = extend.fit_law(cells, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
+            law = extended.fit_law(cells, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
         except FIT_ERRORS as exc:
             last = f"{c.label()}: {exc}"
             notes.append(f"setting {c.label()} not computable on the whole table ({exc})")
@@ -390,6 +423,26 @@ def fit_extended(table: pd.DataFrame, options: Options) -> FitResult:
         return FitResult(law, c, curve, corrected, artifacts, notes, measurement=measurement)
     return FitResult(None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})",
                      measurement)
+
+
+def law_file_object(fit: FitResult, measured: pd.DataFrame, temperatures, options: Options, source: dict) -> dict:
+    """The law file of ``extend-law`` (:mod:`asphalt_nscd.rheology.law_file`): the law of
+    ``fit`` at ``temperatures`` (degC) with its in-sample MREs against the corrected and
+    (``_vs_measured``) the measured replicate means of ``measured``, the ``selection`` (chosen
+    settings, rule, curve) and the ``source`` (given keys, then the artifact search's)."""
+    obj = fit.law.to_json(temperatures, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
+    obj["selection"] = {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
+                        "rule": ("simplest candidate within one standard error of the best inner-CV score "
+                                 "(fewest fitted parameters, then coarsest Prony series)")
+                        if options.one_se else "best inner-CV score",
+                        "curve": fit.curve.to_dict(orient="records")}
+    obj["source"] = {**source,
+                     "artifact_search": {"master_curve": "2S2P1D", "shift": options.artifact_shift,
+                                         "alpha": options.alpha},
+                     "artifacts_corrected": fit.artifacts, "notes": fit.notes,
+                     "mre_reference": "in-sample: the artifact-corrected replicate means the law was fitted on "
+                                      "(and, _vs_measured, the measured ones); held-out errors: asphalt-nscd crossval"}
+    return obj
 
 
 @dataclass
@@ -459,7 +512,7 @@ def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFra
 
     out = []
     for T, g in test.groupby("temperature_C"):
-        tr = train_rows[np.isclose(train_rows["temperature_C"].to_numpy(float), T)]
+        tr = at_temperature(train_rows, T)
         law, reason = None, ""
         if scheme == "loto" and kind == "held_out":
             reason = "a Burger's law per isotherm has no temperature dependence (lofo only)"
@@ -516,7 +569,7 @@ def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, ex
         f = g["frequency_Hz"].to_numpy(float)
         pred_law = pred_nscd = None
         why_s = ""
-        g_rows = None if rows is None else rows[np.isclose(rows["temperature_C"].to_numpy(float), T)]
+        g_rows = None if rows is None else at_temperature(rows, T)
         if law is not None:
             E = law.complex_modulus(2 * np.pi * f)
             try:
@@ -629,8 +682,8 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
 def _time_domain_rows(scheme, cells, td: pd.DataFrame, fits) -> list:
     rows = []
     for _, r in td.iterrows():
-        sel = (np.isclose(cells["temperature_C"], r["temperature_C"], rtol=0, atol=1e-9)
-               & np.isclose(cells["frequency_Hz"], r["frequency_Hz"], rtol=1e-12, atol=0))
+        sel = (same_temperature(cells["temperature_C"], r["temperature_C"])
+               & same_frequency(cells["frequency_Hz"], r["frequency_Hz"]))
         if not sel.any():
             raise InputError(f"time-domain row at {r['temperature_C']:g} degC, {r['frequency_Hz']:g} Hz: not a "
                              "measured cell")

@@ -69,6 +69,7 @@ from scipy import stats
 
 from ..rheology.kramers_kronig import kk_time_lag
 from ..rheology.master_curve import MasterCurveFit, MasterCurveProblem, Term, data_arrays, replicate_noise
+from ..rheology.metrics import same_temperature
 
 #: 2S2P1D parameters held at the current fit while candidates are screened: the weakly
 #: identified pair (E00, beta) otherwise lets a new term switch the fit to another branch
@@ -223,13 +224,13 @@ def one_sided(name: str, estimate: float, p: float) -> float:
 def vertical_term(data: dict, T_ref_C: float) -> Term:
     """Nuisance term of the screening model: a free |E*| factor exp(v_T) per isotherm
     (v = 0 at ``T_ref_C``), the vertical shift of a thermorheologically not quite simple mix."""
-    others = [float(T) for T in data["temperatures"] if not np.isclose(T, T_ref_C)]
+    others = [float(T) for T in data["temperatures"] if not same_temperature(T, T_ref_C)]
 
     def apply(x, E, d):
         # isotherm index of each row of ``d`` (any rows: the fit's or new ones, e.g. a held-out fold)
         col = np.full(np.shape(d["T"]), -1)
         for i, T in enumerate(others):
-            col[np.isclose(d["T"], T)] = i
+            col[same_temperature(d["T"], T)] = i
         sel = col >= 0
         v = np.zeros(E.shape)
         v[sel] = np.asarray(x)[col[sel]]
@@ -688,7 +689,7 @@ def effect_entries(search: ArtifactSearch, result: dict) -> list:
             est["phase_change_pct"] = dphi
             est["E_norm_change_pct"] = dE
             evidence = _evidence(name, est, np.nan, off["p"], search, result["final"])
-            if "correction_applied" in off:  # set by diagnosis.report.analyse
+            if "correction_applied" in off:  # set by diagnosis.artifacts.analyse
                 rss = off["master_curve_rss"]
                 est["correction_applied"] = off["correction_applied"]
                 evidence += ("; corrected in the table (the corrected table fits the master curve better: RSS "

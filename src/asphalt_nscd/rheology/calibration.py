@@ -51,6 +51,7 @@ import pandas as pd
 
 from ..io import InputError, read_csv
 from .laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tangential_ratio
+from .metrics import mre_pct
 
 #: Burger's parameter columns (MPa, MPa s) of a calibrated or converted table.
 PARAM_COLUMNS = ("Em_MPa", "eta_m_MPa_s", "Ek_MPa", "eta_k_MPa_s")
@@ -103,11 +104,12 @@ def load_table3(path, units: str = "Pa") -> pd.DataFrame:
     return out
 
 
-def burgers_model(row) -> GeneralizedBurgers:
-    """The Burger's model (SI: Pa, Pa s) of a parameter row in MPa, MPa s (dict or Series)."""
+def burgers_model(row, unit: float = 1e6) -> GeneralizedBurgers:
+    """The Burger's model of a parameter row in MPa, MPa s (dict or Series), in SI (Pa, Pa s)
+    by default; ``unit`` = 1.0 keeps MPa and MPa s (the diagnosis' units)."""
     return GeneralizedBurgers.burgers(
-        Em=float(row["Em_MPa"]) * 1e6, eta_m=float(row["eta_m_MPa_s"]) * 1e6,
-        Ek=float(row["Ek_MPa"]) * 1e6, eta_k=float(row["eta_k_MPa_s"]) * 1e6,
+        Em=float(row["Em_MPa"]) * unit, eta_m=float(row["eta_m_MPa_s"]) * unit,
+        Ek=float(row["Ek_MPa"]) * unit, eta_k=float(row["eta_k_MPa_s"]) * unit,
     )
 
 
@@ -294,8 +296,8 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     out.update({
         "rmse_log_E": float(np.sqrt(np.mean(d.real**2))),
         "rmse_phase_deg": float(np.degrees(np.sqrt(np.mean(d.imag**2)))),
-        "mre_E_pct": float(100.0 * np.mean(np.abs(E_model - E) / E)),
-        "mre_phase_pct": float(100.0 * np.mean(np.abs(phi_model - phi) / phi)),
+        "mre_E_pct": mre_pct(E_model, E),
+        "mre_phase_pct": mre_pct(phi_model, phi),
         "max_abs_phase_err_deg": float(np.degrees(np.max(np.abs(d.imag)))),
         "n_points": int(f.size),
         "cost": float(best.cost),

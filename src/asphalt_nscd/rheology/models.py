@@ -58,11 +58,6 @@ def two_s2p1d_modulus(omega, E00, E0, delta, k, h, beta, tau) -> np.ndarray:
     return E00 + (E0 - E00) / denom
 
 
-def huet_sayegh_modulus(omega, E00, E0, delta, k, h, tau) -> np.ndarray:
-    """Complex modulus of the Huet-Sayegh model (2S2P1D with beta = infinity), unit of E0."""
-    return two_s2p1d_modulus(omega, E00, E0, delta, k, h, np.inf, tau)
-
-
 def log_time_grid(omega_min: float, omega_max: float, per_decade: float = 1.0,
                   margin_decades: float = 1.0) -> np.ndarray:
     """Log-spaced characteristic times (s) covering 1/omega over the band plus a margin.

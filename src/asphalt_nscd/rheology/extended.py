@@ -36,8 +36,8 @@ chain modulus and viscosity by b(T) (E0 - E00(T)) / (E0 - E00(T_ref)), and E_inf
 Kelvin-Voigt units whose retardation time at T lies ``margin_decades`` outside the tested
 frequency band are merged into the Maxwell spring (fast units) or the Maxwell dashpot (slow
 units): an error below 10^-margin of that unit's compliance inside the band, and fewer
-internal variables per bond. The result is the per-temperature format of the law JSON
-(:func:`laws_to_json`), which the NSCD core and the harmonic solver take unchanged:
+internal variables per bond. The result is the per-temperature format of the law file
+(:mod:`asphalt_nscd.rheology.law_file`), which the NSCD core and the harmonic solver take unchanged:
 E*(w) = E_inf + [1/Em + 1/(i w eta_m) + sum_i 1/(Ek_i + i w eta_k,i)]^-1.
 
 The settings (shift law, static modulus, vertical shift, refinement, spectrum density) are
@@ -57,9 +57,11 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError
-from ..rheology.laws import GeneralizedBurgers
-from ..rheology.models import fit_generalized_kelvin, log_time_grid, two_s2p1d_modulus
-from ..rheology.shift import arrhenius_log_shift
+from . import law_file
+from .laws import GeneralizedBurgers
+from .metrics import at_temperature
+from .models import fit_generalized_kelvin, log_time_grid, two_s2p1d_modulus
+from .shift import arrhenius_log_shift
 
 #: phases below this (deg) are weighted as if they were this large
 PHASE_FLOOR_DEG = 1.0
@@ -252,7 +254,7 @@ class Backbone:
                 C1, C2 = self.value("C1"), self.value("C2_K")
                 dL = {"C1": -dT / (C2 + dT), "C2_K": C1 * dT / (C2 + dT) ** 2}
             else:
-                from ..rheology.shift import KELVIN, R_GAS
+                from .shift import KELVIN, R_GAS
 
                 dL = {"Ea_kJ_mol": 1e3 / (R_GAS * ln10) * (1.0 / (T + KELVIN) - 1.0 / (self.T_ref_C + KELVIN))}
             W = self.interp_weights(T) if self.settings.refine else None
@@ -495,7 +497,7 @@ class ThermoLaw:
         return {float(T): self.law_at(float(T)) for T in temperatures}
 
     def to_json(self, temperatures, references: dict | None = None) -> dict:
-        """The law JSON (:func:`laws_to_json` format) at ``temperatures`` (degC), plus
+        """The law-file object (:func:`asphalt_nscd.rheology.law_file.to_json`) at ``temperatures`` (degC), plus
         ``model`` (:meth:`description`).
 
         Each entry also holds ``extrapolation`` (outside the calibrated range) and, at a
@@ -507,12 +509,12 @@ class ThermoLaw:
         Raises InputError if the law is undefined at a requested temperature.
         """
         temps = sorted({float(T) for T in temperatures})
-        obj = laws_to_json(self.laws(temps))
+        obj = law_file.to_json(self.laws(temps))
         for T in temps:
             d = obj["temperatures"][f"{T:g}"]
             d["extrapolation"] = not self.inside(T)
             for suffix, cells in (references or {}).items():
-                g = cells[np.isclose(cells["temperature_C"].to_numpy(float), T, rtol=0, atol=1e-9)]
+                g = at_temperature(cells, T)
                 if len(g):
                     m = law_metrics(self, g.assign(temperature_C=T))
                     d[f"in_sample_mre_E_norm_pct{suffix}"] = float(100 * m["rel_err_E_norm"].mean())
@@ -684,7 +686,7 @@ def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
     dict: ``objective`` (the minimax ratio: <= 1 means both tolerances can be met),
     ``mre_E_norm_pct``, ``mre_phase_pct`` of that fit, ``n_modes``.
     """
-    from ..rheology.models import fit_generalized_maxwell
+    from .models import fit_generalized_maxwell
 
     f = np.asarray(frequency_Hz, float)
     Ed = np.asarray(E_norm_MPa, float)
@@ -713,25 +715,3 @@ def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
     mE, mP = 100 * np.mean(np.abs(a)), 100 * np.mean(np.abs(b))
     return {"objective": float(max(mE / (100 * tolerances[0]), mP / (100 * tolerances[1]))),
             "mre_E_norm_pct": float(mE), "mre_phase_pct": float(mP), "n_modes": int(np.sum(p[1:] > 0))}
-
-
-def laws_to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None = None) -> dict:
-    """JSON object keyed by temperature (``"%g"``) with the laws in Pa and Pa s.
-
-    Fields per temperature: ``Em, eta_m, Ek (list), eta_k (list), E_inf`` (Pa, Pa s;
-    ``eta_m`` null means no Maxwell dashpot) and, if given, the in-sample MREs (%)
-    ``in_sample_mre_E_norm_pct, in_sample_mre_phase_pct``.
-    """
-    out = {"units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
-           "law": "GeneralizedBurgers: Maxwell (Em, eta_m) in series with Kelvin-Voigt units "
-                  "(Ek[i], eta_k[i]), in parallel with E_inf",
-           "temperatures": {}}
-    for T, law in sorted(laws.items()):
-        d = law.scaled(1e6).as_dict()
-        if not np.isfinite(d["eta_m"]):
-            d["eta_m"] = None
-        if mre_E is not None:
-            d["in_sample_mre_E_norm_pct"] = mre_E.get(T)
-            d["in_sample_mre_phase_pct"] = mre_phase.get(T)
-        out["temperatures"][f"{T:g}"] = d
-    return out

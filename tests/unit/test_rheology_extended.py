@@ -7,10 +7,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from asphalt_nscd.campaign.study import read_law_json
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.cli import main
-from asphalt_nscd.diagnosis import extend
-from asphalt_nscd.diagnosis.extend import LawSettings
+from asphalt_nscd.rheology import extended
+from asphalt_nscd.rheology.extended import LawSettings
 from asphalt_nscd.io import InputError
 from asphalt_nscd.rheology.models import two_s2p1d_modulus
 from asphalt_nscd.rheology.shift import wlf_log_shift
@@ -38,11 +38,11 @@ def truth_cells(temps=TEMPS, freqs=F):
 
 @pytest.fixture(scope="module")
 def law():
-    return extend.fit_law(truth_cells(), LawSettings(per_decade=4.0))
+    return extended.fit_law(truth_cells(), LawSettings(per_decade=4.0))
 
 
 def test_backbone_recovers_a_thermorheologically_simple_truth(law):
-    m = extend.law_metrics(law, truth_cells())
+    m = extended.law_metrics(law, truth_cells())
     assert m["rel_err_E_norm"].max() < 0.01 and m["rel_err_phase"].max() < 0.02
     bb = law.backbone
     assert bb.T_ref_C == 21.0
@@ -93,9 +93,9 @@ def test_trend_vertical_and_refinement_change_the_law_with_temperature():
     E = truth_modulus(cells["frequency_Hz"], cells["temperature_C"])
     b = 10 ** (-0.2 * (cells["temperature_C"] - 21.0) / 100.0)
     cells = cells.assign(E_norm_MPa=np.abs(E) * b)
-    law = extend.fit_law(cells, LawSettings(vertical=True))
+    law = extended.fit_law(cells, LawSettings(vertical=True))
     assert law.backbone.value("vertical_trend_per_100K") == pytest.approx(-0.2, abs=0.03)
-    ref = extend.fit_law(cells, LawSettings(refine=1.0))
+    ref = extended.fit_law(cells, LawSettings(refine=1.0))
     assert any(n.startswith("dlog10_E00_") for n in ref.backbone.names)
     # the per-isotherm deviations are interpolated between the isotherms
     bb = ref.backbone
@@ -141,7 +141,7 @@ def test_extend_law_writes_the_json_at_requested_temperatures(tmp_path):
     obj = json.loads(out.read_text())
     assert set(obj["temperatures"]) == {"12.5", "30", "60"}
     assert obj["temperatures"]["60"]["extrapolation"] is True and obj["temperatures"]["30"]["extrapolation"] is False
-    laws = read_law_json(out)
+    laws = law_file.read(out)
     for T in (12.5, 30.0):
         d = obj["temperatures"][f"{T:g}"]
         f = np.array([0.3, 3.0, 20.0])
@@ -165,7 +165,7 @@ def _target():
 
 def test_best_causal_fit_matches_a_causal_isotherm():
     E, ph = _target()
-    best = extend.best_causal_fit(F, E, ph)
+    best = extended.best_causal_fit(F, E, ph)
     assert best["objective"] < 0.1
     assert best["mre_E_norm_pct"] < 0.3 and best["mre_phase_pct"] < 0.5
 
@@ -176,10 +176,10 @@ def test_best_causal_fit_flags_a_kramers_kronig_inconsistent_isotherm():
     f = np.logspace(-1, np.log10(25.0), 6)
     E = 1000.0 * f**0.5
     ph = np.full(f.size, 20.0)
-    best = extend.best_causal_fit(f, E, ph)
+    best = extended.best_causal_fit(f, E, ph)
     assert best["objective"] > 1.5
     # while the consistent phase is matched
-    assert extend.best_causal_fit(f, E, np.full(f.size, 45.0))["objective"] < 0.2
+    assert extended.best_causal_fit(f, E, np.full(f.size, 45.0))["objective"] < 0.2
 
 
 def test_tolerances_option_rejects_non_positive_values(tmp_path, capsys):
@@ -202,6 +202,6 @@ def test_an_unresolved_static_trend_stays_near_zero():
         cells = truth_cells(temps=np.array([-10.0, 0.0, 10.0, 15.0, 20.0]), freqs=np.array([40., 25., 10., 6., 3.]))
         cells = cells.assign(E_norm_MPa=cells["E_norm_MPa"] * np.exp(rng.normal(0, 0.01, len(cells))),
                              phase_deg=cells["phase_deg"] + rng.normal(0, 0.2, len(cells)))
-        law = extend.fit_law(cells, LawSettings(static="trend"))
+        law = extended.fit_law(cells, LawSettings(static="trend"))
         trends.append(law.backbone.value("static_trend_per_100K"))
     assert np.max(np.abs(trends)) < 0.5
