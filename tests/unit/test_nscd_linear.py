@@ -139,20 +139,33 @@ def test_ssor_cg_matches_direct_solve(kinematics, top):
     assert results["cg_ssor"][4] < results["cg"][4]
 
 
-def test_ssor_structure_reproduces_the_matrix():
-    """D + L + U assembled from the SSOR structure (body blocks and packed bond entries)
-    equals the step matrix of the direct path."""
+@pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
+@pytest.mark.parametrize("omega", [1.0, 1.4])
+def test_ssor_structure_reproduces_the_matrix(kinematics, omega):
+    """D + L + U assembled from the SSOR structure (body blocks and packed bond entries,
+    compact and general) equals the step matrix of the direct path; the relaxed triangular
+    solves invert D / omega + L and D / omega + U."""
     from asphalt_nscd.nscd import linear
 
     s, plates, bonds = random_bonded_network(n=27)
     cg = np.zeros((bonds.n, 3))
     cg[:, 0], cg[:, 1:] = 3e-4, 1e-4
-    rot = dict(arm_i=bonds.arm_i, arm_j=bonds.arm_j, inv_inertia=s.inv_inertia,
-               inv_inertia_plate=plates.inv_inertia)
+    # lever arms off the normal on a few bonds: general (11-number) entries
+    bonds.arm_i[:6] += 0.05 * np.abs(bonds.arm_i[:6]).max() * bonds.frame[:6, 1]
+    rot = None
+    if kinematics == "contact":
+        rot = dict(arm_i=bonds.arm_i, arm_j=bonds.arm_j, inv_inertia=s.inv_inertia,
+                   inv_inertia_plate=plates.inv_inertia)
     direct = linear.LinearBondSolver(s.inv_mass, plates.inv_mass, bonds.i, bonds.j, bonds.frame,
                                      cg, bonds.broken, method="direct", rotation=rot)
     ssor = linear.LinearBondSolver(s.inv_mass, plates.inv_mass, bonds.i, bonds.j, bonds.frame,
-                                   cg, bonds.broken, method="cg_ssor", rotation=rot)
+                                   cg, bonds.broken, method="cg_ssor", rotation=rot,
+                                   ssor_omega=omega)
+    ss = dict(zip(linear._SSOR_KEYS, ssor._ssor))
+    # compact entries; with rotations also general ones (the bonds with off-normal arms)
+    assert len(ss["lcidx"]) > 0 and len(ss["ucidx"]) > 0
+    assert (len(ss["uidx"]) > 0 and len(ss["lidx"]) > 0) == (rot is not None)
+    assert ss["lcdat"].shape[1] == (7 if rot else 5)
     n = ssor.ndof
     A = np.zeros((n, n))
     for k in range(n):  # columns of A by the matrix-free product
@@ -162,20 +175,24 @@ def test_ssor_structure_reproduces_the_matrix():
     # the matrix-free product is the direct path's matrix (its SuperLU factor inverts it)
     x = np.random.default_rng(0).normal(size=n)
     np.testing.assert_allclose(direct.lu.solve(A @ x), x, rtol=1e-8, atol=1e-8 * np.abs(x).max())
-    # (D + L)^-1 and (D + U)^-1 of the SSOR kernels invert the triangular parts of A
-    bfirst, bcount, Dinv, lptr, lidx, ldat, uptr, uidx, udat = ssor._ssor
+    # (D/w + L)^-1 and (D/w + U)^-1 of the SSOR kernels invert the triangular parts of A
+    bfirst, bcount = ss["bfirst"], ss["bcount"]
     blocks = np.repeat(np.arange(len(bfirst)), 3 * bcount)
     same = blocks[:, None] == blocks[None, :]
-    DL = np.where(same | (blocks[:, None] > blocks[None, :]), A, 0.0)
-    DU = np.where(same | (blocks[:, None] < blocks[None, :]), A, 0.0)
+    Dw = np.where(same, A, 0.0) / omega
+    DL = Dw + np.where(blocks[:, None] > blocks[None, :], A, 0.0)
+    DU = Dw + np.where(blocks[:, None] < blocks[None, :], A, 0.0)
     y = np.zeros(n)
     d = np.zeros(n)
-    linear._lower_solve(bfirst, bcount, Dinv, lptr, lidx, ldat, x, y, d)
+    low = [ss[k] for k in ("lcptr", "lcidx", "lcdat", "lptr", "lidx", "ldat")]
+    up = [ss[k] for k in ("ucptr", "ucidx", "ucdat", "uptr", "uidx", "udat")]
+    linear._lower_solve(bfirst, bcount, ss["Dinv"], *low, x, y, d)
     np.testing.assert_allclose(DL @ y, x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
-    np.testing.assert_allclose(d, np.where(same, A, 0.0) @ y, rtol=1e-9,
-                               atol=1e-9 * np.abs(d).max())
-    linear._upper_solve(bfirst, bcount, Dinv, uptr, uidx, udat, x, y, d)
+    np.testing.assert_allclose(d, Dw @ y, rtol=1e-9, atol=1e-9 * np.abs(d).max())
+    linear._upper_solve(bfirst, bcount, ss["Dinv"], *up, x, y, d, 2.0 - omega)
     np.testing.assert_allclose(DU @ y, x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
+    np.testing.assert_allclose(d, x - (2.0 - omega) * Dw @ y, rtol=1e-9,
+                               atol=1e-9 * np.abs(x).max())
 
 
 def _matvec_dense(solver, p):

@@ -165,8 +165,8 @@ class PermutedLU:
 
 #: Methods of :class:`LinearBondSolver` (and values of NSCDParameters.linear_solver).
 LINEAR_SOLVERS = ("cg", "cg_ssor", "direct")
-_SSOR_KEYS = ("bfirst", "bcount", "Dinv", "lptr", "lidx", "ldat", "uptr", "uidx",
-              "udat")
+_SSOR_KEYS = ("bfirst", "bcount", "Dinv", "lcptr", "lcidx", "lcdat", "lptr", "lidx", "ldat",
+              "ucptr", "ucidx", "ucdat", "uptr", "uidx", "udat")
 
 
 def _skew(a):
@@ -272,10 +272,14 @@ class LinearBondSolver:
     """
 
     def __init__(self, inv_mass, inv_mass_plate, bi, bj, frame, cg, broken, method="cg",
-                 tolerance=1e-10, max_iterations=10000, rotation=None, threads=1):
+                 tolerance=1e-10, max_iterations=10000, rotation=None, threads=1,
+                 ssor_omega=1.0):
         if method not in LINEAR_SOLVERS:
             raise ValueError(f"linear solver must be one of {LINEAR_SOLVERS}, got {method!r}")
+        if not 0.0 < ssor_omega < 2.0:
+            raise ValueError(f"ssor_omega must lie in (0, 2), got {ssor_omega!r}")
         self.method = method
+        self.ssor_omega = float(ssor_omega)
         self.tolerance = tolerance
         self.max_iterations = max_iterations
         self.last_iterations = 0
@@ -344,7 +348,8 @@ class LinearBondSolver:
             self._work = np.zeros((4, self.ndof))
             if method == "cg_ssor":
                 bdat_all = np.concatenate([nrm] + gcol + [ai, aj], 1)
-                ss = ssor_structure(st, sr, pt, pr, m3, self.blk, L, G, bdat_all)
+                ss = ssor_structure(st, sr, pt, pr, m3, self.blk, L, G, bdat_all,
+                                    self.ssor_omega)
                 self._ssor = tuple(ss[k] for k in _SSOR_KEYS)
                 self._work = np.zeros((9, self.ndof))
             return
@@ -402,7 +407,7 @@ class LinearBondSolver:
             if self.method == "cg_ssor":
                 it, res = _pcg_ssor(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g,
                                     self.blk_g, *self._ssor, rhs, sol, self.tolerance,
-                                    self.max_iterations, self._work)
+                                    self.max_iterations, self._work, self.ssor_omega)
             else:
                 it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g,
                                self.blk_g, self.precond, rhs, sol, self.tolerance,
@@ -812,7 +817,7 @@ def _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, im
 # --------------------------------------------------------------------------------------
 # Symmetric Gauss-Seidel (SSOR, omega = 1) preconditioner on body blocks, Eisenstat's trick
 # --------------------------------------------------------------------------------------
-def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all):
+def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all, omega=1.0):
     """Body blocks and bond lists of the SSOR-preconditioned conjugate gradient.
 
     A body is the group of unknown blocks of one sphere or plate (translation and/or
@@ -870,7 +875,7 @@ def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all):
                 for a in range(3):
                     for e in range(3):
                         np.add.at(D, (body, o1 + a, o2 + e), block[:, a, e])
-    Dinv = np.linalg.inv(D) if nbody else D.copy()
+    Dinv = omega * np.linalg.inv(D) if nbody else D.copy()
     bi_body = np.where(blk[:, 0] >= 0, body_of[np.maximum(blk[:, 0], 0)],
                        np.where(blk[:, 1] >= 0, body_of[np.maximum(blk[:, 1], 0)], -1))
     bj_body = np.where(blk[:, 2] >= 0, body_of[np.maximum(blk[:, 2], 0)],
@@ -886,9 +891,13 @@ def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all):
     uptr = np.searchsorted(rev[o2], np.arange(nbody + 1)).astype(np.int64)
     lidx, ldat = _pack(both[o], side_hi[o], blk, bdat_all, bfirst, body_of)
     uidx, udat = _pack(both[o2], 1 - side_hi[o2], blk, bdat_all, bfirst, body_of)
-    return {"bfirst": bfirst, "bcount": bcount, "D": np.ascontiguousarray(D),
-            "Dinv": np.ascontiguousarray(Dinv), "lptr": lptr, "lidx": lidx, "ldat": ldat,
-            "uptr": uptr, "uidx": uidx, "udat": udat}
+    rot = bool((blk[:, [1, 3]] >= 0).any())
+    out = {"bfirst": bfirst, "bcount": bcount, "D": np.ascontiguousarray(D),
+           "Dinv": np.ascontiguousarray(Dinv)}
+    for pre, ptr, idx, dat in (("l", lptr, lidx, ldat), ("u", uptr, uidx, udat)):
+        (out[pre + "cptr"], out[pre + "cidx"], out[pre + "cdat"], out[pre + "ptr"],
+         out[pre + "idx"], out[pre + "dat"]) = _split_compact(ptr, idx, dat, rot)
+    return out
 
 
 def _pack(bond, own, blk, bdat, bfirst, body_of):
@@ -910,6 +919,37 @@ def _pack(bond, own, blk, bdat, bfirst, body_of):
     arm_k = np.where((own == 0)[:, None], bdat[bond, 5:8], bdat[bond, 8:11])
     dat = np.concatenate([bdat[bond, :5], arm_o, arm_k], 1) if len(e) else np.zeros((0, 11))
     return np.ascontiguousarray(idx.reshape(-1, 4)), np.ascontiguousarray(dat)
+
+
+def _split_compact(ptr, idx, dat, rot):
+    """Split the entries of a triangular solve (:func:`_pack`, grouped by visited body via
+    ``ptr``) into compact and general ones. Compact: the own body has its translation block
+    first (offset 0) and, with ``rot``, its rotation block next (offset 3); the other side is
+    a body with translation block t and, with ``rot``, rotation block t + 1; both lever arms
+    lie along the normal (sphere-sphere bonds of state.Bonds.create), stored as two numbers.
+    Returns cptr (nbody+1) int64, cidx (Ec,) int32 first unknown (3 t) of the other side,
+    cdat (Ec, 7): n, g_t, g_nt, al_other, al_own (without ``rot``: (Ec, 5)), then ptr, idx,
+    dat of the general entries (same layout as :func:`_pack`)."""
+    nrm = dat[:, :3]
+    al_o = np.einsum("bd,bd->b", dat[:, 5:8], nrm)
+    al_k = np.einsum("bd,bd->b", dat[:, 8:11], nrm)
+    if rot:
+        ok = (idx[:, 0] >= 0) & (idx[:, 1] == idx[:, 0] + 1) & (idx[:, 2] == 0) \
+            & (idx[:, 3] == 3)
+        ok &= np.abs(dat[:, 5:8] - al_o[:, None] * nrm).max(1, initial=0.0) \
+            <= 1e-12 * np.abs(dat[:, 5:8]).max(1, initial=0.0)
+        ok &= np.abs(dat[:, 8:11] - al_k[:, None] * nrm).max(1, initial=0.0) \
+            <= 1e-12 * np.abs(dat[:, 8:11]).max(1, initial=0.0)
+        cdat = np.concatenate([dat[:, :5], al_o[:, None], al_k[:, None]], 1)[ok]
+    else:
+        ok = (idx[:, 0] >= 0) & (idx[:, 1] < 0) & (idx[:, 2] == 0) & (idx[:, 3] < 0)
+        cdat = dat[ok, :5]
+    owner = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))
+    cptr = np.searchsorted(owner[ok], np.arange(len(ptr))).astype(np.int64)
+    gptr = np.searchsorted(owner[~ok], np.arange(len(ptr))).astype(np.int64)
+    return (cptr, np.ascontiguousarray((3 * idx[ok, 0]).astype(np.int32)),
+            np.ascontiguousarray(cdat.reshape(-1, 7 if rot else 5)), gptr,
+            np.ascontiguousarray(idx[~ok]), np.ascontiguousarray(dat[~ok]))
 
 
 @helper
@@ -949,10 +989,13 @@ def _couple(e, idx, dat, y):
 
 
 @helper
-def _solve_body(k, bfirst, bcount, Dinv, ptr_lo, ptr_hi, idx, dat, rhs, y, side_out, lower):
+def _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, ptr, idx, dat, rhs, y,
+                side_out, lower, c_side):
     """One body of a triangular solve: s = rhs_k + sum of the entries' L_k^T f (scalars:
-    no memory round trip), y_k = Dinv_k s; side_out_k = s (lower: D y_k) or rhs_k - s
-    (upper: the U y part)."""
+    no memory round trip), y_k = Dinv_k s; side_out_k = s (lower: D y_k) or
+    rhs_k - c_side s (upper). m: position of the body in the visiting order (index of the
+    entry pointers). Compact entries (:func:`_split_compact`) first, then the general ones
+    (:func:`_couple`)."""
     f = 3 * bfirst[k]
     six = bcount[k] == 2
     s0 = rhs[f]
@@ -965,7 +1008,43 @@ def _solve_body(k, bfirst, bcount, Dinv, ptr_lo, ptr_hi, idx, dat, rhs, y, side_
         s3 = rhs[f + 3]
         s4 = rhs[f + 4]
         s5 = rhs[f + 5]
-    for e in range(ptr_lo, ptr_hi):
+    if cdat.shape[1] == 7:  # 6-dof bodies, arms along n: u = y_t + al_o (y_r x n)
+        for e in range(cptr[m], cptr[m + 1]):
+            o = cidx[e]
+            n0 = cdat[e, 0]
+            n1 = cdat[e, 1]
+            n2 = cdat[e, 2]
+            gt = cdat[e, 3]
+            ao = cdat[e, 5]
+            w0 = ao * y[o + 3]
+            w1 = ao * y[o + 4]
+            w2 = ao * y[o + 5]
+            u0 = y[o] + w1 * n2 - w2 * n1
+            u1 = y[o + 1] + w2 * n0 - w0 * n2
+            u2 = y[o + 2] + w0 * n1 - w1 * n0
+            sn = cdat[e, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
+            s0 += gt * u0 + sn * n0
+            s1 += gt * u1 + sn * n1
+            s2 += gt * u2 + sn * n2
+            ak = cdat[e, 6] * gt  # a_own x f = al_own g_t (n x u)
+            s3 += ak * (n1 * u2 - n2 * u1)
+            s4 += ak * (n2 * u0 - n0 * u2)
+            s5 += ak * (n0 * u1 - n1 * u0)
+    else:  # translations only
+        for e in range(cptr[m], cptr[m + 1]):
+            o = cidx[e]
+            n0 = cdat[e, 0]
+            n1 = cdat[e, 1]
+            n2 = cdat[e, 2]
+            gt = cdat[e, 3]
+            u0 = y[o]
+            u1 = y[o + 1]
+            u2 = y[o + 2]
+            sn = cdat[e, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
+            s0 += gt * u0 + sn * n0
+            s1 += gt * u1 + sn * n1
+            s2 += gt * u2 + sn * n2
+    for e in range(ptr[m], ptr[m + 1]):
         f0, f1, f2, c0, c1, c2 = _couple(e, idx, dat, y)
         if idx[e, 2] == 0:
             s0 += f0
@@ -985,18 +1064,18 @@ def _solve_body(k, bfirst, bcount, Dinv, ptr_lo, ptr_hi, idx, dat, rhs, y, side_
         side_out[f + 1] = s1
         side_out[f + 2] = s2
     else:
-        side_out[f] = rhs[f] - s0
-        side_out[f + 1] = rhs[f + 1] - s1
-        side_out[f + 2] = rhs[f + 2] - s2
+        side_out[f] = rhs[f] - c_side * s0
+        side_out[f + 1] = rhs[f + 1] - c_side * s1
+        side_out[f + 2] = rhs[f + 2] - c_side * s2
     if six:
         if lower:
             side_out[f + 3] = s3
             side_out[f + 4] = s4
             side_out[f + 5] = s5
         else:
-            side_out[f + 3] = rhs[f + 3] - s3
-            side_out[f + 4] = rhs[f + 4] - s4
-            side_out[f + 5] = rhs[f + 5] - s5
+            side_out[f + 3] = rhs[f + 3] - c_side * s3
+            side_out[f + 4] = rhs[f + 4] - c_side * s4
+            side_out[f + 5] = rhs[f + 5] - c_side * s5
         for a in range(6):
             y[f + a] = (Dinv[k, a, 0] * s0 + Dinv[k, a, 1] * s1 + Dinv[k, a, 2] * s2
                         + Dinv[k, a, 3] * s3 + Dinv[k, a, 4] * s4 + Dinv[k, a, 5] * s5)
@@ -1006,38 +1085,41 @@ def _solve_body(k, bfirst, bcount, Dinv, ptr_lo, ptr_hi, idx, dat, rhs, y, side_
 
 
 @kernel
-def _lower_solve(bfirst, bcount, Dinv, lptr, lidx, ldat, rhs, y, dy):
+def _lower_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y, dy):
     """y = (D + L)^-1 rhs, body by body in increasing order; also dy = D y = rhs - L y (a
-    by-product)."""
+    by-product). D: the (relaxed) body blocks of :func:`ssor_structure`."""
     for k in range(len(bfirst)):
-        _solve_body(k, bfirst, bcount, Dinv, lptr[k], lptr[k + 1], lidx, ldat, rhs, y, dy,
-                    True)
+        _solve_body(k, k, bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y,
+                    dy, True, 1.0)
 
 
 @kernel
-def _upper_solve(bfirst, bcount, Dinv, uptr, uidx, udat, rhs, y, uy):
-    """y = (D + U)^-1 rhs, body by body in decreasing order; also uy = U y = rhs - D y (a
-    by-product). The entries of the m-th body visited (k = nbody - 1 - m) are
-    uptr[m]..uptr[m+1]."""
+def _upper_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y, uy,
+                 c_side):
+    """y = (D + U)^-1 rhs, body by body in decreasing order; also uy = rhs - c_side D y
+    (c_side = 1: U y). The entries of the m-th body visited (k = nbody - 1 - m) are
+    uptr[m]..uptr[m+1] (and cptr[m]..cptr[m+1])."""
     nbody = len(bfirst)
     for m in range(nbody):
-        _solve_body(nbody - 1 - m, bfirst, bcount, Dinv, uptr[m], uptr[m + 1], uidx, udat,
-                    rhs, y, uy, False)
+        _solve_body(nbody - 1 - m, m, bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx,
+                    udat, rhs, y, uy, False, c_side)
 
 
 @njit(cache=True)
 def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_Dinv,
-              ss_lptr, ss_lidx, ss_ldat, ss_uptr, ss_uidx, ss_udat, rhs, x, tol, max_iter,
-              work):
-    """Conjugate gradient on A x = rhs preconditioned by symmetric Gauss-Seidel on the body
-    blocks, M = (D + L) D^-1 (D + U), with Eisenstat's trick: CG on
-    A^ = (D + L)^-1 A (D + U)^-1 (preconditioner D), whose product costs one backward and
-    one forward triangular solve, A^ v = t + (D + L)^-1 (v - D t), t = (D + U)^-1 v (v - D t
-    and D (D + L)^-1 (.) are by-products of the solves). x holds the initial guess; the
-    iteration tracks x = (D + U)^-1 x^ directly (x += alpha t). Stopping: when
-    (r^T M^-1 r)^1/2 falls below tol_eff (rhs^T M^-1 rhs)^1/2 the true residual
-    |rhs - A x| is computed; the run stops if it is <= tol |rhs|, else tol_eff is tightened
-    by the missing factor. work (9, n). Returns (iterations, |rhs - A x| / |rhs|)."""
+              ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr, ss_lidx, ss_ldat, ss_ucptr, ss_ucidx,
+              ss_ucdat, ss_uptr, ss_uidx, ss_udat, rhs, x, tol, max_iter, work, omega):
+    """Conjugate gradient on A x = rhs preconditioned by symmetric successive
+    over-relaxation on the body blocks, M = (D_w + L) D_w^-1 (D_w + U), D_w = D / omega
+    (ss_Dinv holds D_w^-1), with Eisenstat's trick: A = (D_w + L) + (D_w + U) - K0,
+    K0 = (2 - omega) D_w; CG on A^ = (D_w + L)^-1 A (D_w + U)^-1 (preconditioner D_w), whose
+    product costs one backward and one forward triangular solve,
+    A^ v = t + (D_w + L)^-1 (v - K0 t), t = (D_w + U)^-1 v (v - K0 t and D_w (D_w + L)^-1
+    (.) are by-products of the solves). x holds the initial guess; the iteration tracks
+    x = (D_w + U)^-1 x^ directly (x += alpha t). Stopping: when (r^T M^-1 r)^1/2 falls below
+    tol_eff (rhs^T M^-1 rhs)^1/2 the true residual |rhs - A x| is computed; the run stops
+    if it is <= tol |rhs|, else tol_eff is tightened by the missing factor. work (9, n).
+    Returns (iterations, |rhs - A x| / |rhs|)."""
     n = len(rhs)
     rh = work[0]
     z = work[1]
@@ -1048,6 +1130,7 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
     dq = work[6]
     scratch = work[7]
     dummy = work[8]
+    c_side = 2.0 - omega
     for k in range(n):
         scratch[k] = 0.0
     _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, q, 0.0, dummy)
@@ -1065,14 +1148,16 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
     res = np.sqrt(rr) / norm_b
     if res <= tol:
         return 0, res
-    # reference of the stopping test: b^T M^-1 b = b^.D b^, b^ = (D + L)^-1 rhs
-    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lptr, ss_lidx, ss_ldat, rhs, q, dq)
+    # reference of the stopping test: b^T M^-1 b = b^.D_w b^, b^ = (D_w + L)^-1 rhs
+    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
+                 ss_lidx, ss_ldat, rhs, q, dq)
     ref = 0.0
     for k in range(n):
         ref += q[k] * dq[k]
     ref = np.sqrt(max(ref, 0.0))
-    # r^ = (D + L)^-1 (b - A x), z = D r^
-    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lptr, ss_lidx, ss_ldat, tmp, rh, z)
+    # r^ = (D_w + L)^-1 (b - A x), z = D_w r^
+    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
+                 ss_lidx, ss_ldat, tmp, rh, z)
     rz = 0.0
     for k in range(n):
         rz += rh[k] * z[k]
@@ -1081,9 +1166,11 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
     it = 0
     while it < max_iter:
         it += 1
-        # t = (D + U)^-1 p, tmp = p - D t; q = (D + L)^-1 tmp, dq = D q; then q += t
-        _upper_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_uptr, ss_uidx, ss_udat, p, t, tmp)
-        _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lptr, ss_lidx, ss_ldat, tmp, q, dq)
+        # t = (D_w + U)^-1 p, tmp = p - K0 t; q = (D_w + L)^-1 tmp, dq = D_w q; q += t
+        _upper_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_ucptr, ss_ucidx, ss_ucdat, ss_uptr,
+                     ss_uidx, ss_udat, p, t, tmp, c_side)
+        _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
+                     ss_lidx, ss_ldat, tmp, q, dq)
         pq = 0.0
         for k in range(n):
             q[k] += t[k]
@@ -1093,7 +1180,8 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
         for k in range(n):
             x[k] += alpha * t[k]
             rh[k] -= alpha * q[k]
-            z[k] -= alpha * (p[k] - tmp[k] + dq[k])  # D q = D t + D (D + L)^-1 tmp
+            # D_w q = D_w t + D_w (D_w + L)^-1 tmp, D_w t = (p - tmp) / (2 - omega)
+            z[k] -= alpha * ((p[k] - tmp[k]) / c_side + dq[k])
             rz_new += rh[k] * z[k]
         if np.sqrt(max(rz_new, 0.0)) <= tol_eff * ref:
             for k in range(n):
