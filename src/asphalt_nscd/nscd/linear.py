@@ -352,6 +352,13 @@ class LinearBondSolver:
                                     self.ssor_omega)
                 self._ssor = tuple(ss[k] for k in _SSOR_KEYS)
                 self._work = np.zeros((9, self.ndof))
+                # the last two solutions and their products with A (x_n, A x_n, x_n-1,
+                # A x_n-1; then two spare buffers): the product of the extrapolated guess
+                # is their combination (:func:`_extrapolated_product`)
+                self._hist = tuple(np.zeros(self.ndof) for _ in range(6))
+                self._n_hist = 0
+                self.last_checks = 0
+                self.last_extrapolated = False
             return
         rows, cols, vals = [np.arange(self.ndof)], [np.arange(self.ndof)], [self.mass_dof]
         r3 = np.arange(3)
@@ -401,13 +408,22 @@ class LinearBondSolver:
         if self.method == "direct":
             sol = self.lu.solve(rhs) if self.ndof else rhs
         else:
-            sol = np.empty(self.ndof)
+            sol = self._hist[4] if self.method == "cg_ssor" else np.empty(self.ndof)
             _gather(sol, self.st, self.sr, self.pt, self.pr,
                     *(start or (v_free, w_free, vp_free, wp_free)))
             if self.method == "cg_ssor":
-                it, res = _pcg_ssor(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g,
-                                    self.blk_g, *self._ssor, rhs, sol, self.tolerance,
-                                    self.max_iterations, self._work, self.ssor_omega)
+                xn, axn, xn1, axn1, _, ax = self._hist
+                have = self._n_hist == 2 and _extrapolated_product(sol, xn, xn1, axn, axn1,
+                                                                   ax)
+                it, res, checks = _pcg_ssor(
+                    self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
+                    *self._ssor, rhs, sol, self.tolerance, self.max_iterations, self._work,
+                    self.ssor_omega, ax, have)
+                self.last_checks = checks
+                self.last_extrapolated = bool(have)
+                # history: (x_n, A x_n) <- this solution, the older pair one step back
+                self._hist = (sol, ax, xn, axn, xn1, axn1)
+                self._n_hist = min(self._n_hist + 1, 2)
             else:
                 it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g,
                                self.blk_g, self.precond, rhs, sol, self.tolerance,
@@ -416,6 +432,23 @@ class LinearBondSolver:
         _scatter(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
         _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
                        self.rot)
+
+
+@kernel
+def _extrapolated_product(x0, xn, xn1, axn, axn1, ax):
+    """If x0 is the linear extrapolation 2 x_n - x_n-1 of the last two solutions (to
+    round-off: 1e-13 of the largest entry), ax = 2 A x_n - A x_n-1 = A x0 and True;
+    else False (ax partly written). A is linear and constant for a solver: the
+    product of the guess costs no pass over the bonds."""
+    scale = 0.0
+    for k in range(len(x0)):
+        scale = max(scale, abs(x0[k]))
+    lim = 1e-13 * scale
+    for k in range(len(x0)):
+        if abs(x0[k] - (2.0 * xn[k] - xn1[k])) > lim:
+            return False
+        ax[k] = 2.0 * axn[k] - axn1[k]
+    return True
 
 
 @kernel
@@ -1085,41 +1118,58 @@ def _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, ptr, idx, dat, rhs
 
 
 @kernel
-def _lower_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y, dy):
+def _lower_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y, dy, p, t):
     """y = (D + L)^-1 rhs, body by body in increasing order; also dy = D y = rhs - L y (a
-    by-product). D: the (relaxed) body blocks of :func:`ssor_structure`."""
+    by-product). D: the (relaxed) body blocks of :func:`ssor_structure`. Returns
+    p.(y + t) (fused for the conjugate gradient, :func:`_pcg_ssor`)."""
+    pq = 0.0
     for k in range(len(bfirst)):
         _solve_body(k, k, bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y,
                     dy, True, 1.0)
+        f = 3 * bfirst[k]
+        for a in range(f, f + 3 * bcount[k]):
+            pq += p[a] * (y[a] + t[a])
+    return pq
 
 
 @kernel
-def _upper_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y, uy,
-                 c_side):
-    """y = (D + U)^-1 rhs, body by body in decreasing order; also uy = rhs - c_side D y
+def _upper_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, z, beta, rhs, y,
+                 uy, c_side):
+    """rhs <- z + beta rhs (fused: the conjugate gradient's new direction), then
+    y = (D + U)^-1 rhs, body by body in decreasing order; also uy = rhs - c_side D y
     (c_side = 1: U y). The entries of the m-th body visited (k = nbody - 1 - m) are
     uptr[m]..uptr[m+1] (and cptr[m]..cptr[m+1])."""
     nbody = len(bfirst)
     for m in range(nbody):
-        _solve_body(nbody - 1 - m, m, bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx,
-                    udat, rhs, y, uy, False, c_side)
+        k = nbody - 1 - m
+        f = 3 * bfirst[k]
+        for a in range(f, f + 3 * bcount[k]):
+            rhs[a] = z[a] + beta * rhs[a]
+        _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y,
+                    uy, False, c_side)
 
 
 @njit(cache=True)
 def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_Dinv,
               ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr, ss_lidx, ss_ldat, ss_ucptr, ss_ucidx,
-              ss_ucdat, ss_uptr, ss_uidx, ss_udat, rhs, x, tol, max_iter, work, omega):
+              ss_ucdat, ss_uptr, ss_uidx, ss_udat, rhs, x, tol, max_iter, work, omega, ax,
+              have_ax):
     """Conjugate gradient on A x = rhs preconditioned by symmetric successive
     over-relaxation on the body blocks, M = (D_w + L) D_w^-1 (D_w + U), D_w = D / omega
     (ss_Dinv holds D_w^-1), with Eisenstat's trick: A = (D_w + L) + (D_w + U) - K0,
     K0 = (2 - omega) D_w; CG on A^ = (D_w + L)^-1 A (D_w + U)^-1 (preconditioner D_w), whose
     product costs one backward and one forward triangular solve,
     A^ v = t + (D_w + L)^-1 (v - K0 t), t = (D_w + U)^-1 v (v - K0 t and D_w (D_w + L)^-1
-    (.) are by-products of the solves). x holds the initial guess; the iteration tracks
-    x = (D_w + U)^-1 x^ directly (x += alpha t). Stopping: when (r^T M^-1 r)^1/2 falls below
-    tol_eff (rhs^T M^-1 rhs)^1/2 the true residual |rhs - A x| is computed; the run stops
-    if it is <= tol |rhs|, else tol_eff is tightened by the missing factor. work (9, n).
-    Returns (iterations, |rhs - A x| / |rhs|)."""
+    (.) are by-products of the solves; the update of the direction and the product p.A^p
+    are fused into them). x holds the initial guess; the iteration tracks
+    x = (D_w + U)^-1 x^ directly (x += alpha t).
+    ax (n,): A x of the initial guess on input when ``have_ax`` (LinearBondSolver.solve
+    knows it for the extrapolated guess), else computed; on return A x of the solution.
+    Stopping: the preconditioned residual (r^T M^-1 r)^1/2 is to fall by the factor by
+    which the true residual must fall, tol |rhs| / |rhs - A x0|; then the true residual
+    |rhs - A x| is computed, and the run stops if it is <= tol |rhs|, else the factor is
+    tightened by the missing ratio. work (9, n).
+    Returns (iterations, |rhs - A x| / |rhs|, number of true-residual products)."""
     n = len(rhs)
     rh = work[0]
     z = work[1]
@@ -1131,79 +1181,68 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
     scratch = work[7]
     dummy = work[8]
     c_side = 2.0 - omega
-    for k in range(n):
-        scratch[k] = 0.0
-    _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, q, 0.0, dummy)
+    inv_c = 1.0 / c_side
+    checks = 0
+    if not have_ax:
+        for k in range(n):
+            scratch[k] = 0.0
+        _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, ax, 0.0, dummy)
     norm_b = 0.0
     rr = 0.0
     for k in range(n):
-        tmp[k] = rhs[k] - q[k]
+        tmp[k] = rhs[k] - ax[k]
         norm_b += rhs[k] * rhs[k]
         rr += tmp[k] * tmp[k]
+        p[k] = 0.0
     norm_b = np.sqrt(norm_b)
     if norm_b == 0.0:
         for k in range(n):
             x[k] = 0.0
-        return 0, 0.0
+            ax[k] = 0.0
+        return 0, 0.0, checks
     res = np.sqrt(rr) / norm_b
     if res <= tol:
-        return 0, res
-    # reference of the stopping test: b^T M^-1 b = b^.D_w b^, b^ = (D_w + L)^-1 rhs
-    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
-                 ss_lidx, ss_ldat, rhs, q, dq)
-    ref = 0.0
-    for k in range(n):
-        ref += q[k] * dq[k]
-    ref = np.sqrt(max(ref, 0.0))
+        return 0, res, checks
     # r^ = (D_w + L)^-1 (b - A x), z = D_w r^
     _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
-                 ss_lidx, ss_ldat, tmp, rh, z)
+                 ss_lidx, ss_ldat, tmp, rh, z, p, p)
     rz = 0.0
     for k in range(n):
         rz += rh[k] * z[k]
-        p[k] = z[k]
+    # reference of the stopping test: (r0^T M^-1 r0)^1/2 |rhs| / |r0|
+    ref = np.sqrt(max(rz, 0.0)) / res
     tol_eff = tol
+    beta = 0.0
     it = 0
     while it < max_iter:
         it += 1
-        # t = (D_w + U)^-1 p, tmp = p - K0 t; q = (D_w + L)^-1 tmp, dq = D_w q; q += t
+        # p <- z + beta p; t = (D_w + U)^-1 p, tmp = p - K0 t; q = (D_w + L)^-1 tmp,
+        # dq = D_w q; A^ p = q + t
         _upper_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_ucptr, ss_ucidx, ss_ucdat, ss_uptr,
-                     ss_uidx, ss_udat, p, t, tmp, c_side)
-        _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
-                     ss_lidx, ss_ldat, tmp, q, dq)
-        pq = 0.0
-        for k in range(n):
-            q[k] += t[k]
-            pq += p[k] * q[k]
+                     ss_uidx, ss_udat, z, beta, p, t, tmp, c_side)
+        pq = _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat,
+                          ss_lptr, ss_lidx, ss_ldat, tmp, q, dq, p, t)
         alpha = rz / pq
         rz_new = 0.0
         for k in range(n):
             x[k] += alpha * t[k]
-            rh[k] -= alpha * q[k]
-            # D_w q = D_w t + D_w (D_w + L)^-1 tmp, D_w t = (p - tmp) / (2 - omega)
-            z[k] -= alpha * ((p[k] - tmp[k]) / c_side + dq[k])
+            rh[k] -= alpha * (q[k] + t[k])
+            # D_w A^ p = D_w t + D_w (D_w + L)^-1 tmp, D_w t = (p - tmp) / (2 - omega)
+            z[k] -= alpha * ((p[k] - tmp[k]) * inv_c + dq[k])
             rz_new += rh[k] * z[k]
-        if np.sqrt(max(rz_new, 0.0)) <= tol_eff * ref:
+        if np.sqrt(max(rz_new, 0.0)) <= tol_eff * ref or it == max_iter:
             for k in range(n):
                 scratch[k] = 0.0
-            _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, q, 0.0, dummy)
+            _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, ax, 0.0, dummy)
+            checks += 1
             rr = 0.0
             for k in range(n):
-                d = rhs[k] - q[k]
+                d = rhs[k] - ax[k]
                 rr += d * d
             res = np.sqrt(rr) / norm_b
             if res <= tol:
-                return it, res
+                return it, res, checks
             tol_eff *= max(0.5 * tol / res, 1e-3)
         beta = rz_new / rz
         rz = rz_new
-        for k in range(n):
-            p[k] = z[k] + beta * p[k]
-    for k in range(n):
-        scratch[k] = 0.0
-    _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, q, 0.0, dummy)
-    rr = 0.0
-    for k in range(n):
-        d = rhs[k] - q[k]
-        rr += d * d
-    return it, np.sqrt(rr) / norm_b
+    return it, res, checks
