@@ -204,3 +204,29 @@ def _matvec_dense(solver, p):
     linear._matvec(solver.mass_dof, solver.bdat_c, solver.blk_c, solver.bdat_g, solver.blk_g,
                    p.copy(), 0.0, np.zeros(n), q, 0.0, np.zeros(n))
     return q
+
+
+def test_ssor_reuses_the_product_of_the_extrapolated_guess():
+    """cg_ssor: from the third linear step on, A x of the extrapolated initial guess is the
+    combination of the stored products of the last two solutions (no pass over the bonds);
+    the stored product is A x of the solution, and a guess that is not the extrapolation
+    (velocities changed between steps) is detected and its product computed."""
+    from asphalt_nscd.nscd import linear
+
+    s, plates, bonds = random_bonded_network(n=40)
+    params = NSCDParameters(dt=5e-5, friction=0.7, gravity=(0, 0, -9.81), fast_path=True,
+                            linear_solver="cg_ssor", linear_tolerance=1e-10)
+    sim = Simulation(s, plates, bonds, params)
+    used = [(sim.step().solver, sim._linear.last_extrapolated)[1] for _ in range(6)]
+    assert used == [False, False, True, True, True, True]
+    ls = sim._linear
+    x, ax = ls._hist[0], ls._hist[1]
+    q = _matvec_dense(ls, x)
+    np.testing.assert_allclose(ax, q, rtol=0, atol=1e-12 * np.abs(q).max())
+    s.velocity[3] += 1e-3  # the next guess is no longer the extrapolation of the solutions
+    st = sim.step()
+    assert st.solver == "linear" and not ls.last_extrapolated
+    assert ls.last_residual <= 1e-10
+    assert sim.step().solver == "linear" and not ls.last_extrapolated  # x_n-1 is stale
+    sim.step()
+    assert ls.last_extrapolated

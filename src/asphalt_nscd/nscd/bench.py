@@ -195,7 +195,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
               linear_tolerance: float = 1e-7, bond_kinematics: str = "contact",
               threads: int = 1, settle_speed: float = 5e-3,
               linear_solver: str = "cg", bonded_contact: str = "after_break",
-              start: str = "rest") -> dict:
+              start: str = "rest", ssor_omega: float | None = None) -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
@@ -214,6 +214,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     head's motion, :func:`asphalt_nscd.campaign.periodic.periodic_state`: the regime of a
     2PB job once its transient has died out, or of a job with the periodic start; its
     harmonic solve, CPU s, is reported as ``periodic_solve_s`` and is part of ``setup_s``).
+    ``ssor_omega``: NSCDParameters.linear_ssor_omega of 'cg_ssor' (None: its default).
 
     Raises
     ------
@@ -244,7 +245,9 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                                 max_iterations=5000, fast_path=True,
                                 linear_tolerance=linear_tolerance, linear_solver=linear_solver,
                                 bond_kinematics=bond_kinematics, threads=threads,
-                                bonded_contact=bonded_contact, gravity=gravity)
+                                bonded_contact=bonded_contact, gravity=gravity,
+                                **({} if ssor_omega is None
+                                   else {"linear_ssor_omega": ssor_omega}))
         sim = make_sim(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
@@ -254,6 +257,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                    wall_s_per_particle_step=wall_clock / (steps * n),
                    linear_solver=params.linear_solver,
                    linear_tolerance=params.linear_tolerance,
+                   linear_ssor_omega=params.linear_ssor_omega,
                    n_contacts=int(df.n_contacts.iloc[-1]),
                    n_active_contacts=int(df.n_active_contacts.iloc[-1]),
                    s_per_particle_step=wall / (steps * n),

@@ -9,7 +9,7 @@
 [--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
 [--bond-kinematics contact|barycentre] [--settle-speed V] [--threads T]
 [--linear-solver cg|cg_ssor] [--bonded-contact after_break|open_at_bonding|always]
-[--start rest|periodic] -o bench.json`` runs one benchmark.
+[--start rest|periodic] [--ssor-omega W] -o bench.json`` runs one benchmark.
 """
 
 from .state import BONDED_CONTACT
@@ -57,6 +57,8 @@ def register(subparsers) -> None:
     b.add_argument("--start", choices=["rest", "periodic"], default="rest",
                    help="bonded case: from rest under gravity, or in the periodic steady "
                         "state without gravity (the 2PB setting)")
+    b.add_argument("--ssor-omega", type=float, default=None,
+                   help="relaxation factor of cg_ssor in (0, 2) (default: NSCDParameters')")
     b.add_argument("-o", "--output", required=True, help="JSON record")
     b.set_defaults(func=_bench)
 
@@ -114,6 +116,8 @@ def _bench(args) -> int:
     if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
         raise InputError(f"--threads must lie in [1, {numba.config.NUMBA_NUM_THREADS}] "
                          f"(NUMBA_NUM_THREADS), got {args.threads}")
+    if args.ssor_omega is not None and not 0 < args.ssor_omega < 2:
+        raise InputError(f"--ssor-omega must lie in (0, 2), got {args.ssor_omega}")
     if not args.settle_speed > 0:
         raise InputError(f"--settle-speed must be > 0 m/s, got {args.settle_speed}")
     rec = run_bench(args.case, args.n, steps=args.steps, baseline_steps=args.baseline_steps,
@@ -121,7 +125,8 @@ def _bench(args) -> int:
                     linear_tolerance=args.linear_tolerance,
                     bond_kinematics=args.bond_kinematics, threads=args.threads,
                     settle_speed=args.settle_speed, linear_solver=args.linear_solver,
-                    bonded_contact=args.bonded_contact, start=args.start)
+                    bonded_contact=args.bonded_contact, start=args.start,
+                    ssor_omega=args.ssor_omega)
     write_json(rec, args.output)
     return 0
 

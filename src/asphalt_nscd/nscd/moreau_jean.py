@@ -415,7 +415,7 @@ class Simulation:
         bnd = self.bonds
         p = self.params
         key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
-               p.linear_tolerance, rot, p.threads)
+               p.linear_tolerance, rot, p.threads, p.linear_ssor_omega)
         if self._linear_key != key:
             rotation = None
             if rot:
@@ -424,7 +424,7 @@ class Simulation:
             self._linear = LinearBondSolver(inv_m, inv_mp, bnd.i, bnd.j, bnd.frame, cg,
                                             bnd.broken, method=p.linear_solver,
                                             tolerance=p.linear_tolerance, rotation=rotation,
-                                            threads=p.threads)
+                                            threads=p.threads, ssor_omega=p.linear_ssor_omega)
             self._linear_key = key
         v_try = v_free.copy()
         vp_try = vp_free.copy()

@@ -425,6 +425,8 @@ class NSCDParameters:
         'cg_ssor' (the same with symmetric Gauss-Seidel on the body blocks, Eisenstat's form;
         sequential, ignores ``threads``) or 'direct' (SuperLU, small systems).
     linear_tolerance : relative residual of 'cg' and 'cg_ssor'.
+    linear_ssor_omega : relaxation factor omega in (0, 2) of 'cg_ssor' (symmetric successive
+        over-relaxation, :mod:`.linear`); 1 = symmetric Gauss-Seidel.
     bond_kinematics : 'contact' (default; bond at the contact point, with torques, 6 DOF per
         sphere in the linear fast path) or 'barycentre' (the former core: at the barycentres,
         no torque). See :class:`Bonds`; same option as the harmonic solver.
@@ -458,6 +460,7 @@ class NSCDParameters:
     fast_path: bool = True
     linear_solver: str = "cg"
     linear_tolerance: float = 1e-10
+    linear_ssor_omega: float = 1.2
     bond_kinematics: str = "contact"
     threads: int = 1
     bonded_contact: str = "after_break"
@@ -482,6 +485,8 @@ class NSCDParameters:
         if self.linear_solver not in ("cg", "cg_ssor", "direct"):
             raise ValueError("linear_solver must be 'cg', 'cg_ssor' or 'direct', "
                              f"got {self.linear_solver!r}")
+        if not (0.0 < self.linear_ssor_omega < 2.0):
+            raise ValueError(f"linear_ssor_omega must lie in (0, 2), got {self.linear_ssor_omega}")
         if not (self.dt > 0):
             raise ValueError(f"dt must be > 0, got {self.dt}")
         if not (0.5 <= self.theta <= 1.0):
@@ -498,7 +503,8 @@ class NSCDParameters:
         """Parameters from the ``nscd`` section of the workflow config (solver keys) and
         the run's own dt (s), friction and gravity (m/s²)."""
         keys = ("theta", "tolerance", "convergence", "max_iterations", "relaxation", "fast_path",
-                "linear_solver", "linear_tolerance", "bond_kinematics", "threads", "bonded_contact")
+                "linear_solver", "linear_tolerance", "bond_kinematics", "threads", "bonded_contact",
+                "linear_ssor_omega")
         return cls(dt=dt, friction=friction, gravity=gravity,
                    **{k: section[k] for k in keys if k in section})
 
