@@ -352,13 +352,14 @@ class LinearBondSolver:
                                     self.ssor_omega)
                 self._ssor = tuple(ss[k] for k in _SSOR_KEYS)
                 self._work = np.zeros((9, self.ndof))
-                # the last two solutions and their products with A (x_n, A x_n, x_n-1,
-                # A x_n-1; then two spare buffers): the product of the extrapolated guess
-                # is their combination (:func:`_extrapolated_product`)
-                self._hist = tuple(np.zeros(self.ndof) for _ in range(6))
-                self._n_hist = 0
+                # products with A of the last solutions (x, A x), most recent first: the
+                # initial guess of the next solve is their Galerkin combination
+                self._cache = []
+                self._spare = [np.zeros(self.ndof) for _ in range(2)]
+                self._basis = np.zeros((2, self.ndof))
                 self.last_checks = 0
                 self.last_extrapolated = False
+                self.last_reused = 0
             return
         rows, cols, vals = [np.arange(self.ndof)], [np.arange(self.ndof)], [self.mass_dof]
         r3 = np.arange(3)
@@ -390,7 +391,7 @@ class LinearBondSolver:
         self.precond = np.ascontiguousarray(np.linalg.inv(blocks)) if len(m3) else blocks
 
     def solve(self, v_free, w_free, vp_free, wp_free, bi, bj, frame, arm_i, arm_j, c0, cg,
-              broken, v, w, vp, wp, impulse, start=None):
+              broken, v, w, vp, wp, impulse, start=None, previous=None):
         """End-of-step velocities and bond impulses.
 
         Parameters
@@ -401,54 +402,116 @@ class LinearBondSolver:
         v, w, vp, wp: outputs, unknown rows written; known rows must hold the imposed
         values. impulse (B,3) N s: output, local frames.
         start: (v, w, vp, wp) initial guess of ``cg`` (default: the free velocities).
+        previous: ``cg_ssor`` only — ((v, w, vp, wp) at the start of the step, the same one
+            step earlier), or None. The initial guess is then the Galerkin (A-norm optimal)
+            combination of these two velocity fields (:meth:`_galerkin_start`), which
+            contains the linear extrapolation ``start``; ``start`` is used without them.
         """
         rhs = np.empty(self.ndof)
         _rhs(rhs, self.mass_dof, self.st, self.sr, self.pt, self.pr, v_free, w_free, vp_free,
              wp_free, v, w, vp, wp, bi, bj, frame, arm_i, arm_j, c0, cg, broken, self.rot)
         if self.method == "direct":
             sol = self.lu.solve(rhs) if self.ndof else rhs
+        elif self.method == "cg_ssor":
+            sol, ax = self._spare
+            have = previous is not None and self._galerkin_start(previous, rhs, sol, ax)
+            if not have:
+                _gather(sol, self.st, self.sr, self.pt, self.pr,
+                        *(start or (v_free, w_free, vp_free, wp_free)))
+            it, res, checks = _pcg_ssor(
+                self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g, *self._ssor,
+                rhs, sol, self.tolerance, self.max_iterations, self._work, self.ssor_omega,
+                ax, have)
+            self.last_checks = checks
+            self.last_extrapolated = bool(have)
+            self.last_iterations, self.last_residual = it, res
+            # (sol, A sol) becomes the most recent cached pair; the oldest pair is recycled
+            self._cache.insert(0, (sol, ax))
+            self._spare = list(self._cache.pop()) if len(self._cache) > 2 else \
+                [np.zeros(self.ndof), np.zeros(self.ndof)]
         else:
-            sol = self._hist[4] if self.method == "cg_ssor" else np.empty(self.ndof)
+            sol = np.empty(self.ndof)
             _gather(sol, self.st, self.sr, self.pt, self.pr,
                     *(start or (v_free, w_free, vp_free, wp_free)))
-            if self.method == "cg_ssor":
-                xn, axn, xn1, axn1, _, ax = self._hist
-                have = self._n_hist == 2 and _extrapolated_product(sol, xn, xn1, axn, axn1,
-                                                                   ax)
-                it, res, checks = _pcg_ssor(
-                    self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
-                    *self._ssor, rhs, sol, self.tolerance, self.max_iterations, self._work,
-                    self.ssor_omega, ax, have)
-                self.last_checks = checks
-                self.last_extrapolated = bool(have)
-                # history: (x_n, A x_n) <- this solution, the older pair one step back
-                self._hist = (sol, ax, xn, axn, xn1, axn1)
-                self._n_hist = min(self._n_hist + 1, 2)
-            else:
-                it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g,
-                               self.blk_g, self.precond, rhs, sol, self.tolerance,
-                               self.max_iterations, self._work, self.part_c, self.part_g)
+            it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
+                           self.precond, rhs, sol, self.tolerance, self.max_iterations,
+                           self._work, self.part_c, self.part_g)
             self.last_iterations, self.last_residual = it, res
         _scatter(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
         _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
                        self.rot)
 
+    def _product(self, x):
+        """A x (n,) of a vector: the cached product of an equal (bit for bit) recent
+        solution, else one matrix-free product. The cached product is itself the product
+        computed from that solution (:func:`_pcg_ssor`), so either way the result is the
+        same numbers (a resumed run reproduces the uninterrupted one)."""
+        for xc, axc in self._cache:
+            if np.array_equal(xc, x):
+                self.last_reused += 1
+                return axc
+        ax = np.zeros(self.ndof)
+        _matvec(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g, x, 0.0,
+                np.zeros(self.ndof), ax, 0.0, np.zeros(self.ndof))
+        return ax
+
+    def _galerkin_start(self, previous, rhs, x0, ax0):
+        """Initial guess x0 (and ax0 = A x0) minimising the A-norm of the error over the span
+        of the velocity fields x_n, x_n-1 of ``previous`` (the linear extrapolation
+        2 x_n - x_n-1 of moreau_jean.py lies in it, so the guess is never worse in that
+        norm): x0 = c1 u1 + c2 u2, u1 = x_n, u2 = x_n - x_n-1 (a better-conditioned basis of
+        the same span), G c = U^T rhs with G = U^T A U. The products A x_n, A x_n-1 are
+        those of the last solutions (:meth:`_product`): no pass over the bonds when the
+        previous steps were solved here. Returns False (x0, ax0 unset) when the span is
+        empty (at rest)."""
+        self.last_reused = 0
+        u = self._basis
+        _gather(u[0], self.st, self.sr, self.pt, self.pr, *previous[0])
+        _gather(u[1], self.st, self.sr, self.pt, self.pr, *previous[1])
+        a1 = self._product(u[0])
+        a0 = self._product(u[1])
+        g11, g12, g22, b1, b2 = _galerkin_sums(u[0], u[1], a1, a0, rhs)
+        if not g11 > 0.0:
+            return False
+        det = g11 * g22 - g12 * g12
+        if g22 > 0.0 and det > 1e-12 * g11 * g22:
+            c1 = (g22 * b1 - g12 * b2) / det
+            c2 = (g11 * b2 - g12 * b1) / det
+        else:  # x_n-1 adds nothing: the best multiple of x_n
+            c1, c2 = b1 / g11, 0.0
+        _galerkin_combine(c1, c2, u[0], u[1], a1, a0, x0, ax0)
+        return True
+
 
 @kernel
-def _extrapolated_product(x0, xn, xn1, axn, axn1, ax):
-    """If x0 is the linear extrapolation 2 x_n - x_n-1 of the last two solutions (to
-    round-off: 1e-13 of the largest entry), ax = 2 A x_n - A x_n-1 = A x0 and True;
-    else False (ax partly written). A is linear and constant for a solver: the
-    product of the guess costs no pass over the bonds."""
-    scale = 0.0
-    for k in range(len(x0)):
-        scale = max(scale, abs(x0[k]))
-    lim = 1e-13 * scale
-    for k in range(len(x0)):
-        if abs(x0[k] - (2.0 * xn[k] - xn1[k])) > lim:
-            return False
-        ax[k] = 2.0 * axn[k] - axn1[k]
-    return True
+def _galerkin_sums(x1, x0, a1, a0, rhs):
+    """Sums of :meth:`LinearBondSolver._galerkin_start` in one pass: with u1 = x1,
+    u2 = x1 - x0 (A u2 = a1 - a0): (u1.A u1, u1.A u2, u2.A u2, u1.rhs, u2.rhs); the mixed
+    term is the mean of its two symmetric forms."""
+    g11 = 0.0
+    g12 = 0.0
+    g21 = 0.0
+    g22 = 0.0
+    b1 = 0.0
+    b2 = 0.0
+    for k in range(len(x1)):
+        u2 = x1[k] - x0[k]
+        au2 = a1[k] - a0[k]
+        g11 += x1[k] * a1[k]
+        g12 += x1[k] * au2
+        g21 += u2 * a1[k]
+        g22 += u2 * au2
+        b1 += x1[k] * rhs[k]
+        b2 += u2 * rhs[k]
+    return g11, 0.5 * (g12 + g21), g22, b1, b2
+
+
+@kernel
+def _galerkin_combine(c1, c2, x1, x0, a1, a0, x, ax):
+    """x = c1 x1 + c2 (x1 - x0), ax = c1 a1 + c2 (a1 - a0)."""
+    for k in range(len(x1)):
+        x[k] = c1 * x1[k] + c2 * (x1[k] - x0[k])
+        ax[k] = c1 * a1[k] + c2 * (a1[k] - a0[k])
 
 
 @kernel
@@ -1202,6 +1265,10 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
         return 0, 0.0, checks
     res = np.sqrt(rr) / norm_b
     if res <= tol:
+        if have_ax:  # ax: the product itself (not a combination), as after iterations
+            for k in range(n):
+                scratch[k] = 0.0
+            _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, ax, 0.0, dummy)
         return 0, res, checks
     # r^ = (D_w + L)^-1 (b - A x), z = D_w r^
     _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,

@@ -434,7 +434,11 @@ class Simulation:
         # initial guess of the iterative solver: linear extrapolation of the velocities
         v0, vp0 = self.spheres.velocity, self.plates.velocity
         w0, wp0 = self.spheres.angular_velocity, self.plates.angular_velocity
+        previous = None  # cg_ssor: Galerkin combination of the last two velocity fields
         if self._v_before is not None and self._v_before.shape == v0.shape:
+            previous = ((v0, w0, vp0, wp0),
+                        (self._v_before, self._w_before if rot else w0, self._vp_before,
+                         self._wp_before if rot else wp0))
             v0 = 2.0 * v0 - self._v_before
             vp0 = 2.0 * vp0 - self._vp_before
             if rot and self._w_before is not None:
@@ -442,7 +446,7 @@ class Simulation:
                 wp0 = 2.0 * wp0 - self._wp_before
         self._linear.solve(v_free, w.copy(), vp_free, wp.copy(), bnd.i, bnd.j, bnd.frame,
                            bnd.arm_i, bnd.arm_j, c0, cg, bnd.broken, v_try, w_try, vp_try,
-                           wp_try, P_try, start=(v0, w0, vp0, wp0))
+                           wp_try, P_try, start=(v0, w0, vp0, wp0), previous=previous)
         self.linear_iterations = self._linear.last_iterations
         # contacts must stay open with zero reaction
         if len(ci):
