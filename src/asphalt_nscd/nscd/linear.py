@@ -41,18 +41,29 @@ Solvers:
   A-norm projection on the span of the last 4 solutions as initial guess (it contains the
   linear and quadratic extrapolations), and 6x6 blocks (a sphere's translation and
   rotation together: 25.0 instead of 25.4 iterations, a dearer preconditioner).
-* ``cg_ssor``: the same conjugate gradient preconditioned by symmetric Gauss-Seidel (SSOR,
-  omega = 1) on the body blocks (a sphere's translation and rotation together, up to 6x6,
-  :func:`ssor_structure`), M = (D + L) D^-1 (D + U), run in Eisenstat's form
-  (:func:`_pcg_ssor`): the preconditioned product costs one forward and one backward
-  triangular solve, each a pass over the bonds like the product with A, and no product with
-  A. At N = 12 000 ('contact', 2PB-like bench sample) it needs 10.8 iterations instead of
-  26.8, but a triangular solve is sequential (each body waits for its lower neighbours) and
-  costs about as much as a whole matrix-free product, so a step is only 1.17 x faster; with
-  'barycentre' kinematics (3 unknowns per sphere, a cheaper product) it is 0.8 x as fast
-  (docs/choices.md). Stopping test on the preconditioned residual (free), confirmed by the
-  true residual |rhs - A x| <= tol |rhs| (one product; tightened and continued if not met).
-  Sequential only (``threads`` ignored).
+* ``cg_ssor``: the same conjugate gradient preconditioned by symmetric successive
+  over-relaxation on the body blocks (SSOR, NSCDParameters.linear_ssor_omega, default 1.2;
+  a sphere's translation and rotation together, up to 6x6, :func:`ssor_structure`),
+  M = (D/w + L) (D/w)^-1 (D/w + U), run in Eisenstat's form (:func:`_pcg_ssor`): the
+  preconditioned product costs one backward and one forward triangular solve, each a pass
+  over the bonds (half the work of a product with A each: one side of the bond), and no
+  product with A. The entries of the triangular solves between two 6-dof spheres (3-dof
+  with 'barycentre') with arms along the normal are stored compactly (7 numbers and one
+  index, :func:`_split_compact`), the others in the general 11-number form. Stopping test
+  on the preconditioned residual (free), which must fall by the factor by which the true
+  residual must fall (tol |rhs| / |r0|), confirmed by the true residual
+  |rhs - A x| <= tol |rhs| (one product; continued with a tighter factor if not met).
+  Initial guess: the Galerkin (A-norm optimal) combination of the velocity fields at the
+  start of the step and one step earlier (``previous`` of :meth:`LinearBondSolver.solve`;
+  it contains the linear extrapolation), whose products with A are those the solver
+  computed for its last two solutions (the confirming product above): the guess costs
+  one pass over a few vectors and no pass over the bonds. In the periodic steady state of
+  the bench sample (``bench --start periodic``) it leaves a residual of about 4e-7 |rhs|
+  against 1.6e-4 for the extrapolation: 1.6 iterations per step instead of 5 (and 12 for
+  ``cg``). From rest (the transient of a sudden start, gravity on) the residual of any
+  combination of past velocities stays at 20-50 % of |rhs| (the right-hand side is not
+  predictable from them) and SSOR needs about 10 iterations against 26 for ``cg``.
+  Sequential only (``threads`` ignored). Measured numbers: docs/choices.md.
 * ``direct``: SuperLU factorisation once per (dt, theta, intact-bond set)
   (:func:`splu_symmetric`: symmetric mode, no pivoting, MMD ordering of A^T + A, the
   setting of harmonic/solver.py), two triangular solves per step, exact to round-off.
