@@ -1115,42 +1115,33 @@ def _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, ptr, idx, dat, rhs
         s3 = rhs[f + 3]
         s4 = rhs[f + 4]
         s5 = rhs[f + 5]
-    if cdat.shape[1] == 7:  # 6-dof bodies, arms along n: u = y_t + al_o (y_r x n)
-        for e in range(cptr[m], cptr[m + 1]):
-            o = cidx[e]
-            n0 = cdat[e, 0]
-            n1 = cdat[e, 1]
-            n2 = cdat[e, 2]
-            gt = cdat[e, 3]
+    six_c = cdat.shape[1] == 7  # compact entries of 6-dof bodies (else translations only)
+    for e in range(cptr[m], cptr[m + 1]):
+        o = cidx[e]
+        n0 = cdat[e, 0]
+        n1 = cdat[e, 1]
+        n2 = cdat[e, 2]
+        gt = cdat[e, 3]
+        u0 = y[o]
+        u1 = y[o + 1]
+        u2 = y[o + 2]
+        if six_c:  # arms along n: u = y_t + al_o (y_r x n)
             ao = cdat[e, 5]
             w0 = ao * y[o + 3]
             w1 = ao * y[o + 4]
             w2 = ao * y[o + 5]
-            u0 = y[o] + w1 * n2 - w2 * n1
-            u1 = y[o + 1] + w2 * n0 - w0 * n2
-            u2 = y[o + 2] + w0 * n1 - w1 * n0
-            sn = cdat[e, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
-            s0 += gt * u0 + sn * n0
-            s1 += gt * u1 + sn * n1
-            s2 += gt * u2 + sn * n2
+            u0 += w1 * n2 - w2 * n1
+            u1 += w2 * n0 - w0 * n2
+            u2 += w0 * n1 - w1 * n0
+        sn = cdat[e, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
+        s0 += gt * u0 + sn * n0
+        s1 += gt * u1 + sn * n1
+        s2 += gt * u2 + sn * n2
+        if six_c:
             ak = cdat[e, 6] * gt  # a_own x f = al_own g_t (n x u)
             s3 += ak * (n1 * u2 - n2 * u1)
             s4 += ak * (n2 * u0 - n0 * u2)
             s5 += ak * (n0 * u1 - n1 * u0)
-    else:  # translations only
-        for e in range(cptr[m], cptr[m + 1]):
-            o = cidx[e]
-            n0 = cdat[e, 0]
-            n1 = cdat[e, 1]
-            n2 = cdat[e, 2]
-            gt = cdat[e, 3]
-            u0 = y[o]
-            u1 = y[o + 1]
-            u2 = y[o + 2]
-            sn = cdat[e, 4] * (n0 * u0 + n1 * u1 + n2 * u2)
-            s0 += gt * u0 + sn * n0
-            s1 += gt * u1 + sn * n1
-            s2 += gt * u2 + sn * n2
     for e in range(ptr[m], ptr[m + 1]):
         f0, f1, f2, c0, c1, c2 = _couple(e, idx, dat, y)
         if idx[e, 2] == 0:
