@@ -422,8 +422,8 @@ class NSCDParameters:
     fast_path : use the linear solver (:mod:`.linear`) on steps with no active contact and
         no bond breakage (falls back to NLGS automatically).
     linear_solver : 'cg' (matrix-free conjugate gradient, 3x3 block-Jacobi preconditioner),
-        'cg_ssor' (the same with symmetric Gauss-Seidel on the body blocks, Eisenstat's form;
-        sequential, ignores ``threads``) or 'direct' (SuperLU, small systems).
+        'cg_ssor' (the same with symmetric successive over-relaxation on the body blocks,
+        Eisenstat's form, Galerkin initial guess; sequential, ignores ``threads``) or 'direct' (SuperLU, small systems).
     linear_tolerance : relative residual of 'cg' and 'cg_ssor'.
     linear_ssor_omega : relaxation factor omega in (0, 2) of 'cg_ssor' (symmetric successive
         over-relaxation, :mod:`.linear`); 1 = symmetric Gauss-Seidel.
