@@ -15,7 +15,12 @@ Cases
     gradient at ``linear_tolerance``) is timed over ``steps`` steps; the baseline (NLGS
     at the given tolerance) over ``baseline_steps`` steps of the same sample; their ratio
     is reported. ``bond_kinematics`` ('contact', the default, or 'barycentre') applies to
-    all three runs (production, direct, NLGS baseline); the head does not rotate.
+    all three runs (production, direct, NLGS baseline); the head does not rotate. ``start``
+    'rest' (default): from rest under gravity (the from-rest transient); 'periodic': without
+    gravity, every run started in the periodic steady state of the 40 Hz drive (the regime
+    of a 2PB job after its transient, or with the periodic start). With ``linear_solver``
+    'cg_ssor' the same steps also run with today's block-Jacobi 'cg' on a copy, alternating
+    chunks of 5 steps: ``speedup_vs_cg`` is the same-run CPU-time ratio.
 ``granular``
     A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
     lattice (about 1.5 N^(1/3) spheres along x and y) in a box of 5 fixed walls, friction 0.2,
