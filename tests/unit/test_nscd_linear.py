@@ -186,11 +186,10 @@ def test_ssor_structure_reproduces_the_matrix(kinematics, omega):
     d = np.zeros(n)
     low = [ss[k] for k in ("lcptr", "lcidx", "lcdat", "lptr", "lidx", "ldat")]
     up = [ss[k] for k in ("ucptr", "ucidx", "ucdat", "uptr", "uidx", "udat")]
-    linear._lower_solve(bfirst, bcount, ss["Dinv"], *low, x, y, d, x, x)
+    linear._lower_solve(bfirst, bcount, ss["Dinv"], *low, x, y, d)
     np.testing.assert_allclose(DL @ y, x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
     np.testing.assert_allclose(d, Dw @ y, rtol=1e-9, atol=1e-9 * np.abs(d).max())
-    linear._upper_solve(bfirst, bcount, ss["Dinv"], *up, x, 0.0, np.zeros(n), y, d,
-                        2.0 - omega)
+    linear._upper_solve(bfirst, bcount, ss["Dinv"], *up, x, y, d, 2.0 - omega)
     np.testing.assert_allclose(DU @ y, x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
     np.testing.assert_allclose(d, x - (2.0 - omega) * Dw @ y, rtol=1e-9,
                                atol=1e-9 * np.abs(x).max())

@@ -1183,35 +1183,26 @@ def _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, ptr, idx, dat, rhs
 
 
 @kernel
-def _lower_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y, dy, p, t):
+def _lower_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y, dy):
     """y = (D + L)^-1 rhs, body by body in increasing order; also dy = D y = rhs - L y (a
-    by-product). D: the (relaxed) body blocks of :func:`ssor_structure`. Returns
-    p.(y + t) (fused for the conjugate gradient, :func:`_pcg_ssor`)."""
-    pq = 0.0
+    by-product). D: the (relaxed) body blocks of :func:`ssor_structure`."""
     for k in range(len(bfirst)):
         _solve_body(k, k, bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y,
                     dy, True, 1.0)
-        f = 3 * bfirst[k]
-        for a in range(f, f + 3 * bcount[k]):
-            pq += p[a] * (y[a] + t[a])
-    return pq
 
 
 @kernel
-def _upper_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, z, beta, rhs, y,
-                 uy, c_side):
-    """rhs <- z + beta rhs (fused: the conjugate gradient's new direction), then
-    y = (D + U)^-1 rhs, body by body in decreasing order; also uy = rhs - c_side D y
+def _upper_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y, uy,
+                 c_side):
+    """y = (D + U)^-1 rhs, body by body in decreasing order; also uy = rhs - c_side D y
     (c_side = 1: U y). The entries of the m-th body visited (k = nbody - 1 - m) are
-    uptr[m]..uptr[m+1] (and cptr[m]..cptr[m+1])."""
+    uptr[m]..uptr[m+1] (and cptr[m]..cptr[m+1]). (Fusing the conjugate gradient's vector
+    updates into the solves, per body, made them slower: 0.92 x with contact kinematics,
+    0.83 x with barycentre, same run.)"""
     nbody = len(bfirst)
     for m in range(nbody):
-        k = nbody - 1 - m
-        f = 3 * bfirst[k]
-        for a in range(f, f + 3 * bcount[k]):
-            rhs[a] = z[a] + beta * rhs[a]
-        _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y,
-                    uy, False, c_side)
+        _solve_body(nbody - 1 - m, m, bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx,
+                    udat, rhs, y, uy, False, c_side)
 
 
 @njit(cache=True)
@@ -1225,8 +1216,7 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
     K0 = (2 - omega) D_w; CG on A^ = (D_w + L)^-1 A (D_w + U)^-1 (preconditioner D_w), whose
     product costs one backward and one forward triangular solve,
     A^ v = t + (D_w + L)^-1 (v - K0 t), t = (D_w + U)^-1 v (v - K0 t and D_w (D_w + L)^-1
-    (.) are by-products of the solves; the update of the direction and the product p.A^p
-    are fused into them). x holds the initial guess; the iteration tracks
+    (.) are by-products of the solves). x holds the initial guess; the iteration tracks
     x = (D_w + U)^-1 x^ directly (x += alpha t).
     ax (n,): A x of the initial guess on input when ``have_ax`` (LinearBondSolver.solve
     knows it for the extrapolated guess), else computed; on return A x of the solution.
@@ -1274,7 +1264,7 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
         return 0, res, checks
     # r^ = (D_w + L)^-1 (b - A x), z = D_w r^
     _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
-                 ss_lidx, ss_ldat, tmp, rh, z, p, p)
+                 ss_lidx, ss_ldat, tmp, rh, z)
     rz = 0.0
     for k in range(n):
         rz += rh[k] * z[k]
@@ -1287,15 +1277,21 @@ def _pcg_ssor(mass_dof, bdat_c, blk_c, bdat_g, blk_g, ss_bfirst, ss_bcount, ss_D
         it += 1
         # p <- z + beta p; t = (D_w + U)^-1 p, tmp = p - K0 t; q = (D_w + L)^-1 tmp,
         # dq = D_w q; A^ p = q + t
+        for k in range(n):
+            p[k] = z[k] + beta * p[k]
         _upper_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_ucptr, ss_ucidx, ss_ucdat, ss_uptr,
-                     ss_uidx, ss_udat, z, beta, p, t, tmp, c_side)
-        pq = _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat,
-                          ss_lptr, ss_lidx, ss_ldat, tmp, q, dq, p, t)
+                     ss_uidx, ss_udat, p, t, tmp, c_side)
+        _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
+                     ss_lidx, ss_ldat, tmp, q, dq)
+        pq = 0.0
+        for k in range(n):
+            q[k] += t[k]
+            pq += p[k] * q[k]
         alpha = rz / pq
         rz_new = 0.0
         for k in range(n):
             x[k] += alpha * t[k]
-            rh[k] -= alpha * (q[k] + t[k])
+            rh[k] -= alpha * q[k]
             # D_w A^ p = D_w t + D_w (D_w + L)^-1 tmp, D_w t = (p - tmp) / (2 - omega)
             z[k] -= alpha * ((p[k] - tmp[k]) * inv_c + dq[k])
             rz_new += rh[k] * z[k]
