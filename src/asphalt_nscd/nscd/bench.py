@@ -15,7 +15,12 @@ Cases
     gradient at ``linear_tolerance``) is timed over ``steps`` steps; the baseline (NLGS
     at the given tolerance) over ``baseline_steps`` steps of the same sample; their ratio
     is reported. ``bond_kinematics`` ('contact', the default, or 'barycentre') applies to
-    all three runs (production, direct, NLGS baseline); the head does not rotate.
+    all three runs (production, direct, NLGS baseline); the head does not rotate. ``start``
+    'rest' (default): from rest under gravity (the from-rest transient); 'periodic': without
+    gravity, every run started in the periodic steady state of the 40 Hz drive (the regime
+    of a 2PB job after its transient, or with the periodic start). With ``linear_solver``
+    'cg_ssor' the same steps also run with today's block-Jacobi 'cg' on a copy, alternating
+    chunks of 5 steps: ``speedup_vs_cg`` is the same-run CPU-time ratio.
 ``granular``
     A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
     lattice (about 1.5 N^(1/3) spheres along x and y) in a box of 5 fixed walls, friction 0.2,
@@ -65,6 +70,7 @@ from .state import HEAD_AMPLITUDE_M, Bonds, NSCDParameters, Plate, Plates, Spher
 
 LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
 BOX = (0.056, 0.025, 0.250)  # m: bounding box of the trapezoid (B, e, h)
+DRIVE_HZ = 40.0  # Hz: head motion of the bonded case (amplitude HEAD_AMPLITUDE_M)
 
 
 def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
@@ -82,7 +88,7 @@ def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
     s = Spheres.from_density(pos, rad, density)
     # top plate just above the highest sphere (the last lattice layer may be partial)
     z_top = float((pos[:, 2] + rad).max()) + 0.1 * pitch
-    omega, amp = 2 * np.pi * 40.0, HEAD_AMPLITUDE_M
+    omega, amp = 2 * np.pi * DRIVE_HZ, HEAD_AMPLITUDE_M
     plates = Plates([
         Plate([0, 0, 0], [0, 0, 1]),
         Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
@@ -112,6 +118,32 @@ def granular_sample(n: int, seed: int = 0, density: float = 2600.0):
                      Plate([lx, 0, 0], [-1, 0, 0]), Plate([0, 0, 0], [0, 1, 0]),
                      Plate([0, ly, 0], [0, -1, 0])])
     return s, plates
+
+
+def _starter(start, rec):
+    """The Simulation constructor of the bonded case's runs: with ``start`` 'periodic', a
+    simulation of the bench sample (built at rest, without gravity) is put in the periodic
+    steady state of the 40 Hz head motion before its first step. The state is computed once
+    (harmonic solve, ``rec['periodic_solve_s']`` CPU s) and applied to every run: all are
+    built from the same seed, hence the same sample."""
+    if start == "rest":
+        return Simulation
+    from ..campaign.periodic import apply_periodic_state, periodic_state
+
+    cache = {}
+
+    def make(s, plates, bonds, params):
+        sim = Simulation(s, plates, bonds, params)
+        if "state" not in cache:
+            c = time.process_time()
+            cache["state"] = periodic_state(sim, LAW_15C, DRIVE_HZ, HEAD_AMPLITUDE_M,
+                                            head_rotation="clamped")
+            rec["periodic_solve_s"] = time.process_time() - c
+            rec["periodic_force_ratio"] = float(cache["state"].force_ratio)
+        apply_periodic_state(sim, cache["state"])
+        return sim
+
+    return make
 
 
 def _peak_rss_mb() -> float:
@@ -168,7 +200,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
               tolerance: float = 1e-7, settle_steps: int = 5000, seed: int = 0,
               linear_tolerance: float = 1e-7, bond_kinematics: str = "contact",
               threads: int = 1, settle_speed: float = 5e-3,
-              linear_solver: str = "cg", bonded_contact: str = "after_break") -> dict:
+              linear_solver: str = "cg", bonded_contact: str = "after_break",
+              start: str = "rest", ssor_omega: float | None = None) -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
@@ -181,17 +214,27 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     steps are also run with 'cg' on a copy of the sample, alternating chunks of 5 steps,
     and ``cg_s_per_particle_step``, ``cg_iterations_mean`` and ``speedup_vs_cg`` (CPU time
     ratio) are reported. ``bonded_contact``: NSCDParameters.bonded_contact of every run of
-    the bonded case.
+    the bonded case. ``start`` (bonded case): 'rest' (the sample at rest under gravity, the
+    head starting at t = 0: the from-rest transient) or 'periodic' (the 2PB setting without
+    gravity, every run started in the periodic steady state of the linear sample under the
+    head's motion, :func:`asphalt_nscd.campaign.periodic.periodic_state`: the regime of a
+    2PB job once its transient has died out, or of a job with the periodic start; its
+    harmonic solve, CPU s, is reported as ``periodic_solve_s`` and is part of ``setup_s``).
+    ``ssor_omega``: NSCDParameters.linear_ssor_omega of 'cg_ssor' (None: its default).
 
     Raises
     ------
     InputError (a ValueError) naming the option (``--n`` ...) for an unknown case, n < 2,
-    steps < 1, threads outside [1, NUMBA_NUM_THREADS] or settle_speed <= 0.
+    steps < 1, threads outside [1, NUMBA_NUM_THREADS], settle_speed <= 0, an unknown start or ssor_omega outside (0, 2).
     """
     import numba
 
     if case not in ("bonded", "granular"):
         raise InputError(f"--case must be 'bonded' or 'granular', got {case!r}")
+    if start not in ("rest", "periodic"):
+        raise InputError(f"--start must be 'rest' or 'periodic', got {start!r}")
+    if ssor_omega is not None and not 0 < ssor_omega < 2:
+        raise InputError(f"--ssor-omega must lie in (0, 2), got {ssor_omega}")
     if n < 2 or steps < 1:
         raise InputError(f"--n must be >= 2 and --steps >= 1 (got {n}, {steps})")
     if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
@@ -205,17 +248,21 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                  "tolerance": tolerance, "threads": int(threads),
                  "numba_threads_available": int(numba.config.NUMBA_NUM_THREADS),
                  "compile_s": comp, "seed": seed, "bond_kinematics": bond_kinematics,
-                 "bonded_contact": bonded_contact,
+                 "bonded_contact": bonded_contact, "start": start,
                  "cpu": platform.processor() or platform.machine(),
                  "python": platform.python_version(), "numba": numba.__version__}
     if case == "bonded":
+        gravity = (0.0, 0.0, -9.81) if start == "rest" else (0.0, 0.0, 0.0)
+        make_sim = _starter(start, rec)
         s, plates, bonds = bonded_sample(n, seed=seed)
         params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                 max_iterations=5000, fast_path=True,
                                 linear_tolerance=linear_tolerance, linear_solver=linear_solver,
                                 bond_kinematics=bond_kinematics, threads=threads,
-                                bonded_contact=bonded_contact)
-        sim = Simulation(s, plates, bonds, params)
+                                bonded_contact=bonded_contact, gravity=gravity,
+                                **({} if ssor_omega is None
+                                   else {"linear_ssor_omega": ssor_omega}))
+        sim = make_sim(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
         rec["factor_nnz"] = int(sim._linear.nnz_factor) if sim._linear else 0
@@ -224,6 +271,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                    wall_s_per_particle_step=wall_clock / (steps * n),
                    linear_solver=params.linear_solver,
                    linear_tolerance=params.linear_tolerance,
+                   linear_ssor_omega=params.linear_ssor_omega,
                    n_contacts=int(df.n_contacts.iloc[-1]),
                    n_active_contacts=int(df.n_active_contacts.iloc[-1]),
                    s_per_particle_step=wall / (steps * n),
@@ -231,14 +279,14 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         rec["peak_rss_mb_production"] = _peak_rss_mb()  # before the references below
         if linear_solver != "cg":  # the block-Jacobi kernel on a copy, alternating chunks
             s5, plates5, bonds5 = bonded_sample(n, seed=seed)
-            sim5 = Simulation(s5, plates5, bonds5, NSCDParameters(
+            sim5 = make_sim(s5, plates5, bonds5, NSCDParameters(
                 dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
                 fast_path=True, linear_tolerance=linear_tolerance, linear_solver="cg",
                 bond_kinematics=bond_kinematics, threads=threads,
-                bonded_contact=bonded_contact))
+                bonded_contact=bonded_contact, gravity=gravity))
             sim5.step()
             s6, plates6, bonds6 = bonded_sample(n, seed=seed)
-            sim6 = Simulation(s6, plates6, bonds6, params)
+            sim6 = make_sim(s6, plates6, bonds6, params)
             sim6.step()
             cpu_pair, it_pair = _timed_alternating([sim6, sim5], steps)
             rec.update(alternating_s_per_particle_step=cpu_pair[0] / (steps * n),
@@ -250,10 +298,11 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
             del sim5, s5, plates5, bonds5, sim6, s6, plates6, bonds6
         if threads > 1:  # same steps on one thread, wall time compared
             s4, plates4, bonds4 = bonded_sample(n, seed=seed)
-            sim4 = Simulation(s4, plates4, bonds4, NSCDParameters(
+            sim4 = make_sim(s4, plates4, bonds4, NSCDParameters(
                 dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
                 fast_path=True, linear_tolerance=linear_tolerance,
-                bond_kinematics=bond_kinematics, threads=1, bonded_contact=bonded_contact))
+                bond_kinematics=bond_kinematics, threads=1, bonded_contact=bonded_contact,
+                gravity=gravity))
             sim4.step()
             _, wall4, _, _ = _timed(sim4, steps)
             rec.update(threads1_wall_s_per_particle_step=wall4 / (steps * n),
@@ -265,9 +314,9 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         # reference: direct (SuperLU) linear solver on the same sample, same steps
         s3, plates3, bonds3 = bonded_sample(n, seed=seed)
         t3 = time.perf_counter()
-        sim3 = Simulation(s3, plates3, bonds3, NSCDParameters(
+        sim3 = make_sim(s3, plates3, bonds3, NSCDParameters(
             dt=5e-5, theta=0.5, friction=0.7, fast_path=True, linear_solver="direct",
-            bond_kinematics=bond_kinematics, bonded_contact=bonded_contact))
+            bond_kinematics=bond_kinematics, bonded_contact=bonded_contact, gravity=gravity))
         sim3.step()  # factorisation
         direct_setup = time.perf_counter() - t3
         cpu3, _, _, _ = _timed(sim3, steps)
@@ -282,8 +331,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         params2 = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                  max_iterations=20000, fast_path=False,
                                  bond_kinematics=bond_kinematics,
-                                 bonded_contact=bonded_contact)
-        sim2 = Simulation(s2, plates2, bonds2, params2)
+                                 bonded_contact=bonded_contact, gravity=gravity)
+        sim2 = make_sim(s2, plates2, bonds2, params2)
         wall2, _, df2, br2 = _timed(sim2, baseline_steps)
         rec.update(baseline_solver="nlgs", baseline_steps=int(baseline_steps),
                    baseline_s_per_particle_step=wall2 / (baseline_steps * n),

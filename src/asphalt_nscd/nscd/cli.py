@@ -9,7 +9,7 @@
 [--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
 [--bond-kinematics contact|barycentre] [--settle-speed V] [--threads T]
 [--linear-solver cg|cg_ssor] [--bonded-contact after_break|open_at_bonding|always]
--o bench.json`` runs one benchmark.
+[--start rest|periodic] [--ssor-omega W] -o bench.json`` runs one benchmark.
 """
 
 from .state import BOND_KINEMATICS, BONDED_CONTACT
@@ -54,6 +54,11 @@ def register(subparsers) -> None:
                         "(cg_ssor, also times cg on the same steps)")
     b.add_argument("--bonded-contact", choices=list(BONDED_CONTACT), default="after_break",
                    help="contact of the bonded pairs (bonded case; NSCDParameters.bonded_contact)")
+    b.add_argument("--start", choices=["rest", "periodic"], default="rest",
+                   help="bonded case: from rest under gravity, or in the periodic steady "
+                        "state without gravity (the 2PB setting)")
+    b.add_argument("--ssor-omega", type=float, default=None,
+                   help="relaxation factor of cg_ssor in (0, 2) (default: NSCDParameters')")
     b.add_argument("-o", "--output", required=True, help="JSON record")
     b.set_defaults(func=_bench)
 
@@ -109,7 +114,8 @@ def _bench(args) -> int:
                     linear_tolerance=args.linear_tolerance,
                     bond_kinematics=args.bond_kinematics, threads=args.threads,
                     settle_speed=args.settle_speed, linear_solver=args.linear_solver,
-                    bonded_contact=args.bonded_contact)
+                    bonded_contact=args.bonded_contact, start=args.start,
+                    ssor_omega=args.ssor_omega)
     write_json(rec, args.output)
     return 0
 

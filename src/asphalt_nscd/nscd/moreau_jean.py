@@ -415,7 +415,7 @@ class Simulation:
         bnd = self.bonds
         p = self.params
         key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
-               p.linear_tolerance, rot, p.threads)
+               p.linear_tolerance, rot, p.threads, p.linear_ssor_omega)
         if self._linear_key != key:
             rotation = None
             if rot:
@@ -424,7 +424,7 @@ class Simulation:
             self._linear = LinearBondSolver(inv_m, inv_mp, bnd.i, bnd.j, bnd.frame, cg,
                                             bnd.broken, method=p.linear_solver,
                                             tolerance=p.linear_tolerance, rotation=rotation,
-                                            threads=p.threads)
+                                            threads=p.threads, ssor_omega=p.linear_ssor_omega)
             self._linear_key = key
         v_try = v_free.copy()
         vp_try = vp_free.copy()
@@ -434,7 +434,11 @@ class Simulation:
         # initial guess of the iterative solver: linear extrapolation of the velocities
         v0, vp0 = self.spheres.velocity, self.plates.velocity
         w0, wp0 = self.spheres.angular_velocity, self.plates.angular_velocity
+        previous = None  # cg_ssor: Galerkin combination of the last two velocity fields
         if self._v_before is not None and self._v_before.shape == v0.shape:
+            previous = ((v0, w0, vp0, wp0),
+                        (self._v_before, self._w_before if rot else w0, self._vp_before,
+                         self._wp_before if rot else wp0))
             v0 = 2.0 * v0 - self._v_before
             vp0 = 2.0 * vp0 - self._vp_before
             if rot and self._w_before is not None:
@@ -442,7 +446,7 @@ class Simulation:
                 wp0 = 2.0 * wp0 - self._wp_before
         self._linear.solve(v_free, w.copy(), vp_free, wp.copy(), bnd.i, bnd.j, bnd.frame,
                            bnd.arm_i, bnd.arm_j, c0, cg, bnd.broken, v_try, w_try, vp_try,
-                           wp_try, P_try, start=(v0, w0, vp0, wp0))
+                           wp_try, P_try, start=(v0, w0, vp0, wp0), previous=previous)
         self.linear_iterations = self._linear.last_iterations
         # contacts must stay open with zero reaction
         if len(ci):

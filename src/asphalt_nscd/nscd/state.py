@@ -430,9 +430,11 @@ class NSCDParameters:
     fast_path : use the linear solver (:mod:`.linear`) on steps with no active contact and
         no bond breakage (falls back to NLGS automatically).
     linear_solver : 'cg' (matrix-free conjugate gradient, 3x3 block-Jacobi preconditioner),
-        'cg_ssor' (the same with symmetric Gauss-Seidel on the body blocks, Eisenstat's form;
-        sequential, ignores ``threads``) or 'direct' (SuperLU, small systems).
+        'cg_ssor' (the same with symmetric successive over-relaxation on the body blocks,
+        Eisenstat's form, Galerkin initial guess; sequential, ignores ``threads``) or 'direct' (SuperLU, small systems).
     linear_tolerance : relative residual of 'cg' and 'cg_ssor'.
+    linear_ssor_omega : relaxation factor omega in (0, 2) of 'cg_ssor' (symmetric successive
+        over-relaxation, :mod:`.linear`); 1 = symmetric Gauss-Seidel.
     bond_kinematics : 'contact' (default; bond at the contact point, with torques, 6 DOF per
         sphere in the linear fast path) or 'barycentre' (the former core: at the barycentres,
         no torque). See :class:`Bonds`; same option as the harmonic solver.
@@ -466,6 +468,7 @@ class NSCDParameters:
     fast_path: bool = True
     linear_solver: str = "cg"
     linear_tolerance: float = 1e-10
+    linear_ssor_omega: float = 1.2
     bond_kinematics: str = "contact"
     threads: int = 1
     bonded_contact: str = "after_break"
@@ -490,6 +493,8 @@ class NSCDParameters:
         if self.linear_solver not in ("cg", "cg_ssor", "direct"):
             raise ValueError("linear_solver must be 'cg', 'cg_ssor' or 'direct', "
                              f"got {self.linear_solver!r}")
+        if not (0.0 < self.linear_ssor_omega < 2.0):
+            raise ValueError(f"linear_ssor_omega must lie in (0, 2), got {self.linear_ssor_omega}")
         if not (self.dt > 0):
             raise ValueError(f"dt must be > 0, got {self.dt}")
         if not (0.5 <= self.theta <= 1.0):
