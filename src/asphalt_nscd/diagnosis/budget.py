@@ -58,7 +58,7 @@ from ..io import InputError, json_safe
 from ..rheology import law_file
 from ..rheology.calibration import burgers_model, fit_table
 from ..rheology.kramers_kronig import kk_residuals
-from ..rheology.metrics import cell_means, temperature_key
+from ..rheology.metrics import cell_means, signed_relative_errors, temperature_key
 from . import causes, effects
 from .artifacts import ArtifactRecord
 
@@ -77,8 +77,8 @@ def compare(model: pd.DataFrame, data: pd.DataFrame) -> pd.DataFrame:
     """Per-temperature MRE and bias (%) of ``model`` against ``data`` (both cell tables with
     ``temperature_C, frequency_Hz, E_norm_MPa, phase_deg``), on their common cells."""
     m = model.merge(data, on=["temperature_C", "frequency_Hz"], suffixes=("_m", "_d"))
-    rE = m["E_norm_MPa_m"] / m["E_norm_MPa_d"] - 1.0
-    rP = m["phase_deg_m"] / m["phase_deg_d"] - 1.0
+    rE = pd.Series(signed_relative_errors(m["E_norm_MPa_m"], m["E_norm_MPa_d"]), index=m.index)
+    rP = pd.Series(signed_relative_errors(m["phase_deg_m"], m["phase_deg_d"]), index=m.index)
     m = m.assign(aE=100 * rE.abs(), aP=100 * rP.abs(), bE=100 * rE, bP=100 * rP)
     g = m.groupby("temperature_C")
     return pd.DataFrame({"mre_E_norm_pct": g["aE"].mean(), "mre_phase_pct": g["aP"].mean(),

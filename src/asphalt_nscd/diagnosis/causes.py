@@ -56,7 +56,7 @@ import pandas as pd
 
 from ..rheology.calibration import burgers_model
 from ..rheology.master_curve import MasterCurveFit, fit_master_curve
-from ..rheology.metrics import cell_means, same_frequency, same_temperature
+from ..rheology.metrics import cell_means, mre_pct, same_frequency, same_temperature
 from ..rheology.models import fit_generalized_kelvin, log_time_grid
 from .effects import f_test, p_phrase
 
@@ -169,7 +169,7 @@ def broad_spectrum(measured: pd.DataFrame, master: MasterCurveFit, burgers: pd.D
     units, why = _prony_units(master, fr_data.min(), fr_data.max())
 
     def mre(E, ph, E_ref, ph_ref):
-        return float(100 * np.mean(np.abs(E / E_ref - 1))), float(100 * np.mean(np.abs(ph - ph_ref) / ph_ref))
+        return mre_pct(E, E_ref), mre_pct(ph, ph_ref)
 
     E_B = burgers_predict(burgers, cm["temperature_C"], cm["frequency_Hz"])
     E_M = master.modulus(cc["frequency_Hz"].to_numpy(float), cc["temperature_C"].to_numpy(float))

@@ -62,7 +62,7 @@ import pandas as pd
 from ..io import InputError
 from ..rheology import extended
 from ..rheology.extended import LawSettings, ThermoLaw
-from ..rheology.metrics import at_temperature, cell_means, same_frequency, same_temperature
+from ..rheology.metrics import at_temperature, cell_means, relative_errors, same_frequency, same_temperature
 
 SCHEMES = ("lofo", "loto")
 ROW_COLUMNS = ("scheme", "fold", "kind", "model", "temperature_C", "frequency_Hz", "n_replicates",
@@ -499,8 +499,8 @@ def _row(scheme, fold, kind, model, cell, pred=None, extrapolation=False, settin
             "temperature_C": float(cell["temperature_C"]), "frequency_Hz": float(cell["frequency_Hz"]),
             "n_replicates": int(cell["n"]), "E_norm_MPa_measured": E_m, "phase_deg_measured": P_m,
             "E_norm_MPa_predicted": E_p, "phase_deg_predicted": P_p,
-            "rel_err_E_norm": abs(E_p / E_m - 1.0) if ok else np.nan,
-            "rel_err_phase": abs(P_p - P_m) / P_m if ok and P_m > 0 else np.nan,
+            "rel_err_E_norm": float(relative_errors(E_p, E_m)) if ok else np.nan,
+            "rel_err_phase": float(relative_errors(P_p, P_m)) if ok and P_m > 0 else np.nan,
             "extrapolation": bool(extrapolation), "settings": settings, "computable": bool(ok),
             "reason": "" if ok else (reason or "prediction not finite")}
 

@@ -59,7 +59,7 @@ import pandas as pd
 from ..io import InputError
 from . import law_file
 from .laws import GeneralizedBurgers
-from .metrics import at_temperature
+from .metrics import at_temperature, relative_errors
 from .models import fit_generalized_kelvin, log_time_grid, two_s2p1d_modulus
 from .shift import arrhenius_log_shift
 
@@ -581,8 +581,8 @@ def law_metrics(law, cells: pd.DataFrame) -> pd.DataFrame:
     out = cells.copy()
     out["E_norm_MPa_model"] = np.abs(E)
     out["phase_deg_model"] = np.degrees(np.angle(E))
-    out["rel_err_E_norm"] = np.abs(out["E_norm_MPa_model"] / out["E_norm_MPa"] - 1.0)
-    out["rel_err_phase"] = np.abs(out["phase_deg_model"] - out["phase_deg"]) / out["phase_deg"]
+    out["rel_err_E_norm"] = relative_errors(out["E_norm_MPa_model"], out["E_norm_MPa"])
+    out["rel_err_phase"] = relative_errors(out["phase_deg_model"], out["phase_deg"])
     return out
 
 

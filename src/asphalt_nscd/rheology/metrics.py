@@ -31,11 +31,16 @@ TEMPERATURE_TOL_C = 1e-6
 FREQUENCY_RTOL = 1e-12
 
 
-def relative_errors(model, reference) -> np.ndarray:
-    """|model - reference| / |reference| element-wise (fractions), arrays of one shape."""
+def signed_relative_errors(model, reference) -> np.ndarray:
+    """(model - reference) / |reference| element-wise (fractions; the bias), arrays of one shape."""
     model = np.asarray(model, float)
     reference = np.asarray(reference, float)
-    return np.abs(model - reference) / np.abs(reference)
+    return (model - reference) / np.abs(reference)
+
+
+def relative_errors(model, reference) -> np.ndarray:
+    """|model - reference| / |reference| element-wise (fractions), arrays of one shape."""
+    return np.abs(signed_relative_errors(model, reference))
 
 
 def mre_pct(model, reference) -> float:
