@@ -293,45 +293,27 @@ def specimen_of(sample) -> "Specimen2PB":  # noqa: F821
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
     """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
     fixed, top plate driven by :class:`HeadMotion` (and free to rotate when
-    ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid,
-    :mod:`asphalt_nscd.harmonic.network`), bonds with the
-    macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``.
+    ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid), bonds
+    with the macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``;
+    built by :func:`asphalt_nscd.harmonic.timedomain.build_simulation`.
     Returns (Simulation, HeadMotion).
 
     Raises
     ------
     InputError if the head is free to rotate but has no positive finite inertia.
     """
-    from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
+    from ..harmonic.timedomain import build_simulation as test_simulation
+    from ..nscd import NSCDParameters
 
-    # a copy: Spheres keeps a contiguous array as given, and the run moves the spheres (the
-    # same SampleData may build several simulations, e.g. campaign-bench's job classes)
-    spheres = Spheres(position=np.array(sample.position, dtype=float), radius=sample.radius,
-                      mass=sample.mass, inertia=sample.inertia)
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
-    head = {}
-    if settings.head_rotation == "free":
-        from ..harmonic.network import network_from_sample
-
-        inertia = network_from_sample(sample).plate_inertia
-        if not np.all((inertia > 0) & np.isfinite(inertia)):
-            raise InputError(f"head_rotation 'free': the head has no positive finite rotational "
-                             f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "
-                             f"{inertia} kg m²)")
-        head = {"rotation": True, "inertia": inertia}
-    plates = Plates([
-        Plate(sample.plate_point[0], sample.plate_normal[0], mode="fixed"),
-        Plate(sample.plate_point[1], sample.plate_normal[1], mode="driven",
-              mass=float(sample.plate_mass[1]), displacement=motion, **head),
-    ])
     strength = np.inf if settings.yield_stress_Pa is None else float(settings.yield_stress_Pa)
-    bonds = Bonds.create(spheres, plates, sample.bonds["i"], sample.bonds["j"], law, nu=settings.nu,
-                         yield_stress=strength)
     gravity = (0.0, 0.0, -9.81) if settings.gravity else (0.0, 0.0, 0.0)
     params = NSCDParameters(dt=dt, theta=settings.theta, gravity=gravity, friction=settings.friction,
                             tolerance=settings.tolerance, max_iterations=settings.max_iterations,
                             bond_kinematics=settings.bond_kinematics, linear_solver=settings.linear_solver)
-    return Simulation(spheres, plates, bonds, params), motion
+    sim = test_simulation(sample, law, motion, params, head_rotation=settings.head_rotation,
+                          nu=settings.nu, yield_stress=strength)
+    return sim, motion
 
 
 def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,

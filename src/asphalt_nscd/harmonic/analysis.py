@@ -374,19 +374,12 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
 
 
 def _time_domain_step_time(sample, law, frequency_Hz, dt, n_steps) -> float:
-    from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
+    from ..nscd import NSCDParameters
+    from .timedomain import build_simulation
 
-    spheres = Spheres(position=np.array(sample.position), radius=sample.radius, mass=sample.mass,
-                      inertia=sample.inertia)
-    point, normal = sample.plate_point, sample.plate_normal
-    m_top = float(sample.plate_mass[1])
-    bi, bj = sample.bonds["i"], sample.bonds["j"]
     w = 2 * np.pi * frequency_Hz
-    plates = Plates([Plate(point[0], normal[0], mode="fixed"),
-                     Plate(point[1], normal[1], mode="driven", mass=m_top,
-                           displacement=lambda t: (HEAD_AMPLITUDE_M * np.sin(w * t), 0.0, 0.0))])
-    sim = Simulation(spheres, plates, Bonds.create(spheres, plates, bi, bj, law),
-                     NSCDParameters(dt=dt, gravity=(0.0, 0.0, 0.0)))
+    sim = build_simulation(sample, law, lambda t: (HEAD_AMPLITUDE_M * np.sin(w * t), 0.0, 0.0),
+                           NSCDParameters(dt=dt, gravity=(0.0, 0.0, 0.0)))
     sim.step()  # JIT compilation and first factorisation excluded
     t0 = time.perf_counter()
     for _ in range(n_steps):

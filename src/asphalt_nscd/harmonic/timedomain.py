@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import InputError
-from ..nscd.state import HEAD_AMPLITUDE_M, HEAD_ROTATIONS
+from ..nscd.state import HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
 from ..rheology.laws import POISSON_RATIO
 
 
@@ -86,29 +86,17 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
     if head_rotation not in HEAD_ROTATIONS:
         raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {head_rotation!r}")
     from ..lab.en12697 import Specimen2PB, reduce_record
-    from ..nscd import Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres
+    from ..nscd import NSCDParameters
     from ..sample.store import read_sample
-    from .network import network_from_sample
 
     sample = read_sample(sample_path)
-    spheres = Spheres(position=sample.position, radius=sample.radius, mass=sample.mass,
-                      inertia=sample.inertia)
-    point, normal = sample.plate_point, sample.plate_normal
     plate_mass = sample.plate_mass
-    bi, bj = sample.bonds["i"], sample.bonds["j"]
     omega = 2.0 * np.pi * frequency_Hz
-    head = {}
-    if head_rotation == "free":
-        head = {"rotation": True, "inertia": network_from_sample(sample).plate_inertia}
-    plates = Plates([
-        Plate(point[0], normal[0], mode="fixed"),
-        Plate(point[1], normal[1], mode="driven", mass=float(plate_mass[1]),
-              displacement=lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0), **head),
-    ])
-    bonds = Bonds.create(spheres, plates, bi, bj, law, nu=nu)
     params = NSCDParameters(dt=dt, theta=theta, gravity=(0.0, 0.0, 0.0), tolerance=tolerance,
                             bond_kinematics=bond_kinematics)
-    sim = Simulation(spheres, plates, bonds, params)
+    sim = build_simulation(sample, law, lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0),
+                           params, head_rotation=head_rotation, nu=nu)
+    spheres = sim.spheres
     period = 1.0 / frequency_Hz
     duration = max(n_cycles * period, settle_factor * relaxation_bound_s(law))
     duration = np.ceil(duration / period - 1e-9) * period
@@ -143,3 +131,45 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
                 "wall_time_s": wall, "cpu_per_sphere_step_s": wall / (n_steps * spheres.n),
                 "n_nlgs_steps": int(n_nlgs)})
     return row
+
+
+def build_simulation(sample, law, displacement, params, head_rotation: str = "clamped",
+                     nu: float = POISSON_RATIO, yield_stress: float = YIELD_STRESS):
+    """The NSCD simulation of the 2PB test on ``sample`` (SampleData): its spheres (a copy of
+    the positions: the run moves them), the bottom plate fixed, the top plate (the head, its
+    mass from the sample) driven by ``displacement(t) -> (x, y, z)`` (m) and, when
+    ``head_rotation == 'free'``, free to rotate with the steel cuboid's inertia
+    (:func:`asphalt_nscd.harmonic.network.network_from_sample`); bonds of the sample with the
+    macro ``law`` (GeneralizedBurgers, Pa, Pa s), Poisson ratio ``nu`` and ``yield_stress``
+    (Pa; inf: unbreakable); ``params`` (NSCDParameters) of the run. The one builder of the
+    campaign's jobs (:func:`asphalt_nscd.campaign.twopb.build_simulation`), the time-domain
+    check of the harmonic solution and its benchmark.
+
+    Raises
+    ------
+    InputError if the head is free to rotate but has no positive finite inertia.
+    ValueError on an unknown ``head_rotation``.
+    """
+    from ..nscd import Bonds, Plate, Plates, Simulation, Spheres
+    from .network import network_from_sample
+
+    if head_rotation not in HEAD_ROTATIONS:
+        raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {head_rotation!r}")
+    spheres = Spheres(position=np.array(sample.position, dtype=float), radius=sample.radius,
+                      mass=sample.mass, inertia=sample.inertia)
+    head = {}
+    if head_rotation == "free":
+        inertia = network_from_sample(sample).plate_inertia
+        if not np.all((inertia > 0) & np.isfinite(inertia)):
+            raise InputError(f"head_rotation 'free': the head has no positive finite rotational "
+                             f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "
+                             f"{inertia} kg m²)")
+        head = {"rotation": True, "inertia": inertia}
+    plates = Plates([
+        Plate(sample.plate_point[0], sample.plate_normal[0], mode="fixed"),
+        Plate(sample.plate_point[1], sample.plate_normal[1], mode="driven",
+              mass=float(sample.plate_mass[1]), displacement=displacement, **head),
+    ])
+    bonds = Bonds.create(spheres, plates, sample.bonds["i"], sample.bonds["j"], law, nu=nu,
+                         yield_stress=yield_stress)
+    return Simulation(spheres, plates, bonds, params)
