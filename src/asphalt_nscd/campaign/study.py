@@ -33,7 +33,7 @@ import pandas as pd
 from ..io import InputError, read_json
 from ..rheology import law_file
 from ..rheology.calibration import burgers_model
-from ..rheology.metrics import at_temperature
+from ..rheology.metrics import at_temperature, mre_pct
 
 #: Burger's parameters that the sensitivity study varies, with their table columns.
 SENSITIVITY_PARAMETERS = {"Em": "Em_MPa", "eta_m": "eta_m_MPa_s", "Ek": "Ek_MPa", "eta_k": "eta_k_MPa_s"}
@@ -305,7 +305,6 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
         k_sim = float(r.iloc[0]["F0_N"] / r.iloc[0]["z0_m"]) if len(r) else math.nan
         ref = burgers_reference(table, r["temperature_C"], r["frequency_Hz"])
         rel_e = (r["E_norm_MPa"].to_numpy() - ref["E_norm_MPa_ref"].to_numpy()) / ref["E_norm_MPa_ref"].to_numpy()
-        rel_p = (r["phase_deg"].to_numpy() - ref["phase_deg_ref"].to_numpy()) / ref["phase_deg_ref"].to_numpy()
         out.append({
             "table3_units": label, "temperature_C": temperature_C, "Em_MPa": p["Em_MPa"],
             "Burgers_E_norm_MPa": float(e_ref), "reference_frequency_Hz": reference_frequency_Hz,
@@ -318,8 +317,8 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
             "dt_s": ";".join(f"{v:.3g}" for v in sorted(set(r["dt_s"]))),
             "frequencies_Hz": ";".join(f"{v:g}" for v in r["frequency_Hz"]),
             "n_runs": len(r),
-            "mre_E_norm_pct": float(100 * np.mean(np.abs(rel_e))) if len(r) else math.nan,
-            "mre_phase_pct": float(100 * np.mean(np.abs(rel_p))) if len(r) else math.nan,
+            "mre_E_norm_pct": mre_pct(r["E_norm_MPa"], ref["E_norm_MPa_ref"]),
+            "mre_phase_pct": mre_pct(r["phase_deg"], ref["phase_deg_ref"]),
             "mean_ratio_E_norm": float(np.mean(1 + rel_e)) if len(r) else math.nan,
             "max_broken_bond_fraction": float((r["n_broken_total"] / r["n_bonds"]).max())
             if {"n_broken_total", "n_bonds"} <= set(r.columns) and len(r) else math.nan,

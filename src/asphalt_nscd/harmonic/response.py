@@ -25,6 +25,7 @@ import pandas as pd
 
 from ..io import InputError
 from ..nscd.state import HEAD_AMPLITUDE_M
+from ..rheology.metrics import same_temperature
 from .solver import HarmonicSystem
 
 #: Paper frequencies of the campaign, Hz.
@@ -131,7 +132,7 @@ def select_temperatures(params: pd.DataFrame, temperatures, path="parameters") -
         return params
     keep = []
     for t in temperatures:
-        hit = np.flatnonzero(np.isclose(params["temperature_C"].to_numpy(float), t, atol=1e-6))
+        hit = np.flatnonzero(same_temperature(params["temperature_C"].to_numpy(float), t))
         if hit.size == 0:
             raise InputError(f"{path}: no row with temperature_C = {t} (have "
                              f"{sorted(params['temperature_C'].tolist())})")
@@ -164,7 +165,7 @@ def frequency_plan(params: pd.DataFrame, frequencies=None, frequencies_from=None
             if col not in table.columns:
                 raise InputError(f"{frequencies_from}: missing column '{col}'")
         for _, row in params.iterrows():
-            sel = np.isclose(table["temperature_C"].to_numpy(float), row["temperature_C"])
+            sel = same_temperature(table["temperature_C"].to_numpy(float), row["temperature_C"])
             f = np.unique(table.loc[sel, "frequency_Hz"].to_numpy(float))
             if f.size:
                 plan.append((row, f))
