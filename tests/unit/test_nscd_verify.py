@@ -34,6 +34,7 @@ def test_verify_cli_writes_all_outputs(verify_rows):
                                   "phase_table", "rest", "incline_block", "incline_rolling",
                                   "column", "impact", "breakage_normal",
                                   "breakage_tangential", "dissipation", "fast_path",
+                                  "fast_path_contacts",
                                   "solver_tolerance"])
 def test_verification_case_passes(verify_rows, case):
     _, rows, _ = verify_rows

@@ -131,6 +131,9 @@ class TwoPBSettings:
         :mod:`asphalt_nscd.nscd.linear`).
     periodic_cycles : cycles simulated after a periodic start (the last ``window_cycles``
         are reduced).
+    fast_path_contacts : most contacts a fast-path step solves on their condensed Delassus
+        operator (:class:`asphalt_nscd.nscd.NSCDParameters`, :mod:`asphalt_nscd.nscd.condensed`;
+        0 = every closing contact sends the step to NLGS, the former behaviour).
     """
 
     amplitude_m: float = HEAD_AMPLITUDE_M
@@ -156,6 +159,7 @@ class TwoPBSettings:
     start: str = "rest"
     periodic_cycles: float = 1.0
     linear_solver: str = "cg"
+    fast_path_contacts: int = 0
 
     def __post_init__(self):
         if self.start not in START_MODES:
@@ -310,7 +314,8 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     gravity = (0.0, 0.0, -9.81) if settings.gravity else (0.0, 0.0, 0.0)
     params = NSCDParameters(dt=dt, theta=settings.theta, gravity=gravity, friction=settings.friction,
                             tolerance=settings.tolerance, max_iterations=settings.max_iterations,
-                            bond_kinematics=settings.bond_kinematics, linear_solver=settings.linear_solver)
+                            bond_kinematics=settings.bond_kinematics, linear_solver=settings.linear_solver,
+                            fast_path_contacts=settings.fast_path_contacts)
     sim = test_simulation(sample, law, motion, params, head_rotation=settings.head_rotation,
                           nu=settings.nu, yield_stress=strength)
     return sim, motion

@@ -26,7 +26,8 @@ _BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "
          "r_crit", "arm_i", "arm_j", "displacement", "force", "delta_c", "delta_k", "broken")
 _PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations",
            "relaxation",
-           "alert_distance", "fast_path", "linear_solver", "linear_tolerance", "bond_kinematics", "bonded_contact")
+           "alert_distance", "fast_path", "linear_solver", "linear_tolerance", "bond_kinematics", "bonded_contact",
+           "fast_path_contacts")
 
 
 def write_checkpoint(sim, path) -> None:
@@ -116,8 +117,11 @@ def read_checkpoint(path, drivers=None, external_force=None):
         gb = f["bonds"]
         bonds = Bonds(**{k: gb[k][()] for k in _BOND}, law=json.loads(gb.attrs["law"]))
         # checkpoints written before bonded_contact existed ran with the former behaviour
-        pa = {k: f["params"].attrs[k] for k in _PARAMS if k != "bonded_contact"}
+        # (and before fast_path_contacts existed, with every closing contact sent to NLGS)
+        pa = {k: f["params"].attrs[k] for k in _PARAMS
+              if k not in ("bonded_contact", "fast_path_contacts")}
         pa["bonded_contact"] = str(f["params"].attrs.get("bonded_contact", "always"))
+        pa["fast_path_contacts"] = int(f["params"].attrs.get("fast_path_contacts", 0))
         ad = float(pa["alert_distance"])
         pa["alert_distance"] = None if np.isnan(ad) else ad
         pa["max_iterations"] = int(pa["max_iterations"])

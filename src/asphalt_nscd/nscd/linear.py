@@ -73,7 +73,9 @@ Solvers:
 
 Validity is checked after the solve by the caller (moreau_jean.py): every contact candidate
 must satisfy U_n + max(g, 0)/h >= 0 with zero reaction, and no bond may exceed R_crit;
-otherwise the step is redone by NLGS. The test tests/unit/test_nscd_linear.py checks that
+otherwise the step is redone by NLGS -- unless at most ``NSCDParameters.fast_path_contacts``
+contacts close, which are then solved on their Delassus operator condensed over the bonds
+(condensed.py, with the columns of A^-1 of :meth:`LinearBondSolver.response`). The test tests/unit/test_nscd_linear.py checks that
 both paths give the same reactions to the NLGS tolerance.
 """
 
@@ -296,6 +298,7 @@ class LinearBondSolver:
         self.last_iterations = 0
         self.last_residual = 0.0
         self.rot = rotation is not None
+        self._columns = {}  # unknown block -> (ndof, 3) columns of A^-1 (:meth:`response`)
         nb = len(bi)
         if self.rot:
             arm_i, arm_j = rotation["arm_i"], rotation["arm_j"]
@@ -449,8 +452,56 @@ class LinearBondSolver:
                            self._work, self.part_c, self.part_g)
             self.last_iterations, self.last_residual = it, res
         _scatter(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
-        _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
+        bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
                        self.rot)
+
+    def gather(self, v, w, vp, wp):
+        """The unknowns x (ndof,) of body velocities v, w (N,3), vp, wp (P,3)."""
+        x = np.empty(self.ndof)
+        _gather(x, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
+        return x
+
+    def scatter(self, x, v, w, vp, wp):
+        """Write the unknowns x (ndof,) into the body velocities (known rows untouched)."""
+        _scatter(x, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
+
+    def response(self, block):
+        """Columns (ndof, 3) of A^-1 for the unknown 3-dof block ``block``: the velocity
+        response of the bonded network to a unit impulse (N s, or N m s on a rotation
+        block) along each axis of that block. Solved on first use with this solver's method
+        and tolerance from a zero initial guess (so the same numbers whenever it is asked)
+        and cached: A is constant for a solver. Used by the contacts of the fast path
+        (:mod:`.condensed`).
+
+        Raises
+        ------
+        IndexError if ``block`` is not an unknown block (0 <= block < ndof / 3).
+        """
+        col = self._columns.get(block)
+        if col is not None:
+            return col
+        if not 0 <= block < self.ndof // 3:
+            raise IndexError(f"unknown block {block} outside [0, {self.ndof // 3})")
+        col = np.zeros((self.ndof, 3))
+        for d in range(3):
+            rhs = np.zeros(self.ndof)
+            rhs[3 * block + d] = 1.0
+            if self.method == "direct":
+                col[:, d] = self.lu.solve(rhs)
+                continue
+            x = col[:, d].copy()
+            if self.method == "cg_ssor":
+                _pcg_ssor(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
+                          *self._ssor, rhs, x, self.tolerance, self.max_iterations,
+                          np.zeros((9, self.ndof)), self.ssor_omega, np.zeros(self.ndof),
+                          False)
+            else:
+                _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
+                     self.precond, rhs, x, self.tolerance, self.max_iterations,
+                     np.zeros((4, self.ndof)), self.part_c, self.part_g)
+            col[:, d] = x
+        self._columns[block] = col
+        return col
 
     def _product(self, x):
         """A x (n,) of a vector: the cached product of an equal (bit for bit) recent
@@ -910,7 +961,7 @@ def _pcg(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, max_iter,
 
 
 @kernel
-def _bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse, rot):
+def bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse, rot):
     """impulse (B,3) = c0 - cg F U of the intact bonds (U: local_laws.bond_velocity)."""
     for b in range(len(bi)):
         if broken[b]:

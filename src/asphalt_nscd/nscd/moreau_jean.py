@@ -11,8 +11,10 @@ One step of length h from t- to t+ = t- + h (Jean 1999; Eq. 14 of the paper):
    pairs whose intact bond is their only law skipped, ``NSCDParameters.bonded_contact``),
    warm start of contact impulses from the previous step (matched by pair), of bond
    impulses from the previous step;
-4. solve for the impulses: the linear fast path (linear.py) when allowed and valid, else
-   nonlinear Gauss-Seidel (gauss_seidel.py);
+4. solve for the impulses: the linear fast path (linear.py) when allowed and valid (a few
+   contacts that it closes solved on their Delassus operator condensed over the bonds,
+   condensed.py, ``NSCDParameters.fast_path_contacts``), else nonlinear Gauss-Seidel
+   (gauss_seidel.py);
 5. bonds: internal variables, forces, breakage (local_laws.bond_update);
 6. positions x+ = x- + h (theta v+ + (1-theta) v-) (spheres and free plates); driven plates
    at their imposed position; rotations are integrated only as angular velocities (the
@@ -45,9 +47,9 @@ from typing import Callable
 import numba
 import numpy as np
 
-from . import detection, gauss_seidel, local_laws
+from . import condensed, detection, gauss_seidel, local_laws
 from .delassus import bond_blocks, bond_blocks_contact, contact_blocks
-from .linear import LinearBondSolver
+from .linear import LinearBondSolver, bond_impulses
 from .state import (CONVERGENCE_NORMS, DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates,
                     Spheres, StepStats)
 
@@ -242,10 +244,9 @@ class Simulation:
         it, quad, maxm, conv = 0, 0.0, 0.0, True
         if p.fast_path and nb and self._fast_path(v_free, vp_free, c0, cg, v, vp, bP, inv_m,
                                                   inv_mp, ci, cj, cframe, gap, w, h,
-                                                  wp, inv_i, inv_ip, rot):
+                                                  wp, inv_i, inv_ip, rot, cP):
             solver = "linear"
             it = self.linear_iterations
-            cP[:] = 0.0
         else:
             v[:] = v_free
             vp[:] = vp_free
@@ -409,9 +410,11 @@ class Simulation:
         return cP
 
     def _fast_path(self, v_free, vp_free, c0, cg, v, vp, bP, inv_m, inv_mp, ci, cj, cframe,
-                   gap, w, h, wp, inv_i, inv_ip, rot) -> bool:
+                   gap, w, h, wp, inv_i, inv_ip, rot, cP) -> bool:
         """Try the linear solver; True if its solution is the solution of the step (then
-        v, vp, bP, and with rot also w, wp, hold it)."""
+        v, vp, bP, cP, and with rot also w, wp, hold it). Contacts that the linear solution
+        closes are solved on their Delassus operator condensed over the bonds
+        (:mod:`.condensed`) when there are at most ``fast_path_contacts`` of them."""
         bnd = self.bonds
         p = self.params
         key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
@@ -448,13 +451,23 @@ class Simulation:
                            bnd.arm_i, bnd.arm_j, c0, cg, bnd.broken, v_try, w_try, vp_try,
                            wp_try, P_try, start=(v0, w0, vp0, wp0), previous=previous)
         self.linear_iterations = self._linear.last_iterations
-        # contacts must stay open with zero reaction
+        # contacts must stay open with zero reaction, or be solved by the condensed problem
+        cP[:] = 0.0
         if len(ci):
             u = np.empty((len(ci), 3))
             self._contact_velocities(ci, cj, cframe, v_try, w_try, vp_try, u)
             if np.any(u[:, 0] + np.maximum(gap, 0.0) / h < 0.0):
-                bP[:] = P_try  # warm start for NLGS
-                return False
+                closed = None
+                if p.fast_path_contacts > 0:
+                    closed = condensed.solve_contacts(
+                        self._linear, ci, cj, cframe, gap, self.spheres.radius, inv_i, v_try,
+                        w_try, vp_try, wp_try, h, p.friction, p.fast_path_contacts)
+                if closed is None:
+                    bP[:] = P_try  # warm start for NLGS
+                    return False
+                cP[:] = closed
+                bond_impulses(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, c0, cg,
+                              bnd.broken, v_try, w_try, vp_try, wp_try, P_try, rot)
         v[:] = v_try
         vp[:] = vp_try
         w[:] = w_try

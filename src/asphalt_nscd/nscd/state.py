@@ -435,6 +435,11 @@ class NSCDParameters:
     linear_tolerance : relative residual of 'cg' and 'cg_ssor'.
     linear_ssor_omega : relaxation factor omega in (0, 2) of 'cg_ssor' (symmetric successive
         over-relaxation, :mod:`.linear`); 1 = symmetric Gauss-Seidel.
+    fast_path_contacts : most contacts that the fast path solves itself when its linear
+        solution closes them: their Signorini-Coulomb problem on the Delassus operator
+        condensed over the bonds (:mod:`.condensed`; exact, the NLGS's solution to its
+        tolerance); with more, or 0 (default: the former behaviour), the step is redone by
+        NLGS over all bonds and contacts.
     bond_kinematics : 'contact' (default; bond at the contact point, with torques, 6 DOF per
         sphere in the linear fast path) or 'barycentre' (the former core: at the barycentres,
         no torque). See :class:`Bonds`; same option as the harmonic solver.
@@ -469,6 +474,7 @@ class NSCDParameters:
     linear_solver: str = "cg"
     linear_tolerance: float = 1e-10
     linear_ssor_omega: float = 1.2
+    fast_path_contacts: int = 0
     bond_kinematics: str = "contact"
     threads: int = 1
     bonded_contact: str = "after_break"
@@ -495,6 +501,11 @@ class NSCDParameters:
                              f"got {self.linear_solver!r}")
         if not (0.0 < self.linear_ssor_omega < 2.0):
             raise ValueError(f"linear_ssor_omega must lie in (0, 2), got {self.linear_ssor_omega}")
+        if not (isinstance(self.fast_path_contacts, (int, np.integer))
+                and self.fast_path_contacts >= 0):
+            raise ValueError(f"fast_path_contacts must be an integer >= 0, "
+                             f"got {self.fast_path_contacts!r}")
+        self.fast_path_contacts = int(self.fast_path_contacts)
         if not (self.dt > 0):
             raise ValueError(f"dt must be > 0, got {self.dt}")
         if not (0.5 <= self.theta <= 1.0):

@@ -33,6 +33,10 @@ Ek = 4.84e7, eta_k = 7.73e5; spheres of 2 mm radius, l0 = 4.5 mm):
   force crosses R_crit = sigma_y pi r_min² (within one ramp increment).
 * ``dissipation``: step dissipation never negative (impact, sliding, bonded sinusoid).
 * ``fast_path``: linear fast path and NLGS give the same bond forces.
+* ``fast_path_contacts``: an unbonded sphere pressed against the side of the bonded block
+  (:func:`pressed_sphere_network`), its contact sticking and slipping: the fast path with
+  the contact solved on the condensed Delassus operator (condensed.py) gives the bond and
+  contact impulses of NLGS (tol 1e-12) on every step, and keeps every step.
 * ``solver_tolerance``: phase of the driver force of a -10 degC, 40 Hz test on a small
   bonded network with CG (relative residual 1e-10) and NLGS (tol 1e-7) against the direct
   solver: within 0.001 deg and 0.01 deg.
@@ -547,6 +551,57 @@ def random_bonded_network(n: int = 40, seed: int = 0, law: GeneralizedBurgers = 
     return s, plates, bonds
 
 
+def pressed_sphere_network(push: float, law: GeneralizedBurgers = LAW_15C):
+    """:func:`random_bonded_network` (40 spheres, unbreakable bonds) plus one unbonded sphere
+    (radius 2.5 mm) touching the sphere of the block's +y face with the highest centre,
+    level with it (horizontal contact normal, across the head's x motion), and the external
+    force (N+1, 3) N pushing it against the block with ``push`` times its weight: gravity
+    and the block's motion load the contact tangentially; with mu = 0.7 it sticks (rolls)
+    and slips by turns for push = 2. Returns (spheres, plates, bonds, force)."""
+    s, plates, bonds = random_bonded_network(n=40, law=law)
+    face = np.flatnonzero(s.position[:, 1] > s.position[:, 1].max() - 1e-3)
+    k = face[np.argmax(s.position[face, 2])]
+    rn = 2.5e-3
+    p = s.position[k] + np.array([0.0, s.radius[k] + rn + 1e-9, 0.0])
+    s2 = Spheres.from_density(np.vstack([s.position, p]), np.append(s.radius, rn), DENSITY)
+    b2 = Bonds.create(s2, plates, bonds.i, bonds.j, law)
+    b2.r_crit[:] = np.inf
+    force = np.zeros((s2.n, 3))
+    force[-1, 1] = -push * s2.mass[-1] * 9.81
+    return s2, plates, b2, force
+
+
+def case_fast_path_contacts(n_steps: int = 40) -> list[dict]:
+    """Impulses of the fast path with a closing contact solved on the condensed Delassus
+    operator against NLGS (tol 1e-12), step by step (:func:`pressed_sphere_network`)."""
+    sims = []
+    for fast in (True, False):
+        s, plates, bonds, force = pressed_sphere_network(2.0)
+        sims.append(Simulation(s, plates, bonds, NSCDParameters(
+            dt=5e-5, friction=0.7, tolerance=1e-12, max_iterations=100000,
+            gravity=(0, 0, -9.81), fast_path=fast, linear_solver="direct",
+            fast_path_contacts=16 if fast else 0), external_force=force))
+    err_b = err_c = 0.0
+    n_fast = n_closed = 0
+    for _ in range(n_steps):
+        st = sims[0].step()
+        sims[1].step()
+        n_fast += st.solver == "linear"
+        n_closed += st.n_active_contacts > 0
+        fb, gb = sims[0].bond_impulse, sims[1].bond_impulse
+        err_b = max(err_b, np.abs(fb - gb).max() / np.abs(gb).max())
+        if len(sims[1].contact_impulse) and np.abs(sims[1].contact_impulse).max() > 0:
+            fc, gc = sims[0].contact_impulse, sims[1].contact_impulse
+            err_c = max(err_c, np.abs(fc - gc).max() / np.abs(gc).max())
+    note = f"{n_steps} steps, {n_closed} with a closed contact, {n_fast} on the fast path"
+    return [_row("fast_path_contacts", "max |P_bond,fast - P_bond,nlgs| / max |P_bond|", err_b,
+                 0.0, 1e-8, "1", scale=1.0, note=note),
+            _row("fast_path_contacts", "max |P_contact,fast - P_contact,nlgs| / max |P_contact|",
+                 err_c, 0.0, 1e-8, "1", scale=1.0, note=note),
+            _row("fast_path_contacts", "steps left to NLGS", float(n_steps - n_fast), 0.0, 0.0,
+                 "steps", scale=1.0, note=note)]
+
+
 def case_fast_path(n_steps: int = 40) -> list[dict]:
     """Bond forces after n_steps of the linear path and of NLGS (tol 1e-10)."""
     out = []
@@ -621,6 +676,7 @@ def run_all(phase_omegas=(2 * np.pi * 40.0,), phase_dts=(1e-5, 2e-5, 5e-5, 1e-4,
     rows += case_breakage("tangential")
     rows += case_dissipation(imp_diss, imp_e)
     rows += case_fast_path()
+    rows += case_fast_path_contacts()
     rows += case_solver_tolerance_phase()
     return rows, table
 

@@ -1,0 +1,204 @@
+"""Contacts inside the linear fast path: the Signorini-Coulomb problem condensed on the bonds.
+
+Why
+---
+The linear fast path (:mod:`.linear`) solves a step of the bonded network when no contact
+closes. On the paper-scale sample a 2PB step closes a handful of unbonded contacts (1-4 on
+average, at most 7, of 5-7 candidates: reference/paper_scale/README.md), and before this
+module the whole step -- 70,000 bonds -- was redone by nonlinear Gauss-Seidel: 99 % of the
+steps, 0.16 s each, about 8 x the cost of a linear step.
+
+Method (exact, not a penalty)
+-----------------------------
+While the bonds are linear, the step's unknown velocities x obey A x = rhs + J^T P
+(linear.py: A = M + sum_b L_b^T G_b L_b), where P (3|C|,) are the local impulses (n, t, s)
+of a set C of contacts and J (3|C|, ndof) their velocity Jacobian: the contact velocity is
+U = J x (:func:`asphalt_nscd.nscd.gauss_seidel.contact_velocity`: v_i + r_i n x w_i - v_j +
+r_j n x w_j, or - v_plate, in the contact frame) and J^T P the impulses and torques the
+contact applies (the same operator as ``_push_contact``). With x_lin = A^-1 rhs the linear
+solution of the step,
+
+    U = U_lin + W P,    W = J A^-1 J^T    (the Delassus operator of C condensed over the bonds)
+
+a dense 3|C| x 3|C| matrix. The Signorini condition U_n + max(g, 0)/h >= 0 _|_ P_n >= 0 and
+Coulomb's law (Eqs. 6-7, the same velocity-level form as the NLGS: local_laws) are solved on
+it by nonlinear Gauss-Seidel (:func:`condensed_nlgs`; the local solve of
+:func:`asphalt_nscd.nscd.local_laws.contact_local_solve` on the block diagonal D = diag(W_nn,
+w_t, w_t), w_t = max(W_tt, W_ss): whatever the off-diagonal terms, its fixed point is the
+exact Signorini-Coulomb solution -- complementarity in n, stick or sliding against the
+tangential velocity). Then x = x_lin + A^-1 J^T P and the bond impulses follow from their
+affine laws (linear.bond_impulses). This is the problem the NLGS of the whole step solves,
+with the bonds eliminated exactly instead of iterated, hence the same solution to the NLGS
+tolerance (tests/unit/test_nscd_condensed.py).
+
+A^-1 J^T needs the columns of A^-1 of the unknown blocks (translation, rotation) of the
+bodies that C touches: solved once per linear system and cached
+(:meth:`asphalt_nscd.nscd.linear.LinearBondSolver.response`); the contact frames change at
+every step but enter only through J. With 'barycentre' bond kinematics the rotations are
+not unknowns of A: a contact torque changes the sphere's own angular velocity only
+(response I^-1).
+
+Active set: C starts as the contacts the linear solution violates (U_n + max(g,0)/h < 0);
+contacts that the corrected solution violates join C and the small problem is solved again
+(at most ``rounds`` times). The function gives up (the caller redoes the step by NLGS over
+everything) when C would hold more than ``max_contacts`` contacts or the small NLGS does not
+converge.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import kernel
+from .gauss_seidel import contact_velocities
+from .local_laws import contact_local_solve
+
+
+@kernel
+def condensed_nlgs(W, u_free, gap, h, mu, tol, max_iter, P):
+    """Nonlinear Gauss-Seidel on the condensed contact problem U = u_free + W P.
+
+    W (3C, 3C) 1/kg, u_free (3C,) m/s (local n, t, s per contact), gap (C,) m, h s, mu:
+    Coulomb coefficient; P (3C,) N s: initial guess on entry, solution on return. Stops when
+    the change of P over a sweep is <= tol |P| (or P = 0). Returns (sweeps, converged).
+    """
+    nc = len(gap)
+    n3 = 3 * nc
+    it = 0
+    while it < max_iter:
+        it += 1
+        sum_d2 = 0.0
+        sum_p2 = 0.0
+        for k in range(nc):
+            r = 3 * k
+            u0 = u_free[r]
+            u1 = u_free[r + 1]
+            u2 = u_free[r + 2]
+            for m in range(n3):
+                pm = P[m]
+                u0 += W[r, m] * pm
+                u1 += W[r + 1, m] * pm
+                u2 += W[r + 2, m] * pm
+            wn = W[r, r]
+            wt = max(W[r + 1, r + 1], W[r + 2, r + 2])
+            pn, pt, ps = contact_local_solve(u0 - wn * P[r], u1 - wt * P[r + 1],
+                                             u2 - wt * P[r + 2], gap[k], h, wn, wt, mu)
+            d0 = pn - P[r]
+            d1 = pt - P[r + 1]
+            d2 = ps - P[r + 2]
+            P[r] = pn
+            P[r + 1] = pt
+            P[r + 2] = ps
+            sum_d2 += d0 * d0 + d1 * d1 + d2 * d2
+            sum_p2 += pn * pn + pt * pt + ps * ps
+        if sum_p2 == 0.0 or math.sqrt(sum_d2) <= tol * math.sqrt(sum_p2):
+            return it, True
+    return it, False
+
+
+def _skew(n):
+    """[n]x (3,3): [n]x w = n x w."""
+    return np.array([[0.0, -n[2], n[1]], [n[2], 0.0, -n[0]], [-n[1], n[0], 0.0]])
+
+
+def _jacobian(sel, ci, cj, cframe, radius, inv_inertia, solver):
+    """J (3|C|, 3|Y|) of the contacts ``sel`` on the body blocks Y they touch, and Y as a list
+    of keys: ('A', block) for an unknown block of the linear system, ('R', sphere) for a
+    rotation outside it ('barycentre' kinematics; response I^-1)."""
+    keys, index, entries = [], {}, []
+
+    def add(key, k, coef):
+        if key not in index:
+            index[key] = len(keys)
+            keys.append(key)
+        entries.append((k, index[key], coef))
+
+    for k, a in enumerate(sel):
+        F = cframe[a]
+        nx = _skew(F[0])
+        for body, sign in ((ci[a], 1.0), (cj[a], -1.0)):
+            if body >= 0:
+                if solver.st[body] >= 0:
+                    add(("A", int(solver.st[body])), k, sign * F)
+                rot = radius[body] * F @ nx  # r (n x w): the same sign for i and j
+                if solver.rot:
+                    if solver.sr[body] >= 0:
+                        add(("A", int(solver.sr[body])), k, rot)
+                elif inv_inertia[body] > 0.0:
+                    add(("R", int(body)), k, rot)
+            elif len(solver.pt) and solver.pt[-1 - body] >= 0:
+                add(("A", int(solver.pt[-1 - body])), k, -F)
+    J = np.zeros((3 * len(sel), 3 * len(keys)))
+    for k, c, coef in entries:
+        J[3 * k:3 * k + 3, 3 * c:3 * c + 3] += coef
+    return J, keys
+
+
+def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, wp, h, mu,
+                   max_contacts, tol=1e-12, max_iter=10000, rounds=8):
+    """Contact impulses of a fast-path step whose linear solution closes contacts.
+
+    Parameters
+    ----------
+    solver : the step's :class:`asphalt_nscd.nscd.linear.LinearBondSolver`.
+    ci, cj (C,), cframe (C,3,3), gap (C,) m: the step's contact candidates (detection.py);
+    radius (N,) m, inv_inertia (N,) 1/(kg m²).
+    v, w (N,3), vp, wp (P,3): the linear solution of the step on entry (m/s, rad/s); on
+        success the corrected velocities (else unchanged).
+    h : s; mu : Coulomb coefficient; max_contacts : most contacts in the condensed problem.
+    tol, max_iter : of :func:`condensed_nlgs`; rounds : active-set rounds.
+
+    Returns
+    -------
+    (C,3) N s local impulses of every candidate (zero for the open ones), or None when the
+    step is to be redone by NLGS (more than ``max_contacts`` closing, no convergence).
+    Bond impulses are not updated here (the caller applies linear.bond_impulses).
+    """
+    nc = len(ci)
+    u_lin = np.empty((nc, 3))
+    contact_velocities(ci, cj, cframe, radius, v, w, vp, u_lin)
+    slack = np.maximum(gap, 0.0) / h
+    active = [int(a) for a in np.flatnonzero(u_lin[:, 0] + slack < 0.0)]
+    x_lin = solver.gather(v, w, vp, wp)
+    P = np.zeros((nc, 3))
+    u = np.empty((nc, 3))
+    for _ in range(rounds):
+        if len(active) > max_contacts:
+            return None
+        sel = np.array(active, dtype=np.int64)
+        J, keys = _jacobian(sel, ci, cj, cframe, radius, inv_inertia, solver)
+        R = np.zeros((J.shape[1], J.shape[1]))
+        cols = {}
+        for c, (kind, b) in enumerate(keys):
+            if kind == "A":
+                cols[c] = solver.response(b)
+                for r, (kind_r, b_r) in enumerate(keys):
+                    if kind_r == "A":
+                        R[3 * r:3 * r + 3, 3 * c:3 * c + 3] = cols[c][3 * b_r:3 * b_r + 3]
+            else:
+                R[3 * c:3 * c + 3, 3 * c:3 * c + 3] = inv_inertia[b] * np.eye(3)
+        Pc = np.ascontiguousarray(P[sel].ravel())
+        _, ok = condensed_nlgs(J @ R @ J.T, np.ascontiguousarray(u_lin[sel].ravel()),
+                               np.ascontiguousarray(gap[sel]), h, mu, tol, max_iter, Pc)
+        if not ok:
+            return None
+        q = J.T @ Pc  # impulses on the body blocks
+        x = x_lin.copy()
+        v_n, w_n, vp_n, wp_n = v.copy(), w.copy(), vp.copy(), wp.copy()
+        for c, (kind, b) in enumerate(keys):
+            if kind == "A":
+                x += cols[c] @ q[3 * c:3 * c + 3]
+            else:
+                w_n[b] += inv_inertia[b] * q[3 * c:3 * c + 3]
+        solver.scatter(x, v_n, w_n, vp_n, wp_n)
+        P[sel] = Pc.reshape(-1, 3)
+        contact_velocities(ci, cj, cframe, radius, v_n, w_n, vp_n, u)
+        closing = u[:, 0] + slack < 0.0
+        closing[sel] = False
+        if not closing.any():
+            v[:], w[:], vp[:], wp[:] = v_n, w_n, vp_n, wp_n
+            return P
+        active += [int(a) for a in np.flatnonzero(closing)]
+    return None
