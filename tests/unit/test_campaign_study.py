@@ -231,3 +231,31 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
     from asphalt_nscd.cli import build_parser
     with pytest.raises(InputError, match="timings_s.total_s"):
         _prepare_seconds(build_parser().parse_args(args))
+
+
+def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
+    """--modes restricts the timed jobs and the projection; --baseline-settings-json times
+    a second simulation of each job class in the same run (speedup = baseline / configured);
+    bad values are refused naming the option."""
+    import yaml
+
+    sample = tmp_path / "s1.h5"
+    write_sample(sample, lattice_sample(60, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
+    with open("config/smoke.yaml") as fh:
+        cfg = yaml.safe_load(fh)
+    cfg_path = tmp_path / "smoke.yaml"
+    cfg_path.write_text(yaml.safe_dump(cfg))
+    out = tmp_path / "bench.json"
+    base = ["campaign-bench", "--sample", str(sample), "--steps", "2", "--config", str(cfg_path), "--per-job",
+            "--job-steps", "3", "--table3", TABLE3, "-o", str(out)]
+    assert main(base + ["--modes", "paper", "--baseline-settings-json", '{"linear_solver": "direct"}']) == 0
+    proj = json.loads(out.read_text())["projections"][str(cfg_path)]
+    costs = proj["job_costs"]
+    assert costs and {c["mode"] for c in costs} == {"paper"}
+    assert set(proj["configured"]["n_steps_by_mode"]) == {"paper"}
+    for c in costs:
+        assert c["s_per_step_baseline"] > 0 and c["speedup"] == pytest.approx(c["s_per_step_baseline"] / c["s_per_step"])
+    assert main(base + ["--modes", "nonsense"]) == 2
+    assert "--modes ['nonsense']: no such jobs" in capsys.readouterr().err
+    assert main(base + ["--baseline-settings-json", '{"no_such_setting": 1}']) == 2
+    assert "--baseline-settings-json: expected an object of TwoPBSettings keys" in capsys.readouterr().err

@@ -120,3 +120,44 @@ def test_response_columns_solve_the_linear_system(kinematics):
                                        atol=1e-9 * np.abs(col).max())
     with pytest.raises(IndexError, match="unknown block"):
         ref.response(nblk)
+
+
+@pytest.mark.kernels
+def test_local_block_solve_satisfies_signorini_coulomb():
+    """local_solve_block on random full 3x3 Delassus blocks, strongly coupled ones included
+    (mu |W_nt| > W_nn, where a projected iteration on the diagonal failed): the impulse
+    lies in the cone and U = b + W P obeys the law — open with P = 0, sticking with U = 0,
+    or sliding with U_n = 0, |P_t| = mu P_n and U_t opposite to P_t."""
+    from asphalt_nscd.nscd.condensed import local_solve_block
+
+    rng = np.random.default_rng(7)
+    h, kinds = 2e-4, set()
+    for trial in range(400):
+        Q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        W = Q @ np.diag(10.0 ** rng.uniform(1, 5, 3)) @ Q.T
+        b = rng.normal(size=3) * 1e-3
+        gap = rng.choice([0.0, -1e-9, 1e-8])
+        mu = rng.choice([0.0, 0.3, 0.7])
+        pn, pt, ps, ok = local_solve_block(b[0], b[1], b[2], gap, h, W, 0, mu)
+        assert ok, (W, b, gap, mu)
+        P = np.array([pn, pt, ps])
+        U = b + W @ P
+        un = U[0] + max(gap, 0.0) / h
+        scale = np.abs(b).max() + max(gap, 0) / h
+        assert pn >= 0.0 and np.hypot(pt, ps) <= mu * pn * (1 + 1e-9) + 1e-300
+        if pn == 0.0:
+            kinds.add("open")
+            assert un >= 0.0
+            continue
+        assert abs(un) <= 1e-9 * scale
+        if mu == 0.0:  # frictionless: no tangential impulse, any slip
+            assert pt == ps == 0.0
+            continue
+        ut = U[1:]
+        if np.linalg.norm(ut) <= 1e-9 * scale:
+            kinds.add("stick")
+        else:
+            kinds.add("slide")
+            assert np.hypot(pt, ps) == pytest.approx(mu * pn, rel=1e-9)
+            assert np.dot(ut, P[1:]) / (np.linalg.norm(ut) * np.hypot(pt, ps)) == pytest.approx(-1.0, abs=1e-7)
+    assert kinds == {"open", "stick", "slide"}

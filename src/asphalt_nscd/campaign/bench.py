@@ -146,7 +146,8 @@ def job_class(job: dict) -> tuple:
 
 def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_steps: int = 10,
                       warmup: int = 2, bond_kinematics: str = "contact",
-                      starts=("rest", "periodic"), linear_solver: str = "cg") -> dict:
+                      starts=("rest", "periodic"), linear_solver: str = "cg",
+                      baseline: dict | None = None, chunk: int = 5) -> dict:
     """CPU time per step of every job class of ``jobs`` on a sample file, with the job's law.
 
     Parameters
@@ -155,12 +156,25 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
     starts : starts to time; 'periodic' is timed only for classes whose jobs start periodic.
     n_steps, warmup : timed steps after warm-up steps, per class and start.
     bond_kinematics, linear_solver : the core's (config ``nscd``; a mode's own solver wins).
+    baseline : settings (keys of :class:`.twopb.TwoPBSettings`) that replace the configured
+        ones in a second simulation of the same job, timed in the same run: the two are
+        stepped by turns, ``chunk`` steps each, so that both see the same machine load
+        (e.g. ``{"fast_path_contacts": 0}``: every closing contact to NLGS).
 
     Returns
     -------
     dict {job_class: {start: {s_per_step, iterations_mean, linear_fraction, solve_s (CPU time
-    of the periodic state, 0 from rest)}}}
+    of the periodic state, 0 from rest)[, s_per_step_baseline, linear_fraction_baseline,
+    speedup = s_per_step_baseline / s_per_step]}}}
+
+    Raises
+    ------
+    ValueError for a baseline key that is not a TwoPBSettings field.
     """
+    unknown = set(baseline or {}) - set(TwoPBSettings.__dataclass_fields__)
+    if unknown:
+        raise ValueError(f"baseline settings: unknown keys {sorted(unknown)}; expected keys of "
+                         f"TwoPBSettings")
     import dataclasses
 
     from ..sample.store import read_sample
@@ -183,23 +197,37 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
             cpu = time.process_time()
             info = start_test(sim, law, f, s)
             solve = time.process_time() - cpu if start == "periodic" else 0.0
-            for _ in range(warmup):
-                sim.step()
-            its, lin = [], 0
-            cpu = time.process_time()
-            for _ in range(n_steps):
-                st = sim.step()
-                its.append(st.iterations)
-                lin += st.solver == "linear"
-            out[cls][start] = {"s_per_step": (time.process_time() - cpu) / n_steps,
-                               "iterations_mean": float(np.mean(its)), "linear_fraction": lin / n_steps,
-                               "solve_s": solve, "start_used": info["start"]}
+            sims = [sim]
+            if baseline:
+                s_b = dataclasses.replace(s, **baseline)
+                sims.append(build_simulation(sample, law, f, dt, s_b)[0])
+                start_test(sims[1], law, f, s_b)
+            for sm in sims:
+                for _ in range(warmup):
+                    sm.step()
+            its, cpu, lin = [], [0.0] * len(sims), [0] * len(sims)
+            for k0 in range(0, n_steps, chunk):
+                for m, sm in enumerate(sims):
+                    tic = time.process_time()
+                    for _ in range(min(chunk, n_steps - k0)):
+                        st = sm.step()
+                        lin[m] += st.solver == "linear"
+                        if m == 0:
+                            its.append(st.iterations)
+                    cpu[m] += time.process_time() - tic
+            row = {"s_per_step": cpu[0] / n_steps, "iterations_mean": float(np.mean(its)),
+                   "linear_fraction": lin[0] / n_steps, "solve_s": solve, "start_used": info["start"]}
+            if baseline:
+                row.update(s_per_step_baseline=cpu[1] / n_steps, linear_fraction_baseline=lin[1] / n_steps,
+                           speedup=cpu[1] / cpu[0])
+            out[cls][start] = row
     return out
 
 
 def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_s: float = 3.0,
                      cores=(1, 2, 100), bond_kinematics: str = "contact", start: str | None = None,
-                     periodic_solve_s=0.0, prepare_s_per_sample: float = 0.0) -> dict:
+                     periodic_solve_s=0.0, prepare_s_per_sample: float = 0.0,
+                     modes=None) -> dict:
     """Projected time of every test job of a campaign (core-hours and wall hours per core count).
 
     ``s_per_step``: CPU time of one step, s — a number, or a callable ``job -> s`` (e.g. from
@@ -209,9 +237,11 @@ def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_
     ``prepare_s_per_sample``: preparation of one sample (all ``n_samples_total`` samples are
     prepared, in parallel with nothing else: they precede the jobs that use them).
     Wall time on P cores = max(total / P, longest job + one preparation) (one job per core,
-    perfect packing).
+    perfect packing). ``modes``: only these modes' jobs (None: all).
     """
     jobs = campaign_jobs(campaign, n_samples_total, bond_kinematics=bond_kinematics, start=start)
+    if modes is not None:
+        jobs = [j for j in jobs if j["mode"] in modes]
 
     def cost(fn, job):
         return fn(job) if callable(fn) else float(fn)

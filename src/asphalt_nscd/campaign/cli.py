@@ -140,6 +140,12 @@ def register(subparsers) -> None:
                    help="time every job class (mode, T, f, dt) of each --config on --sample with the job's "
                         "law, from rest and from the periodic start where configured (needs the law files)")
     p.add_argument("--job-steps", type=int, default=10, help="timed steps per job class and start (--per-job)")
+    p.add_argument("--modes", nargs="+", default=None,
+                   help="time and project only these modes' jobs (--per-job; e.g. paper)")
+    p.add_argument("--baseline-settings-json", default=None,
+                   help="test settings (TwoPBSettings keys, JSON) of a baseline timed in the same run, "
+                        "alternating with the configured ones (--per-job; e.g. '{\"fast_path_contacts\": 0}'): "
+                        "adds s_per_step_baseline and speedup to each job class")
     p.add_argument("--table3", default="data/paper/table3_burgers.csv", help="the paper's Table 3 (--per-job)")
     p.add_argument("--parameters", default="results/calibration/burgers_parameters.csv",
                    help="calibrated Burger's table, measured mode (--per-job)")
@@ -453,6 +459,7 @@ def _prepare_seconds(args) -> float:
 
 
 def _bench(args) -> int:
+    import json
     from pathlib import Path
 
     from ..io import InputError, write_json
@@ -461,6 +468,18 @@ def _bench(args) -> int:
     if args.per_job and args.sample is None:
         raise InputError("campaign-bench --per-job needs --sample (a prepared sample file)")
     prepare_s = _prepare_seconds(args)
+    baseline = None
+    if args.baseline_settings_json:
+        try:
+            baseline = json.loads(args.baseline_settings_json)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"--baseline-settings-json: not JSON ({exc})") from None
+        unknown = set(baseline) - set(twopb.TwoPBSettings.__dataclass_fields__) if isinstance(baseline, dict) else {0}
+        if unknown:
+            raise InputError(f"--baseline-settings-json: expected an object of TwoPBSettings keys, "
+                             f"got {args.baseline_settings_json!r}")
+        if not args.per_job:
+            raise InputError("--baseline-settings-json needs --per-job")
     cost = bench.measure_step_cost(args.sample, n_spheres=args.n_spheres, n_steps=args.steps)
     out = {"measurement": cost, "prepare_s_per_sample": prepare_s, "projections": {}}
     for path in args.config:
@@ -479,9 +498,16 @@ def _bench(args) -> int:
                              parameters=args.parameters, law_json=args.law_json,
                              network_factor_json=args.network_factor_json, sample_name=Path(args.sample).stem)
         jobs = bench.campaign_jobs(camp, n_total, bond_kinematics=kin)
+        if args.modes:
+            missing = set(args.modes) - {j["mode"] for j in jobs}
+            if missing:
+                raise InputError(f"--modes {sorted(missing)}: no such jobs in {path} (modes: "
+                                 f"{sorted({j['mode'] for j in jobs})})")
+            jobs = [j for j in jobs if j["mode"] in args.modes]
         costs = bench.measure_job_costs(args.sample, camp, jobs, laws, n_steps=args.job_steps,
                                         bond_kinematics=kin,
-                                        linear_solver=cfg.get("nscd", {}).get("linear_solver", "cg"))
+                                        linear_solver=cfg.get("nscd", {}).get("linear_solver", "cg"),
+                                        baseline=baseline)
 
         def per_step(job, costs=costs):
             return costs[bench.job_class(job)][job["start"]]["s_per_step"]
@@ -491,7 +517,8 @@ def _bench(args) -> int:
 
         out["projections"][path] = {
             start or "configured": bench.project_campaign(camp, n_total, per_step, start=start,
-                                                          periodic_solve_s=solve, **common)
+                                                          periodic_solve_s=solve, modes=args.modes,
+                                                          **common)
             for start in (None, "rest")}
         out["projections"][path]["single_law"] = single
         out["projections"][path]["job_costs"] = [

@@ -22,11 +22,14 @@ solution of the step,
 
 a dense 3|C| x 3|C| matrix. The Signorini condition U_n + max(g, 0)/h >= 0 _|_ P_n >= 0 and
 Coulomb's law (Eqs. 6-7, the same velocity-level form as the NLGS: local_laws) are solved on
-it by nonlinear Gauss-Seidel (:func:`condensed_nlgs`; the local solve of
-:func:`asphalt_nscd.nscd.local_laws.contact_local_solve` on the block diagonal D = diag(W_nn,
-w_t, w_t), w_t = max(W_tt, W_ss): whatever the off-diagonal terms, its fixed point is the
-exact Signorini-Coulomb solution -- complementarity in n, stick or sliding against the
-tangential velocity). Then x = x_lin + A^-1 J^T P and the bond impulses follow from their
+it by nonlinear block Gauss-Seidel (:func:`condensed_nlgs`). Unlike a contact's own block in
+the full problem (diagonal: local_laws.contact_local_solve), a condensed block W_kk is full:
+the bonds couple the normal and tangential directions, strongly for mix-like bonds, and a
+projected iteration on its diagonal did not converge there (7 of 54 fast-path steps of a
+paper-scale measured-mode job went back to NLGS). Each contact's local problem is therefore
+solved exactly with its full block (:func:`local_solve_block`: open, sticking P = -W^-1 b,
+or sliding along the direction, found by scan and bisection, whose slip velocity opposes
+it). Then x = x_lin + A^-1 J^T P and the bond impulses follow from their
 affine laws (linear.bond_impulses). This is the problem the NLGS of the whole step solves,
 with the bonds eliminated exactly instead of iterated, hence the same solution to the NLGS
 tolerance (tests/unit/test_nscd_condensed.py).
@@ -51,18 +54,123 @@ import math
 
 import numpy as np
 
-from ._jit import kernel
+from ._jit import helper, kernel
 from .gauss_seidel import contact_velocities
-from .local_laws import contact_local_solve
+
+
+@helper
+def _slide_residual(theta, bn, bt, bs, W, r, mu):
+    """Sliding along direction (cos theta, sin theta) of the local (t, s) plane: P = p_n (1,
+    mu cos, mu sin) with U_n = 0. Returns (p_n, f, along): f = 0 and along >= 0 when the
+    slip velocity U_t opposes the direction (f: its cross product with the direction,
+    along: the component of -U_t along it); p_n <= 0 when no such p_n exists."""
+    c = math.cos(theta)
+    sn = math.sin(theta)
+    den = W[r, r] + mu * (W[r, r + 1] * c + W[r, r + 2] * sn)
+    if den <= 0.0:
+        return -1.0, 0.0, -1.0
+    pn = -bn / den
+    ut = bt + pn * (W[r + 1, r] + mu * (W[r + 1, r + 1] * c + W[r + 1, r + 2] * sn))
+    us = bs + pn * (W[r + 2, r] + mu * (W[r + 2, r + 1] * c + W[r + 2, r + 2] * sn))
+    return pn, sn * ut - c * us, -(c * ut + sn * us)
+
+
+@helper
+def local_solve_block(bn, bt, bs, gap, h, W, r, mu):
+    """Exact Signorini-Coulomb impulse (Pn, Pt, Ps) of one contact whose own Delassus block
+    W[r:r+3, r:r+3] (1/kg) is full (normal-tangential coupling through the bonds): local
+    free velocity (bn, bt, bs) m/s excluding its own impulse, gap m, step h s. Open if
+    bn + max(gap,0)/h >= 0; else sticking, P = -W^-1 b, if that lies in the cone; else
+    sliding, P = p_n (1, mu cos, mu sin) with U_n = 0 and the slip velocity opposite to
+    the direction, found by a scan of 720 directions of the arc where p_n > 0 and
+    bisection. Returns (Pn, Pt, Ps, ok); ok False when no sliding solution is found."""
+    bn = bn + max(gap, 0.0) / h
+    if bn >= 0.0:
+        return 0.0, 0.0, 0.0, True
+    a00 = W[r, r]
+    a01 = W[r, r + 1]
+    a02 = W[r, r + 2]
+    a10 = W[r + 1, r]
+    a11 = W[r + 1, r + 1]
+    a12 = W[r + 1, r + 2]
+    a20 = W[r + 2, r]
+    a21 = W[r + 2, r + 1]
+    a22 = W[r + 2, r + 2]
+    det = (a00 * (a11 * a22 - a12 * a21) - a01 * (a10 * a22 - a12 * a20)
+           + a02 * (a10 * a21 - a11 * a20))
+    trial_t = -bt
+    trial_s = -bs
+    if det > 0.0:
+        pn = -((a11 * a22 - a12 * a21) * bn - (a01 * a22 - a02 * a21) * bt
+               + (a01 * a12 - a02 * a11) * bs) / det
+        pt = -(-(a10 * a22 - a12 * a20) * bn + (a00 * a22 - a02 * a20) * bt
+               - (a00 * a12 - a02 * a10) * bs) / det
+        ps = -((a10 * a21 - a11 * a20) * bn - (a00 * a21 - a01 * a20) * bt
+               + (a00 * a11 - a01 * a10) * bs) / det
+        if pn > 0.0 and math.sqrt(pt * pt + ps * ps) <= mu * pn:
+            return pn, pt, ps, True
+        trial_t = pt
+        trial_s = ps
+    if mu == 0.0:  # frictionless: P = (p_n, 0, 0), U_n = 0
+        return -bn / a00, 0.0, 0.0, a00 > 0.0
+    # sliding: roots of f with p_n > 0 and along >= 0; the one nearest the trial direction
+    # (the sticking impulse's, else the opposite of the free slip). p_n > 0 where
+    # den(theta) = W_nn + mu (W_nt cos + W_ns sin) = A + B cos(theta - phi) > 0: the whole
+    # circle if B < A, else the arc |theta - phi| < arccos(-A/B), on which f is continuous;
+    # scanned in x with theta = phi + arc sin(pi x / 2), which crowds the points towards the
+    # arc's ends (p_n -> infinity there, where roots lie close to the end).
+    ref = math.atan2(trial_s, trial_t)
+    big = mu * math.sqrt(a01 * a01 + a02 * a02)
+    whole = big < a00
+    phi = ref if whole else math.atan2(a02, a01)
+    arc = math.pi if whole else math.acos(-a00 / big)
+    n_scan = 720
+    best = 0.0
+    best_d = 1e300
+    x0 = 0.0
+    f0 = 0.0
+    first = 0 if whole else 1  # den = 0 at the arc's ends
+    for k in range(first, n_scan + 1 - first):
+        x1 = -1.0 + 2.0 * k / n_scan
+        t1 = phi + (arc * x1 if whole else arc * math.sin(0.5 * math.pi * x1))
+        pn1, f1, al1 = _slide_residual(t1, bn, bt, bs, W, r, mu)
+        if k > first and ((f0 <= 0.0 <= f1) or (f1 <= 0.0 <= f0)):
+            lo = x0
+            hi = x1
+            flo = f0
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                tm = phi + (arc * mid if whole else arc * math.sin(0.5 * math.pi * mid))
+                pm, fm, am = _slide_residual(tm, bn, bt, bs, W, r, mu)
+                if (fm <= 0.0) == (flo <= 0.0):
+                    lo = mid
+                    flo = fm
+                else:
+                    hi = mid
+            mid = 0.5 * (lo + hi)
+            tm = phi + (arc * mid if whole else arc * math.sin(0.5 * math.pi * mid))
+            pm, fm, am = _slide_residual(tm, bn, bt, bs, W, r, mu)
+            d = abs(math.atan2(math.sin(tm - ref), math.cos(tm - ref)))
+            if pm > 0.0 and am >= 0.0 and d < best_d:
+                best = tm
+                best_d = d
+        x0 = x1
+        f0 = f1
+    if best_d == 1e300:
+        return 0.0, 0.0, 0.0, False
+    pm, fm, am = _slide_residual(best, bn, bt, bs, W, r, mu)
+    return pm, mu * pm * math.cos(best), mu * pm * math.sin(best), True
 
 
 @kernel
 def condensed_nlgs(W, u_free, gap, h, mu, tol, max_iter, P):
-    """Nonlinear Gauss-Seidel on the condensed contact problem U = u_free + W P.
+    """Nonlinear (block) Gauss-Seidel on the condensed contact problem U = u_free + W P.
 
     W (3C, 3C) 1/kg, u_free (3C,) m/s (local n, t, s per contact), gap (C,) m, h s, mu:
-    Coulomb coefficient; P (3C,) N s: initial guess on entry, solution on return. Stops when
-    the change of P over a sweep is <= tol |P| (or P = 0). Returns (sweeps, converged).
+    Coulomb coefficient; P (3C,) N s: initial guess on entry, solution on return. Each
+    contact's local problem is solved exactly with its full 3x3 block
+    (:func:`local_solve_block`). Stops when the change of P over a sweep is <= tol |P| (or
+    P = 0). Returns (sweeps, converged).
     """
     nc = len(gap)
     n3 = 3 * nc
@@ -77,14 +185,14 @@ def condensed_nlgs(W, u_free, gap, h, mu, tol, max_iter, P):
             u1 = u_free[r + 1]
             u2 = u_free[r + 2]
             for m in range(n3):
-                pm = P[m]
-                u0 += W[r, m] * pm
-                u1 += W[r + 1, m] * pm
-                u2 += W[r + 2, m] * pm
-            wn = W[r, r]
-            wt = max(W[r + 1, r + 1], W[r + 2, r + 2])
-            pn, pt, ps = contact_local_solve(u0 - wn * P[r], u1 - wt * P[r + 1],
-                                             u2 - wt * P[r + 2], gap[k], h, wn, wt, mu)
+                if m < r or m >= r + 3:
+                    pm = P[m]
+                    u0 += W[r, m] * pm
+                    u1 += W[r + 1, m] * pm
+                    u2 += W[r + 2, m] * pm
+            pn, pt, ps, ok = local_solve_block(u0, u1, u2, gap[k], h, W, r, mu)
+            if not ok:
+                return it, False
             d0 = pn - P[r]
             d1 = pt - P[r + 1]
             d2 = ps - P[r + 2]
