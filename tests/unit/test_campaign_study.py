@@ -248,7 +248,8 @@ def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
     out = tmp_path / "bench.json"
     base = ["campaign-bench", "--sample", str(sample), "--steps", "2", "--config", str(cfg_path), "--per-job",
             "--job-steps", "3", "--table3", TABLE3, "-o", str(out)]
-    assert main(base + ["--modes", "paper", "--baseline-settings-json", '{"linear_solver": "direct"}']) == 0
+    assert main(base + ["--modes", "paper", "--job-warmup", "1", "--baseline-settings-json",
+                        '{"linear_solver": "direct"}']) == 0
     proj = json.loads(out.read_text())["projections"][str(cfg_path)]
     costs = proj["job_costs"]
     assert costs and {c["mode"] for c in costs} == {"paper"}
@@ -257,5 +258,7 @@ def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
         assert c["s_per_step_baseline"] > 0 and c["speedup"] == pytest.approx(c["s_per_step_baseline"] / c["s_per_step"])
     assert main(base + ["--modes", "nonsense"]) == 2
     assert "--modes ['nonsense']: no such jobs" in capsys.readouterr().err
+    assert main(base + ["--job-warmup", "-1"]) == 2
+    assert "--job-warmup >= 0" in capsys.readouterr().err
     assert main(base + ["--baseline-settings-json", '{"no_such_setting": 1}']) == 2
     assert "--baseline-settings-json: expected an object of TwoPBSettings keys" in capsys.readouterr().err

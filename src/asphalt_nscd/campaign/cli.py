@@ -140,6 +140,9 @@ def register(subparsers) -> None:
                    help="time every job class (mode, T, f, dt) of each --config on --sample with the job's "
                         "law, from rest and from the periodic start where configured (needs the law files)")
     p.add_argument("--job-steps", type=int, default=10, help="timed steps per job class and start (--per-job)")
+    p.add_argument("--job-warmup", type=int, default=2,
+                   help="untimed steps before them (--per-job): numba compilation, and the one-time work of "
+                        "a job such as the response columns of the contacts of the fast path")
     p.add_argument("--modes", nargs="+", default=None,
                    help="time and project only these modes' jobs (--per-job; e.g. paper)")
     p.add_argument("--baseline-settings-json", default=None,
@@ -504,8 +507,11 @@ def _bench(args) -> int:
                 raise InputError(f"--modes {sorted(missing)}: no such jobs in {path} (modes: "
                                  f"{sorted({j['mode'] for j in jobs})})")
             jobs = [j for j in jobs if j["mode"] in args.modes]
+        if args.job_steps < 1 or args.job_warmup < 0:
+            raise InputError(f"--job-steps must be >= 1 and --job-warmup >= 0, got {args.job_steps} "
+                             f"and {args.job_warmup}")
         costs = bench.measure_job_costs(args.sample, camp, jobs, laws, n_steps=args.job_steps,
-                                        bond_kinematics=kin,
+                                        warmup=args.job_warmup, bond_kinematics=kin,
                                         linear_solver=cfg.get("nscd", {}).get("linear_solver", "cg"),
                                         baseline=baseline)
 
