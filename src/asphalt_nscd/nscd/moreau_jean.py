@@ -452,12 +452,12 @@ class Simulation:
                            wp_try, P_try, start=(v0, w0, vp0, wp0), previous=previous)
         self.linear_iterations = self._linear.last_iterations
         # contacts must stay open with zero reaction, or be solved by the condensed problem
-        cP[:] = 0.0
+        # (cP keeps its warm start for NLGS until the fast path has succeeded)
+        closed = None
         if len(ci):
             u = np.empty((len(ci), 3))
             self._contact_velocities(ci, cj, cframe, v_try, w_try, vp_try, u)
             if np.any(u[:, 0] + np.maximum(gap, 0.0) / h < 0.0):
-                closed = None
                 if p.fast_path_contacts > 0:
                     closed = condensed.solve_contacts(
                         self._linear, ci, cj, cframe, gap, self.spheres.radius, inv_i, v_try,
@@ -465,9 +465,9 @@ class Simulation:
                 if closed is None:
                     bP[:] = P_try  # warm start for NLGS
                     return False
-                cP[:] = closed
                 bond_impulses(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, c0, cg,
                               bnd.broken, v_try, w_try, vp_try, wp_try, P_try, rot)
+        cP[:] = 0.0 if closed is None else closed
         v[:] = v_try
         vp[:] = vp_try
         w[:] = w_try
