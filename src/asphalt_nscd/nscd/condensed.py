@@ -56,6 +56,7 @@ import numpy as np
 
 from ._jit import helper, kernel
 from .gauss_seidel import contact_velocities
+from .linear import skew
 
 
 @helper
@@ -206,11 +207,6 @@ def condensed_nlgs(W, u_free, gap, h, mu, tol, max_iter, P):
     return it, False
 
 
-def _skew(n):
-    """[n]x (3,3): [n]x w = n x w."""
-    return np.array([[0.0, -n[2], n[1]], [n[2], 0.0, -n[0]], [-n[1], n[0], 0.0]])
-
-
 def _jacobian(sel, ci, cj, cframe, radius, inv_inertia, solver):
     """J (3|C|, 3|Y|) of the contacts ``sel`` on the body blocks Y they touch, and Y as a list
     of keys: ('A', block) for an unknown block of the linear system, ('R', sphere) for a
@@ -223,9 +219,10 @@ def _jacobian(sel, ci, cj, cframe, radius, inv_inertia, solver):
             keys.append(key)
         entries.append((k, index[key], coef))
 
+    normal_x = skew(cframe[sel, 0])
     for k, a in enumerate(sel):
         F = cframe[a]
-        nx = _skew(F[0])
+        nx = normal_x[k]
         for body, sign in ((ci[a], 1.0), (cj[a], -1.0)):
             if body >= 0:
                 if solver.st[body] >= 0:
@@ -244,8 +241,8 @@ def _jacobian(sel, ci, cj, cframe, radius, inv_inertia, solver):
     return J, keys
 
 
-def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, wp, h, mu,
-                   max_contacts, tol=1e-12, max_iter=10000, rounds=8):
+def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, wp, u_lin, h,
+                   mu, max_contacts, tol=1e-12, max_iter=10000, rounds=8):
     """Contact impulses of a fast-path step whose linear solution closes contacts.
 
     Parameters
@@ -255,6 +252,8 @@ def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, w
     radius (N,) m, inv_inertia (N,) 1/(kg m²).
     v, w (N,3), vp, wp (P,3): the linear solution of the step on entry (m/s, rad/s); on
         success the corrected velocities (else unchanged).
+    u_lin (C,3) m/s: the local contact velocities of that linear solution
+        (gauss_seidel.contact_velocities; the caller's validity test computed them).
     h : s; mu : Coulomb coefficient; max_contacts : most contacts in the condensed problem.
     tol, max_iter : of :func:`condensed_nlgs`; rounds : active-set rounds.
 
@@ -265,8 +264,6 @@ def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, w
     Bond impulses are not updated here (the caller applies linear.bond_impulses).
     """
     nc = len(ci)
-    u_lin = np.empty((nc, 3))
-    contact_velocities(ci, cj, cframe, radius, v, w, vp, u_lin)
     slack = np.maximum(gap, 0.0) / h
     active = [int(a) for a in np.flatnonzero(u_lin[:, 0] + slack < 0.0)]
     x_lin = solver.gather(v, w, vp, wp)

@@ -182,7 +182,7 @@ _SSOR_KEYS = ("bfirst", "bcount", "Dinv", "lcptr", "lcidx", "lcdat", "lptr", "li
               "ucptr", "ucidx", "ucdat", "uptr", "uidx", "udat")
 
 
-def _skew(a):
+def skew(a):
     """Cross-product matrices (B,3,3) of vectors a (B,3): skew(a) @ x = a x x."""
     z = np.zeros(len(a))
     return np.stack([np.stack([z, -a[:, 2], a[:, 1]], 1), np.stack([a[:, 2], z, -a[:, 0]], 1),
@@ -325,7 +325,7 @@ class LinearBondSolver:
         cgk = cg[keep]
         G = np.einsum("bci,bc,bcj->bij", frame[keep], cgk, frame[keep])
         eye = np.broadcast_to(np.eye(3), G.shape)
-        L = [eye, -_skew(arm_i[keep]), -eye, _skew(arm_j[keep])]  # U_b = sum_c L[c] x_blk[c]
+        L = [eye, -skew(arm_i[keep]), -eye, skew(arm_j[keep])]  # U_b = sum_c L[c] x_blk[c]
         self.nnz_factor = 0
         self.lu = None
         if method in ("cg", "cg_ssor"):

@@ -461,7 +461,7 @@ class Simulation:
                 if p.fast_path_contacts > 0:
                     closed = condensed.solve_contacts(
                         self._linear, ci, cj, cframe, gap, self.spheres.radius, inv_i, v_try,
-                        w_try, vp_try, wp_try, h, p.friction, p.fast_path_contacts)
+                        w_try, vp_try, wp_try, u, h, p.friction, p.fast_path_contacts)
                 if closed is None:
                     bP[:] = P_try  # warm start for NLGS
                     return False
