@@ -234,3 +234,27 @@ def test_held_out_predictions_carry_the_folds_artifacts():
     cell = held[held["fold"] == "40"].iloc[0]
     bare = np.degrees(np.angle(fit.law.law_at(cell["temperature_C"]).complex_modulus(2 * np.pi * 40.0)))
     assert cell["phase_deg_predicted"] - bare == pytest.approx(360 * 40.0 * dt, rel=0.2)
+
+
+@pytest.mark.parametrize("seed", [5, 17])
+def test_measurement_model_applies_the_training_correction_with_vertical_shifts(seed):
+    """A held-out row gets exactly the correction the training rows got: on a table with a
+    planted time lag and planted vertical shifts (|E*| x exp(v_T), v up to +-0.15 per
+    isotherm), the measurement model of the artifact search evaluated at the training rows
+    reproduces the corrected table's |E*| and Phi row by row. (Before the fix the model also
+    cleared the fitted vertical shifts, a factor exp(-v_T) the training table never had.)"""
+    t, _ = synthetic.generate(seed, ["time_lag"], schedule="aashto_t342", n_specimens=3)
+    temps = np.sort(t["temperature_C"].unique())
+    v = dict(zip(temps, np.linspace(-0.15, 0.15, temps.size)))
+    t = t.copy()
+    t["E_norm_MPa"] *= np.exp(t["temperature_C"].map(v).to_numpy(float))
+    corrected, names, _, model = cv.correct_artifacts(t, cv.Options())
+    assert "time_lag" in names and model is not None
+    fit = model.fit
+    verticals = [fit.param(n) for n in fit.names if n.startswith("ln_vertical_")]
+    assert max(abs(x) for x in verticals) > 0.05  # the vertical shifts are really fitted
+    R = model.correction(t)
+    E = t["E_norm_MPa"].to_numpy(float) * np.exp(1j * np.radians(t["phase_deg"].to_numpy(float)))
+    Ec = E * R
+    np.testing.assert_allclose(np.abs(Ec), corrected["E_norm_MPa"].to_numpy(float), rtol=1e-10)
+    np.testing.assert_allclose(np.degrees(np.angle(Ec)), corrected["phase_deg"].to_numpy(float), atol=1e-9)

@@ -157,10 +157,10 @@ class MeasurementModel:
         Raises ValueError if the rows lack a column an artifact needs.
         """
         from ..rheology.master_curve import MasterCurveProblem, data_arrays
+        from .effects import VERTICAL, artifact_ratio
 
         fit = self.fit
-        n_art = sum(len(t.names) for t in fit.terms)
-        if not n_art:
+        if not any(t.name != VERTICAL for t in fit.terms):
             return np.ones(len(rows), complex)
         d = data_arrays(rows)
         d["spec"] = rows["specimen"].astype(str).map({s: i for i, s in enumerate(fit.specimens)}).fillna(0)\
@@ -170,13 +170,7 @@ class MeasurementModel:
                                   terms=fit.terms, sigma_lnE=fit.sigma_lnE, sigma_phase_deg=fit.sigma_phase_deg)
         if list(prob.names) != list(fit.names):
             raise ValueError("the rows do not match the parameter layout of the artifact fit")
-        x_clean = fit.x.copy()
-        x_clean[-n_art:] = 0.0
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            R = prob.measured_modulus(x_clean) / prob.measured_modulus(fit.x)
-        if "modulus_drop_per_100_microstrain" in fit.names:
-            R = R * np.exp(fit.param("modulus_drop_per_100_microstrain") * self.strain_ref / 100.0)
-        return R
+        return artifact_ratio(prob, fit, self.strain_ref)
 
 
 def correct_artifacts(table: pd.DataFrame, options: Options, given=None) -> tuple[pd.DataFrame, list, list, MeasurementModel | None]:

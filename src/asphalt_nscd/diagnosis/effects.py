@@ -572,13 +572,8 @@ class ArtifactSearch:
         exp(b eps_ref / 100)).
         """
         prob = self.problem(self.artifact_terms(fit))
-        n_art = sum(len(t.names) for t in self.artifact_terms(fit))
-        x_clean = fit.x.copy() if offset is None else self.offset_corrected_fit(fit, offset)
-        if n_art:
-            x_clean[-n_art:] = 0.0
-        ratio = prob.measured_modulus(x_clean) / prob.measured_modulus(fit.x)
-        if "modulus_drop_per_100_microstrain" in fit.names:
-            ratio = ratio * np.exp(fit.param("modulus_drop_per_100_microstrain") * self.strain_ref / 100.0)
+        x_start = None if offset is None else self.offset_corrected_fit(fit, offset)
+        ratio = artifact_ratio(prob, fit, self.strain_ref, x_start)
         E = self.df["E_norm_MPa"].to_numpy(float) * np.exp(1j * np.radians(self.df["phase_deg"].to_numpy(float)))
         Ec = E * ratio
         out = self.df.copy()
@@ -620,6 +615,31 @@ class ArtifactSearch:
         """:meth:`corrected` of a :meth:`run` result (with its offset if detected)."""
         off = result.get("offset")
         return self.corrected(result["final"], off if off is not None and off.get("detected") else None)
+
+
+def artifact_ratio(prob: MasterCurveProblem, fit: MasterCurveFit, strain_ref: float,
+                   x_start: np.ndarray | None = None) -> np.ndarray:
+    """Complex factor R per row of ``prob`` that removes the artifacts of ``fit``
+    (corrected = measured x R): the model with the artifact parameters set to zero over the
+    model as fitted. The nuisance terms (vertical shifts, placed before the artifacts in the
+    parameter vector) and the specimen factors stay in both, so they cancel. A strain
+    nonlinearity b is corrected to the small-strain limit (factor exp(b eps_ref / 100), the
+    term being fitted about the reference strain ``strain_ref``, microstrain).
+
+    ``x_start``: the parameters to clear the artifacts from (default ``fit.x``; e.g. with a
+    temperature offset moved onto the shift law). One rule for the training table
+    (:meth:`ArtifactSearch.corrected`) and for held-out rows
+    (:class:`asphalt_nscd.diagnosis.crossval.MeasurementModel`). Shape (n_rows,).
+    """
+    n_art = sum(len(t.names) for t in fit.terms if t.name != VERTICAL)
+    x_clean = (fit.x if x_start is None else x_start).copy()
+    if n_art:
+        x_clean[-n_art:] = 0.0
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        ratio = prob.measured_modulus(x_clean) / prob.measured_modulus(fit.x)
+    if "modulus_drop_per_100_microstrain" in fit.names:
+        ratio = ratio * np.exp(fit.param("modulus_drop_per_100_microstrain") * strain_ref / 100.0)
+    return ratio
 
 
 def format_p(p) -> str:
