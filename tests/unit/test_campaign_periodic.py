@@ -1,6 +1,7 @@
 """Periodic start of the 2PB test: the theta-method's steady state is an exact periodic orbit
 of the NSCD step map, and one cycle from it gives the converged from-rest result."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -88,6 +89,61 @@ def test_periodic_state_is_an_orbit_of_the_step_map(tiny_sample, kinematics, the
     # and in between it is a sinusoid of the period: the 40 samples have no other harmonic
     spec = np.fft.rfft(np.array(hist["x"]), axis=0)
     assert np.abs(spec[2:]).max() < 1e-7 * np.abs(spec[1]).max()
+
+
+#: a solid chain: no Maxwell dashpot (static equilibrium under gravity)
+LAW_SOLID = GeneralizedBurgers(Em=3.0e7, eta_m=np.inf, Ek=(6e7, 9e7), eta_k=(3e6, 4e5))
+#: a solid through its static spring: the dashpot relaxes, E_inf carries the weight
+LAW_STATIC = GeneralizedBurgers(Em=3.0e7, eta_m=2.0e6, Ek=(6e7, 9e7, 2e8), eta_k=(3e6, 4e5, 2e4), E_inf=2e8)
+
+
+@pytest.mark.parametrize("kinematics,law,creep", [("contact", LAW_15C, True), ("barycentre", LAW_15C, True),
+                                                  ("contact", LAW_SOLID, False), ("contact", LAW_STATIC, False)])
+def test_periodic_state_with_gravity_is_an_orbit_of_the_step_map(tiny_sample, kinematics, law, creep):
+    """With gravity on, the periodic state plus the steady state under gravity (head held) is
+    an orbit of the step map too: after one period every force, velocity and internal
+    variable of the springs is back, and the positions have moved by exactly one period of
+    the steady creep (a liquid bond law) or not at all (a solid one). Without the gravity
+    part, the same start is not an orbit (gravity's transient)."""
+    f = 10.0
+    s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=1.0, gravity=True,
+                            bond_kinematics=kinematics,
+                            head_rotation="free" if kinematics == "contact" else "clamped")
+    dt = twopb.time_step(f, s)
+    sample = read_sample(tiny_sample)
+    errors = {}
+    for with_gravity in (True, False):
+        sim, _ = twopb.build_simulation(sample, law, f, dt, s)
+        sim.params.linear_tolerance = 1e-13
+        state = periodic.periodic_state(sim, law, f, s.amplitude_m, s.head_rotation)
+        assert state.gravity is not None and state.gravity.creep == creep
+        assert state.gravity.residual < 1e-9 and not state.gravity.regularised
+        if not with_gravity:  # the periodic part alone: gravity starts from rest
+            g = state.gravity
+            state = dataclasses.replace(
+                state, position=state.position - g.displacement, velocity=state.velocity - g.velocity,
+                angular_velocity=state.angular_velocity - g.angular_velocity,
+                head_rotation=state.head_rotation - g.head_rotation,
+                head_angular_velocity=state.head_angular_velocity - g.head_angular_velocity,
+                bond_displacement=state.bond_displacement - g.bond_displacement,
+                bond_force=state.bond_force - g.bond_force, delta_c=state.delta_c - g.delta_c,
+                delta_k=state.delta_k - g.delta_k)
+        periodic.apply_periodic_state(sim, state)
+        for _ in range(40):
+            st = sim.step()
+            assert st.solver == "linear"
+        drift = 40 * dt * state.gravity.velocity if with_gravity else 0.0
+        errors[with_gravity] = (
+            np.abs(sim.bonds.force - state.bond_force).max() / np.abs(state.bond_force).max(),
+            np.abs(sim.spheres.velocity - state.velocity).max() / np.abs(state.velocity).max(),
+            np.abs(sim.bonds.delta_k - state.delta_k).max() / np.abs(state.delta_k).max(),
+            np.abs(sim.spheres.position - state.position - drift).max() / s.amplitude_m)
+        if with_gravity and creep:
+            assert np.abs(state.gravity.velocity).max() > 0
+        elif with_gravity:
+            assert np.abs(state.gravity.velocity).max() == 0
+    assert max(errors[True]) < 1e-8, errors[True]
+    assert max(errors[False][:3]) > 1e-3, errors[False]
 
 
 def test_discrete_state_beats_the_continuous_one(tiny_sample):

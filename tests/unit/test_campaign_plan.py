@@ -69,8 +69,8 @@ JOBS_PER_MODE = {
               "units_kPa_nobreak": 1},
     "config": {"dt_study": 4, "extended": 30, "measured": 60, "paper": 60, "sensitivity": 24, "units_kPa": 3,
                "units_kPa_nobreak": 3},
-    "paper": {"dt_study": 16, "extended": 120, "measured": 120, "paper": 120, "sensitivity": 160, "units_kPa": 20,
-              "units_kPa_nobreak": 20},
+    "paper": {"dt_study": 16, "extended": 120, "measured": 120, "paper": 120, "paper_kPa": 120, "sensitivity": 160,
+              "units_kPa": 20, "units_kPa_nobreak": 20},
 }
 
 
@@ -129,7 +129,20 @@ def test_mode_laws_and_options():
     assert plan.mode_summary(cfg, "extended") == [plan.MEASURED_SUMMARY] and plan.mode_summary(cfg, "paper") == []
     assert plan.mode_options(cfg, "paper") == "--table3-units Pa --paper-table4 data/paper/table4_mre.csv"
     assert plan.mode_options(cfg, "measured") == "--measured-summary results/lab/measured_summary.csv"
-    assert plan.isotherms_title(cfg, "paper") == "NSCD vs Table 3 Burger's (paper mode)"
+    assert plan.isotherms_title(cfg, "paper") == "NSCD vs Table 3 Burger's read in Pa (paper mode)"
+    assert plan.isotherms_title(cfg, "paper_kPa") == "NSCD vs Table 3 Burger's read in kPa (paper_kPa mode)"
+    # the reading modes: the paper schedule, their own reading and overrides
+    assert plan.mode_options(cfg, "paper_kPa") == "--table3-units kPa --paper-table4 data/paper/table4_mre.csv"
+    assert plan.case_options(cfg, "paper_kPa", "s1", "15C_40Hz") == "--temperature 15 --frequency 40 --table3-units kPa"
+    assert plan.policy_units_option(cfg, "paper_Pa") == "--table3-units Pa"
+    assert plan.mode_frequencies(cfg, "paper_kPa") == plan.mode_frequencies(cfg, "paper")
+    both = copy.deepcopy(cfg)
+    both["campaign"]["paper_kPa"] = {"yield_stress_Pa": None, "linear_solver": "direct"}
+    kpa = json.loads(plan.mode_settings_json(both, "paper_kPa"))
+    pa = json.loads(plan.mode_settings_json(both, "paper"))
+    assert kpa["yield_stress_Pa"] is None and kpa["linear_solver"] == "direct"
+    assert {k: v for k, v in kpa.items() if k not in ("yield_stress_Pa", "linear_solver")} == \
+        {k: v for k, v in pa.items() if k not in ("yield_stress_Pa", "linear_solver")}
     assert plan.isotherms_title(cfg, "extended") == "NSCD vs measured (extended mode)"
     # dt-policy check: upper median temperature and the schedule's frequencies
     assert plan.policy_temperature(cfg, "paper") == 15 and plan.policy_temperature(cfg, "measured") == 21
@@ -234,7 +247,7 @@ def test_report_files_are_the_report_index_inputs(named_config):
     name, cfg = named_config
     files = plan.report_files(cfg)
     # counts of the collect-report command of the dry runs (smoke: one sample, else four)
-    assert len(files) == {"smoke": 75, "config": 78, "paper": 78}[name]
+    assert len(files) == {"smoke": 75, "config": 78, "paper": 82}[name]  # paper: + the paper_kPa mode's 4
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
     assert files[-1] == "results/diagnosis/crossval/loto.png"
     assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files

@@ -214,7 +214,7 @@ rule campaign_dt_policy:
     benchmark:
         "benchmarks/campaign/{mode}_dt_policy.tsv"
     wildcard_constraints:
-        mode="paper|measured",
+        mode=plan.POLICY_MODES,
     conda:
         "../envs/asphalt-nscd.yaml"
     params:

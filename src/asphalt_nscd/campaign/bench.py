@@ -105,8 +105,9 @@ def campaign_jobs(campaign: dict, n_samples_total: int, bond_kinematics: str = "
                      "start": s.start, "n_steps": n_steps_of(f, step, s)})
 
     for mode in campaign["modes"]:
-        for T in campaign[mode]["temperatures_C"]:
-            for f in campaign[mode]["frequencies_Hz"]:
+        sched = campaign["measured" if mode == "measured" else "paper"]
+        for T in sched["temperatures_C"]:
+            for f in sched["frequencies_Hz"]:
                 add(mode, ns(campaign["n_samples"]), T, f)
     if "extended" in campaign:
         for T in campaign["measured"]["temperatures_C"]:

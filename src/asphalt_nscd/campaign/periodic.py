@@ -58,9 +58,34 @@ steady-state force amplitude of a bond reaches its strength R_crit (|R_n| or
 sqrt(|R_t|^2 + |R_s|^2), an upper bound of the tangential peak), the bond would break and
 the state is not the test's steady state: :func:`periodic_state` reports it
 (``breaks``) and :func:`asphalt_nscd.campaign.twopb.run_test` falls back to the rest start
-with ``n_cycles`` (recorded in the record and row as ``start``). Gravity, when on, is a
-constant load: by superposition its response (a sag and, with a Maxwell dashpot, a slow
-creep) is the same from either start, and is left to start from rest in both.
+with ``n_cycles`` (recorded in the record and row as ``start``). 
+Gravity (the simulation's ``params.gravity``, on in the paper's protocol) is a constant load
+and, the test being linear, its response superposes on the periodic one. Left to start
+from rest, it is a transient of its own: switched on at t = 0, the sample's weight excites
+its lowest modes, which the bonds' small loss (a few degrees of phase at low temperature)
+damps over many cycles (at paper scale about 1 % and 1-2 deg at 40 Hz after one cycle).
+The periodic start therefore begins in the steady state under gravity with the head held
+(:func:`gravity_state`), the limit of the paper's stabilisation "by activating gravity"
+with the bond law of the test temperature, plus the periodic state: the head force of the
+first cycle is then the converged one, the constant weight adding only an offset. The
+steady state under gravity is the exact fixed point of the step map for a constant load:
+
+* a liquid chain (Maxwell dashpot, E_inf = 0): steady creep. Every bond carries the static
+  force of the sample's weight (constant), the Kelvin-Voigt units have crept to R/Kk, and
+  the Maxwell dashpots flow at R/Cm, so every sphere moves at a constant velocity
+  V = U_1 / eta_m with U_1 = G^-1 F_g (G the network's stiffness per unit modulus, F_g the
+  weights): positions x_0 + n h V, all forces constant, exactly integrated by the
+  theta-method;
+* a solid chain (E_inf > 0, or no dashpot): static equilibrium U_1 / E(0), the chain's
+  force relaxed to zero when it has a dashpot.
+
+Every bond law of the campaign is a multiple a_b of one macro law (Eqs. 30-33), so one
+solve with G (the core's network, no regularisation) gives both, refined
+(:data:`GRAVITY_REFINEMENTS` steps). Should G be singular (a mechanism: a sphere held by one
+bond rolls about it), the harmonic solver's rotational regularisation gives the mechanism a
+finite answer (``regularised`` in the record); a mechanism carries no force in the linear
+test and moves under its weight from either start. Spheres of clusters bonded to no plate
+fall freely from either start and are left at rest.
 
 The solve costs one harmonic solution of the sample (a real factorisation and 4-14 GMRES
 iterations; ``solve_s`` in the record): 0.05-0.17 s on the 221-sphere default sample and
@@ -119,6 +144,7 @@ class PeriodicState:
     breaks : bool — force_ratio >= 1 (the linear steady state would break bonds).
     solve_s : wall time of the harmonic solve, s; gmres_iterations : int.
     head_force : complex, N — the harmonic head force phasor (x), for information.
+    gravity : GravityState superposed (None: the simulation has no gravity).
     """
 
     position: np.ndarray
@@ -136,6 +162,50 @@ class PeriodicState:
     solve_s: float
     gmres_iterations: int
     head_force: complex
+    gravity: "GravityState | None" = None
+
+
+#: iterative refinements of the static solve under gravity (the network is ill-conditioned:
+#: its softest modes are 1e8 times softer than its stiffest on small samples)
+GRAVITY_REFINEMENTS = 2
+
+
+@dataclass
+class GravityState:
+    """Steady state of the bonded 2PB sample under its weight with the head held
+    (:func:`gravity_state`; arrays in the core's layout, SI units).
+
+    displacement, velocity, rotation, angular_velocity : (N, 3) m, m/s, rad, rad/s — from the
+        rest configuration at t = 0 (rotations enter the bonds only through ``bond_*``).
+    head_rotation, head_angular_velocity : (3,) rad, rad/s.
+    bond_displacement, bond_force, delta_c : (B, 3); delta_k : (B, NK, 3) (bond local frames).
+    creep : bool — steady creep (liquid chain) or static equilibrium (solid chain).
+    residual : relative residual |F_g - G U_1| / |F_g| of the refined static solve.
+    regularised : True if the network was singular (a mechanism) and was solved with the
+        harmonic solver's rotational regularisation (module docstring).
+    sag_m : largest displacement at t = 0, m; solve_s : wall time, s.
+    """
+
+    displacement: np.ndarray
+    velocity: np.ndarray
+    rotation: np.ndarray
+    angular_velocity: np.ndarray
+    head_rotation: np.ndarray
+    head_angular_velocity: np.ndarray
+    bond_displacement: np.ndarray
+    bond_force: np.ndarray
+    delta_c: np.ndarray
+    delta_k: np.ndarray
+    creep: bool
+    residual: float
+    regularised: bool
+    sag_m: float
+    solve_s: float
+
+    def info(self) -> dict:
+        """JSON-ready summary (the record's ``start_info['gravity']``)."""
+        return {"creep": self.creep, "residual": self.residual, "regularised": self.regularised,
+                "sag_m": self.sag_m, "solve_s": self.solve_s}
 
 
 def network_of(sim):
@@ -157,6 +227,114 @@ def network_of(sim):
                               plate_point=pls.point[:2], head_size_m=(1.0, 1.0))
     head = pls.inertia[1] if pls.rotates[1] else np.zeros(3)
     return dataclasses.replace(net, plate_inertia=np.array(head, float))
+
+
+def _bond_displacement(bonds, X, TH, THp, up, contact: bool) -> np.ndarray:
+    """Displacement (B, 3) of every bond in its local frame for sphere displacements X and
+    rotations TH (N, 3), head rotation THp (3,) and head translation up (3,), real or
+    complex: frame (Delta_i - Delta_j), Delta = X + Theta x arm (contact kinematics) or X."""
+    i, j = bonds.i, bonds.j
+    sph = j >= 0
+    di = X[i] + (np.cross(TH[i], bonds.arm_i) if contact else 0.0)
+    dj = np.zeros_like(di)
+    dj[sph] = X[j[sph]] + (np.cross(TH[j[sph]], bonds.arm_j[sph]) if contact else 0.0)
+    top = j == -2
+    dj[top] = up + (np.cross(THp[None, :], bonds.arm_j[top]) if contact else 0.0)
+    return np.einsum("bcd,bd->bc", bonds.frame, di - dj)
+
+
+def _bond_laws(bonds):
+    """Km, Cm, Kinf (B, 3) and Kk, Ck (B, NK, 3) of the bonds per local component."""
+    comp = [0, 1, 1]  # normal, tangential, tangential
+    return (bonds.Km[:, comp], bonds.Cm[:, comp], bonds.Kinf[:, comp], bonds.Kk[:, :, comp],
+            bonds.Ck[:, :, comp])
+
+
+def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO) -> GravityState:
+    """Steady state of the 2PB simulation under its gravity with the head held (module
+    docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
+
+    Parameters
+    ----------
+    sim : asphalt_nscd.nscd.Simulation at rest (as :func:`periodic_state`), gravity
+        ``sim.params.gravity`` (m/s^2).
+    law : GeneralizedBurgers (Pa, Pa s), the macro law of the bonds.
+    head_rotation, nu : as :func:`periodic_state`.
+
+    Returns
+    -------
+    GravityState (all zero when the gravity is zero).
+
+    Raises
+    ------
+    ValueError if the law is not a generalized Burger's model.
+    """
+    from ..harmonic.solver import HarmonicSystem
+
+    tic = time.perf_counter()
+    if not all(hasattr(law, k) for k in ("Em", "eta_m", "Ek", "eta_k", "E_inf")):
+        raise ValueError(f"gravity_state: {type(law).__name__} is not a generalized Burger's law")
+    p = sim.params
+    contact = p.bond_kinematics == "contact"
+    head = head_rotation if contact else "clamped"
+    sph, b = sim.spheres, sim.bonds
+    n = sph.n
+    g = np.asarray(p.gravity, float)
+    liquid = np.isfinite(law.eta_m) and law.E_inf == 0.0
+    if liquid:  # steady creep: U_0 = c0 U_1 (springs), V = U_1 / eta_m (Maxwell dashpot)
+        c0, c1 = 1.0 / law.Em + sum(1.0 / e for e in law.Ek), 1.0 / law.eta_m
+    else:       # static equilibrium at the static modulus E(0)
+        chain = 0.0 if np.isfinite(law.eta_m) else 1.0 / (1.0 / law.Em + sum(1.0 / e for e in law.Ek))
+        c0, c1 = 1.0 / (law.E_inf + chain), 0.0
+    X1 = np.zeros((n, 3))
+    TH1 = np.zeros((n, 3))
+    THp1 = np.zeros(3)
+    residual, regularised = 0.0, False
+    if np.any(g != 0.0):
+        from ..harmonic.solver import ROTATIONAL_REGULARISATION
+
+        net = network_of(sim)
+        system = HarmonicSystem(net, nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
+                                regularisation=0.0)
+        d = system.dof_per_sphere
+        act = np.flatnonzero(system.active)
+        rhs = np.zeros(system.n_free)
+        rhs[:d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
+        g0 = system._reference_blocks()["ff"]
+        try:
+            lu = system._reference()["lu"]
+        except RuntimeError:  # singular: a mechanism; its finite answer from the regularised network
+            regularised = True
+            lu = HarmonicSystem(net, nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
+                                regularisation=ROTATIONAL_REGULARISATION)._reference()["lu"]
+        u = lu.solve(rhs)
+        for _ in range(GRAVITY_REFINEMENTS):
+            u = u + lu.solve(rhs - g0 @ u)
+        residual = float(np.linalg.norm(rhs - g0 @ u) / max(np.linalg.norm(rhs), 1e-300))
+        q = u[:d * act.size].reshape(-1, d)
+        X1[act] = q[:, :3]
+        if contact:
+            TH1[act] = q[:, 3:]
+        if head == "free":
+            THp1 = u[d * act.size:d * act.size + 3].copy()
+    X0, TH0, THp0 = c0 * X1, c0 * TH1, c0 * THp1
+    delta = _bond_displacement(b, X0, TH0, THp0, np.zeros(3), contact)
+    Km, Cm, Kinf, Kk, Ck = _bond_laws(b)
+    dashpot = np.isfinite(Cm)
+    if liquid:  # dashpots at 0, springs and Kelvin-Voigt units at the steady force
+        r_ch = -delta / (1.0 / Km + (1.0 / Kk).sum(axis=1))
+        d_c = np.zeros_like(delta)
+    else:
+        j0 = 1.0 / Km + (1.0 / Kk).sum(axis=1)
+        r_ch = np.where(dashpot, 0.0, -delta / j0)
+        d_c = np.where(dashpot, delta, 0.0)
+    d_k = -r_ch[:, None, :] / Kk
+    return GravityState(
+        displacement=X0, velocity=c1 * X1, rotation=TH0, angular_velocity=c1 * TH1,
+        head_rotation=THp0, head_angular_velocity=c1 * THp1, bond_displacement=delta,
+        bond_force=r_ch - Kinf * delta, delta_c=d_c, delta_k=np.ascontiguousarray(d_k), creep=bool(liquid),
+        residual=residual, regularised=regularised, sag_m=float(np.abs(X0).max()) if n else 0.0,
+        solve_s=time.perf_counter() - tic)
 
 
 def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
@@ -205,38 +383,33 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
         TH = np.zeros_like(TH)
         THp = np.zeros(3, complex)
     b = sim.bonds
-    i, j = b.i, b.j
-    sph = j >= 0
-    di = X[i] + (np.cross(TH[i], b.arm_i) if contact else 0.0)
-    dj = np.zeros_like(di)
-    dj[sph] = X[j[sph]] + (np.cross(TH[j[sph]], b.arm_j[sph]) if contact else 0.0)
-    top = j == -2
-    dj[top] = up + (np.cross(THp[None, :], b.arm_j[top]) if contact else 0.0)
-    delta = np.einsum("bcd,bd->bc", b.frame, di - dj)  # (B, 3) local frame
-    comp = [0, 1, 1]  # normal, tangential, tangential
-    Km, Cm, Kinf = b.Km[:, comp], b.Cm[:, comp], b.Kinf[:, comp]
-    Kk, Ck = b.Kk[:, :, comp], b.Ck[:, :, comp]
-    with np.errstate(divide="ignore"):
+    delta = _bond_displacement(b, X, TH, THp, up, contact)
+    Km, Cm, Kinf, Kk, Ck = _bond_laws(b)
+    with np.errstate(divide="ignore", invalid="ignore"):
         inv_c = np.where(np.isinf(Cm), 0.0, 1.0 / (s * Cm))
     J = 1.0 / Km + inv_c + (1.0 / (Kk + s * Ck)).sum(axis=1)
     r_ch = -delta / J
     force = r_ch - Kinf * delta
     d_c = -r_ch * inv_c
     d_k = -r_ch[:, None, :] / (Kk + s * Ck)
-    amp_n = np.abs(force[:, 0])
-    amp_t = np.sqrt(np.abs(force[:, 1]) ** 2 + np.abs(force[:, 2]) ** 2)
+    g = gravity_state(sim, law, head_rotation=head_rotation, nu=nu)  # zero without gravity
+    # peak force per bond: the steady (gravity) force plus the periodic amplitude
+    amp_n = np.abs(g.bond_force[:, 0]) + np.abs(force[:, 0])
+    amp_t = (np.sqrt(g.bond_force[:, 1] ** 2 + g.bond_force[:, 2] ** 2)
+             + np.sqrt(np.abs(force[:, 1]) ** 2 + np.abs(force[:, 2]) ** 2))
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(np.isfinite(b.r_crit), np.maximum(amp_n, amp_t) / b.r_crit, 0.0)
     ratio = float(ratio.max()) if len(ratio) else 0.0
     return PeriodicState(
-        position=sim.spheres.position + np.real(X),
-        velocity=np.real(s * X), angular_velocity=np.real(s * TH),
-        head_rotation=np.real(THp), head_angular_velocity=np.real(s * THp),
-        bond_displacement=np.real(delta), bond_force=np.real(force), delta_c=np.real(d_c),
-        delta_k=np.ascontiguousarray(np.real(d_k)), laplace=complex(s), force_ratio=ratio,
-        breaks=ratio >= 1.0, solve_s=time.perf_counter() - tic,
+        position=sim.spheres.position + g.displacement + np.real(X),
+        velocity=g.velocity + np.real(s * X), angular_velocity=g.angular_velocity + np.real(s * TH),
+        head_rotation=g.head_rotation + np.real(THp),
+        head_angular_velocity=g.head_angular_velocity + np.real(s * THp),
+        bond_displacement=g.bond_displacement + np.real(delta), bond_force=g.bond_force + np.real(force),
+        delta_c=g.delta_c + np.real(d_c), delta_k=np.ascontiguousarray(g.delta_k + np.real(d_k)),
+        laplace=complex(s), force_ratio=ratio, breaks=ratio >= 1.0, solve_s=time.perf_counter() - tic,
         gmres_iterations=int(getattr(system, "last_gmres_iterations", 0)),
-        head_force=complex(rot * sol.force[0]))
+        head_force=complex(rot * sol.force[0]), gravity=g if np.any(p.gravity) else None)
 
 
 def apply_periodic_state(sim, state: PeriodicState) -> None:

@@ -37,10 +37,18 @@ from ..io import InputError
 REPORT_INDEX = "results/report/index.md"
 #: the extended bond law per temperature (rule extend_law) run by the extended mode
 LAW_JSON = "results/diagnosis/generalized_burgers.json"
+#: the unit readings of the paper's Table 3 (data/paper/SOURCE.md)
+TABLE3_READINGS = ("Pa", "kPa")
+#: modes running Table 3 under an explicit reading beside ``paper`` (which runs
+#: calibration.table3_units): same schedule (campaign.paper), own overrides (campaign.paper_<unit>)
+READING_MODES = tuple(f"paper_{u}" for u in TABLE3_READINGS)
 #: main campaign modes with a numerical isotherms / Table 4 aggregation (wildcard constraint)
-ISOTHERM_MODES = "paper|measured|extended"
+ISOTHERM_MODES = "paper|paper_Pa|paper_kPa|measured|extended"
 #: every job mode of rule run_2pb (wildcard constraint)
-JOB_MODES = "paper|measured|extended|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak|units_kPa_nobreak"
+JOB_MODES = ("paper|paper_Pa|paper_kPa|measured|extended|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak"
+             "|units_kPa_nobreak")
+#: modes of the dt-policy check (wildcard constraint)
+POLICY_MODES = "paper|paper_Pa|paper_kPa|measured"
 #: the Burger's parameters of the sensitivity study, in the order of its figures 11-14
 SENS_PARAMETERS = ["Em", "eta_m", "Ek", "eta_k"]
 #: the rheology plots of rule rheology_figures and the harmonic figures
@@ -291,10 +299,26 @@ def mode_samples(config: dict, mode: str) -> list:
     return campaign_samples(config, camp["extended"]["n_samples"] if mode == "extended" else camp["n_samples"])
 
 
+def schedule(config: dict, mode: str) -> dict:
+    """The schedule section of a main mode: campaign.measured (measured, extended) or
+    campaign.paper (paper and the reading modes paper_Pa, paper_kPa)."""
+    return config["campaign"]["measured" if mode in ("measured", "extended") else "paper"]
+
+
+def table3_reading(config: dict, mode: str) -> str:
+    """The unit reading of Table 3 of a paper-parameter mode: calibration.table3_units for
+    ``paper`` and the studies run beside it (dt_study, sensitivity), the mode's own for
+    ``paper_<unit>`` and ``units_<unit>[_nobreak]``."""
+    if mode.startswith(("paper_", "units_")):
+        return mode.split("_")[1]
+    return config["calibration"]["table3_units"]
+
+
 def mode_rows(config: dict, mode: str, samples=None) -> list:
-    """Reduced rows of the main campaign of one mode (paper, measured or extended; the extended
-    mode runs the measured schedule), on ``samples`` (default: the mode's)."""
-    sched = config["campaign"]["measured" if mode == "extended" else mode]
+    """Reduced rows of the main campaign of one mode (paper, paper_<unit>, measured or
+    extended; the extended mode runs the measured schedule), on ``samples`` (default: the
+    mode's)."""
+    sched = schedule(config, mode)
     return [
         f"results/sim/{mode}/{s}/{case_name(T, f)}.csv"
         for s in (mode_samples(config, mode) if samples is None else samples)
@@ -444,8 +468,7 @@ def case_options(config: dict, mode: str, sample: str, case: str) -> str:
         opts += f" --network-factor-json {transfer_file(sample)}"
     if mode in ("measured", "extended"):
         return opts
-    units = mode.split("_")[1] if mode.startswith("units_") else config["calibration"]["table3_units"]
-    return f"{opts} --table3-units {units}"
+    return f"{opts} --table3-units {table3_reading(config, mode)}"
 
 
 def case_options_function(config: dict):
@@ -468,7 +491,7 @@ def mode_options(config: dict, mode: str) -> str:
     the paper's Table 4."""
     if mode in ("measured", "extended"):
         return f"--measured-summary {MEASURED_SUMMARY}"
-    return f"--table3-units {config['calibration']['table3_units']} --paper-table4 data/paper/table4_mre.csv"
+    return f"--table3-units {table3_reading(config, mode)} --paper-table4 data/paper/table4_mre.csv"
 
 
 def mode_options_function(config: dict):
@@ -478,8 +501,9 @@ def mode_options_function(config: dict):
 
 def isotherms_title(config: dict, mode: str) -> str:
     """Title of the isotherm figures of a mode."""
-    law = "Table 3 Burger's" if mode == "paper" else "measured"
-    return f"NSCD vs {law} ({mode} mode)"
+    if mode in ("measured", "extended"):
+        return f"NSCD vs measured ({mode} mode)"
+    return f"NSCD vs Table 3 Burger's read in {table3_reading(config, mode)} ({mode} mode)"
 
 
 def isotherms_title_function(config: dict):
@@ -489,7 +513,7 @@ def isotherms_title_function(config: dict):
 
 def policy_temperature(config: dict, mode: str) -> float:
     """Temperature of the dt-policy phase error of a mode: the upper median of its schedule."""
-    temps = sorted(config["campaign"][mode]["temperatures_C"])
+    temps = sorted(schedule(config, mode)["temperatures_C"])
     return temps[len(temps) // 2]
 
 
@@ -500,7 +524,7 @@ def policy_temperature_function(config: dict):
 
 def policy_units_option(config: dict, mode: str) -> str:
     """The Table 3 reading option of the dt-policy check (none for the measured mode)."""
-    return "" if mode == "measured" else f"--table3-units {config['calibration']['table3_units']}"
+    return "" if mode == "measured" else f"--table3-units {table3_reading(config, mode)}"
 
 
 def policy_units_option_function(config: dict):
@@ -510,7 +534,7 @@ def policy_units_option_function(config: dict):
 
 def mode_frequencies(config: dict, mode: str) -> str:
     """The frequencies of a mode's schedule, space-separated (``:g``)."""
-    return " ".join(number(f) for f in config["campaign"][mode]["frequencies_Hz"])
+    return " ".join(number(f) for f in schedule(config, mode)["frequencies_Hz"])
 
 
 def mode_frequencies_function(config: dict):

@@ -101,7 +101,7 @@ def law_reference(laws: dict, temperature_C, frequency_Hz, where="law JSON") -> 
 class JobLaws:
     """The macro law of a job of any mode, from the law files the workflow passes to run-2pb
     (workflow/rules/campaign.smk): the paper's Table 3 read under ``table3_units`` (paper
-    mode and the studies; units_Pa / units_kPa under their own reading), the calibrated
+    mode and the studies; paper_Pa / paper_kPa and units_Pa / units_kPa under their own reading), the calibrated
     Burger's table (measured mode), the generalized law JSON (extended mode), divided by the
     sample's network factor read from ``network_factor_json`` when given (transfer
     correction). Files are read when first needed.
@@ -144,7 +144,7 @@ class JobLaws:
             return burgers_model(parameters_at(table, temperature_C, factors, where=self.parameters))
         if not self.table3:
             raise InputError(f"a {mode}-mode job needs the paper's Table 3 (--table3)")
-        units = mode.split("_")[1] if mode.startswith("units_") else self.table3_units
+        units = mode.split("_")[1] if mode.startswith(("units_", "paper_")) else self.table3_units
         table = self._read(f"table3_{units}", lambda: parameter_table(self.table3, units))
         return burgers_model(parameters_at(table, temperature_C, factors, where=self.table3))
 

@@ -55,7 +55,10 @@ Gravity (``gravity``): the bonds' rest state is the stabilised configuration, so
 loads them again from zero; with a Maxwell dashpot the sample then creeps downwards during
 the test. The creep is vertical and slow (the fit's drift term absorbs any trace of it in
 x), but at high temperature it can close contacts and switch steps from the linear fast
-path to Gauss-Seidel. Off by default at reduced scale, on in ``paper.yaml``.
+path to Gauss-Seidel. From rest, gravity is switched on at t = 0 with the head motion (the
+paper's protocol); the periodic start begins in the steady state under gravity with the
+head held, the limit of the paper's stabilisation at the test temperature
+(:func:`.periodic.gravity_state`). Off by default at reduced scale, on in ``paper.yaml``.
 
 Bond kinematics and head rotation (``bond_kinematics``, config ``nscd.bond_kinematics``;
 ``head_rotation``, config ``campaign.test.head_rotation``): by default the bonds act at their
@@ -193,17 +196,22 @@ def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", l
 
     ``campaign.test`` with the overrides (:data:`MODE_OVERRIDES`) of the mode's schedule:
     ``campaign.measured`` for the measured and extended modes, ``campaign.paper`` for the
-    paper mode and the studies (dt_study, sensitivity, units_*). The start may further be set
-    per study or mode section (``campaign.extended.start``, ``campaign.dt_study.start``,
-    ``campaign.sensitivity.start``, ``campaign.units_question.start`` for units_*). Modes
-    ending in ``_nobreak`` get unbreakable bonds; ``bond_kinematics`` and ``linear_solver``
-    are the core's (config ``nscd.bond_kinematics``, ``nscd.linear_solver``); a schedule's
-    own ``linear_solver`` wins (e.g. ``direct`` for mix-like bonds, docs/choices.md).
+    paper modes and the studies (dt_study, sensitivity, units_*). A reading mode
+    ``paper_<unit>`` (Table 3 read in <unit> beside the paper mode) then takes every override
+    of its own section ``campaign.paper_<unit>`` (e.g. its bond strength). The start may
+    further be set per study or mode section (``campaign.extended.start``,
+    ``campaign.dt_study.start``, ``campaign.sensitivity.start``,
+    ``campaign.units_question.start`` for units_*). Modes ending in ``_nobreak`` get
+    unbreakable bonds; ``bond_kinematics`` and ``linear_solver`` are the core's (config
+    ``nscd.bond_kinematics``, ``nscd.linear_solver``); a schedule's own ``linear_solver`` wins
+    (e.g. ``direct`` for mix-like bonds, docs/choices.md).
     """
     sched = campaign["measured"] if mode in ("measured", "extended") else campaign["paper"]
     cfg = {**campaign["test"], "linear_solver": linear_solver, **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
     own = "units_question" if mode.startswith("units_") else mode
-    if own not in ("paper", "measured") and "start" in (campaign.get(own) or {}):
+    if own.startswith("paper_"):
+        cfg.update({k: v for k, v in (campaign.get(own) or {}).items() if k in MODE_OVERRIDES})
+    elif own not in ("paper", "measured") and "start" in (campaign.get(own) or {}):
         cfg["start"] = campaign[own]["start"]
     if mode.endswith("_nobreak"):
         cfg["yield_stress_Pa"] = None
@@ -330,7 +338,8 @@ def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
     Returns dict: start ('rest' | 'periodic', the start used), requested, and for a
     periodic request (``continuous``: the continuous steady state s = i w instead of the
     theta-method's, :func:`.periodic.periodic_state`, for ``periodic-check``) solve_s and solve_cpu_s (wall and CPU time of the solve, counted in the
-    record's times), force_ratio (steady bond force / strength), gmres_iterations,
+    record's times), force_ratio (steady bond force / strength), gravity (with gravity on: the
+    steady state under gravity superposed, :meth:`.periodic.GravityState.info`), gmres_iterations,
     laplace_imag (the theta-method's effective angular frequency, rad/s) and fallback
     (reason, when it starts from rest).
     """
@@ -347,6 +356,8 @@ def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
                  "force_ratio": state.force_ratio,
                  "gmres_iterations": state.gmres_iterations, "laplace_real": state.laplace.real,
                  "laplace_imag": state.laplace.imag})
+    if state.gravity is not None:
+        info["gravity"] = state.gravity.info()
     if state.breaks:
         info["fallback"] = (f"the steady state would break bonds (force / strength up to "
                             f"{state.force_ratio:.3g}): the test is not linear, started from rest")
