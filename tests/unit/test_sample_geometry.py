@@ -166,3 +166,29 @@ def test_configs_match_schema_and_defaults():
         section = yaml.safe_load((root / f"config/{name}.yaml").read_text())["sample"]
         jsonschema.validate(section, schema)
         assert settings.load(root / f"config/{name}.yaml") == settings.merge(settings.DEFAULTS, section)
+
+
+def test_layer_height_surface_and_max():
+    """A flat layer of unit spheres (tops at 2 mm) with one sphere resting on top: the top of
+    the highest sphere jumps to 4 mm, the mean surface over 5 mm columns moves by one column's
+    share only; a column with no sphere counts 0; the slice solid fraction of a cubic
+    arrangement is pi/6."""
+    from asphalt_nscd.sample.geometry import layer_height, solid_fraction_profile
+
+    L, W, r = 0.02, 0.01, 1e-3
+    x, y = np.meshgrid(np.arange(r, L, 2 * r), np.arange(r, W, 2 * r), indexing="ij")
+    pos = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, r)])
+    rad = np.full(x.size, r)
+    assert layer_height(pos, rad, (L, W)) == pytest.approx(2 * r)
+    top = np.vstack([pos, [[0.004, 0.004, 3 * r]]])
+    rad2 = np.append(rad, r)
+    assert layer_height(top, rad2, (L, W), "max") == pytest.approx(4 * r)
+    # 4 x 2 columns of 5 mm: one of 8 is 2 mm higher
+    assert layer_height(top, rad2, (L, W), "surface", 5e-3) == pytest.approx(2 * r + 2 * r / 8)
+    # an empty half of the box halves the surface height
+    half = pos[:, 0] < L / 2
+    assert layer_height(pos[half], rad[half], (L, W), "surface", 5e-3) == pytest.approx(r)
+    with pytest.raises(ValueError, match="measure"):
+        layer_height(pos, rad, (L, W), "mean")
+    z, phi = solid_fraction_profile(pos, rad, 2 * r, (L, W), dz=2 * r)
+    assert phi == pytest.approx([np.pi / 6])

@@ -23,7 +23,9 @@ Choices (the paper does not say)
   8000 cells of its 0.25 x 0.025 x 1.6 m box). Spheres and groups are shuffled, and each
   sphere gets a uniform random offset within its (sub-)cell, keeping clear of the walls.
 * The trapezoid is centred on the mid-height of the deposited layer,
-  ``zc = max(H_layer, B) / 2`` with ``H_layer`` the top of the highest sphere.
+  ``zc = max(H_layer, B) / 2`` with ``H_layer`` the layer height of ``layer_height.measure``
+  (:func:`layer_height`; default the mean height of the layer's surface, which is what the
+  paper's "layer of 60 mm" can be compared with, not the top of its highest sphere).
 * Bonds: every pair whose surface gap is below ``d_min`` (the smallest diameter of the
   numerical PSD) after the shrink, and every sphere whose gap to a plate is below ``d_min``.
 """
@@ -141,9 +143,58 @@ def to_specimen_frame(position, zc: float, width: float) -> np.ndarray:
     return np.column_stack([zc - p[:, 2], p[:, 1] - 0.5 * width, p[:, 0]])
 
 
+#: measures of the layer height (:func:`layer_height`)
+LAYER_MEASURES = ("surface", "max")
+
+
 def layer_top(position, radius) -> float:
-    """Top of the deposited layer, max(z + r) (m)."""
+    """Top of the highest sphere of the layer, max(z + r) (m)."""
     return float(np.max(np.asarray(position)[:, 2] + np.asarray(radius)))
+
+
+def layer_height(position, radius, footprint, measure: str = "surface", cell: float = 5e-3) -> float:
+    """Height of a deposited layer (m) in the box ``[0, L] x [0, W]`` (``footprint`` = (L, W), m).
+
+    ``surface`` (the height one would measure on the layer): the mean over a grid of square
+    columns of side ~``cell`` (m) of the top of the highest sphere in each column; a column
+    without a sphere counts 0. ``max``: the top of the highest sphere, max(z + r), which a
+    single large sphere resting on the rough surface sets (on the paper-scale layers about
+    16 mm above the surface measure).
+
+    Raises
+    ------
+    ValueError on an unknown measure or a non-positive cell.
+    """
+    if measure not in LAYER_MEASURES:
+        raise ValueError(f"layer height measure must be one of {LAYER_MEASURES}, got {measure!r}")
+    p = np.asarray(position, dtype=float)
+    top = p[:, 2] + np.asarray(radius, dtype=float)
+    if measure == "max" or top.size == 0:
+        return float(top.max()) if top.size else 0.0
+    if not cell > 0:
+        raise ValueError(f"layer height cell must be > 0, got {cell}")
+    n = [max(1, int(round(float(extent) / cell))) for extent in footprint]
+    ix = [np.clip((p[:, k] / float(footprint[k]) * n[k]).astype(int), 0, n[k] - 1) for k in (0, 1)]
+    columns = np.zeros(n)
+    np.maximum.at(columns, (ix[0], ix[1]), top)
+    return float(columns.mean())
+
+
+def solid_fraction_profile(position, radius, height: float, footprint, dz: float = 2e-3) -> tuple[np.ndarray, np.ndarray]:
+    """Solid fraction of horizontal slices of thickness ``dz`` (m) from the floor to
+    ``height`` in a box of ``footprint`` (L, W) m: the exact volume of the sphere caps in each
+    slice over the slice volume. Returns (slice mid-heights (S,) m, solid fraction (S,))."""
+    p = np.asarray(position, dtype=float)
+    r = np.asarray(radius, dtype=float)
+    z = p[:, 2]
+    edges = np.arange(0.0, height + 0.5 * dz, dz)
+
+    def below(h):  # volume of each sphere below the plane z + h
+        t = np.clip(h, -r, r)
+        return np.pi * (r**2 * (t + r) - (t**3 + r**3) / 3.0)
+
+    vol = np.array([np.sum(below(edges[k + 1] - z) - below(edges[k] - z)) for k in range(edges.size - 1)])
+    return 0.5 * (edges[1:] + edges[:-1]), vol / (footprint[0] * footprint[1] * dz)
 
 
 def shrink_radii(radius, volume_fraction: float) -> np.ndarray:

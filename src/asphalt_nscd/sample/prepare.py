@@ -18,8 +18,11 @@ Stages
    which with rigid spheres makes many Gauss-Seidel steps unconverged and lifts the layer.
    The wall is then lifted away and the layer settles for ``vibration.settle_duration_s``.
 5. *Cut*: spheres whose barycentre lies outside the trapezoid are removed; the trapezoid
-   spans the box length (= h), the thickness (= e), and is centred on the layer mid-height
-   (:mod:`.geometry`). *Flip* to the specimen frame (z up along h, x bending direction).
+   spans the box length (= h), the thickness (= e), and is centred on the layer mid-height,
+   the layer height measured by ``layer_height.measure`` (default ``surface``: the mean
+   height of the layer's surface over columns of ``layer_height.cell_mm``; ``max``: the top
+   of the highest sphere, which one large sphere on the rough surface sets ~16 mm higher and
+   which put the trapezoid partly above the layer; :func:`.geometry.layer_height`). *Flip* to the specimen frame (z up along h, x bending direction).
 6. *Plates*: bottom plate at the base (z = 0, fixed), top plate at the head (z = h, free,
    0.235 kg x scale^3); gravity along -z.
 7. *Shrink* every sphere by 10 % of its volume (radius x 0.9^(1/3)), then raise the density
@@ -179,11 +182,20 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     clock.lap("deposition")
     stages.append({"title": "deposit by gravity", "frame": "deposition", "position": position,
                    "radius": radius, "length": geo["box"][0]})
-    h_deposit = geometry.layer_top(position, radius)
+    footprint = geo["box"][:2]
+    lh = cfg["layer_height"]
+    try:
+        h_deposit = geometry.layer_height(position, radius, footprint, lh["measure"], lh["cell_mm"] * 1e-3)
+    except ValueError as exc:
+        raise InputError(f"sample.layer_height: {exc}") from exc
+    top_deposit = geometry.layer_top(position, radius)
 
     position, vib_info = dynamics.vibrate(position, radius, cfg, geo)
     clock.lap("vibration")  # shaking and settling: vibration.{shaking,settling}.cpu_s split it
-    h_layer = geometry.layer_top(position, radius)
+    h_layer = geometry.layer_height(position, radius, footprint, lh["measure"], lh["cell_mm"] * 1e-3)
+    h_surface = geometry.layer_height(position, radius, footprint, "surface", lh["cell_mm"] * 1e-3)
+    z_mid, phi_slices = geometry.solid_fraction_profile(position, radius, h_surface, footprint)
+    bulk = (z_mid > 0.2 * h_surface) & (z_mid < 0.8 * h_surface)
     stages.append({"title": "after vibration of the top wall", "frame": "deposition", "position": position,
                    "radius": radius, "length": geo["box"][0]})
 
@@ -244,8 +256,14 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
         "n_spheres_layer": int(radius.size),
         "n_spheres": int(n),
         "trapezoid_mm": {"B": trap.B * 1e3, "b": trap.b * 1e3, "e": trap.e * 1e3, "h": trap.h * 1e3},
+        "layer_height_measure": lh["measure"],
         "layer_height_after_deposition_mm": h_deposit * 1e3,
         "layer_height_after_vibration_mm": h_layer * 1e3,
+        "layer_top_after_deposition_mm": top_deposit * 1e3,
+        "layer_top_after_vibration_mm": geometry.layer_top(position, radius) * 1e3,
+        "layer_surface_after_vibration_mm": h_surface * 1e3,
+        "solid_fraction_layer": float(geometry.sphere_volume(radius).sum() / (footprint[0] * footprint[1] * h_surface)),
+        "solid_fraction_bulk": float(np.mean(phi_slices[bulk])) if bulk.any() else float("nan"),
         "trapezoid_centre_height_mm": zc * 1e3,
         "porosity_before_shrink": porosity_cut,
         "porosity": 1.0 - geometry.sphere_volume(r_final).sum() / trap.volume,

@@ -35,6 +35,7 @@ DEFAULTS: dict = {
     "scale": 1.0,
     "specimen": {"B_mm": 56.0, "b_mm": 25.0, "e_mm": 25.0, "h_mm": 250.0},
     "psd": {"cut_mm": 2.0, "class_diameter": "lower", "solid_fraction": 0.70, "layer_height_mm": 60.0},
+    "layer_height": {"measure": "surface", "cell_mm": 5.0},
     "box_height_mm": 1600.0,
     "lattice_mm": 10.0,
     "density_deposition_kg_m3": 2600.0,
