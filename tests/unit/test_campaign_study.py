@@ -92,6 +92,51 @@ def test_units_question_scaling(tmp_path):
     assert out.loc["Pa", "head_stiffness_Em_N_m"] == pytest.approx(24.3 / out.loc["Pa", "gamma_per_mm"] * 1e3)
 
 
+def test_reading_evidence_is_computed_under_each_reading(tmp_path):
+    """The evidence table of the units question: dt_e agrees with the paper (2e-5 s) only in
+    Pa, the Burger's |E*| is a mix's only in kPa, the resonance leaves the 3-40 Hz band only
+    in kPa, intact bonds only where none broke; what Table 3 does not enter supports both,
+    and the 63 um bending strain of the trapezoid is the paper's "below 50e-6"."""
+    path = tmp_path / "s.h5"
+    write_sample(path, lattice_sample(30, seed=1))
+    rows = {}
+    for units in ("Pa", "kPa"):
+        r = _rows(load_table3(TABLE3, units), 15, [3.0, 40.0], samples=("s1",))
+        # the head stiffness of a 2PB cantilever of the Burger's modulus: F0 / z0 = |E*| / gamma
+        rows[units] = r.assign(F0_N=r["E_norm_MPa"] / 25.1 * 1e3 * r["z0_m"], n_bonds=100,
+                               n_broken_total=0 if units == "Pa" else 2)
+    micro = {"grain_mass_kg": 2.86e-5, "r_min_mm": [1.0], "l0_mm": [2.0]}
+    units = study.units_question(TABLE3, rows, read_sample(path), 15, micro)
+    ev = study.reading_evidence(units, mix_E_MPa=1.5e4)
+
+    def row(start):
+        hit = ev[ev["evidence"].str.startswith(start)]
+        assert len(hit) == 1, start
+        return hit.iloc[0]
+
+    assert row("time scale dt_e")["supports"] == "Pa"
+    assert row("time scale dt_g")["supports"] == "both"
+    assert row("grain mass")["supports"] == "both"
+    assert row("bonds intact")["supports"] == "Pa"
+    assert row("|E*|")["supports"] == "kPa"
+    res = row("first resonance")
+    assert res["Pa"] < 40 < 80 < res["kPa"] and res["supports"] == "kPa"
+    strain = row("largest bending strain")
+    assert strain["supports"] == "both" and 4e-5 < strain["Pa"] < 5e-5
+    with pytest.raises(InputError, match="rows 'Pa' and 'kPa'"):
+        study.reading_evidence(units[units["table3_units"] == "Pa"])
+
+
+def test_mix_modulus_at_interpolates_between_isotherms():
+    summary = pd.DataFrame({"temperature_C": [10.0, 10.0, 20.0, 20.0], "frequency_Hz": [1.0, 100.0] * 2,
+                            "E_norm_MPa": [1e4, 1e4 * 100, 1e3, 1e3 * 100], "phase_deg": [10.0] * 4})
+    assert study.mix_modulus_at(summary, 15.0, 10.0) == pytest.approx(math.sqrt(1e4 * 1e3) * 10, rel=1e-12)
+    with pytest.raises(InputError, match="bracket"):
+        study.mix_modulus_at(summary, 25.0, 10.0)
+    with pytest.raises(InputError, match="bracket"):
+        study.mix_modulus_at(summary, 15.0, 1000.0)
+
+
 def test_cli_run_2pb_and_bad_input(tmp_path):
     sample = tmp_path / "s1.h5"
     write_sample(sample, lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))

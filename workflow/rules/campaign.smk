@@ -176,10 +176,16 @@ rule campaign_units_question:
         rows_kpa_nobreak=plan.units_rows(config, "kPa", nobreak=True),
         table3=config["calibration"]["table3"],
         sample=plan.sample_file(plan.sample_names(config)[0]),
+        summary=plan.MEASURED_SUMMARY,
     output:
-        report(
+        table=report(
             "results/campaign/units_question.csv",
             caption="../report/campaign_units_question.rst",
+            category="Campaign",
+        ),
+        evidence=report(
+            "results/campaign/units_evidence.csv",
+            caption="../report/campaign_units_evidence.rst",
             category="Campaign",
         ),
     log:
@@ -196,7 +202,8 @@ rule campaign_units_question:
     shell:
         "asphalt-nscd campaign-units --table3 {input.table3} --rows-pa {input.rows_pa} --rows-kpa {input.rows_kpa}"
         " --rows-kpa-nobreak {input.rows_kpa_nobreak} --sample {input.sample} --temperature {params.T} --grain-mass-kg {params.mass}"
-        " --r-min-mm {params.r_min} --l0-mm {params.l0} -o {output} 2> {log}"
+        " --r-min-mm {params.r_min} --l0-mm {params.l0} -o {output.table} --evidence {output.evidence}"
+        " --measured-summary {input.summary} 2> {log}"
 
 
 rule campaign_dt_policy:

@@ -117,6 +117,12 @@ def register(subparsers) -> None:
     p.add_argument("--r-min-mm", type=float, default=1.0, help="r_min of the representative bond, mm")
     p.add_argument("--l0-mm", type=float, default=2.0, help="l0 of the representative bond, mm")
     p.add_argument("-o", "--output", required=True, help="output CSV")
+    p.add_argument("--evidence", default=None,
+                   help="also write the paper's internal evidence on the unit of Table 3, computed under each "
+                        "reading (CSV; asphalt_nscd.campaign.study.reading_evidence)")
+    p.add_argument("--measured-summary", default=None,
+                   help="measured summary (MPa) whose |E*| at the temperature and 10 Hz is the mix the moduli are "
+                        "compared with (--evidence; default: 5-30 GPa of dense mixes)")
     p.set_defaults(func=_units)
 
     p = subparsers.add_parser("campaign-dt-policy", help="phase error of the dt policy (one bond)")
@@ -435,6 +441,14 @@ def _units(args) -> int:
         rows["kPa (unbreakable bonds)"] = _read_rows(args.rows_kpa_nobreak)
     out = study.units_question(args.table3, rows, read_sample(args.sample), args.temperature, micro)
     write_csv(out, args.output)
+    if args.evidence:
+        from ..lab.measured import read_summary
+
+        mix = None
+        if args.measured_summary:
+            mix = study.mix_modulus_at(read_summary(args.measured_summary), args.temperature,
+                                       float(out["reference_frequency_Hz"].iloc[0]))
+        write_csv(study.reading_evidence(out, mix), args.evidence)
     return 0
 
 

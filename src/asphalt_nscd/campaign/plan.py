@@ -806,6 +806,7 @@ def report_files(config: dict) -> list:
             "results/campaign/paper/sensitivity.csv",
             *sensitivity_figures(),
             "results/campaign/units_question.csv",
+            "results/campaign/units_evidence.csv",
         ]
     files += [f"results/harmonic/figures/{mode}_{plot}.png" for mode in HARMONIC_MODES for plot in RHEOLOGY_PLOTS]
     files += [

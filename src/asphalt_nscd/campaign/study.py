@@ -326,6 +326,120 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
     return pd.DataFrame(out)
 
 
+#: the paper's internal evidence on the units of Table 3 (Sections 2, 3.2): the values it states
+PAPER_EVIDENCE = {"dt_e_s": 2e-5, "dt_g_s": 2e-3, "p_Pa": 2.79e3, "d_g_m": 2.52e-3, "m_g_kg": 2.86e-5,
+                  "density_kg_m3": 3415.0, "yield_stress_Pa": 2.7e6, "amplitude_m": 63e-6, "strain_max": 50e-6,
+                  "band_Hz": (3.0, 40.0)}
+
+
+def max_bending_strain(amplitude_m: float, specimen) -> float:
+    """Largest bending strain of the EN 12697-26 trapezoid (a cantilever clamped at its base,
+    width B -> b) for a head displacement ``amplitude_m`` (m), elastic beam theory.
+
+    With F/E = z0 / gamma (Eq. 3: E = gamma F / z0) and the section modulus e w(z)^2 / 6 the
+    surface strain at height z is eps(z) = 6 z0 (h - z) / (gamma e w(z)^2), w(z) = B - (B - b)
+    z / h, lengths in mm (gamma in 1/mm); its maximum over z in [0, h] (dimensionless).
+    """
+    z = np.linspace(0.0, specimen.h_mm, 2001)
+    w = specimen.B_mm - (specimen.B_mm - specimen.b_mm) * z / specimen.h_mm
+    eps = 6.0 * amplitude_m * 1e3 * (specimen.h_mm - z) / (specimen.gamma_per_mm * specimen.e_mm * w**2)
+    return float(eps.max())
+
+
+def reading_evidence(units: pd.DataFrame, mix_E_MPa: float | None = None, specimen=None) -> pd.DataFrame:
+    """The paper's internal evidence on the unit of Table 3, computed under each reading.
+
+    Parameters
+    ----------
+    units : :func:`units_question` table (rows 'Pa', 'kPa', optionally 'kPa (unbreakable
+        bonds)'), at the paper's 15 degC.
+    mix_E_MPa : |E*| (MPa) of a real asphalt mix at the table's temperature and reference
+        frequency (e.g. the measured mix interpolated, :func:`mix_modulus_at`); None: the row
+        compares with the 5-30 GPa of dense asphalt mixes at 15 degC, 10 Hz.
+    specimen : Specimen2PB (default the paper's EN 12697-26 trapezoid).
+
+    Returns
+    -------
+    DataFrame, one row per piece of evidence: ``evidence``, ``paper`` (what the paper states),
+    ``Pa``, ``kPa`` (the value under each reading; the same where Table 3 does not enter),
+    ``supports`` (Pa | kPa | both | neither) and ``rule`` (how it is judged).
+
+    Raises
+    ------
+    InputError if the Pa or kPa row is missing.
+    """
+    from ..lab.en12697 import Specimen2PB
+
+    spec = specimen or Specimen2PB()
+    ev = PAPER_EVIDENCE
+    rows = {r["table3_units"]: r for r in units.to_dict("records")}
+    if not {"Pa", "kPa"} <= set(rows):
+        raise InputError(f"units table: rows 'Pa' and 'kPa' needed, got {sorted(rows)}")
+    pa, kpa = rows["Pa"], rows["kPa"]
+    out = []
+
+    def add(evidence, paper, v_pa, v_kpa, ok_pa, ok_kpa, rule):
+        supports = "both" if ok_pa and ok_kpa else "Pa" if ok_pa else "kPa" if ok_kpa else "neither"
+        out.append({"evidence": evidence, "paper": paper, "Pa": v_pa, "kPa": v_kpa, "supports": supports,
+                    "rule": rule})
+
+    def near(x, y, factor):
+        return bool(np.isfinite(x) and x > 0 and abs(math.log(x / y)) <= math.log(factor))
+
+    add("time scale dt_e = sqrt(m_g / K_m) at 15 degC, s", ev["dt_e_s"], pa["dt_e_paper_s"], kpa["dt_e_paper_s"],
+        near(pa["dt_e_paper_s"], ev["dt_e_s"], 2), near(kpa["dt_e_paper_s"], ev["dt_e_s"], 2),
+        "within a factor 2 of the paper's value")
+    dt_g = math.sqrt(ev["m_g_kg"] / (ev["p_Pa"] * ev["d_g_m"]))
+    add("time scale dt_g = sqrt(m_g / (p d_g)), s (Table 3 does not enter)", ev["dt_g_s"], dt_g, dt_g,
+        near(dt_g, ev["dt_g_s"], 2), near(dt_g, ev["dt_g_s"], 2), "within a factor 2 of the paper's value")
+    m_g = 4.0 / 3.0 * math.pi * (ev["d_g_m"] / 2) ** 3 * ev["density_kg_m3"]
+    add("grain mass m_g of a d_g sphere at 3415 kg/m^3, kg (Table 3 does not enter)", ev["m_g_kg"], m_g, m_g,
+        near(m_g, ev["m_g_kg"], 1.1), near(m_g, ev["m_g_kg"], 1.1), "within 10 % of the paper's value")
+    b_pa, b_kpa = pa["max_broken_bond_fraction"], kpa["max_broken_bond_fraction"]
+    add("bonds intact at the paper's yield stress 2.7e6 Pa in the 63 um test (broken fraction)", 0.0,
+        b_pa, b_kpa, b_pa == 0, b_kpa == 0, "no bond breaks (the paper: no damage at small amplitude)")
+    eps = max_bending_strain(ev["amplitude_m"], spec)
+    add("largest bending strain at A = 63 um (Table 3 does not enter)", ev["strain_max"], eps, eps,
+        eps < ev["strain_max"], eps < ev["strain_max"], "below the paper's 50e-6")
+    ref = mix_E_MPa if mix_E_MPa is not None else math.sqrt(5e3 * 30e3)
+    factor = 3.0 if mix_E_MPa is not None else math.sqrt(30e3 / 5e3)
+    what = (f"the measured mix: {mix_E_MPa:.4g} MPa" if mix_E_MPa is not None else "dense mixes: 5-30 GPa")
+    add(f"|E*| at {pa['temperature_C']:g} degC, {pa['reference_frequency_Hz']:g} Hz of the Burger's model, MPa "
+        f"(a mix: {what})", ref, pa["Burgers_E_norm_MPa"], kpa["Burgers_E_norm_MPa"],
+        near(pa["Burgers_E_norm_MPa"], ref, factor), near(kpa["Burgers_E_norm_MPa"], ref, factor),
+        f"within a factor {factor:.3g} of the mix's")
+    lo, hi = ev["band_Hz"]
+    r_pa, r_kpa = pa["first_resonance_sim_Hz"], kpa["first_resonance_sim_Hz"]
+    add("first resonance of sample + head (simulated head stiffness), Hz", f"none in {lo:g}-{hi:g} Hz", r_pa, r_kpa,
+        bool(r_pa > 2 * hi), bool(r_kpa > 2 * hi), f"above twice the band's top ({2 * hi:g} Hz)")
+    return pd.DataFrame(out)
+
+
+def mix_modulus_at(summary: pd.DataFrame, temperature_C: float, frequency_Hz: float) -> float:
+    """|E*| (MPa) of a measured summary at (T, f): log|E*| interpolated linearly in log f along
+    each isotherm and then in T between the two isotherms that bracket ``temperature_C``.
+
+    Raises
+    ------
+    InputError if no two isotherms bracket the temperature or an isotherm does not bracket the
+    frequency.
+    """
+    temps = np.sort(summary["temperature_C"].unique())
+    below, above = temps[temps <= temperature_C], temps[temps >= temperature_C]
+    if not len(below) or not len(above):
+        raise InputError(f"measured summary: no isotherms bracket {temperature_C:g} degC (tested {list(temps)})")
+    values = []
+    for T in (below.max(), above.min()):
+        iso = at_temperature(summary, T).sort_values("frequency_Hz")
+        f = iso["frequency_Hz"].to_numpy(float)
+        if not f.min() <= frequency_Hz <= f.max():
+            raise InputError(f"measured summary: the {T:g} degC isotherm does not bracket {frequency_Hz:g} Hz")
+        values.append(np.interp(np.log(frequency_Hz), np.log(f), np.log(iso["E_norm_MPa"].to_numpy(float))))
+    T0, T1 = below.max(), above.min()
+    w = 0.0 if T1 == T0 else (temperature_C - T0) / (T1 - T0)
+    return float(np.exp((1 - w) * values[0] + w * values[1]))
+
+
 def dt_policy_phase_table(table: pd.DataFrame, temperature_C: float, frequencies_Hz, settings,
                           theta: float | None = None) -> pd.DataFrame:
     """Phase and amplitude error of the time-discrete bond law at the policy's dt for each
