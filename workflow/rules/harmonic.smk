@@ -250,6 +250,43 @@ rule harmonic_transfer:
         "-o {output} 2> {log}"
 
 
+rule harmonic_resolution:
+    # network factor against the samples' resolution (harmonic.resolution: levels x seeds), both
+    # bond kinematics: does the micro-macro transfer of Eqs. 30-33 tend to 1?
+    input:
+        [path for _, path in plan.resolution_samples(config)],
+    output:
+        table="results/harmonic/resolution.csv",
+        summary=report(
+            "results/harmonic/resolution_summary.csv",
+            caption="../report/harmonic_resolution.rst",
+            category="Harmonic solver",
+        ),
+        fits=report(
+            "results/harmonic/resolution_fits.csv",
+            caption="../report/harmonic_resolution.rst",
+            category="Harmonic solver",
+        ),
+        figure=report(
+            "results/harmonic/resolution.png",
+            caption="../report/harmonic_resolution.rst",
+            category="Harmonic solver",
+        ),
+    log:
+        "logs/harmonic/resolution.log",
+    benchmark:
+        "benchmarks/harmonic/resolution.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    params:
+        samples=plan.resolution_options(config),
+        head_rotation=plan.head_rotation(config),
+        nu=plan.twopb_poisson_ratio(config),
+    shell:
+        "asphalt-nscd harmonic-resolution {params.samples} --head-rotation {params.head_rotation} --nu {params.nu}"
+        " -o {output.table} --summary {output.summary} --fits {output.fits} --figure {output.figure} 2> {log}"
+
+
 rule harmonic_bench:
     output:
         "results/harmonic/bench.json",

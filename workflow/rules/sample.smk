@@ -33,6 +33,28 @@ rule prepare_sample:
         " -o {output.h5} --summary {output.summary} --vtk-dir {output.vtk} --figure {output.figure} 2> {log}"
 
 
+rule prepare_resolution_sample:
+    # a sample of the network-factor resolution study (harmonic.resolution): the sample section
+    # with the level's scale and PSD cut (levels equal to the campaign's reuse its samples)
+    output:
+        h5="results/samples/resolution/{level}/s{seed}.h5",
+        summary="results/samples/resolution/{level}/s{seed}_summary.json",
+    log:
+        "logs/samples/resolution_{level}_s{seed}.log",
+    benchmark:
+        "benchmarks/samples/resolution_{level}_s{seed}.tsv"
+    wildcard_constraints:
+        seed=r"\d+",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    params:
+        cfg=plan.resolution_sample_settings_function(config),
+        bonded_contact=plan.bonded_contact(config),
+    shell:
+        "asphalt-nscd prepare-sample --config-json {params.cfg:q} --seed {wildcards.seed}"
+        " --bonded-contact {params.bonded_contact} -o {output.h5} --summary {output.summary} 2> {log}"
+
+
 rule prepare_bench:
     output:
         report(

@@ -262,6 +262,52 @@ def sample_settings(config: dict) -> str:
     return json.dumps({k: v for k, v in config["sample"].items() if k != "seeds"})
 
 
+def resolution_levels(config: dict) -> dict:
+    """Levels of the network-factor resolution study (config harmonic.resolution.levels):
+    name (:func:`asphalt_nscd.harmonic.resolution.level_name`) -> {scale, cut_mm}."""
+    from ..harmonic.resolution import level_name
+
+    return {level_name(lv["scale"], lv["cut_mm"]): {"scale": float(lv["scale"]), "cut_mm": float(lv["cut_mm"])}
+            for lv in config["harmonic"]["resolution"]["levels"]}
+
+
+def resolution_sample_settings(config: dict, level: str) -> str:
+    """The sample section of a resolution level as JSON: the config's with its scale and PSD cut."""
+    try:
+        lv = resolution_levels(config)[level]
+    except KeyError:
+        raise InputError(f"harmonic.resolution.levels: no level {level!r}") from None
+    cfg = {k: v for k, v in config["sample"].items() if k != "seeds"}
+    cfg = {**cfg, "scale": lv["scale"], "psd": {**cfg.get("psd", {}), "cut_mm": lv["cut_mm"]}}
+    return json.dumps(cfg)
+
+
+def resolution_sample_settings_function(config: dict):
+    """Params function of rule prepare_resolution_sample: the settings of wildcard ``level``."""
+    return _wildcard_function(resolution_sample_settings, config, "level")
+
+
+def resolution_samples(config: dict) -> list:
+    """(level, sample file) of the resolution study: every level x harmonic.resolution.seeds; a
+    level with the campaign's own scale and PSD cut uses the campaign's sample of that seed
+    (results/samples/s{seed}.h5) when the seed is one of sample.seeds, else
+    results/samples/resolution/{level}/s{seed}.h5."""
+    own = (float(config["sample"].get("scale", 1.0)), float(config["sample"].get("psd", {}).get("cut_mm", 2.0)))
+    out = []
+    for name, lv in resolution_levels(config).items():
+        for seed in config["harmonic"]["resolution"]["seeds"]:
+            if (lv["scale"], lv["cut_mm"]) == own and seed in config["sample"]["seeds"]:
+                out.append((name, sample_file(f"s{seed}")))
+            else:
+                out.append((name, f"results/samples/resolution/{name}/s{seed}.h5"))
+    return out
+
+
+def resolution_options(config: dict) -> str:
+    """The ``--samples LEVEL=PATH ...`` option of harmonic-resolution."""
+    return "--samples " + " ".join(f"{level}={path}" for level, path in resolution_samples(config))
+
+
 def prepare_bench_file(config: dict) -> str:
     """The preparation benchmark: the first seed at the configuration's own size."""
     return f"results/bench/prepare_s{config['sample']['seeds'][0]}.json"
@@ -817,6 +863,9 @@ def report_files(config: dict) -> list:
         "results/harmonic/compare_time_domain.csv",
         "results/harmonic/compare_time_domain.png",
         "results/harmonic/kinematics_study.csv",
+        "results/harmonic/resolution_summary.csv",
+        "results/harmonic/resolution_fits.csv",
+        "results/harmonic/resolution.png",
         "results/harmonic/bench.json",
     ]
     files += [

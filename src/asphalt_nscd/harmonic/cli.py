@@ -8,6 +8,7 @@
 * ``harmonic-kinematics``    — network factor per (bond kinematics, head rotation, T, f).
 * ``harmonic-transfer``      — network factor NF_s of a sample (no inertia, law independent):
                                the transfer JSON of ``run-2pb --network-factor-json``.
+* ``harmonic-resolution``    — network factor against the samples' resolution (levels, seeds).
 * ``harmonic-bench``         — timing and peak memory on an N-sphere sample (JSON).
 
 ``--bond-kinematics contact|barycentre`` and ``--head-rotation free|clamped`` select the
@@ -152,6 +153,24 @@ def register(subparsers) -> None:
                    help="transfer JSON: network_factor, sample, bond_kinematics, head_rotation, nu, units")
     p.set_defaults(func=_transfer)
 
+    p = subparsers.add_parser("harmonic-resolution",
+                              help="network factor against sample resolution (table, summary, figure)",
+                              description="Network factor NF_s of samples prepared at several resolutions "
+                              "(scale, PSD cut) under each bond kinematics, the seeds' mean and 95 %% interval "
+                              "per level and the fit NF_inf + c N^(-1/3) (asphalt_nscd.harmonic.resolution): "
+                              "does the micro-macro transfer of Eqs. 30-33 tend to 1?")
+    p.add_argument("--samples", nargs="+", required=True, metavar="LEVEL=PATH",
+                   help="resolution level name and sample file, e.g. x0.7_cut6.3=results/samples/s1.h5")
+    p.add_argument("--kinematics", nargs="+", choices=list(BOND_KINEMATICS), default=list(BOND_KINEMATICS),
+                   help="bond kinematics computed")
+    p.add_argument("--head-rotation", choices=list(HEAD_ROTATIONS), default="free", help="head rotation")
+    p.add_argument("--nu", type=float, default=POISSON_RATIO, help=f"Poisson's ratio of Eqs. 8-11 ({POISSON_RATIO})")
+    p.add_argument("-o", "--output", type=Path, required=True, help="CSV, one row per (sample, kinematics)")
+    p.add_argument("--summary", type=Path, required=True, help="CSV per (kinematics, level): mean, sd, 95 %% CI")
+    p.add_argument("--fits", type=Path, required=True, help="CSV per kinematics: NF_inf, its s.e., c")
+    p.add_argument("--figure", type=Path, required=True, help="figure (png)")
+    p.set_defaults(func=_resolution)
+
     p = subparsers.add_parser("harmonic-bench", help="benchmark the harmonic solver (JSON); run it "
                                                      "with OPENBLAS_NUM_THREADS=1 (one core, as "
                                                      "under Snakemake)")
@@ -271,6 +290,32 @@ def _transfer(args) -> int:
 
     write_transfer(args.sample, args.output, nu=args.nu, bond_kinematics=args.bond_kinematics,
                    head_rotation=args.head_rotation)
+    return 0
+
+
+def _resolution(args) -> int:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io import InputError, savefig, write_csv
+    from .resolution import plot_resolution, resolution_rows, resolution_summary
+
+    samples = []
+    for item in args.samples:
+        level, sep, path = item.partition("=")
+        if not sep or not level or not path:
+            raise InputError(f"--samples {item!r}: expected LEVEL=PATH")
+        samples.append((level, path))
+    rows = resolution_rows(samples, kinematics=args.kinematics, head_rotation=args.head_rotation, nu=args.nu)
+    levels, fits = resolution_summary(rows)
+    write_csv(rows, args.output)
+    write_csv(levels, args.summary)
+    write_csv(fits, args.fits)
+    fig = plot_resolution(rows, levels, fits)
+    savefig(fig, args.figure)
+    plt.close(fig)
     return 0
 
 

@@ -1,0 +1,159 @@
+"""Does the micro-macro transfer of Eqs. 30-33 converge with the sample's resolution?
+
+Eqs. 30-33 give every bond the macro law scaled by its own geometry and assume that the
+sample then has the macro modulus: a network factor NF_s = 1 (:mod:`.transfer`). NF_s is a
+property of the sample alone (bond kinematics, head rotation, nu), so its trend against the
+sample's resolution answers whether the transfer tends to 1 as the discretisation is refined,
+and how fast.
+
+Resolution levels are samples prepared with the same protocol at several (scale, PSD cut)
+pairs (config ``harmonic.resolution.levels``): a finer cut or a larger scale means more
+spheres. For every sample and bond kinematics :func:`resolution_rows` computes NF_s
+(:func:`.transfer.transfer_json`, one real factorisation of G); :func:`resolution_summary`
+gives the mean, the standard deviation and a 95 % Student-t interval over the seeds of each
+level, and fits per kinematics
+
+    NF(N) = NF_inf + c N^(-1/3)
+
+(weighted by the level means' standard errors; N^(-1/3) is the ratio of a sphere's size to
+the specimen's, the order of a surface or boundary-layer effect in a discretised continuum),
+with NF_inf's standard error. The fit is a description of the measured trend, not a proof of
+convergence: with four levels it is stated with its interval and the levels' spread.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from ..io import InputError
+from ..rheology.laws import POISSON_RATIO
+
+
+def level_name(scale: float, cut_mm: float) -> str:
+    """Name of a resolution level: ``x{scale}_cut{cut}`` (``:g``), e.g. x0.7_cut6.3."""
+    return f"x{float(scale):g}_cut{float(cut_mm):g}"
+
+
+def resolution_rows(samples, kinematics=("contact", "barycentre"), head_rotation: str = "free",
+                    nu: float = POISSON_RATIO) -> pd.DataFrame:
+    """Network factor of every sample under every bond kinematics.
+
+    Parameters
+    ----------
+    samples : iterable of (level, path): the resolution level's name (:func:`level_name`)
+        and the sample file.
+    kinematics : bond kinematics to compute ('contact', 'barycentre').
+    head_rotation, nu : as :func:`.transfer.transfer_json`.
+
+    Returns
+    -------
+    DataFrame, one row per (sample, kinematics): level, scale, cut_mm, sample, seed,
+    n_spheres, n_bonds, bond_kinematics, head_rotation, network_factor, n_load_free.
+
+    Raises
+    ------
+    InputError from the sample reader or the solver (file and option named).
+    """
+    from ..sample.store import read_sample
+    from .transfer import transfer_json
+
+    rows = []
+    for level, path in samples:
+        sample = read_sample(path)
+        attrs = sample.attrs
+        cfg = attrs.get("config", {})
+        for kin in kinematics:
+            t = transfer_json(path, nu=nu, bond_kinematics=kin, head_rotation=head_rotation)
+            rows.append({"level": level, "scale": float(attrs.get("scale", math.nan)),
+                         "cut_mm": float(cfg.get("psd", {}).get("cut_mm", math.nan)),
+                         "sample": str(path), "seed": int(attrs.get("seed", -1)),
+                         "n_spheres": int(sample.radius.size), "n_bonds": int(sample.bonds["i"].size),
+                         "bond_kinematics": kin, "head_rotation": head_rotation,
+                         "network_factor": t["network_factor"], "n_load_free": t["n_load_free"]})
+    return pd.DataFrame(rows)
+
+
+def resolution_summary(rows: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Per (kinematics, level): the seeds' mean and spread; per kinematics: the fit NF(N).
+
+    Returns
+    -------
+    (levels, fits)
+        levels: bond_kinematics, level, n_samples, n_spheres_mean, network_factor_mean,
+        network_factor_sd, network_factor_ci95_low/high (Student t over the seeds; nan for
+        one seed), departure_from_1_pct (100 (mean - 1)).
+        fits: bond_kinematics, n_levels, nf_inf, nf_inf_se, c, exponent (-1/3), and the
+        prediction at the finest level; nan where fewer than 3 levels.
+
+    Raises
+    ------
+    InputError if ``rows`` is empty.
+    """
+    from scipy import stats
+
+    if rows.empty:
+        raise InputError("resolution study: no sample rows")
+    out = []
+    for (kin, level), g in rows.groupby(["bond_kinematics", "level"], sort=False):
+        nf = g["network_factor"].to_numpy(float)
+        n = nf.size
+        sd = float(nf.std(ddof=1)) if n > 1 else math.nan
+        half = float(stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n)) if n > 1 else math.nan
+        out.append({"bond_kinematics": kin, "level": level, "n_samples": n,
+                    "n_spheres_mean": float(g["n_spheres"].mean()), "network_factor_mean": float(nf.mean()),
+                    "network_factor_sd": sd, "network_factor_ci95_low": float(nf.mean()) - half,
+                    "network_factor_ci95_high": float(nf.mean()) + half,
+                    "departure_from_1_pct": 100.0 * (float(nf.mean()) - 1.0)})
+    levels = pd.DataFrame(out).sort_values(["bond_kinematics", "n_spheres_mean"]).reset_index(drop=True)
+    fits = []
+    for kin, g in levels.groupby("bond_kinematics", sort=False):
+        fit = {"bond_kinematics": kin, "n_levels": len(g), "exponent": -1.0 / 3.0, "nf_inf": math.nan,
+               "nf_inf_se": math.nan, "c": math.nan, "n_spheres_finest": float(g["n_spheres_mean"].max()),
+               "nf_finest_fit": math.nan}
+        if len(g) >= 3:
+            x = g["n_spheres_mean"].to_numpy(float) ** (-1.0 / 3.0)
+            y = g["network_factor_mean"].to_numpy(float)
+            se = (g["network_factor_sd"] / np.sqrt(g["n_samples"])).to_numpy(float)
+            w = np.where(np.isfinite(se) & (se > 0), 1.0 / np.where(se > 0, se, 1.0), 1.0)
+            A = np.column_stack([np.ones_like(x), x]) * w[:, None]
+            coef, res, *_ = np.linalg.lstsq(A, y * w, rcond=None)
+            dof = len(g) - 2
+            s2 = float(res[0] / dof) if len(res) and dof > 0 else 0.0
+            cov = np.linalg.inv(A.T @ A) * max(s2, 1.0)  # never below the seeds' own scatter
+            fit.update({"nf_inf": float(coef[0]), "nf_inf_se": float(math.sqrt(cov[0, 0])), "c": float(coef[1]),
+                        "nf_finest_fit": float(coef[0] + coef[1] * x.min())})
+        fits.append(fit)
+    return levels, pd.DataFrame(fits)
+
+
+def plot_resolution(rows: pd.DataFrame, levels: pd.DataFrame, fits: pd.DataFrame):
+    """Network factor against the number of spheres (log axis), each sample and the level
+    means with their 95 % intervals, the fit NF_inf + c N^(-1/3), one panel per kinematics."""
+    import matplotlib.pyplot as plt
+
+    kins = list(dict.fromkeys(rows["bond_kinematics"]))
+    fig, axes = plt.subplots(1, len(kins), figsize=(5.2 * len(kins), 4.0), squeeze=False)
+    for ax, kin in zip(axes[0], kins):
+        r = rows[rows["bond_kinematics"] == kin]
+        lv = levels[levels["bond_kinematics"] == kin]
+        ax.plot(r["n_spheres"], r["network_factor"], "o", color="0.6", ms=4, label="samples")
+        err = [lv["network_factor_mean"] - lv["network_factor_ci95_low"],
+               lv["network_factor_ci95_high"] - lv["network_factor_mean"]]
+        ax.errorbar(lv["n_spheres_mean"], lv["network_factor_mean"], yerr=np.nan_to_num(np.array(err, float)),
+                    fmt="s-", color="C0", capsize=3, label="level mean (95 % CI)")
+        f = fits[fits["bond_kinematics"] == kin].iloc[0]
+        if np.isfinite(f["nf_inf"]):
+            n = np.logspace(np.log10(lv["n_spheres_mean"].min()), 6, 50)
+            ax.plot(n, f["nf_inf"] + f["c"] * n ** (-1 / 3), "--", color="C1",
+                    label=f"NF_inf = {f['nf_inf']:.3g} ± {f['nf_inf_se']:.2g}")
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_xlabel("spheres in the sample")
+        ax.set_ylabel("network factor NF (sample |E*| / law |E*|)")
+        ax.set_title(f"bond kinematics: {kin}")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
