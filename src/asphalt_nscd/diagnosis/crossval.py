@@ -14,8 +14,9 @@ Procedure fitted inside each fold (:func:`fit_extended`), on the training rows o
     2. replicate means of the corrected table;
     3. the law's settings chosen by an inner cross-validation on those means
        (:func:`select_settings`: inner lofo folds and inner loto folds of the interior
-       training temperatures, each fit started from the same setting's fit on all training
-       means), the simplest setting within one standard error of the best
+       training temperatures, each fit started from that inner fold's own simpler fits), the
+       simplest setting within one standard error of the best (the standard error corrected
+       for the overlap of the folds, Nadeau & Bengio 2003)
        score (one-standard-error rule: the fewest fitted parameters, then the coarsest Prony
        series, then the best score);
     4. :class:`~asphalt_nscd.rheology.extended.ThermoLaw` with those settings on all training
@@ -46,7 +47,9 @@ Not computable
 
 Selection score of a setting: for each inner fold, max(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) over
 the fold's held-out cells (tolerances 3 % and 5 % by default), averaged over the inner folds
-of both schemes; its standard error is the standard deviation over the folds / sqrt(n).
+of both schemes; its standard error is sd sqrt(1/n + n_test/n_train) over the n folds (the
+corrected resampled variance of Nadeau & Bengio 2003: the folds share their training cells,
+so sd / sqrt(n) would understate it).
 The inner folds share the artifact correction of their outer training table (fitted without
 the outer held-out cells).
 """
@@ -235,14 +238,13 @@ def _t_ref(cells: pd.DataFrame, options: Options) -> float:
     return float(temps[np.argmin(np.abs(temps - np.median(temps)))])
 
 
-def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances, parents: dict | None = None) -> dict:
+def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances) -> dict:
     """Backbones of every structure (``LawSettings.structure``) on ``cells``.
 
-    Simplest first. With ``parents`` (structure -> Backbone fitted on a superset of ``cells``,
-    e.g. the training table of which ``cells`` is an inner fold) each structure starts from
-    its parent's solution. Otherwise a structure starts from the fitted simpler structure of
-    the same shift law with the most parameters in common (its extra parameters from 0), and
-    the base structures (no trend, vertical shift or refinement) from several cold starts.
+    Simplest first: a structure starts from the fitted simpler structure of the same shift
+    law with the most parameters in common (its extra parameters from 0), and the base
+    structures (no trend, vertical shift or refinement) from several cold starts. Only
+    ``cells`` steer the fits.
 
     Returns
     -------
@@ -254,10 +256,7 @@ def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances, 
         settings = LawSettings(*st)
         base = not (settings.vertical or settings.refine or settings.static == "trend")
         start = None
-        parent = (parents or {}).get(st)
-        if parent is not None and not isinstance(parent, str):
-            start = dict(zip(parent.names, parent.x))
-        elif not base:
+        if not base:
             names = set(extended.backbone_names(settings, np.unique(cells["temperature_C"])))
             fitted = [bb for s2, bb in out.items() if not isinstance(bb, str) and s2[0] == st[0]
                       and set(bb.names) <= names]
@@ -314,8 +313,11 @@ def _fold_score(law: ThermoLaw, test: pd.DataFrame, tolerances) -> float:
 def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings | None, pd.DataFrame, dict]:
     """Choose the law settings by inner cross-validation on cell means (module docstring).
 
-    Every structure is fitted on all ``cells`` first (returned, reused by :func:`fit_extended`);
-    the inner folds start from those solutions (``cells`` holds no outer held-out cell).
+    Every structure is fitted on all ``cells`` first (returned, reused by :func:`fit_extended`).
+    Each inner fold fits every structure on its own training cells, started as
+    :func:`fit_structures` starts without parents (the simpler structure of the same fold), so
+    that no inner held-out cell steers its fold's fit. The score's standard error accounts for
+    the overlap of the folds' training sets (Nadeau & Bengio 2003: sd sqrt(1/n + n_test/n_train)).
 
     Returns
     -------
@@ -330,13 +332,17 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     T_ref = _t_ref(cells, options)
     n_T = cells["temperature_C"].nunique()
     structures = [c.structure for c in cands]
-    parents = fit_structures(cells, structures, T_ref, options.tolerances)
+    fitted = fit_structures(cells, structures, T_ref, options.tolerances)
     folds = _inner_folds(cells) if len(cands) > 1 else []
     rows = {c: {"scores": [], "reason": ""} for c in cands}
+    ratios = []
     for scheme, value in folds:
         train, _ = fold_split(cells, scheme, value)
         tr, te = cells[train], cells[~train]
-        bbs = fit_structures(tr, structures, T_ref, options.tolerances, parents=parents)
+        ratios.append(len(te) / max(len(tr), 1))
+        # started from fits of the inner training cells only (no parent fitted on the inner
+        # held-out cells: their values must not steer the inner fold's fit)
+        bbs = fit_structures(tr, structures, T_ref, options.tolerances)
         for c in cands:
             bb = bbs[c.structure]
             if isinstance(bb, str):
@@ -350,6 +356,10 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
                 rows[c]["reason"] = f"not computable: {exc}"
                 continue
             rows[c]["scores"].append(_fold_score(law, te, options.tolerances))
+    # standard error of a mean over overlapping cross-validation folds (their training sets
+    # share most cells, so the fold scores are correlated): the corrected resampled variance of
+    # Nadeau & Bengio (2003, Machine Learning 52, 239-281), var (1/n + n_test/n_train)
+    overlap = float(np.mean(ratios)) if ratios else 0.0
     curve = []
     for c in cands:
         s = np.asarray(rows[c]["scores"], float)
@@ -362,13 +372,14 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
             reason = "a prediction was not finite"
         curve.append({"settings": c.label(), **c.as_dict(), "n_params": c.n_params(n_T),
                       "cv_score": float(s.mean()) if ok else np.nan,
-                      "cv_score_se": float(s.std(ddof=1) / np.sqrt(s.size)) if ok and s.size > 1 else np.nan,
+                      "cv_score_se": float(s.std(ddof=1) * np.sqrt(1.0 / s.size + overlap))
+                      if ok and s.size > 1 else np.nan,
                       "n_folds": int(s.size), "chosen": False, "reason": "" if ok else reason})
     curve = pd.DataFrame(curve)
     scored = curve["cv_score"].notna()
     if not scored.any():  # nothing to choose from: the simplest candidate
         curve.loc[0, "chosen"] = True
-        return cands[0], curve, parents
+        return cands[0], curve, fitted
     best = int(curve.loc[scored, "cv_score"].idxmin())
     limit = curve.loc[best, "cv_score"]
     if options.one_se and np.isfinite(curve.loc[best, "cv_score_se"]):
@@ -380,7 +391,7 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     fewest = fewest[fewest["per_decade"] == fewest["per_decade"].min()]
     chosen = int(fewest["cv_score"].idxmin())
     curve.loc[chosen, "chosen"] = True
-    return cands[chosen], curve, parents
+    return cands[chosen], curve, fitted
 
 
 def fit_extended(table: pd.DataFrame, options: Options, artifacts=None) -> FitResult:
