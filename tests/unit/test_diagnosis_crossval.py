@@ -258,3 +258,38 @@ def test_measurement_model_applies_the_training_correction_with_vertical_shifts(
     Ec = E * R
     np.testing.assert_allclose(np.abs(Ec), corrected["E_norm_MPa"].to_numpy(float), rtol=1e-10)
     np.testing.assert_allclose(np.degrees(np.angle(Ec)), corrected["phase_deg"].to_numpy(float), atol=1e-9)
+
+
+def test_noise_floor_and_specimen_bootstrap():
+    """The noise floor is the relative standard error of the replicate means (a 4 % specimen
+    scatter with 3 specimens gives ~4/sqrt(3) %); the bootstrap interval of an MRE contains the
+    point value, collapses to it when the specimens agree, and widens with their scatter."""
+    from asphalt_nscd.diagnosis.budget import target_verdict
+
+    rng = np.random.default_rng(1)
+    rows_t, pred = [], []
+    for T in (0.0, 20.0):
+        for f in (1.0, 10.0):
+            for s, c in enumerate((0.96, 1.0, 1.04)):
+                rows_t.append({"specimen": f"S{s}", "temperature_C": T, "frequency_Hz": f,
+                               "E_norm_MPa": 1000.0 * c, "phase_deg": 20.0 * c})
+            pred.append({"scheme": "lofo", "fold": f"{f:g}", "kind": "held_out", "model": "m", "temperature_C": T,
+                         "frequency_Hz": f, "E_norm_MPa_predicted": 1050.0, "phase_deg_predicted": 21.0,
+                         "computable": True})
+    table = pd.DataFrame(rows_t)
+    floor = cv.noise_floor(table).set_index("temperature_C")
+    assert floor.loc[0.0, "noise_floor_E_norm_pct"] == pytest.approx(4.0 / np.sqrt(3), rel=1e-9)
+    assert floor.loc[0.0, "n_specimens"] == 3
+    rows = pd.DataFrame(pred)
+    ci = cv.specimen_bootstrap(rows, table, n_boot=500).set_index("temperature_C")
+    assert ci.loc[0.0, "mre_E_norm_ci95_low"] < 5.0 < ci.loc[0.0, "mre_E_norm_ci95_high"]
+    same = table.assign(E_norm_MPa=1000.0, phase_deg=20.0)
+    ci0 = cv.specimen_bootstrap(rows, same, n_boot=200).set_index("temperature_C")
+    assert ci0.loc[0.0, "mre_E_norm_ci95_low"] == pytest.approx(5.0) == ci0.loc[0.0, "mre_E_norm_ci95_high"]
+    rows["rel_err_E_norm"], rows["rel_err_phase"], rows["n_replicates"] = 0.05, 0.05, 3
+    rows["extrapolation"] = False
+    summ = cv.summarize(rows, table, n_boot=200)
+    assert list(summ.columns) == cv.SUMMARY_COLUMNS and summ["noise_floor_E_norm_pct"].notna().all()
+    assert target_verdict(5.0, 4.0, 6.0, 5.5) == "undecided"
+    assert target_verdict(5.0, 4.0, 5.2, 5.5) == "met" and target_verdict(6.0, 5.6, 6.4, 5.5) == "missed"
+    assert target_verdict(5.0, np.nan, np.nan, 5.5) == "met"

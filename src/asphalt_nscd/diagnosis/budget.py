@@ -363,7 +363,7 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
         "gain_macro": gain_macro,
         "gain_law_only": gain_law_only,
         "transfer": tr,
-        "heldout": heldout_report(crossval) if crossval is not None else None,
+        "heldout": heldout_report(crossval, measured) if crossval is not None else None,
         "targets": {**TARGETS, "met": met, "met_macro": targets_met(gain_macro),
                     "met_nscd": targets_met(gain_nscd) if gain_nscd is not None else None,
                     "met_law_only": targets_met(gain_law_only) if gain_law_only is not None else None},
@@ -373,22 +373,38 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
     return report, extra
 
 
-def heldout_report(rows: pd.DataFrame) -> dict:
+def target_verdict(value: float, low: float, high: float, target: float) -> str:
+    """A held-out MRE against its target, judged with its 95 % interval: ``met`` (the interval
+    lies below the target), ``missed`` (above), ``undecided`` (the target lies inside the
+    interval: within the measured reference's own noise); without an interval, ``met`` or
+    ``missed`` by the point value."""
+    if not (np.isfinite(low) and np.isfinite(high)):
+        return "met" if value <= target else "missed"
+    return "met" if high <= target else "missed" if low > target else "undecided"
+
+
+def heldout_report(rows: pd.DataFrame, measured: pd.DataFrame | None = None) -> dict:
     """The ``heldout`` block of the report from crossval rows.
 
     ``mre``: {scheme: {kind: {model: {T: {E_norm_mre_pct, phase_mre_pct, n_cells,
-    n_not_computable, extrapolation}}}}}; ``headline``: worst temperature per scheme, kind and
-    model (:func:`asphalt_nscd.diagnosis.crossval.headline`) with the held-out targets and
-    whether they are met; ``reference`` and ``protocol`` (text).
+    n_not_computable, extrapolation, and with ``measured`` E_norm_ci95, phase_ci95 (bootstrap
+    over specimens) and the noise floor}}}}}; ``headline``: worst temperature per scheme, kind
+    and model (:func:`asphalt_nscd.diagnosis.crossval.headline`) with the held-out targets,
+    whether they are met by the point values (``targets_met``) and judged against the
+    interval (``verdict_E_norm``, ``verdict_phase``: :func:`target_verdict`); ``reference``
+    and ``protocol`` (text).
     """
     from .crossval import headline, summarize
 
-    summ = summarize(rows)
+    summ = summarize(rows, measured)
     mre = {}
     for _, r in summ.iterrows():
         mre.setdefault(r["scheme"], {}).setdefault(r["kind"], {}).setdefault(r["model"], {})[T_key(r["temperature_C"])] = {
             "E_norm_mre_pct": r["mre_E_norm_pct"], "phase_mre_pct": r["mre_phase_pct"], "n_cells": int(r["n_cells"]),
-            "n_not_computable": int(r["n_not_computable"]), "extrapolation": bool(r["extrapolation"])}
+            "n_not_computable": int(r["n_not_computable"]), "extrapolation": bool(r["extrapolation"]),
+            "E_norm_ci95_pct": [r["mre_E_norm_ci95_low"], r["mre_E_norm_ci95_high"]],
+            "phase_ci95_pct": [r["mre_phase_ci95_low"], r["mre_phase_ci95_high"]],
+            "noise_floor_E_norm_pct": r["noise_floor_E_norm_pct"], "noise_floor_phase_pct": r["noise_floor_phase_pct"]}
     heads = []
     # the time-domain model holds one cell (the agreement check below), not a headline
     for _, h in headline(summ[summ["model"] != "nscd_time_domain"]).iterrows():
@@ -397,6 +413,11 @@ def heldout_report(rows: pd.DataFrame) -> dict:
         d["targets"] = t
         d["targets_met"] = (None if t is None else bool(d["worst_E_norm_pct"] <= t["E_norm_mre_pct"]
                                                         and d["worst_phase_pct"] <= t["phase_mre_pct"]))
+        if t is not None:
+            d["verdict_E_norm"] = target_verdict(d["worst_E_norm_pct"], d.get("worst_E_norm_ci95_low", np.nan),
+                                                 d.get("worst_E_norm_ci95_high", np.nan), t["E_norm_mre_pct"])
+            d["verdict_phase"] = target_verdict(d["worst_phase_pct"], d.get("worst_phase_ci95_low", np.nan),
+                                                d.get("worst_phase_ci95_high", np.nan), t["phase_mre_pct"])
         heads.append(d)
     td = []
     held = rows[(rows["kind"] == "held_out") & rows["computable"]]

@@ -353,7 +353,7 @@ def _crossval(args) -> int:
     res = cv.crossval(measured, args.scheme, options, sample=sample, time_domain=td)
     write_csv(res.rows, args.output)
     if args.summary is not None:
-        write_csv(cv.summarize(res.rows), args.summary)
+        write_csv(cv.summarize(res.rows, measured), args.summary)
     if args.curve is not None:
         write_csv(res.curves if len(res.curves) else pd.DataFrame(columns=["scheme", "fold", "settings"]), args.curve)
     if args.figure is not None:

@@ -702,10 +702,90 @@ def _time_domain_rows(scheme, cells, td: pd.DataFrame, fits) -> list:
     return rows
 
 
-def summarize(rows: pd.DataFrame) -> pd.DataFrame:
+#: bootstrap replicates of the held-out MRE intervals (:func:`specimen_bootstrap`)
+N_BOOTSTRAP = 2000
+#: columns of :func:`summarize`
+SUMMARY_COLUMNS = ["scheme", "kind", "model", "temperature_C", "mre_E_norm_pct", "mre_phase_pct", "n_cells",
+                   "n_not_computable", "extrapolation", "mre_E_norm_ci95_low", "mre_E_norm_ci95_high",
+                   "mre_phase_ci95_low", "mre_phase_ci95_high", "noise_floor_E_norm_pct", "noise_floor_phase_pct",
+                   "n_specimens"]
+
+
+def noise_floor(table: pd.DataFrame) -> pd.DataFrame:
+    """Per temperature, the noise floor of a replicate-mean reference: the mean over the
+    isotherm's cells of the standard error of the replicate mean, relative to the mean, for
+    |E*| and for Phi (%), and the number of specimens.
+
+    Columns ``temperature_C, noise_floor_E_norm_pct, noise_floor_phase_pct, n_specimens``;
+    nan where a cell has a single replicate (no scatter to measure).
+    """
+    g = table.groupby(["temperature_C", "frequency_Hz"])
+    cells = pd.DataFrame({"n": g["E_norm_MPa"].size(),
+                          "se_E": g["E_norm_MPa"].std(ddof=1) / np.sqrt(g["E_norm_MPa"].size()) / g["E_norm_MPa"].mean(),
+                          "se_P": g["phase_deg"].std(ddof=1) / np.sqrt(g["phase_deg"].size()) / g["phase_deg"].mean()})
+    cells = cells.reset_index()
+    out = cells.groupby("temperature_C").agg(noise_floor_E_norm_pct=("se_E", "mean"),
+                                             noise_floor_phase_pct=("se_P", "mean")).reset_index()
+    out[["noise_floor_E_norm_pct", "noise_floor_phase_pct"]] *= 100.0
+    spec = table.groupby("temperature_C")["specimen"].nunique().rename("n_specimens").reset_index()
+    return out.merge(spec, on="temperature_C")
+
+
+def specimen_bootstrap(rows: pd.DataFrame, table: pd.DataFrame, n_boot: int = N_BOOTSTRAP,
+                       seed: int = 0) -> pd.DataFrame:
+    """95 % percentile intervals of the MRE per (scheme, kind, model, temperature) by a
+    bootstrap over specimens: the reference replicate means are recomputed from the specimens
+    drawn with replacement, the predictions of the rows kept (the interval is the sampling
+    uncertainty of the measured reference, which is what a held-out error is judged against).
+    A cell that none of the drawn specimens tested is left out of that replicate's mean.
+
+    Returns columns ``scheme, kind, model, temperature_C, mre_E_norm_ci95_low,
+    mre_E_norm_ci95_high, mre_phase_ci95_low, mre_phase_ci95_high`` (%).
+    """
+    t = table.assign(specimen=table["specimen"].astype(str))
+    specimens = np.array(sorted(t["specimen"].unique()))
+    cells = cell_means(t)[["temperature_C", "frequency_Hz"]].reset_index(drop=True)
+    key = {(round(float(a), 6), float(b)): k for k, (a, b) in enumerate(zip(cells["temperature_C"], cells["frequency_Hz"]))}
+    E = np.full((specimens.size, len(cells)), np.nan)
+    P = np.full((specimens.size, len(cells)), np.nan)
+    sidx = {sp: i for i, sp in enumerate(specimens)}
+    for (sp, T, f), g in t.groupby(["specimen", "temperature_C", "frequency_Hz"]):
+        k = key[(round(float(T), 6), float(f))]
+        E[sidx[sp], k] = g["E_norm_MPa"].mean()
+        P[sidx[sp], k] = g["phase_deg"].mean()
+    rng = np.random.default_rng(seed)
+    draw = rng.integers(0, specimens.size, size=(n_boot, specimens.size))
+    with np.errstate(invalid="ignore"):
+        Eb = np.nanmean(E[draw], axis=1)  # (B, cells)
+        Pb = np.nanmean(P[draw], axis=1)
+    ok_rows = rows[rows["computable"]]
+    out = []
+    for grp, g in ok_rows.groupby(["scheme", "kind", "model", "temperature_C"], sort=True):
+        idx = np.array([key.get((round(float(T), 6), float(f)), -1)
+                        for T, f in zip(g["temperature_C"], g["frequency_Hz"])])
+        keep = idx >= 0
+        if not keep.any():
+            continue
+        eE = np.abs(g["E_norm_MPa_predicted"].to_numpy(float)[keep] / Eb[:, idx[keep]] - 1.0)
+        eP = np.abs(g["phase_deg_predicted"].to_numpy(float)[keep] - Pb[:, idx[keep]]) / np.abs(Pb[:, idx[keep]])
+        with np.errstate(invalid="ignore"):
+            mE, mP = 100 * np.nanmean(eE, axis=1), 100 * np.nanmean(eP, axis=1)
+        lo_E, hi_E = np.nanpercentile(mE, [2.5, 97.5])
+        lo_P, hi_P = np.nanpercentile(mP, [2.5, 97.5])
+        out.append({"scheme": grp[0], "kind": grp[1], "model": grp[2], "temperature_C": grp[3],
+                    "mre_E_norm_ci95_low": lo_E, "mre_E_norm_ci95_high": hi_E,
+                    "mre_phase_ci95_low": lo_P, "mre_phase_ci95_high": hi_P})
+    return pd.DataFrame(out, columns=["scheme", "kind", "model", "temperature_C", "mre_E_norm_ci95_low",
+                                      "mre_E_norm_ci95_high", "mre_phase_ci95_low", "mre_phase_ci95_high"])
+
+
+def summarize(rows: pd.DataFrame, table: pd.DataFrame | None = None, n_boot: int = N_BOOTSTRAP) -> pd.DataFrame:
     """MRE per (scheme, kind, model, temperature): ``mre_E_norm_pct, mre_phase_pct``
     (mean over the computable cells, %), ``n_cells``, ``n_not_computable``,
-    ``extrapolation`` (every cell of that temperature is an extrapolation)."""
+    ``extrapolation`` (every cell of that temperature is an extrapolation); with the measured
+    ``table``, the 95 % interval of each MRE (:func:`specimen_bootstrap`, ``n_boot``
+    replicates) and the temperature's noise floor (:func:`noise_floor`); else those columns
+    are nan."""
     out = []
     for key, g in rows.groupby(["scheme", "kind", "model", "temperature_C"], sort=True):
         ok = g[g["computable"]]
@@ -714,14 +794,23 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
                     "mre_phase_pct": 100 * float(ok["rel_err_phase"].mean()) if len(ok) else np.nan,
                     "n_cells": int(len(ok)), "n_not_computable": int(len(g) - len(ok)),
                     "extrapolation": bool(g["extrapolation"].all())})
-    return pd.DataFrame(out, columns=["scheme", "kind", "model", "temperature_C", "mre_E_norm_pct",
-                                      "mre_phase_pct", "n_cells", "n_not_computable", "extrapolation"])
+    summ = pd.DataFrame(out, columns=SUMMARY_COLUMNS[:9])
+    if table is not None and len(summ):
+        keys = ["scheme", "kind", "model", "temperature_C"]
+        summ = summ.merge(specimen_bootstrap(rows, table, n_boot), on=keys, how="left")
+        floor = noise_floor(table)
+        summ["_T"] = summ["temperature_C"].round(6)
+        floor["_T"] = floor["temperature_C"].round(6)
+        summ = summ.merge(floor.drop(columns="temperature_C"), on="_T", how="left").drop(columns="_T")
+    return summ.reindex(columns=SUMMARY_COLUMNS)
 
 
 def headline(summary: pd.DataFrame) -> pd.DataFrame:
     """Worst temperature per (scheme, kind, model): lofo over every temperature, loto over
     the inner (non-extrapolated) ones. Columns ``scheme, kind, model, worst_E_norm_pct,
-    worst_E_norm_T_C, worst_phase_pct, worst_phase_T_C``."""
+    worst_E_norm_T_C, worst_phase_pct, worst_phase_T_C`` and, where the summary has them, the
+    interval and noise floor at that temperature (``worst_E_norm_ci95_low/high``,
+    ``worst_E_norm_noise_floor_pct``, and the same for the phase)."""
     out = []
     for key, g in summary.groupby(["scheme", "kind", "model"], sort=True):
         if key[0] == "loto" and key[1] == "held_out":
@@ -730,11 +819,20 @@ def headline(summary: pd.DataFrame) -> pd.DataFrame:
         if g.empty:
             continue
         iE, iP = g["mre_E_norm_pct"].idxmax(), g["mre_phase_pct"].idxmax()
-        out.append({"scheme": key[0], "kind": key[1], "model": key[2],
-                    "worst_E_norm_pct": float(g.loc[iE, "mre_E_norm_pct"]),
-                    "worst_E_norm_T_C": float(g.loc[iE, "temperature_C"]),
-                    "worst_phase_pct": float(g.loc[iP, "mre_phase_pct"]),
-                    "worst_phase_T_C": float(g.loc[iP, "temperature_C"])})
+        row = {"scheme": key[0], "kind": key[1], "model": key[2],
+               "worst_E_norm_pct": float(g.loc[iE, "mre_E_norm_pct"]),
+               "worst_E_norm_T_C": float(g.loc[iE, "temperature_C"]),
+               "worst_phase_pct": float(g.loc[iP, "mre_phase_pct"]),
+               "worst_phase_T_C": float(g.loc[iP, "temperature_C"])}
+        for col in ("mre_E_norm_ci95_low", "mre_E_norm_ci95_high", "noise_floor_E_norm_pct"):
+            if col in g.columns:
+                row[f"worst_E_norm_{col.replace('mre_E_norm_', '').replace('_E_norm_pct', '_pct')}"] = \
+                    float(g.loc[iE, col])
+        for col in ("mre_phase_ci95_low", "mre_phase_ci95_high", "noise_floor_phase_pct"):
+            if col in g.columns:
+                row[f"worst_phase_{col.replace('mre_phase_', '').replace('_phase_pct', '_pct')}"] = \
+                    float(g.loc[iP, col])
+        out.append(row)
     return pd.DataFrame(out)
 
 
