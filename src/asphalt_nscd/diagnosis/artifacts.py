@@ -66,12 +66,14 @@ def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
 
 def screening_summary(search: effects.ArtifactSearch, result: dict) -> dict:
     """Reduced chi-square of the artifact screening model against the benchmark's clean
-    tables (:data:`effects.BENCH_SCREENING_CHI2`)."""
+    tables (:data:`effects.BENCH_SCREENING_CHI2`): ``within_bench_range`` when it is at most
+    their 99th percentile (beyond it the measured false-alarm rates do not describe the table
+    and its p-values are nominal)."""
     chi2 = search.chi2_per_dof(result["base"])
     bench = effects.BENCH_SCREENING_CHI2
     return {"model": "2S2P1D, free shift and vertical factor per isotherm, specimen factors",
             "chi2_per_dof": chi2, "bench_clean_chi2_per_dof_q99": bench["q99"],
-            "bench_clean_chi2_per_dof_max": bench["max"], "within_bench_range": bool(chi2 <= bench["max"])}
+            "bench_clean_chi2_per_dof_max": bench["max"], "within_bench_range": bool(chi2 <= bench["q99"])}
 
 
 @dataclass

@@ -39,14 +39,18 @@ extra-sum-of-squares F-test (residuals weighted by the replicate noise). While t
 model fits to within noise, these fits hold the weakly identified 2S2P1D parameters E00 and
 beta at the current fit (``SHAPE_PARAMETERS``); when it does not (reduced chi-square >
 ``INADEQUATE_CHI2``) they are free. The candidate with the smallest p-value enters if
-p < alpha (strain nonlinearity one-sided), it has the physical sign and its size reaches
-``PRACTICAL_MINIMUM``; it is then refitted with every parameter free. The loop stops when no
-candidate enters. Every detected effect gets a drop-one F-test, a Jacobian standard error
+p < alpha / m (strain nonlinearity one-sided), m the number of hypotheses not yet rejected
+(the candidates left and the offset test: Holm's sequentially rejective Bonferroni procedure,
+Holm 1979, Scand. J. Statist. 6, 65-70, so that alpha bounds the chance of naming any
+artifact on a table without one, whatever the number of candidates and rounds), it has the
+physical sign and its size reaches ``PRACTICAL_MINIMUM``; it is then refitted with every
+parameter free. The loop stops when no candidate enters. Every detected effect gets a drop-one F-test, a Jacobian standard error
 and its share of the misfit ("score": mean change of Phi (%) plus of |E*| (%) it causes).
 
 Temperature offset: its own test on the free shifts of the final screening fit
 (:meth:`ArtifactSearch.offset_test`): the inner isotherm's shift against the smooth shift
-law (``shift``) of the others, with the law's misfit ``OFFSET_MODEL_ERROR_C`` in the variance.
+law (``shift``) of the others, with the law's misfit ``OFFSET_MODEL_ERROR_C`` in the variance,
+at the last level of the step-down (alpha over the hypotheses left).
 
 Level: the p-values are nominal. Under misspecification the F-test is anti-conservative, so
 the decision also needs a practical size, and the floors and the offset misfit were set on a
@@ -56,7 +60,8 @@ decisions are measured by a fresh run of the same benchmark (docs/choices.md, Di
 measured point is corrected by the complex ratio of the fitted model without and with the
 artifacts (the offset isotherm moved onto the law).
 
-Choice: alpha defaults to 1e-3 (config ``diagnosis.alpha``).
+Choice: alpha defaults to 1e-3 (config ``diagnosis.alpha``), the family-wise level of the
+whole selection.
 """
 
 from __future__ import annotations
@@ -371,8 +376,11 @@ class ArtifactSearch:
         base = self.fit([])
         current, selected = base, []
         cands = self.candidates()
+        offset_on = bool(self.testable["temperature_offset"][0])
         results = []
         while True:
+            # Holm's step-down over the whole family: the remaining candidates and the offset test
+            level = self.alpha / (len(cands) - len(selected) + offset_on)
             results = []
             for c in cands:
                 if any(s.name == c.name for s in selected):
@@ -387,7 +395,7 @@ class ArtifactSearch:
             if anchor is not None:
                 continue
             ok = [(p, F, c, fit) for p, F, c, fit in results
-                  if np.isfinite(p) and p < self.alpha
+                  if np.isfinite(p) and p < level
                   and self._sign_ok(c.name, fit.x[fit.x.size - len(c.term.names):], fit)]
             if not ok:
                 break
@@ -416,11 +424,13 @@ class ArtifactSearch:
                 k = len(c.term.names)
                 tests[c.name] = {"detected": False, "p": p, "F": F, "cand": c, "fit": fit,
                                  "index": list(range(fit.x.size - k, fit.x.size))}
-        offset = self.offset_test(final) if self.testable["temperature_offset"][0] else None
+        offset = self.offset_test(final) if offset_on else None
         if offset is not None:
-            offset["detected"] = bool(offset["p"] < self.alpha
+            offset["level"] = self.alpha / (len(cands) - len(selected) + 1)
+            offset["detected"] = bool(offset["p"] < offset["level"]
                                       and abs(offset["offset_C"]) >= PRACTICAL_MINIMUM["temperature_offset"])
-        return {"base": base, "final": final, "selected": selected, "tests": tests, "offset": offset}
+        return {"base": base, "final": final, "selected": selected, "tests": tests, "offset": offset,
+                "family_size": len(cands) + offset_on}
 
     # -------------------------------------------------------------- temperature offset
     def free_shifts(self, fit: MasterCurveFit) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -318,8 +318,9 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
                  f"{scr['bench_clean_chi2_per_dof_max']:.2f}): "
                  + ("inside the range where the false-alarm rates were measured."
                     if scr["within_bench_range"] else
-                    "outside the range where the false-alarm rates were measured; read the data-artifact "
-                    "p-values with that in mind."))
+                    "beyond 99 % of the clean tables on which the false-alarm rates were measured, so the "
+                    "data-artifact p-values below are nominal: the model misfits this table, and a term can "
+                    "absorb misfit."))
     lines += ["", "Data artifacts: nominal p-values of nested master-curve tests; the false-alarm rates of "
               "these decisions are measured by `asphalt-nscd diagnose-bench` on tables drawn from truths "
               "outside the detector's model (docs/choices.md, Diagnosis)." + where + " broad_spectrum: held-out "

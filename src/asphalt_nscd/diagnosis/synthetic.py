@@ -68,7 +68,11 @@ SCHEDULE_TESTS = {"paper_2pb": "2pb_trapezoid", "aashto_t342": "uniaxial_cylinde
                   "ampt_pp61": "uniaxial_cylinder"}
 #: Truth families: the detector's own model (wlf) and mild departures from it (see
 #: :func:`random_family`).
-FAMILIES = ("wlf", "glassy_drift", "arrhenius", "static_drift", "poly_shift", "mixed")
+FAMILIES = ("wlf", "glassy_drift", "arrhenius", "static_drift", "poly_shift", "mixed", "huet_sayegh", "gmaxwell",
+            "sigmoidal")
+#: families whose truth is not a 2S2P1D master curve and which carry the measurement
+#: structure of real tables (:func:`random_family`)
+HARD_FAMILIES = ("huet_sayegh", "gmaxwell", "sigmoidal")
 #: Names of the effects the generator can plant.
 EFFECTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
            "self_heating")
@@ -113,13 +117,45 @@ def random_family(name: str, rng: np.random.Generator) -> dict:
                    per degC, c 2e-4-1.2e-3 per degC^2 (``shift_slope_per_C``,
                    ``shift_curvature_per_C2``; replaces C1, C2)
     mixed          glassy_drift + static_drift + poly_shift at once
+    huet_sayegh    the Huet-Sayegh model (2S2P1D without its linear dashpot: a solid at long
+                   times), WLF shift
+    gmaxwell       a generalized Maxwell series E00 + sum E_i i w r_i / (1 + i w r_i) with a
+                   random positive spectrum: 30 relaxation times over 14 decades around
+                   tau_ref, weights a broad log-normal envelope times exp of a smoothed
+                   random walk (``spectrum``); quadratic shift (as poly_shift)
+    sigmoidal      the MEPDG sigmoid (AASHTO R 84) log10|E*| = d + a / (1 + exp(b - g log10 w_r)),
+                   d = log10 E00, a = log10(E0 / E00), b in [-1.5, 0.5], g in [0.4, 0.6];
+                   phase by Booij & Thoone's first-order Kramers-Kronig relation
+                   Phi = (pi / 2) d ln|E*| / d ln w; quadratic shift
     =============  ======================================================================
+
+    The hard families (:data:`HARD_FAMILIES`) also carry the measurement structure of real
+    tables: each specimen's |E*| factor drifts with temperature (a log slope per degC drawn
+    with standard deviation ``specimen_T_slope_sigma``, 0.05-0.15 % per degC), and every
+    (T, f) cell has an error shared by its specimens (the lack of fit of any smooth law to a
+    real table; standard deviations ``cell_misfit_ratio`` = 0.5-2 times the point noise), so
+    that their screening chi-square per degree of freedom spans that of real tables.
 
     Raises ValueError on an unknown family.
     """
     if name not in FAMILIES:
         raise ValueError(f"unknown truth family '{name}'; expected one of {', '.join(FAMILIES)}")
     out = {"family": name}
+    if name in HARD_FAMILIES:
+        out["model"] = name
+        out["specimen_T_slope_sigma"] = float(rng.uniform(0.0005, 0.0015))
+        out["cell_misfit_ratio"] = float(rng.uniform(0.5, 2.0))
+    if name in ("gmaxwell", "sigmoidal"):
+        out["shift_slope_per_C"] = float(rng.uniform(0.10, 0.20))
+        out["shift_curvature_per_C2"] = float(rng.uniform(2e-4, 1.2e-3))
+    if name == "gmaxwell":
+        lt = np.linspace(-8.0, 6.0, 30)  # log10(r_i / tau_ref)
+        walk = np.convolve(rng.normal(0.0, 0.5, lt.size + 4), np.ones(5) / 5.0, mode="valid")
+        w = np.exp(-0.5 * ((lt + 1.0) / 2.5) ** 2 + walk)
+        out["spectrum"] = {"log10_time_over_tau_ref": lt.tolist(), "weights": (w / w.sum()).tolist()}
+    if name == "sigmoidal":
+        out["sigmoid_beta"] = float(rng.uniform(-1.5, 0.5))
+        out["sigmoid_gamma"] = float(rng.uniform(0.4, 0.6))
     if name in ("glassy_drift", "mixed"):
         out["E0_drift_per_C"] = float(rng.uniform(0.002, 0.004))
     if name in ("static_drift", "mixed"):
@@ -146,12 +182,28 @@ def truth_log_shift(truth: dict, temperature_C) -> np.ndarray:
 def truth_modulus(truth: dict, frequency_Hz, temperature_C) -> np.ndarray:
     """Complex modulus (MPa) of the truth at arrays of frequency (Hz) and temperature (degC)."""
     T = np.asarray(temperature_C, float)
+    f = np.asarray(frequency_Hz, float)
     tau = truth["tau_ref_s"] * 10.0 ** truth_log_shift(truth, T)
     dT = T - truth["T_ref_C"]
     E0 = truth["E0_MPa"] * np.exp(-truth.get("E0_drift_per_C", 0.0) * dT)
     E00 = truth["E00_MPa"] * np.exp(-truth.get("E00_drift_per_C", 0.0) * dT)
-    return two_s2p1d_modulus(2 * np.pi * np.asarray(frequency_Hz, float), E00, E0,
-                             truth["delta"], truth["k"], truth["h"], truth["beta"], tau)
+    model = truth.get("model", "2s2p1d")
+    omega = 2 * np.pi * f
+    if model == "gmaxwell":
+        spec = truth["spectrum"]
+        rho = np.asarray(tau)[..., None] * 10.0 ** np.asarray(spec["log10_time_over_tau_ref"])
+        iwr = 1j * omega[..., None] * rho
+        return E00 + (E0 - E00) * np.sum(np.asarray(spec["weights"]) * iwr / (1.0 + iwr), axis=-1)
+    if model == "sigmoidal":
+        d, a = np.log10(E00), np.log10(E0 / E00)
+        b, g = truth["sigmoid_beta"], truth["sigmoid_gamma"]
+        x = np.log10(omega * tau)
+        e = np.exp(b - g * x)
+        log_E = d + a / (1.0 + e)
+        dlog = a * g * e / (1.0 + e) ** 2  # d log10|E*| / d log10 w = d ln|E*| / d ln w
+        return 10.0 ** log_E * np.exp(1j * 0.5 * np.pi * dlog)
+    beta = np.inf if model == "huet_sayegh" else truth["beta"]
+    return two_s2p1d_modulus(omega, E00, E0, truth["delta"], truth["k"], truth["h"], beta, tau)
 
 
 def random_effect(name: str, rng: np.random.Generator, temperatures, test: str = "2pb_trapezoid") -> dict:
@@ -249,6 +301,14 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
             inertia["mass_factor_g"] = float(np.sign(inertia["mass_factor_g"]) * dmu_max)
         inertia["E_deficit_pct"] = float(100 * np.max(abs(inertia["mass_factor_g"]) * per_g / np.abs(E)))
 
+    # measurement structure of the hard families, from a child generator (the other families'
+    # tables do not depend on it): specimen factors drifting with T, errors shared by a cell
+    hard = np.random.default_rng([seed, 3])
+    slope = hard.normal(0.0, truth.get("specimen_T_slope_sigma", 0.0), n_specimens)
+    ratio = truth.get("cell_misfit_ratio", 0.0)
+    cell_err = {(T, f): (hard.normal(0.0, ratio * noise["point_lnE_sigma"]),
+                         hard.normal(0.0, ratio * noise["point_phase_sigma_deg"]))
+                for T in temps for f in freqs}
     rows = []
     for s in range(n_specimens):
         c = rng.normal(0.0, noise["specimen_lnE_sigma"])
@@ -261,7 +321,9 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
                 if "temperature_offset" in planted and T == planted["temperature_offset"]["temperature_C"]:
                     T_eff += planted["temperature_offset"]["offset_C"]
                 strain = rng.uniform(30.0, 150.0)
-                E = complex(truth_modulus(truth, f, T_eff)) * np.exp(c + 1j * np.radians(p0))
+                ce, cp = cell_err[(T, f)]
+                E = complex(truth_modulus(truth, f, T_eff)) * np.exp(
+                    c + slope[s] * (T - truth["T_ref_C"]) + ce + 1j * np.radians(p0 + cp))
                 if "self_heating" in planted:
                     sh = planted["self_heating"]
                     E = abs(E) * np.exp(-sh["modulus_drop_pct_per_test"] / 100 * n
