@@ -228,7 +228,8 @@ def random_effect(name: str, rng: np.random.Generator, temperatures, test: str =
 
 
 def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: int | None = None,
-             magnitudes: dict | None = None, family: str = "wlf") -> tuple[pd.DataFrame, dict]:
+             magnitudes: dict | None = None, family: str = "wlf",
+             frequencies_Hz=None) -> tuple[pd.DataFrame, dict]:
     """Generate a synthetic measured table and its truth.
 
     Parameters
@@ -247,6 +248,8 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
         ``{effect: {key: value}}`` overriding the random magnitudes.
     family : str
         Truth family (:data:`FAMILIES`, :func:`random_family`).
+    frequencies_Hz : sequence of float, optional
+        Frequencies in test order (default the schedule's), e.g. those of a measured table.
 
     Returns
     -------
@@ -271,6 +274,8 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
     if schedule not in SCHEDULES:
         raise ValueError(f"unknown schedule '{schedule}'; expected one of {', '.join(SCHEDULES)}")
     temps, freqs = SCHEDULES[schedule]
+    if frequencies_Hz is not None:
+        freqs = [float(f) for f in frequencies_Hz]
     test = schedule_test(schedule)
     if n_specimens is None:
         n_specimens = int(rng.integers(2, 5))
@@ -343,3 +348,24 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
     info = {"seed": int(seed), "schedule": schedule, "family": family, "test": test.to_json(),
             "n_specimens": n_specimens, "parameters": truth, "noise": noise, "effects": planted}
     return table, info
+
+
+def kk_reference(frequencies_Hz, n_specimens: int, n_tables: int = 200, seed: int = 20261122,
+                 families=FAMILIES) -> np.ndarray:
+    """Kramers-Kronig statistic (mean |Phi - Phi_Booij-Thoone| per isotherm, deg,
+    :func:`asphalt_nscd.rheology.kramers_kronig.isotherm_residuals`) of causal synthetic
+    isotherms: ``n_tables`` clean tables (families taken in turn; every truth is a causal
+    linear viscoelastic law, the sigmoid through Booij-Thoone itself) on the AASHTO T 342
+    temperatures at ``frequencies_Hz`` with ``n_specimens`` replicates and the generator's
+    noise. Returns the statistics of every isotherm, shape (n_tables x 5,), the reference a
+    measured isotherm's value is placed in (a percentile, not a verdict)."""
+    from ..rheology.kramers_kronig import isotherm_residuals
+
+    freqs = sorted((float(f) for f in frequencies_Hz), reverse=True)
+    out = []
+    for i in range(int(n_tables)):
+        fam = families[i % len(families)]
+        t, _ = generate(int(np.random.SeedSequence([seed, i]).generate_state(1)[0]), schedule="aashto_t342",
+                        n_specimens=int(min(max(n_specimens, 1), 5)), family=fam, frequencies_Hz=freqs)
+        out.extend(isotherm_residuals(t).to_numpy(float))
+    return np.asarray(out)

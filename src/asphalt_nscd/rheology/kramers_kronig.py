@@ -85,3 +85,10 @@ def kk_time_lag(df: pd.DataFrame, degree: int = 2) -> dict:
     s2 = float(np.sum((y - X @ coef) ** 2) / dof)
     cov = s2 * np.linalg.pinv(X.T @ X)
     return {"time_lag_ms": float(coef[0] * 1e3), "time_lag_se_ms": float(np.sqrt(cov[0, 0]) * 1e3)}
+
+
+def isotherm_residuals(df: pd.DataFrame, degree: int = 2) -> pd.Series:
+    """Mean |Phi - Phi_Booij-Thoone| (deg) of each isotherm of a tidy table (index:
+    temperature_C): the Kramers-Kronig consistency statistic of the isotherm."""
+    r = kk_residuals(df, degree)
+    return r.groupby("temperature_C")["phase_kk_residual_deg"].agg(lambda x: float(np.mean(np.abs(x))))
