@@ -117,7 +117,7 @@ def test_periodic_state_with_gravity_is_an_orbit_of_the_step_map(tiny_sample, ki
         sim.params.linear_tolerance = 1e-13
         state = periodic.periodic_state(sim, law, f, s.amplitude_m, s.head_rotation)
         assert state.gravity is not None and state.gravity.creep == creep
-        assert state.gravity.residual < 1e-9 and not state.gravity.regularised
+        assert state.gravity.residual < 1e-9 and not state.gravity.failed
         if not with_gravity:  # the periodic part alone: gravity starts from rest
             g = state.gravity
             state = dataclasses.replace(

@@ -81,11 +81,19 @@ steady state under gravity is the exact fixed point of the step map for a consta
 
 Every bond law of the campaign is a multiple a_b of one macro law (Eqs. 30-33), so one
 solve with G (the core's network, no regularisation) gives both, refined
-(:data:`GRAVITY_REFINEMENTS` steps). Should G be singular (a mechanism: a sphere held by one
-bond rolls about it), the harmonic solver's rotational regularisation gives the mechanism a
-finite answer (``regularised`` in the record); a mechanism carries no force in the linear
-test and moves under its weight from either start. Spheres of clusters bonded to no plate
-fall freely from either start and are left at rest.
+(:data:`GRAVITY_REFINEMENTS` steps). G is singular where a sphere is a mechanism: a sphere
+held by one bond rolls about the bond's contact point, one held by two spins about the line
+through both (at paper scale a dozen of ~9,000 spheres). Each such motion v is a zero mode of
+the whole network (it strains no bond), so it carries no force in the linear test and is
+moved by its weight alone, from either start in the same way. The steady state is therefore
+computed on the rest of the network: the weight's component along the zero modes is removed
+from the load, and G + c v v^T (c the sphere's own stiffness scale) is factorised, which
+changes nothing on the other modes; the zero modes start at rest, as from rest
+(``n_mechanisms`` in the record). If the refined residual still exceeds
+:data:`GRAVITY_RESIDUAL_MAX` (a mechanism of several spheres that no sphere shows alone) the
+steady state is not used: gravity then starts from rest, as in the paper's protocol
+(``failed`` in the record). Spheres of clusters bonded to no plate fall freely from either
+start and are left at rest.
 
 The solve costs one harmonic solution of the sample (a real factorisation and 4-14 GMRES
 iterations; ``solve_s`` in the record): 0.05-0.17 s on the 221-sphere default sample and
@@ -168,6 +176,10 @@ class PeriodicState:
 #: iterative refinements of the static solve under gravity (the network is ill-conditioned:
 #: its softest modes are 1e8 times softer than its stiffest on small samples)
 GRAVITY_REFINEMENTS = 2
+#: largest relative residual of the static solve under gravity for the state to be used
+GRAVITY_RESIDUAL_MAX = 1e-8
+#: relative eigenvalue below which a sphere's own 6 x 6 stiffness block has a zero mode
+MECHANISM_TOLERANCE = 1e-9
 
 
 @dataclass
@@ -180,9 +192,10 @@ class GravityState:
     head_rotation, head_angular_velocity : (3,) rad, rad/s.
     bond_displacement, bond_force, delta_c : (B, 3); delta_k : (B, NK, 3) (bond local frames).
     creep : bool — steady creep (liquid chain) or static equilibrium (solid chain).
-    residual : relative residual |F_g - G U_1| / |F_g| of the refined static solve.
-    regularised : True if the network was singular (a mechanism) and was solved with the
-        harmonic solver's rotational regularisation (module docstring).
+    residual : relative residual |P F_g - G U_1| / |P F_g| of the refined static solve (P
+        removes the load along the mechanisms' zero modes).
+    n_mechanisms : zero modes of single spheres removed (module docstring).
+    failed : the reason the steady state is not used (zero state: gravity from rest), or ''.
     sag_m : largest displacement at t = 0, m; solve_s : wall time, s.
     """
 
@@ -198,14 +211,15 @@ class GravityState:
     delta_k: np.ndarray
     creep: bool
     residual: float
-    regularised: bool
+    n_mechanisms: int
+    failed: str
     sag_m: float
     solve_s: float
 
     def info(self) -> dict:
         """JSON-ready summary (the record's ``start_info['gravity']``)."""
-        return {"creep": self.creep, "residual": self.residual, "regularised": self.regularised,
-                "sag_m": self.sag_m, "solve_s": self.solve_s}
+        return {"creep": self.creep, "residual": self.residual, "n_mechanisms": self.n_mechanisms,
+                "failed": self.failed, "sag_m": self.sag_m, "solve_s": self.solve_s}
 
 
 def network_of(sim):
@@ -250,6 +264,38 @@ def _bond_laws(bonds):
             bonds.Ck[:, :, comp])
 
 
+def _mechanism_modes(g0, net, active, d: int, max_bonds: int = 3):
+    """Zero modes of the weakly held spheres of a network: the spheres with at most
+    ``max_bonds`` bonds, grouped into the connected clusters they form among themselves; for
+    each cluster the null vectors of its own block of G (its neighbours held), relative
+    eigenvalue below :data:`MECHANISM_TOLERANCE`. Such a vector strains no bond, so it is a
+    zero mode of the whole network. Yields (free DOF indices, unit vector, stiffness scale of
+    the cluster's block)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    n = active.size
+    count = np.bincount(net.i, minlength=n) + np.bincount(net.j[net.j >= 0], minlength=n)
+    slot = -np.ones(n, np.int64)
+    slot[active] = np.arange(int(active.sum()))
+    weak = (count <= max_bonds) & (slot >= 0)
+    if not weak.any():
+        return
+    both = (net.j >= 0)
+    both[both] = weak[net.i[both]] & weak[net.j[both]]
+    graph = sp.coo_matrix((np.ones(both.sum()), (net.i[both], net.j[both])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    csr = g0.tocsr()
+    for lab in np.unique(label[weak]):
+        members = slot[np.flatnonzero(weak & (label == lab))]
+        dofs = (d * members[:, None] + np.arange(d)).ravel()
+        w, vec = np.linalg.eigh(csr[dofs][:, dofs].toarray())
+        scale = max(float(w.max()), 1e-300)
+        for e, v in zip(w, vec.T):
+            if e < MECHANISM_TOLERANCE * scale:
+                yield dofs, v, scale
+
+
 def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO) -> GravityState:
     """Steady state of the 2PB simulation under its gravity with the head held (module
     docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
@@ -289,9 +335,9 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
     X1 = np.zeros((n, 3))
     TH1 = np.zeros((n, 3))
     THp1 = np.zeros(3)
-    residual, regularised = 0.0, False
+    residual, n_mech, failed = 0.0, 0, ""
     if np.any(g != 0.0):
-        from ..harmonic.solver import ROTATIONAL_REGULARISATION
+        import scipy.sparse as sp
 
         net = network_of(sim)
         system = HarmonicSystem(net, nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
@@ -301,16 +347,31 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         rhs = np.zeros(system.n_free)
         rhs[:d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
         g0 = system._reference_blocks()["ff"]
+        # zero modes of weakly held spheres (mechanisms): removed from the load, stiffened in G
+        extra_r, extra_c, extra_v = [], [], []
+        for dofs, v, scale in _mechanism_modes(g0, net, system.active, d):
+            n_mech += 1
+            rhs[dofs] -= (v @ rhs[dofs]) * v
+            extra_r.append(np.repeat(dofs, dofs.size))
+            extra_c.append(np.tile(dofs, dofs.size))
+            extra_v.append(scale * np.outer(v, v).ravel())
+        a = g0
+        if extra_v:
+            a = (g0 + sp.csc_matrix((np.concatenate(extra_v), (np.concatenate(extra_r), np.concatenate(extra_c))),
+                                    shape=g0.shape)).tocsc()
+        u = np.zeros_like(rhs)
         try:
-            lu = system._reference()["lu"]
-        except RuntimeError:  # singular: a mechanism; its finite answer from the regularised network
-            regularised = True
-            lu = HarmonicSystem(net, nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
-                                regularisation=ROTATIONAL_REGULARISATION)._reference()["lu"]
-        u = lu.solve(rhs)
-        for _ in range(GRAVITY_REFINEMENTS):
-            u = u + lu.solve(rhs - g0 @ u)
-        residual = float(np.linalg.norm(rhs - g0 @ u) / max(np.linalg.norm(rhs), 1e-300))
+            lu = system.factorise(a, "G + mechanisms (gravity)")
+            u = lu.solve(rhs)
+            for _ in range(GRAVITY_REFINEMENTS):
+                u = u + lu.solve(rhs - g0 @ u)
+            residual = float(np.linalg.norm(rhs - g0 @ u) / max(np.linalg.norm(rhs), 1e-300))
+        except RuntimeError as exc:
+            residual, failed = float("inf"), f"factorisation failed ({exc})"
+        if not residual <= GRAVITY_RESIDUAL_MAX:
+            failed = failed or (f"residual {residual:.3g} > {GRAVITY_RESIDUAL_MAX:g} (a mechanism of several "
+                                "spheres?): gravity starts from rest")
+            u = np.zeros_like(rhs)
         q = u[:d * act.size].reshape(-1, d)
         X1[act] = q[:, :3]
         if contact:
@@ -333,7 +394,7 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         displacement=X0, velocity=c1 * X1, rotation=TH0, angular_velocity=c1 * TH1,
         head_rotation=THp0, head_angular_velocity=c1 * THp1, bond_displacement=delta,
         bond_force=r_ch - Kinf * delta, delta_c=d_c, delta_k=np.ascontiguousarray(d_k), creep=bool(liquid),
-        residual=residual, regularised=regularised, sag_m=float(np.abs(X0).max()) if n else 0.0,
+        residual=residual, n_mechanisms=n_mech, failed=failed, sag_m=float(np.abs(X0).max()) if n else 0.0,
         solve_s=time.perf_counter() - tic)
 
 
