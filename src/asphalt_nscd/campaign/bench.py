@@ -147,7 +147,7 @@ def job_class(job: dict) -> tuple:
 
 def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_steps: int = 10,
                       warmup: int = 2, bond_kinematics: str = "contact",
-                      starts=("rest", "periodic"), linear_solver: str = "cg",
+                      starts=("rest", "periodic"), linear_solver: str = "cg", linear_tolerance: float | None = None,
                       baseline: dict | None = None, chunk: int = 5) -> dict:
     """CPU time per step of every job class of ``jobs`` on a sample file, with the job's law.
 
@@ -156,7 +156,8 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
     laws : :class:`.study.JobLaws` (the law files of the modes).
     starts : starts to time; 'periodic' is timed only for classes whose jobs start periodic.
     n_steps, warmup : timed steps after warm-up steps, per class and start.
-    bond_kinematics, linear_solver : the core's (config ``nscd``; a mode's own solver wins).
+    bond_kinematics, linear_solver, linear_tolerance : the core's (config ``nscd``; a mode's own
+        solver wins).
     baseline : settings (keys of :class:`.twopb.TwoPBSettings`) that replace the configured
         ones in a second simulation of the same job, timed in the same run: the two are
         stepped by turns, ``chunk`` steps each, so that both see the same machine load
@@ -186,7 +187,8 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
     periodic_classes = {job_class(j) for j in jobs if j["start"] == "periodic"}
     for cls in dict.fromkeys(job_class(j) for j in jobs):
         mode, T, f, dt = cls
-        base = TwoPBSettings(**{k: v for k, v in mode_settings(campaign, mode, bond_kinematics, linear_solver).items()
+        base = TwoPBSettings(**{k: v for k, v in mode_settings(campaign, mode, bond_kinematics, linear_solver,
+                                                                linear_tolerance).items()
                                 if k in TwoPBSettings.__dataclass_fields__})
         law = laws.law(mode, T)
         out[cls] = {}

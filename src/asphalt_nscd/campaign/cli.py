@@ -235,7 +235,8 @@ def _periodic_check(args) -> int:
         base = None
         if cfg is not None:
             kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
-            base = twopb.mode_settings(cfg["campaign"], mode, kin, cfg.get("nscd", {}).get("linear_solver", "cg"))
+            base = twopb.mode_settings(cfg["campaign"], mode, kin, cfg.get("nscd", {}).get("linear_solver", "cg"),
+                                       cfg.get("nscd", {}).get("linear_tolerance"))
             base["window_cycles"] = cfg.get("lab", {}).get("simulation_window_cycles", 1.0)
         settings = _settings(args, base)
         law = laws.law(mode, T)
@@ -527,6 +528,7 @@ def _bench(args) -> int:
         costs = bench.measure_job_costs(args.sample, camp, jobs, laws, n_steps=args.job_steps,
                                         warmup=args.job_warmup, bond_kinematics=kin,
                                         linear_solver=cfg.get("nscd", {}).get("linear_solver", "cg"),
+                                        linear_tolerance=cfg.get("nscd", {}).get("linear_tolerance"),
                                         baseline=baseline)
 
         def per_step(job, costs=costs):

@@ -446,7 +446,8 @@ def mode_settings_json(config: dict, mode: str) -> str:
     from .twopb import mode_settings
 
     return json.dumps(mode_settings(config["campaign"], mode, bond_kinematics(config),
-                                    config["nscd"].get("linear_solver", "cg")))
+                                    config["nscd"].get("linear_solver", "cg"),
+                                    config["nscd"].get("linear_tolerance")))
 
 
 def mode_settings_function(config: dict):

@@ -132,6 +132,8 @@ class TwoPBSettings:
     linear_solver : the core's linear fast-path solver, 'cg' | 'cg_ssor' | 'direct'
         (config ``nscd.linear_solver``, per mode ``campaign.paper|measured.linear_solver``;
         :mod:`asphalt_nscd.nscd.linear`).
+    linear_tolerance : relative residual at which the conjugate gradient of the fast path
+        stops (config ``nscd.linear_tolerance``; the core's default 1e-10 without it).
     periodic_cycles : cycles simulated after a periodic start (the last ``window_cycles``
         are reduced).
     fast_path_contacts : most contacts a fast-path step solves on their condensed Delassus
@@ -162,6 +164,7 @@ class TwoPBSettings:
     start: str = "rest"
     periodic_cycles: float = 1.0
     linear_solver: str = "cg"
+    linear_tolerance: float = 1e-10
     fast_path_contacts: int = 0
 
     def __post_init__(self):
@@ -190,7 +193,8 @@ class TwoPBSettings:
 MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa", "start", "linear_solver")
 
 
-def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", linear_solver: str = "cg") -> dict:
+def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", linear_solver: str = "cg",
+                  linear_tolerance: float | None = None) -> dict:
     """The test settings (keys of :class:`TwoPBSettings`, JSON-serialisable) of the jobs of
     one mode of a ``campaign`` config section, as workflow/rules/campaign.smk runs them.
 
@@ -202,9 +206,10 @@ def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", l
     further be set per study or mode section (``campaign.extended.start``,
     ``campaign.dt_study.start``, ``campaign.sensitivity.start``,
     ``campaign.units_question.start`` for units_*). Modes ending in ``_nobreak`` get
-    unbreakable bonds; ``bond_kinematics`` and ``linear_solver`` are the core's (config
-    ``nscd.bond_kinematics``, ``nscd.linear_solver``); a schedule's own ``linear_solver`` wins
-    (e.g. ``direct`` for mix-like bonds, docs/choices.md).
+    unbreakable bonds; ``bond_kinematics``, ``linear_solver`` and ``linear_tolerance`` are the
+    core's (config ``nscd.bond_kinematics``, ``nscd.linear_solver``, ``nscd.linear_tolerance``;
+    None: the core's default); a schedule's own ``linear_solver`` wins (e.g. ``direct`` for
+    mix-like bonds, docs/choices.md).
     """
     sched = campaign["measured"] if mode in ("measured", "extended") else campaign["paper"]
     cfg = {**campaign["test"], "linear_solver": linear_solver, **{k: sched[k] for k in MODE_OVERRIDES if k in sched}}
@@ -216,6 +221,8 @@ def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", l
     if mode.endswith("_nobreak"):
         cfg["yield_stress_Pa"] = None
     cfg["bond_kinematics"] = bond_kinematics
+    if linear_tolerance is not None:
+        cfg["linear_tolerance"] = float(linear_tolerance)
     return cfg
 
 
@@ -323,6 +330,7 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     params = NSCDParameters(dt=dt, theta=settings.theta, gravity=gravity, friction=settings.friction,
                             tolerance=settings.tolerance, max_iterations=settings.max_iterations,
                             bond_kinematics=settings.bond_kinematics, linear_solver=settings.linear_solver,
+                            linear_tolerance=settings.linear_tolerance,
                             fast_path_contacts=settings.fast_path_contacts)
     sim = test_simulation(sample, law, motion, params, head_rotation=settings.head_rotation,
                           nu=settings.nu, yield_stress=strength)

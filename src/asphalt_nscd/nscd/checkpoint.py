@@ -65,6 +65,9 @@ def write_checkpoint(sim, path) -> None:
                 g["vp_before"] = sim._vp_before
                 g["w_before"] = sim._w_before
                 g["wp_before"] = sim._wp_before
+                for k, fields in enumerate(sim._older):  # the older fields of the Galerkin start
+                    for name, arr in zip(("v", "w", "vp", "wp"), fields):
+                        g[f"{name}_before{k + 2}"] = arr
             g = f.create_group("params")
             for k in _PARAMS:
                 val = getattr(sim.params, k)
@@ -144,6 +147,8 @@ def read_checkpoint(path, drivers=None, external_force=None):
             sim._vp_before = f["solver/vp_before"][()]
             sim._w_before = f["solver/w_before"][()]
             sim._wp_before = f["solver/wp_before"][()]
+            sim._older = [tuple(f[f"solver/{name}_before{k}"][()] for name in ("v", "w", "vp", "wp"))
+                          for k in (2, 3) if f"solver/v_before{k}" in f]
         gc = f["contacts"]
         sim.contact_i = gc["i"][()]
         sim.contact_j = gc["j"][()]

@@ -102,6 +102,9 @@ class Simulation:
         self._vp_before = None
         self._w_before = None
         self._wp_before = None
+        #: the velocity fields two and three steps before, most recent first (the third and
+        #: fourth fields of cg_ssor's Galerkin start)
+        self._older = []
         self.timings = {"detection": 0.0, "solve": 0.0, "bonds": 0.0, "other": 0.0}
         if self.params.alert_distance is None:
             self.alert_distance = 0.5 * float(spheres.radius.min()) if spheres.n else 0.0
@@ -313,6 +316,8 @@ class Simulation:
                 driver[k] = -plate_force[k]
 
         # 6. positions
+        if self._v_before is not None:
+            self._older = [(self._v_before, self._w_before, self._vp_before, self._wp_before)] + self._older[:1]
         self._v_before, self._vp_before = v_m, vp_start
         self._w_before, self._wp_before = w_m, wp_start
         sph.position += h * (th * v + (1 - th) * v_m)
@@ -437,11 +442,15 @@ class Simulation:
         # initial guess of the iterative solver: linear extrapolation of the velocities
         v0, vp0 = self.spheres.velocity, self.plates.velocity
         w0, wp0 = self.spheres.angular_velocity, self.plates.angular_velocity
-        previous = None  # cg_ssor: Galerkin combination of the last two velocity fields
+        previous = None  # cg_ssor: Galerkin combination of the last two to four velocity fields
         if self._v_before is not None and self._v_before.shape == v0.shape:
             previous = ((v0, w0, vp0, wp0),
                         (self._v_before, self._w_before if rot else w0, self._vp_before,
                          self._wp_before if rot else wp0))
+            for old in self._older:
+                if old[0].shape != v0.shape:
+                    break
+                previous += ((old[0], old[1] if rot else w0, old[2], old[3] if rot else wp0),)
             v0 = 2.0 * v0 - self._v_before
             vp0 = 2.0 * vp0 - self._vp_before
             if rot and self._w_before is not None:
