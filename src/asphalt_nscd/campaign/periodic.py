@@ -86,10 +86,11 @@ held by one bond rolls about the bond's contact point, one held by two spins abo
 through both (at paper scale a dozen of ~9,000 spheres). Each such motion v is a zero mode of
 the whole network (it strains no bond), so it carries no force in the linear test and is
 moved by its weight alone, from either start in the same way. The steady state is therefore
-computed on the rest of the network: the weight's component along the zero modes is removed
-from the load, and G + c v v^T (c the sphere's own stiffness scale) is factorised, which
-changes nothing on the other modes; the zero modes start at rest, as from rest
-(``n_mechanisms`` in the record). If the refined residual still exceeds
+computed on the rest of the network: the part of the weight that accelerates the zero modes V,
+M V a with a = (V^T M V)^-1 V^T F_g (their free fall), is removed from the load, and
+G + c V V^T (c the cluster's own stiffness scale) is factorised, which changes nothing on the
+other modes; the zero modes start at rest and fall, as from rest (``n_mechanisms`` in the
+record). If the refined residual still exceeds
 :data:`GRAVITY_RESIDUAL_MAX` (a mechanism of several spheres that no sphere shows alone) the
 steady state is not used: gravity then starts from rest, as in the paper's protocol
 (``failed`` in the record). Spheres of clusters bonded to no plate fall freely from either
@@ -269,8 +270,8 @@ def _mechanism_modes(g0, net, active, d: int, max_bonds: int = 3):
     ``max_bonds`` bonds, grouped into the connected clusters they form among themselves; for
     each cluster the null vectors of its own block of G (its neighbours held), relative
     eigenvalue below :data:`MECHANISM_TOLERANCE`. Such a vector strains no bond, so it is a
-    zero mode of the whole network. Yields (free DOF indices, unit vector, stiffness scale of
-    the cluster's block)."""
+    zero mode of the whole network. Yields, per cluster with zero modes, (free DOF indices
+    (k,), orthonormal null vectors (k, m), stiffness scale of the cluster's block)."""
     import scipy.sparse as sp
     from scipy.sparse.csgraph import connected_components
 
@@ -291,9 +292,9 @@ def _mechanism_modes(g0, net, active, d: int, max_bonds: int = 3):
         dofs = (d * members[:, None] + np.arange(d)).ravel()
         w, vec = np.linalg.eigh(csr[dofs][:, dofs].toarray())
         scale = max(float(w.max()), 1e-300)
-        for e, v in zip(w, vec.T):
-            if e < MECHANISM_TOLERANCE * scale:
-                yield dofs, v, scale
+        null = w < MECHANISM_TOLERANCE * scale
+        if null.any():
+            yield dofs, vec[:, null], scale
 
 
 def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO) -> GravityState:
@@ -347,14 +348,17 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         rhs = np.zeros(system.n_free)
         rhs[:d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
         g0 = system._reference_blocks()["ff"]
-        # zero modes of weakly held spheres (mechanisms): removed from the load, stiffened in G
+        # zero modes of weakly held spheres (mechanisms), cluster by cluster: the load that
+        # accelerates them, M V a with a = (V^T M V)^-1 V^T F (their free fall, the same from
+        # rest), is removed; G is stiffened along them
         extra_r, extra_c, extra_v = [], [], []
-        for dofs, v, scale in _mechanism_modes(g0, net, system.active, d):
-            n_mech += 1
-            rhs[dofs] -= (v @ rhs[dofs]) * v
+        for dofs, V, scale in _mechanism_modes(g0, net, system.active, d):
+            n_mech += V.shape[1]
+            MV = system.mass_free[dofs, None] * V
+            rhs[dofs] -= MV @ np.linalg.solve(V.T @ MV, V.T @ rhs[dofs])
             extra_r.append(np.repeat(dofs, dofs.size))
             extra_c.append(np.tile(dofs, dofs.size))
-            extra_v.append(scale * np.outer(v, v).ravel())
+            extra_v.append(scale * (V @ V.T).ravel())
         a = g0
         if extra_v:
             a = (g0 + sp.csc_matrix((np.concatenate(extra_v), (np.concatenate(extra_r), np.concatenate(extra_c))),
