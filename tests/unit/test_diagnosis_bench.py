@@ -23,7 +23,7 @@ def test_exact_binomial_interval():
 def test_plan_is_reproducible_and_plants_at_the_stated_size():
     a = bench.plan(5, ["wlf", "mixed"], 3, 2)
     b = bench.plan(5, ["wlf", "mixed"], 3, 2)
-    assert a == b and len(a) == 2 * (3 + 2 * 5)
+    assert a == b and len(a) == 2 * (3 + 2 * 6)
     assert a != bench.plan(6, ["wlf", "mixed"], 3, 2)
     assert len({c["seed"] for c in a}) == len(a)
     for c in a:
@@ -57,7 +57,7 @@ def test_bench_command_is_reproducible_from_its_base_seed(tmp_path):
     args = ["diagnose-bench", "--clean", "1", "--planted", "1", "--families", "mixed", "--base-seed", "3"]
     assert main(args + ["-o", str(tmp_path / "a.json"), "--table", str(tmp_path / "a.csv")]) == 0
     a = json.loads((tmp_path / "a.json").read_text())
-    assert a["base_seed"] == 3 and a["n_tables"] == 6 and a["families"] == ["mixed"]
+    assert a["base_seed"] == 3 and a["n_tables"] == 7 and a["families"] == ["mixed"]
     table = pd.read_csv(tmp_path / "a.csv")
     assert set(table["artifact"]) == set(bench.KINDS[1:]) and set(table["family"]) == {"mixed", "all"}
     assert {"detection_ci_low", "false_alarm_ci_high", "effect_size"} <= set(table.columns)

@@ -44,6 +44,7 @@ ESTIMATE_KEYS = {
     "temperature_offset": "offset_C",
     "strain_nonlinearity": "modulus_drop_per_100_microstrain",
     "self_heating": "modulus_drop_pct_per_test",
+    "temperature_drift": "drift_C_per_test",
 }
 #: Stated effect sizes at which detection is measured (keys of the truth JSON). Time lag
 #: 0.3 ms (360 f dt: 4.3 deg of phase at 40 Hz, 2.7 deg at 25 Hz); inertia: an uncorrected
@@ -51,17 +52,20 @@ ESTIMATE_KEYS = {
 #: affected point (the hottest isotherm's highest frequency; 40-400 g on the truths drawn);
 #: temperature offset: 3 degC on one inner isotherm (sign random); strain nonlinearity: 4 %
 #: of |E*| per 100 microstrain; self-heating: |E*| -1 % and Phi +1 % per earlier test of the
-#: isotherm.
+#: isotherm; temperature drift: 1 degC per test at the hottest isotherm along the assumed
+#: order (about 5 degC across it), falling linearly to 0 at the coldest.
 EFFECT_SIZES = {
     "time_lag": {"time_lag_ms": 0.3},
     "inertia_uncorrected": {"E_deficit_pct": 5.0},
     "temperature_offset": {"offset_C": 3.0},
     "strain_nonlinearity": {"modulus_drop_per_100_microstrain": 0.04},
     "self_heating": {"modulus_drop_pct_per_test": 1.0, "phase_rise_pct_per_test": 1.0},
+    "temperature_drift": {"drift_C_per_test": 1.0},
 }
 #: schedules on which an artifact is planted (default: every schedule)
 PLANTED_SCHEDULES = {"inertia_uncorrected": ("paper_2pb",),
-                     "temperature_offset": ("paper_2pb", "aashto_t342")}
+                     "temperature_offset": ("paper_2pb", "aashto_t342"),
+                     "temperature_drift": ("paper_2pb", "aashto_t342")}
 GOALS = {"detection_rate": 0.95, "false_alarm_rate": 0.05}
 KINDS = ("clean",) + ARTIFACTS
 
@@ -89,6 +93,8 @@ def planted_magnitude(kind: str, rng: np.random.Generator, schedule: str, scale:
         temps = synthetic.SCHEDULES[schedule][0]
         out["temperature_C"] = float(rng.choice(temps[1:-1]))
         out["offset_C"] *= float(rng.choice([-1.0, 1.0]))
+    if kind == "temperature_drift":
+        out["temperature_C"] = float(max(synthetic.SCHEDULES[schedule][0]))
     return out
 
 
@@ -106,8 +112,10 @@ def plan(base_seed: int, families, n_clean: int, n_planted: int, scale: float = 
                 schedule = str(rng.choice(schedules))
                 effects = [] if kind == "clean" else [kind]
                 mags = {} if kind == "clean" else {kind: planted_magnitude(kind, rng, schedule, scale)}
+                # half the clean tables give no test order (the drift test's false alarms)
                 cases.append({"family": fam, "kind": kind, "index": i, "seed": seed, "schedule": schedule,
-                              "effects": effects, "magnitudes": mags})
+                              "effects": effects, "magnitudes": mags,
+                              "test_order": not (kind == "clean" and i % 2 == 1)})
     return cases
 
 
@@ -128,7 +136,8 @@ def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
     from ..lab.geometry import from_dict
 
     table, truth = synthetic.generate(case["seed"], case["effects"], schedule=case["schedule"],
-                                      magnitudes=case["magnitudes"], family=case["family"])
+                                      magnitudes=case["magnitudes"], family=case["family"],
+                                      test_order=case.get("test_order", True))
     search = ArtifactSearch(table, alpha=alpha, test=from_dict(truth["test"], "synthetic"))
     result = search.run()
     if result["offset"] is not None and result["offset"].get("detected"):

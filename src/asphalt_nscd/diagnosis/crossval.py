@@ -205,7 +205,7 @@ def correct_artifacts(table: pd.DataFrame, options: Options, given=None) -> tupl
     except FIT_ERRORS as exc:
         return table, [], [f"artifact search failed ({exc}); law fitted to the table as given"], None
     names = [c.name for c in a["result"]["selected"]]
-    corrected = a["corrected"].drop(columns=["test_step"], errors="ignore")
+    corrected = a["corrected"].drop(columns=["test_step", "test_step_assumed"], errors="ignore")
     model = MeasurementModel(a["result"]["final"], float(a["search"].strain_ref)) if names else None
     return corrected, names, [f"artifacts corrected: {', '.join(names) or 'none detected'}"], model
 
@@ -658,7 +658,8 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
         label = fold_label(scheme, value)
         train_cells, reason = fold_split(cells, scheme, value)
         test = cells[~train_cells]
-        train_rows = table[fold_split(table, scheme, value)[0]]
+        # the training rows keep the test steps of the whole table (the order of the tests)
+        train_rows = prepared[fold_split(prepared, scheme, value)[0]]
         if scheme == "loto":
             edge = bool(value <= T_all.min() or value >= T_all.max())
             extrapolation = lambda c, e=edge: e  # noqa: E731

@@ -98,9 +98,10 @@ BENCH_SCREENING_CHI2 = {"q99": 1.74, "max": 2.76}
 SIZE_UNITS = {"time_lag": "deg of phase at the highest frequency",
               "inertia_uncorrected": "% of |E*| (largest E1 deficit)",
               "temperature_offset": "degC", "strain_nonlinearity": "% of |E*| over the tested strain range",
-              "self_heating": "% of |E*| over an isotherm"}
+              "self_heating": "% of |E*| over an isotherm",
+              "temperature_drift": "degC across an isotherm (largest)"}
 #: artifacts screened by forward selection (the temperature offset has its own test)
-SCREENED = ("time_lag", "inertia_uncorrected", "strain_nonlinearity", "self_heating")
+SCREENED = ("time_lag", "inertia_uncorrected", "strain_nonlinearity", "self_heating", "temperature_drift")
 #: Practical size below which a significant artifact is not named (units SIZE_UNITS): time
 #: lag, phase shift at the highest frequency (deg); inertia, largest E1 deficit relative to
 #: |E*| (%); temperature offset, degC; strain nonlinearity, change of |E*| over the tested
@@ -111,7 +112,11 @@ SCREENED = ("time_lag", "inertia_uncorrected", "strain_nonlinearity", "self_heat
 #: 11, 80 clean tables per family: time lag 0.27-0.72 deg, inertia 0.9-2.6 %, all on
 #: tables from misspecified truths); docs/choices.md, Diagnosis.
 PRACTICAL_MINIMUM = {"time_lag": 1.0, "inertia_uncorrected": 3.0, "temperature_offset": 0.5,
-                     "strain_nonlinearity": 0.5, "self_heating": 1.0}
+                     "strain_nonlinearity": 0.5, "self_heating": 1.0, "temperature_drift": 1.0}
+#: The standard test order assumed when a table gives none (AASHTO T 342 / T 378: isotherms
+#: from the coldest to the hottest, frequencies from the highest to the lowest within each),
+#: the order along which a temperature drift is tested (``test_step_assumed``).
+ASSUMED_ORDER = "AASHTO T 342 / T 378: temperatures ascending, frequencies descending within an isotherm"
 
 #: form factor of the paper's 2PB specimen (1/mm), the scale of the inertia parameter
 PAPER_GAMMA_PER_MM = 25.09577742360453
@@ -120,18 +125,27 @@ INERTIA_PARAMETER = "mass_2pb_equivalent_g"
 #: name of the nuisance term of the screening model (vertical shift per isotherm)
 VERTICAL = "vertical_shift"
 ARTIFACTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
-             "self_heating")
+             "self_heating", "temperature_drift")
 
 
 
 
 def prepare_table(df: pd.DataFrame) -> pd.DataFrame:
-    """Add ``test_step``: 0-based rank of ``test_order`` within (specimen, temperature)."""
+    """Add ``test_step``: 0-based rank of ``test_order`` within (specimen, temperature); a
+    table without ``test_order`` gets ``test_step_assumed`` instead, the rank of its
+    frequency from the highest within the isotherm (:data:`ASSUMED_ORDER`). Steps already
+    present are kept: a part of a table (a cross-validation fold's training rows) keeps the
+    steps of the whole table, the order the tests were run in."""
     out = df.reset_index(drop=True).copy()
     out["specimen"] = out["specimen"].astype(str)
+    if "test_step" in out.columns or "test_step_assumed" in out.columns:
+        return out
     if "test_order" in out.columns:
         out["test_step"] = (out.groupby(["specimen", "temperature_C"])["test_order"]
                             .rank(method="dense").to_numpy(float) - 1.0)
+    else:
+        out["test_step_assumed"] = (out.groupby(["specimen", "temperature_C"])["frequency_Hz"]
+                                    .rank(method="dense", ascending=False).to_numpy(float) - 1.0)
     return out
 
 
@@ -165,16 +179,23 @@ def testability(df: pd.DataFrame, test=None) -> dict:
     else:
         ok = float(df["test_step"].max()) >= 2
         out["self_heating"] = (ok, "" if ok else "fewer than 3 tests per isotherm and specimen")
+    if "test_step_assumed" not in df.columns:
+        out["temperature_drift"] = (False, "the table gives its test order (a drift along it is self-heating's "
+                                           "temperature term)")
+    else:
+        ok = n_T >= 3 and float(df["test_step_assumed"].max()) >= 2
+        out["temperature_drift"] = (ok, "" if ok else "needs >= 3 isotherms with >= 3 frequencies each")
     return out
 
 
-def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: float | None = None) -> Term:
+def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: float | None = None,
+              temperatures=()) -> Term:
     """Measurement-model term of a screened artifact (see the module table; the temperature
     offset is tested on the free shifts, :meth:`ArtifactSearch.offset_test`).
 
     ``strain_ref_microstrain``: the strain at which the strain-nonlinearity term is 1
     (default 0: the small-strain limit); ``gamma_per_mm``: form factor of the declared test
-    (inertia).
+    (inertia); ``temperatures``: the isotherms (temperature drift: one rate per isotherm).
 
     Terms act in the order of the measurement chain: temperature (self-heating),
     strain nonlinearity, inertia (on E1 of the specimen), then the time lag (on the phase
@@ -202,6 +223,21 @@ def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: floa
         return Term(name, ["heating_C_per_test", "extra_drop_pct_per_test", "extra_phase_pct_per_test"],
                     [0.0, 0.0, 0.0], [-5.0, -30.0, -30.0], [5.0, 30.0, 30.0],
                     delta_T=lambda x, d: x[0] * d["test_step"], apply=heat, order=0)
+    if name == "temperature_drift":
+        temps = [float(T) for T in temperatures]
+
+        def drift(x, d):
+            # the specimen's temperature moves by x_T degC per test along the assumed order,
+            # centred on the isotherm's middle test (its mean level is the free shift's)
+            n = d["test_step_assumed"]
+            out = np.zeros(np.shape(n))
+            for i, T in enumerate(temps):
+                sel = same_temperature(d["T"], T)
+                if sel.any():
+                    out[sel] = x[i] * (n[sel] - 0.5 * n[sel].max())
+            return out
+        return Term(name, [f"drift_C_per_test_{T:g}" for T in temps], [0.0] * len(temps), [-5.0] * len(temps),
+                    [5.0] * len(temps), delta_T=drift, order=0)
     raise ValueError(f"unknown artifact '{name}'")
 
 
@@ -322,6 +358,8 @@ class ArtifactSearch:
                 out.append(Candidate(name, make_term(name, strain_ref_microstrain=self.strain_ref)))
             elif name == "inertia_uncorrected":
                 out.append(Candidate(name, make_term(name, gamma_per_mm=self.gamma)))
+            elif name == "temperature_drift":
+                out.append(Candidate(name, make_term(name, temperatures=self.data["temperatures"])))
             else:
                 out.append(Candidate(name, make_term(name)))
         return out
@@ -360,6 +398,8 @@ class ArtifactSearch:
             return 0.0
         if name == "time_lag":
             return abs(360.0 * d["f"].max() * value * 1e-3)
+        if name == "temperature_drift":
+            return float(np.max(np.abs(values)) * d["test_step_assumed"].max())
         if name == "inertia_uncorrected":
             return float(100 * np.max(PAPER_GAMMA_PER_MM * 1e-6 * abs(value) * (2 * np.pi * d["f"]) ** 2
                                       / np.exp(d["lnE"])))
@@ -690,6 +730,16 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
     if name == "strain_nonlinearity":
         return (f"|E*| falls with strain amplitude: {100 * est['modulus_drop_per_100_microstrain']:.2f} "
                 f"+- {100 * est['modulus_drop_per_100_microstrain_se']:.2f} % per 100 microstrain ({stat})")
+    if name == "temperature_drift":
+        rates = {n.removeprefix("drift_C_per_test_"): (est[n], est[n + "_se"]) for n in est
+                 if n.startswith("drift_C_per_test_") and not n.endswith("_se")}
+        worst = max(rates, key=lambda T: abs(rates[T][0]))
+        return (f"along the assumed test order ({ASSUMED_ORDER}; the table gives none) the isotherms read as if "
+                f"the specimen's temperature moved by, per test: "
+                + ", ".join(f"{T} degC {v:+.2f} +- {se:.2f}" for T, (v, se) in rates.items())
+                + f" degC; largest at {worst} degC, {est['size']:.1f} degC across the isotherm ({stat}, "
+                f"{len(rates)} degrees of freedom): a specimen not at the test temperature when the isotherm "
+                "began, or a drift of the temperature control")
     if name == "self_heating":
         return (f"|E*| changes by {-est['modulus_drop_pct_per_test']:+.2f} +- "
                 f"{est['modulus_drop_pct_per_test_se']:.2f} % and Phi by "
@@ -747,6 +797,10 @@ def effect_entries(search: ArtifactSearch, result: dict) -> list:
             est["mass_factor_g_se"] = est[INERTIA_PARAMETER + "_se"] * to_g
         est["size"] = search.practical_size(name, fit.x[idx], fit)
         est["size_unit"] = SIZE_UNITS[name]
+        if name == "temperature_drift":  # the rate at the hottest isotherm, where it is largest
+            hot = f"drift_C_per_test_{float(search.data['temperatures'].max()):g}"
+            est.update({"drift_C_per_test": est[hot], "drift_C_per_test_se": est[hot + "_se"],
+                        "temperature_C": float(search.data["temperatures"].max()), "order": ASSUMED_ORDER})
         if name == "self_heating":
             vals = fit.x[idx]
             g0 = np.array(search.heating_effect(fit, vals))

@@ -34,6 +34,10 @@ temperature_offset   one inner isotherm generated at T + dT, labelled T; |dT| 3-
                      (``temperature_C``, ``offset_C``)
 strain_nonlinearity  |E*| * exp(-b eps/100 microstrain); b 0.02-0.06
                      (``modulus_drop_per_100_microstrain``)
+temperature_drift    the n-th test of an isotherm (frequencies from the highest, n = 0, 1, ...)
+                     at T + d_T (n - n_max / 2), d_T = d (T - T_min) / (T_max - T_min); d
+                     0.5-1.5 degC per test at the hottest isotherm (``drift_C_per_test``);
+                     the table then carries no test_order (the detector assumes the standard one)
 self_heating         the n-th test of an isotherm (n = 0, 1, ...): |E*| exp(-a n/100),
                      Phi (1 + b n/100); a, b 0.5-2 % per test
                      (``modulus_drop_pct_per_test``, ``phase_rise_pct_per_test``)
@@ -75,7 +79,7 @@ FAMILIES = ("wlf", "glassy_drift", "arrhenius", "static_drift", "poly_shift", "m
 HARD_FAMILIES = ("huet_sayegh", "gmaxwell", "sigmoidal")
 #: Names of the effects the generator can plant.
 EFFECTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
-           "self_heating")
+           "self_heating", "temperature_drift")
 T_REF_TRUTH_C = 15.0
 #: largest planted change of E1 by the inertia term, relative to the true E1
 INERTIA_MAX_FRACTION = 0.3
@@ -224,12 +228,14 @@ def random_effect(name: str, rng: np.random.Generator, temperatures, test: str =
     if name == "self_heating":
         return {"modulus_drop_pct_per_test": float(rng.uniform(0.5, 2.0)),
                 "phase_rise_pct_per_test": float(rng.uniform(0.5, 2.0))}
+    if name == "temperature_drift":  # rate at the hottest isotherm, scaled down to 0 at the coldest
+        return {"drift_C_per_test": float(rng.uniform(0.5, 1.5)), "temperature_C": float(max(temperatures))}
     raise ValueError(f"unknown effect '{name}'; expected one of {', '.join(EFFECTS)}")
 
 
 def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: int | None = None,
              magnitudes: dict | None = None, family: str = "wlf",
-             frequencies_Hz=None) -> tuple[pd.DataFrame, dict]:
+             frequencies_Hz=None, test_order: bool = True) -> tuple[pd.DataFrame, dict]:
     """Generate a synthetic measured table and its truth.
 
     Parameters
@@ -250,6 +256,9 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
         Truth family (:data:`FAMILIES`, :func:`random_family`).
     frequencies_Hz : sequence of float, optional
         Frequencies in test order (default the schedule's), e.g. those of a measured table.
+    test_order : bool
+        Keep the ``test_order`` column (False: a table that gives no order, as many labs'
+        do; always False with a planted temperature drift).
 
     Returns
     -------
@@ -325,6 +334,9 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
                 T_eff = T
                 if "temperature_offset" in planted and T == planted["temperature_offset"]["temperature_C"]:
                     T_eff += planted["temperature_offset"]["offset_C"]
+                if "temperature_drift" in planted:
+                    rate = planted["temperature_drift"]["drift_C_per_test"] * (T - min(temps)) / (max(temps) - min(temps))
+                    T_eff += rate * (n - 0.5 * (len(freqs) - 1))
                 strain = rng.uniform(30.0, 150.0)
                 ce, cp = cell_err[(T, f)]
                 E = complex(truth_modulus(truth, f, T_eff)) * np.exp(
@@ -345,6 +357,8 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
                              "E_norm_MPa": float(np.exp(lnE)), "phase_deg": float(np.clip(phase, 0.01, 89.9)),
                              "strain_microstrain": round(float(strain), 2), "test_order": order})
     table = pd.DataFrame(rows).sort_values(["temperature_C", "frequency_Hz", "specimen"]).reset_index(drop=True)
+    if "temperature_drift" in planted or not test_order:  # no test order: the detector assumes the standard one
+        table = table.drop(columns="test_order")
     info = {"seed": int(seed), "schedule": schedule, "family": family, "test": test.to_json(),
             "n_specimens": n_specimens, "parameters": truth, "noise": noise, "effects": planted}
     return table, info

@@ -155,7 +155,7 @@ def data_arrays(df: pd.DataFrame) -> dict:
         "specimens": specimens,
         "temperatures": np.sort(df["temperature_C"].unique()).astype(float),
     }
-    for col in ("strain_microstrain", "test_step"):
+    for col in ("strain_microstrain", "test_step", "test_step_assumed"):
         if col in df.columns:
             out[col] = df[col].to_numpy(float)
     return out
@@ -184,9 +184,17 @@ def _log_shift(x, names, shift, T_ref, temperatures, T):
         return -C1 * dT / np.maximum(C2 + dT, 1e-6)
     if shift == "arrhenius":
         return arrhenius_log_shift(T, T_ref, x[names.index("Ea_kJ_mol")] * 1e3)
-    # free shifts: piecewise-linear interpolation between the isotherms' shifts
+    # free shifts: piecewise-linear interpolation between the isotherms' shifts, extended
+    # linearly beyond the end isotherms (a temperature perturbation of an end isotherm, e.g. a
+    # drift along its tests, then moves it along the slope of its last segment)
     vals = np.array([0.0 if T_ == T_ref else x[names.index(f"log10_aT_{T_:g}")] for T_ in temperatures])
-    return np.interp(T, temperatures, vals)
+    out = np.interp(T, temperatures, vals)
+    if len(temperatures) > 1:
+        lo, hi = temperatures[0], temperatures[-1]
+        s_lo = (vals[1] - vals[0]) / (temperatures[1] - lo)
+        s_hi = (vals[-1] - vals[-2]) / (hi - temperatures[-2])
+        out = np.where(T < lo, vals[0] + s_lo * (T - lo), np.where(T > hi, vals[-1] + s_hi * (T - hi), out))
+    return out
 
 
 def _core_values(x, names, static_modulus) -> dict:
