@@ -1,7 +1,7 @@
 """Reusable hypothesis strategies: measured complex-modulus tables.
 
 :func:`measured_tables` draws tidy tables with the columns of
-:mod:`asphalt_nscd.lab.measured` over the domain every step must accept (issue 10):
+:mod:`asphalt_nscd.lab.measured` over the domain every step must accept:
 1-5 specimens, 3-8 temperatures (-20..60 degC), 3-9 frequencies (0.01-100 Hz), balanced
 or unbalanced grids (one specimen row missing, or one whole (T, f) cell missing), phase
 angles in [1, 60] deg, optional ``strain_microstrain`` and ``test_order`` columns.

@@ -168,7 +168,7 @@ def test_discrete_state_beats_the_continuous_one(tiny_sample):
 
 
 def test_periodic_start_gives_the_converged_from_rest_cycle(tiny_sample, tmp_path):
-    """Issue 12, item 3 at reduced size: one cycle from the periodic start gives the
+    """At reduced size: one cycle from the periodic start gives the
     last-cycle |E*| of a long from-rest run within 0.1 % and Phi within 0.05 deg, while 5
     cycles from rest have not converged on this lightly damped lattice."""
     s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=100, dt_max_s=1.0,

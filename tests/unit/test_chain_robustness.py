@@ -1,4 +1,4 @@
-"""Any table that ``measured`` accepts goes through the chain without a traceback (issue 10).
+"""Any table that ``measured`` accepts goes through the chain without a traceback.
 
 Property-based tests (hypothesis, profile ``ci`` of tests/conftest.py) over the tables of
 :func:`strategies.measured_tables`, and fixed regression tables (tests/data, written by
@@ -67,7 +67,7 @@ def test_diagnose_runs_on_every_generated_table(table):
 
 
 def test_fit_accepts_three_frequencies():
-    """Three complex points are six real numbers for four parameters (issue 10)."""
+    """Three complex points are six real numbers for four parameters."""
     from asphalt_nscd.rheology.calibration import burgers_isotherm, fit_burgers
 
     truth = {"Em_MPa": 30000.0, "eta_m_MPa_s": 3000.0, "Ek_MPa": 9000.0, "eta_k_MPa_s": 300.0}

@@ -29,7 +29,7 @@ def _burgers_table(seed: int) -> pd.DataFrame:
 
 
 def test_lofo_prediction_does_not_see_its_held_out_frequency():
-    """VALIDATION.md: change a held-out value by a large factor, the fold's prediction must
+    """docs/validation.md: change a held-out value by a large factor, the fold's prediction must
     not move (while the predictions of the other folds, which train on it, do)."""
     table, _ = synthetic.generate(3, [], schedule="aashto_t342", n_specimens=2)
     base = causes.lofo_predictions(table)

@@ -505,7 +505,7 @@ def apply_periodic_state(sim, state: PeriodicState) -> None:
     b.delta_k[:] = state.delta_k
 
 
-#: Equality tolerances of the periodic start (issue 12, item 3): |E*| relative, Phi absolute.
+#: Equality tolerances of the periodic start against the converged from-rest result: |E*| relative, Phi absolute.
 TOLERANCE_E_REL = 1e-3
 TOLERANCE_PHASE_DEG = 0.05
 

@@ -62,9 +62,9 @@ from ..rheology.metrics import cell_means, signed_relative_errors, temperature_k
 from . import causes, effects, synthetic
 from .artifacts import ArtifactRecord
 
-#: Targets of the issue for the extended model, percent (in-sample, issue 6).
+#: Targets for the extended model, percent (in-sample).
 TARGETS = {"E_norm_mre_pct": 3.0, "phase_mre_pct": 5.0}
-#: Held-out targets (issue 11), percent: worst temperature (lofo), worst inner temperature (loto).
+#: Held-out targets, percent: worst temperature (lofo), worst inner temperature (loto).
 HELDOUT_TARGETS = {"lofo": {"E_norm_mre_pct": 5.0, "phase_mre_pct": 6.0},
                    "loto": {"E_norm_mre_pct": 6.0, "phase_mre_pct": 8.0}}
 

@@ -4,7 +4,7 @@ Model form (tested on the measured data)
 ----------------------------------------
 ``broad_spectrum``
     A Burger's model has one Maxwell and one Kelvin-Voigt time; mixes have a broad, power-law
-    spectrum. Test: held-out error, leave one frequency out (lofo, /work/shared/VALIDATION.md):
+    spectrum. Test: held-out error, leave one frequency out (lofo, docs/validation.md):
     for every tested frequency f_k, the rows at f_k are removed, the per-isotherm Burger's
     fits (4 parameters per isotherm) and the 2S2P1D master curve (one shift law for the table)
     are calibrated on the rest, and both predict |E*| and Phi at f_k for every temperature;

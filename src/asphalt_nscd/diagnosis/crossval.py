@@ -1,6 +1,6 @@
 """Held-out validation of the extended law: folds, nested selection of its settings, scores.
 
-Protocol (docs/choices.md, "Diagnosis: held-out validation"; the project's VALIDATION.md):
+Protocol (docs/validation.md; docs/choices.md, "Diagnosis: held-out validation"):
 
 Folds
     ``lofo`` (leave one frequency out): for each tested frequency, every row at that
