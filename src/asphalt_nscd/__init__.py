@@ -20,4 +20,9 @@ Units: SI inside the code (m, N, Pa, Pa s, kg, s, rad); MPa, degrees, Hz and deg
 edges (tables, figures, CLI), converted explicitly where read or written.
 """
 
-__version__ = "0.1.0"
+from importlib import metadata as _metadata
+
+try:  # one version string: the package metadata (pyproject.toml)
+    __version__ = _metadata.version("asphalt-nscd")
+except _metadata.PackageNotFoundError:  # pragma: no cover - a source tree that is not installed
+    __version__ = "unknown"

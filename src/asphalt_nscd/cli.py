@@ -30,14 +30,51 @@ SUBCOMMAND_PACKAGES = (
 )
 
 
+#: Help groups of the subcommands: the package that registers a command names its group; the
+#: benchmarks (commands ending in "bench") form a group of their own.
+COMMAND_GROUPS = {
+    "lab": "data", "rheology": "calibration", "sample": "samples", "nscd": "simulation",
+    "campaign": "simulation", "harmonic": "harmonic", "diagnosis": "diagnosis", "figures": "figures",
+}
+GROUP_ORDER = ("data", "calibration", "samples", "simulation", "harmonic", "diagnosis", "figures", "benchmarks")
+
+
 def build_parser() -> argparse.ArgumentParser:
+    """The ``asphalt-nscd`` parser: every subcommand of :data:`SUBCOMMAND_PACKAGES`, listed by
+    group with its one-line description; ``--version``, ``--verbose``, ``--quiet``."""
+    from . import __version__
+
     parser = argparse.ArgumentParser(
-        prog="asphalt-nscd",
-        description="NSCD modelling of the complex modulus of asphalt concrete.",
+        prog="asphalt-nscd", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="NSCD modelling of the complex modulus of asphalt concrete (Quezada & Chazallon 2020), "
+                    "from the lab table to the material card.",
     )
+    parser.add_argument("--version", action="version", version=f"asphalt-nscd {__version__}")
+    level = parser.add_mutually_exclusive_group()
+    level.add_argument("-v", "--verbose", action="store_true", help="log the steps of a command (DEBUG)")
+    level.add_argument("-q", "--quiet", action="store_true", help="log warnings and errors only")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    groups: dict[str, list] = {g: [] for g in GROUP_ORDER}
     for name in SUBCOMMAND_PACKAGES:
+        before = set(sub.choices)
         importlib.import_module(f"asphalt_nscd.{name}.cli").register(sub)
+        for cmd in sub.choices:
+            if cmd in before:
+                continue
+            group = "benchmarks" if cmd.endswith("bench") else COMMAND_GROUPS[name]
+            groups[group].append(cmd)
+    helps = {a.dest: a.help for a in sub._choices_actions}
+    for cmd, p in sub.choices.items():
+        if not p.description:  # every command's --help opens with its one-line description
+            p.description = helps.get(cmd)
+    width = max(len(c) for c in sub.choices) + 2
+    lines = ["commands, by step of the chain:"]
+    for group in GROUP_ORDER:
+        if groups[group]:
+            lines.append(f"\n  {group}:")
+            lines += [f"    {cmd:<{width}}{(helps.get(cmd) or '').replace('%%', '%')}" for cmd in groups[group]]
+    parser.epilog = "\n".join(lines) + "\n\n'asphalt-nscd COMMAND --help' describes a command and its options."
+    sub._choices_actions = []  # listed above by group, not once more unordered
     return parser
 
 
@@ -47,7 +84,12 @@ def _terminate(signum, frame) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    import logging
+
     args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO,
+                        format="%(asctime)s %(name)s %(levelname)s: %(message)s", stream=sys.stderr)
+    logging.getLogger("asphalt_nscd").debug("asphalt-nscd %s", " ".join(sys.argv[1:] if argv is None else argv))
     signal.signal(signal.SIGTERM, _terminate)
     try:
         status = args.func(args)

@@ -14,6 +14,8 @@
 
 from __future__ import annotations
 
+import argparse
+
 
 
 def _settings_options(p):
@@ -60,7 +62,8 @@ def register(subparsers) -> None:
                         "bond_kinematics, head_rotation and nu must match the run), so that the "
                         "inertia-free sample modulus equals the macro law (asphalt_nscd.harmonic.transfer)")
     _settings_options(p)
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True,
+                   help="progress bar on stderr (the job log)")
     p.add_argument("-o", "--output", required=True, help="record (.h5)")
     p.add_argument("--row", required=True, help="reduced row (.csv)")
     p.set_defaults(func=_run)
@@ -323,7 +326,7 @@ def _run(args) -> int:
             "factor": float(next(iter(factors.values()))) if len(factors) == 1 else 1.0,
             **{k: v for k, v in params.items()}}
     rec = twopb.run_test(args.sample, law, args.frequency, settings, args.output, meta=meta,
-                         progress=not args.no_progress)
+                         progress=args.progress)
     row = twopb.reduce_test(rec, settings.window_cycles)
     row.update({k: v for k, v in params.items()})
     first = ["temperature_C", "frequency_Hz", "sample", "mode"]

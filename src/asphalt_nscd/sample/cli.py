@@ -42,6 +42,11 @@ def _add_bonded_contact(p: argparse.ArgumentParser) -> None:
                    "default: the NSCD core's, after_break)")
 
 
+def _add_progress(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True,
+                   help="progress bars of the dynamic stages on stderr (the job log)")
+
+
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
     p = subparsers.add_parser(
@@ -57,6 +62,7 @@ def register(subparsers) -> None:
     p.add_argument("--figure", help="Fig. 5-like picture of the stages (.png/.pdf)")
     p.add_argument("--summary", help="summary JSON (counts, porosity, coordination, bonds per sphere)")
     _add_bonded_contact(p)
+    _add_progress(p)
     p.set_defaults(func=_prepare)
 
     b = subparsers.add_parser(
@@ -71,7 +77,7 @@ def register(subparsers) -> None:
     b.add_argument("-o", "--output", required=True, help="benchmark JSON record")
     b.add_argument("--sample", help="also write the sample file (.h5)")
     b.add_argument("--summary", help="also write the summary JSON of prepare-sample")
-    b.add_argument("--progress", action="store_true", help="progress lines of the dynamic stages on stderr")
+    _add_progress(b)
     _add_bonded_contact(b)
     b.set_defaults(func=_bench)
 
@@ -89,8 +95,10 @@ def register(subparsers) -> None:
 
 def _prepare(args) -> int:
     from ..io import savefig, write_json
+    from . import dynamics
     from .prepare import prepare_sample, write_outputs
 
+    dynamics.PROGRESS = bool(args.progress)
     cfg = _load_config(args)
     result = prepare_sample(cfg, args.seed, bonded_contact=args.bonded_contact)
     write_outputs(result, args.output, vtk_dir=args.vtk_dir)

@@ -27,15 +27,19 @@ Choices
 
 from __future__ import annotations
 
+import logging
 import time
 
 import numpy as np
 
 #: Steps between two checks of the rest criterion during deposition.
 CHECK_EVERY = 25
-#: When True, :func:`_run` prints a progress line to stderr every PROGRESS_EVERY steps.
+#: When True, :func:`_run` shows a progress bar on stderr (tqdm; the CLI's --progress).
 PROGRESS = False
-PROGRESS_EVERY = 500
+#: shortest interval between two progress updates, s (keeps a job log short)
+PROGRESS_INTERVAL_S = 10.0
+
+log = logging.getLogger(__name__)
 
 
 def _params(cfg: dict, dt: float, friction: float, **extra):
@@ -70,7 +74,7 @@ def box_plates(box, top=None):
     return Plates(walls)
 
 
-def _run(sim, n_steps: int, stop=None) -> dict:
+def _run(sim, n_steps: int, stop=None, label: str = "steps") -> dict:
     """Advance ``sim`` by up to ``n_steps``; ``stop(sim)`` checked every CHECK_EVERY steps.
 
     Returns a dict: steps, simulated and CPU/wall times, NLGS statistics over the NLGS steps
@@ -84,8 +88,12 @@ def _run(sim, n_steps: int, stop=None) -> dict:
     steps = 0
     linear = 0
     linear_iterations = 0
+    from tqdm import tqdm
+
+    bar = tqdm(total=int(n_steps), desc=label, unit="step", disable=not PROGRESS, mininterval=PROGRESS_INTERVAL_S)
     for k in range(int(n_steps)):
         st = sim.step()
+        bar.update(1)
         steps += 1
         if st.solver == "linear":
             linear += 1
@@ -94,15 +102,12 @@ def _run(sim, n_steps: int, stop=None) -> dict:
             unconverged += not st.converged
             iterations += st.iterations
             max_iterations = max(max_iterations, st.iterations)
-        if PROGRESS and (k + 1) % PROGRESS_EVERY == 0:
-            import sys
-
-            print(f"  step {k + 1}/{n_steps} t = {sim.time:.4f} s, mean NLGS sweeps "
-                  f"{iterations / max(steps - linear, 1):.1f}, linear steps {linear}, "
-                  f"unconverged {unconverged}, contacts {st.n_contacts}, "
-                  f"CPU {time.process_time() - cpu:.0f} s", file=sys.stderr, flush=True)
+        if PROGRESS and (k + 1) % CHECK_EVERY == 0:
+            bar.set_postfix(sweeps=f"{iterations / max(steps - linear, 1):.0f}", contacts=st.n_contacts,
+                            unconverged=unconverged, refresh=False)
         if stop is not None and (k + 1) % CHECK_EVERY == 0 and stop(sim):
             break
+    bar.close()
     speed = np.linalg.norm(sim.spheres.velocity, axis=1)
     return {
         "steps": steps,
@@ -154,7 +159,7 @@ def deposit(position, radius, cfg: dict, geo: dict):
         return s.time >= t_fall and speed(s) < v_rest
 
     n_steps = int(np.ceil(dep["duration_s"] / dep["time_step_s"]))
-    info = _run(sim, n_steps, at_rest)
+    info = _run(sim, n_steps, at_rest, "deposition")
     info["rest_measure"] = measure
     info["rest_speed_end_m_s"] = speed(sim)
     info["at_rest"] = bool(info["rest_speed_end_m_s"] < v_rest)
@@ -189,11 +194,11 @@ def vibrate(position, radius, cfg: dict, geo: dict):
     info = {"layer_top_before_mm": z0 * 1e3}
     if vib["duration_s"] > 0 and amp > 0:
         sim = Simulation(spheres, box_plates(geo["box"], top=wall), None, params)
-        info["shaking"] = _run(sim, int(np.ceil(vib["duration_s"] / vib["time_step_s"])))
+        info["shaking"] = _run(sim, int(np.ceil(vib["duration_s"] / vib["time_step_s"])), label="vibration")
         spheres = sim.spheres
     if vib["settle_duration_s"] > 0:
         sim = Simulation(spheres, box_plates(geo["box"]), None, params)
-        info["settling"] = _run(sim, int(np.ceil(vib["settle_duration_s"] / vib["time_step_s"])))
+        info["settling"] = _run(sim, int(np.ceil(vib["settle_duration_s"] / vib["time_step_s"])), label="settling")
         spheres = sim.spheres
     info["layer_top_after_mm"] = float(np.max(spheres.position[:, 2] + r)) * 1e3
     return spheres.position.copy(), info
@@ -238,7 +243,7 @@ def stabilise(position, radius, mass, plate_point, plate_normal, plate_mass, bon
     bnd.r_crit[bnd.j < 0] = np.inf
     extra = {} if bonded_contact is None else {"bonded_contact": bonded_contact}
     sim = Simulation(spheres, plates, bnd, _params(cfg, st["time_step_s"], cfg["friction_bonded"], **extra))
-    info = _run(sim, st["steps"])
+    info = _run(sim, st["steps"], label="stabilisation")
     info["bonded_contact"] = sim.params.bonded_contact
     info["max_displacement_mm"] = float(np.max(np.linalg.norm(sim.spheres.position - x0, axis=1))) * 1e3
     info["top_plate_displacement_mm"] = float(np.linalg.norm(sim.plates.point[1] - plate_point[1])) * 1e3

@@ -50,12 +50,16 @@ from pathlib import Path
 
 import numpy as np
 
+import logging
+
 from ..io import InputError
 from . import geometry, psd, settings
 from .store import SampleData, write_bonds_vtu, write_sample, write_vtu
 
 #: A contact, for the coordination number, is a surface gap below this fraction of d_min.
 CONTACT_TOLERANCE = 0.01
+
+log = logging.getLogger(__name__)
 
 
 class _PhaseClock:
@@ -177,6 +181,8 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
         raise InputError(f"sample (box_height_mm / lattice_mm / scale): {exc}") from exc
     stages = []
     clock.lap("lattice")
+    log.info("sample s%d: %d spheres on the lattice of a %.0f x %.0f x %.0f mm box", seed, radius.size,
+             *(1e3 * np.asarray(geo["box"])))
 
     position, dep_info = dynamics.deposit(position, radius, cfg, geo)
     clock.lap("deposition")
@@ -194,6 +200,8 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     clock.lap("vibration")  # shaking and settling: vibration.{shaking,settling}.cpu_s split it
     h_layer = geometry.layer_height(position, radius, footprint, lh["measure"], lh["cell_mm"] * 1e-3)
     h_surface = geometry.layer_height(position, radius, footprint, "surface", lh["cell_mm"] * 1e-3)
+    log.info("layer after deposition %.1f mm, after vibration %.1f mm (%s)", h_deposit * 1e3, h_layer * 1e3,
+             lh["measure"])
     z_mid, phi_slices = geometry.solid_fraction_profile(position, radius, h_surface, footprint)
     bulk = (z_mid > 0.2 * h_surface) & (z_mid < 0.8 * h_surface)
     stages.append({"title": "after vibration of the top wall", "frame": "deposition", "position": position,
@@ -206,6 +214,7 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     if not inside.any():
         raise InputError("sample: no sphere left inside the trapezoid after the cut")
     spec, r_cut = spec[inside], radius[inside]
+    log.info("cut to the trapezoid: %d spheres", int(inside.sum()))
     coordination = geometry.coordination_number(spec, r_cut, CONTACT_TOLERANCE * d_min)
     porosity_cut = 1.0 - geometry.sphere_volume(r_cut).sum() / trap.volume
     clock.lap("cut_flip")
