@@ -34,7 +34,7 @@ REGRESSION = ["ampt_like_3x3x6.csv", "three_frequencies.csv", "unbalanced.csv", 
 def _check_report(report: dict, table: pd.DataFrame) -> None:
     json.dumps(json_safe(report))
     names = [e["name"] for e in report["effects"]]
-    assert len(names) == len(set(names)) == 9
+    assert len(names) == len(set(names)) == 10
     for e in report["effects"]:
         assert isinstance(e["testable"], bool)
         if not e["testable"]:

@@ -53,7 +53,7 @@ def test_bad_declarations_name_the_file_and_key(tmp_path, obj, key):
 
 def test_sidecar_is_found_next_to_the_table_and_default_is_unknown(tmp_path):
     table = tmp_path / "mix.csv"
-    pd.read_csv(UIUC).to_csv(table, index=False)
+    load_measured(UIUC).drop(columns="temperature_F").to_csv(table, index=False)  # the project's own columns
     assert sidecar_path(table) == tmp_path / "mix.test.json"
     assert load_measured(table).attrs["test"].test == "unknown"
     (tmp_path / "mix.test.json").write_text(json.dumps({"test": "uniaxial_cylinder", "diameter_mm": 100,

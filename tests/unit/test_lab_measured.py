@@ -98,7 +98,7 @@ def test_cli_writes_table_and_summary(tmp_path):
     assert main(["measured", str(UIUC), "-o", str(out), "--summary", str(summary)]) == 0
     assert out.exists() and summary.exists()
     back = load_measured(out)
-    assert "temperature_F_original" in back.columns and len(back) == 90
+    assert "temperature_F" in back.columns and len(back) == 90  # the lab's column, carried along
 
 
 def test_read_summary_round_trip_and_errors(tmp_path):

@@ -55,6 +55,9 @@ SCHEMA = {
         "height_mm": {**_POSITIVE_OR_NULL,
                       "description": "length over which the axial displacement is measured, mm"},
         "moving_mass_kg": {**_POSITIVE_OR_NULL, "description": "uniaxial moving mass, kg"},
+        "table": {"type": "object",
+                  "description": "how the lab wrote the table: units, form of the modulus, column names "
+                                 "(asphalt_nscd.lab.table_format)"},
     },
     "required": ["test"],
     "additionalProperties": False,
@@ -88,6 +91,8 @@ class DeclaredTest:
     origin: str = "no test declared"
     source: str = ""
     description: str = ""
+    #: how the lab wrote the table (:class:`asphalt_nscd.lab.table_format.TableFormat`), or None
+    table: object = None
 
     @property
     def form_factor_per_mm(self) -> float | None:
@@ -164,13 +169,18 @@ def from_dict(obj, where: str) -> DeclaredTest:
         raise InputError(f"{where}: key '{key}': {msg}")
     test = obj["test"]
     values = {k: (None if v is None else float(v)) for k, v in obj.items()
-              if k not in ("test", "description", "source")}
+              if k not in ("test", "description", "source", "table")}
     if test == "2pb_trapezoid" and None not in (values.get("b_mm"), values.get("B_mm")) \
             and values["b_mm"] >= values["B_mm"]:
         raise InputError(f"{where}: key 'b_mm': head width {values['b_mm']:g} mm must be smaller than the "
                          f"base width B_mm = {values['B_mm']:g} mm")
+    table = None
+    if "table" in obj:
+        from .table_format import TableFormat
+
+        table = TableFormat.from_dict(obj["table"], str(where))
     return DeclaredTest(test=test, values=values, origin=str(where), source=str(obj.get("source", "")),
-                        description=str(obj.get("description", "")))
+                        description=str(obj.get("description", "")), table=table)
 
 
 def load_test(path) -> DeclaredTest:

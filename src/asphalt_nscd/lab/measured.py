@@ -15,6 +15,10 @@ test_order          –         optional, integer
 (any other)         –         carried along unchanged
 ==================  ========  ===========================================
 
+A lab's own table (other column names, ksi or psi, degF, E1 and E2) is read through the
+``table`` block of its sidecar (:mod:`asphalt_nscd.lab.table_format`) and converted to these
+columns; the carried columns keep the lab's originals.
+
 (specimen, temperature_C, frequency_Hz) must be unique. The test that produced the table
 (2PB trapezoid, uniaxial cylinder or unknown, with its dimensions) is declared in a JSON
 sidecar ``<table stem>.test.json`` or an explicit file (:mod:`asphalt_nscd.lab.geometry`);
@@ -73,7 +77,8 @@ def _line(index: int) -> int:
     return int(index) + 2
 
 
-def _numeric_column(path, frame: pd.DataFrame, column: str, ranges: dict, allow_nan: bool = False) -> np.ndarray:
+def _numeric_column(path, frame: pd.DataFrame, column: str, ranges: dict, allow_nan: bool = False,
+                    label: str | None = None) -> np.ndarray:
     """The values of ``frame[column]`` as floats, checked against ``ranges[column]``.
 
     Raises InputError naming the file, the line and the column on a non-numeric or missing
@@ -82,17 +87,18 @@ def _numeric_column(path, frame: pd.DataFrame, column: str, ranges: dict, allow_
     text = pd.Series([str(v).strip() for v in raw], index=raw.index, dtype=object)
     values = pd.to_numeric(raw if pd.api.types.is_numeric_dtype(raw) else text, errors="coerce").to_numpy(dtype=float)
     check, expected = ranges[column]
+    name = label or column
     for i in range(len(values)):
         if not np.isfinite(values[i]) and not (allow_nan and np.isnan(values[i])
                                                and text.iloc[i].lower() in {"", "nan", "na", "null"}):
             kind = "missing value (NaN)" if text.iloc[i] == "" or text.iloc[i].lower() in {"nan", "na", "null"} else "non-numeric value"
             raise InputError(
-                f"{path}: line {_line(i)}, column '{column}': {kind} {raw.iloc[i]!r}; expected {expected}"
+                f"{path}: line {_line(i)}, column '{name}': {kind} {raw.iloc[i]!r}; expected {expected}"
             )
     bad = np.flatnonzero(~check(values))
     if bad.size:
         i = bad[0]
-        raise InputError(f"{path}: line {_line(i)}, column '{column}': value {values[i]:g} out of range; expected {expected}")
+        raise InputError(f"{path}: line {_line(i)}, column '{name}': value {values[i]:g} out of range; expected {expected}")
     return values
 
 
@@ -124,6 +130,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
         the test-geometry JSON is invalid (naming that file and the key).
     """
     from .geometry import declared_test
+    from .table_format import to_own_columns
 
     path = Path(path)
     if not path.is_file():
@@ -140,15 +147,25 @@ def load_measured(path, test=None) -> pd.DataFrame:
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not a readable CSV file ({exc})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
-    missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
-    if missing:
-        raise InputError(
-            f"{path}: line 1 (header): missing column(s) {missing}; "
-            f"found {list(frame.columns)}, expected at least {list(REQUIRED_COLUMNS)}"
-        )
     dup_cols = frame.columns[frame.columns.duplicated()].tolist()
     if dup_cols:
         raise InputError(f"{path}: line 1 (header): duplicated column(s) {dup_cols}")
+    declared = declared_test(path, test)
+    labels = {}
+    if declared.table is not None:  # a lab's table: its columns and units declared in the sidecar
+        if len(frame) == 0:
+            raise InputError(f"{path}: no data rows after the header")
+        frame, labels = to_own_columns(frame, declared.table, path)
+    missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
+    if missing:
+        from .geometry import sidecar_path
+
+        raise InputError(
+            f"{path}: line 1 (header): missing column(s) {missing}; "
+            f"found {list(frame.columns)}, expected at least {list(REQUIRED_COLUMNS)}, or a declaration of the "
+            f"table's columns and units in key 'table' of {sidecar_path(path).name} (asphalt_nscd.lab.table_format: "
+            "modulus_unit MPa|GPa|kPa|ksi|psi, temperature_unit C|F, modulus_form norm_phase|storage_loss)"
+        )
     if len(frame) == 0:
         raise InputError(f"{path}: no data rows after the header")
 
@@ -160,7 +177,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
     out["specimen"] = spec
     numeric = [c for c in (*REQUIRED_COLUMNS[1:], *OPTIONAL_COLUMNS) if c in frame.columns]
     for column in numeric:
-        values = _numeric_column(path, frame, column, _RANGES)
+        values = _numeric_column(path, frame, column, _RANGES, label=labels.get(column))
         out[column] = values.astype(int) if column == "test_order" else values
 
     dup = out.duplicated(subset=list(KEY_COLUMNS), keep=False).to_numpy()
@@ -184,7 +201,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
             except (ValueError, TypeError):
                 out[column] = frame[column]
     out = out.sort_values(["temperature_C", "frequency_Hz", "specimen"], kind="stable").reset_index(drop=True)
-    out.attrs["test"] = declared_test(path, test)
+    out.attrs["test"] = declared
     return out
 
 
