@@ -283,12 +283,14 @@ def test_periodic_check_cli(tiny_sample, tmp_path):
         cli._periodic_check(cli_args(cases=["measured:21:10"]))
 
 
-def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_path):
+def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_path, monkeypatch):
     """A sphere hanging by one bond on the side of a lattice (it can roll about the bond's
     contact point: three zero modes of the network) and a second sphere bonded only to it (a
-    two-sphere mechanism): the steady state under gravity removes the load along the zero
-    modes (found cluster by cluster), solves the rest exactly, and one period later every
-    bond force is back while the mechanisms fall as they would from rest."""
+    two-sphere mechanism). The test leaves both out (held_spheres); kept in (as a simulation
+    built by hand would), the steady state under gravity removes the load that accelerates
+    the zero modes (found cluster by cluster), solves the rest exactly, and one period later
+    every bond force is back while the mechanisms fall as they would from rest."""
+    from asphalt_nscd.harmonic import timedomain
     from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
     from asphalt_nscd.sample.store import write_sample
 
@@ -307,6 +309,12 @@ def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_p
     write_sample(path, sample)
     f = 200.0  # a short period: the mechanisms fall ~0.1 mm in it and touch nothing
     s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=1.0, gravity=True)
+    held = timedomain.held_spheres(read_sample(path))
+    assert held[:n].all() and not held[n:].any()  # the two hanging spheres, and only them
+    sim, _ = twopb.build_simulation(read_sample(path), LAW_15C, f, twopb.time_step(f, s), s)
+    assert sim.n_mechanisms_dropped == 2 and sim.spheres.n == n and len(sim.bonds.i) == len(b["i"])
+    assert periodic.periodic_state(sim, LAW_15C, f, s.amplitude_m).gravity.n_mechanisms == 0
+    monkeypatch.setattr(timedomain, "held_spheres", lambda sample, *a, **k: np.ones(sample.radius.size, bool))
     sim, _ = twopb.build_simulation(read_sample(path), LAW_15C, f, twopb.time_step(f, s), s)
     sim.params.linear_tolerance = 1e-13
     state = periodic.periodic_state(sim, LAW_15C, f, s.amplitude_m, s.head_rotation)

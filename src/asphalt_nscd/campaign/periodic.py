@@ -179,8 +179,6 @@ class PeriodicState:
 GRAVITY_REFINEMENTS = 2
 #: largest relative residual of the static solve under gravity for the state to be used
 GRAVITY_RESIDUAL_MAX = 1e-8
-#: relative eigenvalue below which a sphere's own 6 x 6 stiffness block has a zero mode
-MECHANISM_TOLERANCE = 1e-9
 
 
 @dataclass
@@ -265,38 +263,6 @@ def _bond_laws(bonds):
             bonds.Ck[:, :, comp])
 
 
-def _mechanism_modes(g0, net, active, d: int, max_bonds: int = 3):
-    """Zero modes of the weakly held spheres of a network: the spheres with at most
-    ``max_bonds`` bonds, grouped into the connected clusters they form among themselves; for
-    each cluster the null vectors of its own block of G (its neighbours held), relative
-    eigenvalue below :data:`MECHANISM_TOLERANCE`. Such a vector strains no bond, so it is a
-    zero mode of the whole network. Yields, per cluster with zero modes, (free DOF indices
-    (k,), orthonormal null vectors (k, m), stiffness scale of the cluster's block)."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    n = active.size
-    count = np.bincount(net.i, minlength=n) + np.bincount(net.j[net.j >= 0], minlength=n)
-    slot = -np.ones(n, np.int64)
-    slot[active] = np.arange(int(active.sum()))
-    weak = (count <= max_bonds) & (slot >= 0)
-    if not weak.any():
-        return
-    both = (net.j >= 0)
-    both[both] = weak[net.i[both]] & weak[net.j[both]]
-    graph = sp.coo_matrix((np.ones(both.sum()), (net.i[both], net.j[both])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    csr = g0.tocsr()
-    for lab in np.unique(label[weak]):
-        members = slot[np.flatnonzero(weak & (label == lab))]
-        dofs = (d * members[:, None] + np.arange(d)).ravel()
-        w, vec = np.linalg.eigh(csr[dofs][:, dofs].toarray())
-        scale = max(float(w.max()), 1e-300)
-        null = w < MECHANISM_TOLERANCE * scale
-        if null.any():
-            yield dofs, vec[:, null], scale
-
-
 def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO) -> GravityState:
     """Steady state of the 2PB simulation under its gravity with the head held (module
     docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
@@ -352,7 +318,7 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         # accelerates them, M V a with a = (V^T M V)^-1 V^T F (their free fall, the same from
         # rest), is removed; G is stiffened along them
         extra_r, extra_c, extra_v = [], [], []
-        for dofs, V, scale in _mechanism_modes(g0, net, system.active, d):
+        for dofs, V, scale, _ in system.mechanism_modes():
             n_mech += V.shape[1]
             MV = system.mass_free[dofs, None] * V
             rhs[dofs] -= MV @ np.linalg.solve(V.T @ MV, V.T @ rhs[dofs])

@@ -238,6 +238,11 @@ class HarmonicSolution:
         return float(abs(self.force[0]))
 
 
+#: relative eigenvalue below which a cluster's own stiffness block has a zero mode
+#: (:meth:`HarmonicSystem.mechanism_modes`)
+MECHANISM_TOLERANCE = 1e-9
+
+
 class HarmonicSystem:
     """The bonded network prepared for repeated harmonic solves (pattern built once).
 
@@ -389,6 +394,46 @@ class HarmonicSystem:
         head = np.asarray(network.plate_inertia if network.plate_inertia is not None
                           else np.zeros(3), float)[:n_head_rot]
         self.mass_free = np.concatenate([mass.ravel(), head])
+
+    def mechanism_modes(self, max_bonds: int = 3):
+        """Zero modes of the weakly held spheres (mechanisms): the spheres with at most
+        ``max_bonds`` bonds, grouped into the connected clusters they form among themselves,
+        and for each cluster the null vectors of its own block of the unregularised G (its
+        neighbours held), relative eigenvalue below :data:`MECHANISM_TOLERANCE`. Such a vector
+        strains no bond, so it is a zero mode of the whole network: a sphere held by one bond
+        rolls about its contact point, one held by two spins about the line through both.
+        Only the ``contact`` kinematics has them (a barycentre bond holds a sphere in full).
+
+        Yields, per cluster with zero modes, (free DOF indices (k,), orthonormal null vectors
+        (k, m), stiffness scale of the cluster's block, sphere indices of the cluster).
+        """
+        from scipy.sparse.csgraph import connected_components
+
+        net = self.network
+        n = net.n_spheres
+        d = self.dof_per_sphere
+        count = np.bincount(net.i, minlength=n) + np.bincount(net.j[net.j >= 0], minlength=n)
+        slot = -np.ones(n, np.int64)
+        slot[self.active] = np.arange(int(self.active.sum()))
+        weak = (count <= max_bonds) & (slot >= 0)
+        if not weak.any():
+            return
+        both = net.j >= 0
+        both[both] = weak[net.i[both]] & weak[net.j[both]]
+        graph = sp.coo_matrix((np.ones(both.sum()), (net.i[both], net.j[both])), shape=(n, n))
+        _, label = connected_components(graph, directed=False)
+        if self.regularisation:
+            raise ValueError("mechanism_modes: the zero modes of the bonds alone need a system built with "
+                             "regularisation=0")
+        g = self._reference_blocks()["ff"].tocsr()
+        for lab in np.unique(label[weak]):
+            spheres = np.flatnonzero(weak & (label == lab))
+            dofs = (d * slot[spheres][:, None] + np.arange(d)).ravel()
+            w, vec = np.linalg.eigh(g[dofs][:, dofs].toarray())
+            scale = max(float(w.max()), 1e-300)
+            null = w < MECHANISM_TOLERANCE * scale
+            if null.any():
+                yield dofs, vec[:, null], scale, spheres
 
     def _reduce(self, entry) -> np.ndarray:
         """Sum of per-(bond, slot pair) 6x6 blocks (4B, 6, 6) per slot pair -> (U, 6, 6)."""

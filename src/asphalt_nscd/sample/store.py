@@ -60,6 +60,23 @@ class SampleData:
         return 0.4 * self.mass * self.radius**2
 
 
+def subsample(sample: SampleData, keep) -> SampleData:
+    """The sample with only the spheres of mask ``keep`` (N,) and the bonds between kept
+    bodies (sphere indices renumbered; plates kept); ``attrs['n_spheres']`` updated."""
+    keep = np.asarray(keep, bool)
+    new = -np.ones(keep.size, np.int64)
+    new[keep] = np.arange(int(keep.sum()))
+    i, j = np.asarray(sample.bonds["i"]), np.asarray(sample.bonds["j"])
+    ok = keep[i] & ((j < 0) | keep[np.maximum(j, 0)])
+    bonds = {k: np.asarray(v)[ok] for k, v in sample.bonds.items()}
+    bonds["i"] = new[i[ok]]
+    bonds["j"] = np.where(j[ok] >= 0, new[np.maximum(j[ok], 0)], j[ok])
+    attrs = {**sample.attrs, "n_spheres": int(keep.sum())}
+    return SampleData(position=sample.position[keep], radius=sample.radius[keep], mass=sample.mass[keep],
+                      plate_point=sample.plate_point, plate_normal=sample.plate_normal, plate_mass=sample.plate_mass,
+                      bonds=bonds, attrs=attrs, name=sample.name)
+
+
 #: Standard 2PB trapezoid (EN 12697-26 Annex A, the paper's specimen), mm.
 STANDARD_SPECIMEN_MM = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
 
