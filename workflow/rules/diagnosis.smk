@@ -131,6 +131,30 @@ if plan.crossval_time_domain_cell(config):
             " --window-cycles {params.window} -o {output.record} --row {output.row} 2> {log}"
 
 
+rule export_law:
+    # material cards of the extended law: relaxation Prony series + WLF shift (Abaqus, LS-DYNA, JSON, CSV)
+    input:
+        law=rules.extend_law.output.laws,
+        summary="results/lab/measured_summary.csv",
+    output:
+        abaqus=report(
+            "results/diagnosis/material_cards/abaqus.inp",
+            caption="../report/diagnosis_material_cards.rst",
+            category="Diagnosis",
+        ),
+        lsdyna="results/diagnosis/material_cards/lsdyna.k",
+        json="results/diagnosis/material_cards/prony.json",
+        table="results/diagnosis/material_cards/prony.csv",
+    log:
+        "logs/diagnosis/export_law.log",
+    benchmark:
+        "benchmarks/diagnosis/export_law.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    shell:
+        "asphalt-nscd export-law --law-json {input.law} --measured {input.summary} --allow-loss"
+        " -o results/diagnosis/material_cards 2> {log}"
+
 rule crossval:
     input:
         measured="results/lab/measured.csv",

@@ -754,14 +754,14 @@ def crossval_time_domain_cell(config: dict):
     if value is None:
         return None
     table = config["measured"]["table"]
-    try:
-        with open(table, newline="") as fh:
-            cells = {(float(r["temperature_C"]), float(r["frequency_Hz"])) for r in csv.DictReader(fh)}
-    except (OSError, KeyError, ValueError, TypeError) as exc:
-        raise InputError(
-            f"config diagnosis.crossval.time_domain: cannot read the measured cells of {table} ({exc!r}); "
-            "set the cell or null"
-        ) from exc
+    from ..lab.measured import load_measured
+
+    try:  # as the workflow reads it (a lab's columns and units converted through its sidecar)
+        frame = load_measured(table, config["measured"].get("test"))
+    except InputError as exc:
+        raise InputError(f"config diagnosis.crossval.time_domain: cannot read the measured cells of {table} ({exc}); "
+                         "set the cell or null") from exc
+    cells = {(float(T), float(f)) for T, f in zip(frame["temperature_C"], frame["frequency_Hz"])}
     if value == "auto":
         temps = sorted({T for T, _ in cells})
         T = temps[(len(temps) - 1) // 2]
@@ -877,6 +877,10 @@ def report_files(config: dict) -> list:
         "results/diagnosis/gain.csv",
         "results/diagnosis/report.json",
         LAW_JSON,
+        "results/diagnosis/material_cards/abaqus.inp",
+        "results/diagnosis/material_cards/lsdyna.k",
+        "results/diagnosis/material_cards/prony.json",
+        "results/diagnosis/material_cards/prony.csv",
         "results/diagnosis/extended_law_cv_curve.csv",
         "results/diagnosis/corrected_measured.csv",
         "results/diagnosis/detection_bench.json",

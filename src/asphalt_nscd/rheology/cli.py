@@ -70,6 +70,59 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV, one row per (temperature, bond)")
     p.set_defaults(func=_micro)
 
+    p = subparsers.add_parser(
+        "export-law", help="material cards of a temperature-aware law: Abaqus, LS-DYNA, JSON and CSV Prony series",
+        description="Relaxation Prony series at the law's reference temperature with its WLF shift "
+                    "(asphalt_nscd.rheology.export), written as an Abaqus input fragment (*ELASTIC, *VISCOELASTIC "
+                    "TIME=PRONY, *TRS WLF), an LS-DYNA *MAT_GENERAL_VISCOELASTIC card, a JSON and a CSV; checked "
+                    "against the law at every measured cell.")
+    p.add_argument("--law-json", type=Path, required=True,
+                   help="law JSON of 'asphalt-nscd extend-law' (results/diagnosis/generalized_burgers.json)")
+    p.add_argument("--measured", type=Path, required=True,
+                   help="measured table or summary whose (temperature, frequency) cells the card is checked at")
+    p.add_argument("-o", "--output", type=Path, required=True, help="directory of the cards")
+    p.add_argument("--name", default="ASPHALT_MIX", help="material name of the Abaqus card")
+    p.add_argument("--per-decade", type=float, default=3.0, help="relaxation times per decade of the Prony series")
+    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of the cards (constant)")
+    p.add_argument("--allow-loss", action="store_true",
+                   help="write the cards even if they miss the law by more than 0.5 %% / 0.2 deg at a cell")
+    p.set_defaults(func=_export)
+
+
+def _export(args) -> int:
+    import pandas as pd
+
+    from ..io import InputError, atomic_path, read_json, write_csv, write_json
+    from . import export
+
+    law = read_json(args.law_json, "law JSON")
+    cells = pd.read_csv(args.measured)
+    missing = {"temperature_C", "frequency_Hz"} - set(cells.columns)
+    if missing:
+        raise InputError(f"{args.measured}: line 1 (header): missing column(s) {sorted(missing)}")
+    cells = cells[["temperature_C", "frequency_Hz"]].drop_duplicates()
+    try:
+        card = export.prony_card(law, cells, per_decade=args.per_decade, nu=args.nu)
+    except InputError as exc:
+        raise InputError(f"{args.law_json}: {exc}") from None
+    c = card["check"]
+    if not card["exact"] and not args.allow_loss:
+        raise InputError(
+            f"{args.law_json}: the Prony series with a WLF shift misses the law by "
+            f"{c['max_E_norm_difference_pct']:.3g} % |E*| (at {c['at_E'][0]:g} degC, {c['at_E'][1]:g} Hz) and "
+            f"{c['max_phase_difference_deg']:.3g} deg (at {c['at_phase'][0]:g} degC, {c['at_phase'][1]:g} Hz), above "
+            f"{export.TOLERANCE_E_PCT} % / {export.TOLERANCE_PHASE_DEG} deg; not carried by a single Prony + shift "
+            f"law: {', '.join(c['not_carried']) or 'none of the law settings (a wider fit band or more terms?)'}; "
+            "use --allow-loss to write it anyway")
+    out = args.output
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in (("abaqus.inp", export.abaqus_card(card, args.name)), ("lsdyna.k", export.lsdyna_card(card))):
+        with atomic_path(out / name) as tmp:
+            tmp.write_text(text)
+    write_json(export.card_json(card), out / "prony.json")
+    write_csv(export.card_table(card), out / "prony.csv")
+    return 0
+
 
 def _weights(args) -> dict:
     return {"log_E": args.weight_log_modulus, "phase_rad": args.weight_phase}

@@ -1,0 +1,225 @@
+"""Material cards of a temperature-aware law: a relaxation Prony series with a shift law.
+
+What a finite-element user needs of the extended law (:mod:`.extended`, the law JSON of
+``asphalt-nscd extend-law``) is a linear viscoelastic material that Abaqus, LS-DYNA or ANSYS
+read: the relaxation modulus at a reference temperature as a Prony series
+
+    E(t) = E_inf + sum_i E_i exp(-t / tau_i) = E_0 [g_inf + sum_i g_i exp(-t / tau_i)],
+    E*(w) = E_inf + sum_i E_i i w tau_i / (1 + i w tau_i),
+
+with E_0 = E_inf + sum E_i (instantaneous modulus) and the normalised weights g_i = E_i / E_0,
+and the time-temperature superposition of a WLF law, log10 aT = -C1 (T - T_ref) / (C2 + T -
+T_ref) (Abaqus ``*TRS, DEFINITION=WLF``; LS-DYNA ``*MAT_GENERAL_VISCOELASTIC`` TREF, A, B).
+
+Construction (:func:`prony_card`):
+
+* reference temperature: the law's T_ref (``model.T_ref_C`` of the law JSON), whose
+  per-temperature entry is the law there;
+* shift: the law's WLF constants; an Arrhenius law is replaced by the WLF law fitted to it
+  over the calibrated range (least squares in log10 aT, the largest difference reported);
+* Prony series: the relaxation (generalized Maxwell) series fitted by non-negative least
+  squares (:func:`asphalt_nscd.rheology.models.fit_generalized_maxwell`) to the law at T_ref
+  on ``per_decade`` log-spaced relaxation times over the reduced band of the calibrated
+  cells (every tested (T, f) shifted to T_ref) widened by ``margin_decades``.
+
+What a single Prony series with a shift law cannot carry: a vertical shift, a static modulus
+that changes with temperature, the per-isotherm refinement of the law (its settings in the
+law JSON). The card is then compared with the law at every calibrated cell and the largest
+differences of |E*| (%) and Phi (deg) are written beside it (``check`` of the JSON); above
+:data:`TOLERANCE_E_PCT` / :data:`TOLERANCE_PHASE_DEG` the card is flagged ``exact: false``
+with the settings that cause it, and ``asphalt-nscd export-law`` refuses to write it unless
+``--allow-loss`` is given.
+
+Writers: :func:`abaqus_card` (input-file fragment), :func:`lsdyna_card` (keyword card,
+consistent units N, mm, s, tonne: moduli in MPa), :func:`card_json`, :func:`card_table`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from ..io import InputError
+from .laws import POISSON_RATIO
+
+#: largest difference between card and law at a calibrated cell for an exact card
+TOLERANCE_E_PCT = 0.5
+TOLERANCE_PHASE_DEG = 0.2
+
+
+def _chain(obj: dict):
+    """GeneralizedBurgers (Pa, Pa s) of the law JSON's ``model.prony_at_T_ref``."""
+    from .laws import GeneralizedBurgers
+
+    eta_m = obj.get("eta_m")
+    return GeneralizedBurgers(Em=float(obj["Em"]), eta_m=math.inf if eta_m is None else float(eta_m),
+                              Ek=tuple(obj.get("Ek", ())), eta_k=tuple(obj.get("eta_k", ())),
+                              E_inf=float(obj.get("E_inf", 0.0)))
+
+
+def wlf_log_shift(T, T_ref: float, C1: float, C2: float) -> np.ndarray:
+    """log10 aT of a WLF law (degC, K)."""
+    d = np.asarray(T, float) - T_ref
+    return -C1 * d / (C2 + d)
+
+
+def prony_card(law: dict, cells: pd.DataFrame, per_decade: float = 3.0, margin_decades: float = 1.0,
+               nu: float = POISSON_RATIO) -> dict:
+    """The material card of a law JSON object (module docstring).
+
+    Parameters
+    ----------
+    law : the law JSON (:mod:`asphalt_nscd.rheology.law_file` format, with ``model``), with an
+        entry at T_ref and at every temperature of ``cells``.
+    cells : the calibrated (T degC, f Hz) cells (columns ``temperature_C, frequency_Hz``).
+    per_decade : relaxation times per decade of the Prony series.
+    margin_decades : decades added on each side of the reduced band.
+    nu : Poisson's ratio of the card (constant; bulk and shear relax alike).
+
+    Returns
+    -------
+    dict: ``T_ref_C``, ``E_0_MPa``, ``E_inf_MPa``, ``g_inf``, ``terms`` (list of {g, tau_s,
+    E_MPa}), ``shift`` ({law: WLF, C1, C2_K, T_ref_C, from, max_log10_aT_difference}),
+    ``nu``, ``check`` (largest |E*| difference %, Phi difference deg, at which cell, the
+    settings that a Prony + shift card cannot carry), ``exact`` (bool).
+
+    Raises
+    ------
+    InputError if the law has no ``model`` or no entry at its T_ref.
+    """
+    from . import law_file
+    from .metrics import temperature_key
+    from .models import fit_generalized_maxwell
+
+    model = law.get("model") if isinstance(law, dict) else None
+    if not model or "T_ref_C" not in model or "shift" not in model:
+        raise InputError("law JSON: key 'model' with T_ref_C and shift needed (written by asphalt-nscd extend-law)")
+    entries = {T: g.scaled(1e-6) for T, g in law_file.validate(law, "law JSON").items()}
+    T_ref = float(model["T_ref_C"])
+    if temperature_key(entries, T_ref) is None:
+        raise InputError(f"law JSON: key 'temperatures': no entry at T_ref = {T_ref:g} degC (write the law there: "
+                         "extend-law --temperatures)")
+    shift = model["shift"]
+    T = cells["temperature_C"].to_numpy(float)
+    f = cells["frequency_Hz"].to_numpy(float)
+    lo, hi = float(T.min()), float(T.max())
+    if str(shift["law"]).upper() == "WLF":
+        C1, C2, from_law, diff = float(shift["C1"]), float(shift["C2_K"]), "WLF of the law", 0.0
+    else:  # Arrhenius: the WLF law nearest it over the calibrated range
+        from scipy.optimize import least_squares
+
+        from .shift import arrhenius_log_shift
+
+        grid = np.linspace(lo, hi, 41)
+        target = arrhenius_log_shift(grid, T_ref, float(shift["Ea_kJ_mol"]) * 1e3)
+        res = least_squares(lambda p: wlf_log_shift(grid, T_ref, p[0], p[1]) - target, [20.0, 150.0],
+                            bounds=([0.1, T_ref - lo + 1.0], [500.0, 1e5]))
+        C1, C2 = (float(v) for v in res.x)
+        diff = float(np.abs(res.fun).max())
+        from_law = "WLF fitted to the law's Arrhenius shift over the calibrated range"
+    wr = 2 * np.pi * f * 10.0 ** wlf_log_shift(T, T_ref, C1, C2)
+    w_lo, w_hi = wr.min() / 10**margin_decades, wr.max() * 10**margin_decades
+    omega = np.logspace(math.log10(w_lo), math.log10(w_hi), int(10 * math.log10(w_hi / w_lo)) + 1)
+    # the law's whole chain at T_ref (the per-temperature entries merge the units far outside
+    # their own tested band; the card must cover every calibrated cell's reduced frequency)
+    chain = model.get("prony_at_T_ref")
+    law_ref = (_chain(chain) if chain else entries[temperature_key(entries, T_ref)].scaled(1e6)).scaled(1e-6)
+    E_ref = law_ref.complex_modulus(omega)
+    n_tau = int(math.ceil(per_decade * math.log10(w_hi / w_lo))) + 1
+    tau = np.logspace(-math.log10(w_hi), -math.log10(w_lo), n_tau)
+    fit = fit_generalized_maxwell(omega, E_ref, tau)
+    keep = fit["E_i"] > 0
+    E_i, tau = fit["E_i"][keep], fit["rho_s"][keep]
+    E_inf = float(fit["E_inf"])
+    E_0 = E_inf + float(E_i.sum())
+    card = {"T_ref_C": T_ref, "E_0_MPa": E_0, "E_inf_MPa": E_inf, "g_inf": E_inf / E_0,
+            "terms": [{"g": float(e / E_0), "tau_s": float(t), "E_MPa": float(e)} for e, t in zip(E_i, tau)],
+            "shift": {"law": "WLF", "C1": C1, "C2_K": C2, "T_ref_C": T_ref, "from": from_law,
+                      "max_log10_aT_difference": diff},
+            "nu": float(nu), "units": {"modulus": "MPa", "time": "s", "temperature": "degC"}}
+    # the card against the law at every calibrated cell
+    E_card = card_modulus(card, f, T)
+    E_law = law_file.complex_modulus(entries, T, f, "law JSON")
+    dE = 100 * np.abs(np.abs(E_card) / np.abs(E_law) - 1)
+    dP = np.abs(np.degrees(np.angle(E_card) - np.angle(E_law)))
+    settings = (model.get("settings") or {})
+    lost = [name for name, on in (("vertical shift", settings.get("vertical")),
+                                  ("static modulus trend", settings.get("static") == "trend"),
+                                  ("per-isotherm refinement", settings.get("refine") is not None))
+            if on]
+    iE, iP = int(np.argmax(dE)), int(np.argmax(dP))
+    card["check"] = {"max_E_norm_difference_pct": float(dE[iE]), "at_E": [float(T[iE]), float(f[iE])],
+                     "max_phase_difference_deg": float(dP[iP]), "at_phase": [float(T[iP]), float(f[iP])],
+                     "n_cells": int(T.size), "not_carried": lost,
+                     "tolerances": {"E_norm_pct": TOLERANCE_E_PCT, "phase_deg": TOLERANCE_PHASE_DEG}}
+    card["exact"] = bool(dE[iE] <= TOLERANCE_E_PCT and dP[iP] <= TOLERANCE_PHASE_DEG)
+    return card
+
+
+def card_modulus(card: dict, frequency_Hz, temperature_C) -> np.ndarray:
+    """E* (MPa) of a card at (f Hz, T degC) pairs: the Prony series at the shifted frequency."""
+    f, T = np.broadcast_arrays(np.asarray(frequency_Hz, float), np.asarray(temperature_C, float))
+    s = card["shift"]
+    wr = 2 * np.pi * f * 10.0 ** wlf_log_shift(T, s["T_ref_C"], s["C1"], s["C2_K"])
+    E = np.full(wr.shape, card["E_inf_MPa"], complex)
+    for term in card["terms"]:
+        iwt = 1j * wr * term["tau_s"]
+        E = E + term["E_MPa"] * iwt / (1.0 + iwt)
+    return E
+
+
+def abaqus_card(card: dict, name: str = "ASPHALT_MIX") -> str:
+    """Abaqus input-file fragment: ``*ELASTIC, MODULI=INSTANTANEOUS`` (E_0 in MPa, nu),
+    ``*VISCOELASTIC, TIME=PRONY`` (g_i, k_i = g_i, tau_i: shear and bulk relax alike) and
+    ``*TRS, DEFINITION=WLF`` (T_ref, C1, C2). Units MPa and s; temperatures in degC."""
+    s = card["shift"]
+    lines = [f"** Linear viscoelastic material card written by asphalt-nscd export-law",
+             f"** E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; "
+             f"units MPa, s, degC; g_inf = {card['g_inf']:.6g}",
+             f"** largest difference to the law over {card['check']['n_cells']} calibrated cells: "
+             f"{card['check']['max_E_norm_difference_pct']:.3g} % |E*|, "
+             f"{card['check']['max_phase_difference_deg']:.3g} deg phase",
+             f"*MATERIAL, NAME={name}",
+             "*ELASTIC, MODULI=INSTANTANEOUS",
+             f"{card['E_0_MPa']:.9g}, {card['nu']:.6g}",
+             "*VISCOELASTIC, TIME=PRONY"]
+    lines += [f"{t['g']:.9g}, {t['g']:.9g}, {t['tau_s']:.9g}" for t in card["terms"]]
+    lines += ["*TRS, DEFINITION=WLF", f"{s['T_ref_C']:.6g}, {s['C1']:.9g}, {s['C2_K']:.9g}"]
+    return "\n".join(lines) + "\n"
+
+
+def lsdyna_card(card: dict, mid: int = 1, density_t_mm3: float = 2.4e-9) -> str:
+    """LS-DYNA ``*MAT_GENERAL_VISCOELASTIC`` (MAT_076) card in the consistent units N, mm, s,
+    tonne (moduli in MPa): shear and bulk relaxation G_i = E_i / (2 (1 + nu)), K_i = E_i /
+    (3 (1 - 2 nu)), decay BETA_i = 1/tau_i, the long-term moduli as terms of decay 0; WLF
+    TREF, A = C1, B = C2. ``density_t_mm3``: the mix's density (2.4e-9 t/mm^3 = 2400 kg/m^3)."""
+    nu = card["nu"]
+    g, k = 1.0 / (2 * (1 + nu)), 1.0 / (3 * (1 - 2 * nu))
+    s = card["shift"]
+    terms = [(card["E_inf_MPa"], 0.0)] + [(t["E_MPa"], 1.0 / t["tau_s"]) for t in card["terms"]]
+    bulk = card["E_0_MPa"] * k
+    lines = ["$ Linear viscoelastic material card written by asphalt-nscd export-law (units N, mm, s, tonne; MPa)",
+             f"$ E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; WLF shift",
+             "*MAT_GENERAL_VISCOELASTIC",
+             "$      MID        RO      BULK       PCF        EF      TREF         A         B",
+             "".join(f"{v:>10}" for v in (mid, f"{density_t_mm3:.3e}", f"{bulk:.3e}", 0, 0,
+                                          f"{s['T_ref_C']:.4g}", f"{s['C1']:.5g}", f"{s['C2_K']:.5g}")),
+             "$    LCID1       NT     BSTART     TRAMP     LCIDK      NTK    BSTARTK    TRAMPK",
+             "".join(f"{v:>10}" for v in (0, 0, 0, 0, 0, 0, 0, 0)),
+             "$       GI     BETAI        KI    BETAKI"]
+    lines += ["".join(f"{v:>10.3e}" for v in (e * g, b, e * k, b)) for e, b in terms]
+    return "\n".join(lines) + "\n"
+
+
+def card_json(card: dict) -> dict:
+    """The neutral JSON of a card (the card itself, JSON-ready)."""
+    return {"format": "relaxation Prony series at T_ref with a WLF shift", **card}
+
+
+def card_table(card: dict) -> pd.DataFrame:
+    """The Prony terms as a table: ``i, g, tau_s, E_MPa`` (i = 0: the long-term term, tau inf)."""
+    rows = [{"i": 0, "g": card["g_inf"], "tau_s": math.inf, "E_MPa": card["E_inf_MPa"]}]
+    rows += [{"i": k + 1, **t} for k, t in enumerate(card["terms"])]
+    return pd.DataFrame(rows)

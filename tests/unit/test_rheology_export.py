@@ -1,0 +1,132 @@
+"""Material cards of the extended law: each exported card (Abaqus, LS-DYNA, JSON) evaluated
+back at every measured (T, f) matches the law within 0.5 % in |E*| and 0.2 deg in Phi; a law
+a single Prony series with a WLF shift cannot carry is refused, naming what is lost."""
+
+import json
+import math
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from asphalt_nscd.cli import main
+from asphalt_nscd.diagnosis import synthetic
+from asphalt_nscd.rheology import export, law_file
+
+LAW = ["--law-shifts", "wlf", "--law-statics", "constant", "--law-refines", "off", "--law-per-decades", "2",
+       "--no-artifacts"]
+
+
+def _law(tmp_path, extra=("--law-verticals", "off")):
+    table, _ = synthetic.generate(3, schedule="aashto_t342", n_specimens=2)
+    table.drop(columns="test_order").to_csv(tmp_path / "m.csv", index=False)
+    out = tmp_path / "law.json"
+    assert main(["extend-law", "--measured", str(tmp_path / "m.csv"), *LAW, *extra, "-o", str(out)]) == 0
+    return out, tmp_path / "m.csv"
+
+
+def _abaqus(text):
+    lines = text.splitlines()
+    k = lines.index("*ELASTIC, MODULI=INSTANTANEOUS")
+    E0 = float(lines[k + 1].split(",")[0])
+    j = lines.index("*VISCOELASTIC, TIME=PRONY")
+    terms = []
+    for ln in lines[j + 1:]:
+        if ln.startswith("*"):
+            break
+        g, kk, tau = (float(v) for v in ln.split(","))
+        assert g == kk
+        terms.append((g, tau))
+    t = lines.index("*TRS, DEFINITION=WLF")
+    T_ref, C1, C2 = (float(v) for v in lines[t + 1].split(","))
+    return E0, terms, (T_ref, C1, C2)
+
+
+def _lsdyna(text):
+    rows = [ln for ln in text.splitlines() if not ln.startswith(("$", "*"))]
+    fixed = [float(rows[0][10 * i:10 * i + 10]) for i in range(8)]
+    T_ref, C1, C2 = fixed[5], fixed[6], fixed[7]
+    terms = [[float(r[10 * i:10 * i + 10]) for i in range(4)] for r in rows[2:]]
+    return terms, (T_ref, C1, C2)
+
+
+def test_exported_cards_round_trip(tmp_path):
+    law_path, table = _law(tmp_path)
+    cards = tmp_path / "cards"
+    assert main(["export-law", "--law-json", str(law_path), "--measured", str(table), "-o", str(cards)]) == 0
+    cells = pd.read_csv(table)[["temperature_C", "frequency_Hz"]].drop_duplicates()
+    T, f = cells["temperature_C"].to_numpy(float), cells["frequency_Hz"].to_numpy(float)
+    laws = {t: g.scaled(1e-6) for t, g in law_file.read(law_path).items()}
+    E_law = law_file.complex_modulus(laws, T, f)
+
+    def check(E):
+        assert np.max(np.abs(np.abs(E) / np.abs(E_law) - 1)) <= 0.005
+        assert np.max(np.abs(np.degrees(np.angle(E) - np.angle(E_law)))) <= 0.2
+
+    def prony(E0, g_inf, terms, shift, wr_of):
+        wr = wr_of(shift)
+        E = np.full(wr.shape, E0 * g_inf, complex)
+        for g, tau in terms:
+            E += E0 * g * 1j * wr * tau / (1 + 1j * wr * tau)
+        return E
+
+    def wr_of(shift):
+        T_ref, C1, C2 = shift
+        return 2 * np.pi * f * 10.0 ** (-C1 * (T - T_ref) / (C2 + T - T_ref))
+
+    card = json.loads((cards / "prony.json").read_text())
+    assert card["exact"] and card["check"]["max_E_norm_difference_pct"] <= 0.5
+    check(prony(card["E_0_MPa"], card["g_inf"], [(t["g"], t["tau_s"]) for t in card["terms"]],
+                (card["shift"]["T_ref_C"], card["shift"]["C1"], card["shift"]["C2_K"]), wr_of))
+    E0, terms, shift = _abaqus((cards / "abaqus.inp").read_text())
+    g_inf = 1 - sum(g for g, _ in terms)  # Abaqus: the long-term part is what the g_i leave
+    check(prony(E0, g_inf, terms, shift, wr_of))
+    rows, shift = _lsdyna((cards / "lsdyna.k").read_text())
+    nu = card["nu"]
+    E_terms = [(gi * 2 * (1 + nu), 1 / beta if beta > 0 else math.inf) for gi, beta, _, _ in rows]
+    wr = wr_of(shift)
+    E = sum(e if math.isinf(tau) else e * 1j * wr * tau / (1 + 1j * wr * tau) for e, tau in E_terms)
+    # the LS-DYNA card prints 4 significant digits: 0.05 %
+    assert np.max(np.abs(np.abs(E) / np.abs(E_law) - 1)) <= 0.006
+    table_csv = pd.read_csv(cards / "prony.csv")
+    assert table_csv["g"].sum() == pytest.approx(1.0, rel=1e-9)
+
+
+def test_a_law_with_a_vertical_shift_is_refused_or_flagged(tmp_path):
+    law_path, table = _law(tmp_path, ("--law-verticals", "on"))
+    law = json.loads(law_path.read_text())
+    assert law["model"]["settings"]["vertical"]
+    # make the vertical trend large: a Prony series with a shift cannot carry it
+    law["model"]["backbone"]["vertical_trend_per_100K"] = 0.5
+    laws = {float(k): v for k, v in law["temperatures"].items()}
+    T_ref = law["model"]["T_ref_C"]
+    for T, entry in laws.items():
+        b = 10 ** (0.5 * (T - T_ref) / 100)
+        for key in ("Em", "eta_m", "E_inf"):
+            if entry.get(key) is not None:
+                entry[key] *= b
+        entry["Ek"] = [e * b for e in entry["Ek"]]
+        entry["eta_k"] = [e * b for e in entry["eta_k"]]
+    law["temperatures"] = {f"{T:g}": e for T, e in laws.items()}
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(law))
+    out = tmp_path / "c"
+    assert main(["export-law", "--law-json", str(bad), "--measured", str(table), "-o", str(out)]) == 2
+    assert not (out / "abaqus.inp").exists()
+    assert main(["export-law", "--law-json", str(bad), "--measured", str(table), "-o", str(out), "--allow-loss"]) == 0
+    card = json.loads((out / "prony.json").read_text())
+    assert not card["exact"] and card["check"]["not_carried"] == ["vertical shift"]
+    assert re.search(r"largest difference to the law .*: \d", (out / "abaqus.inp").read_text())
+
+
+def test_arrhenius_is_carried_as_its_exact_wlf_form():
+    """An Arrhenius shift is the WLF law with C2 = T_ref + 273.15 K and C1 = Ea / (R ln10 T_ref):
+    the card's fitted WLF reproduces it to round-off over the calibrated range."""
+    from asphalt_nscd.rheology.shift import arrhenius_log_shift
+
+    T = np.linspace(-10, 54, 30)
+    a = arrhenius_log_shift(T, 21.0, 200e3)
+    C2 = 21.0 + 273.15
+    C1 = 200e3 / (8.314462618 * np.log(10) * C2)
+    assert np.allclose(export.wlf_log_shift(T, 21.0, C1, C2), a, atol=1e-9)
