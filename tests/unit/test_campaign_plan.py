@@ -225,7 +225,8 @@ def test_crossval_time_domain_cell(tmp_path):
     assert plan.crossval_time_domain_function(cfg)(SimpleNamespace(scheme="loto")) == []
     assert plan.crossval_sample(cfg) == "s1"
     table = tmp_path / "t.csv"
-    table.write_text("temperature_C,frequency_Hz\n-5,1\n-5,30\n10,3\n10,20\n30,8\n30,15\n40,1\n")
+    table.write_text("specimen,temperature_C,frequency_Hz,E_norm_MPa,phase_deg\n" + "".join(
+        f"S1,{T},{f},1000,20\n" for T, f in ((-5, 1), (-5, 30), (10, 3), (10, 20), (30, 8), (30, 15), (40, 1))))
     other = copy.deepcopy(cfg)
     other["measured"]["table"] = str(table)
     assert plan.crossval_time_domain_cell(other) == {"temperature_C": 10.0, "frequency_Hz": 20.0}

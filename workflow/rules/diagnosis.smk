@@ -155,6 +155,7 @@ rule export_law:
         "asphalt-nscd export-law --law-json {input.law} --measured {input.summary} --allow-loss"
         " -o results/diagnosis/material_cards 2> {log}"
 
+
 rule crossval:
     input:
         measured="results/lab/measured.csv",
