@@ -248,7 +248,7 @@ def test_report_files_are_the_report_index_inputs(named_config):
     name, cfg = named_config
     files = plan.report_files(cfg)
     # counts of the collect-report command of the dry runs (smoke: one sample, else four)
-    assert len(files) == {"smoke": 83, "config": 86, "paper": 90}[name]  # paper: + the paper_kPa mode's 4
+    assert len(files) == {"smoke": 88, "config": 91, "paper": 95}[name]  # paper: + the paper_kPa mode's 4
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
     assert files[-1] == "results/diagnosis/crossval/loto.png"
     assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files

@@ -72,6 +72,48 @@ rule paper_table3_figures:
         "--isotherms-modulus {output.modulus} --isotherms-phase {output.phase} 2> {log}"
 
 
+rule master_curve_figures:
+    # master curve with the measured points coloured by temperature (2S2P1D, extended law, MEPDG sigmoid),
+    # shift factors, the extended law's per-cell residuals, the sigmoid's parameters beside 2S2P1D's
+    input:
+        search="results/diagnosis/master_curve.json",
+        corrected="results/diagnosis/corrected_measured.csv",
+        law=plan.LAW_JSON,
+    output:
+        master=report(
+            "results/diagnosis/figures/master_curve.png",
+            caption="../report/diagnosis_master_curve.rst",
+            category="Diagnosis",
+        ),
+        shift=report(
+            "results/diagnosis/figures/shift_factors.png",
+            caption="../report/diagnosis_master_curve.rst",
+            category="Diagnosis",
+        ),
+        residuals=report(
+            "results/diagnosis/figures/law_residuals.png",
+            caption="../report/diagnosis_master_curve.rst",
+            category="Diagnosis",
+        ),
+        residual_table="results/diagnosis/law_residuals.csv",
+        sigmoid=report(
+            "results/diagnosis/sigmoid_master_curve.csv",
+            caption="../report/diagnosis_master_curve.rst",
+            category="Diagnosis",
+        ),
+    log:
+        "logs/figures/master_curve_figures.log",
+    benchmark:
+        "benchmarks/figures/master_curve_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    shell:
+        "asphalt-nscd master-curve-figures --master-curve {input.search} --corrected-table {input.corrected}"
+        " --law-json {input.law} --master-figure {output.master} --shift-figure {output.shift}"
+        " --residual-figure {output.residuals} --residual-table {output.residual_table} --sigmoid {output.sigmoid}"
+        " 2> {log}"
+
+
 rule report_index:
     input:
         plan.report_files(config),

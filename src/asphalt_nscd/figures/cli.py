@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import shutil
+
+import numpy as np
 from pathlib import Path
 
 from ..io import InputError, atomic_path, read_csv, write_text
@@ -31,6 +33,62 @@ def register(subparsers) -> None:
     for plot in ("isotherms-modulus", "isotherms-phase", "black", "cole-cole"):
         p.add_argument(f"--{plot}", type=Path, default=None, metavar="PNG", help=f"write the {plot} figure here")
     p.set_defaults(func=_plot_rheology)
+
+    p = subparsers.add_parser(
+        "master-curve-figures",
+        help="master curve, shift factors, per-cell residuals and the sigmoidal (MEPDG) master curve",
+        description="The figures of a measured table (asphalt_nscd.figures.master_curves): the master curve with "
+                    "the measured points coloured by temperature (2S2P1D, the extended law, the sigmoid), the shift "
+                    "factors, the extended law's per-cell residuals, and the sigmoidal MEPDG / AASHTO R 84 master "
+                    "curve fitted beside 2S2P1D with its parameters in a table.")
+    p.add_argument("--master-curve", type=Path, required=True, help="master-curve JSON (asphalt-nscd master-curve)")
+    p.add_argument("--corrected-table", type=Path, required=True, help="artifact-corrected table of master-curve")
+    p.add_argument("--law-json", type=Path, default=None, help="law JSON of extend-law (adds its curves)")
+    p.add_argument("--master-figure", type=Path, required=True, help="master-curve figure (png)")
+    p.add_argument("--shift-figure", type=Path, required=True, help="shift-factor figure (png)")
+    p.add_argument("--residual-figure", type=Path, default=None, help="per-cell residuals of the law (png)")
+    p.add_argument("--residual-table", type=Path, default=None, help="per-cell residuals of the law (csv)")
+    p.add_argument("--sigmoid", type=Path, required=True, help="sigmoid parameters beside 2S2P1D's (csv)")
+    p.set_defaults(func=_master_curve_figures)
+
+
+def _master_curve_figures(args) -> int:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from ..diagnosis.artifacts import read, read_corrected
+    from ..io import read_json, savefig, write_csv
+    from ..rheology.sigmoid import fit_sigmoid
+    from . import master_curves as mc
+
+    master = read(args.master_curve).master
+    corrected = read_corrected(args.corrected_table)
+    law = read_json(args.law_json, "law JSON") if args.law_json else None
+    sig = fit_sigmoid(corrected, master.T_ref_C)
+    two = {"model": "2S2P1D", "shift": master.shift, "T_ref_C": master.T_ref_C,
+           "rmse_log10": float(np.sqrt(np.mean((np.log10(np.abs(master.modulus(corrected["frequency_Hz"],
+                                                                                 corrected["temperature_C"])))
+                                                 - np.log10(corrected["E_norm_MPa"])) ** 2)))}
+    rows = [{"model": "sigmoid (MEPDG, AASHTO R 84)", "shift": "quadratic", **sig},
+            {**two, **{f"2S2P1D_{k}": v for k, v in dict(zip(master.names, master.x)).items()
+                       if not k.startswith(("ln_spec", "phase_spec"))}}]
+    write_csv(pd.DataFrame(rows), args.sigmoid)
+    for fig, path in ((mc.master_curve_figure(master, corrected, law, sig), args.master_figure),
+                      (mc.shift_factor_figure(master, law, sig, corrected["temperature_C"].unique()), args.shift_figure)):
+        savefig(fig, path)
+        plt.close(fig)
+    if law is not None and (args.residual_figure or args.residual_table):
+        res = mc.residual_table(corrected, law)
+        if args.residual_table:
+            write_csv(res, args.residual_table)
+        if args.residual_figure:
+            fig = mc.residual_figure(res)
+            savefig(fig, args.residual_figure)
+            plt.close(fig)
+    return 0
 
 
 def _collect_report(args) -> int:
