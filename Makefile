@@ -6,8 +6,9 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 CORES  ?= 2
 CONFIG ?= config/config.yaml
+comma := ,
 
-.PHONY: run test setup report dry-run bench clean
+.PHONY: run test setup report dry-run bench clean table
 
 $(BIN)/asphalt-nscd: pyproject.toml requirements.lock
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found; set PYTHON=/path/to/python3.11" >&2; exit 1; }
@@ -21,6 +22,15 @@ setup: $(BIN)/asphalt-nscd
 
 run: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --printshellcmds --rerun-incomplete
+
+# Your own table: make table TABLE=path/to/table.csv [TEST=path/to/sidecar.json]
+# (the sidecar <table>.test.json next to the table is found by itself; README, "Your own table")
+table: setup
+	@test -n "$(TABLE)" || { echo "usage: make table TABLE=path/to/table.csv [TEST=path/to/table.test.json]" >&2; exit 2; }
+	$(BIN)/snakemake own_table --cores $(CORES) --rerun-incomplete --configfile config/config.yaml config/table.yaml \
+	  --config 'measured={"table": "$(TABLE)"$(if $(TEST),$(comma) "test": "$(TEST)")}'
+	@echo "law: results/diagnosis/generalized_burgers.json; cards: results/diagnosis/material_cards/;" \
+	  "figures: results/diagnosis/figures/; page: results/diagnosis/what_the_simulation_gets_wrong.md"
 
 report: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html

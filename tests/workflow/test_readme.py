@@ -290,3 +290,52 @@ def test_two_runs_of_the_same_config_give_identical_tables(smoke_run):
             assert names
             for n in names:
                 np.testing.assert_array_equal(fa[n][()], fb[n][()], err_msg=f"{pa.name}:{n}")
+
+
+def readme_own_table_command() -> str:
+    """The command of the README's section "Your own table" (its first code block)."""
+    text = (REPO / "README.md").read_text()
+    section = text.split("## Your own table", 1)[1]
+    block = re.search(r"```(?:bash|sh)?\n(.*?)```", section, re.S)
+    assert block, "README: no code block under 'Your own table'"
+    lines = [ln.split("#")[0].strip() for ln in block.group(1).splitlines() if ln.split("#")[0].strip()]
+    assert len(lines) == 1 and "TABLE=" in lines[0], lines
+    return lines[0]
+
+
+@pytest.mark.slow
+def test_own_table_in_ksi_and_degF_through_the_readme_command(smoke_run):
+    """A lab's AASHTO-style table in ksi and degF (its own column names, declared in its
+    sidecar) through the README's own-table command, literally, from a plain shell: the law
+    JSON at the table's temperatures in degC, the material cards (checked exact against the
+    law), the master-curve figures and the diagnosis page."""
+    from asphalt_nscd.diagnosis import synthetic
+    from asphalt_nscd.lab.table_format import MODULUS_UNITS
+
+    table, _ = synthetic.generate(21, schedule="aashto_t342", n_specimens=3)
+    lab = pd.DataFrame({"Specimen ID": table["specimen"], "Temp (F)": table["temperature_C"] * 1.8 + 32,
+                        "Frequency (Hz)": table["frequency_Hz"],
+                        "|E*| (ksi)": table["E_norm_MPa"] / MODULUS_UNITS["ksi"],
+                        "Phase Angle (deg)": table["phase_deg"]})
+    folder = smoke_run / "my_lab"
+    folder.mkdir(exist_ok=True)
+    lab.to_csv(folder / "mix.csv", index=False)
+    (folder / "mix.test.json").write_text(json.dumps({
+        "test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150,
+        "table": {"modulus_unit": "ksi", "temperature_unit": "F", "modulus_form": "norm_phase"}}))
+    command = readme_own_table_command().replace("TABLE=", "TABLE=my_lab/mix.csv ", 1).split()
+    command = [c for c in command if not c.startswith("TABLE=path")]
+    env = newcomer_env()
+    run(command + make_args(env), smoke_run, env)
+    results = smoke_run / "results"
+    law = json.loads((results / "diagnosis" / "generalized_burgers.json").read_text())
+    assert sorted(float(T) for T in law["temperatures"]) == [-10.0, 4.0, 21.0, 37.0, 54.0]
+    card = json.loads((results / "diagnosis" / "material_cards" / "prony.json").read_text())
+    assert card["check"]["n_cells"] == 30
+    assert "*VISCOELASTIC, TIME=PRONY" in (results / "diagnosis" / "material_cards" / "abaqus.inp").read_text()
+    assert "*MAT_GENERAL_VISCOELASTIC" in (results / "diagnosis" / "material_cards" / "lsdyna.k").read_text()
+    assert (results / "diagnosis" / "figures" / "master_curve.png").stat().st_size > 20_000
+    page = (results / "diagnosis" / "what_the_simulation_gets_wrong.md").read_text()
+    assert "Held-out errors" in page and "[95 % CI]" in page
+    measured = pd.read_csv(results / "lab" / "measured.csv")
+    np.testing.assert_allclose(np.sort(measured["E_norm_MPa"]), np.sort(table["E_norm_MPa"]), rtol=1e-9)

@@ -282,3 +282,22 @@ rule diagnose_bench:
         "asphalt-nscd diagnose-bench --clean {params.clean} --planted {params.planted} "
         "--base-seed {params.base_seed} --families {params.families} --alpha {params.alpha} "
         "-o {output.bench} --table {output.table} 2> {log}"
+
+
+rule own_table:
+    # "your own table" (README, make table TABLE=...): the law JSON, its material cards, the master-curve
+    # figures, the held-out errors and the diagnosis page of measured.table, without the NSCD campaign
+    # (config/table.yaml sets the diagnosis' simulation inputs to null)
+    input:
+        "results/lab/measured.csv",
+        "results/diagnosis/master_curve.json",
+        plan.LAW_JSON,
+        "results/diagnosis/material_cards/abaqus.inp",
+        "results/diagnosis/material_cards/lsdyna.k",
+        "results/diagnosis/material_cards/prony.json",
+        "results/diagnosis/figures/master_curve.png",
+        "results/diagnosis/figures/shift_factors.png",
+        "results/diagnosis/figures/law_residuals.png",
+        "results/diagnosis/sigmoid_master_curve.csv",
+        expand("results/diagnosis/crossval/{scheme}_summary.csv", scheme=config["diagnosis"]["crossval"]["schemes"]),
+        "results/diagnosis/what_the_simulation_gets_wrong.md",
