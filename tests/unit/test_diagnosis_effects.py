@@ -1,10 +1,22 @@
 """Hidden-effect tests: effects planted in synthetic tables must be named and estimated.
 
-Fixed seeds (7000 + case index); each case alternates the paper's 2PB schedule and the
-AASHTO T 342 schedule (inertia: the 2PB, at 6 % of |E*|). Assertions: every planted effect
-is detected with its estimate within 25 % of the truth (temperature offset: on the right
-isotherm), and clean tables raise no data-artifact alarm.
+Seeds are drawn afresh on every run: each case is checked on 5 seed bases from the operating
+system's entropy (printed on failure; ``ASPHALT_NSCD_SEED_BASES=b1,b2,...`` reruns given
+ones), so that no lucky seed passes it. The planted sizes lie inside the generator's own
+ranges (:func:`asphalt_nscd.diagnosis.synthetic.random_effect`), in their upper part where
+the benchmark's detection rate is 1 (docs/choices.md, Diagnosis); the uncorrected mass is the
+missing one (positive, the generator's commoner sign), and a temperature offset sits on an
+inner isotherm other than the screening's reference, whose offset the master curve's
+reference time absorbs (both limits measured by the benchmark, not hidden here). Cases on the detector's
+own truth family (2S2P1D + WLF) and on the mildly misspecified ``mixed`` family must name
+exactly the planted effects (every estimate within 25 % of the truth; temperature offset on
+the right isotherm); cases on the truth families outside 2S2P1D (Huet-Sayegh, generalized
+Maxwell, MEPDG sigmoid, with temperature-dependent specimen factors and cell misfit) must
+name the planted effect and estimate it within 50 % (misspecification biases the estimates;
+their family-wise false-alarm and estimate rates are measured by the benchmark).
 """
+
+import os
 
 import numpy as np
 import pytest
@@ -15,49 +27,78 @@ from asphalt_nscd.diagnosis import effects as fx
 from asphalt_nscd.diagnosis.effects import ArtifactSearch, effect_entries, make_term
 from asphalt_nscd.lab.geometry import from_dict
 
+
+def _seed_bases() -> list:
+    given = os.environ.get("ASPHALT_NSCD_SEED_BASES")
+    if given:
+        return [int(v) for v in given.split(",")]
+    return [int(np.random.SeedSequence().entropy % (2**31)) for _ in range(5)]
+
+
+SEED_BASES = _seed_bases()
+#: planted sizes in the upper part of the generator's ranges
+SIZES = {"time_lag": {"time_lag_ms": 1.0}, "inertia_uncorrected": {"mass_factor_g": 1.0, "E_deficit_pct": 6.0},
+         "strain_nonlinearity": {"modulus_drop_per_100_microstrain": 0.05},
+         "self_heating": {"modulus_drop_pct_per_test": 1.5, "phase_rise_pct_per_test": 1.5},
+         "temperature_drift": {"drift_C_per_test": 1.2}}
+#: (effects, family, exact): exact = the named set must equal the planted one
 CASES = [
-    (),
-    (),
-    (),
-    ("time_lag",),
-    ("time_lag",),
-    ("inertia_uncorrected",),
-    ("inertia_uncorrected",),
-    ("temperature_offset",),
-    ("temperature_offset",),
-    ("strain_nonlinearity",),
-    ("strain_nonlinearity",),
-    ("self_heating",),
-    ("self_heating",),
-    ("time_lag", "temperature_offset"),
-    ("inertia_uncorrected", "self_heating"),
-    ("time_lag", "inertia_uncorrected"),
+    ((), "wlf", True),
+    ((), "mixed", True),
+    (("time_lag",), "wlf", True),
+    (("time_lag",), "gmaxwell", False),
+    (("inertia_uncorrected",), "mixed", True),
+    (("temperature_offset",), "wlf", True),
+    (("temperature_offset",), "glassy_drift", True),
+    (("strain_nonlinearity",), "mixed", True),
+    (("time_lag",), "sigmoidal", False),
+    (("self_heating",), "wlf", True),
+    (("temperature_drift",), "wlf", True),
+    (("temperature_drift",), "huet_sayegh", False),
+    (("time_lag", "temperature_offset"), "mixed", True),
+    (("inertia_uncorrected", "self_heating"), "wlf", True),
 ]
 
 
-def _diagnose(case_index, effects):
-    schedule = ("paper_2pb", "aashto_t342")[case_index % 2]
-    mags = {}
+def _diagnose(seed, effects, family):
+    rng = np.random.default_rng([seed, 7])
+    schedule = ("paper_2pb", "aashto_t342")[int(rng.integers(2))]
     if "inertia_uncorrected" in effects:
-        # inertia matters in a 2PB test; planted above the benchmark's stated size (5 % of |E*|)
-        schedule = "paper_2pb"
-        mags = {"inertia_uncorrected": {"E_deficit_pct": 6.0}}
-    table, truth = synthetic.generate(7000 + case_index, effects, schedule=schedule, magnitudes=mags)
+        schedule = "paper_2pb"  # inertia matters in a 2PB test
+    mags = {e: dict(SIZES[e]) for e in effects if e in SIZES}
+    if "temperature_offset" in effects:
+        # an inner isotherm other than the screening's reference (the tested one nearest the
+        # median), whose offset the reference time of the master curve absorbs
+        temps = synthetic.SCHEDULES[schedule][0]
+        ref = temps[int(np.argmin(np.abs(np.asarray(temps) - np.median(temps))))]
+        inner = [T for T in temps[1:-1] if T != ref]
+        mags["temperature_offset"] = {"temperature_C": float(rng.choice(inner)),
+                                      "offset_C": float(rng.choice([-4.0, 4.0]))}
+    table, truth = synthetic.generate(seed, effects, schedule=schedule, magnitudes=mags, family=family)
     search = ArtifactSearch(table, test=from_dict(truth["test"], "synthetic"))
     entries = {e["name"]: e for e in effect_entries(search, search.run())}
     return entries, truth
 
 
-@pytest.mark.parametrize("case_index,effects", list(enumerate(CASES)))
-def test_planted_effects_are_named_and_estimated(case_index, effects):
-    entries, truth = _diagnose(case_index, effects)
-    detected = {n for n, e in entries.items() if e["detected"]}
-    assert detected == set(effects), (truth["effects"], {n: entries[n]["estimate"] for n in detected})
-    for name in effects:
-        e = entries[name]
-        assert e["testable"] and e["p_value"] < 1e-3
-        assert estimate_ok(name, e, truth, 0.25), (name, e["estimate"], truth["effects"][name])
-        assert e["estimate"][ESTIMATE_KEYS[name] + "_se"] > 0
+@pytest.mark.parametrize("index,case", list(enumerate(CASES)))
+def test_planted_effects_are_named_and_estimated_on_fresh_seeds(index, case):
+    effects, family, exact = case
+    failures = []
+    for base in SEED_BASES:
+        seed = base + 1000 * index
+        entries, truth = _diagnose(seed, effects, family)
+        detected = {n for n, e in entries.items() if e["detected"]}
+        ok = detected == set(effects) if exact else set(effects) <= detected
+        for name in effects:
+            e = entries[name]
+            # outside its own model the detector's estimates are biased by the misfit: 50 %
+            ok = ok and e["testable"] and estimate_ok(name, e, truth, 0.25 if exact else 0.5) \
+                and e["estimate"][ESTIMATE_KEYS[name] + "_se"] > 0
+        if not ok:
+            failures.append((seed, sorted(detected), {n: entries[n]["estimate"].get(ESTIMATE_KEYS[n]) for n in effects},
+                             truth["effects"]))
+    assert not failures, (f"{family} {effects}: failed on seeds (base + {1000 * index}) of bases {SEED_BASES}: "
+                          f"{failures}; rerun: ASPHALT_NSCD_SEED_BASES={','.join(map(str, SEED_BASES))}")
 
 
 def test_generator_is_seeded_and_physical():

@@ -1,0 +1,100 @@
+"""Collect the paper-scale run (README.md of this folder) into small tables.
+
+Usage, from the run's working directory (a clone at the commit of the README, after the
+Snakemake targets of the README have run):
+
+    .venv/bin/python /path/to/reference/paper_scale/collect.py [--pcheck DIR] OUT_DIR
+
+Writes into OUT_DIR:
+  samples.csv        one row per prepared sample: spheres, layer height, solid fractions,
+                     density, bonds, preparation CPU (results/samples/s*_summary.json)
+  jobs.csv           one row per finished 2PB job of the reading modes (results/sim/paper*/...)
+  table4.csv         MRE of |E*| and Phi per reading, temperature and sample against Table 3's
+                     Burger's model under that reading, their mean and standard deviation over
+                     the samples, beside the paper's Table 4
+  costs.csv          CPU time of the jobs per reading and sample (sum of the jobs' own times)
+  periodic_check.csv, periodic_check_cycles.csv   the periodic-check tables of --pcheck DIR
+  resolution*.csv    the network-factor resolution study (results/harmonic/resolution*.csv)
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from asphalt_nscd.campaign import study
+
+SAMPLE_KEYS = ["n_spheres_layer", "n_spheres", "layer_height_after_deposition_mm", "layer_height_after_vibration_mm",
+               "layer_top_after_vibration_mm", "solid_fraction_layer", "solid_fraction_bulk", "porosity_before_shrink",
+               "density_kg_m3", "n_bonds", "bonds_per_sphere"]
+JOB_KEYS = ["mode", "sample", "temperature_C", "frequency_Hz", "table3_units", "start", "n_cycles_simulated", "dt_s",
+            "n_steps", "n_spheres", "n_bonds", "E_norm_MPa", "phase_deg", "n_nlgs_steps", "iterations_mean",
+            "cpu_time_s", "wall_time_s", "cpu_per_sphere_step_s", "n_broken_total"]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("out", type=Path)
+    ap.add_argument("--pcheck", type=Path, default=None, help="directory of the periodic-check outputs")
+    args = ap.parse_args()
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+
+    rows = []
+    for path in sorted(glob.glob("results/samples/s*_summary.json")):
+        d = json.loads(Path(path).read_text())
+        rows.append({"sample": f"s{d['seed']}", **{k: d[k] for k in SAMPLE_KEYS},
+                     "cpu_s": d["cpu_s"]["total_s"], "cpu_deposition_s": d["cpu_s"]["deposition_s"],
+                     "cpu_vibration_s": d["cpu_s"]["vibration_s"], "cpu_stabilisation_s": d["cpu_s"]["stabilisation_s"]})
+    pd.DataFrame(rows).to_csv(out / "samples.csv", index=False)
+
+    jobs = [pd.read_csv(p) for p in sorted(glob.glob("results/sim/paper*/s*/*.csv"))]
+    if not jobs:
+        return
+    jobs = pd.concat(jobs, ignore_index=True)
+    jobs = jobs[[k for k in JOB_KEYS if k in jobs.columns]].sort_values(["mode", "sample", "temperature_C",
+                                                                          "frequency_Hz"])
+    jobs.to_csv(out / "jobs.csv", index=False)
+    jobs.groupby(["mode", "sample"]).agg(n_jobs=("cpu_time_s", "size"), n_steps=("n_steps", "sum"),
+                                         cpu_s=("cpu_time_s", "sum")).reset_index().to_csv(out / "costs.csv", index=False)
+
+    paper4 = pd.read_csv("data/paper/table4_mre.csv")
+    t4 = []
+    for (mode, units), g in jobs.groupby(["mode", "table3_units"]):
+        table = study.parameter_table("data/paper/table3_burgers.csv", units)
+        ref = study.burgers_reference(table, g["temperature_C"], g["frequency_Hz"])
+        g = g.reset_index(drop=True)
+        g["eE"] = np.abs(g["E_norm_MPa"].to_numpy() / ref["E_norm_MPa_ref"].to_numpy() - 1)
+        g["eP"] = np.abs(g["phase_deg"].to_numpy() - ref["phase_deg_ref"].to_numpy()) / ref["phase_deg_ref"].to_numpy()
+        per = g.groupby(["temperature_C", "sample"]).agg(mre_E=("eE", "mean"), mre_P=("eP", "mean"),
+                                                          n_f=("eE", "size")).reset_index()
+        for T, h in per.groupby("temperature_C"):
+            p = paper4[np.isclose(paper4["temperature_C"], T)]
+            t4.append({"reading": units, "mode": mode, "temperature_C": T, "n_samples": len(h),
+                       "n_frequencies": int(h["n_f"].min()),
+                       "mre_E_norm_pct_mean": 100 * h["mre_E"].mean(), "mre_E_norm_pct_sd": 100 * h["mre_E"].std(ddof=1),
+                       "mre_phase_pct_mean": 100 * h["mre_P"].mean(), "mre_phase_pct_sd": 100 * h["mre_P"].std(ddof=1),
+                       **{f"mre_{q}_pct_{s}": 100 * v for q, col in (("E_norm", "mre_E"), ("phase", "mre_P"))
+                          for s, v in zip(h["sample"], h[col])},
+                       "paper_mre_E_norm_pct": float(p.iloc[0, 1]) if len(p) else np.nan,
+                       "paper_mre_phase_pct": float(p.iloc[0, 2]) if len(p) else np.nan})
+    pd.DataFrame(t4).to_csv(out / "table4.csv", index=False)
+
+    if args.pcheck is not None:
+        for kind in ("", "_cycles"):
+            parts = [pd.read_csv(p) for p in sorted(args.pcheck.glob(f"*[0-9]{kind}.csv"))]
+            if parts:
+                pd.concat(parts, ignore_index=True).to_csv(out / f"periodic_check{kind}.csv", index=False)
+    for name in ("resolution.csv", "resolution_summary.csv", "resolution_fits.csv"):
+        src = Path("results/harmonic") / name
+        if src.exists():
+            pd.read_csv(src).to_csv(out / name, index=False)
+
+
+if __name__ == "__main__":
+    main()
