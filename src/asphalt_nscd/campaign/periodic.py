@@ -186,21 +186,20 @@ class GravityState:
     """Steady state of the bonded 2PB sample under its weight with the head held
     (:func:`gravity_state`; arrays in the core's layout, SI units).
 
-    displacement, velocity, rotation, angular_velocity : (N, 3) m, m/s, rad, rad/s — from the
-        rest configuration at t = 0 (rotations enter the bonds only through ``bond_*``).
+    displacement, velocity, angular_velocity : (N, 3) m, m/s, rad/s — from the rest
+        configuration at t = 0 (the spheres' rotations enter only the bonds, ``bond_*``).
     head_rotation, head_angular_velocity : (3,) rad, rad/s.
     bond_displacement, bond_force, delta_c : (B, 3); delta_k : (B, NK, 3) (bond local frames).
     creep : bool — steady creep (liquid chain) or static equilibrium (solid chain).
     residual : relative residual |P F_g - G U_1| / |P F_g| of the refined static solve (P
         removes the load along the mechanisms' zero modes).
-    n_mechanisms : zero modes of single spheres removed (module docstring).
+    n_mechanisms : zero modes of weakly held clusters taken out of the load (module docstring).
     failed : the reason the steady state is not used (zero state: gravity from rest), or ''.
     sag_m : largest displacement at t = 0, m; solve_s : wall time, s.
     """
 
     displacement: np.ndarray
     velocity: np.ndarray
-    rotation: np.ndarray
     angular_velocity: np.ndarray
     head_rotation: np.ndarray
     head_angular_velocity: np.ndarray
@@ -361,7 +360,7 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         d_c = np.where(dashpot, delta, 0.0)
     d_k = -r_ch[:, None, :] / Kk
     return GravityState(
-        displacement=X0, velocity=c1 * X1, rotation=TH0, angular_velocity=c1 * TH1,
+        displacement=X0, velocity=c1 * X1, angular_velocity=c1 * TH1,
         head_rotation=THp0, head_angular_velocity=c1 * THp1, bond_displacement=delta,
         bond_force=r_ch - Kinf * delta, delta_c=d_c, delta_k=np.ascontiguousarray(d_k), creep=bool(liquid),
         residual=residual, n_mechanisms=n_mech, failed=failed, sag_m=float(np.abs(X0).max()) if n else 0.0,
