@@ -350,3 +350,14 @@ def test_former_resource_keys_are_rejected_with_their_new_place(named_config):
         node[leaf] = value
         with pytest.raises(InputError, match=rf"{key}.*profiles/default/config.yaml"):
             plan.reject_resource_keys(old)
+
+
+def test_bench_family_schema_lists_every_truth_family():
+    """The config schema accepts exactly the truth families the detection benchmark knows."""
+    import yaml
+
+    from asphalt_nscd.diagnosis import synthetic
+
+    schema = yaml.safe_load((SCHEMAS / "diagnosis.schema.yaml").read_text())
+    enum = schema["properties"]["bench"]["properties"]["families"]["items"]["enum"]
+    assert sorted(enum) == sorted(synthetic.FAMILIES)
