@@ -37,6 +37,32 @@ JOB_KEYS = ["mode", "sample", "temperature_C", "frequency_Hz", "table3_units", "
             "cpu_time_s", "wall_time_s", "cpu_per_sphere_step_s", "n_broken_total"]
 
 
+def periodic_summary(cases: pd.DataFrame, cycles: pd.DataFrame, first_converged: int = 6) -> pd.DataFrame:
+    """One row per periodic-check case: the one measured cycle after the periodic start against
+    the from-rest cycles from ``first_converged`` on (the cycles after the paper's 5), as their
+    median, and the from-rest cycle-to-cycle scatter (largest departure of one cycle from that
+    median; closing contacts and the slow creep under gravity make single cycles jump)."""
+    rows = []
+    for (mode, T, f), g in cycles.groupby(["mode", "temperature_C", "frequency_Hz"]):
+        c = cases[(cases["mode"] == mode) & np.isclose(cases["temperature_C"], T) & np.isclose(cases["frequency_Hz"], f)]
+        late = g[g["cycle"] >= first_converged]
+        E_med, P_med = float(late["E_norm_MPa"].median()), float(late["phase_deg"].median())
+        dE = 100 * (late["E_norm_MPa"] / E_med - 1)
+        dP = late["phase_deg"] - P_med
+        E_per, P_per = float(c["E_periodic_MPa"].iloc[0]), float(c["phase_periodic_deg"].iloc[0])
+        E_rest, P_rest = float(c["E_rest_MPa"].iloc[0]), float(c["phase_rest_deg"].iloc[0])
+        rows.append({
+            "mode": mode, "temperature_C": T, "frequency_Hz": f, "from_rest_cycles": int(g["cycle"].max()),
+            "E_periodic_MPa": E_per, "phase_periodic_deg": P_per, "E_from_rest_median_MPa": E_med,
+            "phase_from_rest_median_deg": P_med,
+            "dE_periodic_pct": 100 * (E_per / E_med - 1), "dphase_periodic_deg": P_per - P_med,
+            "dE_rest5_pct": 100 * (E_rest / E_med - 1), "dphase_rest5_deg": P_rest - P_med,
+            "scatter_E_pct": float(np.max(np.abs(dE))), "scatter_phase_deg": float(np.max(np.abs(dP))),
+            "cycles_within_0.1pct_0.05deg": int(np.sum((np.abs(dE) <= 0.1) & (np.abs(dP) <= 0.05))),
+            "n_cycles_compared": len(late)})
+    return pd.DataFrame(rows)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out", type=Path)
@@ -90,6 +116,10 @@ def main() -> None:
             parts = [pd.read_csv(p) for p in sorted(args.pcheck.glob(f"*[0-9]{kind}.csv"))]
             if parts:
                 pd.concat(parts, ignore_index=True).to_csv(out / f"periodic_check{kind}.csv", index=False)
+        if (out / "periodic_check_cycles.csv").exists():
+            periodic_summary(pd.read_csv(out / "periodic_check.csv"),
+                             pd.read_csv(out / "periodic_check_cycles.csv")).to_csv(
+                out / "periodic_check_summary.csv", index=False)
     for name in ("resolution.csv", "resolution_summary.csv", "resolution_fits.csv"):
         src = Path("results/harmonic") / name
         if src.exists():
