@@ -128,8 +128,13 @@ def test_reading_evidence_is_computed_under_each_reading(tmp_path):
 
 
 def test_mix_modulus_at_interpolates_between_isotherms():
-    summary = pd.DataFrame({"temperature_C": [10.0, 10.0, 20.0, 20.0], "frequency_Hz": [1.0, 100.0] * 2,
-                            "E_norm_MPa": [1e4, 1e4 * 100, 1e3, 1e3 * 100], "phase_deg": [10.0] * 4})
+    from asphalt_nscd.lab.measured import summarize
+
+    # the summary's own schema (two tests per cell, averaged)
+    measured = pd.DataFrame({"temperature_C": [10.0, 10.0, 20.0, 20.0] * 2, "frequency_Hz": [1.0, 100.0] * 4,
+                             "E_norm_MPa": [0.9e4, 0.9e4 * 100, 0.9e3, 0.9e3 * 100, 1.1e4, 1.1e4 * 100, 1.1e3, 1.1e3 * 100],
+                             "phase_deg": [10.0] * 8, "test": ["a"] * 4 + ["b"] * 4})
+    summary = summarize(measured)
     assert study.mix_modulus_at(summary, 15.0, 10.0) == pytest.approx(math.sqrt(1e4 * 1e3) * 10, rel=1e-12)
     with pytest.raises(InputError, match="bracket"):
         study.mix_modulus_at(summary, 25.0, 10.0)

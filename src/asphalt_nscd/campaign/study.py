@@ -416,7 +416,8 @@ def reading_evidence(units: pd.DataFrame, mix_E_MPa: float | None = None, specim
 
 
 def mix_modulus_at(summary: pd.DataFrame, temperature_C: float, frequency_Hz: float) -> float:
-    """|E*| (MPa) of a measured summary at (T, f): log|E*| interpolated linearly in log f along
+    """|E*| (MPa) of a measured summary (``lab.measured.summarize``: column ``E_norm_MPa_mean``)
+    at (T, f): log|E*| interpolated linearly in log f along
     each isotherm and then in T between the two isotherms that bracket ``temperature_C``.
 
     Raises
@@ -434,7 +435,7 @@ def mix_modulus_at(summary: pd.DataFrame, temperature_C: float, frequency_Hz: fl
         f = iso["frequency_Hz"].to_numpy(float)
         if not f.min() <= frequency_Hz <= f.max():
             raise InputError(f"measured summary: the {T:g} degC isotherm does not bracket {frequency_Hz:g} Hz")
-        values.append(np.interp(np.log(frequency_Hz), np.log(f), np.log(iso["E_norm_MPa"].to_numpy(float))))
+        values.append(np.interp(np.log(frequency_Hz), np.log(f), np.log(iso["E_norm_MPa_mean"].to_numpy(float))))
     T0, T1 = below.max(), above.min()
     w = 0.0 if T1 == T0 else (temperature_C - T0) / (T1 - T0)
     return float(np.exp((1 - w) * values[0] + w * values[1]))

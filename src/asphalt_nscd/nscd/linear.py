@@ -449,9 +449,7 @@ class LinearBondSolver:
             sol = np.empty(self.ndof)
             _gather(sol, self.st, self.sr, self.pt, self.pr,
                     *(start or (v_free, w_free, vp_free, wp_free)))
-            it, res = _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
-                           self.precond, rhs, sol, self.tolerance, self.max_iterations,
-                           self._work, self.part_c, self.part_g)
+            it, res = _solve_pcg(self, rhs, sol, self._work)
             self.last_iterations, self.last_residual = it, res
         _scatter(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
         bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
@@ -498,9 +496,7 @@ class LinearBondSolver:
                           np.zeros((9, self.ndof)), self.ssor_omega, np.zeros(self.ndof),
                           False)
             else:
-                _pcg(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g,
-                     self.precond, rhs, x, self.tolerance, self.max_iterations,
-                     np.zeros((4, self.ndof)), self.part_c, self.part_g)
+                _solve_pcg(self, rhs, x, np.zeros((4, self.ndof)))
             col[:, d] = x
         self._columns[block] = col
         return col
@@ -727,7 +723,7 @@ def _matvec(mass_dof, bdat_c, blk_c, bdat, blk, z, beta, p, y, alpha, x):
     return py + _bonds(0, blk_c.shape[0], bdat_c, blk_c, 0, blk.shape[0], bdat, blk, p, y)
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)  # not cached: _pcg_threaded
 def _matvec_par(mass_dof, bdat_c, blk_c, bdat, blk, part_c, part_g, z, beta, p, y, alpha,
                 x):
     """:func:`_matvec` on threads: the bonds are ordered by partition (LinearBondSolver with
@@ -905,7 +901,7 @@ def _update(precond, alpha, q, r, z):
     return rr, rz
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)  # not cached: _pcg_threaded
 def _update_par(precond, alpha, q, r, z):
     """:func:`_update` on threads."""
     rr = 0.0
@@ -928,14 +924,12 @@ def _update_par(precond, alpha, q, r, z):
     return rr, rz
 
 
-@njit(cache=True)  # with NRT: it calls the threaded kernels (they need it)
-def _pcg(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, max_iter, work,
-         part_c, part_g):
+@kernel
+def _pcg(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, max_iter, work):
     """Block-Jacobi preconditioned conjugate gradient on (M + sum L^T G L) x = rhs, x
     holding the initial guess; stops when |r| <= tol |rhs|. work (4, n): r (final residual
-    on return), z, p, q. part_c, part_g: bond partitions of the threaded kernels (empty:
-    sequential). Returns (iterations, relative residual)."""
-    par = len(part_c) > 0
+    on return), z, p, q. Sequential kernels only (the threaded variant is
+    :func:`_pcg_threaded`). Returns (iterations, relative residual)."""
     n = len(rhs)
     r = work[0]
     z = work[1]
@@ -943,11 +937,7 @@ def _pcg(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, max_iter,
     q = work[3]
     for k in range(n):
         p[k] = 0.0
-    if par:  # p <- x, q = A x
-        _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, x, 0.0, p, q, 0.0,
-                    x)
-    else:
-        _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, p, q, 0.0, x)
+    _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, p, q, 0.0, x)  # p <- x, q = A x
     norm_b = 0.0
     for k in range(n):
         r[k] = rhs[k] - q[k]
@@ -965,20 +955,59 @@ def _pcg(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, max_iter,
     it = 0
     while np.sqrt(rr) > tol * norm_b and it < max_iter:
         it += 1
-        if par:
-            pq = _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, z, beta,
-                             p, q, alpha, x)
-            alpha = rz / pq
-            rr, rz_new = _update_par(precond, alpha, q, r, z)
-        else:
-            pq = _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, z, beta, p, q, alpha, x)
-            alpha = rz / pq
-            rr, rz_new = _update(precond, alpha, q, r, z)
+        pq = _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, z, beta, p, q, alpha, x)
+        alpha = rz / pq
+        rr, rz_new = _update(precond, alpha, q, r, z)
         beta = rz_new / rz
         rz = rz_new
     for k in range(n):  # the last update of x
         x[k] += alpha * p[k]
     return it, np.sqrt(rr) / norm_b
+
+
+def _pcg_threaded(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, max_iter,
+                  work, part_c, part_g):
+    """:func:`_pcg` on threads (same arguments, plus the bond partitions part_c, part_g of
+    :func:`_partition`): the iteration loop runs in Python around the threaded kernels
+    :func:`_matvec_par` and :func:`_update_par`.
+
+    Why not one compiled loop: a cached compiled function calling a cached
+    ``parallel=True`` one can segfault when loaded from numba's cache, most reliably
+    when several processes filled the cache at once (numba issues 4807 and 8578; seen
+    here as a crash of the sample preparation in a fresh clone). The Python loop costs a
+    few microseconds per iteration against milliseconds of threaded work."""
+    r, z, p, q = work
+    p[:] = 0.0
+    _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, x, 0.0, p, q, 0.0, x)
+    np.subtract(rhs, q, out=r)
+    p[:] = 0.0
+    norm_b = float(np.sqrt(rhs @ rhs))
+    if norm_b == 0.0:
+        x[:] = 0.0
+        r[:] = 0.0
+        return 0, 0.0
+    rr, rz = _update(precond, 0.0, q, r, z)
+    beta = alpha = 0.0
+    it = 0
+    while np.sqrt(rr) > tol * norm_b and it < max_iter:
+        it += 1
+        pq = _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, z, beta, p,
+                         q, alpha, x)
+        alpha = rz / pq
+        rr, rz_new = _update_par(precond, alpha, q, r, z)
+        beta = rz_new / rz
+        rz = rz_new
+    x += alpha * p
+    return it, float(np.sqrt(rr)) / norm_b
+
+
+def _solve_pcg(solver, rhs, x, work):
+    """Run :func:`_pcg` or :func:`_pcg_threaded` for a LinearBondSolver's operator."""
+    args = (solver.mass_dof, solver.bdat_c, solver.blk_c, solver.bdat_g, solver.blk_g,
+            solver.precond, rhs, x, solver.tolerance, solver.max_iterations, work)
+    if len(solver.part_c):
+        return _pcg_threaded(*args, solver.part_c, solver.part_g)
+    return _pcg(*args)
 
 
 @kernel
