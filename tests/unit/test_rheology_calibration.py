@@ -74,7 +74,9 @@ def test_fit_with_noise_gives_standard_errors_covering_truth():
 
 
 def test_weights_change_the_compromise():
-    df = pd.read_csv(UIUC)
+    from asphalt_nscd.lab.measured import load_measured
+
+    df = load_measured(UIUC)  # the file is in degF, its sidecar says so
     g = df[df["temperature_C"] == 21.0]
     modulus_only = fit_burgers(g["frequency_Hz"], g["E_norm_MPa"], g["phase_deg"], weights={"phase_rad": 0.0})
     balanced = fit_burgers(g["frequency_Hz"], g["E_norm_MPa"], g["phase_deg"])
