@@ -2,7 +2,7 @@
 
 A cached compiled function that calls a cached threaded (``parallel=True``) function
 can segfault when loaded from the cache, most reliably after several processes filled the
-cache at once (numba issues 4807 and 8578). This crashed the sample preparation of the
+cache at once (github.com/numba/numba/issues/4807 and /8578). This crashed the sample preparation of the
 default workflow in a fresh clone (its four samples are prepared by concurrent jobs), so
 the threaded kernels are not cached and only Python calls them (linear._pcg_threaded).
 """

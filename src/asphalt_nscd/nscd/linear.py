@@ -973,7 +973,7 @@ def _pcg_threaded(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, 
 
     Why not one compiled loop: a cached compiled function calling a cached
     ``parallel=True`` one can segfault when loaded from numba's cache, most reliably
-    when several processes filled the cache at once (numba issues 4807 and 8578; seen
+    when several processes filled the cache at once (github.com/numba/numba/issues/4807 and /8578; seen
     here as a crash of the sample preparation in a fresh clone). The Python loop costs a
     few microseconds per iteration against milliseconds of threaded work."""
     r, z, p, q = work
