@@ -16,6 +16,8 @@ Writes into OUT_DIR:
   costs.csv          CPU time of the jobs per reading and sample (sum of the jobs' own times)
   periodic_check.csv, periodic_check_cycles.csv   the periodic-check tables of --pcheck DIR
   resolution*.csv    the network-factor resolution study (results/harmonic/resolution*.csv)
+  fig09_isotherms_{Pa,kPa}.png, fig10_phase_{Pa,kPa}.png   the paper's Figs. 9-10 of each
+                     reading: the finished jobs of every sample against Table 3's model
 """
 
 from __future__ import annotations
@@ -23,6 +25,9 @@ from __future__ import annotations
 import argparse
 import glob
 import json
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -116,6 +121,18 @@ def main() -> None:
                        "paper_mre_E_norm_pct": float(p.iloc[0, 1]) if len(p) else np.nan,
                        "paper_mre_phase_pct": float(p.iloc[0, 2]) if len(p) else np.nan})
     pd.DataFrame(t4).to_csv(out / "table4.csv", index=False)
+
+    # the paper's Figs. 9-10 per reading: every finished job of every sample against Table 3's
+    # Burger's model under that reading (asphalt-nscd campaign-isotherms)
+    with tempfile.TemporaryDirectory() as tmp:
+        for (mode, units), g in jobs.groupby(["mode", "table3_units"]):
+            rows = sorted(glob.glob(f"results/sim/{mode}/s*/*.csv"))
+            subprocess.run([sys.executable, "-m", "asphalt_nscd", "campaign-isotherms", "--rows", *rows,
+                            "--parameters", "data/paper/table3_burgers.csv", "--table3-units", units,
+                            "--paper-table4", "data/paper/table4_mre.csv", "--isotherms", f"{tmp}/iso.csv",
+                            "--table4", f"{tmp}/t4.csv", "--figure-modulus", str(out / f"fig09_isotherms_{units}.png"),
+                            "--figure-phase", str(out / f"fig10_phase_{units}.png"),
+                            "--title", f"paper scale, Table 3 read in {units}"], check=True)
 
     if args.pcheck is not None:
         for kind in ("", "_cycles"):
