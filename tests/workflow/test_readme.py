@@ -334,8 +334,9 @@ def test_own_table_in_ksi_and_degF_through_the_readme_command(smoke_run):
     (folder / "mix.test.json").write_text(json.dumps({
         "test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150,
         "table": {"modulus_unit": "ksi", "temperature_unit": "F", "modulus_form": "norm_phase"}}))
-    command = readme_own_table_command().replace("TABLE=", "TABLE=my_lab/mix.csv ", 1).split()
-    command = [c for c in command if not c.startswith("TABLE=path")]
+    # the README's command with its placeholder path replaced by this table's
+    command = ["TABLE=my_lab/mix.csv" if c.startswith("TABLE=") else c for c in readme_own_table_command().split()]
+    assert command.count("TABLE=my_lab/mix.csv") == 1, readme_own_table_command()
     env = newcomer_env()
     run(command + make_args(env), smoke_run, env)
     results = smoke_run / "results"
