@@ -449,11 +449,19 @@ class LinearBondSolver:
             sol = np.empty(self.ndof)
             _gather(sol, self.st, self.sr, self.pt, self.pr,
                     *(start or (v_free, w_free, vp_free, wp_free)))
-            it, res = _solve_pcg(self, rhs, sol, self._work)
+            it, res = self._run_cg(rhs, sol, self._work)
             self.last_iterations, self.last_residual = it, res
         _scatter(sol, self.st, self.sr, self.pt, self.pr, v, w, vp, wp)
         bond_impulses(bi, bj, frame, arm_i, arm_j, c0, cg, broken, v, w, vp, wp, impulse,
                        self.rot)
+
+    def _run_cg(self, rhs, x, work):
+        """:func:`_pcg` on this operator, or :func:`_pcg_threaded` with threads > 1."""
+        args = (self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g, self.precond, rhs, x,
+                self.tolerance, self.max_iterations, work)
+        if len(self.part_c):
+            return _pcg_threaded(*args, self.part_c, self.part_g)
+        return _pcg(*args)
 
     def gather(self, v, w, vp, wp):
         """The unknowns x (ndof,) of body velocities v, w (N,3), vp, wp (P,3)."""
@@ -496,7 +504,7 @@ class LinearBondSolver:
                           np.zeros((9, self.ndof)), self.ssor_omega, np.zeros(self.ndof),
                           False)
             else:
-                _solve_pcg(self, rhs, x, np.zeros((4, self.ndof)))
+                self._run_cg(rhs, x, np.zeros((4, self.ndof)))
             col[:, d] = x
         self._columns[block] = col
         return col
@@ -972,10 +980,10 @@ def _pcg_threaded(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, 
     :func:`_matvec_par` and :func:`_update_par`.
 
     Why not one compiled loop: a cached compiled function calling a cached
-    ``parallel=True`` one can segfault when loaded from numba's cache, most reliably
-    when several processes filled the cache at once (github.com/numba/numba/issues/4807 and /8578; seen
-    here as a crash of the sample preparation in a fresh clone). The Python loop costs a
-    few microseconds per iteration against milliseconds of threaded work."""
+    ``parallel=True`` one can segfault when loaded from numba's cache, most reliably when
+    several processes filled the cache at once (github.com/numba/numba/issues/4807, /8578).
+    The Python loop costs a few microseconds per iteration against milliseconds of
+    threaded work."""
     r, z, p, q = work
     p[:] = 0.0
     _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, x, 0.0, p, q, 0.0, x)
@@ -999,15 +1007,6 @@ def _pcg_threaded(mass_dof, bdat_c, blk_c, bdat_g, blk_g, precond, rhs, x, tol, 
         rz = rz_new
     x += alpha * p
     return it, float(np.sqrt(rr)) / norm_b
-
-
-def _solve_pcg(solver, rhs, x, work):
-    """Run :func:`_pcg` or :func:`_pcg_threaded` for a LinearBondSolver's operator."""
-    args = (solver.mass_dof, solver.bdat_c, solver.blk_c, solver.bdat_g, solver.blk_g,
-            solver.precond, rhs, x, solver.tolerance, solver.max_iterations, work)
-    if len(solver.part_c):
-        return _pcg_threaded(*args, solver.part_c, solver.part_g)
-    return _pcg(*args)
 
 
 @kernel
