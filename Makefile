@@ -5,6 +5,7 @@ PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
 CORES  ?= 2
+# CONFIG: config/config.yaml, or an overlay merged over it by Snakemake (config/paper.yaml, config/smoke.yaml)
 CONFIG ?= config/config.yaml
 comma := ,
 

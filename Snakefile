@@ -5,12 +5,18 @@
 # (loaded automatically, a 2-core workstation) and profiles/slurm (`--workflow-profile profiles/slurm`).
 from snakemake.utils import min_version, validate
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import config as config_files
+from asphalt_nscd import plan
 
 min_version("9.0")
 
 
 configfile: "config/config.yaml"
+
+
+# The overlays given with --configfile (config/paper.yaml, config/smoke.yaml) come first in Snakemake's
+# merge; their keys go back to config/config.yaml's order, so a job's command line does not depend on them.
+config_files.restore_default_order(config)
 
 
 validate(config, "workflow/schemas/config.schema.yaml")

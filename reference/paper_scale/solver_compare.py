@@ -1,14 +1,14 @@
 """Same-run CPU time per step of the 2PB test on a sample with each linear fast-path solver."""
 import json, sys, time, dataclasses
 import numpy as np
-import yaml
+from asphalt_nscd import config
 from asphalt_nscd.campaign import study, twopb
 from asphalt_nscd.campaign.twopb import TwoPBSettings, build_simulation, start_test, mode_settings, time_step
 from asphalt_nscd.sample.store import read_sample
 
 sample_path, cfg_path, params_csv, n_steps = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
 cases = [c.split(":") for c in sys.argv[5:]]
-cfg = yaml.safe_load(open(cfg_path))
+cfg = config.load([cfg_path])  # merged over config/config.yaml (run from the repository root), as Snakemake
 camp = cfg["campaign"]
 laws = study.JobLaws(table3="data/paper/table3_burgers.csv", table3_units=cfg["calibration"]["table3_units"],
                      parameters=params_csv, law_json=None, network_factor_json=None, sample_name="s1")

@@ -13,7 +13,7 @@ Subpackages follow the workflow's chain:
 ``campaign``   numerical 2PB complex modulus test and sensitivity study
 ``harmonic``   exact steady-state complex modulus of a bonded sample
 ``diagnosis``  error budget, named causes, extended contact law
-``figures``    isotherms, Black diagram, Cole-Cole plane, paper figures
+``figures``    master-curve figures, rheology plots of tables, the report
 =============  ==============================================================
 
 Units: SI inside the code (m, N, Pa, Pa s, kg, s, rad); MPa, degrees, Hz and degC at the

@@ -7,7 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from asphalt_nscd.campaign import periodic, twopb
+from asphalt_nscd.campaign import periodic as periodic_check
+from asphalt_nscd.campaign import twopb
+from asphalt_nscd.harmonic import periodic
 from asphalt_nscd.harmonic.solver import laplace_modulus
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
 from asphalt_nscd.sample.store import read_sample
@@ -173,7 +175,7 @@ def test_periodic_start_gives_the_converged_from_rest_cycle(tiny_sample, tmp_pat
     cycles from rest have not converged on this lightly damped lattice."""
     s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=100, dt_max_s=1.0,
                             checkpoint_every=0, start="periodic", periodic_cycles=2)
-    row, cycles = periodic.check_case(tiny_sample, LAW_15C, 10.0, s, long_cycles=25, workdir=tmp_path,
+    row, cycles = periodic_check.check_case(tiny_sample, LAW_15C, 10.0, s, long_cycles=25, workdir=tmp_path,
                                       meta={"mode": "test", "temperature_C": 15.0})
     assert row["start_periodic_run"] == "periodic"
     assert row["periodic_equal"]

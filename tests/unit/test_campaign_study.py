@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from asphalt_nscd import config
 from asphalt_nscd.campaign import study
 from asphalt_nscd.cli import main
 from asphalt_nscd.sample.lattice import lattice_sample
@@ -188,12 +189,9 @@ def test_cli_aggregation_and_figures(tmp_path):
 
 def test_projection_counts_the_workflow_jobs():
     """The projection enumerates the same jobs as workflow/rules/campaign.smk (smoke: 16)."""
-    import yaml
-
     from asphalt_nscd.campaign.bench import campaign_jobs, project_campaign
 
-    with open("config/smoke.yaml") as fh:
-        cfg = yaml.safe_load(fh)
+    cfg = config.load(["config/smoke.yaml"])  # merged over config/config.yaml, as Snakemake
     jobs = campaign_jobs(cfg["campaign"], len(cfg["sample"]["seeds"]))
     # paper 1 + measured 1 + extended 1 + dt study 2 + sensitivity 8 + its x1 baseline (20 degC,
     # 40 Hz, outside the paper schedule) 1 + units kPa 1 + kPa unbreakable 1 = `snakemake -n` run_2pb
@@ -211,12 +209,9 @@ def test_projection_counts_the_periodic_start_and_the_preparation():
     """Measured and extended jobs of config/smoke.yaml start periodic: 1 cycle (500 steps) plus
     one periodic solve each instead of n_cycles = 2 from rest; the samples' preparation is
     added once per sample."""
-    import yaml
-
     from asphalt_nscd.campaign.bench import campaign_jobs, project_campaign
 
-    with open("config/smoke.yaml") as fh:
-        cfg = yaml.safe_load(fh)
+    cfg = config.load(["config/smoke.yaml"])  # merged over config/config.yaml, as Snakemake
     camp = cfg["campaign"]
     jobs = {j["mode"]: j for j in campaign_jobs(camp, 1)}
     assert jobs["measured"]["start"] == jobs["extended"]["start"] == "periodic"
@@ -250,8 +245,7 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
     law = tmp_path / "law.json"
     law.write_text(json.dumps({"temperatures": {"21": {"Em": 1e10, "eta_m": 1e10, "Ek": [8e9, 2e10],
                                                         "eta_k": [8e8, 1e8], "E_inf": 5e7}}}))
-    with open("config/smoke.yaml") as fh:
-        cfg = yaml.safe_load(fh)
+    cfg = config.load(["config/smoke.yaml"])  # merged over config/config.yaml, as Snakemake
     cfg["campaign"]["dt_study"]["dt_s"] = [2.0e-4]
     cfg_path = tmp_path / "smoke.yaml"
     cfg_path.write_text(yaml.safe_dump(cfg))
@@ -291,8 +285,7 @@ def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
 
     sample = tmp_path / "s1.h5"
     write_sample(sample, lattice_sample(60, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
-    with open("config/smoke.yaml") as fh:
-        cfg = yaml.safe_load(fh)
+    cfg = config.load(["config/smoke.yaml"])  # merged over config/config.yaml, as Snakemake
     cfg_path = tmp_path / "smoke.yaml"
     cfg_path.write_text(yaml.safe_dump(cfg))
     out = tmp_path / "bench.json"

@@ -12,7 +12,7 @@ import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
 from asphalt_nscd.cli import main  # noqa: E402
-from asphalt_nscd.figures.rheology_plots import (  # noqa: E402
+from asphalt_nscd.rheology.plots import (  # noqa: E402
     CurveSet,
     as_curve_sets,
     plot_black,

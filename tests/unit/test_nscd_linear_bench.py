@@ -3,13 +3,14 @@ SSOR kernel with the block-Jacobi one (records only; no timing asserted)."""
 
 import pytest
 
+from asphalt_nscd.campaign.bench import bench_starter
 from asphalt_nscd.nscd.bench import run_bench
 
 
 def test_bonded_bench_periodic_start_records_both_kernels():
     rest = run_bench("bonded", 80, steps=4, baseline_steps=1, linear_solver="cg_ssor")
     per = run_bench("bonded", 80, steps=4, baseline_steps=1, linear_solver="cg_ssor",
-                    start="periodic")
+                    start="periodic", starter=bench_starter)
     assert rest["start"] == "rest" and "periodic_solve_s" not in rest
     assert per["start"] == "periodic" and per["periodic_solve_s"] > 0
     assert 0 < per["periodic_force_ratio"] < 1

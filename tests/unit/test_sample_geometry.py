@@ -162,10 +162,14 @@ def test_configs_match_schema_and_defaults():
                 walk(v, sch["properties"][k], f"{path}{k}.")
 
     walk(settings.DEFAULTS, schema)
+    from asphalt_nscd import config
+
     for name in ("config", "smoke", "paper"):
-        section = yaml.safe_load((root / f"config/{name}.yaml").read_text())["sample"]
+        # the overlays merged over config/config.yaml, as Snakemake merges them
+        section = config.load([root / f"config/{name}.yaml"], default=root / "config/config.yaml")["sample"]
         jsonschema.validate(section, schema)
-        assert settings.load(root / f"config/{name}.yaml") == settings.merge(settings.DEFAULTS, section)
+        loaded = settings.load([root / "config/config.yaml", root / f"config/{name}.yaml"])
+        assert loaded == settings.merge(settings.DEFAULTS, section) == section
 
 
 def test_layer_height_surface_and_max():

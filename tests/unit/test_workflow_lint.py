@@ -35,12 +35,12 @@ def test_rule_files_are_snakefmt_formatted():
 
 
 def test_rule_files_hold_no_python_logic():
-    """The logic lives in asphalt_nscd.campaign.plan (tested): no def, lambda or regex in the
+    """The logic lives in asphalt_nscd.plan (tested): no def, lambda or regex in the
     rule files."""
     for smk in [REPO / "Snakefile", *(REPO / "workflow" / "rules").glob("*.smk")]:
         code = "\n".join(line.split("#")[0] for line in smk.read_text().splitlines())
         for word in ("def ", "lambda", "import re", "re.compile", "re.match"):
-            assert word not in code, f"{smk.relative_to(REPO)}: {word.strip()!r} belongs in asphalt_nscd.campaign.plan"
+            assert word not in code, f"{smk.relative_to(REPO)}: {word.strip()!r} belongs in asphalt_nscd.plan"
 
 
 def _rules() -> dict:

@@ -11,6 +11,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from asphalt_nscd.config import load as load_config
+
 from test_smoke import REPO, _snakemake, _workdir
 
 AMPT = REPO / "tests" / "data" / "ampt_like_3x3x6.csv"
@@ -19,7 +21,8 @@ AMPT = REPO / "tests" / "data" / "ampt_like_3x3x6.csv"
 @pytest.mark.slow
 def test_measured_mode_on_the_ampt_like_table(tmp_path):
     workdir = _workdir(tmp_path)
-    cfg = yaml.safe_load((REPO / "config" / "smoke.yaml").read_text())
+    # the smoke overlay merged over config/config.yaml, as Snakemake merges it
+    cfg = load_config([REPO / "config" / "smoke.yaml"], default=REPO / "config" / "config.yaml")
     cfg["measured"]["table"] = str(AMPT)
     cfg["measured"]["test"] = None
     config = tmp_path / "ampt.yaml"

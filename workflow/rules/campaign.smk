@@ -8,17 +8,17 @@
 # samples; with campaign.extended.transfer_correction the bond law is divided by the sample's
 # network factor NF_s, results/harmonic/transfer/{sample}.json), and the studies: dt_study, sensitivity, units_Pa, units_kPa (paper parameters).
 # Start of each job (campaign.test.start, per-mode `start`): rest (n_cycles) or periodic
-# (periodic_cycles from the periodic steady state, asphalt_nscd.campaign.periodic); the row's
+# (periodic_cycles from the periodic steady state, asphalt_nscd.harmonic.periodic); the row's
 # `start` column says which was used.
 # Rerun one job: `snakemake --cores 1 results/sim/paper/s1/15C_40Hz.csv --forcerun run_2pb`.
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 
 rule run_2pb:
     input:
-        sample="results/samples/{sample}.h5",
-        parameters=plan.mode_parameters_function(config),
-        transfer=plan.job_transfer_function(config),
+        sample=plan.sample_file("{sample}"),
+        parameters=plan.from_wildcards(plan.mode_parameters, config),
+        transfer=plan.from_wildcards(plan.job_transfer, config),
     output:
         record="results/sim/{mode}/{sample}/{case}.h5",
         row="results/sim/{mode}/{sample}/{case}.csv",
@@ -32,9 +32,9 @@ rule run_2pb:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        source=plan.law_option_function(config),
-        args=plan.case_options_function(config),
-        settings=plan.mode_settings_function(config),
+        source=plan.from_wildcards(plan.law_option, config),
+        args=plan.from_wildcards(plan.case_options, config),
+        settings=plan.from_wildcards(plan.mode_settings_json, config),
         window=config["lab"]["simulation_window_cycles"],
     shell:
         "asphalt-nscd run-2pb --sample {input.sample} --sample-name {wildcards.sample} --mode {wildcards.mode}"
@@ -44,9 +44,9 @@ rule run_2pb:
 
 rule campaign_isotherms:
     input:
-        rows=plan.mode_rows_function(config),
-        parameters=plan.mode_parameters_function(config),
-        summary=plan.mode_summary_function(config),
+        rows=plan.from_wildcards(plan.mode_rows, config),
+        parameters=plan.from_wildcards(plan.mode_parameters, config),
+        summary=plan.from_wildcards(plan.mode_summary, config),
     output:
         isotherms="results/campaign/{mode}/numerical_isotherms.csv",
         table4=report(
@@ -76,9 +76,9 @@ rule campaign_isotherms:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        source=plan.law_option_function(config),
-        options=plan.mode_options_function(config),
-        title=plan.isotherms_title_function(config),
+        source=plan.from_wildcards(plan.law_option, config),
+        options=plan.from_wildcards(plan.mode_options, config),
+        title=plan.from_wildcards(plan.isotherms_title, config),
     shell:
         "asphalt-nscd campaign-isotherms --rows {input.rows} {params.source} {input.parameters} {params.options}"
         " --isotherms {output.isotherms} --table4 {output.table4} --figure-modulus {output.modulus}"
@@ -208,7 +208,7 @@ rule campaign_units_question:
 
 rule campaign_dt_policy:
     input:
-        parameters=plan.mode_parameters_function(config),
+        parameters=plan.from_wildcards(plan.mode_parameters, config),
     output:
         report(
             "results/campaign/{mode}/dt_policy_phase_error.csv",
@@ -225,10 +225,10 @@ rule campaign_dt_policy:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        units=plan.policy_units_option_function(config),
-        T=plan.policy_temperature_function(config),
-        freqs=plan.mode_frequencies_function(config),
-        settings=plan.mode_settings_function(config),
+        units=plan.from_wildcards(plan.policy_units_option, config),
+        T=plan.from_wildcards(plan.policy_temperature, config),
+        freqs=plan.from_wildcards(plan.mode_frequencies, config),
+        settings=plan.from_wildcards(plan.mode_settings_json, config),
     shell:
         "asphalt-nscd campaign-dt-policy --parameters {input.parameters} {params.units} --temperature {params.T}"
         " --frequencies {params.freqs} --settings-json {params.settings:q} -o {output} 2> {log}"

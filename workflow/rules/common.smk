@@ -1,12 +1,12 @@
 # Shared setup. Every config section has its own JSON schema, validated at load.
 # The logic of the rule files (samples, campaign cases, options, report files) is the tested
-# module asphalt_nscd.campaign.plan; each rule file imports it and only declares rules.
+# module asphalt_nscd.plan; each rule file imports it and only declares rules.
 # Rule report_index (figures.smk) collects plan.report_files(config) into results/report/.
 import os
 import sys
 from pathlib import Path
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 # Jobs call the `asphalt-nscd` console script. Put the environment that runs Snakemake first on
 # the PATH, so that `.venv/bin/snakemake` (make run) finds the package installed beside it

@@ -25,18 +25,18 @@
 # the same samples before and after), null = not used, or a CSV path.
 # Rerun: `snakemake --cores 1 results/diagnosis/report.json --forcerun diagnose`.
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 DIAG_CATEGORY = "What the simulation gets wrong"
 
 
 rule master_curve:
     input:
-        measured="results/lab/measured.csv",
-        test="results/lab/measured.test.json",
+        measured=plan.MEASURED,
+        test=plan.MEASURED_TEST,
     output:
-        search="results/diagnosis/master_curve.json",
-        corrected="results/diagnosis/corrected_measured.csv",
+        search=plan.MASTER_CURVE_JSON,
+        corrected=plan.CORRECTED_TABLE,
     log:
         "logs/diagnosis/master_curve.log",
     benchmark:
@@ -52,7 +52,7 @@ rule master_curve:
 
 rule extend_law:
     input:
-        measured="results/lab/measured.csv",
+        measured=plan.MEASURED,
         search=rules.master_curve.output.search,
         corrected=rules.master_curve.output.corrected,
     output:
@@ -85,7 +85,7 @@ if plan.crossval_time_domain_cell(config):
         # the law of the lofo fold without the time-domain cell's frequency, at its temperature (the same
         # procedure as that fold of rule crossval)
         input:
-            measured="results/lab/measured.csv",
+            measured=plan.MEASURED,
         output:
             f"results/diagnosis/crossval/fold_law_{plan.crossval_time_domain_case(config)}.json",
         log:
@@ -135,54 +135,56 @@ rule export_law:
     # material cards of the extended law: relaxation Prony series + WLF shift (Abaqus, LS-DYNA, JSON, CSV)
     input:
         law=rules.extend_law.output.laws,
-        summary="results/lab/measured_summary.csv",
+        summary=plan.MEASURED_SUMMARY,
     output:
         abaqus=report(
-            "results/diagnosis/material_cards/abaqus.inp",
+            plan.MATERIAL_CARDS["abaqus"],
             caption="../report/diagnosis_material_cards.rst",
             category="Diagnosis",
         ),
-        lsdyna="results/diagnosis/material_cards/lsdyna.k",
-        json="results/diagnosis/material_cards/prony.json",
-        table="results/diagnosis/material_cards/prony.csv",
+        lsdyna=plan.MATERIAL_CARDS["lsdyna"],
+        json=plan.MATERIAL_CARDS["json"],
+        table=plan.MATERIAL_CARDS["table"],
     log:
         "logs/diagnosis/export_law.log",
     benchmark:
         "benchmarks/diagnosis/export_law.tsv"
     conda:
         "../envs/asphalt-nscd.yaml"
+    params:
+        out_dir=plan.output_directory,
     shell:
         "asphalt-nscd export-law --law-json {input.law} --measured {input.summary} --allow-loss"
-        " -o results/diagnosis/material_cards 2> {log}"
+        " -o {params.out_dir} 2> {log}"
 
 
 rule crossval:
     input:
-        measured="results/lab/measured.csv",
+        measured=plan.MEASURED,
         sample=plan.sample_file(plan.crossval_sample(config)),
         transfer=plan.transfer_file(plan.crossval_sample(config)),
-        time_domain=plan.crossval_time_domain_function(config),
+        time_domain=plan.from_wildcards(plan.crossval_time_domain_input, config),
     output:
         rows=report(
-            "results/diagnosis/crossval/{scheme}.csv",
+            plan.crossval_file("{scheme}"),
             caption="../report/diagnosis_crossval.rst",
             category=DIAG_CATEGORY,
             subcategory="Held-out validation",
         ),
         summary=report(
-            "results/diagnosis/crossval/{scheme}_summary.csv",
+            plan.crossval_file("{scheme}", "_summary.csv"),
             caption="../report/diagnosis_crossval.rst",
             category=DIAG_CATEGORY,
             subcategory="Held-out validation",
         ),
         curve=report(
-            "results/diagnosis/crossval/{scheme}_curve.csv",
+            plan.crossval_file("{scheme}", "_curve.csv"),
             caption="../report/diagnosis_cv_curve.rst",
             category=DIAG_CATEGORY,
             subcategory="Held-out validation",
         ),
         figure=report(
-            "results/diagnosis/crossval/{scheme}.png",
+            plan.crossval_file("{scheme}", ".png"),
             caption="../report/diagnosis_crossval_figure.rst",
             category=DIAG_CATEGORY,
             subcategory="Held-out validation",
@@ -206,13 +208,13 @@ rule crossval:
 
 rule diagnose:
     input:
-        measured="results/lab/measured.csv",
+        measured=plan.MEASURED,
         search=rules.master_curve.output.search,
         corrected=rules.master_curve.output.corrected,
-        macro="results/calibration/burgers_parameters.csv",
+        macro=plan.BURGERS_PARAMETERS,
         laws=plan.LAW_JSON,
-        crossval=expand("results/diagnosis/crossval/{scheme}.csv", scheme=config["diagnosis"]["crossval"]["schemes"]),
-        test="results/lab/measured.test.json",
+        crossval=plan.crossval_files(config),
+        test=plan.MEASURED_TEST,
         simulations=plan.diagnosis_input_files(config),
     output:
         report="results/diagnosis/report.json",
@@ -236,7 +238,7 @@ rule diagnose:
             caption="../report/diagnosis_what_goes_wrong.rst",
             category=DIAG_CATEGORY,
         ),
-        page="results/diagnosis/what_the_simulation_gets_wrong.md",
+        page=plan.DIAGNOSIS_PAGE,
     log:
         "logs/diagnosis/diagnose.log",
     benchmark:
@@ -289,15 +291,4 @@ rule own_table:
     # figures, the held-out errors and the diagnosis page of measured.table, without the NSCD campaign
     # (config/table.yaml sets the diagnosis' simulation inputs to null)
     input:
-        "results/lab/measured.csv",
-        "results/diagnosis/master_curve.json",
-        plan.LAW_JSON,
-        "results/diagnosis/material_cards/abaqus.inp",
-        "results/diagnosis/material_cards/lsdyna.k",
-        "results/diagnosis/material_cards/prony.json",
-        "results/diagnosis/figures/master_curve.png",
-        "results/diagnosis/figures/shift_factors.png",
-        "results/diagnosis/figures/law_residuals.png",
-        "results/diagnosis/sigmoid_master_curve.csv",
-        expand("results/diagnosis/crossval/{scheme}_summary.csv", scheme=config["diagnosis"]["crossval"]["schemes"]),
-        "results/diagnosis/what_the_simulation_gets_wrong.md",
+        plan.own_table_files(config),

@@ -4,12 +4,12 @@
 # results/report/ (asphalt-nscd collect-report); `snakemake --report` shows the same files with
 # their captions.
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 
 rule rheology_figures:
     input:
-        summary="results/lab/measured_summary.csv",
+        summary=plan.MEASURED_SUMMARY,
         curves="results/calibration/burgers_parameters_curves.csv",
     output:
         isotherms_modulus=report(
@@ -76,28 +76,28 @@ rule master_curve_figures:
     # master curve with the measured points coloured by temperature (2S2P1D, extended law, MEPDG sigmoid),
     # shift factors, the extended law's per-cell residuals, the sigmoid's parameters beside 2S2P1D's
     input:
-        search="results/diagnosis/master_curve.json",
-        corrected="results/diagnosis/corrected_measured.csv",
+        search=plan.MASTER_CURVE_JSON,
+        corrected=plan.CORRECTED_TABLE,
         law=plan.LAW_JSON,
     output:
         master=report(
-            "results/diagnosis/figures/master_curve.png",
+            plan.MASTER_CURVE_FIGURES["master"],
             caption="../report/diagnosis_master_curve.rst",
             category="Diagnosis",
         ),
         shift=report(
-            "results/diagnosis/figures/shift_factors.png",
+            plan.MASTER_CURVE_FIGURES["shift"],
             caption="../report/diagnosis_master_curve.rst",
             category="Diagnosis",
         ),
         residuals=report(
-            "results/diagnosis/figures/law_residuals.png",
+            plan.MASTER_CURVE_FIGURES["residuals"],
             caption="../report/diagnosis_master_curve.rst",
             category="Diagnosis",
         ),
         residual_table="results/diagnosis/law_residuals.csv",
         sigmoid=report(
-            "results/diagnosis/sigmoid_master_curve.csv",
+            plan.SIGMOID_TABLE,
             caption="../report/diagnosis_master_curve.rst",
             category="Diagnosis",
         ),

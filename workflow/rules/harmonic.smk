@@ -11,16 +11,16 @@
 # kinematics of the NSCD core.
 # Rerun one target: `snakemake --cores 1 results/harmonic/jobs/s1_paper.csv --forcerun harmonic_jobs`.
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 
 rule harmonic_jobs:
     input:
-        sample="results/samples/{sample}.h5",
-        parameters=plan.harmonic_parameters_function(config),
-        summary="results/lab/measured_summary.csv",
+        sample=plan.sample_file("{sample}"),
+        parameters=plan.from_wildcards(plan.harmonic_parameters, config),
+        summary=plan.MEASURED_SUMMARY,
     output:
-        "results/harmonic/jobs/{sample}_{mode}.csv",
+        plan.harmonic_job_file("{sample}", "{mode}"),
     log:
         "logs/harmonic/jobs_{sample}_{mode}.log",
     benchmark:
@@ -39,10 +39,10 @@ rule harmonic_jobs:
 
 rule harmonic_sweep:
     input:
-        sample="results/samples/{sample}.h5",
-        parameters=plan.harmonic_parameters_function(config),
+        sample=plan.sample_file("{sample}"),
+        parameters=plan.from_wildcards(plan.harmonic_parameters, config),
     output:
-        "results/harmonic/sweep/{sample}_{mode}.csv",
+        plan.harmonic_sweep_file("{sample}", "{mode}"),
     log:
         "logs/harmonic/sweep_{sample}_{mode}.log",
     benchmark:
@@ -61,8 +61,8 @@ rule harmonic_sweep:
 
 rule harmonic_figures:
     input:
-        sweeps=expand("results/harmonic/sweep/{sample}_{{mode}}.csv", sample=plan.sample_names(config)),
-        summary="results/lab/measured_summary.csv",
+        sweeps=expand(plan.harmonic_sweep_file("{sample}", "{{mode}}"), sample=plan.sample_names(config)),
+        summary=plan.MEASURED_SUMMARY,
     output:
         isotherms_modulus=report(
             "results/harmonic/figures/{mode}_isotherms-modulus.png",
@@ -105,7 +105,7 @@ rule harmonic_figures:
 
 rule harmonic_network_factor:
     input:
-        expand("results/harmonic/jobs/{sample}_{mode}.csv", sample=plan.sample_names(config), mode=plan.HARMONIC_MODES),
+        expand(plan.harmonic_job_file("{sample}", "{mode}"), sample=plan.sample_names(config), mode=plan.HARMONIC_MODES),
     output:
         table=report(
             "results/harmonic/network_factor.csv",
@@ -231,9 +231,9 @@ rule harmonic_transfer:
     # time-domain test's kinematics (nscd.bond_kinematics, campaign.test.head_rotation, nu):
     # the transfer correction of the extended campaign mode (run-2pb --network-factor-json).
     input:
-        sample="results/samples/{sample}.h5",
+        sample=plan.sample_file("{sample}"),
     output:
-        "results/harmonic/transfer/{sample}.json",
+        plan.transfer_file("{sample}"),
     log:
         "logs/harmonic/transfer_{sample}.log",
     benchmark:

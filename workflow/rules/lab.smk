@@ -3,7 +3,7 @@
 # and EN 12697-26 reduction (Eqs. 1-5) of raw 2PB records listed under lab.records.
 # Rerun one target: `snakemake --cores 1 results/lab/measured.csv --forcerun measured_table`.
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 
 rule measured_table:
@@ -12,16 +12,16 @@ rule measured_table:
         test=plan.measured_test_input(config),
     output:
         table=report(
-            "results/lab/measured.csv",
+            plan.MEASURED,
             caption="../report/lab_measured.rst",
             category="Lab data",
         ),
         summary=report(
-            "results/lab/measured_summary.csv",
+            plan.MEASURED_SUMMARY,
             caption="../report/lab_measured_summary.rst",
             category="Lab data",
         ),
-        test="results/lab/measured.test.json",
+        test=plan.MEASURED_TEST,
     log:
         "logs/lab/measured_table.log",
     benchmark:
@@ -37,8 +37,8 @@ rule measured_table:
 
 rule reduce_record:
     input:
-        record=plan.record_file_function(config),
-        meta=plan.record_meta_function(config),
+        record=plan.from_wildcards(plan.record_file, config),
+        meta=plan.from_wildcards(plan.record_meta, config),
     output:
         report(
             "results/lab/reduced/{record}.csv",

@@ -3,7 +3,7 @@
 # fast path vs NLGS) with the phase error of the time-discrete bond law vs omega dt and theta,
 # and benchmarks at reduced N (bonded 2PB-like sample; frictional granular bed).
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 
 rule nscd_verify:
@@ -57,7 +57,7 @@ rule nscd_bench:
         baseline=config["nscd"]["bench"]["baseline_steps"],
         settle=config["nscd"]["bench"]["settle_steps"],
         settle_speed=config["nscd"]["bench"].get("settle_speed_m_s", 5.0e-3),
-        tol=plan.bench_tolerance_function(config),
+        tol=plan.from_wildcards(plan.bench_tolerance, config),
         kinematics=plan.bond_kinematics(config),
         bonded_contact=plan.bonded_contact(config),
     shell:

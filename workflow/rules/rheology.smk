@@ -2,15 +2,15 @@
 # chosen unit reading, its refit check and the micro (bond)
 # parameters (Eqs. 30-33, 8-11). The rheology figures (asphalt-nscd plot-rheology) are in figures.smk.
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 
 rule fit_burgers:
     input:
-        "results/lab/measured.csv",
+        plan.MEASURED,
     output:
         report(
-            "results/calibration/burgers_parameters.csv",
+            plan.BURGERS_PARAMETERS,
             caption="../report/calibration_burgers_parameters.rst",
             category="Calibration",
         ),
@@ -31,7 +31,7 @@ rule paper_table3:
     input:
         config["calibration"]["table3"],
     output:
-        "results/calibration/paper_table3.csv",
+        plan.PAPER_TABLE3,
     log:
         "logs/calibration/paper_table3.log",
     benchmark:
@@ -46,7 +46,7 @@ rule paper_table3:
 
 rule table3_refit_check:
     input:
-        "results/calibration/paper_table3.csv",
+        plan.PAPER_TABLE3,
     output:
         report(
             "results/calibration/table3_refit_check.csv",
@@ -69,7 +69,7 @@ rule table3_refit_check:
 
 rule burgers_curves:
     input:
-        "results/calibration/{table}.csv",
+        plan.CALIBRATION_TABLE,
     output:
         "results/calibration/{table}_curves.csv",
     log:
@@ -91,7 +91,7 @@ rule burgers_curves:
 
 rule micro_parameters:
     input:
-        "results/calibration/{table}.csv",
+        plan.CALIBRATION_TABLE,
     output:
         report(
             "results/calibration/{table}_micro.csv",

@@ -2,7 +2,7 @@
 # after config["sample"]["seeds"]. The sample section is passed to the CLI as JSON, so any
 # change of it reruns the samples (params are tracked).
 # Rerun one sample: `snakemake --cores 1 results/samples/s1.h5 --forcerun prepare_sample`.
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 
 
 rule prepare_sample:
@@ -48,7 +48,7 @@ rule prepare_resolution_sample:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        cfg=plan.resolution_sample_settings_function(config),
+        cfg=plan.from_wildcards(plan.resolution_sample_settings, config),
         bonded_contact=plan.bonded_contact(config),
     shell:
         "asphalt-nscd prepare-sample --config-json {params.cfg:q} --seed {wildcards.seed}"

@@ -10,6 +10,8 @@
 ``campaign-dt-policy``  phase error of the time-step policy (bond law, phase_error_table)
 ``campaign-bench``      time per step of the 2PB test and projected campaign time (JSON)
 ``periodic-check``      periodic start vs from-rest protocol on a sample at several (mode, T, f)
+``bench``               the NSCD core benchmark (:func:`asphalt_nscd.nscd.bench.run_bench`; its bonded
+                        case's periodic start: :func:`.bench.bench_starter`)
 """
 
 from __future__ import annotations
@@ -41,6 +43,20 @@ def _parameter_options(p, law_json: bool = False):
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    _add_bench(subparsers)
+    _add_run_2pb(subparsers)
+    _add_campaign_isotherms(subparsers)
+    _add_campaign_dt_study(subparsers)
+    _add_campaign_last_cycle(subparsers)
+    _add_campaign_sensitivity(subparsers)
+    _add_campaign_units(subparsers)
+    _add_campaign_dt_policy(subparsers)
+    _add_campaign_bench(subparsers)
+    _add_periodic_check(subparsers)
+
+
+def _add_run_2pb(subparsers) -> None:
+    """``run-2pb``: one numerical 2PB complex modulus test (record + reduced row)."""
     p = subparsers.add_parser("run-2pb", help="one numerical 2PB complex modulus test (record + reduced row)",
                               description="Run (or resume from its checkpoint) the numerical 2PB test of a sample "
                               "at one temperature and frequency, write the record (HDF5) and the row reduced by "
@@ -68,6 +84,9 @@ def register(subparsers) -> None:
     p.add_argument("--row", required=True, help="reduced row (.csv)")
     p.set_defaults(func=_run)
 
+
+def _add_campaign_isotherms(subparsers) -> None:
+    """``campaign-isotherms``: numerical isotherms, Table 4 analogue, Figs. 9-10."""
     p = subparsers.add_parser("campaign-isotherms", help="numerical isotherms, Table 4 analogue, Figs. 9-10")
     p.add_argument("--rows", nargs="+", required=True, help="reduced rows (CSV) of one mode")
     _parameter_options(p, law_json=True)
@@ -84,6 +103,9 @@ def register(subparsers) -> None:
     p.add_argument("--title", default="", help="figure title")
     p.set_defaults(func=_isotherms)
 
+
+def _add_campaign_dt_study(subparsers) -> None:
+    """``campaign-dt-study``: Fig. 6 analogue: influence of the time step."""
     p = subparsers.add_parser("campaign-dt-study", help="Fig. 6 analogue: influence of the time step")
     p.add_argument("--records", nargs="+", required=True, help="records (.h5) at several dt")
     p.add_argument("--rows", nargs="+", required=True, help="their reduced rows (CSV)")
@@ -92,12 +114,18 @@ def register(subparsers) -> None:
     p.add_argument("--figure", required=True, help="output png")
     p.set_defaults(func=_dt_study)
 
+
+def _add_campaign_last_cycle(subparsers) -> None:
+    """``campaign-last-cycle``: Figs. 7-8 analogues from one record."""
     p = subparsers.add_parser("campaign-last-cycle", help="Figs. 7-8 analogues from one record")
     p.add_argument("--record", required=True, help="record (.h5)")
     p.add_argument("--figure-cycle", required=True, help="Fig. 7 analogue (png)")
     p.add_argument("--figure-profile", required=True, help="Fig. 8 analogue (png)")
     p.set_defaults(func=_last_cycle)
 
+
+def _add_campaign_sensitivity(subparsers) -> None:
+    """``campaign-sensitivity``: sensitivity table and Figs. 11-14 analogues."""
     p = subparsers.add_parser("campaign-sensitivity", help="sensitivity table and Figs. 11-14 analogues")
     p.add_argument("--rows", nargs="+", required=True, help="reduced rows of the varied runs (CSV)")
     p.add_argument("--baseline", nargs="+", required=True, help="reduced rows of the unvaried runs (CSV)")
@@ -108,6 +136,9 @@ def register(subparsers) -> None:
                    help="figures for Em, eta_m, Ek, eta_k (Figs. 11-14 analogues)")
     p.set_defaults(func=_sensitivity)
 
+
+def _add_campaign_units(subparsers) -> None:
+    """``campaign-units``: the Table 3 units question, both readings."""
     p = subparsers.add_parser("campaign-units", help="the Table 3 units question, both readings")
     p.add_argument("--table3", required=True, help="the paper's Table 3 as printed")
     p.add_argument("--rows-pa", nargs="+", required=True, help="reduced rows of the Pa-reading runs")
@@ -128,6 +159,9 @@ def register(subparsers) -> None:
                         "compared with (--evidence; default: 5-30 GPa of dense mixes)")
     p.set_defaults(func=_units)
 
+
+def _add_campaign_dt_policy(subparsers) -> None:
+    """``campaign-dt-policy``: phase error of the dt policy (one bond)."""
     p = subparsers.add_parser("campaign-dt-policy", help="phase error of the dt policy (one bond)")
     _parameter_options(p)
     p.add_argument("--temperature", type=float, required=True, help="temperature, degC")
@@ -136,6 +170,9 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, help="output CSV")
     p.set_defaults(func=_dt_policy)
 
+
+def _add_campaign_bench(subparsers) -> None:
+    """``campaign-bench``: time per step of the 2PB test and projected campaign time."""
     p = subparsers.add_parser("campaign-bench", help="time per step of the 2PB test and projected campaign time",
                               description="Time the 2PB test on a sample file or a bonded lattice sample and "
                               "project the total time of the campaign of a config file (JSON output).")
@@ -143,7 +180,9 @@ def register(subparsers) -> None:
     p.add_argument("--n-spheres", type=int, default=2000, help="spheres of the lattice sample")
     p.add_argument("--steps", type=int, default=200, help="timed steps")
     p.add_argument("--config", action="append", default=[],
-                   help="workflow config (YAML) whose campaign is projected; repeatable")
+                   help="workflow config (YAML) whose campaign is projected, merged over config/config.yaml "
+                        "of the working directory as Snakemake merges --configfile (e.g. config/paper.yaml, "
+                        "an overlay on it); repeatable, one projection each")
     p.add_argument("--overhead-s", type=float, default=3.0, help="start-up time of one job, s")
     p.add_argument("--per-job", action="store_true",
                    help="time every job class (mode, T, f, dt) of each --config on --sample with the job's "
@@ -176,10 +215,62 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, help="output JSON")
     p.set_defaults(func=_bench)
 
-    _register_periodic_check(subparsers)
+
+def _add_bench(subparsers) -> None:
+    """``asphalt-nscd bench``: one benchmark of the NSCD core (:mod:`asphalt_nscd.nscd.bench`),
+    its JSON record; the bonded case starts at rest or in the periodic steady state."""
+    from ..nscd.state import BOND_KINEMATICS, BONDED_CONTACT
+
+    b = subparsers.add_parser("bench", help="NSCD core benchmark (JSON)")
+    b.add_argument("--case", required=True, choices=["bonded", "granular"])
+    b.add_argument("--n", type=int, required=True, help="number of spheres")
+    b.add_argument("--steps", type=int, default=20, help="timed steps")
+    b.add_argument("--baseline-steps", type=int, default=5,
+                   help="timed NLGS steps of the bonded baseline")
+    b.add_argument("--tolerance", type=float, default=1e-7, help="NLGS tolerance")
+    b.add_argument("--settle-steps", type=int, default=5000,
+                   help="most untimed settling steps of the granular case")
+    b.add_argument("--settle-speed", type=float, default=5e-3,
+                   help="granular settling ends when the largest sphere speed (m/s) is below")
+    b.add_argument("--threads", type=int, default=1,
+                   help="numba threads of the parallel kernels (NSCDParameters.threads)")
+    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--linear-tolerance", type=float, default=1e-7,
+                   help="relative residual of the conjugate gradient (bonded case)")
+    b.add_argument("--bond-kinematics", choices=list(BOND_KINEMATICS), default="contact",
+                   help="where the bonds act (bonded case; NSCDParameters.bond_kinematics)")
+    b.add_argument("--linear-solver", choices=["cg", "cg_ssor"], default="cg",
+                   help="conjugate gradient of the bonded case: block-Jacobi (cg) or SSOR "
+                        "(cg_ssor, also times cg on the same steps)")
+    b.add_argument("--bonded-contact", choices=list(BONDED_CONTACT), default="after_break",
+                   help="contact of the bonded pairs (bonded case; NSCDParameters.bonded_contact)")
+    b.add_argument("--start", choices=["rest", "periodic"], default="rest",
+                   help="bonded case: from rest under gravity, or in the periodic steady "
+                        "state without gravity (the 2PB setting)")
+    b.add_argument("--ssor-omega", type=float, default=None,
+                   help="relaxation factor of cg_ssor in (0, 2) (default: NSCDParameters')")
+    b.add_argument("-o", "--output", required=True, help="JSON record")
+    b.set_defaults(func=_core_bench)
 
 
-def _register_periodic_check(subparsers) -> None:
+def _core_bench(args) -> int:
+    from ..io import write_json
+    from ..nscd.bench import run_bench
+    from .bench import bench_starter
+
+    rec = run_bench(args.case, args.n, steps=args.steps, baseline_steps=args.baseline_steps,
+                    tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed,
+                    linear_tolerance=args.linear_tolerance,
+                    bond_kinematics=args.bond_kinematics, threads=args.threads,
+                    settle_speed=args.settle_speed, linear_solver=args.linear_solver,
+                    bonded_contact=args.bonded_contact, start=args.start,
+                    ssor_omega=args.ssor_omega, starter=bench_starter)
+    write_json(rec, args.output)
+    return 0
+
+
+def _add_periodic_check(subparsers) -> None:
+    """``periodic-check``: periodic start vs from-rest protocol of the 2PB test (table)."""
     p = subparsers.add_parser(
         "periodic-check", help="periodic start vs from-rest protocol of the 2PB test (table)",
         description="For each case MODE:T:F run the 2PB test of the sample from rest for --long-cycles "
@@ -190,9 +281,11 @@ def _register_periodic_check(subparsers) -> None:
     p.add_argument("--cases", nargs="+", required=True, metavar="MODE:T:F",
                    help="mode (paper, measured, extended, dt_study, sensitivity, units_Pa, units_kPa, "
                         "units_kPa_nobreak; its law and test settings), temperature degC, frequency Hz")
-    p.add_argument("--config", default=None,
-                   help="workflow config (YAML): the jobs' test settings per mode (campaign section, "
-                        "nscd.bond_kinematics, lab.simulation_window_cycles); default: --settings-json")
+    p.add_argument("--config", nargs="+", default=None, metavar="FILE",
+                   help="workflow config files (YAML) merged as Snakemake merges --configfile: "
+                        "config/config.yaml of the working directory first, then each FILE in order (e.g. "
+                        "config/paper.yaml, an overlay on it); the jobs' test settings per mode (campaign "
+                        "section, nscd.bond_kinematics, lab.simulation_window_cycles); default: --settings-json")
     _settings_options(p)
     p.add_argument("--table3", default="data/paper/table3_burgers.csv",
                    help="the paper's Table 3 as printed (paper mode and studies)")

@@ -4,7 +4,7 @@
 * :func:`last_cycle_figure` — Fig. 7: head displacement and force over the last cycle.
 * :func:`velocity_profile_figure` — Fig. 8: mean particle velocity (x) versus height.
 * :func:`isotherm_figures` — Figs. 9-10: numerical versus reference isotherms (shared
-  :mod:`asphalt_nscd.figures.rheology_plots`).
+  :mod:`asphalt_nscd.rheology.plots`).
 * :func:`sensitivity_figure` — Figs. 11-14: one Burger's parameter at x0.5, x1, x1.5.
 """
 
@@ -114,7 +114,7 @@ def isotherm_figures(isotherms: pd.DataFrame, curves: pd.DataFrame | None, refer
     """Figs. 9-10 analogues: |E*| and Phi isotherms, NSCD sample means (± sd over samples)
     against reference curves (legend ``curve_label``, e.g. "generalized Burger's law") and/or
     points (legend ``reference_label``). Returns (fig_modulus, fig_phase)."""
-    from ..figures.rheology_plots import CurveSet, rheology_figure
+    from ..rheology.plots import CurveSet, rheology_figure
 
     sets = [CurveSet("NSCD (mean ± sd over samples)", isotherms[[
         "temperature_C", "frequency_Hz", "E_norm_MPa_mean", "E_norm_MPa_std", "phase_deg_mean", "phase_deg_std"]],

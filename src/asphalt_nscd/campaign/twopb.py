@@ -1,90 +1,27 @@
 """The numerical two-point bending complex modulus test (paper Section 3.2.2).
 
-Set-up
-------
-The prepared sample (``results/samples/<sample>.h5``, docs/design.md) is loaded; the bottom
-plate is fixed and the top plate (mass ``plates/mass[1]``, 0.235 kg in the paper) is driven
-along x (the bending direction; the paper's "z") by u(t) = A sin(w t), A = 63e-6 m. Bonds
-are created with ``Bonds.create`` from the sample's bonded pairs and the macro Burger's law
-of the temperature (Eqs. 30-33, 8-11); their rest state is the stored (stabilised)
-configuration. The Moreau-Jean theta-method runs ``n_cycles`` loading cycles.
+:func:`run_test` loads a prepared sample (``results/samples/<sample>.h5``, docs/design.md),
+fixes the bottom plate and drives the top plate (mass ``plates/mass[1]``, 0.235 kg in the
+paper) along x (the paper's "z") by u(t) = A sin(w t), A = 63e-6 m. The bonds follow the macro
+Burger's law of the temperature (Eqs. 30-33, 8-11), at rest in the stored (stabilised)
+configuration, and the Moreau-Jean theta-method runs the loading cycles. Every step is recorded
+(HDF5) at its mid-step time t - dt/2: the imposed displacement, two readings of the head force
+(``force_bonds_N``: the sample's reaction plus the exact inertia of the imposed head motion;
+``force_driver_N``: the core's driver force), solver statistics (``stats``) and velocity
+profiles of the last cycle (``profile``, Fig. 8). The last ``window_cycles`` cycles are reduced
+by :func:`asphalt_nscd.lab.en12697.reduce_record` (Eqs. 1-5) with the sample's geometry and
+mu = 0.135 M + m. Every ``checkpoint_every`` steps the arrays and then the core state are
+written atomically (``<output>.partial.npz``, ``<output>.ckpt.h5``); a rerun with the same run
+key (sample, law, f, dt, steps) resumes from them.
 
-Time step (``dt_policy``)
--------------------------
-* ``fixed``: dt = ``dt_s`` for every frequency (paper: 5e-5 s; 3.33e4 steps for 5 cycles at
-  3 Hz). At the 0.1 Hz of the measured schedule that is 1e6 steps: unaffordable.
-* ``steps_per_cycle``: dt = 1 / (f N) capped by ``dt_max_s``, so every frequency costs about
-  the same. With N = 500 the 40 Hz step equals the paper's 5e-5 s. The phase error this
-  costs is measured by ``phase_error_table`` (table ``dt_policy_phase_error.csv``): at
-  theta = 0.5 it is O((w dt)^2), i.e. the same at every frequency for a given N.
-
-What is recorded (HDF5, one row per step)
------------------------------------------
-The forces of a Moreau-Jean step are means over the step, so every step is sampled at its
-mid-step time t - dt/2 together with the imposed displacement at that time (sampling at the
-end of the step would add a phase lag w dt/2). Two readings of the head force (x):
-
-* ``force_driver_N``: the core's ``StepStats.driver_force`` of the top plate, the force the
-  actuator applies including the plate inertia, whose acceleration is a second difference
-  of the imposed motion centred at the *start* of the step, i.e. half a step early;
-* ``force_bonds_N``: F = m a(t - dt/2) - plate_force_x, the reaction of the sample on the
-  head plus the exact inertia of the imposed head motion, a = -w^2 u.
-
-``force_reading`` (config ``campaign.test.force_reading``) chooses the one reduced;
-default ``bonds``, which converges at second order in dt where ``driver`` is first order
-(both are stored, and the reduced row carries the other reading's |E*| and Phi). Per-step
-solver statistics (iterations, residuals, convergence, contacts, bonds, dissipation, fast
-path) go to the group ``stats``; the mean particle velocity along x in height bins at
-``profile_instants`` instants of the last cycle to ``profile`` (Fig. 8).
-
-Reduction
----------
-The last ``window_cycles`` cycles are reduced by the lab code
-(:func:`asphalt_nscd.lab.en12697.reduce_record`, Eqs. 1-5) with the specimen of the sample:
-geometry from the sample's root attributes ``b_m, B_m, e_m, h_m`` (scaled samples), else the
-EN 12697-26 trapezoid, and mu = 0.135 M + m with M = sum of the sphere masses and m the
-top-plate mass (EN 12697-26 Annex A applied to the numerical specimen).
-
-Bond strength (``yield_stress_Pa``): the paper's 2.7 MPa (R_crit = sigma_y pi r_min^2) or
-None for unbreakable bonds. Under mix-like moduli (measured parameters, Table 3 read in kPa)
-the 63 um head amplitude breaks bonds of the reduced samples (count in the row,
-``n_broken_total``), which turns the linear complex modulus test into a damage test; the
-measured mode can therefore switch breakage off (config ``campaign.measured.yield_stress_Pa``).
-
-Gravity (``gravity``): the bonds' rest state is the stabilised configuration, so gravity
-loads them again from zero; with a Maxwell dashpot the sample then creeps downwards during
-the test. The creep is vertical and slow (the fit's drift term absorbs any trace of it in
-x), but at high temperature it can close contacts and switch steps from the linear fast
-path to Gauss-Seidel. From rest, gravity is switched on at t = 0 with the head motion (the
-paper's protocol); the periodic start begins in the steady state under gravity with the
-head held, the limit of the paper's stabilisation at the test temperature
-(:func:`.periodic.gravity_state`). Off by default at reduced scale, on in ``paper.yaml``.
-
-Bond kinematics and head rotation (``bond_kinematics``, config ``nscd.bond_kinematics``;
-``head_rotation``, config ``campaign.test.head_rotation``): by default the bonds act at their
-contact points with torques (``contact``, :class:`asphalt_nscd.nscd.Bonds`) and the head,
-driven in translation, rotates freely about the centre of its face ``plates/point[1]``
-(``free``) with the rotational inertia of the harmonic model (a steel cuboid of the head's
-mass and footprint, :func:`asphalt_nscd.harmonic.network.head_inertia`; footprint from the
-sample's ``b_m, e_m`` attributes, else the x-y extent of the top-plate bonds' contact
-points), as the cantilever of EN 12697-26 Eq. 3. ``barycentre`` + ``clamped`` is the former
-core: the tangential springs then resist the rigid rotation of bonded pairs and the bending
-stiffness of the sample is spurious (network factor ~90 instead of ~1.1-1.5, harmonic
-solver).
-
-Start (``start``, config ``campaign.test.start`` with per-mode overrides): ``rest`` (the
-paper's protocol) runs ``n_cycles`` cycles from rest; ``periodic`` starts the test in the
-time-discrete periodic steady state of the linear sample (:mod:`.periodic`: harmonic solution
-at the theta-method's effective Laplace variable, so the state is the exact periodic orbit of
-the step map) and runs ``periodic_cycles`` cycles. If that steady state would break a bond
-the test is not linear and the run falls back to ``rest`` (``start`` of the record and row
-says which start was used).
-
-Checkpoint and resume: every ``checkpoint_every`` steps the recorded arrays are written to
-``<output>.partial.npz`` and then the core state to ``<output>.ckpt.h5`` (both atomic, in
-that order, so the arrays always cover the checkpoint); a rerun resumes from them when the
-run key (sample, law, f, dt, steps) matches. The record is written atomically and the
-checkpoint files are removed at the end. Progress: tqdm on stderr (the job log).
+Choices (docs/choices.md, Campaign):
+* ``dt_policy``: ``fixed`` (the paper's 5e-5 s) or ``steps_per_cycle`` (default, 500 per cycle);
+* ``force_reading``: ``bonds`` (default, second order in dt) or ``driver`` (first order);
+* ``yield_stress_Pa``: the paper's 2.7 MPa, or None for unbreakable bonds;
+* ``gravity``: off at reduced scale, on in ``config/paper.yaml``;
+* ``bond_kinematics`` ``contact`` and ``head_rotation`` ``free`` (docs/choices.md, Bond kinematics);
+* ``start``: ``rest`` (``n_cycles`` cycles) or ``periodic``
+  (:mod:`asphalt_nscd.harmonic.periodic`, ``periodic_cycles``).
 """
 
 from __future__ import annotations
@@ -101,8 +38,10 @@ import numpy as np
 from ..io import InputError, atomic_path, check_termination, remove_stale_temporaries
 from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
 from ..rheology.laws import POISSON_RATIO
-from .periodic import START_MODES
+from ..harmonic import periodic
 
+#: how a test starts: at rest, or in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`)
+START_MODES = ("rest", "periodic")
 DT_POLICIES = ("fixed", "steps_per_cycle")
 FORCE_READINGS = ("bonds", "driver")
 #: per-step statistics stored under ``stats/``
@@ -117,7 +56,7 @@ class TwoPBSettings:
     amplitude_m : head displacement amplitude A, m (paper 63e-6).
     n_cycles : loading cycles simulated (paper 5).
     window_cycles : last cycles reduced (config ``lab.simulation_window_cycles``).
-    dt_policy : 'fixed' | 'steps_per_cycle' (module docstring); dt_s : s; steps_per_cycle : N;
+    dt_policy : 'fixed' | 'steps_per_cycle' (docs/choices.md, Campaign); dt_s : s; steps_per_cycle : N;
     dt_max_s : cap of the steps_per_cycle policy, s.
     theta : Moreau-Jean theta; tolerance, max_iterations : NLGS; friction : Coulomb (0.7).
     gravity : bool. nu : Poisson's ratio of Eqs. 8-11.
@@ -126,9 +65,9 @@ class TwoPBSettings:
     force_reading : 'bonds' | 'driver'. checkpoint_every : steps (0 = never).
     profile_bins, profile_instants : height bins and instants of the velocity profile.
     bond_kinematics : 'contact' | 'barycentre' (config ``nscd.bond_kinematics``);
-    head_rotation : 'free' | 'clamped' (module docstring).
+    head_rotation : 'free' | 'clamped' (docs/choices.md, Bond kinematics).
     start : 'rest' (``n_cycles`` from rest, the paper) | 'periodic' (``periodic_cycles`` from
-        the periodic steady state, :mod:`.periodic`).
+        the periodic steady state, :mod:`asphalt_nscd.harmonic.periodic`).
     linear_solver : the core's linear fast-path solver, 'cg' | 'cg_ssor' | 'direct'
         (config ``nscd.linear_solver``, per mode ``campaign.paper|measured.linear_solver``;
         :mod:`asphalt_nscd.nscd.linear`).
@@ -245,23 +184,22 @@ def settings_from(cfg: dict, where: str = "--settings-json") -> TwoPBSettings:
         raise InputError(f"{where}: {exc}") from exc
 
 
-def read_config(path) -> dict:
-    """The workflow config (YAML) at ``path``, which must hold a ``campaign`` section.
+def read_config(paths) -> dict:
+    """The workflow config of the files ``paths`` (one path, or several merged in order), with
+    ``config/config.yaml`` of the working directory merged under them as Snakemake merges
+    ``--configfile`` (:func:`asphalt_nscd.config.load`); it must hold a ``campaign`` section.
 
     Raises
     ------
     InputError
-        naming the file: unreadable, not YAML, not a mapping, or without ``campaign``.
+        naming the file: unreadable, not YAML, not a mapping; or no ``campaign`` section.
     """
-    import yaml
+    from .. import config
 
-    try:
-        with open(path) as fh:
-            cfg = yaml.safe_load(fh)
-    except (OSError, yaml.YAMLError) as exc:
-        raise InputError(f"{path}: cannot read the config ({exc})") from exc
-    if not isinstance(cfg, dict) or "campaign" not in cfg:
-        raise InputError(f"{path}: no 'campaign' section")
+    cfg = config.load(paths)
+    if "campaign" not in cfg:
+        names = " ".join(str(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths))
+        raise InputError(f"{names}: no 'campaign' section")
     return cfg
 
 
@@ -340,19 +278,17 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
 def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
                continuous: bool = False) -> dict:
     """Put a freshly built simulation in its initial state: at rest, or, with ``settings.start
-    == 'periodic'``, in the periodic steady state (:mod:`.periodic`) unless that state would
+    == 'periodic'``, in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`) unless that state would
     break a bond (then at rest, with a message on stderr).
 
     Returns dict: start ('rest' | 'periodic', the start used), requested, and for a
     periodic request (``continuous``: the continuous steady state s = i w instead of the
-    theta-method's, :func:`.periodic.periodic_state`, for ``periodic-check``) solve_s and solve_cpu_s (wall and CPU time of the solve, counted in the
+    theta-method's, :func:`asphalt_nscd.harmonic.periodic.periodic_state`, for ``periodic-check``) solve_s and solve_cpu_s (wall and CPU time of the solve, counted in the
     record's times), force_ratio (steady bond force / strength), gravity (with gravity on: the
-    steady state under gravity superposed, :meth:`.periodic.GravityState.info`), gmres_iterations,
+    steady state under gravity superposed, :meth:`asphalt_nscd.harmonic.periodic.GravityState.info`), gmres_iterations,
     laplace_imag (the theta-method's effective angular frequency, rad/s) and fallback
     (reason, when it starts from rest).
     """
-    from . import periodic
-
     info = {"start": "rest", "requested": settings.start}
     if settings.start != "periodic":
         return info

@@ -36,6 +36,26 @@ from . import effects
 CORRECTED_COLUMNS = ("specimen", "temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg")
 
 
+def checked(df: pd.DataFrame, path, columns, positive=()) -> pd.DataFrame:
+    """``df`` (read from ``path``) with its numeric ``columns`` checked (finite numbers;
+    ``positive``: > 0) and made floats, in place.
+
+    Raises InputError naming the file and the missing column, or the line and column of a bad
+    value.
+    """
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(columns)}")
+    for c in columns:
+        v = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
+        bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in positive else False))
+        if bad.size:
+            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number"
+                             + (" > 0" if c in positive else ""))
+        df[c] = v
+    return df
+
+
 def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
             T_ref_C: float | None = None, test=None) -> dict:
     """Artifact search and master curve of a measured table.
@@ -182,8 +202,6 @@ def read_corrected(path) -> pd.DataFrame:
 
     Raises InputError naming the file and the missing column or the row of a bad value.
     """
-    from .inputs import checked
-
     table = read_csv(path, dtype={"specimen": str})  # pandas >= 3 parses floats round-trip exactly
     if "specimen" not in table.columns:
         raise InputError(f"{path}: line 1 (header): missing column(s) ['specimen']")

@@ -1,55 +1,32 @@
 """What the simulation gets wrong, computed: error budget, named causes, extended law and gain.
 
 :func:`diagnose` computes the JSON report of ``asphalt-nscd diagnose`` from what the earlier
-steps wrote; it refits nothing upstream. Rendering (page, figure, tables) is
-:mod:`asphalt_nscd.diagnosis.render`; reading the input files, :mod:`asphalt_nscd.diagnosis.inputs`.
+steps wrote and refits nothing upstream (inputs: :mod:`asphalt_nscd.diagnosis.inputs`;
+page, figure, tables: :mod:`asphalt_nscd.diagnosis.render`). Its parts:
 
-1. noise levels from replicate scatter and
-2. data artifacts by forward selection of nested master-curve fits
-   (:mod:`asphalt_nscd.diagnosis.effects`), the corrected table and its master curve: read
-   (``asphalt-nscd master-curve``, :mod:`asphalt_nscd.diagnosis.artifacts`);
-3. baseline: the simulation (``simulated``) or, without it, the macro Burger's fits per
-   temperature (``rheology.calibration.fit_table``) against the measured replicate means;
-4. model-form and simulation causes (:mod:`asphalt_nscd.diagnosis.causes`);
-5. error budget per temperature (MRE of |E*| and Phi and signed bias):
-   data artifacts (measured vs corrected), model form (Burger's vs corrected data),
-   micro-macro transfer (harmonic response vs its macro law), numerics (time-domain vs
-   harmonic);
-6. extended law: the temperature-aware generalized Burger's law at the measured
-   temperatures (:mod:`asphalt_nscd.rheology.extended`, settings chosen by cross-validation in
-   :func:`asphalt_nscd.diagnosis.crossval.fit_extended`), read from the law file the workflow
-   wrote with ``asphalt-nscd extend-law`` and ran the NSCD campaign with; its in-sample MRE and
-   the gain;
-7. held-out errors (``crossval``, rows of ``asphalt-nscd crossval``): the MRE of every model
-   on the cells each fold held out, beside the in-sample MRE (:func:`heldout_report`,
-   :func:`asphalt_nscd.diagnosis.render.gain_table`, the page). These are the headline numbers: the
-   "after" of the gain is in-sample (and the NSCD "after" reproduces its law by construction
-   of the transfer correction).
+1. noise levels from the replicate scatter; data artifacts, corrected table and master curve
+   as ``asphalt-nscd master-curve`` wrote them (:mod:`asphalt_nscd.diagnosis.artifacts`);
+2. baseline: the simulation or, without it, the macro Burger's fits per temperature
+   (``rheology.calibration.fit_table``), against the measured replicate means;
+3. model-form and simulation causes (:mod:`asphalt_nscd.diagnosis.causes`);
+4. error budget per temperature (MRE and signed bias of |E*| and Phi): data artifacts, model
+   form, micro-macro transfer, numerics;
+5. the extended law (:mod:`asphalt_nscd.rheology.extended`) from its law file, its in-sample
+   MRE and the gain: ``nscd``, ``macro`` and, given the network factors, ``law_only`` rows;
+6. held-out errors of every model (:func:`heldout_report`, rows of ``asphalt-nscd crossval``),
+   the headline numbers.
 
-Gain: MRE before -> after per temperature, from two sources, each row labelled:
-``nscd`` (time-domain NSCD simulation with the Burger's bond law -> NSCD simulation rerun
-with the extended law; only when both simulations are given) and ``macro`` (the macro
-Burger's law -> the extended macro law, always). "Before" is against the measured replicate
-means, "after" against the artifact-corrected ones (the extended law is calibrated on them);
-the "after" against the measured means is reported beside.
-
-Transfer correction: the extended NSCD rows may have run with the bonds calibrated with
-E*(w) / NF_s (``run-2pb --network-factor-json``; column ``transfer_network_factor`` of the
-rows), NF_s the sample's network factor (:mod:`asphalt_nscd.harmonic.transfer`); the report
-says so and gives NF_s. Given the network factors (``transfer``), a third source ``law_only``
-is added: the inertia-free harmonic response of the samples with the extended law and no
-correction, NF_s E*_law(w) (exact: K(w) = E*(w) G; mean NF_s over the samples, on the
-cells of the extended NSCD run, else on every measured cell), before = the primary "before". It
-separates the gain of the law (before -> law_only) from the gain of the correction
-(law_only -> nscd).
-
-MRE (paper Table 4): mean over the frequencies of an isotherm of |model - data| / data, in
-percent, against the replicate means (:mod:`asphalt_nscd.rheology.metrics`); bias: the signed
-mean. Temperatures are JSON keys
+MRE (paper Table 4): mean over an isotherm's frequencies of |model - data| / data, in percent
+(:mod:`asphalt_nscd.rheology.metrics`); bias: the signed mean. Temperatures are JSON keys
 formatted with ``%g``.
+
+Budget terms and gain rows: docs/choices.md, Extended mode: generalized law and transfer
+correction; causes: docs/choices.md, Diagnosis: causes with measured error rates.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -147,6 +124,98 @@ def _by_T(frame: pd.DataFrame, col: str) -> dict:
     return {T_key(T): float(v) for T, v in frame[col].items()}
 
 
+@dataclass
+class DiagnosisInputs:
+    """What :func:`diagnose` reads: its parameters, one field each (described there)."""
+
+    measured: pd.DataFrame
+    search: ArtifactRecord
+    corrected: pd.DataFrame
+    laws: dict | None
+    simulated: pd.DataFrame | None = None
+    harmonic: pd.DataFrame | None = None
+    time_errors: pd.DataFrame | None = None
+    simulated_extended: pd.DataFrame | None = None
+    macro_params: pd.DataFrame | None = None
+    transfer: dict | None = None
+    crossval: pd.DataFrame | None = None
+    law_info: dict | None = None
+    law_failure: str | None = None
+    cause_tolerances: dict | None = None
+
+
+@dataclass
+class Cells:
+    """Stage :func:`cells_stage`. Cell tables hold one row per (temperature_C, frequency_Hz) with
+    ``E_norm_MPa`` (MPa) and ``phase_deg`` (deg); comparison tables are :func:`compare`'s."""
+
+    table: pd.DataFrame  #: the measured table prepared for the effects (:func:`effects.prepare_table`)
+    simulated: pd.DataFrame | None  #: time-domain rows, harmonic rows split off
+    harmonic: pd.DataFrame | None  #: harmonic rows, given or split off ``simulated``
+    time_errors: pd.DataFrame | None  #: phase errors ``frequency_Hz, dt_s, phase_error_deg``
+    measured: pd.DataFrame  #: replicate means of the measured table
+    corrected: pd.DataFrame  #: replicate means of the artifact-corrected table
+    burgers_measured: pd.DataFrame  #: Burger's parameters fitted per temperature (MPa, MPa s)
+    burgers: pd.DataFrame  #: Burger's parameters of the simulation (``macro_params``, else the fit)
+    burgers_cells: pd.DataFrame  #: the macro Burger's law at the measured cells
+    sim: pd.DataFrame | None  #: cell means of the time-domain rows
+    harm: pd.DataFrame | None  #: cell means of the harmonic rows
+    baseline_model: str  #: what the baseline is
+    base: pd.DataFrame  #: comparison of the baseline with the measured cells
+    temps: list  #: measured temperatures, degC, ascending
+
+
+@dataclass
+class Causes:
+    """Stage :func:`causes_stage`: candidate causes (dicts of :mod:`asphalt_nscd.diagnosis.causes`)."""
+
+    entries: list  #: the artifact entries of the search, then the model-form and simulation causes
+    named: list  #: the detected entries, highest score first
+
+
+@dataclass
+class Budget:
+    """Stage :func:`budget_stage`: MRE and bias (%) per temperature and component."""
+
+    table: pd.DataFrame  #: rows ``temperature_C, component, mre_*_pct, bias_*_pct``
+    by_temperature: dict  #: {T key: {component: {mre_*_pct, bias_*_pct} or None}}
+
+
+@dataclass
+class Law:
+    """Stage :func:`law_stage`: the extended law at the measured temperatures."""
+
+    laws: dict  #: {T degC: law in MPa, MPa s}: the extended law, else Burger's per isotherm
+    model: str  #: what the law is (or why the Burger's law stands in for it)
+    cells: pd.DataFrame  #: the law at the cells of the corrected table
+
+
+@dataclass
+class Extended:
+    """Stage :func:`extended_stage`: the "after" model and its errors."""
+
+    simulated_cells: pd.DataFrame | None  #: cell means of the extended NSCD rows
+    transfer: dict  #: :func:`transfer_summary`
+    nscd_after: str  #: the extended NSCD simulation, described
+    model: str  #: the "after" model: the extended NSCD simulation, else the extended macro law
+    vs_corrected: pd.DataFrame  #: comparison of the "after" model with the corrected cells
+    vs_measured: pd.DataFrame  #: the same against the measured cells
+    law_vs_corrected: pd.DataFrame  #: comparison of the extended macro law with the corrected cells
+    law_vs_measured: pd.DataFrame  #: the same against the measured cells
+
+
+@dataclass
+class Gains:
+    """Stage :func:`gains_stage`: gain rows (:func:`gain_rows`) per source."""
+
+    gain: dict  #: primary source: baseline -> "after" model
+    sources: dict  #: {"before": "nscd" | "macro", "after": "nscd" | "macro"} of ``gain``
+    macro: dict  #: macro Burger's law -> extended macro law
+    nscd: dict | None  #: NSCD -> extended NSCD (``gain`` when both are simulations)
+    law_only: dict | None  #: baseline -> NF_s E*_law (given network factors)
+    law_only_model: str | None  #: the ``law_only`` model, described
+
+
 def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataFrame, laws: dict | None,
              simulated: pd.DataFrame | None = None, harmonic: pd.DataFrame | None = None,
              time_errors: pd.DataFrame | None = None, simulated_extended: pd.DataFrame | None = None,
@@ -155,6 +224,9 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
              cause_tolerances: dict | None = None) -> tuple[dict, dict]:
     """Diagnose a measured table from what the earlier steps wrote (and optional simulation
     results); nothing upstream is refitted here.
+
+    The stages, in order: :func:`cells_stage`, :func:`causes_stage`, :func:`budget_stage`,
+    :func:`law_stage`, :func:`extended_stage`, :func:`gains_stage`, :func:`report_stage`.
 
     Parameters
     ----------
@@ -197,6 +269,8 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
     law_info : dict, optional
         ``selection`` and ``model`` of the law file (``extend-law``): the chosen settings and
         their cross-validation curve, shown on the page.
+    law_failure : str, optional
+        Why there is no extended law (with ``laws`` None), quoted in the report.
     cause_tolerances : dict, optional
         ``network_factor`` and ``time_integration_deg`` (default :data:`causes.TOLERANCES`).
 
@@ -213,17 +287,37 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
         if ``laws`` lacks a measured temperature, or if an extended row ran with a network
         factor that differs from ``transfer``'s.
     """
-    table = effects.prepare_table(measured)
-    master, alpha, shift = search.master, search.alpha, search.shift
-    simulated, harmonic = split_simulated(simulated, harmonic)
+    inputs = DiagnosisInputs(measured, search, corrected, laws, simulated=simulated, harmonic=harmonic,
+                             time_errors=time_errors, simulated_extended=simulated_extended,
+                             macro_params=macro_params, transfer=transfer, crossval=crossval,
+                             law_info=law_info, law_failure=law_failure, cause_tolerances=cause_tolerances)
+    cells = cells_stage(inputs)
+    found = causes_stage(inputs, cells)
+    budget = budget_stage(cells)
+    law = law_stage(inputs, cells)
+    extended = extended_stage(inputs, cells, law)
+    gains = gains_stage(cells, law, extended)
+    report = report_stage(inputs, cells, found, budget, law, extended, gains)
+    return report, {"laws": law.laws, "corrected": corrected, "budget": budget.table, "master": search.master}
+
+
+def cells_stage(inputs: DiagnosisInputs) -> Cells:
+    """Cell means of the measured, corrected and simulated tables, the macro Burger's law at the
+    measured cells and the baseline: the time-domain simulation if given, else that law.
+
+    Harmonic rows of ``simulated`` (``solver`` column) join the harmonic ones; without
+    ``time_errors``, they come from paired time-domain and harmonic rows
+    (:func:`derived_time_integration`)."""
+    table = effects.prepare_table(inputs.measured)
+    simulated, harmonic = split_simulated(inputs.simulated, inputs.harmonic)
+    time_errors = inputs.time_errors
     if time_errors is None:
         time_errors = derived_time_integration(simulated, harmonic)
 
     meas_cells = cell_means(table)
-    corr_cells = cell_means(corrected)
+    corr_cells = cell_means(inputs.corrected)
     burgers_measured = fit_table(table)
-
-    burgers = macro_params if macro_params is not None else burgers_measured
+    burgers = inputs.macro_params if inputs.macro_params is not None else burgers_measured
     burgers_cells = cells_from_complex(meas_cells, causes.burgers_predict(
         burgers, meas_cells["temperature_C"], meas_cells["frequency_Hz"]))
     sim_cells, harm_cells = simulation_cells(simulated), simulation_cells(harmonic)
@@ -232,96 +326,146 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
         baseline_model, baseline_cells = "NSCD simulation (time domain, Burger's bond law)", sim_cells
     else:
         baseline_model, baseline_cells = "macro Burger's model (Eqs. 27-29) fitted per temperature", burgers_cells
-    base = compare(baseline_cells, meas_cells)
+    return Cells(table=table, simulated=simulated, harmonic=harmonic, time_errors=time_errors,
+                 measured=meas_cells, corrected=corr_cells, burgers_measured=burgers_measured, burgers=burgers,
+                 burgers_cells=burgers_cells, sim=sim_cells, harm=harm_cells, baseline_model=baseline_model,
+                 base=compare(baseline_cells, meas_cells), temps=sorted(meas_cells["temperature_C"].unique()))
 
-    tol = {**causes.TOLERANCES, **(cause_tolerances or {})}
+
+def causes_stage(inputs: DiagnosisInputs, cells: Cells) -> Causes:
+    """Candidate causes: the search's artifact entries, then the broad relaxation spectrum,
+    the static modulus, the network factor (harmonic rows, else time-domain rows) and the
+    time integration (:mod:`asphalt_nscd.diagnosis.causes`, tolerances ``cause_tolerances``
+    over :data:`causes.TOLERANCES`)."""
+    search = inputs.search
+    tol = {**causes.TOLERANCES, **(inputs.cause_tolerances or {})}
     entries = [dict(e) for e in search.effects]
-    entries.append(causes.broad_spectrum(table, master, burgers_measured, corrected))
-    entries.append(causes.static_modulus(corrected, master, alpha))
-    transfer_src = harmonic if harmonic is not None else simulated
-    entries.append(causes.network_factor(transfer_src, burgers, "harmonic" if harmonic is not None else "simulated",
+    entries.append(causes.broad_spectrum(cells.table, search.master, cells.burgers_measured, inputs.corrected))
+    entries.append(causes.static_modulus(inputs.corrected, search.master, search.alpha))
+    transfer_src = cells.harmonic if cells.harmonic is not None else cells.simulated
+    entries.append(causes.network_factor(transfer_src, cells.burgers,
+                                         "harmonic" if cells.harmonic is not None else "simulated",
                                          tolerance=tol["network_factor"]))
-    entries.append(causes.time_integration(time_errors, tolerance_deg=tol["time_integration_deg"]))
-    order = {"data": 0, "model_form": 1, "simulation": 2}
+    entries.append(causes.time_integration(cells.time_errors, tolerance_deg=tol["time_integration_deg"]))
     named = sorted([e for e in entries if e["detected"]], key=lambda e: -e["score"])
+    return Causes(entries=entries, named=named)
 
-    # error budget
-    comps = {"data_artifacts": compare(meas_cells, corr_cells),
-             "model_form": compare(burgers_cells, corr_cells),
-             "micro_macro_transfer": None, "numerics": None, "total": base}
-    if harm_cells is not None:
-        hb = cells_from_complex(harm_cells, causes.burgers_predict(burgers, harm_cells["temperature_C"],
-                                                                     harm_cells["frequency_Hz"]))
-        comps["micro_macro_transfer"] = compare(harm_cells, hb.dropna())
-        if sim_cells is not None:
-            comps["numerics"] = compare(sim_cells, harm_cells)
-    temps = sorted(meas_cells["temperature_C"].unique())
-    budget_rows, budget_json = [], {}
-    for T in temps:
-        budget_json[T_key(T)] = {}
+
+def budget_stage(cells: Cells) -> Budget:
+    """Error budget per measured temperature: data artifacts (measured vs corrected), model
+    form (macro Burger's vs corrected), micro-macro transfer (harmonic response vs its macro
+    Burger's law), numerics (time domain vs harmonic) and the total (baseline vs measured);
+    a component without its inputs is None."""
+    comps = {"data_artifacts": compare(cells.measured, cells.corrected),
+             "model_form": compare(cells.burgers_cells, cells.corrected),
+             "micro_macro_transfer": None, "numerics": None, "total": cells.base}
+    harm = cells.harm
+    if harm is not None:
+        hb = cells_from_complex(harm, causes.burgers_predict(cells.burgers, harm["temperature_C"],
+                                                             harm["frequency_Hz"]))
+        comps["micro_macro_transfer"] = compare(harm, hb.dropna())
+        if cells.sim is not None:
+            comps["numerics"] = compare(cells.sim, harm)
+    rows, by_T = [], {}
+    for T in cells.temps:
+        by_T[T_key(T)] = {}
         for name, frame in comps.items():
             if frame is None or T not in frame.index:
-                budget_json[T_key(T)][name] = None
+                by_T[T_key(T)][name] = None
                 continue
             row = frame.loc[T]
             vals = {k: float(row[k]) for k in ("mre_E_norm_pct", "mre_phase_pct", "bias_E_norm_pct", "bias_phase_pct")}
-            budget_json[T_key(T)][name] = vals
-            budget_rows.append({"temperature_C": T, "component": name, **vals})
-    budget = pd.DataFrame(budget_rows)
+            by_T[T_key(T)][name] = vals
+            rows.append({"temperature_C": T, "component": name, **vals})
+    return Budget(table=pd.DataFrame(rows), by_temperature=by_T)
 
-    # extended law and gain
+
+def law_stage(inputs: DiagnosisInputs, cells: Cells) -> Law:
+    """The extended law at the measured temperatures and at the corrected cells; without one
+    (``laws`` None), the macro Burger's fit per isotherm stands in and the model text says why.
+
+    Raises InputError if ``laws`` lacks a measured temperature."""
+    laws, law_failure = inputs.laws, inputs.law_failure
     if laws is None:  # the report goes on with the paper's Burger's law per isotherm standing in
         law_failure = f"extended law not computable: {law_failure or 'no law given'}"
-        laws = {float(r["temperature_C"]): burgers_model(r, unit=1.0) for _, r in burgers_measured.iterrows()}
+        laws = {float(r["temperature_C"]): burgers_model(r, unit=1.0) for _, r in cells.burgers_measured.iterrows()}
     else:
         law_failure = None
-        missing = [float(T) for T in temps if temperature_key(laws, T) is None]
+        missing = [float(T) for T in cells.temps if temperature_key(laws, T) is None]
         if missing:
             raise InputError(f"extended laws: no law at {missing} degC (the measured temperatures); "
                              f"given: {sorted(laws)}")
-        laws = {float(T): laws[temperature_key(laws, T)] for T in temps}
-    E_law = law_file.complex_modulus(laws, corr_cells["temperature_C"], corr_cells["frequency_Hz"])
-    law_cells = cells_from_complex(corr_cells, E_law)
+        laws = {float(T): laws[temperature_key(laws, T)] for T in cells.temps}
+    corr = cells.corrected
+    E_law = law_file.complex_modulus(laws, corr["temperature_C"], corr["frequency_Hz"])
     law_model = ("generalized Burger's law (Maxwell + N Kelvin-Voigt + static spring) per temperature "
                  "from the 2S2P1D/WLF master curve of the corrected data")
     if law_failure is not None:
         law_model = f"{law_failure}; the macro Burger's law per temperature stands in for it (no gain)"
-    ext_sim_cells = simulation_cells(simulated_extended)
-    tr = transfer_summary(simulated_extended, transfer)
+    return Law(laws=laws, model=law_model, cells=cells_from_complex(corr, E_law))
+
+
+def extended_stage(inputs: DiagnosisInputs, cells: Cells, law: Law) -> Extended:
+    """The "after" model (the NSCD simulation rerun with the extended law, else the extended
+    macro law), its transfer correction (:func:`transfer_summary`) and the errors of it and of
+    the law against the corrected and the measured cells.
+
+    Raises InputError as :func:`transfer_summary`."""
+    ext_sim_cells = simulation_cells(inputs.simulated_extended)
+    tr = transfer_summary(inputs.simulated_extended, inputs.transfer)
     nscd_after = "NSCD simulation (time domain, generalized Burger's bond law" + (
         f", transfer correction E*/NF_s, NF_s = {nf_text(tr['network_factor_applied'])})"
         if tr["applied"] else ", no transfer correction)")
     if ext_sim_cells is not None:
         ext_cells, ext_model = ext_sim_cells, nscd_after
     else:
-        ext_cells, ext_model = law_cells, law_model
-    ext = compare(ext_cells, corr_cells)
-    ext_meas = compare(ext_cells, meas_cells)
-    law_ext = compare(law_cells, corr_cells)
-    law_ext_meas = compare(law_cells, meas_cells)
-    macro_before = compare(burgers_cells, meas_cells)
-    gain = gain_rows(base, ext, ext_meas, temps)
-    sources = {"before": "nscd" if sim_cells is not None else "macro",
-               "after": "nscd" if ext_sim_cells is not None else "macro"}
-    gain_macro = gain_rows(macro_before, law_ext, law_ext_meas, temps)
-    gain_nscd = gain if sources == {"before": "nscd", "after": "nscd"} else None
-    met = targets_met(gain)
-    gain_law_only, law_only_model = None, None
-    if tr["law_only_network_factor"] is not None:
-        nf = tr["law_only_network_factor"]
-        # on the cells of the extended NSCD run when there is one (same cells as its gain rows)
-        cells = ext_sim_cells if ext_sim_cells is not None else corr_cells
-        cells = cells[[temperature_key(laws, T) is not None for T in cells["temperature_C"]]]
-        E_lo = nf * law_file.complex_modulus(laws, cells["temperature_C"], cells["frequency_Hz"])
-        lo_cells = cells_from_complex(cells, E_lo)
-        gain_law_only = gain_rows(base, compare(lo_cells, corr_cells), compare(lo_cells, meas_cells), temps)
-        law_only_model = ("harmonic response without inertia, generalized Burger's bond law, no transfer "
-                          f"correction: NF_s x E*_law, NF_s = {nf_text(tr['network_factor_harmonic'])}")
+        ext_cells, ext_model = law.cells, law.model
+    return Extended(simulated_cells=ext_sim_cells, transfer=tr, nscd_after=nscd_after, model=ext_model,
+                    vs_corrected=compare(ext_cells, cells.corrected), vs_measured=compare(ext_cells, cells.measured),
+                    law_vs_corrected=compare(law.cells, cells.corrected),
+                    law_vs_measured=compare(law.cells, cells.measured))
 
-    kk_T = isotherm_residuals(table)
-    kk_ref = synthetic.kk_reference(sorted(table["frequency_Hz"].unique()), int(table["specimen"].nunique()))
-    kk_pct = {T_key(T): float(100.0 * np.mean(kk_ref <= v)) for T, v in kk_T.items()}
-    core = master.core()
+
+def gains_stage(cells: Cells, law: Law, extended: Extended) -> Gains:
+    """Gain rows per source: the primary one (baseline -> "after" model), ``macro`` (macro
+    Burger's -> extended macro law), ``nscd`` (when both are simulations) and, given network
+    factors, ``law_only`` (baseline -> NF_s E*_law, :func:`law_only_gain`)."""
+    macro_before = compare(cells.burgers_cells, cells.measured)
+    gain = gain_rows(cells.base, extended.vs_corrected, extended.vs_measured, cells.temps)
+    sources = {"before": "nscd" if cells.sim is not None else "macro",
+               "after": "nscd" if extended.simulated_cells is not None else "macro"}
+    gain_macro = gain_rows(macro_before, extended.law_vs_corrected, extended.law_vs_measured, cells.temps)
+    gain_nscd = gain if sources == {"before": "nscd", "after": "nscd"} else None
+    gain_law_only, law_only_model = law_only_gain(cells, law, extended)
+    return Gains(gain=gain, sources=sources, macro=gain_macro, nscd=gain_nscd, law_only=gain_law_only,
+                 law_only_model=law_only_model)
+
+
+def law_only_gain(cells: Cells, law: Law, extended: Extended) -> tuple[dict | None, str | None]:
+    """(gain rows, model text) of the ``law_only`` source: the inertia-free harmonic response
+    NF_s E*_law(w) with the mean network factor, on the cells of the extended NSCD run when
+    there is one (its gain rows' cells), else on the corrected cells; (None, None) without
+    network factors."""
+    tr = extended.transfer
+    if tr["law_only_network_factor"] is None:
+        return None, None
+    nf = tr["law_only_network_factor"]
+    on = extended.simulated_cells if extended.simulated_cells is not None else cells.corrected
+    on = on[[temperature_key(law.laws, T) is not None for T in on["temperature_C"]]]
+    E_lo = nf * law_file.complex_modulus(law.laws, on["temperature_C"], on["frequency_Hz"])
+    lo_cells = cells_from_complex(on, E_lo)
+    gain = gain_rows(cells.base, compare(lo_cells, cells.corrected), compare(lo_cells, cells.measured), cells.temps)
+    model = ("harmonic response without inertia, generalized Burger's bond law, no transfer "
+             f"correction: NF_s x E*_law, NF_s = {nf_text(tr['network_factor_harmonic'])}")
+    return gain, model
+
+
+def report_stage(inputs: DiagnosisInputs, cells: Cells, found: Causes, budget: Budget, law: Law,
+                 extended: Extended, gains: Gains) -> dict:
+    """The JSON report of ``asphalt-nscd diagnose`` (:func:`asphalt_nscd.io.json_safe`) from the
+    stages before."""
+    measured, search, temps, base = inputs.measured, inputs.search, cells.temps, cells.base
+    order = {"data": 0, "model_form": 1, "simulation": 2}
     report = {
         "measured": {"n_rows": int(len(measured)), "n_specimens": int(measured["specimen"].nunique()),
                      "temperatures_C": [float(T) for T in temps],
@@ -329,54 +473,78 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
         "noise": {"sigma_lnE": search.sigma[0], "sigma_phase_deg": search.sigma[1],
                   "from_replicates": search.noise_from_replicates},
         "artifact_screening": search.screening,
-        "master_curve": {"model": "2S2P1D", "shift": shift, "T_ref_C": master.T_ref_C,
-                         "parameters": {k: float(v) for k, v in core.items()},
-                         "log10_aT": {T_key(T): float(master.log_shift(T)) for T in temps},
-                         "chi2_per_dof": master.rss / max(master.n_residuals - master.n_params, 1)},
+        "master_curve": master_curve_block(search, temps),
+        **kramers_kronig_blocks(cells.table),
+        "baseline": {"model": cells.baseline_model, "reference": "measured replicate means",
+                     "mre_E_norm_pct": _by_T(base, "mre_E_norm_pct"), "mre_phase_pct": _by_T(base, "mre_phase_pct"),
+                     "bias_E_norm_pct": _by_T(base, "bias_E_norm_pct"),
+                     "bias_phase_pct": _by_T(base, "bias_phase_pct")},
+        "error_budget": budget.by_temperature,
+        "effects": sorted(found.entries, key=lambda e: order[e["category"]]),
+        "causes": [e["name"] for e in found.named],
+        "extended": extended_block(inputs.law_info, law, extended),
+        "gain": gains.gain,
+        "gain_sources": {**gains.sources,
+                         "models": {"nscd": {"before": "NSCD simulation (time domain, Burger's bond law)",
+                                             "after": extended.nscd_after},
+                                    "macro": {"before": "macro Burger's model (Eqs. 27-29) per temperature",
+                                              "after": law.model},
+                                    "law_only": {"before": cells.baseline_model, "after": gains.law_only_model}},
+                         "reference": {"before": "measured replicate means",
+                                       "after": "artifact-corrected measured replicate means"}},
+        "gain_nscd": gains.nscd,
+        "gain_macro": gains.macro,
+        "gain_law_only": gains.law_only,
+        "transfer": extended.transfer,
+        "heldout": heldout_report(inputs.crossval, measured) if inputs.crossval is not None else None,
+        "targets": {**TARGETS, "met": targets_met(gains.gain), "met_macro": targets_met(gains.macro),
+                    "met_nscd": targets_met(gains.nscd) if gains.nscd is not None else None,
+                    "met_law_only": targets_met(gains.law_only) if gains.law_only is not None else None},
+    }
+    return json_safe(report)
+
+
+def master_curve_block(search: ArtifactRecord, temps) -> dict:
+    """The ``master_curve`` block: 2S2P1D parameters, shift law and log10 a_T per temperature,
+    chi2 per degree of freedom."""
+    master = search.master
+    return {"model": "2S2P1D", "shift": search.shift, "T_ref_C": master.T_ref_C,
+            "parameters": {k: float(v) for k, v in master.core().items()},
+            "log10_aT": {T_key(T): float(master.log_shift(T)) for T in temps},
+            "chi2_per_dof": master.rss / max(master.n_residuals - master.n_params, 1)}
+
+
+def kramers_kronig_blocks(table: pd.DataFrame) -> dict:
+    """The Kramers-Kronig blocks: mean absolute phase residual per isotherm (deg), its
+    percentile among clean synthetic tables at the table's frequencies and replicate count,
+    and that reference distribution."""
+    kk_T = isotherm_residuals(table)
+    kk_ref = synthetic.kk_reference(sorted(table["frequency_Hz"].unique()), int(table["specimen"].nunique()))
+    return {
         "kramers_kronig_mean_abs_residual_deg": {T_key(T): float(v) for T, v in kk_T.items()},
-        "kramers_kronig_percentile": kk_pct,
+        "kramers_kronig_percentile": {T_key(T): float(100.0 * np.mean(kk_ref <= v)) for T, v in kk_T.items()},
         "kramers_kronig_reference": {"n_isotherms": int(kk_ref.size), "median_deg": float(np.median(kk_ref)),
                                      "p99_deg": float(np.percentile(kk_ref, 99)), "max_deg": float(kk_ref.max()),
                                      "source": "clean synthetic tables of every truth family (causal laws) at the "
                                                "table's frequencies and replicate count"},
-        "baseline": {"model": baseline_model, "reference": "measured replicate means",
-                     "mre_E_norm_pct": _by_T(base, "mre_E_norm_pct"), "mre_phase_pct": _by_T(base, "mre_phase_pct"),
-                     "bias_E_norm_pct": _by_T(base, "bias_E_norm_pct"), "bias_phase_pct": _by_T(base, "bias_phase_pct")},
-        "error_budget": budget_json,
-        "effects": sorted(entries, key=lambda e: order[e["category"]]),
-        "causes": [e["name"] for e in named],
-        "extended": {"model": ext_model, "law": law_model,
-                     "reference": "artifact-corrected measured replicate means",
-                     "parameters": law_file.to_json(laws)["temperatures"],
-                     "parameter_units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
-                     "mre_E_norm_pct": _by_T(ext, "mre_E_norm_pct"), "mre_phase_pct": _by_T(ext, "mre_phase_pct"),
-                     "mre_E_norm_pct_vs_measured": _by_T(ext_meas, "mre_E_norm_pct"),
-                     "mre_phase_pct_vs_measured": _by_T(ext_meas, "mre_phase_pct"),
-                     "law_mre_E_norm_pct": _by_T(law_ext, "mre_E_norm_pct"),
-                     "law_mre_phase_pct": _by_T(law_ext, "mre_phase_pct"),
-                     "selection": (law_info or {}).get("selection"),
-                     "T_ref_C": ((law_info or {}).get("model") or {}).get("T_ref_C")},
-        "gain": gain,
-        "gain_sources": {**sources,
-                         "models": {"nscd": {"before": "NSCD simulation (time domain, Burger's bond law)",
-                                             "after": nscd_after},
-                                    "macro": {"before": "macro Burger's model (Eqs. 27-29) per temperature",
-                                              "after": law_model},
-                                    "law_only": {"before": baseline_model, "after": law_only_model}},
-                         "reference": {"before": "measured replicate means",
-                                       "after": "artifact-corrected measured replicate means"}},
-        "gain_nscd": gain_nscd,
-        "gain_macro": gain_macro,
-        "gain_law_only": gain_law_only,
-        "transfer": tr,
-        "heldout": heldout_report(crossval, measured) if crossval is not None else None,
-        "targets": {**TARGETS, "met": met, "met_macro": targets_met(gain_macro),
-                    "met_nscd": targets_met(gain_nscd) if gain_nscd is not None else None,
-                    "met_law_only": targets_met(gain_law_only) if gain_law_only is not None else None},
     }
-    report = json_safe(report)
-    extra = {"laws": laws, "corrected": corrected, "budget": budget, "master": master}
-    return report, extra
+
+
+def extended_block(law_info: dict | None, law: Law, extended: Extended) -> dict:
+    """The ``extended`` block: the "after" model and the law, their in-sample MRE per
+    temperature (%), the law's parameters (Pa, Pa s) and its selected settings."""
+    ext, ext_meas = extended.vs_corrected, extended.vs_measured
+    return {"model": extended.model, "law": law.model,
+            "reference": "artifact-corrected measured replicate means",
+            "parameters": law_file.to_json(law.laws)["temperatures"],
+            "parameter_units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
+            "mre_E_norm_pct": _by_T(ext, "mre_E_norm_pct"), "mre_phase_pct": _by_T(ext, "mre_phase_pct"),
+            "mre_E_norm_pct_vs_measured": _by_T(ext_meas, "mre_E_norm_pct"),
+            "mre_phase_pct_vs_measured": _by_T(ext_meas, "mre_phase_pct"),
+            "law_mre_E_norm_pct": _by_T(extended.law_vs_corrected, "mre_E_norm_pct"),
+            "law_mre_phase_pct": _by_T(extended.law_vs_corrected, "mre_phase_pct"),
+            "selection": (law_info or {}).get("selection"),
+            "T_ref_C": ((law_info or {}).get("model") or {}).get("T_ref_C")}
 
 
 def target_verdict(value: float, low: float, high: float, target: float) -> str:

@@ -1,52 +1,27 @@
 """Model-form and simulation causes of the error of the paper's Burger's-based simulation.
 
-Model form (tested on the measured data)
-----------------------------------------
+Model form, tested on the measured data:
 ``broad_spectrum``
-    A Burger's model has one Maxwell and one Kelvin-Voigt time; mixes have a broad, power-law
-    spectrum. Test: held-out error, leave one frequency out (lofo, docs/validation.md):
-    for every tested frequency f_k, the rows at f_k are removed, the per-isotherm Burger's
-    fits (4 parameters per isotherm) and the 2S2P1D master curve (one shift law for the table)
-    are calibrated on the rest, and both predict |E*| and Phi at f_k for every temperature;
-    each model's held-out mean relative error (MRE, %) is taken over all held-out cells,
-    against the measured replicate means. The number reported is the *difference of the
-    held-out phase MREs* (Burger's minus master curve, percentage points) beside the noise
-    floor (mean relative standard error of the replicate means of Phi); the cause is named
-    when the master curve predicts the held-out frequencies better than the Burger's fits by
-    more than that floor (at least 1 point) in Phi or |E*|. No p-value: the two models are not
-    nested, and the held-out errors of neighbouring cells are not independent. The table must
-    keep at least 2 frequencies at an isotherm after a fold removes one (so at least 3 tested
-    frequencies per isotherm); the measured table is used as given (no artifact correction, so
-    that nothing fitted on a held-out cell reaches a fold). Estimate: the held-out and
-    in-sample MREs of both models, the exponents k, h of the 2S2P1D parabolic elements, the
-    decades of reduced frequency spanned by the data and the number of Kelvin-Voigt units a
-    Prony fit (2 per decade) of the master curve keeps over that span.
+    A Burger's model has one Maxwell and one Kelvin-Voigt time; mixes have a broad spectrum.
+    Leave one frequency out (docs/validation.md): the per-isotherm Burger's fits and the
+    2S2P1D master curve, refitted without the frequency on the table as given, predict it;
+    effect = difference of their held-out phase MREs (points) against the noise floor of the
+    replicate means (at least 1 point). Needs >= 3 frequencies per isotherm.
 ``static_modulus``
-    Mixes keep a long-time modulus E00 (aggregate skeleton), so Phi peaks and falls; a
-    Burger's model is a liquid. Test: extra-sum-of-squares F-test of the master curve with E00
-    free against E00 = 0 (nested models; its false-alarm rate is not measured by the
-    benchmark, whose truths all have E00 > 0). Estimate: ``static_modulus_MPa`` (Jacobian
-    s.e. by the delta method).
+    Mixes keep a long-time modulus E00; a Burger's model is a liquid. Extra-sum-of-squares
+    F-test of the master curve with E00 free against E00 = 0; ``static_modulus_MPa`` with its
+    delta-method standard error.
 
-Simulation causes: deterministic effects, not tests
----------------------------------------------------
-The harmonic solve and the time stepping are deterministic: their rows are not a sample,
-and a t-test over them has no false-alarm rate. Each is reported as an effect with its
-numerical uncertainty against a stated tolerance (config ``diagnosis.cause_tolerances``):
-
+Simulation causes: deterministic effects with a numerical uncertainty U, against a tolerance
+(config ``diagnosis.cause_tolerances``), no p-value:
 ``network_factor``
-    Micro-macro transfer of Eqs. 30-33: the harmonic response of the sample against the macro
-    law it was given. Effect: NF = exp(mean over rows of ln(|E*|_sample / |E*|_macro)); its
-    numerical uncertainty U = the largest relative departure of a row's ratio from NF (the
-    dependence on temperature and frequency that one factor does not carry, which also bounds
-    the solver's error); named when |NF - 1| - U exceeds the tolerance (default 1 %). The mean
-    phase difference is reported with its range.
+    Eqs. 30-33: NF = exp(mean over rows of ln(|E*|_sample / |E*|_macro)) of the harmonic rows,
+    U = the largest relative departure of a row from NF; named when |NF - 1| - U > 1 %.
 ``time_integration``
-    Phase error of the time stepping. From a table ``frequency_Hz, dt_s, phase_error_deg`` (or
-    NSCD minus harmonic rows with ``dt_s``): least squares phase_error = c (360 f dt) through
-    the origin. Effect: the error at the largest tested f dt, c x_max (deg); uncertainty U =
-    the largest departure of a row from the proportional law (deg); named when |c x_max| - U
-    exceeds the tolerance (default 0.1 deg).
+    phase_error = c (360 f dt) through the origin; effect c x_max at the largest tested f dt,
+    U = the largest departure of a row from that law; named when |c x_max| - U > 0.1 deg.
+
+Choices (docs/choices.md, Diagnosis: causes with measured error rates).
 """
 
 from __future__ import annotations

@@ -68,13 +68,26 @@ def _fit_options(p) -> None:
                    help="fit the law to the table as given (no artifact search and correction)")
 
 
-#: default candidate settings of the extended law (also config/*.yaml diagnosis.law)
+#: default candidate settings of the extended law: config/config.yaml's diagnosis.law in the
+#: options' spelling (verticals off/on = false/true, refines off = null); tests/unit/test_config.py
+#: checks them equal, with the other option defaults that config/config.yaml also sets
 LAW_DEFAULTS = {"shifts": ("wlf", "arrhenius"), "statics": ("none", "constant", "trend"),
                 "verticals": ("off", "on"), "refines": ("off", "1"), "per_decades": (2.0, 4.0)}
 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    _add_master_curve(subparsers)
+    _add_extend_law(subparsers)
+    _add_crossval(subparsers)
+    _add_diagnose(subparsers)
+    _add_synth(subparsers)
+    _add_diagnose_bench(subparsers)
+
+
+def _add_master_curve(subparsers) -> None:
+    """``master-curve``: artifact search and master curve of a measured table (JSON) and the
+    artifact-corrected table (CSV)."""
     p = subparsers.add_parser("master-curve", help="artifact search and master curve of a measured table (JSON) "
                                                    "and the artifact-corrected table (CSV)",
                               description="Search the measured table for data artifacts (nested master-curve "
@@ -91,6 +104,9 @@ def register(subparsers) -> None:
     p.add_argument("--corrected", type=Path, required=True, help="artifact-corrected measured table (CSV)")
     p.set_defaults(func=_master_curve)
 
+
+def _add_extend_law(subparsers) -> None:
+    """``extend-law``: temperature-aware extended (generalized Burger's) law (law JSON)."""
     p = subparsers.add_parser("extend-law", help="temperature-aware extended (generalized Burger's) law (law JSON)",
                               description="Fit the temperature-aware generalized Burger's law (one 2S2P1D "
                               "backbone and Prony chain at a reference temperature, a shift law, optional "
@@ -120,6 +136,10 @@ def register(subparsers) -> None:
                    help="cross-validation curve of the selection: one row per candidate setting (CSV)")
     p.set_defaults(func=_extend_law)
 
+
+def _add_crossval(subparsers) -> None:
+    """``crossval``: held-out (lofo/loto) predictions of Burger's, the extended law and the NSCD
+    sample."""
     p = subparsers.add_parser("crossval", help="held-out (lofo/loto) predictions of Burger's, the extended law "
                                                "and the NSCD sample",
                               description="Leave-one-frequency-out or leave-one-temperature-out validation "
@@ -156,6 +176,9 @@ def register(subparsers) -> None:
                    help="figure: measured, in-sample and held-out isotherms of the extended law")
     p.set_defaults(func=_crossval)
 
+
+def _add_diagnose(subparsers) -> None:
+    """``diagnose``: error budget, named causes, extended law and gain of the simulation."""
     p = subparsers.add_parser("diagnose", help="error budget, named causes, extended law and gain of the simulation",
                               description="Read the measured table, the artifact search and master curve "
                               "('master-curve'), the extended law ('extend-law') and the simulation results, "
@@ -211,6 +234,9 @@ def register(subparsers) -> None:
                    help="Markdown page 'What the simulation gets wrong' (links the figure by its file name)")
     p.set_defaults(func=_diagnose)
 
+
+def _add_synth(subparsers) -> None:
+    """``synth``: synthetic measured table with planted effects (truth in a JSON sidecar)."""
     p = subparsers.add_parser("synth", help="synthetic measured table with planted effects (truth in a JSON sidecar)")
     p.add_argument("--seed", type=int, required=True, help="random seed")
     p.add_argument("--effects", type=str, default="",
@@ -227,6 +253,10 @@ def register(subparsers) -> None:
                    help="do not write the test-geometry sidecar <output stem>.test.json")
     p.set_defaults(func=_synth)
 
+
+def _add_diagnose_bench(subparsers) -> None:
+    """``diagnose-bench``: false-alarm and detection rates of the artifact detection (with 95 %
+    intervals)."""
     p = subparsers.add_parser("diagnose-bench",
                               help="false-alarm and detection rates of the artifact detection (with 95 %% intervals)",
                               description="Draw clean and planted synthetic tables from truth families inside "

@@ -1,57 +1,26 @@
 """Held-out validation of the extended law: folds, nested selection of its settings, scores.
 
-Protocol (docs/validation.md; docs/choices.md, "Diagnosis: held-out validation"):
+Implements the protocol of docs/validation.md: ``lofo`` (leave one frequency out) and
+``loto`` (leave one temperature out; the end temperatures are extrapolations, reported
+apart). Inside each fold :func:`fit_extended` refits on the training rows only: artifact
+search and correction (:func:`asphalt_nscd.diagnosis.artifacts.analyse`, when >= 2
+temperatures with >= 3 frequencies each), replicate means, the law's settings chosen by
+:func:`select_settings` (inner lofo folds and inner loto folds of the interior temperatures)
+and the :class:`~asphalt_nscd.rheology.extended.ThermoLaw` on all training means. Models
+predicted at the held-out cells: ``burgers`` (per isotherm, Eqs. 27-29; lofo only),
+``extended_law``, ``nscd_sample`` (harmonic steady state of the sample whose bonds follow the
+fold's law / NF_s) and, added from ``run-2pb``, ``nscd_time_domain``; ``in_sample`` rows fit
+every cell. A measured cell is predicted through the fold's :class:`MeasurementModel` (its
+artifact correction at the held-out rows' frequency, strain and test order). Scores: relative
+errors of |E*| and Phi against the replicate means as given, MRE per temperature (%). A fold
+or model that cannot be computed is kept with ``computable = False`` and the reason.
 
-Folds
-    ``lofo`` (leave one frequency out): for each tested frequency, every row at that
-    frequency (all temperatures, all specimens) is removed. ``loto`` (leave one temperature
-    out): for each tested temperature its isotherm is removed; a temperature at either end
-    of the tested range is an extrapolation (``extrapolation`` column) and is reported apart.
-    On an unbalanced table a fold removes what it names wherever it occurs.
-Procedure fitted inside each fold (:func:`fit_extended`), on the training rows only
-    1. artifact search and correction (:func:`asphalt_nscd.diagnosis.artifacts.analyse`) when the
-       training table allows it (>= 2 temperatures, >= 3 frequencies each), else none (noted);
-    2. replicate means of the corrected table;
-    3. the law's settings chosen by an inner cross-validation on those means
-       (:func:`select_settings`: inner lofo folds and inner loto folds of the interior
-       training temperatures, each fit started from that inner fold's own simpler fits), the
-       simplest setting within one standard error of the best (the standard error corrected
-       for the overlap of the folds, Nadeau & Bengio 2003)
-       score (one-standard-error rule: the fewest fitted parameters, then the coarsest Prony
-       series, then the best score);
-    4. :class:`~asphalt_nscd.rheology.extended.ThermoLaw` with those settings on all training
-       means. Nothing computed from a held-out cell reaches the fold's law.
-Models predicted at the held-out cells
-    ``burgers`` (the paper's Burger's law fitted per isotherm, Eqs. 27-29, on the training
-    rows of that isotherm; lofo only: it has no temperature dependence), ``extended_law``
-    (the fold's law at the held-out temperature) and ``nscd_sample`` (the harmonic steady
-    state of the numerical sample whose bonds follow the fold's law divided by the sample's
-    network factor NF_s, as the extended campaign mode runs it; NF_s comes from the sample
-    alone). A time-domain NSCD row of one fold (``run-2pb`` with that fold's law) can be
-    added as ``nscd_time_domain``. In-sample rows (``kind = in_sample``): the same models
-    fitted on every row, at every cell.
-Scores
-    Reference: replicate means of the measured table as given. The artifacts are part of the
-    model: a fold predicts a measured cell as its material law divided by its own artifact
-    correction at the held-out rows (:class:`MeasurementModel`; from their frequency, strain
-    and test order, never their measured values), averaged over the cell's replicates. Relative error of |E*|:
-    | |E*|_pred / |E*|_mean - 1 |; of Phi: | Phi_pred - Phi_mean | / Phi_mean. MRE per
-    temperature = mean over its held-out cells (%). Headline: the worst temperature (lofo)
-    and the worst inner temperature (loto).
-Not computable
-    A fold (or a model at a cell) that cannot be computed is kept in the output with
-    ``computable = False`` and the reason: loto needs >= 3 training temperatures (two give
-    one shift factor for a two-constant shift law); a fold needs >= 2 training temperatures
-    and enough training cells for the simplest setting; the Burger's fit needs >= 4 points
-    at >= 2 frequencies with phases in (0, 90) deg at that isotherm.
-
-Selection score of a setting: for each inner fold, max(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) over
-the fold's held-out cells (tolerances 3 % and 5 % by default), averaged over the inner folds
-of both schemes; its standard error is sd sqrt(1/n + n_test/n_train) over the n folds (the
-corrected resampled variance of Nadeau & Bengio 2003: the folds share their training cells,
-so sd / sqrt(n) would understate it).
-The inner folds share the artifact correction of their outer training table (fitted without
-the outer held-out cells).
+Choices (docs/choices.md, Diagnosis: the temperature-aware extended law and held-out validation):
+* score of a setting: mean over the inner folds of max(MRE|E*|/tol_E, MRE Phi/tol_Phi),
+  tolerances 3 % and 5 %;
+* one-standard-error rule: the fewest fitted parameters, then the coarsest Prony series, then
+  the best score; standard error sd sqrt(1/n + n_test/n_train) (Nadeau & Bengio 2003);
+* the inner folds share the artifact correction of their outer training table.
 """
 
 from __future__ import annotations

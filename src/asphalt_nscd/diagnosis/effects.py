@@ -1,67 +1,27 @@
 """Data artifacts: nested fits of a flexible screening model, with a level set by a benchmark.
 
-Screening model (the null): a 2S2P1D master curve with a *free* shift factor and a free
-*vertical* |E*| factor exp(v_T) per isotherm (both 0 at the reference isotherm, the tested
-one nearest the median), a |E*| factor and a phase offset per specimen
-(:mod:`asphalt_nscd.rheology.master_curve`, shift "free", plus :func:`vertical_term`). Any
-departure from 2S2P1D/WLF that acts isotherm by isotherm (another shift law, a glassy or
-static modulus drifting with temperature) is absorbed by it; the artifacts keep their
-signatures in physical frequency, test order and strain, repeated across isotherms. Each
-candidate adds a term with its own physical parameter:
+Screening model (the null): a 2S2P1D master curve with a free shift factor and a free vertical
+|E*| factor exp(v_T) per isotherm (both 0 at the reference isotherm), a |E*| factor and a
+phase offset per specimen (:mod:`asphalt_nscd.rheology.master_curve`, shift "free",
+:func:`vertical_term`). Candidate terms, each with its physical parameter:
 
-======================  =================================================  ==================
-name                    measured = f(true)                                 parameter
-======================  =================================================  ==================
-time_lag                E* exp(i 2 pi f dt): Phi + 360 f dt, |E*| same      ``time_lag_ms``
-inertia_uncorrected     E1 - gamma 1e-6 m w^2, gamma the declared test's   ``mass_factor_g``
-                        form factor (:mod:`asphalt_nscd.lab.geometry`)
-temperature_offset      isotherm T measured at T + dT (one inner isotherm)  ``offset_C``
-strain_nonlinearity     |E*| exp(-b (eps - eps_ref) / 100 microstrain)      ``modulus_drop_per_100_microstrain``
-self_heating            n-th test of an isotherm (n = 0, 1, ...) at T + c n, ``heating_C_per_test``,
-                        then |E*| exp(-a n), Phi (1 + b n)                  ``extra_drop_pct_per_test``,
-                                                                            ``extra_phase_pct_per_test``
-======================  =================================================  ==================
+* ``time_lag``: Phi + 360 f dt (``time_lag_ms``);
+* ``inertia_uncorrected``: E1 - gamma 1e-6 m w^2, gamma of the declared test
+  (:mod:`asphalt_nscd.lab.geometry`) (``mass_factor_g``);
+* ``temperature_offset``: one inner isotherm measured at T + dT (``offset_C``);
+* ``strain_nonlinearity``: |E*| exp(-b (eps - eps_ref) / 100 microstrain), eps_ref the table's
+  mean strain (``modulus_drop_per_100_microstrain``);
+* ``self_heating`` (the n-th test of an isotherm at T + c n, |E*| exp(-a n), Phi (1 + b n)) and
+  ``temperature_drift`` (along the assumed test order, at T + d_T (n - n_max/2)).
 
-The inertia term is not testable without a declared test geometry (never a 2PB trapezoid by
-default); its fitted parameter is the paper-2PB-equivalent mass, converted to grams of the
-declared test's moving mass for the report.
+:class:`ArtifactSearch` selects terms forward by extra-sum-of-squares F-tests under Holm's
+step-down procedure (Holm 1979, Scand. J. Statist. 6, 65-70) at the family-wise level alpha
+(config ``diagnosis.alpha``, 1e-3), each also needing the physical sign and a practical size
+(``PRACTICAL_MINIMUM``); the temperature offset is tested last (:meth:`ArtifactSearch.offset_test`).
+A point is corrected by the ratio of the model without and with the artifacts (:func:`artifact_ratio`).
 
-Strain nonlinearity is measured from the mean strain eps_ref of the table: the term then
-does not change the overall |E*| level, which the master curve carries, so the screening
-fits with E00 held fixed do not bias it; the corrected table is brought to the small-strain
-limit eps -> 0. The ln|E*| noise is taken from the replicate scatter with the strain effect
-regressed out (:func:`~asphalt_nscd.rheology.master_curve.replicate_noise` with the strain
-covariate).
-
-Forward selection (time lag, inertia, strain, self-heating): starting from the screening
-model, every candidate not yet selected is added in turn and tested by the
-extra-sum-of-squares F-test (residuals weighted by the replicate noise). While the current
-model fits to within noise, these fits hold the weakly identified 2S2P1D parameters E00 and
-beta at the current fit (``SHAPE_PARAMETERS``); when it does not (reduced chi-square >
-``INADEQUATE_CHI2``) they are free. The candidate with the smallest p-value enters if
-p < alpha / m (strain nonlinearity one-sided), m the number of hypotheses not yet rejected
-(the candidates left and the offset test: Holm's sequentially rejective Bonferroni procedure,
-Holm 1979, Scand. J. Statist. 6, 65-70, so that alpha bounds the chance of naming any
-artifact on a table without one, whatever the number of candidates and rounds), it has the
-physical sign and its size reaches ``PRACTICAL_MINIMUM``; it is then refitted with every
-parameter free. The loop stops when no candidate enters. Every detected effect gets a drop-one F-test, a Jacobian standard error
-and its share of the misfit ("score": mean change of Phi (%) plus of |E*| (%) it causes).
-
-Temperature offset: its own test on the free shifts of the final screening fit
-(:meth:`ArtifactSearch.offset_test`): the inner isotherm's shift against the smooth shift
-law (``shift``) of the others, with the law's misfit ``OFFSET_MODEL_ERROR_C`` in the variance,
-at the last level of the step-down (alpha over the hypotheses left).
-
-Level: the p-values are nominal. Under misspecification the F-test is anti-conservative, so
-the decision also needs a practical size, and the floors and the offset misfit were set on a
-calibration run of ``asphalt-nscd diagnose-bench`` (:mod:`asphalt_nscd.diagnosis.bench`) over
-truth families outside the detector's model; the false-alarm and detection rates of the
-decisions are measured by a fresh run of the same benchmark (docs/choices.md, Diagnosis). A
-measured point is corrected by the complex ratio of the fitted model without and with the
-artifacts (the offset isotherm moved onto the law).
-
-Choice: alpha defaults to 1e-3 (config ``diagnosis.alpha``), the family-wise level of the
-whole selection.
+Choices (docs/choices.md, Diagnosis: causes with measured error rates; Diagnosis: strain
+nonlinearity): the flexible null, Holm, floors set by the benchmark, the centred strain term.
 """
 
 from __future__ import annotations

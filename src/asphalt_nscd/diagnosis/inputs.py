@@ -10,28 +10,10 @@ import numpy as np
 import pandas as pd
 
 from ..io import InputError, read_csv
+from .artifacts import checked
+from .crossval import ROW_COLUMNS
 
 SIM_COLUMNS = ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg")
-
-
-def checked(df: pd.DataFrame, path, columns, positive=()) -> pd.DataFrame:
-    """``df`` (read from ``path``) with its numeric ``columns`` checked (finite numbers;
-    ``positive``: > 0) and made floats, in place.
-
-    Raises InputError naming the file and the missing column, or the line and column of a bad
-    value.
-    """
-    missing = [c for c in columns if c not in df.columns]
-    if missing:
-        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(columns)}")
-    for c in columns:
-        v = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
-        bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in positive else False))
-        if bad.size:
-            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number"
-                             + (" > 0" if c in positive else ""))
-        df[c] = v
-    return df
 
 
 def read_simulated(path) -> pd.DataFrame:
@@ -67,8 +49,6 @@ def read_crossval(paths) -> pd.DataFrame:
 
     Raises InputError naming the file and the missing column.
     """
-    from .crossval import ROW_COLUMNS
-
     frames = []
     for path in [paths] if isinstance(paths, (str, bytes)) or not hasattr(paths, "__iter__") else paths:
         df = read_csv(path)

@@ -241,14 +241,29 @@ def _p_text(p) -> str:
 
 
 def markdown_page(report: dict, figure: str | None = None) -> str:
-    """The report page "What the simulation gets wrong" (Markdown) from a diagnose report."""
-    src = report.get("gain_sources")
+    """The report page "What the simulation gets wrong" (Markdown) from a diagnose report: header,
+    held-out errors, selected settings, gain, causes, Kramers-Kronig consistency, error budget and
+    the budget figure's link (``figure``, a file name)."""
     lines = ["# What the simulation gets wrong", "",
              f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
              f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", ""]
-    labels = {"nscd": "NSCD simulation", "macro": "macro law", "law_only": "extended law, no correction"}
     lines += heldout_lines(report)
     lines += selection_lines(report)
+    lines += gain_lines(report)
+    lines += cause_lines(report)
+    lines += kramers_kronig_lines(report)
+    lines += budget_lines(report)
+    if figure:
+        lines += ["", f"![error budget]({figure})"]
+    return "\n".join(lines) + "\n"
+
+
+def gain_lines(report: dict) -> list[str]:
+    """Page section: the gain of the extended law per temperature and source (before -> after MRE,
+    %, transfer correction noted) and the targets."""
+    src = report.get("gain_sources")
+    labels = {"nscd": "NSCD simulation", "macro": "macro law", "law_only": "extended law, no correction"}
+    lines = []
     if src is not None:
         rows = gain_table(report)
         tr = report.get("transfer") or {}
@@ -297,7 +312,14 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
             lines.append(f"| {T} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
                          f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} | {report['targets']['met'][T]} |")
     lines += ["", f"Targets: |E*| MRE <= {report['targets']['E_norm_mre_pct']:g} %, "
-              f"Phi MRE <= {report['targets']['phase_mre_pct']:g} %.", "", "## Named causes (most important first)", ""]
+              f"Phi MRE <= {report['targets']['phase_mre_pct']:g} %."]
+    return lines
+
+
+def cause_lines(report: dict) -> list[str]:
+    """Page section: the named causes (most important first), the candidates not named and
+    what their p-values mean (artifact screening range)."""
+    lines = ["", "## Named causes (most important first)", ""]
     by = {e["name"]: e for e in report["effects"]}
     if not report["causes"]:
         lines.append("None at the chosen significance level and tolerances.")
@@ -326,6 +348,13 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
               "outside the detector's model (docs/choices.md, Diagnosis)." + where + " broad_spectrum: held-out "
               "(leave one frequency out) errors, no p-value; network_factor and time_integration: "
               "deterministic effects with their numerical uncertainty against a tolerance, no p-value."]
+    return lines
+
+
+def kramers_kronig_lines(report: dict) -> list[str]:
+    """Page paragraph: Kramers-Kronig consistency of the measured isotherms (mean |Phi -
+    Phi_Booij-Thoone|, deg) with their percentiles among clean synthetic tables; none without it."""
+    lines = []
     kk = report.get("kramers_kronig_mean_abs_residual_deg", {})
     if kk:
         pct = report.get("kramers_kronig_percentile") or {}
@@ -338,9 +367,15 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
         lines += ["", "Kramers-Kronig consistency of the measured isotherms (mean |Phi - Phi_Booij-Thoone|, deg): "
                   + ", ".join(f"{T} degC: {v:.2f}" + (f" ({pct[T]:.1f} %)" if T in pct else "")
                               for T, v in kk.items()) + "." + ref_text]
-    lines += ["", "## Error budget (MRE %, \\|E*\\| / Phi)", "",
-              "| T (degC) | data artifacts | model form | micro-macro transfer | numerics | total |",
-              "|---|---|---|---|---|---|"]
+    return lines
+
+
+def budget_lines(report: dict) -> list[str]:
+    """Page section: the error budget table (MRE %, |E*| / Phi, per temperature and component)
+    and what each component compares."""
+    lines = ["", "## Error budget (MRE %, \\|E*\\| / Phi)", "",
+             "| T (degC) | data artifacts | model form | micro-macro transfer | numerics | total |",
+             "|---|---|---|---|---|---|"]
     for T, comp in report["error_budget"].items():
         cells = []
         for c in ("data_artifacts", "model_form", "micro_macro_transfer", "numerics", "total"):
@@ -353,9 +388,7 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
               "sample vs its macro Burger's law (n/a without harmonic results); numerics = NSCD "
               "simulation vs harmonic response (n/a without both); total = "
               f"{total} vs the measured means."]
-    if figure:
-        lines += ["", f"![error budget]({figure})"]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def effects_table(report: dict) -> pd.DataFrame:

@@ -1,55 +1,25 @@
 """Synthetic measured complex-modulus tables with known truth and planted artifacts.
 
-Truth: a 2S2P1D master curve with WLF shifts (Tref = 15 degC), parameters drawn uniformly
-(log-uniformly for scale parameters) in ranges published for asphalt mixes (Olard & Di
-Benedetto 2003; Mangiafico et al. 2015; Nguyen et al. 2009)::
+Truth (:func:`random_truth`): a 2S2P1D master curve with WLF shifts (Tref = 15 degC),
+parameters drawn in ranges published for asphalt mixes (Olard & Di Benedetto 2003;
+Mangiafico et al. 2015; Nguyen et al. 2009). Truth families (:func:`random_family`): ``wlf``
+is the detector's own model; the others depart from it as real mixes do (glassy modulus
+drifting with temperature, Arrhenius or quadratic shifts, temperature-dependent static
+modulus, all at once; :data:`HARD_FAMILIES`: Huet-Sayegh, a random generalized Maxwell
+spectrum, the MEPDG sigmoid). Schedules (:data:`SCHEDULES`): the paper's 2PB, AASHTO T 342
+and AMPT PP 61, each with its declared test geometry, recorded in the truth as a sidecar
+would give it.
 
-    E0 28-45 GPa, E00 30-300 MPa, delta 1.5-3.5, k 0.15-0.25, h 0.5-0.7,
-    beta 100-3000, tau(15 degC) 0.01-0.5 s, C1 20-35, C2 130-230 K.
+:func:`generate` draws the specimens (log-normal |E*| factor, phase offset), the point noise
+of ln|E*| and Phi, ``strain_microstrain`` and ``test_order`` (temperatures ascending,
+frequencies descending within an isotherm), and plants effects at random sizes:
+``time_lag``, ``inertia_uncorrected``, ``temperature_offset``, ``strain_nonlinearity``,
+``temperature_drift`` (the table then carries no test_order) and ``self_heating``; the truth
+JSON uses the estimate keys of the diagnosis report. :func:`kk_reference` gives the
+Kramers-Kronig statistic of clean isotherms, the reference of its percentile.
 
-Truth families (:func:`random_family`): ``wlf`` is exactly that, the detector's own model;
-the others depart from it mildly, as real mixes do (glassy modulus drifting with
-temperature, Arrhenius or quadratic shift laws, temperature-dependent static modulus, all
-at once). Schedules (:data:`SCHEDULES`): the paper's 2PB (6 x 5), AASHTO T 342 (5 x 6) and
-AMPT PP 61 (3 x 6) schedules, each with its declared test geometry (the paper's 2PB
-trapezoid; a 100 x 150 mm cylinder), recorded in the truth as a sidecar would give it.
-
-Replicates: each specimen has a log-normal |E*| factor (sigma 2-5 %) and a small constant
-phase offset (sigma 0.15 deg); every point has noise of ln|E*| (sigma 0.5-2 %) and of Phi
-(sigma 0.1-0.4 deg). Every table carries ``strain_microstrain`` (30-150 microstrain per
-point) and ``test_order`` (per specimen: temperatures ascending, frequencies descending
-within an isotherm, as in EN 12697-26 and AASHTO T 342).
-
-Planted effects (magnitudes drawn at random; the truth JSON uses the estimate keys of the
-diagnosis report):
-
-===================  =====================================================================
-time_lag             Phi_meas = Phi + 360 f dt; dt 0.2-1.5 ms (``time_lag_ms``)
-inertia_uncorrected  E1_meas = E1 - gamma 1e-6 dmu w^2 (gamma of the schedule's test: 2PB
-                     Eq. 1, or h/A of the cylinder); dmu = +-(100-400) g on the 2PB,
-                     +-(2-20) kg on a uniaxial machine (``mass_factor_g``; > 0: mass term
-                     missing), or set by its size ``E_deficit_pct`` (largest E1 deficit, %
-                     of |E*|); reduced if needed so that no E1 changes by more than 30 %
-temperature_offset   one inner isotherm generated at T + dT, labelled T; |dT| 3-5 degC
-                     (``temperature_C``, ``offset_C``)
-strain_nonlinearity  |E*| * exp(-b eps/100 microstrain); b 0.02-0.06
-                     (``modulus_drop_per_100_microstrain``)
-temperature_drift    the n-th test of an isotherm (frequencies from the highest, n = 0, 1, ...)
-                     at T + d_T (n - n_max / 2), d_T = d (T - T_min) / (T_max - T_min); d
-                     0.5-1.5 degC per test at the hottest isotherm (``drift_C_per_test``);
-                     the table then carries no test_order (the detector assumes the standard one)
-self_heating         the n-th test of an isotherm (n = 0, 1, ...): |E*| exp(-a n/100),
-                     Phi (1 + b n/100); a, b 0.5-2 % per test
-                     (``modulus_drop_pct_per_test``, ``phase_rise_pct_per_test``)
-===================  =====================================================================
-
-Strain range: b = 2-6 % of |E*| per 100 microstrain brackets the conventional limit of
-linearity, the strain at which |E*| has fallen to 95 % of its small-strain value (SHRP
-criterion, Anderson et al. 1994, SHRP-A-369), which for asphalt mixes lies near 100
-microstrain (Airey, Rahimzadeh & Collop 2004, J. Mater. Civ. Eng. 16(3) 212-220): a
-complex-modulus test run at 30-150 microstrain can show such a drop. At the low end with
-two replicates and 2 % point noise the effect is close to the noise (a z-score near 3 for
-the oracle regression on the known master curve), which bounds any test's power.
+Every range and its source: docs/choices.md, Diagnosis: causes with measured error rates
+(truth and planted sizes); the strain range: docs/choices.md, Diagnosis: strain nonlinearity.
 """
 
 from __future__ import annotations

@@ -117,7 +117,7 @@ def _collect_report(args) -> int:
 
 
 def _parse_set(spec: str, kind: str):
-    from .rheology_plots import CurveSet
+    from ..rheology.plots import CurveSet
 
     label, sep, path = spec.partition("=")
     if not sep or not label or not path:
@@ -137,7 +137,7 @@ def _plot_rheology(args) -> int:
     import matplotlib.pyplot as plt
 
     from ..io import savefig
-    from .rheology_plots import rheology_figure
+    from ..rheology.plots import rheology_figure
 
     sets = [_parse_set(s, "points") for s in args.points] + [_parse_set(s, "line") for s in args.lines]
     if not sets:

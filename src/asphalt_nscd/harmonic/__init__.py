@@ -24,6 +24,7 @@ head rotation ``free`` (default, the cantilever of EN 12697-26 Eq. 3) or ``clamp
 Modules: :mod:`.network` (sample -> bond network), :mod:`.solver` (assembly, solvers,
 content of the force), :mod:`.response` (EN 12697-26 rows, macro law, network factor),
 :mod:`.ordering` (METIS nested-dissection ordering of the sparse factorisations),
-:mod:`.timedomain` (the same test through the NSCD core), :mod:`.analysis` (sensitivity,
+:mod:`.timedomain` (the same test through the NSCD core), :mod:`.periodic` (the periodic
+steady state the 2PB test may start in), :mod:`.analysis` (sensitivity,
 comparison, network factor tables, benchmark, figures), :mod:`.cli` (subcommands).
 """

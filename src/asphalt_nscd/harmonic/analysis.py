@@ -238,13 +238,9 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     -------
     dict (JSON-ready) with sizes, times in s, fills, ratios, ``peak_rss_mb``.
     """
-    import scipy.sparse.linalg as spla
-    from scipy.sparse.linalg import splu
-
-    from ..nscd.linear import splu_symmetric
     from ..sample.store import read_sample
     from .network import network_from_sample
-    from .solver import HarmonicSystem, _fill
+    from .solver import HarmonicSystem
 
     t0 = time.perf_counter()
     sample = read_sample(sample_path)
@@ -252,6 +248,48 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     system = HarmonicSystem(network, bond_kinematics=bond_kinematics,
                             head_rotation=head_rotation)
     t_setup = time.perf_counter() - t0
+    per_f = _bench_inertia_solves(system, law, frequencies_Hz, geometry_mm)
+    peak_solver = peak_rss_mb()
+    ref, t_factor = _bench_inertia_free_solves(system, law, per_f, geometry_mm)
+    g = ref["ff"]
+    system._shifted.clear()
+    ref.pop("lu", None)
+    cmp = _bench_orderings(system, g, orderings)
+    base = (_bench_previous_inertia_path(system, ref, law, float(frequencies_Hz[0]), per_f[0]["reuse_full_s"])
+            if baseline and system.n_free else {})
+    direct_s = float("nan")
+    if direct:
+        t0 = time.perf_counter()
+        harmonic_rows(system, law, 0.0, [frequencies_Hz[0]], geometry_mm, inertia="full",
+                      solver="direct")
+        direct_s = time.perf_counter() - t0
+    td = (_time_domain_step_time(sample, law, float(frequencies_Hz[0]), td_dt, td_steps)
+          if td_steps > 0 else float("nan"))
+    n_td = int(round(td_cycles / (float(frequencies_Hz[0]) * td_dt)))
+    first = per_f[0]
+    return {
+        "n_spheres": network.n_spheres, "n_bonds": network.n_bonds,
+        "bond_kinematics": bond_kinematics, "head_rotation": head_rotation,
+        "n_free_dof": system.n_free, "n_load_free": system.n_load_free,
+        "ordering": system.ordering, "setup_s": t_setup,
+        "per_frequency": per_f,
+        "first_TF_total_s": t_setup + first["reuse_full_s"],
+        "subsequent_TF_s": [e["reuse_full_s"] for e in per_f[1:]],
+        "reference_factorisation_s": t_factor,
+        "orderings": cmp, "baseline": base,
+        "direct_first_TF_s": direct_s,
+        "time_domain_step_s": td, "time_domain_steps": n_td,
+        "time_domain_job_s": td * n_td,
+        "time_domain_job": f"{td_cycles} cycles at {frequencies_Hz[0]} Hz, dt = {td_dt} s",
+        "peak_rss_mb_solver": peak_solver,
+        "peak_rss_mb": peak_rss_mb(),
+    }
+
+
+def _bench_inertia_solves(system, law, frequencies_Hz, geometry_mm) -> list[dict]:
+    """:func:`benchmark`, first stage: the ``reuse`` solve with inertia per frequency, in order:
+    one dict per frequency with its time (s), |E*| (MPa), GMRES iterations and the
+    factorisations it made (``system.factor_log``)."""
     per_f = []
     for f in frequencies_Hz:
         n_factors = len(system.factor_log)
@@ -263,7 +301,13 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
                  "gmres_iterations": int(system.last_gmres_iterations),
                  "new_factorisations": [dict(r) for r in system.factor_log[n_factors:]]}
         per_f.append(entry)
-    peak_solver = peak_rss_mb()
+    return per_f
+
+
+def _bench_inertia_free_solves(system, law, per_f: list[dict], geometry_mm) -> tuple[dict, float]:
+    """:func:`benchmark`, second stage: the factorisation of G (its time, s) and the ``reuse``
+    solve without inertia at each frequency of ``per_f`` (time, s, and |E*|, MPa, added to its
+    entries). Returns (the reference system of :meth:`.HarmonicSystem._reference`, factor time)."""
     t0 = time.perf_counter()
     ref = system._reference()
     t_factor = time.perf_counter() - t0
@@ -273,9 +317,18 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
                             inertia="none", solver="reuse")[0]
         entry["reuse_none_s"] = time.perf_counter() - t0
         entry["reuse_none_E_norm_MPa"] = row["E_norm_MPa"]
-    g = ref["ff"]
-    system._shifted.clear()
-    ref.pop("lu", None)
+    return ref, t_factor
+
+
+def _bench_orderings(system, g, orderings) -> dict:
+    """:func:`benchmark`, third stage: G (sparse, n_free x n_free) factorised with each fill-reducing
+    ordering ("metis", "mmd", "colamd"): ordering, factor and one complex solve time (s), fill,
+    stored entries, relative residual, and with "mmd" the ratios to it."""
+    from scipy.sparse.linalg import splu
+
+    from ..nscd.linear import splu_symmetric
+    from .solver import _fill
+
     rng = np.random.default_rng(0)
     b = rng.standard_normal(g.shape[0]) + 1j * rng.standard_normal(g.shape[0])
     cmp = {}
@@ -308,69 +361,50 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
             v["fill_ratio_to_mmd"] = v["fill"] / cmp["mmd"]["fill"]
             v["factor_time_ratio_to_mmd"] = v["factor_s"] / cmp["mmd"]["factor_s"]
             v["solve_time_ratio_to_mmd"] = v["solve_s"] / cmp["mmd"]["solve_s"]
-    base = {}
-    if baseline and system.n_free:
-        f = float(frequencies_Hz[0])
-        omega = 2 * np.pi * f
-        s = omega**2 / complex(law.complex_modulus(omega))
-        up = np.array([HEAD_AMPLITUDE_M, 0.0, 0.0], complex)
-        rhs = -(ref["fp"] @ up)
-        m = system.mass_free
-        t0 = time.perf_counter()
-        lu = splu_symmetric(g)
-        t_fac = time.perf_counter() - t0
+    return cmp
 
-        def g_inv(v):
-            v = np.asarray(v).ravel()
-            return lu.solve(np.ascontiguousarray(v.real)) + 1j * lu.solve(
-                np.ascontiguousarray(v.imag))
 
-        op = spla.LinearOperator(g.shape, dtype=complex,
-                                 matvec=lambda v: g @ v - s * (m * v.ravel()))
-        prec = spla.LinearOperator(g.shape, dtype=complex, matvec=g_inv)
-        count = [0]
+def _bench_previous_inertia_path(system, ref: dict, law, f: float, new_s: float) -> dict:
+    """:func:`benchmark`, fourth stage: the previous inertia path at frequency ``f`` (Hz): MMD
+    factor of G, GMRES on G - s M preconditioned by G^-1; its factor and GMRES times (s),
+    iterations, convergence and speed-up over the ``reuse`` solve's ``new_s`` (s)."""
+    import scipy.sparse.linalg as spla
 
-        def tick(_):
-            count[0] += 1
+    from ..nscd.linear import splu_symmetric
 
-        t0 = time.perf_counter()
-        u, info = spla.gmres(op, rhs, x0=g_inv(rhs), rtol=1e-12, atol=0.0, M=prec, restart=50,
-                             maxiter=200, callback=tick, callback_type="pr_norm")
-        t_gm = time.perf_counter() - t0
-        del lu
-        new = per_f[0]["reuse_full_s"]
-        base = {"method": "MMD(A^T+A) factor of G, GMRES preconditioned by G^-1 (previous)",
-                "frequency_Hz": f, "factor_s": t_fac, "gmres_s": t_gm,
-                "gmres_iterations": count[0], "converged": bool(info == 0),
-                "total_s": t_fac + t_gm, "new_total_s": new,
-                "speedup": (t_fac + t_gm) / new}
-    direct_s = float("nan")
-    if direct:
-        t0 = time.perf_counter()
-        harmonic_rows(system, law, 0.0, [frequencies_Hz[0]], geometry_mm, inertia="full",
-                      solver="direct")
-        direct_s = time.perf_counter() - t0
-    td = (_time_domain_step_time(sample, law, float(frequencies_Hz[0]), td_dt, td_steps)
-          if td_steps > 0 else float("nan"))
-    n_td = int(round(td_cycles / (float(frequencies_Hz[0]) * td_dt)))
-    first = per_f[0]
-    return {
-        "n_spheres": network.n_spheres, "n_bonds": network.n_bonds,
-        "bond_kinematics": bond_kinematics, "head_rotation": head_rotation,
-        "n_free_dof": system.n_free, "n_load_free": system.n_load_free,
-        "ordering": system.ordering, "setup_s": t_setup,
-        "per_frequency": per_f,
-        "first_TF_total_s": t_setup + first["reuse_full_s"],
-        "subsequent_TF_s": [e["reuse_full_s"] for e in per_f[1:]],
-        "reference_factorisation_s": t_factor,
-        "orderings": cmp, "baseline": base,
-        "direct_first_TF_s": direct_s,
-        "time_domain_step_s": td, "time_domain_steps": n_td,
-        "time_domain_job_s": td * n_td,
-        "time_domain_job": f"{td_cycles} cycles at {frequencies_Hz[0]} Hz, dt = {td_dt} s",
-        "peak_rss_mb_solver": peak_solver,
-        "peak_rss_mb": peak_rss_mb(),
-    }
+    g = ref["ff"]
+    omega = 2 * np.pi * f
+    s = omega**2 / complex(law.complex_modulus(omega))
+    up = np.array([HEAD_AMPLITUDE_M, 0.0, 0.0], complex)
+    rhs = -(ref["fp"] @ up)
+    m = system.mass_free
+    t0 = time.perf_counter()
+    lu = splu_symmetric(g)
+    t_fac = time.perf_counter() - t0
+
+    def g_inv(v):
+        v = np.asarray(v).ravel()
+        return lu.solve(np.ascontiguousarray(v.real)) + 1j * lu.solve(
+            np.ascontiguousarray(v.imag))
+
+    op = spla.LinearOperator(g.shape, dtype=complex,
+                             matvec=lambda v: g @ v - s * (m * v.ravel()))
+    prec = spla.LinearOperator(g.shape, dtype=complex, matvec=g_inv)
+    count = [0]
+
+    def tick(_):
+        count[0] += 1
+
+    t0 = time.perf_counter()
+    u, info = spla.gmres(op, rhs, x0=g_inv(rhs), rtol=1e-12, atol=0.0, M=prec, restart=50,
+                         maxiter=200, callback=tick, callback_type="pr_norm")
+    t_gm = time.perf_counter() - t0
+    del lu
+    return {"method": "MMD(A^T+A) factor of G, GMRES preconditioned by G^-1 (previous)",
+            "frequency_Hz": f, "factor_s": t_fac, "gmres_s": t_gm,
+            "gmres_iterations": count[0], "converged": bool(info == 0),
+            "total_s": t_fac + t_gm, "new_total_s": new_s,
+            "speedup": (t_fac + t_gm) / new_s}
 
 
 def _time_domain_step_time(sample, law, frequency_Hz, dt, n_steps) -> float:

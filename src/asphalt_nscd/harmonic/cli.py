@@ -53,6 +53,19 @@ def _add_law_options(p, temperature_required: bool = False, bond_kinematics: str
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    _add_harmonic(subparsers)
+    _add_harmonic_compare(subparsers)
+    _add_harmonic_sensitivity(subparsers)
+    _add_harmonic_network_factor(subparsers)
+    _add_harmonic_plot(subparsers)
+    _add_harmonic_kinematics(subparsers)
+    _add_harmonic_transfer(subparsers)
+    _add_harmonic_resolution(subparsers)
+    _add_harmonic_bench(subparsers)
+
+
+def _add_harmonic(subparsers) -> None:
+    """``harmonic``: steady-state complex modulus of a bonded sample (frequency domain, Eqs. 1-5)."""
     p = subparsers.add_parser("harmonic", help="steady-state complex modulus of a bonded sample "
                                                "(frequency domain, Eqs. 1-5)")
     _add_law_options(p)
@@ -75,6 +88,9 @@ def register(subparsers) -> None:
                    help="CSV: one reduced row per (T, f) + macro law + network factor")
     p.set_defaults(func=_harmonic)
 
+
+def _add_harmonic_compare(subparsers) -> None:
+    """``harmonic-compare``: harmonic vs NSCD time-domain |E*|, Phi per (T, f, dt, rtol)."""
     p = subparsers.add_parser("harmonic-compare",
                               help="harmonic vs NSCD time-domain |E*|, Phi per (T, f, dt, rtol)")
     _add_law_options(p)
@@ -90,6 +106,9 @@ def register(subparsers) -> None:
     p.add_argument("--figure", type=Path, default=None, help="PNG: difference vs dt and rtol")
     p.set_defaults(func=_compare)
 
+
+def _add_harmonic_sensitivity(subparsers) -> None:
+    """``harmonic-sensitivity``: harmonic |E*|, Phi with each Burger's parameter at +-p %."""
     p = subparsers.add_parser("harmonic-sensitivity",
                               help="harmonic |E*|, Phi with each Burger's parameter at +-p %%")
     _add_law_options(p, temperature_required=True)
@@ -101,6 +120,9 @@ def register(subparsers) -> None:
     p.add_argument("--figure", type=Path, default=None, help="PNG at the first frequency")
     p.set_defaults(func=_sensitivity)
 
+
+def _add_harmonic_network_factor(subparsers) -> None:
+    """``harmonic-network-factor``: network factor tables from harmonic CSVs (sample, mode columns)."""
     p = subparsers.add_parser("harmonic-network-factor",
                               help="network factor tables from harmonic CSVs (sample, mode columns)")
     p.add_argument("inputs", type=Path, nargs="+", help="outputs of 'harmonic' with --mode")
@@ -109,6 +131,9 @@ def register(subparsers) -> None:
     p.add_argument("--summary", type=Path, required=True, help="CSV: mean and std over samples")
     p.set_defaults(func=_network_factor)
 
+
+def _add_harmonic_plot(subparsers) -> None:
+    """``harmonic-plot``: isotherms, Black and Cole-Cole: macro law, sample, measured."""
     p = subparsers.add_parser("harmonic-plot",
                               help="isotherms, Black and Cole-Cole: macro law, sample, measured")
     p.add_argument("--harmonic", type=Path, nargs="+", required=True,
@@ -120,6 +145,9 @@ def register(subparsers) -> None:
         p.add_argument(f"--{name}", type=Path, default=None, help=f"PNG of the {name} plot")
     p.set_defaults(func=_plot)
 
+
+def _add_harmonic_kinematics(subparsers) -> None:
+    """``harmonic-kinematics``: network factor per (bond kinematics, head rotation, T, f)."""
     p = subparsers.add_parser("harmonic-kinematics",
                               help="network factor per (bond kinematics, head rotation, T, f)")
     p.add_argument("--sample", type=Path, required=True, help="sample file results/samples/<s>.h5")
@@ -138,6 +166,9 @@ def register(subparsers) -> None:
                         "phase_difference_deg")
     p.set_defaults(func=_kinematics)
 
+
+def _add_harmonic_transfer(subparsers) -> None:
+    """``harmonic-transfer``: network factor NF_s of a sample (transfer JSON for run-2pb)."""
     p = subparsers.add_parser("harmonic-transfer",
                               help="network factor NF_s of a sample (transfer JSON for run-2pb)",
                               description="Network factor NF_s = sample |E*| / macro |E*| of the "
@@ -153,6 +184,9 @@ def register(subparsers) -> None:
                    help="transfer JSON: network_factor, sample, bond_kinematics, head_rotation, nu, units")
     p.set_defaults(func=_transfer)
 
+
+def _add_harmonic_resolution(subparsers) -> None:
+    """``harmonic-resolution``: network factor against sample resolution (table, summary, figure)."""
     p = subparsers.add_parser("harmonic-resolution",
                               help="network factor against sample resolution (table, summary, figure)",
                               description="Network factor NF_s of samples prepared at several resolutions "
@@ -171,6 +205,10 @@ def register(subparsers) -> None:
     p.add_argument("--figure", type=Path, required=True, help="figure (png)")
     p.set_defaults(func=_resolution)
 
+
+def _add_harmonic_bench(subparsers) -> None:
+    """``harmonic-bench``: benchmark the harmonic solver (JSON); run it with OPENBLAS_NUM_THREADS=1
+    (one core, as under Snakemake)."""
     p = subparsers.add_parser("harmonic-bench", help="benchmark the harmonic solver (JSON); run it "
                                                      "with OPENBLAS_NUM_THREADS=1 (one core, as "
                                                      "under Snakemake)")
@@ -345,7 +383,7 @@ def _plot(args) -> int:
     import matplotlib.pyplot as plt
     import pandas as pd
 
-    from ..figures.rheology_plots import CurveSet, rheology_figure
+    from ..rheology.plots import CurveSet, rheology_figure
     from ..io import savefig
     from ..lab.measured import read_summary
     from .response import read_harmonic_rows

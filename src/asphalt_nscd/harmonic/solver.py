@@ -1,145 +1,27 @@
 """Periodic steady state of a bonded sample under a harmonic head displacement.
 
-In the small-strain complex modulus test no bond breaks and no frictional contact opens or
-closes, so the numerical sample is a linear viscoelastic network of rigid spheres. Under the
-imposed top-plate displacement x_top(t) = Re(A e^{i w t}) every unknown is a phasor, and the
-steady state solves one complex sparse linear system per (T, f):
+In the small-strain complex modulus test no bond breaks and no contact opens or closes, so
+the sample is a linear viscoelastic network of rigid spheres. Under the top-plate
+displacement Re(A e^{i w t}) every unknown is a phasor and :class:`HarmonicSystem` solves one
+sparse system per (T, f), bottom plate fixed:
 
     (K(w) - w^2 M)_ff u_f = -K(w)_fp u_p,           u_p = (A, 0, 0)   (top plate)
 
-Model (docs/design.md, "Bond law")
-----------------------------------
-* Bond b between bodies a and c with unit vector n (initial frame) has the complex 3x3
-  stiffness  K_b(w) = k_n(w) n n^T + k_t(w) (I - n n^T)  with
-  k_n(w) = a_b E*(w),  a_b = pi r_min^2 / l0  (Eqs. 30-33),  k_t = k_n / (2 (1 + nu))
-  (Eqs. 8-11), E*(w) the complex modulus of the macro law (Burger's, Eqs. 27-29, or any
-  :class:`~asphalt_nscd.rheology.laws.GeneralizedBurgers`; any object with a
-  ``complex_modulus(omega)`` method works). It is the exact frequency response of the
-  time-domain bond law (Maxwell + Kelvin-Voigt in series per direction, Eqs. 15-24) when
-  every bond stays intact and the rotation of the frame is negligible (small strain).
-* Bond kinematics (option ``bond_kinematics``; the paper does not say where the bond acts):
+Bond b has K_b(w) = k_n n n^T + k_t (I - n n^T), k_n = a_b E*(w), a_b = pi r_min^2 / l0,
+k_t = k_n / (2 (1 + nu)) (Eqs. 30-33, 8-11; E*(w) of any law with ``complex_modulus(omega)``,
+docs/design.md, Bond law): the exact frequency response of the time-domain bond law
+(Eqs. 15-24) for intact bonds and small strain. The head force is the actuator's
+(``inertia="full"``) or, without masses, what a load cell would read with EN 12697-26's
+lumped mass mu = 0.135 M + m (``inertia="none"``). With one law, K(w) - w^2 M = E*(w) (G - s M),
+s = w^2 / E*(w), G real: without inertia the network factor is a real constant.
 
-  ``contact`` (default) — 6 DOF per sphere (u, theta). K_b acts on the relative displacement
-      of the bond's contact point c (middle of the gap on the line of centres, see
-      :mod:`.network`):  Delta = (u_c + theta_c x (c - x_c)) - (u_a + theta_a x (c - x_a)),
-      so the bond force, applied at c, carries a torque on both bodies and a rigid rotation
-      of a bonded pair strains no bond. Rotational inertia: ``spheres/inertia``.
-  ``barycentre`` — 3 DOF per sphere: Delta = u_c - u_a at the barycentres, no torque. This is
-      the time-domain NSCD core as it is (kept for the time-domain comparison). A rigid
-      rotation moves barycentres tangentially relative to each other, so the tangential
-      springs resist it: in bending (2PB) the sample is spuriously stiff — the network factor
-      of sample s1 (221 spheres) is 88.7 with ``barycentre`` vs 2.65 with ``contact``
-      (clamped head, no inertia; ``results/harmonic/kinematics_study.csv``).
-
-  Zero-stiffness modes of ``contact``: a bond is a point spring, so a sphere with one bond
-  can spin about the bond axis and roll about c, and a sphere on a straight line of bonds
-  can spin about it. These modes are regularised by a rotational spring on the relative
-  rotation theta_c - theta_a of every bond, of stiffness eps k_n(w) |c - x_a|^2 with
-  eps = :data:`ROTATIONAL_REGULARISATION` (1e-10): it has the law of the bond (so
-  K(w) = E*(w) G still holds), makes G positive definite (every active cluster is bonded
-  to a plate; with a free head, at least one cluster must join both plates, else the head's
-  rigid rotation is free and SuperLU reports a singular factor), and resists no rigid-body
-  motion. Exact zero-energy modes v of the free DOFs are not loaded (K_pf v = 0), so they
-  do not change the head force; soft but non-zero modes are stiffened by O(eps): the head
-  force changes linearly with eps, by
-  2.4e-5 (relative) at eps = 1e-8 and 2.4e-7 at 1e-10 against eps = 0 on a 150-sphere
-  jittered lattice, and by < 1e-5 for eps in [1e-10, 1e-6] on sample s1. With inertia the
-  rotational masses also make the dynamic matrix regular. With ``barycentre`` + ``free``
-  the same spring (l = |c - plates/point[1]|) holds the head's spin when all head bonds lie
-  on one line through its centre.
-* Head rotation (option ``head_rotation``): ``free`` (default) — the head (top plate) rotates
-  about the centre of its face ``plates/point[1]`` under the bond moments, as the cantilever
-  loaded at the head that the form factor gamma of EN 12697-26 Eq. 3 assumes; its rotational
-  inertia is that of a steel cuboid of the head's size (:mod:`.network`). Sphere-plate
-  bonds then see the head's displacement at c, u_top + theta_top x (c - plates/point[1]).
-  ``clamped`` — the head only translates (the NSCD core's driven plate).
-  ``contact`` + ``free`` is the consistent choice for Eq. 3 and the workflow's default.
-* Verification (tests/unit/test_harmonic_kinematics.py): a bonded pair under a rigid
-  rotation carries no force with ``contact`` and k_t theta x (x_j - x_i) with
-  ``barycentre``; axial series/parallel closed forms hold for every option; a two-chain
-  ladder cantilever with a free head matches an independent dense assembly (1e-9) and its
-  tip compliance has the Euler-Bernoulli L^3 / (3 EI) term, EI = k_n s w^2 / 2, to 1e-9.
-* Bottom plate fixed; head translated by (A, 0, 0) (imposed, the paper's "z" is along x).
-* Spheres in bonded clusters touching no plate carry no load: their steady-state
-  displacement is zero (no force reaches them); they are removed and counted.
-
-What the simulated force contains, and mu (Eq. 1)
--------------------------------------------------
-Eq. 1 reads E1 = gamma (F0/z0 cos Psi + 1e-6 mu w^2) with mu = 0.135 M + m: the lab force
-is the load-cell force at the head, which contains the inertia of the moving mass m and of
-the specimen, and the standard adds back an estimate of it. Here M is the mass of the
-spheres of the sample file (sum of ``spheres/mass``; 0.6 kg in the paper) and m its top-plate
-mass (``plates/mass[1]``, 0.235 kg), scaled with the sample. The force F (x component) is:
-
-``inertia="full"`` (default; what the time-domain test measures)
-    the sphere masses are in the dynamics and F is the force the actuator applies to the
-    head, F = R_x - w^2 m A, with R = K_pf u_f + K_pp u_p the force the head exerts on its
-    bonds (minus the sum of the bond forces on the top plate). This is the driver force of
-    the NSCD core (``StepStats.driver_force``, which includes the plate inertia).
-    mu = 0.135 M + m is applied as in the lab; the remaining inertia error (the sample's
-    distributed mass vs 0.135 M) is part of the model response, and vanishes as w -> 0.
-``inertia="none"``
-    no mass in the dynamics (quasi-static network); the force is reported as
-    F = R_x - w^2 mu A, i.e. as a load cell would read it were the inertia exactly the
-    lumped one of EN 12697-26, so that Eq. 1 with the same mu returns the inertia-free
-    network modulus exactly.
-
-Without inertia K(w) = E*(w) G with G real when all bonds share one law, so the network's
-response is E*(w) times a real geometric stiffness: the "network factor" is then a real
-constant and the phase of the sample equals that of the macro law.
-
-Linear solvers (choices measured with ``asphalt-nscd harmonic-bench``; docs/choices.md)
---------------------------------------------------------------------------------------
-When every bond follows one law, K(w) - w^2 M = E*(w) (G - s M) with s = w^2 / E*(w), G the
-real symmetric positive definite (regularised) stiffness for a unit modulus, independent of
-(T, f), and M the diagonal masses and rotational inertias.
-
-* Factorisations: SciPy's SuperLU in symmetric mode (diagonal pivots) in the METIS
-  nested-dissection order of the body graph expanded to the d-DOF blocks
-  (:mod:`.ordering`). Same run on the 12,000-sphere lattice (contact + free head, 72,003
-  unknowns, factor of G, 1 BLAS thread, 2-core machine at load 6-7): fill L.nnz + U.nnz
-  6.35e7 (METIS) vs 7.58e7 (MMD(A^T + A), the previous default) vs 11.4e7 (COLAMD); factor
-  8.9 s vs 17.2 s vs 20.9 s; one 2-column solve 0.13 s vs 0.17 s vs 0.36 s. On 1,500 spheres
-  MMD is slightly better (fill 0.91 x METIS); METIS wins as the sample grows.
-* Only real factorisations: SciPy's complex SuperLU took 10-100 x the time of the real one of
-  the same pattern and fill (0.6-30 s vs 0.06-0.1 s at 4,800 unknowns, erratic from run to
-  run), so the ``reuse`` path never factorises a complex matrix.
-* ``inertia="none"``: G is factorised once per sample; each (T, f) is a back-substitution.
-* ``inertia="full"``: GMRES preconditioned by the real factor of G - sigma M, sigma = Re(s)
-  (indefinite above the first eigenfrequency; SuperLU keeps the diagonal pivots, a small pivot
-  only weakens the preconditioner and GMRES checks the true residual). For the generalised
-  eigenvalues lambda >= 0 of (G, M) the preconditioned operator has the eigenvalues
-  z = (lambda - s) / (lambda - sigma): a Moebius map of the real axis through z(inf) = 1,
-  z(sigma) = inf and z(0) = s / sigma = 1 - i Im(s)/Re(s), i.e. the line Re z = 1, bounded
-  away from 0 even at a resonance. G^-1 (sigma = 0, the previous preconditioner) puts every
-  mode softer than |s| (the resonant ones and the eps-regularised near-mechanisms) on the ray
-  1 - s/lambda far from 1: on the 12,000-sphere lattice (Table 3, 15 degC, rtol 1e-12) it
-  needed 12, 18, 21, 62 GMRES iterations at 0.1, 1, 3, 10 Hz, the shifted factor 9 at 10 Hz.
-  A factor is reused across (T, f) while sigma_c / 100 <= Re(s) <= 20 sigma_c
-  (:data:`SHIFT_REUSE_BELOW`, :data:`SHIFT_REUSE_ABOVE`): iterations with the 10 Hz factor at
-  1, 1.5, 2, 3, 6, 25, 35, 40, 50, 60 Hz (Re(s) ratio 0.01 ... 29): 19, 16, 16, 15, 12, 24, 30,
-  34, 39, 73, against about 70 iterations for one factorisation. GMRES is capped at
-  :data:`GMRES_MAX_ITERATIONS`; a reused factor that misses it is replaced by one at Re(s);
-  if that misses too, the call falls back to ``direct``.
-* ``direct`` (and per-bond laws, :meth:`HarmonicSystem.solve`): one complex LU per call, the
-  reference of the tests.
-* Assembly: the 6x6 blocks of the bonds are summed per pair of bodies (np.add.reduceat after
-  one sort of 4B keys) instead of a unique-sort of 36 x 4B entries: setup 0.7 s vs 7.0 s on
-  the 12,000-sphere lattice (same run, load 5), 0.09 s vs 0.54 s on 800 spheres.
-* Result (``harmonic-bench --n 12000 --td-steps 5 --skip-direct``, OPENBLAS_NUM_THREADS=1;
-  Table 3 at 15 degC in Pa, where the sample + head resonance is near 10 Hz). Load 2.3-4.4 on
-  the 2 cores (84 % of a core): first (T, f) = 10 Hz 9.2 s (setup 1.4 s, ordering 0.1 s,
-  factor of G - Re(s) M 6.2 s, 9 GMRES iterations); then 3, 6, 25, 40 Hz reusing that factor
-  2.1, 1.6, 2.9, 3.9 s (15, 12, 24, 34 iterations); peak memory 1.2 GB. The previous path in
-  the same run (MMD factor of G + GMRES with G^-1, 50 iterations) took 34.4 s for the 10 Hz
-  solve vs 7.8 s (4.4 x), plus its 7 s setup. Matching time-domain job (5 cycles at 10 Hz,
-  dt = 5e-5 s): 10,000 NSCD steps of 0.073 s, 729 s. At load 6.2-6.9 (68 % of a core): first
-  (T, f) 11.8 s, then 2.6-5.5 s.
-* Threads: run with one BLAS thread (Snakemake sets OPENBLAS_NUM_THREADS to the rule's
-  threads; the bench records it). With multithreaded OpenBLAS on the loaded 2-core machine
-  GMRES's vector products dominated: 2.3 s vs 0.78 s for one solve at 4,000 spheres.
-* Memory: one shifted factor is kept (:data:`MAX_SHIFTED_FACTORS`, dropped before the next is
-  computed), about 0.8 GB at 12,000 spheres.
+Choices (docs/choices.md, Bond kinematics; Harmonic solver speed):
+* ``bond_kinematics``: ``contact`` (default, 6 DOF, bond at its contact point) or ``barycentre``;
+* ``head_rotation``: ``free`` (default, the cantilever of Eq. 3) or ``clamped``;
+* zero modes regularised by a rotational spring, eps = ``ROTATIONAL_REGULARISATION`` (1e-10);
+* SuperLU in METIS nested-dissection order (:mod:`.ordering`), real factorisations only;
+* with inertia, GMRES preconditioned by the real factor of G - Re(s) M, reused over a band
+  of Re(s), with one BLAS thread; ``direct`` (one complex LU) is the tests' reference.
 """
 
 from __future__ import annotations
@@ -160,12 +42,12 @@ from .network import BondNetwork
 from .ordering import ORDERINGS, nested_dissection
 
 INERTIA_MODES = ("none", "full")
-#: Relative stiffness eps of the regularising rotational bond spring (module docstring).
+#: Relative stiffness eps of the regularising rotational bond spring (docs/choices.md, Bond kinematics).
 ROTATIONAL_REGULARISATION = 1e-10
 SOLVERS = ("reuse", "direct")
 #: A cached real factor of G - sigma_c M is reused for the shift sigma = Re(s) when
-#: sigma_c / SHIFT_REUSE_BELOW <= sigma <= sigma_c * SHIFT_REUSE_ABOVE (iteration counts in the
-#: module docstring: a factorisation costs about as much as 70 GMRES iterations).
+#: sigma_c / SHIFT_REUSE_BELOW <= sigma <= sigma_c * SHIFT_REUSE_ABOVE (iteration counts in
+#: docs/choices.md, Harmonic solver speed: a factorisation costs about as much as 70 GMRES iterations).
 SHIFT_REUSE_BELOW = 100.0
 SHIFT_REUSE_ABOVE = 20.0
 #: GMRES iterations (no restart) before a reused shifted factor is replaced by a new one.
@@ -608,7 +490,7 @@ class HarmonicSystem:
             and of the inertia becomes s, i.e. E*(w) -> E(s) (:func:`laplace_modulus`) and
             w^2 M -> -s^2 M. The time-discrete steady state of the Moreau-Jean theta-method
             at w is the solution at its effective Laplace variable
-            (:func:`asphalt_nscd.campaign.periodic.theta_laplace`). The solution's
+            (:func:`asphalt_nscd.harmonic.periodic.theta_laplace`). The solution's
             ``frequency_Hz`` stays ``frequency_Hz``.
 
         Raises

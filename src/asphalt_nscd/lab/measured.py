@@ -133,23 +133,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
     from .table_format import to_own_columns
 
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
-    if path.suffix.lower() != ".csv":
-        raise InputError(f"{path}: expected a .csv file, got suffix '{path.suffix}'")
-    raw = path.read_bytes()
-    if not raw.strip():
-        raise InputError(f"{path}: file is empty; expected a header line with columns {list(REQUIRED_COLUMNS)}")
-    if b"\x00" in raw:
-        raise InputError(f"{path}: not a CSV text file (binary content)")
-    try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False)
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
-    frame.columns = [str(c).strip() for c in frame.columns]
-    dup_cols = frame.columns[frame.columns.duplicated()].tolist()
-    if dup_cols:
-        raise InputError(f"{path}: line 1 (header): duplicated column(s) {dup_cols}")
+    frame = _read_text_table(path)
     declared = declared_test(path, test)
     labels = {}
     if declared.table is not None:  # a lab's table: its columns and units declared in the sidecar
@@ -180,6 +164,47 @@ def load_measured(path, test=None) -> pd.DataFrame:
         values = _numeric_column(path, frame, column, _RANGES, label=labels.get(column))
         out[column] = values.astype(int) if column == "test_order" else values
 
+    _reject_duplicate_keys(path, out)
+
+    for column in frame.columns:
+        if column not in out.columns:
+            try:  # carried along: numeric if every value parses, text otherwise
+                out[column] = pd.to_numeric(frame[column])
+            except (ValueError, TypeError):
+                out[column] = frame[column]
+    out = out.sort_values(["temperature_C", "frequency_Hz", "specimen"], kind="stable").reset_index(drop=True)
+    out.attrs["test"] = declared
+    return out
+
+
+def _read_text_table(path: Path) -> pd.DataFrame:
+    """The CSV at ``path`` as text cells (str, no NaN), header names stripped.
+
+    Raises InputError if the file is missing, not a .csv, empty, binary, not readable as CSV,
+    or repeats a column name."""
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    if path.suffix.lower() != ".csv":
+        raise InputError(f"{path}: expected a .csv file, got suffix '{path.suffix}'")
+    raw = path.read_bytes()
+    if not raw.strip():
+        raise InputError(f"{path}: file is empty; expected a header line with columns {list(REQUIRED_COLUMNS)}")
+    if b"\x00" in raw:
+        raise InputError(f"{path}: not a CSV text file (binary content)")
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False)
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    dup_cols = frame.columns[frame.columns.duplicated()].tolist()
+    if dup_cols:
+        raise InputError(f"{path}: line 1 (header): duplicated column(s) {dup_cols}")
+    return frame
+
+
+def _reject_duplicate_keys(path: Path, out: pd.DataFrame) -> None:
+    """Raise InputError naming the file lines of the first repeated (specimen, temperature_C,
+    frequency_Hz) key of ``out`` (rows in file order), if any."""
     dup = out.duplicated(subset=list(KEY_COLUMNS), keep=False).to_numpy()
     if dup.any():
         rows = np.flatnonzero(dup)
@@ -193,16 +218,6 @@ def load_measured(path, test=None) -> pd.DataFrame:
             f"{path}: lines {', '.join(str(_line(i)) for i in same)}, columns {list(KEY_COLUMNS)}: duplicate row "
             f"(specimen={first['specimen']!r}, temperature_C={first['temperature_C']:g}, frequency_Hz={first['frequency_Hz']:g})"
         )
-
-    for column in frame.columns:
-        if column not in out.columns:
-            try:  # carried along: numeric if every value parses, text otherwise
-                out[column] = pd.to_numeric(frame[column])
-            except (ValueError, TypeError):
-                out[column] = frame[column]
-    out = out.sort_values(["temperature_C", "frequency_Hz", "specimen"], kind="stable").reset_index(drop=True)
-    out.attrs["test"] = declared
-    return out
 
 
 def summarize(df: pd.DataFrame) -> pd.DataFrame:

@@ -1,56 +1,25 @@
-"""Benchmarks of the NSCD core (JSON output; never timed tests).
+"""Benchmarks of the NSCD core (``asphalt-nscd bench``; JSON output, never timed tests).
 
-Cases
------
+Cases (:func:`run_bench`):
+
 ``bonded``
-    A 2PB-like bonded sample generated here (not the real preparation pipeline of
-    :mod:`asphalt_nscd.sample`): N sites of a cubic lattice filling the 56 x 25 x 250 mm
-    bounding box of the EN 12697-26 trapezoid, jittered by +-5 % of the pitch, radii uniform
-    in [0.35, 0.45] x pitch (about 1.1-1.4 mm for N = 12 000), density 3415 kg/m³; bonds for
-    gaps below d_min = 2 mm (sphere-sphere and sphere-plate); bottom plate fixed, top plate
-    (0.235 kg) driven along x with A = 63e-6 m at 40 Hz; Burger's law of Table 3 at 15 degC
-    read in Pa (Em = 2.43e7, eta_m = 3.71e6, Ek = 4.84e7, eta_k = 7.73e5); friction 0.7;
-    dt = 5e-5 s, theta = 0.5; the top plate lies 0.1 pitch above the highest sphere (the
-    last lattice layer may be partial). The production path (linear fast path, conjugate
-    gradient at ``linear_tolerance``) is timed over ``steps`` steps; the baseline (NLGS
-    at the given tolerance) over ``baseline_steps`` steps of the same sample; their ratio
-    is reported. ``bond_kinematics`` ('contact', the default, or 'barycentre') applies to
-    all three runs (production, direct, NLGS baseline); the head does not rotate. ``start``
-    'rest' (default): from rest under gravity (the from-rest transient); 'periodic': without
-    gravity, every run started in the periodic steady state of the 40 Hz drive (the regime
-    of a 2PB job after its transient, or with the periodic start). With ``linear_solver``
-    'cg_ssor' the same steps also run with today's block-Jacobi 'cg' on a copy, alternating
-    chunks of 5 steps: ``speedup_vs_cg`` is the same-run CPU-time ratio.
+    A 2PB-like bonded sample generated here (:func:`bonded_sample`: a jittered cubic lattice
+    of N spheres in the bounding box of the EN 12697-26 trapezoid, Table 3's Burger's law at
+    15 degC read in Pa, head driven at 40 Hz, dt = 5e-5 s, theta = 0.5). The production path
+    (linear fast path) is timed against NLGS (``baseline_*``) and SuperLU (``direct_*``) on
+    the same sample; ``start`` 'rest' (under gravity) or 'periodic' (the periodic steady
+    state, no gravity); with ``linear_solver`` 'cg_ssor' the block-Jacobi 'cg' runs the same
+    steps on a copy, alternating chunks of 5 steps (``speedup_vs_cg``).
 ``granular``
-    A frictional bed under gravity: N spheres of radius 1-1.5 mm (seeded) on a loose cubic
-    lattice (about 1.5 N^(1/3) spheres along x and y) in a box of 5 fixed walls, friction 0.2,
-    dt = 2e-4 s, NLGS at the tolerance ``tolerance`` (1e-4 is LMGC90's usual granular
-    setting). The spheres first fall and compact (untimed settling: steps in chunks of 50
-    until the largest sphere speed is below ``settle_speed`` (default 5e-3 m/s), at most
-    ``settle_steps``); then ``steps`` timed steps measure the settled bed at rest under
-    gravity (its contact network loaded by the weight of the bed, warm-started from the
-    previous step). The settling phase is reported too (settle_*: steps run, whether the
-    speed criterion was met, CPU time per particle and step, mean and maximum NLGS sweeps):
-    it is the costly part of preparing a bed (hundreds of sweeps per step while the bed
-    compacts, the sweeps growing with the depth of the force chains), and was what the
-    former 500-step settling timed (443 sweeps per step at N = 12 000: still compacting).
+    A frictional bed of N spheres under gravity in a box of 5 walls (:func:`granular_sample`,
+    friction 0.2, dt = 2e-4 s, NLGS at ``tolerance``): settled first (``settle_*``, until
+    the largest speed is below ``settle_speed``), then ``steps`` timed steps of the bed at rest.
 
-``threads``: number of numba threads of the parallel kernels (NSCDParameters.threads; 1 =
-the sequential kernels). With ``threads`` > 1 the bonded case also times the same steps with
-one thread on a copy of the sample and reports ``threads1_s_per_particle_step`` and
-``thread_speedup`` (CPU time would hide the gain: wall times are compared).
-
-Reported: case, n_particles, n_bonds, n_contacts (candidates, last step), n_active_contacts,
-steps, s_per_particle_step (process CPU time; wall time in wall_s_per_particle_step,
-with the 1-min load average, since the machine is shared), nlgs_iterations_mean (NLGS sweeps,
-or conjugate-gradient iterations on the linear path), peak_rss_mb (process maximum resident
-set), solver, tolerance, threads, compile_s (first call of every kernel on a tiny problem,
-from the numba cache when present), setup_s (sample generation, first factorisation),
-baseline_* and speedup, direct_* (bonded: the SuperLU path run over the same steps,
-its factorisation time, factor size, CPU time per particle and step, and the largest bond
-force difference to the conjugate gradient relative to the largest force),
-peak_rss_mb_production (bonded: peak RSS before the references run), time_breakdown
-(fraction of step time in detection, bond laws, solver, other), cpu/platform.
+``threads`` > 1 also times the bonded steps with one thread (wall times, ``thread_speedup``).
+Times are process CPU time per particle and step, with the wall time and the load average
+(the machine is shared). The JSON fields: docs/design.md, NSCD core: kernels, fast path,
+benchmark records. Cases and choices (the settled granular bed, same-run alternation of the
+solvers): docs/choices.md, NSCD core.
 """
 
 from __future__ import annotations
@@ -120,30 +89,18 @@ def granular_sample(n: int, seed: int = 0, density: float = 2600.0):
     return s, plates
 
 
-def _starter(start, rec):
-    """The Simulation constructor of the bonded case's runs: with ``start`` 'periodic', a
-    simulation of the bench sample (built at rest, without gravity) is put in the periodic
-    steady state of the 40 Hz head motion before its first step. The state is computed once
-    (harmonic solve, ``rec['periodic_solve_s']`` CPU s) and applied to every run: all are
-    built from the same seed, hence the same sample."""
-    if start == "rest":
-        return Simulation
-    from ..campaign.periodic import apply_periodic_state, periodic_state
+def _at_rest(start, rec):
+    """The Simulation constructor of the bonded case's runs started at rest (the default
+    ``starter`` of :func:`run_bench`).
 
-    cache = {}
-
-    def make(s, plates, bonds, params):
-        sim = Simulation(s, plates, bonds, params)
-        if "state" not in cache:
-            c = time.process_time()
-            cache["state"] = periodic_state(sim, LAW_15C, DRIVE_HZ, HEAD_AMPLITUDE_M,
-                                            head_rotation="clamped")
-            rec["periodic_solve_s"] = time.process_time() - c
-            rec["periodic_force_ratio"] = float(cache["state"].force_ratio)
-        apply_periodic_state(sim, cache["state"])
-        return sim
-
-    return make
+    Raises
+    ------
+    InputError for any ``start`` but 'rest': the periodic start needs the harmonic solver,
+    :func:`asphalt_nscd.campaign.bench.bench_starter` (what ``asphalt-nscd bench`` uses).
+    """
+    if start != "rest":
+        raise InputError(f"--start {start} needs the starter asphalt_nscd.campaign.bench.bench_starter")
+    return Simulation
 
 
 def _peak_rss_mb() -> float:
@@ -201,7 +158,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
               linear_tolerance: float = 1e-7, bond_kinematics: str = "contact",
               threads: int = 1, settle_speed: float = 5e-3,
               linear_solver: str = "cg", bonded_contact: str = "after_break",
-              start: str = "rest", ssor_omega: float | None = None) -> dict:
+              start: str = "rest", ssor_omega: float | None = None, starter=None) -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
@@ -210,17 +167,20 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     bonded case (NSCDParameters). ``threads``: NSCDParameters.threads of the timed run.
     ``settle_steps``, ``settle_speed`` (m/s): settling of the granular bed (module
     docstring). ``linear_solver``: of the bonded case's production run ('cg': block-Jacobi
-    conjugate gradient; 'cg_ssor': SSOR-preconditioned, linear.py); with 'cg_ssor' the same
+    conjugate gradient; 'cg_ssor': SSOR-preconditioned, nscd/linear/ssor.py); with 'cg_ssor' the same
     steps are also run with 'cg' on a copy of the sample, alternating chunks of 5 steps,
     and ``cg_s_per_particle_step``, ``cg_iterations_mean`` and ``speedup_vs_cg`` (CPU time
     ratio) are reported. ``bonded_contact``: NSCDParameters.bonded_contact of every run of
     the bonded case. ``start`` (bonded case): 'rest' (the sample at rest under gravity, the
     head starting at t = 0: the from-rest transient) or 'periodic' (the 2PB setting without
     gravity, every run started in the periodic steady state of the linear sample under the
-    head's motion, :func:`asphalt_nscd.campaign.periodic.periodic_state`: the regime of a
+    head's motion, :func:`asphalt_nscd.harmonic.periodic.periodic_state`: the regime of a
     2PB job once its transient has died out, or of a job with the periodic start; its
     harmonic solve, CPU s, is reported as ``periodic_solve_s`` and is part of ``setup_s``).
     ``ssor_omega``: NSCDParameters.linear_ssor_omega of 'cg_ssor' (None: its default).
+    ``starter``: (start, rec) -> the constructor (spheres, plates, bonds, params) ->
+    Simulation of the bonded case's runs, which may add keys to the record ``rec``; default:
+    at rest only. :func:`asphalt_nscd.campaign.bench.bench_starter` adds the periodic start.
 
     Raises
     ------
@@ -253,7 +213,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
                  "python": platform.python_version(), "numba": numba.__version__}
     if case == "bonded":
         gravity = (0.0, 0.0, -9.81) if start == "rest" else (0.0, 0.0, 0.0)
-        make_sim = _starter(start, rec)
+        make_sim = (starter or _at_rest)(start, rec)
         s, plates, bonds = bonded_sample(n, seed=seed)
         params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                 max_iterations=5000, fast_path=True,

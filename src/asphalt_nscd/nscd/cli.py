@@ -3,16 +3,10 @@
 ``asphalt-nscd verify -o verify.json [--csv verify.csv] [--phase-table phase.csv]
 [--figure verify.png]`` runs the verification cases of :mod:`.verify`.
 
-``asphalt-nscd bench-summary a.json b.json -o bench.csv`` tabulates bench records.
-
-``asphalt-nscd bench --case bonded|granular --n N [--steps S] [--baseline-steps B]
-[--tolerance TOL] [--settle-steps K] [--seed SEED] [--linear-tolerance TOL]
-[--bond-kinematics contact|barycentre] [--settle-speed V] [--threads T]
-[--linear-solver cg|cg_ssor] [--bonded-contact after_break|open_at_bonding|always]
-[--start rest|periodic] [--ssor-omega W] -o bench.json`` runs one benchmark.
+``asphalt-nscd bench-summary a.json b.json -o bench.csv`` tabulates the records of
+``asphalt-nscd bench`` (registered by :mod:`asphalt_nscd.campaign.cli`: its periodic start
+needs the harmonic solver).
 """
-
-from .state import BOND_KINEMATICS, BONDED_CONTACT
 
 
 def register(subparsers) -> None:
@@ -30,37 +24,6 @@ def register(subparsers) -> None:
                    help="frequencies (Hz) of the phase error table, comma-separated")
     p.add_argument("--strict", action="store_true", help="exit 1 if a case fails")
     p.set_defaults(func=_verify)
-
-    b = subparsers.add_parser("bench", help="NSCD core benchmark (JSON)")
-    b.add_argument("--case", required=True, choices=["bonded", "granular"])
-    b.add_argument("--n", type=int, required=True, help="number of spheres")
-    b.add_argument("--steps", type=int, default=20, help="timed steps")
-    b.add_argument("--baseline-steps", type=int, default=5,
-                   help="timed NLGS steps of the bonded baseline")
-    b.add_argument("--tolerance", type=float, default=1e-7, help="NLGS tolerance")
-    b.add_argument("--settle-steps", type=int, default=5000,
-                   help="most untimed settling steps of the granular case")
-    b.add_argument("--settle-speed", type=float, default=5e-3,
-                   help="granular settling ends when the largest sphere speed (m/s) is below")
-    b.add_argument("--threads", type=int, default=1,
-                   help="numba threads of the parallel kernels (NSCDParameters.threads)")
-    b.add_argument("--seed", type=int, default=0)
-    b.add_argument("--linear-tolerance", type=float, default=1e-7,
-                   help="relative residual of the conjugate gradient (bonded case)")
-    b.add_argument("--bond-kinematics", choices=list(BOND_KINEMATICS), default="contact",
-                   help="where the bonds act (bonded case; NSCDParameters.bond_kinematics)")
-    b.add_argument("--linear-solver", choices=["cg", "cg_ssor"], default="cg",
-                   help="conjugate gradient of the bonded case: block-Jacobi (cg) or SSOR "
-                        "(cg_ssor, also times cg on the same steps)")
-    b.add_argument("--bonded-contact", choices=list(BONDED_CONTACT), default="after_break",
-                   help="contact of the bonded pairs (bonded case; NSCDParameters.bonded_contact)")
-    b.add_argument("--start", choices=["rest", "periodic"], default="rest",
-                   help="bonded case: from rest under gravity, or in the periodic steady "
-                        "state without gravity (the 2PB setting)")
-    b.add_argument("--ssor-omega", type=float, default=None,
-                   help="relaxation factor of cg_ssor in (0, 2) (default: NSCDParameters')")
-    b.add_argument("-o", "--output", required=True, help="JSON record")
-    b.set_defaults(func=_bench)
 
     c = subparsers.add_parser("bench-summary", help="table of NSCD benchmark JSON records")
     c.add_argument("inputs", nargs="+", help="bench JSON files")
@@ -103,21 +66,6 @@ def _verify(args) -> int:
         print(f"FAILED {r['case']}: {r['quantity']} numerical={r['numerical']:.6g} "
               f"analytic={r['analytic']:.6g} rel={r['relative_error']:.3g}")
     return 1 if (failed and args.strict) else 0
-
-
-def _bench(args) -> int:
-    from ..io import write_json
-    from .bench import run_bench
-
-    rec = run_bench(args.case, args.n, steps=args.steps, baseline_steps=args.baseline_steps,
-                    tolerance=args.tolerance, settle_steps=args.settle_steps, seed=args.seed,
-                    linear_tolerance=args.linear_tolerance,
-                    bond_kinematics=args.bond_kinematics, threads=args.threads,
-                    settle_speed=args.settle_speed, linear_solver=args.linear_solver,
-                    bonded_contact=args.bonded_contact, start=args.start,
-                    ssor_omega=args.ssor_omega)
-    write_json(rec, args.output)
-    return 0
 
 
 def _bench_summary(args) -> int:

@@ -1,17 +1,11 @@
 """Contacts inside the linear fast path: the Signorini-Coulomb problem condensed on the bonds.
 
-Why
----
-The linear fast path (:mod:`.linear`) solves a step of the bonded network when no contact
-closes. On the paper-scale sample a 2PB step closes a handful of unbonded contacts (1-4 on
-average, at most 7, of 5-7 candidates: reference/paper_scale/README.md), and before this
-module the whole step -- 70,000 bonds -- was redone by nonlinear Gauss-Seidel: 99 % of the
-steps, 0.16 s each, about 8 x the cost of a linear step.
+Keeps a step of the linear fast path (:mod:`.linear`) in which a few unbonded contacts
+close on that path, instead of redoing it by nonlinear Gauss-Seidel over all bonds. Exact,
+not a penalty:
 
-Method (exact, not a penalty)
------------------------------
 While the bonds are linear, the step's unknown velocities x obey A x = rhs + J^T P
-(linear.py: A = M + sum_b L_b^T G_b L_b), where P (3|C|,) are the local impulses (n, t, s)
+(linear/: A = M + sum_b L_b^T G_b L_b), where P (3|C|,) are the local impulses (n, t, s)
 of a set C of contacts and J (3|C|, ndof) their velocity Jacobian: the contact velocity is
 U = J x (:func:`asphalt_nscd.nscd.gauss_seidel.contact_velocity`: v_i + r_i n x w_i - v_j +
 r_j n x w_j, or - v_plate, in the contact frame) and J^T P the impulses and torques the
@@ -24,9 +18,7 @@ a dense 3|C| x 3|C| matrix. The Signorini condition U_n + max(g, 0)/h >= 0 _|_ P
 Coulomb's law (Eqs. 6-7, the same velocity-level form as the NLGS: local_laws) are solved on
 it by nonlinear block Gauss-Seidel (:func:`condensed_nlgs`). Unlike a contact's own block in
 the full problem (diagonal: local_laws.contact_local_solve), a condensed block W_kk is full:
-the bonds couple the normal and tangential directions, strongly for mix-like bonds, and a
-projected iteration on its diagonal did not converge there (7 of 54 fast-path steps of a
-paper-scale measured-mode job went back to NLGS). Each contact's local problem is therefore
+the bonds couple the normal and tangential directions, so each contact's local problem is
 solved exactly with its full block (:func:`local_solve_block`: open, sticking P = -W^-1 b,
 or sliding along the direction, found by scan and bisection, whose slip velocity opposes
 it). Then x = x_lin + A^-1 J^T P and the bond impulses follow from their

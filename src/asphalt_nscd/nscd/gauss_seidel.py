@@ -2,8 +2,7 @@
 
 The global problem of a step is U = H^T v, v = v_free + M^-1 H P, with a local law per
 interaction (local_laws.py). The sweep visits the bonds, then the contacts, in a fixed
-order (symmetric or reversed sweeps, and contacts sorted from top to bottom along
-gravity, were tried on a granular bed: no fewer iterations); an open contact with zero
+order; an open contact with zero
 impulse is skipped after a test on its normal velocity alone (same result, less work);
 each visit computes the local velocity from the current body velocities, removes
 its own contribution (b = U - W_aa P_old), solves its local law exactly, relaxes
@@ -158,10 +157,19 @@ def _push_bond(b, dp0, dp1, dp2, bi, bj, frame, v, vp, inv_mass, inv_mass_plate,
 
 
 @kernel
-def apply_impulses(ci, cj, cframe, radius, cP, bi, bj, bframe, bP, v, w, vp, inv_mass,
-                   inv_inertia, inv_mass_plate, barm_i, barm_j, wp, inv_inertia_plate, rot):
-    """v <- v + M^-1 H P for all contact (C,3) and bond (B,3) impulses (warm start); bond
-    lever arms barm_i, barm_j (B,3), plate angular velocities wp (P,3) used when rot."""
+def apply_impulses(contacts, bonds, step, bodies, vel, rot):
+    """v <- v + M^-1 H P for all contact and bond impulses (warm start).
+
+    contacts : bundles.Contacts (impulse (C,3) N s read); bonds : bundles.BondGeometry;
+    step : bundles.BondStep (impulse (B,3) N s read); bodies : bundles.Bodies;
+    vel : bundles.Velocities, updated in place (plate angular velocities wp (P,3) only when
+    rot, the 'contact' kinematics)."""
+    ci, cj, cframe, cP = contacts.i, contacts.j, contacts.frame, contacts.impulse
+    bi, bj, bframe, barm_i, barm_j = bonds.i, bonds.j, bonds.frame, bonds.arm_i, bonds.arm_j
+    bP = step.impulse
+    radius, inv_mass, inv_inertia = bodies.radius, bodies.inv_mass, bodies.inv_inertia
+    inv_mass_plate, inv_inertia_plate = bodies.inv_mass_plate, bodies.inv_inertia_plate
+    v, w, vp, wp = vel.v, vel.w, vel.vp, vel.wp
     for a in range(len(ci)):
         _push_contact(a, cP[a, 0], cP[a, 1], cP[a, 2], ci, cj, cframe, radius, v, w, vp,
                       inv_mass, inv_inertia, inv_mass_plate)
@@ -171,17 +179,32 @@ def apply_impulses(ci, cj, cframe, radius, cP, bi, bj, bframe, bP, v, w, vp, inv
 
 
 @kernel
-def nlgs(ci, cj, cframe, cgap, cwn, cwt, cP, bi, bj, bframe, bw, bc0, bcg, bP, broken,
-         radius, v, w, vp, inv_mass, inv_inertia, inv_mass_plate, h, mu, tol, relax,
-         max_iter, norm, barm_i, barm_j, bW, bA_inv, wp, inv_inertia_plate, rot):
-    """Nonlinear Gauss-Seidel sweeps until convergence.
+def nlgs(contacts, bonds, step, bodies, vel, opts):
+    """Nonlinear Gauss-Seidel sweeps until convergence (Eqs. 6-7 for the contacts, the affine
+    bond law of Eq. 25).
 
-    On entry v (N,3), w (N,3), vp (P,3), wp (P,3) must already include the impulses cP
-    (C,3), bP (B,3) (see apply_impulses). Contacts: gap (C,) m, blocks cwn, cwt (C,). Bonds:
-    affine law P = bc0 - bcg U (B,3); 'barycentre' (rot False): block bw (B,) (times I);
-    'contact' (rot True): lever arms barm_i, barm_j (B,3), blocks bW (B,3,3) and bA_inv
-    (B,3,3) (delassus.bond_blocks_contact). Returns (iterations, quad, maxm, converged).
+    contacts : bundles.Contacts, gap (C,) m, blocks wn, wt (C,) s/kg, impulse (C,3) N s
+        updated in place;
+    bonds : bundles.BondGeometry; step : bundles.BondStep, affine law P = c0 - cg U (B,3),
+        with 'barycentre' (opts.rot False) the block w (B,) (times I), with 'contact'
+        (opts.rot True) the blocks W (B,3,3) and A_inv (B,3,3)
+        (delassus.bond_blocks_contact); impulse (B,3) N s updated in place;
+    bodies : bundles.Bodies; vel : bundles.Velocities, which on entry must already include
+        the impulses (see apply_impulses), updated in place;
+    opts : bundles.NLGSOptions (h, mu, tol, relax, max_iter, norm, rot).
+
+    Returns (iterations, quad, maxm, converged).
     """
+    ci, cj, cframe, cgap = contacts.i, contacts.j, contacts.frame, contacts.gap
+    cwn, cwt, cP = contacts.wn, contacts.wt, contacts.impulse
+    bi, bj, bframe, broken = bonds.i, bonds.j, bonds.frame, bonds.broken
+    barm_i, barm_j = bonds.arm_i, bonds.arm_j
+    bw, bc0, bcg, bP, bW, bA_inv = step.w, step.c0, step.cg, step.impulse, step.W, step.A_inv
+    radius, inv_mass, inv_inertia = bodies.radius, bodies.inv_mass, bodies.inv_inertia
+    inv_mass_plate, inv_inertia_plate = bodies.inv_mass_plate, bodies.inv_inertia_plate
+    v, w, vp, wp = vel.v, vel.w, vel.vp, vel.wp
+    h, mu, tol, relax = opts.h, opts.mu, opts.tol, opts.relax
+    max_iter, norm, rot = opts.max_iter, opts.norm, opts.rot
     nc = len(ci)
     nb = len(bi)
     quad = 0.0

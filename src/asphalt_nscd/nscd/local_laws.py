@@ -7,9 +7,8 @@ The unknown is the impulse P = (P_n, P_t, P_s) of the step. With the other inter
 frozen the local velocity is U = b + W_aa P with W_aa = diag(w_n, w_t, w_t) exactly for
 spheres and planes (delassus.py). The gap enters as in LMGC90's IQS law: Signorini is
 imposed on U_n + max(g, 0)/h, so an open contact may close within the step but never
-penetrates, and an existing overlap is not pushed out (no energy injected). The local
-solution is the standard NSCD one, exact here because W_aa is diagonal and isotropic in
-the tangent plane:
+penetrates, and an existing overlap is not pushed out (no energy injected). The standard
+NSCD local solution, exact as W_aa is diagonal and isotropic in the tangent plane:
 
 1. b_n + max(g,0)/h >= 0          -> P = 0 (no contact / separation);
 2. P_n = -(b_n + max(g,0)/h)/w_n, P_T = -b_T/w_t (stick prediction);
@@ -36,12 +35,9 @@ is affine: P = c0 - c_g U+ with c0 = h (th R_pred + (1-th) R-), R_pred = A/C - K
 (delta- + h(1-th) U-), c_g = h² th² K_eff, and with U = b + w P the local solution is
 P = (c0 - c_g b)/(1 + c_g w) per component (barycentre kinematics; with the contact
 kinematics W_bb is a full 3x3 block and P = (I + diag(c_g) W_bb)^-1 (c0 - c_g b),
-gauss_seidel.py). The bond's relative velocity U (:func:`bond_velocity`) is that of the
-barycentres ('barycentre') or of the contact point with the lever arms ('contact', see
-state.Bonds); with 'contact' delta- is the accumulated ``Bonds.displacement``, with
-'barycentre' it is recomputed from the positions. Breakage (Eqs. 12-13): when |R_n+| or
-|(R_t+, R_s+)| exceeds R_crit the bond is marked broken at the end of the step; from the
-next step on only Signorini-Coulomb acts on the pair.
+gauss_seidel.py). U: :func:`bond_velocity` (state.Bonds kinematics; delta- is
+``Bonds.displacement`` with 'contact', from the positions with 'barycentre'). Breakage
+(Eqs. 12-13): |R_n+| or |(R_t+, R_s+)| > R_crit breaks the bond at the end of the step.
 """
 
 from __future__ import annotations
@@ -127,19 +123,25 @@ def bond_coefficients(Km, Cm, Kk, Ck, h, theta, coef, i_den):
 
 
 @kernel
-def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, force,
-                 delta_c, delta_k, broken, h, theta, c0, cg, delta_m, u_m,
-                 arm_i, arm_j, w, wp, disp, rot):
-    """Per-bond affine law coefficients for the step (see module docstring).
+def bond_predict(bonds, law, x, xp, start, opts, step):
+    """Per-bond affine law coefficients for the step (Eq. 25; see module docstring).
 
-    Inputs: positions x (N,3), velocities v (N,3) and angular velocities w (N,3) at the
-    start of the step, plate points xp (P,3), step velocities vp (P,3) and angular
-    velocities wp (P,3); lever arms arm_i, arm_j (B,3), accumulated displacement disp (B,3)
-    and rot (True = 'contact' kinematics); coef (B,3,2), i_den (B,NK,2) from
-    :func:`bond_coefficients`; bond parameters (B,2)/(B,NK,2) and state.
-    Outputs (filled): c0 (B,3) N s, cg (B,3) N s/m, delta_m (B,3) m = delta-, u_m (B,3) m/s = U-.
-    Broken bonds get c0 = cg = 0.
+    bonds : bundles.BondGeometry; law : bundles.BondState (coef (B,3,2), i_den (B,NK,2)
+    from :func:`bond_coefficients`, bond parameters (B,2)/(B,NK,2), internal variables and
+    the accumulated displacement disp (B,3) m read); x (N,3) m sphere positions and xp (P,3)
+    m plate points at the start of the step; start : bundles.Velocities at the start of the
+    step (plates: their velocities of the step); opts : bundles.StepOptions (h, theta, rot;
+    rot True = 'contact' kinematics).
+    Outputs in step (bundles.BondStep, filled): c0 (B,3) N s, cg (B,3) N s/m, delta_m (B,3)
+    m = delta-, u_m (B,3) m/s = U-. Broken bonds get c0 = cg = 0.
     """
+    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i,
+                                           bonds.arm_j, bonds.broken)
+    coef, i_den, Kk, Ck, Kinf = law.coef, law.i_den, law.Kk, law.Ck, law.Kinf
+    force, delta_c, delta_k, rest, disp = law.force, law.delta_c, law.delta_k, law.rest, law.disp
+    v, w, vp, wp = start.v, start.w, start.vp, start.wp
+    h, theta, rot = opts.h, opts.theta, opts.rot
+    c0, cg, delta_m, u_m = step.c0, step.cg, step.delta_m, step.u_m
     nk = Kk.shape[1]
     for b in range(len(bi)):
         if broken[b]:
@@ -183,17 +185,26 @@ def bond_predict(bi, bj, frame, rest, x, v, xp, vp, coef, i_den, Kk, Ck, Kinf, f
 
 
 @kernel
-def bond_update(bi, bj, frame, coef, i_den, Kk, Ck, Kinf, r_crit, force, delta_c, delta_k,
-                broken, h, theta, delta_m, u_m, v, vp, impulse, arm_i, arm_j, w, wp, disp, rot):
-    """End-of-step update of the bond state from the end velocities v, w (N,3), vp, wp
-    (P,3); coef, i_den from :func:`bond_coefficients`; disp (B,3) receives delta+ (the
-    accumulated displacement of the 'contact' kinematics, rot True).
+def bond_update(bonds, law, step, end, opts):
+    """End-of-step update of the bond state (Eqs. 12-13, 15-26).
 
-    Updates force (B,3), delta_c, delta_k in place, marks broken bonds (|R_n| or |R_T| >
-    r_crit) and zeroes their force and impulse. Returns (number newly broken, energy
-    dissipated by the bonds in the step, J): -P . (delta+ - delta-)/h - (E+ - E-), with E
-    the energy stored in the springs.
+    bonds : bundles.BondGeometry (broken (B,) updated); law : bundles.BondState, whose force
+    (B,3) N, delta_c, delta_k are updated in place and disp (B,3) receives delta+ (the
+    accumulated displacement of the 'contact' kinematics); step : bundles.BondStep from
+    :func:`bond_predict` (delta_m, u_m read; impulse (B,3) N s zeroed for newly broken
+    bonds); end : bundles.Velocities at the end of the step; opts : bundles.StepOptions.
+
+    Marks broken bonds (|R_n| or |R_T| > r_crit) and zeroes their force and impulse. Returns
+    (number newly broken, energy dissipated by the bonds in the step, J): -P . (delta+ -
+    delta-)/h - (E+ - E-), with E the energy stored in the springs.
     """
+    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i,
+                                           bonds.arm_j, bonds.broken)
+    coef, i_den, Kk, Ck, Kinf, r_crit = law.coef, law.i_den, law.Kk, law.Ck, law.Kinf, law.r_crit
+    force, delta_c, delta_k, disp = law.force, law.delta_c, law.delta_k, law.disp
+    delta_m, u_m, impulse = step.delta_m, step.u_m, step.impulse
+    v, w, vp, wp = end.v, end.w, end.vp, end.wp
+    h, theta, rot = opts.h, opts.theta, opts.rot
     nk = Kk.shape[1]
     n_new = 0
     dissipated = 0.0

@@ -1,57 +1,68 @@
-"""Moreau-Jean time stepping (theta-method) of spheres, plates and bonds: the public
+"""Moreau–Jean time stepping (theta-method) of spheres, plates and bonds: the public
 :class:`Simulation`.
 
-One step of length h from t- to t+ = t- + h (Jean 1999; Eq. 14 of the paper):
+One step of length h from t- to t+ = t- + h (Jean 1999; Eq. 14 of the paper) runs these
+phases of :meth:`Simulation.step`, in order:
 
-1. plates: a driven plate gets the mean velocity (u(t+) - u(t-))/h of its imposed
-   displacement for the whole step; a free plate's free velocity includes gravity;
-2. free velocities v_free = v- + h M^-1 (m g + f_ext,theta), f_ext,theta = theta f(t+) +
-   (1-theta) f(t-) when the external force is a callable, else the array as given;
-3. detection at the start-of-step configuration (cell lists, gap < alert distance;
-   pairs whose intact bond is their only law skipped, ``NSCDParameters.bonded_contact``),
-   warm start of contact impulses from the previous step (matched by pair), of bond
-   impulses from the previous step;
-4. solve for the impulses: the linear fast path (linear.py) when allowed and valid (a few
-   contacts that it closes solved on their Delassus operator condensed over the bonds,
-   condensed.py, ``NSCDParameters.fast_path_contacts``), else nonlinear Gauss-Seidel
-   (gauss_seidel.py);
-5. bonds: internal variables, forces, breakage (local_laws.bond_update);
-6. positions x+ = x- + h (theta v+ + (1-theta) v-) (spheres and free plates); driven plates
-   at their imposed position; rotations are integrated only as angular velocities (the
-   orientation of a sphere does not enter any law; a rotating plate accumulates its small
-   rotation vector in ``Plates.rotation``).
+1. :meth:`~Simulation._plate_motion`: a driven plate gets the mean velocity
+   (u(t+) - u(t-))/h of its imposed displacement for the whole step;
+2. :meth:`~Simulation._free_velocities`: v_free = v- + h M^-1 (m g + f_ext,theta),
+   f_ext,theta = theta f(t+) + (1-theta) f(t-) when the external force is a callable, else
+   the array as given; a free plate's free velocity includes gravity;
+3. :meth:`~Simulation._detect_contacts`: detection at the start-of-step configuration
+   (cell lists, gap < alert distance; pairs whose intact bond is their only law skipped,
+   ``NSCDParameters.bonded_contact``), warm start of the contact impulses from the previous
+   step (matched by pair); :meth:`~Simulation._predict_bonds`: the affine bond laws of the
+   step (Eq. 25), bond impulses warm-started from the previous step;
+4. :meth:`~Simulation._solve_impulses`: the linear fast path (linear/) when allowed and
+   valid (a few contacts that it closes solved on their Delassus operator condensed over
+   the bonds, condensed.py, ``NSCDParameters.fast_path_contacts``), else nonlinear
+   Gauss–Seidel (gauss_seidel.py) on Signorini–Coulomb (Eqs. 6-7) and the bond laws;
+5. :meth:`~Simulation._update_bonds`: internal variables, forces, breakage (Eqs. 12-13,
+   15-26; local_laws.bond_update); :meth:`~Simulation._contact_dissipation`,
+   :meth:`~Simulation._plate_forces`: the step's dissipation and plate forces;
+6. :meth:`~Simulation._integrate`: positions x+ = x- + h (theta v+ + (1-theta) v-)
+   (spheres and free plates); driven plates at their imposed position; rotations are
+   integrated only as angular velocities (the orientation of a sphere does not enter any
+   law; a rotating plate accumulates its small rotation vector in ``Plates.rotation``).
 
 Bond kinematics (``NSCDParameters.bond_kinematics``, state.Bonds): with 'contact' the
 bonds act at their contact points with lever arms (torques on spheres and on rotating
-plates); the linear fast path then has 6 DOF per sphere (linear.py). Rotating plates
+plates); the linear fast path then has 6 DOF per sphere (linear/). Rotating plates
 (``Plate(rotation=True)``): translation as their mode says (e.g. driven), free rotation
 about their reference point under the bond torques. Contacts do not see a plate's rotation
 (their plate velocity is its translation, and they exert no torque on it): adequate for the
 small head rotations of a bonded 2PB test, where the head's load passes through bonds.
 
-Reported plate forces: ``plate_force`` = impulse / h of the spheres on the plate, i.e.
-theta R(t+) + (1-theta) R(t-); ``driver_force`` = m (a_theta - g) - plate_force with a_theta
-the same theta-average of the exact imposed acceleration (``_imposed_acceleration``), so the
-inertia term is consistent with the reaction to O(h²) (the former (v+ - v-)/h of the
-mean plate velocities was the acceleration at t-, a first-order lag of h/2: 0.06-1.6 deg of
-phase at 40 Hz, h = 5e-5 s). Plates of infinite mass report -plate_force.
-
-The default theta = 0.5 is justified in :class:`NSCDParameters`.
+Plate forces: :meth:`Simulation._plate_forces`; the default theta = 0.5: :class:`NSCDParameters`;
+kernel arguments: the named tuples of :mod:`.bundles`.
 """
 
 from __future__ import annotations
 
 import time as _time
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numba
 import numpy as np
 
 from . import condensed, detection, gauss_seidel, local_laws
+from .bundles import (Bodies, BondGeometry, BondState, BondStep, Contacts, NLGSOptions,
+                      StepOptions, Velocities)
 from .delassus import bond_blocks, bond_blocks_contact, contact_blocks
 from .linear import LinearBondSolver, bond_impulses
 from .state import (CONVERGENCE_NORMS, DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates,
                     Spheres, StepStats)
+
+
+class _PlateMotion(NamedTuple):
+    """The plates over a step (:meth:`Simulation._plate_motion`): velocity (P,3) m/s and
+    angular velocity (P,3) rad/s of the step, point (P,3) m at its end for the driven and
+    fixed plates."""
+
+    velocity: np.ndarray
+    angular: np.ndarray
+    point: np.ndarray
 
 
 class Simulation:
@@ -154,60 +165,120 @@ class Simulation:
 
     # ------------------------------------------------------------------ one step
     def step(self) -> StepStats:
-        """Advance by one time step ``params.dt``; returns its :class:`StepStats`."""
+        """Advance by one time step ``params.dt`` (Moreau–Jean, Eq. 14); returns its
+        :class:`StepStats`. The phases, in order: :meth:`_plate_motion`,
+        :meth:`_free_velocities`, :meth:`_detect_contacts`, :meth:`_predict_bonds`,
+        :meth:`_solve_impulses`, :meth:`_update_bonds`, :meth:`_contact_dissipation`,
+        :meth:`_plate_forces`, :meth:`_integrate`."""
         tic = _time.perf_counter()
         p = self.params
         if p.threads > 1:
             numba.set_num_threads(p.threads)
-        h, th = p.dt, p.theta
-        sph, pls, bnd = self.spheres, self.plates, self.bonds
-        t0, t1 = self.time, self.time + h
-        inv_m = sph.inv_mass
-        inv_i = sph.inv_inertia
-        inv_mp = pls.inv_mass
-        inv_ip = pls.inv_inertia
-        finite = np.isfinite(sph.mass)
-        rot = p.bond_kinematics == "contact"
+        t0, t1 = self.time, self.time + p.dt
+        bodies, bonds = self._bodies(), self._bond_geometry()
+        plate = self._plate_motion(t0, t1)
+        start, free = self._free_velocities(t0, t1, plate, bodies)
+        end = Velocities(*(a.copy() for a in free))
 
-        # 1. plates
-        vp_start = pls.velocity.copy()
-        new_point = pls.point.copy()
+        t_a = _time.perf_counter()
+        contacts = self._detect_contacts(free, bodies)
+        t_b = _time.perf_counter()
+        self.timings["detection"] += t_b - t_a
+
+        law = self._bond_state() if self.bonds.n else None
+        bond_step = self._predict_bonds(bonds, law, start)
+        t_c = _time.perf_counter()
+        self.timings["bonds"] += t_c - t_b
+
+        solver, it, quad, maxm, conv = self._solve_impulses(free, end, contacts, bonds,
+                                                            bond_step, bodies)
+        t_d = _time.perf_counter()
+        self.timings["solve"] += t_d - t_c
+
+        n_new, diss_b = self._update_bonds(bonds, law, bond_step, end)
+        diss_c = self._contact_dissipation(contacts, start, end)
+        t_e = _time.perf_counter()
+        self.timings["bonds"] += t_e - t_d
+
+        plate_force, driver = self._plate_forces(contacts, bond_step.impulse, t0, t1)
+        self._integrate(start, end, plate.point)
+        cP = contacts.impulse
+        self.contact_i, self.contact_j = contacts.i, contacts.j
+        self.contact_impulse, self.contact_frame = cP, contacts.frame
+        self.time = t1
+        self.step_index += 1
+        self.timings["other"] += _time.perf_counter() - t_e + (t_a - tic)
+        return StepStats(time=t1, solver=solver, iterations=int(it), residual_quad=float(quad),
+                         residual_max=float(maxm), converged=bool(conv),
+                         n_contacts=len(contacts.i),
+                         n_active_contacts=int((cP[:, 0] > 0).sum()),
+                         n_bonds=self.n_intact_bonds(), n_broken=int(n_new),
+                         n_broken_total=int(self.bonds.broken.sum()), plate_force=plate_force,
+                         driver_force=driver, dissipated=float(diss_b + diss_c))
+
+    # ------------------------------------------------------------------ phases of a step
+    def _plate_motion(self, t0, t1) -> _PlateMotion:
+        """Phase 1: the plates' velocities over the step [t0, t1] (s), the imposed part of the
+        Moreau–Jean step (Eq. 14). A driven plate moves at the mean velocity
+        (u(t1) - u(t0))/h of its imposed displacement u and ends at point0 + u(t1); a fixed
+        plate is at rest; a free plate keeps its velocity (its gravity and external force
+        enter the free velocities, :meth:`_free_velocities`). Only rotating plates have an
+        angular velocity."""
+        pls, h = self.plates, self.params.dt
+        velocity = pls.velocity.copy()
+        point = pls.point.copy()
         for k in range(pls.n):
             if pls.mode[k] == DRIVEN:
                 u0 = pls.imposed_displacement(k, t0)
                 u1 = pls.imposed_displacement(k, t1)
-                vp_start[k] = (u1 - u0) / h
-                new_point[k] = pls.point0[k] + u1
+                velocity[k] = (u1 - u0) / h
+                point[k] = pls.point0[k] + u1
             elif pls.mode[k] == FIXED:
-                vp_start[k] = 0.0
-        vp = vp_start.copy()
-        wp_start = np.where(pls.rotates[:, None], pls.angular_velocity, 0.0)
-        wp = wp_start.copy()
+                velocity[k] = 0.0
+        angular = np.where(pls.rotates[:, None], pls.angular_velocity, 0.0)
+        return _PlateMotion(velocity, angular, point)
+
+    def _free_velocities(self, t0, t1, plate: _PlateMotion, bodies: Bodies):
+        """Phase 2: the velocities at the start of the step and the free velocities
+        v_free = v- + h M^-1 (m g + f_ext,theta) (Eq. 14 without the reactions),
+        f_ext,theta = theta f(t1) + (1-theta) f(t0) when the external force is a callable,
+        else the array as given; immobile spheres (infinite mass) get zero velocities; free
+        plates get gravity and their external force. Returns (start, free), two
+        :class:`~.bundles.Velocities` (the plates' start velocities: those of
+        :meth:`_plate_motion`)."""
+        p, sph, pls = self.params, self.spheres, self.plates
+        h = p.dt
+        finite = np.isfinite(sph.mass)
+        vp = plate.velocity.copy()
+        wp = plate.angular.copy()
         free_p = pls.mode == FREE
         if free_p.any():
             vp[free_p] += h * (p.gravity
                                + self.plate_external_force[free_p] / pls.mass[free_p, None])
-
-        # 2. free velocities
         v_m = sph.velocity.copy()
         w_m = sph.angular_velocity.copy()
         v = v_m.copy()
         v[finite] += h * p.gravity
         fext = self._external(t0, t1)
         if fext is not None:
-            v[finite] += h * fext[finite] * inv_m[finite, None]
+            v[finite] += h * fext[finite] * bodies.inv_mass[finite, None]
         v[~finite] = 0.0
         w = w_m.copy()
         w[~finite] = 0.0
-        v_free = v.copy()
-        vp_free = vp.copy()
+        return (Velocities(v_m, w_m, plate.velocity, plate.angular),
+                Velocities(v, w, vp, wp))
 
-        # 3. detection and warm start; the alert distance is raised (never lowered) when the
-        # free velocities could close a larger gap within the step
-        t_a = _time.perf_counter()
-        vmax = np.sqrt((v_free**2).sum(1).max()) if len(v_free) else 0.0
+    def _detect_contacts(self, free: Velocities, bodies: Bodies) -> Contacts:
+        """Phase 3: contact candidates at the start-of-step configuration (cell lists, gap
+        below the alert distance; pairs whose intact bond is their only law skipped,
+        ``NSCDParameters.bonded_contact``), their impulses warm-started from the previous
+        step (:meth:`_warm_contacts`) and their diagonal Delassus blocks (Eqs. 6-7 act on
+        them). The alert distance is raised (never lowered) when the free velocities could
+        close a larger gap within the step."""
+        sph, pls, h = self.spheres, self.plates, self.params.dt
+        vmax = np.sqrt((free.v**2).sum(1).max()) if len(free.v) else 0.0
         if pls.n:
-            vmax += np.sqrt((vp_free**2).sum(1).max())
+            vmax += np.sqrt((free.vp**2).sum(1).max())
         if 2.0 * h * vmax > self._candidates.alert:
             self._candidates.alert = 2.0 * h * vmax
             self._candidates.skin = max(self._candidates.skin, self._candidates.alert)
@@ -219,79 +290,101 @@ class Simulation:
         cP = self._warm_contacts(ci, cj, cframe)
         cwn = np.empty(len(ci))
         cwt = np.empty(len(ci))
-        contact_blocks(ci, cj, inv_m, inv_i, sph.radius, inv_mp, cwn, cwt)
-        t_b = _time.perf_counter()
-        self.timings["detection"] += t_b - t_a
+        contact_blocks(ci, cj, bodies.inv_mass, bodies.inv_inertia, bodies.radius,
+                       bodies.inv_mass_plate, cwn, cwt)
+        return Contacts(ci, cj, cframe, gap, cwn, cwt, cP)
 
-        # bonds: affine laws of the step
+    def _predict_bonds(self, bonds: BondGeometry, law: BondState | None,
+                       start: Velocities) -> BondStep:
+        """The step's affine bond laws P = c0 - c_g U+ (Eq. 25, from the theta-method of the
+        generalized Burger's law, Eqs. 15-24; local_laws.bond_predict) from the state and
+        velocities at the start of the step; the impulses of broken bonds are zeroed. The
+        work arrays are reused from step to step (every entry is rewritten)."""
+        bnd = self.bonds
         nb = bnd.n
-        if self._bond_work is None or self._bond_work[0].shape[0] != nb:
-            self._bond_work = (tuple(np.zeros((nb, 3)) for _ in range(4)) + (np.zeros(nb),)
-                               + (np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3))))
-        # all entries rewritten by the kernels below
-        c0, cg, d_m, u_m, bw, bW, bA = self._bond_work
+        if self._bond_work is None or self._bond_work.c0.shape[0] != nb:
+            self._bond_work = BondStep(*(np.zeros((nb, 3)) for _ in range(4)), np.zeros(nb),
+                                       np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3)),
+                                       self.bond_impulse)
+        if self._bond_work.impulse is not self.bond_impulse:
+            self._bond_work = self._bond_work._replace(impulse=self.bond_impulse)
         if nb:
-            coef, i_den = self._bond_coefficients()
-            local_laws.bond_predict(bnd.i, bnd.j, bnd.frame, bnd.rest, sph.position, v_m,
-                                    pls.point, vp_start, coef, i_den, bnd.Kk, bnd.Ck,
-                                    bnd.Kinf, bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken,
-                                    h, th, c0, cg, d_m, u_m, bnd.arm_i, bnd.arm_j, w_m,
-                                    wp_start, bnd.displacement, rot)
-        bP = self.bond_impulse
-        bP[bnd.broken] = 0.0
-        t_c = _time.perf_counter()
-        self.timings["bonds"] += t_c - t_b
+            local_laws.bond_predict(bonds, law, self.spheres.position, self.plates.point, start,
+                                    self._step_options(), self._bond_work)
+        self.bond_impulse[bnd.broken] = 0.0
+        return self._bond_work
 
-        # 4. solve
-        solver = "nlgs"
-        it, quad, maxm, conv = 0, 0.0, 0.0, True
-        if p.fast_path and nb and self._fast_path(v_free, vp_free, c0, cg, v, vp, bP, inv_m,
-                                                  inv_mp, ci, cj, cframe, gap, w, h,
-                                                  wp, inv_i, inv_ip, rot, cP):
-            solver = "linear"
-            it = self.linear_iterations
-        else:
-            v[:] = v_free
-            vp[:] = vp_free
-            w[:] = w_m
-            w[~finite] = 0.0
-            wp[:] = wp_start
-            if nb:  # Delassus blocks of the bonds: needed by NLGS only
-                if rot:
-                    bond_blocks_contact(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, inv_m,
-                                        inv_i, inv_mp, inv_ip, cg, bW, bA)
-                else:
-                    bond_blocks(bnd.i, bnd.j, inv_m, inv_mp, bw)
-            gauss_seidel.apply_impulses(ci, cj, cframe, sph.radius, cP, bnd.i, bnd.j,
-                                        bnd.frame, bP, v, w, vp, inv_m, inv_i, inv_mp,
-                                        bnd.arm_i, bnd.arm_j, wp, inv_ip, rot)
-            it, quad, maxm, conv = gauss_seidel.nlgs(
-                ci, cj, cframe, gap, cwn, cwt, cP, bnd.i, bnd.j, bnd.frame, bw, c0, cg, bP,
-                bnd.broken, sph.radius, v, w, vp, inv_m, inv_i, inv_mp, h, p.friction,
-                p.tolerance, p.relaxation, p.max_iterations, CONVERGENCE_NORMS[p.convergence],
-                bnd.arm_i, bnd.arm_j, bW, bA, wp, inv_ip, rot)
-        t_d = _time.perf_counter()
-        self.timings["solve"] += t_d - t_c
+    def _solve_impulses(self, free: Velocities, end: Velocities, contacts: Contacts,
+                        bonds: BondGeometry, bond_step: BondStep, bodies: Bodies):
+        """Phase 4: the impulses of the step and the end-of-step velocities end (written in
+        place; on entry a copy of free). The linear fast path (:mod:`.linear`) when allowed
+        and valid (contacts it closes solved on their Delassus operator condensed over the
+        bonds, :mod:`.condensed`), else nonlinear Gauss-Seidel on the contact (Eqs. 6-7) and
+        bond (Eq. 25) laws (:mod:`.gauss_seidel`). Returns (solver 'linear' or 'nlgs',
+        iterations, quad, maxm, converged)."""
+        p = self.params
+        if p.fast_path and self.bonds.n and self._fast_path(free, end, contacts, bonds,
+                                                            bond_step, bodies):
+            return "linear", self.linear_iterations, 0.0, 0.0, True
+        for a, b in zip(end, free):
+            a[:] = b
+        rot = self._rot()
+        if self.bonds.n:  # Delassus blocks of the bonds: needed by NLGS only
+            bnd = self.bonds
+            if rot:
+                bond_blocks_contact(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j,
+                                    bodies.inv_mass, bodies.inv_inertia, bodies.inv_mass_plate,
+                                    bodies.inv_inertia_plate, bond_step.cg, bond_step.W,
+                                    bond_step.A_inv)
+            else:
+                bond_blocks(bnd.i, bnd.j, bodies.inv_mass, bodies.inv_mass_plate, bond_step.w)
+        gauss_seidel.apply_impulses(contacts, bonds, bond_step, bodies, end, rot)
+        opts = NLGSOptions(p.dt, p.friction, p.tolerance, p.relaxation, p.max_iterations,
+                           CONVERGENCE_NORMS[p.convergence], rot)
+        it, quad, maxm, conv = gauss_seidel.nlgs(contacts, bonds, bond_step, bodies, end, opts)
+        return "nlgs", it, quad, maxm, conv
 
-        # 5. bonds update
-        n_new, diss_b = 0, 0.0
-        if nb:
-            n_new, diss_b = local_laws.bond_update(
-                bnd.i, bnd.j, bnd.frame, coef, i_den, bnd.Kk, bnd.Ck, bnd.Kinf, bnd.r_crit,
-                bnd.force, bnd.delta_c, bnd.delta_k, bnd.broken, h, th, d_m, u_m, v, vp, bP,
-                bnd.arm_i, bnd.arm_j, w, wp, bnd.displacement, rot)
-        # contact dissipation: -P . (theta U+ + (1-theta) U-)
-        diss_c = 0.0
-        if cP.any():
-            u_plus = np.empty((len(ci), 3))
-            u_minus = np.empty((len(ci), 3))
-            self._contact_velocities(ci, cj, cframe, v, w, vp, u_plus)
-            self._contact_velocities(ci, cj, cframe, v_m, w_m, vp_start, u_minus)
-            diss_c = float(-(cP * (th * u_plus + (1 - th) * u_minus)).sum())
-        t_e = _time.perf_counter()
-        self.timings["bonds"] += t_e - t_d
+    def _update_bonds(self, bonds: BondGeometry, law: BondState | None, bond_step: BondStep,
+                      end: Velocities):
+        """Phase 5: the bonds' internal variables and forces at the end of the step (the
+        theta-method of Eqs. 15-26) and breakage (Eqs. 12-13; local_laws.bond_update).
+        Returns (number of bonds broken in the step, energy dissipated by the bonds, J)."""
+        if not self.bonds.n:
+            return 0, 0.0
+        return local_laws.bond_update(bonds, law, bond_step, end, self._step_options())
 
-        # plate forces (mean over the step) from contacts and bonds
+    def _contact_dissipation(self, contacts: Contacts, start: Velocities,
+                             end: Velocities) -> float:
+        """Energy (J) dissipated by the contacts (Eqs. 6-7) in the step:
+        -P . (theta U+ + (1-theta) U-) with U+, U- their local velocities at the end and start
+        of the step."""
+        cP = contacts.impulse
+        if not cP.any():
+            return 0.0
+        th = self.params.theta
+        n = len(contacts.i)
+        u_plus = np.empty((n, 3))
+        u_minus = np.empty((n, 3))
+        self._contact_velocities(contacts.i, contacts.j, contacts.frame, end.v, end.w, end.vp,
+                                 u_plus)
+        self._contact_velocities(contacts.i, contacts.j, contacts.frame, start.v, start.w,
+                                 start.vp, u_minus)
+        return float(-(cP * (th * u_plus + (1 - th) * u_minus)).sum())
+
+    def _plate_forces(self, contacts: Contacts, bP, t0, t1):
+        """Mean forces (P,3) N on the plates over the step (impulses P = h (theta R+ +
+        (1-theta) R-) of Eq. 14 and Eq. 25), and the bond torques
+        ``plate_torque`` (P,3) N m about their points ('contact' kinematics).
+
+        ``plate_force`` = impulse / h of the spheres on the plate (contacts and bonds), i.e.
+        theta R(t1) + (1-theta) R(t0); ``driver_force`` = m (a_theta - g) - plate_force with
+        a_theta the same theta-average of the exact imposed acceleration
+        (:meth:`_imposed_acceleration`), consistent with the reaction to O(h²); plates of
+        infinite mass report -plate_force. Returns (plate_force, driver_force)."""
+        p, pls, bnd = self.params, self.plates, self.bonds
+        h, th = p.dt, p.theta
+        cj, cP, cframe = contacts.j, contacts.impulse, contacts.frame
+        nb = bnd.n
         plate_force = np.zeros((pls.n, 3))
         on_plate = cj < 0
         if on_plate.any():
@@ -302,7 +395,7 @@ class Simulation:
         if nb and bp.any():
             g = np.einsum("ac,acd->ad", bP[bp], bnd.frame[bp])
             np.add.at(plate_force, -1 - bnd.j[bp], -g / h)
-            if rot:
+            if self._rot():
                 np.add.at(self.plate_torque, -1 - bnd.j[bp], np.cross(bnd.arm_j[bp], -g / h))
         driver = np.zeros((pls.n, 3))
         for k in range(pls.n):
@@ -314,10 +407,22 @@ class Simulation:
                 driver[k] = pls.mass[k] * (acc - p.gravity) - plate_force[k]
             elif pls.mode[k] in (DRIVEN, FIXED):  # infinite mass: inertia not counted
                 driver[k] = -plate_force[k]
+        return plate_force, driver
 
-        # 6. positions
+    def _integrate(self, start: Velocities, end: Velocities, driven_point):
+        """Phase 6: positions x+ = x- + h (theta v+ + (1-theta) v-) of the spheres and free
+        plates (Eq. 14); driven and fixed plates at driven_point (P,3) m (their imposed
+        position, :meth:`_plate_motion`); rotations only as angular velocities (a sphere's
+        orientation enters no law), a rotating plate accumulating its small rotation vector
+        in ``Plates.rotation``. The start velocities are kept for the initial guess of the
+        iterative linear solvers."""
+        h, th = self.params.dt, self.params.theta
+        sph, pls = self.spheres, self.plates
+        v_m, w_m, vp_start, wp_start = start
+        v, w, vp, wp = end
         if self._v_before is not None:
-            self._older = [(self._v_before, self._w_before, self._vp_before, self._wp_before)] + self._older[:1]
+            self._older = ([(self._v_before, self._w_before, self._vp_before,
+                             self._wp_before)] + self._older[:1])
         self._v_before, self._vp_before = v_m, vp_start
         self._w_before, self._wp_before = w_m, wp_start
         sph.position += h * (th * v + (1 - th) * v_m)
@@ -327,21 +432,10 @@ class Simulation:
             if pls.mode[k] == FREE:
                 pls.point[k] += h * (th * vp[k] + (1 - th) * vp_start[k])
             else:
-                pls.point[k] = new_point[k]
+                pls.point[k] = driven_point[k]
         pls.velocity[:] = vp
         pls.rotation += h * (th * wp + (1 - th) * wp_start)
         pls.angular_velocity[:] = wp
-        self.contact_i, self.contact_j = ci, cj
-        self.contact_impulse, self.contact_frame = cP, cframe
-        self.time = t1
-        self.step_index += 1
-        self.timings["other"] += _time.perf_counter() - t_e + (t_a - tic)
-        return StepStats(time=t1, solver=solver, iterations=int(it), residual_quad=float(quad),
-                         residual_max=float(maxm), converged=bool(conv), n_contacts=len(ci),
-                         n_active_contacts=int((cP[:, 0] > 0).sum()),
-                         n_bonds=self.n_intact_bonds(), n_broken=int(n_new),
-                         n_broken_total=int(bnd.broken.sum()), plate_force=plate_force,
-                         driver_force=driver, dissipated=float(diss_b + diss_c))
 
     def run(self, n_steps: int, callback: Callable | None = None):
         """Run ``n_steps`` steps; ``callback(sim, stats)`` after each. Returns a pandas
@@ -414,72 +508,108 @@ class Simulation:
             cP[:, 1:] *= scale[:, None]
         return cP
 
-    def _fast_path(self, v_free, vp_free, c0, cg, v, vp, bP, inv_m, inv_mp, ci, cj, cframe,
-                   gap, w, h, wp, inv_i, inv_ip, rot, cP) -> bool:
-        """Try the linear solver; True if its solution is the solution of the step (then
-        v, vp, bP, cP, and with rot also w, wp, hold it). Contacts that the linear solution
-        closes are solved on their Delassus operator condensed over the bonds
-        (:mod:`.condensed`) when there are at most ``fast_path_contacts`` of them."""
+    def _rot(self) -> bool:
+        """True with the 'contact' bond kinematics (bond torques, rotation unknowns)."""
+        return self.params.bond_kinematics == "contact"
+
+    def _bodies(self) -> Bodies:
+        sph, pls = self.spheres, self.plates
+        return Bodies(sph.radius, sph.inv_mass, sph.inv_inertia, pls.inv_mass, pls.inv_inertia)
+
+    def _bond_geometry(self) -> BondGeometry:
         bnd = self.bonds
-        p = self.params
+        return BondGeometry(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, bnd.broken)
+
+    def _bond_state(self) -> BondState:
+        bnd = self.bonds
+        coef, i_den = self._bond_coefficients()
+        return BondState(coef, i_den, bnd.Kk, bnd.Ck, bnd.Kinf, bnd.r_crit, bnd.force,
+                         bnd.delta_c, bnd.delta_k, bnd.rest, bnd.displacement)
+
+    def _step_options(self) -> StepOptions:
+        return StepOptions(self.params.dt, self.params.theta, self._rot())
+
+    def _linear_solver(self, bodies: Bodies) -> LinearBondSolver:
+        """The linear fast path's solver of the current (dt, theta, intact-bond set, solver
+        settings), rebuilt when one of them changed."""
+        bnd, p = self.bonds, self.params
+        rot = self._rot()
         key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
                p.linear_tolerance, rot, p.threads, p.linear_ssor_omega)
         if self._linear_key != key:
             rotation = None
             if rot:
-                rotation = dict(arm_i=bnd.arm_i, arm_j=bnd.arm_j, inv_inertia=inv_i,
-                                inv_inertia_plate=inv_ip)
-            self._linear = LinearBondSolver(inv_m, inv_mp, bnd.i, bnd.j, bnd.frame, cg,
-                                            bnd.broken, method=p.linear_solver,
+                rotation = dict(arm_i=bnd.arm_i, arm_j=bnd.arm_j,
+                                inv_inertia=bodies.inv_inertia,
+                                inv_inertia_plate=bodies.inv_inertia_plate)
+            self._linear = LinearBondSolver(bodies.inv_mass, bodies.inv_mass_plate, bnd.i,
+                                            bnd.j, bnd.frame, self._bond_work.cg, bnd.broken,
+                                            method=p.linear_solver,
                                             tolerance=p.linear_tolerance, rotation=rotation,
                                             threads=p.threads, ssor_omega=p.linear_ssor_omega)
             self._linear_key = key
-        v_try = v_free.copy()
-        vp_try = vp_free.copy()
-        w_try = w.copy()
-        wp_try = wp.copy()
-        P_try = np.zeros_like(bP)
-        # initial guess of the iterative solver: linear extrapolation of the velocities
+        return self._linear
+
+    def _initial_guess(self):
+        """Initial guess of the iterative linear solvers: (start, previous). start: the
+        linear extrapolation in time of the body velocities (:class:`~.bundles.Velocities`);
+        previous: for cg_ssor's Galerkin start, the velocity fields at the start of the step
+        and up to three steps before (most recent first), or None on the first step."""
+        rot = self._rot()
         v0, vp0 = self.spheres.velocity, self.plates.velocity
         w0, wp0 = self.spheres.angular_velocity, self.plates.angular_velocity
-        previous = None  # cg_ssor: Galerkin combination of the last two to four velocity fields
+        previous = None
         if self._v_before is not None and self._v_before.shape == v0.shape:
-            previous = ((v0, w0, vp0, wp0),
-                        (self._v_before, self._w_before if rot else w0, self._vp_before,
-                         self._wp_before if rot else wp0))
+            previous = (Velocities(v0, w0, vp0, wp0),
+                        Velocities(self._v_before, self._w_before if rot else w0,
+                                   self._vp_before, self._wp_before if rot else wp0))
             for old in self._older:
                 if old[0].shape != v0.shape:
                     break
-                previous += ((old[0], old[1] if rot else w0, old[2], old[3] if rot else wp0),)
+                previous += (Velocities(old[0], old[1] if rot else w0, old[2],
+                                        old[3] if rot else wp0),)
             v0 = 2.0 * v0 - self._v_before
             vp0 = 2.0 * vp0 - self._vp_before
             if rot and self._w_before is not None:
                 w0 = 2.0 * w0 - self._w_before
                 wp0 = 2.0 * wp0 - self._wp_before
-        self._linear.solve(v_free, w.copy(), vp_free, wp.copy(), bnd.i, bnd.j, bnd.frame,
-                           bnd.arm_i, bnd.arm_j, c0, cg, bnd.broken, v_try, w_try, vp_try,
-                           wp_try, P_try, start=(v0, w0, vp0, wp0), previous=previous)
-        self.linear_iterations = self._linear.last_iterations
+        return Velocities(v0, w0, vp0, wp0), previous
+
+    def _fast_path(self, free: Velocities, end: Velocities, contacts: Contacts,
+                   bonds: BondGeometry, bond_step: BondStep, bodies: Bodies) -> bool:
+        """Try the linear solver (:mod:`.linear`); True if its solution is the solution of
+        the step: then end, the bond impulses and the contact impulses hold it. Contacts
+        that the linear solution closes are solved on their Delassus operator condensed over
+        the bonds (:mod:`.condensed`) when there are at most ``fast_path_contacts`` of them;
+        otherwise False, with the linear bond impulses left as NLGS's warm start (the
+        contact impulses keep theirs)."""
+        p = self.params
+        h, rot = p.dt, self._rot()
+        solver = self._linear_solver(bodies)
+        trial = Velocities(*(a.copy() for a in end))
+        P_try = np.zeros_like(bond_step.impulse)
+        start, previous = self._initial_guess()
+        solver.solve(free, bonds, bond_step.c0, bond_step.cg, trial, P_try, start=start,
+                     previous=previous)
+        self.linear_iterations = solver.last_iterations
         # contacts must stay open with zero reaction, or be solved by the condensed problem
-        # (cP keeps its warm start for NLGS until the fast path has succeeded)
+        ci, cj, cframe, gap = contacts.i, contacts.j, contacts.frame, contacts.gap
         closed = None
         if len(ci):
             u = np.empty((len(ci), 3))
-            self._contact_velocities(ci, cj, cframe, v_try, w_try, vp_try, u)
+            self._contact_velocities(ci, cj, cframe, trial.v, trial.w, trial.vp, u)
             if np.any(u[:, 0] + np.maximum(gap, 0.0) / h < 0.0):
                 if p.fast_path_contacts > 0:
                     closed = condensed.solve_contacts(
-                        self._linear, ci, cj, cframe, gap, self.spheres.radius, inv_i, v_try,
-                        w_try, vp_try, wp_try, u, h, p.friction, p.fast_path_contacts)
+                        solver, ci, cj, cframe, gap, bodies.radius, bodies.inv_inertia,
+                        *trial, u, h, p.friction,
+                        p.fast_path_contacts)
                 if closed is None:
-                    bP[:] = P_try  # warm start for NLGS
+                    bond_step.impulse[:] = P_try  # warm start for NLGS
                     return False
-                bond_impulses(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j, c0, cg,
-                              bnd.broken, v_try, w_try, vp_try, wp_try, P_try, rot)
-        cP[:] = 0.0 if closed is None else closed
-        v[:] = v_try
-        vp[:] = vp_try
-        w[:] = w_try
-        wp[:] = wp_try
-        bP[:] = P_try
+                bond_impulses(bonds, bond_step.c0, bond_step.cg, trial, P_try, rot)
+        contacts.impulse[:] = 0.0 if closed is None else closed
+        for a, b in zip(end, trial):
+            a[:] = b
+        bond_step.impulse[:] = P_try
         return True

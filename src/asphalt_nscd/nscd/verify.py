@@ -10,11 +10,8 @@ Ek = 4.84e7, eta_k = 7.73e5; spheres of 2 mm radius, l0 = 4.5 mm):
 
 * ``creep_normal`` / ``creep_tangential``: one sphere fixed, constant force on the other,
   delta(t) = F (1/Km + t/Cm + (1 - exp(-Kk t/Ck))/Kk) (tangential: parameters x
-  1/(2(1+nu)), Eqs. 8-11); theta = 1 (L-stable, quasi-static with a light sphere). The
-  loaded sphere's rotation is locked (infinite inertia): with the default 'contact' bond
-  kinematics a bond is a point spring at c and a force at the barycentre would also drive
-  the free rolling of the sphere about c (harmonic/solver.py); locked, delta is the
-  barycentre translation under both kinematics.
+  1/(2(1+nu)), Eqs. 8-11); theta = 1 (L-stable, quasi-static with a light sphere); the
+  loaded sphere's rotation locked (no free rolling about the bond point c).
 * ``rigid_rotation``: a bonded pair (sphere-sphere and sphere-plate with a rotating plate)
   in rigid rotation (same angular velocity, consistent translations) for a few steps: no
   bond force with the 'contact' kinematics (the tangential force k_t theta x (x_i - x_j)
@@ -33,13 +30,11 @@ Ek = 4.84e7, eta_k = 7.73e5; spheres of 2 mm radius, l0 = 4.5 mm):
   force crosses R_crit = sigma_y pi r_min² (within one ramp increment).
 * ``dissipation``: step dissipation never negative (impact, sliding, bonded sinusoid).
 * ``fast_path``: linear fast path and NLGS give the same bond forces.
-* ``fast_path_contacts``: an unbonded sphere pressed against the side of the bonded block
-  (:func:`pressed_sphere_network`), its contact sticking and slipping: the fast path with
-  the contact solved on the condensed Delassus operator (condensed.py) gives the bond and
-  contact impulses of NLGS (tol 1e-12) on every step, and keeps every step.
-* ``solver_tolerance``: phase of the driver force of a -10 degC, 40 Hz test on a small
-  bonded network with CG (relative residual 1e-10) and NLGS (tol 1e-7) against the direct
-  solver: within 0.001 deg and 0.01 deg.
+* ``fast_path_contacts``: a sphere pressed against the bonded block, sticking and slipping
+  (:func:`pressed_sphere_network`): the fast path with condensed contacts gives NLGS's
+  impulses on every step, and keeps every step.
+* ``solver_tolerance``: driver-force phase of a -10 degC, 40 Hz test, CG (residual 1e-10)
+  and NLGS (tol 1e-7) against the direct solver: within 0.001 deg and 0.01 deg.
 
 :func:`phase_error_table` measures the phase and amplitude error of the time-discrete bond
 law under an imposed sinusoidal gap, as a function of omega dt and theta.
@@ -99,7 +94,9 @@ def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = POIS
 def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5,
                kinematics: str = "contact") -> list[dict]:
     """Creep of a two-sphere bond under a constant force of R_crit/2 (normal or tangential);
-    the loaded sphere does not rotate (module docstring). ``kinematics``: bond kinematics."""
+    the loaded sphere does not rotate (with the 'contact' kinematics a force at its barycentre
+    would also roll it about the bond point c, harmonic/solver.py; locked, delta is the
+    barycentre translation under both kinematics). ``kinematics``: bond kinematics."""
     s, b = _pair(mass1=1e-6, inertia1=np.inf)
     F = 0.5 * b.r_crit[0]
     axis = b.frame[0, 0] if direction == "normal" else b.frame[0, 1]

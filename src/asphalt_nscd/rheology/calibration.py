@@ -6,40 +6,22 @@ Macro law (paper Eqs. 27-29), via :meth:`GeneralizedBurgers.burgers`::
     D'' = 1/(w eta_m) + w eta_k/(Ek^2 + w^2 eta_k^2)
     |E*| = 1/|D*|,   Phi = arctan(D''/D')
 
-Fit (one temperature at a time, as in the paper Section 3.2.2)
-----------------------------------------------------------------
-Unknowns are the logarithms of (Em, eta_m, Ek, eta_k) in MPa and MPa s, bounded to
-[1e-6, 1e9]. The residual of a measured point i is::
+Fit, one temperature at a time (paper Section 3.2.2): the logarithms of (Em, eta_m, Ek, eta_k)
+in MPa and MPa s, bounded to [1e-6, 1e9], minimise sum r^2 over every replicate point, with
+r_i = (w_E [ln|E*|_model(f_i) - ln|E*|_i], w_Phi [Phi_model(f_i) - Phi_i]) (Phi in radians),
+by SciPy's ``least_squares`` ("trf", analytic Jacobian) from the best ``n_starts`` points of a
+grid built from the data. Standard errors: se(ln p) = sqrt(diag(s^2 (J^T J)^-1)),
+s^2 = cost / (m - 4). Reported per temperature: rms of the ln|E*| and Phi residuals, the mean
+relative errors of |E*| and Phi (%, paper Table 4) and the largest absolute phase error.
 
-    r_i = ( w_E  [ln|E*|_model(f_i) - ln|E*|_i],
-            w_Phi [Phi_model(f_i) - Phi_i] )      (Phi in radians)
+:func:`load_table3` reads the paper's Table 3 (``data/paper/table3_burgers.csv``, as printed)
+under a unit reading, ``"Pa"`` or ``"kPa"`` (data/paper/SOURCE.md). Micro parameters
+(Eqs. 30-33, 8-11): normal = macro x ``pi r_min^2 / l0``
+(:func:`asphalt_nscd.rheology.laws.bond_scale`), tangential a further ``1/(2(1+nu))``
+(:func:`~asphalt_nscd.rheology.laws.tangential_ratio`).
 
-With w_E = w_Phi = 1 (default) this is the complex logarithm ln E*_model - ln E*_i, which
-weighs a 1 % error on |E*| like a 0.57 deg error on Phi. The cost sum r^2 is minimised by
-SciPy's bounded trust-region least squares (``least_squares``, method "trf", analytic
-Jacobian) started from the best ``n_starts`` points of a grid of starting values built from
-the data (upper plateau from max |E*|, Maxwell viscosity from the loss compliance at the
-lowest frequency, Kelvin-Voigt time near the geometric mean period): a short run of
-``EXPLORE_NFEV`` evaluations from each start, then the two best continue to convergence
-(a start still running after that crawls along a bound). Every replicate point is
-fitted (not the means), so the standard errors reflect the replicate scatter:
-``se(ln p) = sqrt(diag(s^2 (J^T J)^-1))``, s^2 = cost / (m - 4), ``se(p) = p se(ln p)``.
-
-Fit errors reported per temperature: rms of ln|E*| residuals, rms of Phi residuals
-(degrees), mean relative errors of |E*| and Phi (%, the MRE of the paper's Table 4) and the
-largest absolute phase error.
-
-Paper Table 3
--------------
-``data/paper/table3_burgers.csv`` stores the paper's Table 3 as printed (header "Pa",
-"Pa s"). :func:`load_table3` reads it under a chosen unit reading (``"Pa"`` literal, or
-``"kPa"``); see data/paper/SOURCE.md for why both readings are kept open.
-
-Micro parameters (Eqs. 30-33, 8-11)
------------------------------------
-Normal bond parameters are the macro ones times ``pi r_min^2 / l0``
-(:func:`asphalt_nscd.rheology.laws.bond_scale`); tangential ones a further
-``1/(2(1+nu))`` (:func:`~asphalt_nscd.rheology.laws.tangential_ratio`).
+Choices (docs/choices.md, Calibration): the weights w_E = w_Phi = 1 (the complex-logarithm
+residual), the multi-start, the two readings of Table 3's units.
 """
 
 from __future__ import annotations

@@ -23,6 +23,16 @@ def _add_fit_options(p) -> None:
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    _add_fit(subparsers)
+    _add_table3(subparsers)
+    _add_burgers_curves(subparsers)
+    _add_refit_check(subparsers)
+    _add_micro(subparsers)
+    _add_export_law(subparsers)
+
+
+def _add_fit(subparsers) -> None:
+    """``fit``: fit a Burger's model per temperature to a measured table (Eqs. 27-29)."""
     p = subparsers.add_parser("fit", help="fit a Burger's model per temperature to a measured table (Eqs. 27-29)")
     p.add_argument("--measured", type=Path, required=True,
                    help="measured table (specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg)")
@@ -32,6 +42,9 @@ def register(subparsers) -> None:
                    help="CSV, one row per temperature: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s, *_se, fit errors")
     p.set_defaults(func=_fit)
 
+
+def _add_table3(subparsers) -> None:
+    """``table3``: convert the paper's Table 3 (as printed) to MPa, MPa s."""
     p = subparsers.add_parser("table3", help="convert the paper's Table 3 (as printed) to MPa, MPa s")
     p.add_argument("table", type=Path, help="data/paper/table3_burgers.csv")
     p.add_argument("--units", choices=["Pa", "kPa"], default="Pa",
@@ -39,6 +52,9 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV in MPa, MPa s")
     p.set_defaults(func=_table3)
 
+
+def _add_burgers_curves(subparsers) -> None:
+    """``burgers-curves``: Burger's model isotherms of a parameter table."""
     p = subparsers.add_parser("burgers-curves", help="Burger's model isotherms of a parameter table")
     p.add_argument("--parameters", type=Path, required=True,
                    help="CSV: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s")
@@ -49,6 +65,9 @@ def register(subparsers) -> None:
                    help="CSV: temperature_C, frequency_Hz, E_norm_MPa, phase_deg, E1_MPa, E2_MPa")
     p.set_defaults(func=_curves)
 
+
+def _add_refit_check(subparsers) -> None:
+    """``refit-check``: generate isotherms from a parameter table and fit them back (verification)."""
     p = subparsers.add_parser("refit-check",
                               help="generate isotherms from a parameter table and fit them back (verification)")
     p.add_argument("--parameters", type=Path, required=True, help="CSV in MPa, MPa s (e.g. output of table3)")
@@ -59,6 +78,9 @@ def register(subparsers) -> None:
                    help="CSV: true and refitted parameters and relative errors per temperature")
     p.set_defaults(func=_refit_check)
 
+
+def _add_micro(subparsers) -> None:
+    """``micro``: bond parameters from macro Burger's parameters, r_min and l0 (Eqs. 30-33, 8-11)."""
     p = subparsers.add_parser("micro", help="bond parameters from macro Burger's parameters, r_min and l0 (Eqs. 30-33, 8-11)")
     p.add_argument("--parameters", type=Path, required=True, help="CSV in MPa, MPa s")
     p.add_argument("--r-min-mm", type=float, nargs="+", required=True, help="smaller radius of each bonded pair, mm")
@@ -70,6 +92,10 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV, one row per (temperature, bond)")
     p.set_defaults(func=_micro)
 
+
+def _add_export_law(subparsers) -> None:
+    """``export-law``: material cards of a temperature-aware law: Abaqus, LS-DYNA, JSON and CSV
+    Prony series."""
     p = subparsers.add_parser(
         "export-law", help="material cards of a temperature-aware law: Abaqus, LS-DYNA, JSON and CSV Prony series",
         description="Relaxation Prony series at the law's reference temperature with its WLF shift "

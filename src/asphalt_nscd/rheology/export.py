@@ -104,21 +104,7 @@ def prony_card(law: dict, cells: pd.DataFrame, per_decade: float = 3.0, margin_d
     shift = model["shift"]
     T = cells["temperature_C"].to_numpy(float)
     f = cells["frequency_Hz"].to_numpy(float)
-    lo, hi = float(T.min()), float(T.max())
-    if str(shift["law"]).upper() == "WLF":
-        C1, C2, from_law, diff = float(shift["C1"]), float(shift["C2_K"]), "WLF of the law", 0.0
-    else:  # Arrhenius: the WLF law nearest it over the calibrated range
-        from scipy.optimize import least_squares
-
-        from .shift import arrhenius_log_shift
-
-        grid = np.linspace(lo, hi, 41)
-        target = arrhenius_log_shift(grid, T_ref, float(shift["Ea_kJ_mol"]) * 1e3)
-        res = least_squares(lambda p: wlf_log_shift(grid, T_ref, p[0], p[1]) - target, [20.0, 150.0],
-                            bounds=([0.1, T_ref - lo + 1.0], [500.0, 1e5]))
-        C1, C2 = (float(v) for v in res.x)
-        diff = float(np.abs(res.fun).max())
-        from_law = "WLF fitted to the law's Arrhenius shift over the calibrated range"
+    C1, C2, from_law, diff = _card_wlf(shift, T_ref, float(T.min()), float(T.max()))
     wr = 2 * np.pi * f * 10.0 ** wlf_log_shift(T, T_ref, C1, C2)
     w_lo, w_hi = wr.min() / 10**margin_decades, wr.max() * 10**margin_decades
     omega = np.logspace(math.log10(w_lo), math.log10(w_hi), int(10 * math.log10(w_hi / w_lo)) + 1)
@@ -139,23 +125,47 @@ def prony_card(law: dict, cells: pd.DataFrame, per_decade: float = 3.0, margin_d
             "shift": {"law": "WLF", "C1": C1, "C2_K": C2, "T_ref_C": T_ref, "from": from_law,
                       "max_log10_aT_difference": diff},
             "nu": float(nu), "units": {"modulus": "MPa", "time": "s", "temperature": "degC"}}
-    # the card against the law at every calibrated cell
+    card["check"], card["exact"] = _card_check(card, entries, model.get("settings") or {}, T, f)
+    return card
+
+
+def _card_wlf(shift: dict, T_ref: float, lo: float, hi: float) -> tuple[float, float, str, float]:
+    """The card's WLF shift (:func:`prony_card`): (C1, C2 in K, its origin, largest |log10 aT|
+    difference to the law's shift). A WLF law is taken as it is; an Arrhenius one is replaced by
+    the WLF law nearest it on [lo, hi] degC (least squares on 41 temperatures)."""
+    if str(shift["law"]).upper() == "WLF":
+        return float(shift["C1"]), float(shift["C2_K"]), "WLF of the law", 0.0
+    from scipy.optimize import least_squares
+
+    from .shift import arrhenius_log_shift
+
+    grid = np.linspace(lo, hi, 41)
+    target = arrhenius_log_shift(grid, T_ref, float(shift["Ea_kJ_mol"]) * 1e3)
+    res = least_squares(lambda p: wlf_log_shift(grid, T_ref, p[0], p[1]) - target, [20.0, 150.0],
+                        bounds=([0.1, T_ref - lo + 1.0], [500.0, 1e5]))
+    C1, C2 = (float(v) for v in res.x)
+    return C1, C2, "WLF fitted to the law's Arrhenius shift over the calibrated range", float(np.abs(res.fun).max())
+
+
+def _card_check(card: dict, entries: dict, settings: dict, T: np.ndarray, f: np.ndarray) -> tuple[dict, bool]:
+    """The card against the law at every calibrated cell (T degC, f Hz; arrays of shape (n,)):
+    (the ``check`` block of :func:`prony_card`, whether it is within the tolerances)."""
+    from . import law_file
+
     E_card = card_modulus(card, f, T)
     E_law = law_file.complex_modulus(entries, T, f, "law JSON")
     dE = 100 * np.abs(np.abs(E_card) / np.abs(E_law) - 1)
     dP = np.abs(np.degrees(np.angle(E_card) - np.angle(E_law)))
-    settings = (model.get("settings") or {})
     lost = [name for name, on in (("vertical shift", settings.get("vertical")),
                                   ("static modulus trend", settings.get("static") == "trend"),
                                   ("per-isotherm refinement", settings.get("refine") is not None))
             if on]
     iE, iP = int(np.argmax(dE)), int(np.argmax(dP))
-    card["check"] = {"max_E_norm_difference_pct": float(dE[iE]), "at_E": [float(T[iE]), float(f[iE])],
-                     "max_phase_difference_deg": float(dP[iP]), "at_phase": [float(T[iP]), float(f[iP])],
-                     "n_cells": int(T.size), "not_carried": lost,
-                     "tolerances": {"E_norm_pct": TOLERANCE_E_PCT, "phase_deg": TOLERANCE_PHASE_DEG}}
-    card["exact"] = bool(dE[iE] <= TOLERANCE_E_PCT and dP[iP] <= TOLERANCE_PHASE_DEG)
-    return card
+    check = {"max_E_norm_difference_pct": float(dE[iE]), "at_E": [float(T[iE]), float(f[iE])],
+             "max_phase_difference_deg": float(dP[iP]), "at_phase": [float(T[iP]), float(f[iP])],
+             "n_cells": int(T.size), "not_carried": lost,
+             "tolerances": {"E_norm_pct": TOLERANCE_E_PCT, "phase_deg": TOLERANCE_PHASE_DEG}}
+    return check, bool(dE[iE] <= TOLERANCE_E_PCT and dP[iP] <= TOLERANCE_PHASE_DEG)
 
 
 def card_modulus(card: dict, frequency_Hz, temperature_C) -> np.ndarray:

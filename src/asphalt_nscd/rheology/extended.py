@@ -1,52 +1,27 @@
 """Extended bond law: one temperature-aware generalized Burger's law for a measured table.
 
-Model (:class:`ThermoLaw`): a *backbone* complex modulus defined at every temperature,
+:class:`ThermoLaw` is a 2S2P1D backbone (Olard & Di Benedetto 2003) at every temperature,
 
     E*(w, T) = b(T) [E00(T) + (E0 - E00(T)) / (1 + delta (i w tau_T)^-k + (i w tau_T)^-h
                                                  + (i w beta tau_T)^-1)],   tau_T = tau aT(T)
 
-(2S2P1D, Olard & Di Benedetto 2003: a continuous, positive retardation spectrum at the
-reference temperature T_ref, the training temperature nearest the median) with
+with T_ref the training temperature nearest the median, a shift law aT, WLF or Arrhenius
+(:mod:`asphalt_nscd.rheology.shift`), a static modulus E00 ``none`` / ``constant`` / ``trend``
+(log10 E00 linear in T), an optional vertical shift log10 b(T) = v (T - T_ref) / 100 K and an
+optional per-isotherm refinement of log10 aT, log10 b, log10 E00 (``refine`` = kappa, penalty
+kappa (d / 0.05 decade)^2). :func:`fit_backbone` fits it to the training cell means.
+:meth:`ThermoLaw.law_at` turns the chain at T_ref once into a Prony (generalized Kelvin) chain
+(:func:`~asphalt_nscd.rheology.models.fit_generalized_kelvin`, NNLS: causal and passive),
+scales it to T (times x aT(T), moduli x b(T) (E0 - E00(T)) / (E0 - E00(T_ref)),
+E_inf = b(T) E00(T)) and merges the units outside the tested band, giving the per-temperature
+law of :mod:`asphalt_nscd.rheology.law_file`, E_inf + [1/Em + 1/(i w eta_m) + sum 1/(Ek + i w eta_k)]^-1.
+:func:`best_causal_fit` bounds what any causal linear law can reach on one isotherm.
 
-* a shift law aT: WLF (C1, C2) or Arrhenius (Ea) (:mod:`asphalt_nscd.rheology.shift`);
-* a static modulus E00 (``static``): ``none`` (E00 = 0, a liquid), ``constant``, or
-  ``trend``: log10 E00(T) = log10 E00 + s (T - T_ref) / 100 K (a temperature-dependent
-  long-time modulus of the aggregate skeleton);
-* an optional vertical shift (``vertical``): log10 b(T) = v (T - T_ref) / 100 K; both trends
-  carry a weak prior, a penalty (s / 1 decade per 100 K)^2 (the weight of one cell at its
-  tolerance), which keeps a trend the data do not resolve near 0 (a static modulus fitted on
-  cold isotherms only would otherwise extrapolate by decades);
-* an optional per-isotherm refinement (``refine`` = kappa): a deviation of log10 aT, of
-  log10 b and (with a static modulus) of log10 E00 at each training isotherm, penalised by kappa (d / 0.05 decade)^2 each, linearly
-  interpolated in T between the training isotherms and held at the end values outside them.
-
-Fit (:func:`fit_backbone`): robust least squares (SciPy ``least_squares``, soft-L1 loss,
-scale 1) of the residuals of every training cell mean, ln(|E*|_model / |E*|) / tol_E and
-(Phi_model - Phi) / (max(Phi, 1 deg) tol_Phi) with tol = (3 %, 5 %) by default: the targets
-are mean relative errors, which a squared loss would trade for the largest residuals.
-Several starting points for the base model, nested models started from their simpler fit.
-
-Law at a temperature (:meth:`ThermoLaw.law_at`): the chain part at T_ref is turned once into a
-Prony series, the generalized Kelvin chain of
-:func:`~asphalt_nscd.rheology.models.fit_generalized_kelvin` (non-negative least squares on a
-log grid of ``per_decade`` retardation times per decade over the training reduced-frequency
-band widened by ``margin_decades``; a positive retardation spectrum, hence causal and
-passive). At T the retardation times and the dashpot viscosity are multiplied by aT(T), every
-chain modulus and viscosity by b(T) (E0 - E00(T)) / (E0 - E00(T_ref)), and E_inf = b(T) E00(T).
-Kelvin-Voigt units whose retardation time at T lies ``margin_decades`` outside the tested
-frequency band are merged into the Maxwell spring (fast units) or the Maxwell dashpot (slow
-units): an error below 10^-margin of that unit's compliance inside the band, and fewer
-internal variables per bond. The result is the per-temperature format of the law file
-(:mod:`asphalt_nscd.rheology.law_file`), which the NSCD core and the harmonic solver take unchanged:
-E*(w) = E_inf + [1/Em + 1/(i w eta_m) + sum_i 1/(Ek_i + i w eta_k,i)]^-1.
-
-The settings (shift law, static modulus, vertical shift, refinement, spectrum density) are
-chosen by held-out error in :mod:`asphalt_nscd.diagnosis.crossval`, never by in-sample error.
-
-Diagnostic: :func:`best_causal_fit` gives, for one isotherm, the smallest
-max(MRE(|E*|)/tol_E, MRE(Phi)/tol_Phi) that a dense positive relaxation spectrum
-(generalized Maxwell series with a static spring, 4 modes per decade over 14 decades) can
-reach: how far the data of an isotherm are from every causal linear viscoelastic law.
+Choices (docs/choices.md, Diagnosis: the temperature-aware extended law and held-out validation):
+* a parametric backbone, not a free spectrum; settings chosen by held-out error
+  (:mod:`asphalt_nscd.diagnosis.crossval`), never by in-sample error;
+* soft-L1 loss on residuals scaled by the tolerances (3 %, 5 %); weak priors on the trends;
+* ``per_decade`` retardation times per decade, ``margin_decades`` for the band and the merging.
 """
 
 from __future__ import annotations

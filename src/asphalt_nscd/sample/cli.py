@@ -11,7 +11,12 @@ import argparse
 
 def _add_config_options(p: argparse.ArgumentParser) -> None:
     group = p.add_mutually_exclusive_group()
-    group.add_argument("--config", help="YAML/JSON file with the sample section (or a whole config with a 'sample' key)")
+    group.add_argument("--config", nargs="+", metavar="FILE",
+                       help="workflow config files (YAML) merged as Snakemake merges --configfile: "
+                            "config/config.yaml of the working directory first, then each FILE in order "
+                            "(e.g. config/paper.yaml, an overlay on it); their 'sample' section is used. "
+                            "A single YAML/JSON file holding the sample section alone is merged over the "
+                            "paper's full-scale values")
     group.add_argument("--config-json", help="the sample section as a JSON string (used by the workflow)")
 
 
@@ -134,7 +139,7 @@ def _bench(args) -> int:
     if args.summary:
         write_json(result.summary, args.summary)
     rec = bench_record(result.summary)
-    rec["config"] = args.config or "--config-json"
+    rec["config"] = " ".join(args.config) if args.config else "--config-json"
     write_json(rec, args.output)
     return 0
 

@@ -1,45 +1,27 @@
 """Preparation of one numerical sample (paper Section 3.2.1).
 
-Stages
-------
-1. *Spheres*: counts per class from the PSD cut at ``psd.cut_mm`` (:mod:`.psd`), for the
-   layer of the (scaled) box, density 2600 kg/m^3.
-2. *Lattice*: random placement on the cubic lattice of the box (:func:`.geometry.lattice_positions`).
-3. *Deposition* under gravity in the six-plate box, friction 0.2 (NSCD core), until the
-   spheres are at rest (largest speed below ``deposition.settle_velocity_m_s``) or
-   ``deposition.duration_s`` has elapsed.
-4. *Vibration*: the top wall is lowered onto the layer (to ``max(z + r)``) and driven
-   vertically (A = 6 mm, f = 30 Hz, 1 s). The paper's "vertical sinusoidal displacement of
-   6 mm" gives neither the mean position nor the phase; ``vibration.form`` chooses:
-   ``tap`` (default), ``u_z = A (1 - cos 2 pi f t)``, starts at rest in contact and never
-   goes below the initial layer top, so it only touches the top particle layers (paper:
-   "acts only on the top particle layers") -- on our loose layers it changes the layer top
-   by < 0.1 mm; ``sine``, ``u_z = -A sin 2 pi f t``, pushes A into the layer each cycle,
-   which with rigid spheres makes many Gauss-Seidel steps unconverged and lifts the layer.
-   The wall is then lifted away and the layer settles for ``vibration.settle_duration_s``.
-5. *Cut*: spheres whose barycentre lies outside the trapezoid are removed; the trapezoid
-   spans the box length (= h), the thickness (= e), and is centred on the layer mid-height,
-   the layer height measured by ``layer_height.measure`` (default ``surface``: the mean
-   height of the layer's surface over columns of ``layer_height.cell_mm``; ``max``: the top
-   of the highest sphere, which one large sphere on the rough surface sets ~16 mm higher and
-   which put the trapezoid partly above the layer; :func:`.geometry.layer_height`). *Flip* to the specimen frame (z up along h, x bending direction).
-6. *Plates*: bottom plate at the base (z = 0, fixed), top plate at the head (z = h, free,
-   0.235 kg x scale^3); gravity along -z.
-7. *Shrink* every sphere by 10 % of its volume (radius x 0.9^(1/3)), then raise the density
-   to give the sample mass 0.6 kg x scale^3 (paper: 3415 kg/m^3): rho = M / sum(4/3 pi r^3).
-8. *Bonds* for every sphere pair and sphere-plate pair whose gap is below d_min (the
-   smallest class diameter, or ``bond_gap_mm``), the reference state being the shrunk one
-   (delta0, l0, r_min as in docs/design.md).
-9. *Stabilisation*: ``stabilisation.steps`` steps (paper: 1000) of the bonded sample under
-   gravity with friction 0.7 and a Burger's law (``stabilisation.*``, default Table 3 at
-   15 degC read in Pa). The bonds keep the reference state of stage 8; the sample file stores
-   the stabilised positions. An intact bond is its pair's only law (``nscd.bonded_contact``,
-   default 'after_break'): the spheres whose barycentre is inside the trapezoid but which
-   cross a plate plane are bonded to the plate, not closed contacts with it, so the steps
-   run on the core's linear fast path.
+:func:`prepare_sample` runs the stages, :func:`write_outputs` writes the sample file:
+
+1. spheres: class counts from the PSD cut at ``psd.cut_mm`` (:mod:`.psd`) for the layer of
+   the (scaled) box, density 2600 kg/m^3 (:func:`sphere_population`);
+2. random placement on the cubic lattice of the box (:func:`.geometry.lattice_positions`);
+3. deposition under gravity in the six-plate box, friction 0.2, until the largest speed is
+   below ``deposition.settle_velocity_m_s`` or ``deposition.duration_s`` has elapsed;
+4. vibration of the top wall (A = 6 mm, f = 30 Hz, 1 s; ``vibration.form``), then settling;
+5. cut: spheres whose barycentre lies outside the trapezoid (length h, thickness e) centred
+   on the layer mid-height (``layer_height.measure``, :func:`.geometry.layer_height`) are
+   removed; flip to the specimen frame (z up along h, x the bending direction);
+6. plates: bottom plate at z = 0 (fixed), head at z = h (free, 0.235 kg x scale^3); gravity -z;
+7. shrink every sphere by 10 % of its volume, then set the density so that the sample mass is
+   0.6 kg x scale^3 (paper: 3415 kg/m^3);
+8. bonds for every sphere-sphere and sphere-plate gap below d_min (the smallest class
+   diameter, or ``bond_gap_mm``), reference state the shrunk one (docs/design.md);
+9. stabilisation: ``stabilisation.steps`` steps (paper: 1000) under gravity, friction 0.7, a
+   Burger's law (default Table 3 at 15 degC read in Pa); the file stores these positions.
 
 The sample file is temperature independent: the campaign creates the bond laws of each
-temperature from ``delta0, l0, r_min``.
+temperature from ``delta0, l0, r_min``. Choices (docs/choices.md, Samples): ``vibration.form``
+``tap`` or ``sine``, ``layer_height.measure`` ``surface`` or ``max``, ``nscd.bonded_contact``.
 """
 
 from __future__ import annotations

@@ -24,12 +24,15 @@ Counts in the deposited layer are ~ 14 200 s^3 at cut 2 mm, ~ 1 280 s^3 at 6.3 m
 from __future__ import annotations
 
 import copy
-import json
 from pathlib import Path
 
 from ..io import InputError
 
-#: Paper values (Section 3.2.1) for every key; the YAML configs override them.
+#: The paper's full-scale sample (Section 3.2.1) for every key: the ``sample`` section of
+#: config/config.yaml with the paper's values of ``scale`` (1), ``psd.cut_mm`` (2 mm),
+#: ``vibration.duration_s`` (1 s) and ``solver.tolerance`` (1e-4, as config/paper.yaml);
+#: tests/unit/test_config.py checks that relation. The values of prepare-sample without a
+#: config and of a bare sample section; a workflow config's section is merged over them.
 DEFAULTS: dict = {
     "seeds": [1, 2, 3, 4],
     "scale": 1.0,
@@ -75,32 +78,35 @@ def merge(defaults: dict, given: dict, where: str = "sample") -> dict:
     return out
 
 
-def load(path: str | Path) -> dict:
-    """Read a YAML or JSON file holding the ``sample`` section (or a whole config with a
-    ``sample`` key) and return it merged over :data:`DEFAULTS`.
+def load(paths) -> dict:
+    """The ``sample`` section of the config files ``paths`` (one path or several, in order),
+    merged over :data:`DEFAULTS`.
+
+    Files holding a workflow config (a top-level key among
+    :data:`asphalt_nscd.config.SECTIONS`) are merged as Snakemake merges ``--configfile``:
+    config/config.yaml of the working directory first, then each file in order
+    (:func:`asphalt_nscd.config.load`); the ``sample`` section of the result is taken. A single
+    file holding the sample section alone (YAML, or JSON if named ``*.json``) is merged over
+    :data:`DEFAULTS` directly.
 
     Raises
     ------
     InputError
-        if the file is missing or unreadable, or holds an unknown key.
+        naming the file: missing, unreadable, not valid YAML/JSON, not a mapping; or naming the
+        key: an unknown key of the sample section.
     """
-    import yaml
+    from .. import config
 
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the sample configuration ({exc})") from exc
-    try:
-        data = json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
-    except (ValueError, yaml.YAMLError) as exc:
-        raise InputError(f"{path}: not valid YAML/JSON ({exc})") from exc
-    data = data or {}
-    if not isinstance(data, dict):
-        raise InputError(f"{path}: expected a mapping of sample settings")
-    if "sample" in data and isinstance(data["sample"], dict):
-        data = data["sample"]
-    return merge(DEFAULTS, data, f"{path}: sample")
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    names = " ".join(str(p) for p in paths)
+    if len(paths) == 1:
+        data = config.read(paths[0])
+        if not set(data) & set(config.SECTIONS):
+            return merge(DEFAULTS, data, f"{names}: sample")
+    section = config.load(paths).get("sample") or {}
+    if not isinstance(section, dict):
+        raise InputError(f"{names}: sample: expected a mapping of sample settings, got {section!r}")
+    return merge(DEFAULTS, section, f"{names}: sample")
 
 
 def scaled_geometry(cfg: dict) -> dict:

@@ -2,17 +2,19 @@
 
 Every piece of Python logic of the rule files (``workflow/rules/*.smk``, ``Snakefile``) lives
 here, so that the rule files only declare rules and the logic is unit-tested
-(tests/unit/test_campaign_plan.py): the sample names and paths, the campaign modes and their
-cases (one job per mode, sample, temperature, frequency and variant), the result files a target
-needs, the CLI options of a case, the diagnosis inputs and the files the report collects.
+(tests/unit/test_plan.py): the sample names and paths, the campaign modes and their cases (one
+job per mode, sample, temperature, frequency and variant), the result files a target needs,
+the CLI options of a case, the diagnosis inputs and the files the report collects. It drives
+every step of the chain, so it sits at the package's top level and may import any layer.
 
-Two kinds of functions:
+Result files that several rules read are named once here (constants such as :data:`MEASURED`,
+or functions of the wildcard values such as :func:`sample_file`); a rule's output that no
+other rule names stays in its rule.
 
-* plain functions take the workflow's config dict (validated, defaults filled) and wildcard
-  values, and return strings, lists or dicts;
-* ``*_function`` factories take the config dict and return a Snakemake input or params function
-  (an argument ``wildcards`` with attribute access, and ``input`` for params functions that read
-  the job's input files).
+Plain functions take the workflow's config dict (validated, defaults filled) and wildcard
+values, and return strings, lists or dicts. :func:`from_wildcards` turns one into the
+Snakemake input or params function of a rule (an argument ``wildcards`` with attribute access);
+the few params functions that read the job's input files take ``wildcards, input``.
 
 No Snakemake import: a path that is wrong or a config that cannot be planned raises
 :class:`asphalt_nscd.io.InputError` naming the key or the file.
@@ -24,19 +26,56 @@ back into its values and :func:`case_options` into the ``asphalt-nscd run-2pb`` 
 
 from __future__ import annotations
 
-import csv
+import inspect
 import json
 import math
 import os
 import re
 from pathlib import Path
 
-from ..io import InputError
+from .io import InputError
 
 #: the index of results/report/, the default target (rule all)
 REPORT_INDEX = "results/report/index.md"
+
+# result files that several rules read, each written by one rule
+#: the measured table, tidy (rule measured_table)
+MEASURED = "results/lab/measured.csv"
+#: the lab summary (replicate means per cell) the measured and extended modes compare with
+MEASURED_SUMMARY = "results/lab/measured_summary.csv"
+#: the declared test geometry of the measured table (rule measured_table)
+MEASURED_TEST = "results/lab/measured.test.json"
+#: a Burger's parameter table (MPa, MPa s) of wildcard ``table`` (rules fit_burgers, paper_table3)
+CALIBRATION_TABLE = "results/calibration/{table}.csv"
+#: the Burger's parameters calibrated on the measured table (rule fit_burgers)
+BURGERS_PARAMETERS = CALIBRATION_TABLE.format(table="burgers_parameters")
+#: the paper's Table 3 under calibration.table3_units (rule paper_table3)
+PAPER_TABLE3 = CALIBRATION_TABLE.format(table="paper_table3")
 #: the extended bond law per temperature (rule extend_law) run by the extended mode
 LAW_JSON = "results/diagnosis/generalized_burgers.json"
+#: the artifact search and master curve of the measured table (rule master_curve)
+MASTER_CURVE_JSON = "results/diagnosis/master_curve.json"
+#: the artifact-corrected measured table (rule master_curve)
+CORRECTED_TABLE = "results/diagnosis/corrected_measured.csv"
+#: the directory of the extended law's material cards (rule export_law)
+MATERIAL_CARDS_DIR = "results/diagnosis/material_cards"
+#: the material cards of the extended law: Abaqus, LS-DYNA, Prony series JSON and CSV
+MATERIAL_CARDS = {
+    "abaqus": f"{MATERIAL_CARDS_DIR}/abaqus.inp",
+    "lsdyna": f"{MATERIAL_CARDS_DIR}/lsdyna.k",
+    "json": f"{MATERIAL_CARDS_DIR}/prony.json",
+    "table": f"{MATERIAL_CARDS_DIR}/prony.csv",
+}
+#: the figures of rule master_curve_figures: master curve, shift factors, the law's residuals
+MASTER_CURVE_FIGURES = {
+    "master": "results/diagnosis/figures/master_curve.png",
+    "shift": "results/diagnosis/figures/shift_factors.png",
+    "residuals": "results/diagnosis/figures/law_residuals.png",
+}
+#: the MEPDG sigmoid's parameters beside 2S2P1D's (rule master_curve_figures)
+SIGMOID_TABLE = "results/diagnosis/sigmoid_master_curve.csv"
+#: the diagnosis page (rule diagnose)
+DIAGNOSIS_PAGE = "results/diagnosis/what_the_simulation_gets_wrong.md"
 #: the unit readings of the paper's Table 3 (data/paper/SOURCE.md)
 TABLE3_READINGS = ("Pa", "kPa")
 #: modes running Table 3 under an explicit reading beside ``paper`` (which runs
@@ -56,14 +95,9 @@ RHEOLOGY_PLOTS = ["isotherms-modulus", "isotherms-phase", "black", "cole-cole"]
 #: parameter modes of the harmonic solver
 HARMONIC_MODES = ["paper", "measured"]
 #: the Burger's parameter table of each harmonic mode
-HARMONIC_PARAMETERS = {
-    "paper": "results/calibration/paper_table3.csv",
-    "measured": "results/calibration/burgers_parameters.csv",
-}
+HARMONIC_PARAMETERS = {"paper": PAPER_TABLE3, "measured": BURGERS_PARAMETERS}
 #: simulation inputs of rule diagnose (config diagnosis.<key>: auto, null or a CSV path)
 DIAGNOSIS_INPUT_KEYS = ("simulated", "harmonic", "time_integration", "simulated_extended", "transfer")
-#: the lab summary the measured and extended modes compare with
-MEASURED_SUMMARY = "results/lab/measured_summary.csv"
 
 #: config keys that were resources, removed from the configs -> where the profiles set them now
 RESOURCE_KEYS = {
@@ -134,14 +168,20 @@ def reject_resource_keys(config: dict) -> None:
                              f"{where}); remove it from the config file")
 
 
-def _wildcard_function(func, config, *names):
-    """Input function of the wildcards ``names``: ``func(config, *values)``."""
+def from_wildcards(func, config: dict):
+    """The Snakemake input or params function of a plain function of this module: called with
+    a job's ``wildcards``, it returns ``func(config, ...)`` with every parameter of ``func``
+    after ``config`` that has no default taken from the wildcard of the same name, e.g.
+    ``from_wildcards(mode_rows, config)(wildcards) == mode_rows(config, wildcards.mode)``."""
+    params = list(inspect.signature(func).parameters.values())[1:]
+    names = [p.name for p in params if p.default is inspect.Parameter.empty]
 
-    def input_function(wildcards):
+    def of_wildcards(wildcards):
         return func(config, *(getattr(wildcards, name) for name in names))
 
-    input_function.__doc__ = f"{func.__name__}(config, {', '.join(names)}) of a job's wildcards"
-    return input_function
+    of_wildcards.__name__ = f"{func.__name__}_of_wildcards"
+    of_wildcards.__doc__ = f"{func.__name__}(config, {', '.join(names)}) of a job's wildcards"
+    return of_wildcards
 
 
 # ---------------------------------------------------------------------------------------------
@@ -187,16 +227,6 @@ def record_meta(config: dict, record: str) -> str:
     return str(Path(record_file(config, record)).with_suffix(".json"))
 
 
-def record_file_function(config: dict):
-    """Input function of rule reduce_record: the raw record of wildcard ``record``."""
-    return _wildcard_function(record_file, config, "record")
-
-
-def record_meta_function(config: dict):
-    """Input function of rule reduce_record: the metadata JSON of wildcard ``record``."""
-    return _wildcard_function(record_meta, config, "record")
-
-
 # ---------------------------------------------------------------------------------------------
 # calibration
 
@@ -226,11 +256,6 @@ def nscd_bench_files(config: dict) -> list:
 def bench_tolerance(config: dict, case: str) -> float:
     """Solver tolerance of a benchmark case: nscd.bench.granular_tolerance or .tolerance."""
     return config["nscd"]["bench"]["granular_tolerance" if case == "granular" else "tolerance"]
-
-
-def bench_tolerance_function(config: dict):
-    """Params function of rule nscd_bench: the tolerance of wildcard ``case``."""
-    return _wildcard_function(bench_tolerance, config, "case")
 
 
 def bond_kinematics(config: dict) -> str:
@@ -265,7 +290,7 @@ def sample_settings(config: dict) -> str:
 def resolution_levels(config: dict) -> dict:
     """Levels of the network-factor resolution study (config harmonic.resolution.levels):
     name (:func:`asphalt_nscd.harmonic.resolution.level_name`) -> {scale, cut_mm}."""
-    from ..harmonic.resolution import level_name
+    from .harmonic.resolution import level_name
 
     return {level_name(lv["scale"], lv["cut_mm"]): {"scale": float(lv["scale"]), "cut_mm": float(lv["cut_mm"])}
             for lv in config["harmonic"]["resolution"]["levels"]}
@@ -280,11 +305,6 @@ def resolution_sample_settings(config: dict, level: str) -> str:
     cfg = {k: v for k, v in config["sample"].items() if k != "seeds"}
     cfg = {**cfg, "scale": lv["scale"], "psd": {**cfg.get("psd", {}), "cut_mm": lv["cut_mm"]}}
     return json.dumps(cfg)
-
-
-def resolution_sample_settings_function(config: dict):
-    """Params function of rule prepare_resolution_sample: the settings of wildcard ``level``."""
-    return _wildcard_function(resolution_sample_settings, config, "level")
 
 
 def resolution_samples(config: dict) -> list:
@@ -373,11 +393,6 @@ def mode_rows(config: dict, mode: str, samples=None) -> list:
     ]
 
 
-def mode_rows_function(config: dict):
-    """Input function of rule campaign_isotherms: the rows of wildcard ``mode``."""
-    return _wildcard_function(mode_rows, config, "mode")
-
-
 def dt_study_files(config: dict, ext: str) -> list:
     """Files (``ext``: h5 records or csv rows) of the time-step study (campaign.dt_study)."""
     d = config["campaign"]["dt_study"]
@@ -443,16 +458,11 @@ def mode_settings_json(config: dict, mode: str) -> str:
     """The test settings of a job mode as JSON: campaign.test with the mode's overrides of
     dt_policy, yield_stress_Pa and start, and the core's bond kinematics
     (:func:`asphalt_nscd.campaign.twopb.mode_settings`, shared with campaign-bench)."""
-    from .twopb import mode_settings
+    from .campaign.twopb import mode_settings
 
     return json.dumps(mode_settings(config["campaign"], mode, bond_kinematics(config),
                                     config["nscd"].get("linear_solver", "cg"),
                                     config["nscd"].get("linear_tolerance")))
-
-
-def mode_settings_function(config: dict):
-    """Params function: the settings JSON of wildcard ``mode``."""
-    return _wildcard_function(mode_settings_json, config, "mode")
 
 
 def transfer_correction(config: dict) -> bool:
@@ -471,34 +481,19 @@ def job_transfer(config: dict, mode: str, sample: str) -> list:
     return [transfer_file(sample)] if mode == "extended" and transfer_correction(config) else []
 
 
-def job_transfer_function(config: dict):
-    """Input function of rule run_2pb: the transfer JSON of wildcards ``mode``, ``sample``."""
-    return _wildcard_function(job_transfer, config, "mode", "sample")
-
-
 def mode_parameters(config: dict, mode: str) -> str:
     """Law file of a mode: calibrated Burger's table (measured), law JSON (extended), else the
     paper's Table 3 (calibration.table3)."""
     if mode == "measured":
-        return "results/calibration/burgers_parameters.csv"
+        return BURGERS_PARAMETERS
     if mode == "extended":
         return LAW_JSON
     return config["calibration"]["table3"]
 
 
-def mode_parameters_function(config: dict):
-    """Input function: the law file of wildcard ``mode``."""
-    return _wildcard_function(mode_parameters, config, "mode")
-
-
 def law_option(config: dict, mode: str) -> str:
     """CLI option of the mode's law file: --law-json (extended) or --parameters."""
     return "--law-json" if mode == "extended" else "--parameters"
-
-
-def law_option_function(config: dict):
-    """Params function: the law-file option of wildcard ``mode``."""
-    return _wildcard_function(law_option, config, "mode")
 
 
 def case_options(config: dict, mode: str, sample: str, case: str) -> str:
@@ -518,19 +513,9 @@ def case_options(config: dict, mode: str, sample: str, case: str) -> str:
     return f"{opts} --table3-units {table3_reading(config, mode)}"
 
 
-def case_options_function(config: dict):
-    """Params function of rule run_2pb: the options of wildcards ``mode``, ``sample``, ``case``."""
-    return _wildcard_function(case_options, config, "mode", "sample", "case")
-
-
 def mode_summary(config: dict, mode: str) -> list:
     """The lab summary the isotherms of a mode are compared with (measured, extended), else none."""
     return [MEASURED_SUMMARY] if mode in ("measured", "extended") else []
-
-
-def mode_summary_function(config: dict):
-    """Input function of rule campaign_isotherms: the lab summary of wildcard ``mode``."""
-    return _wildcard_function(mode_summary, config, "mode")
 
 
 def mode_options(config: dict, mode: str) -> str:
@@ -541,21 +526,11 @@ def mode_options(config: dict, mode: str) -> str:
     return f"--table3-units {table3_reading(config, mode)} --paper-table4 data/paper/table4_mre.csv"
 
 
-def mode_options_function(config: dict):
-    """Params function of rule campaign_isotherms: the options of wildcard ``mode``."""
-    return _wildcard_function(mode_options, config, "mode")
-
-
 def isotherms_title(config: dict, mode: str) -> str:
     """Title of the isotherm figures of a mode."""
     if mode in ("measured", "extended"):
         return f"NSCD vs measured ({mode} mode)"
     return f"NSCD vs Table 3 Burger's read in {table3_reading(config, mode)} ({mode} mode)"
-
-
-def isotherms_title_function(config: dict):
-    """Params function of rule campaign_isotherms: the title of wildcard ``mode``."""
-    return _wildcard_function(isotherms_title, config, "mode")
 
 
 def policy_temperature(config: dict, mode: str) -> float:
@@ -564,19 +539,9 @@ def policy_temperature(config: dict, mode: str) -> float:
     return temps[len(temps) // 2]
 
 
-def policy_temperature_function(config: dict):
-    """Params function of rule campaign_dt_policy: the temperature of wildcard ``mode``."""
-    return _wildcard_function(policy_temperature, config, "mode")
-
-
 def policy_units_option(config: dict, mode: str) -> str:
     """The Table 3 reading option of the dt-policy check (none for the measured mode)."""
     return "" if mode == "measured" else f"--table3-units {table3_reading(config, mode)}"
-
-
-def policy_units_option_function(config: dict):
-    """Params function of rule campaign_dt_policy: the units option of wildcard ``mode``."""
-    return _wildcard_function(policy_units_option, config, "mode")
 
 
 def mode_frequencies(config: dict, mode: str) -> str:
@@ -584,23 +549,25 @@ def mode_frequencies(config: dict, mode: str) -> str:
     return " ".join(number(f) for f in schedule(config, mode)["frequencies_Hz"])
 
 
-def mode_frequencies_function(config: dict):
-    """Params function of rule campaign_dt_policy: the frequencies of wildcard ``mode``."""
-    return _wildcard_function(mode_frequencies, config, "mode")
-
-
 # ---------------------------------------------------------------------------------------------
 # harmonic solver
+
+
+def harmonic_job_file(sample: str, mode: str) -> str:
+    """The harmonic solution of a sample under a harmonic mode's parameters at its (T, f) (rule
+    harmonic_jobs)."""
+    return f"results/harmonic/jobs/{sample}_{mode}.csv"
+
+
+def harmonic_sweep_file(sample: str, mode: str) -> str:
+    """The dense frequency sweep of a sample under a harmonic mode's parameters (rule
+    harmonic_sweep)."""
+    return f"results/harmonic/sweep/{sample}_{mode}.csv"
 
 
 def harmonic_parameters(config: dict, mode: str) -> str:
     """Burger's table of a harmonic mode (paper: Table 3 read; measured: calibrated)."""
     return HARMONIC_PARAMETERS[mode]
-
-
-def harmonic_parameters_function(config: dict):
-    """Input function of the harmonic rules: the table of wildcard ``mode``."""
-    return _wildcard_function(harmonic_parameters, config, "mode")
 
 
 def harmonic_frequency_option_function(config: dict):
@@ -644,7 +611,7 @@ def head_rotation(config: dict) -> str:
 def twopb_poisson_ratio(config: dict) -> float:
     """Poisson ratio of the time-domain test (campaign.test.nu, default
     :data:`asphalt_nscd.rheology.laws.POISSON_RATIO`)."""
-    from ..rheology.laws import POISSON_RATIO
+    from .rheology.laws import POISSON_RATIO
 
     return config["campaign"]["test"].get("nu", POISSON_RATIO)
 
@@ -662,7 +629,7 @@ def diagnosis_auto_input(config: dict, key: str) -> list:
     if key == "simulated_extended":
         return mode_rows(config, "extended", samples)
     if key == "harmonic":
-        return [f"results/harmonic/jobs/{s}_measured.csv" for s in samples]
+        return [harmonic_job_file(s, "measured") for s in samples]
     if key == "time_integration":
         return ["results/campaign/measured/dt_policy_phase_error.csv"]
     if key == "transfer":
@@ -739,6 +706,17 @@ def diagnose_tolerances(config: dict) -> str:
     )
 
 
+def crossval_file(scheme: str, suffix: str = ".csv") -> str:
+    """A file of the cross-validation ``scheme`` (rule crossval): its rows (``.csv``),
+    ``_summary.csv``, ``_curve.csv`` or figure ``.png``."""
+    return f"results/diagnosis/crossval/{scheme}{suffix}"
+
+
+def crossval_files(config: dict, suffix: str = ".csv") -> list:
+    """:func:`crossval_file` of every scheme of diagnosis.crossval.schemes."""
+    return [crossval_file(scheme, suffix) for scheme in config["diagnosis"]["crossval"]["schemes"]]
+
+
 def crossval_sample(config: dict) -> str:
     """The sample of the cross-validation: the extended mode's first."""
     return mode_samples(config, "extended")[0]
@@ -754,7 +732,7 @@ def crossval_time_domain_cell(config: dict):
     if value is None:
         return None
     table = config["measured"]["table"]
-    from ..lab.measured import load_measured
+    from .lab.measured import load_measured
 
     try:  # as the workflow reads it (a lab's columns and units converted through its sidecar)
         frame = load_measured(table, config["measured"].get("test"))
@@ -793,9 +771,10 @@ def crossval_time_domain_input(config: dict, scheme: str) -> list:
     return []
 
 
-def crossval_time_domain_function(config: dict):
-    """Input function of rule crossval: the time-domain row of wildcard ``scheme``."""
-    return _wildcard_function(crossval_time_domain_input, config, "scheme")
+def output_directory(wildcards, output) -> str:
+    """Params function of a command that writes its files into one directory (rule export_law):
+    the directory of the job's first output file."""
+    return str(Path(output[0]).parent)
 
 
 def time_domain_option(wildcards, input) -> str:
@@ -812,10 +791,10 @@ def report_files(config: dict) -> list:
     the rule files (lab data, rheology, NSCD core, samples, campaign, harmonic, diagnosis)."""
     samples = sample_names(config)
     camp = config["campaign"]
-    files = ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
+    files = [MEASURED, MEASURED_SUMMARY]
     files += [f"results/lab/reduced/{record}.csv" for record in sorted(lab_records(config))]
     files += [
-        "results/calibration/burgers_parameters.csv",
+        BURGERS_PARAMETERS,
         "results/calibration/table3_refit_check.csv",
         "results/calibration/burgers_parameters_micro.csv",
         "results/calibration/paper_table3_micro.csv",
@@ -870,30 +849,43 @@ def report_files(config: dict) -> list:
         "results/harmonic/bench.json",
     ]
     files += [
-        "results/diagnosis/what_the_simulation_gets_wrong.md",
+        DIAGNOSIS_PAGE,
         "results/diagnosis/error_budget.png",
         "results/diagnosis/error_budget.csv",
         "results/diagnosis/causes.csv",
         "results/diagnosis/gain.csv",
         "results/diagnosis/report.json",
         LAW_JSON,
-        "results/diagnosis/material_cards/abaqus.inp",
-        "results/diagnosis/material_cards/lsdyna.k",
-        "results/diagnosis/material_cards/prony.json",
-        "results/diagnosis/material_cards/prony.csv",
-        "results/diagnosis/figures/master_curve.png",
-        "results/diagnosis/figures/shift_factors.png",
-        "results/diagnosis/figures/law_residuals.png",
+        *MATERIAL_CARDS.values(),
+        *MASTER_CURVE_FIGURES.values(),
         "results/diagnosis/law_residuals.csv",
-        "results/diagnosis/sigmoid_master_curve.csv",
+        SIGMOID_TABLE,
         "results/diagnosis/extended_law_cv_curve.csv",
-        "results/diagnosis/corrected_measured.csv",
+        CORRECTED_TABLE,
         "results/diagnosis/detection_bench.json",
         "results/diagnosis/detection_bench.csv",
     ]
     files += [
-        f"results/diagnosis/crossval/{scheme}{suffix}"
+        crossval_file(scheme, suffix)
         for scheme in config["diagnosis"]["crossval"]["schemes"]
         for suffix in (".csv", "_summary.csv", "_curve.csv", ".png")
     ]
     return files
+
+
+def own_table_files(config: dict) -> list:
+    """The files of rule own_table ("your own table", README): the law JSON, its material cards,
+    the master-curve figures, the held-out errors and the diagnosis page of measured.table,
+    without the NSCD campaign."""
+    return [
+        MEASURED,
+        MASTER_CURVE_JSON,
+        LAW_JSON,
+        MATERIAL_CARDS["abaqus"],
+        MATERIAL_CARDS["lsdyna"],
+        MATERIAL_CARDS["json"],
+        *MASTER_CURVE_FIGURES.values(),
+        SIGMOID_TABLE,
+        *crossval_files(config, "_summary.csv"),
+        DIAGNOSIS_PAGE,
+    ]

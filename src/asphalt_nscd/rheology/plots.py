@@ -12,7 +12,7 @@ otherwise computed from |E*| and Phi.
 
 Example::
 
-    from asphalt_nscd.figures.rheology_plots import CurveSet, plot_isotherms, rheology_figure
+    from asphalt_nscd.rheology.plots import CurveSet, plot_isotherms, rheology_figure
     sets = [CurveSet("measured", summary, kind="points"),      # error bars from *_std
             CurveSet("Burger's fit", curves, kind="line")]
     fig = rheology_figure(sets, "isotherms-modulus")             # or "isotherms-phase",

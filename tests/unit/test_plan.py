@@ -1,4 +1,4 @@
-"""The workflow's plan (asphalt_nscd.campaign.plan) on the repository's three configurations.
+"""The workflow's plan (asphalt_nscd.plan) on the repository's three configurations.
 
 The configs are loaded as the Snakefile loads them: config/config.yaml extended by the chosen
 config file, validated (defaults filled) by the workflow's schemas. Expected counts and command
@@ -17,7 +17,7 @@ from types import SimpleNamespace
 import pytest
 import yaml
 
-from asphalt_nscd.campaign import plan
+from asphalt_nscd import plan
 from asphalt_nscd.io import InputError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -114,7 +114,7 @@ def test_case_options_of_known_cases():
     assert plan.job_transfer(cfg, "extended", "s2") == ["results/harmonic/transfer/s2.json"]
     assert plan.job_transfer(cfg, "measured", "s1") == []
     # the same through the rule's params function of the wildcards
-    fn = plan.case_options_function(cfg)
+    fn = plan.from_wildcards(plan.case_options, cfg)
     assert fn(SimpleNamespace(mode="dt_study", sample="s1", case="15C_40Hz_dt0.0002")) == (
         "--temperature 15 --frequency 40 --dt 0.0002 --table3-units Pa"
     )
@@ -152,10 +152,10 @@ def test_mode_laws_and_options():
     settings = json.loads(plan.mode_settings_json(cfg, "extended"))
     assert settings["bond_kinematics"] == plan.bond_kinematics(cfg) and settings["start"] in ("rest", "periodic")
     wc = SimpleNamespace(mode="paper")
-    assert plan.mode_rows_function(cfg)(wc) == plan.mode_rows(cfg, "paper")
-    assert plan.mode_settings_function(cfg)(wc) == plan.mode_settings_json(cfg, "paper")
-    assert plan.policy_temperature_function(cfg)(wc) == 15
-    assert plan.mode_parameters_function(cfg)(wc) == "data/paper/table3_burgers.csv"
+    assert plan.from_wildcards(plan.mode_rows, cfg)(wc) == plan.mode_rows(cfg, "paper")
+    assert plan.from_wildcards(plan.mode_settings_json, cfg)(wc) == plan.mode_settings_json(cfg, "paper")
+    assert plan.from_wildcards(plan.policy_temperature, cfg)(wc) == 15
+    assert plan.from_wildcards(plan.mode_parameters, cfg)(wc) == "data/paper/table3_burgers.csv"
 
 
 def test_mode_rows_and_samples():
@@ -222,7 +222,7 @@ def test_crossval_time_domain_cell(tmp_path):
     assert plan.crossval_time_domain_row(cfg) == "results/diagnosis/crossval/time_domain_21C_10Hz.csv"
     assert plan.crossval_time_domain_input(cfg, "lofo") == [plan.crossval_time_domain_row(cfg)]
     assert plan.crossval_time_domain_input(cfg, "loto") == []
-    assert plan.crossval_time_domain_function(cfg)(SimpleNamespace(scheme="loto")) == []
+    assert plan.from_wildcards(plan.crossval_time_domain_input, cfg)(SimpleNamespace(scheme="loto")) == []
     assert plan.crossval_sample(cfg) == "s1"
     table = tmp_path / "t.csv"
     table.write_text("specimen,temperature_C,frequency_Hz,E_norm_MPa,phase_deg\n" + "".join(
@@ -274,8 +274,8 @@ def test_lab_inputs(tmp_path):
     assert plan.measured_test_option(None, SimpleNamespace(test=[])) == ""
     other["lab"]["records"] = ["data/lab/r1.csv", "data/lab/r2.csv"]
     assert plan.lab_records(other) == {"r1": "data/lab/r1.csv", "r2": "data/lab/r2.csv"}
-    assert plan.record_meta_function(other)(SimpleNamespace(record="r2")) == "data/lab/r2.json"
-    assert plan.record_file_function(other)(SimpleNamespace(record="r1")) == "data/lab/r1.csv"
+    assert plan.from_wildcards(plan.record_meta, other)(SimpleNamespace(record="r2")) == "data/lab/r2.json"
+    assert plan.from_wildcards(plan.record_file, other)(SimpleNamespace(record="r1")) == "data/lab/r1.csv"
     with pytest.raises(InputError, match="r3"):
         plan.record_file(other, "r3")
 
@@ -292,7 +292,7 @@ def test_settings_and_options_of_other_rules():
     assert plan.nscd_bench_files(cfg) == [f"results/bench/nscd_bonded_n{n}.json" for n in bench["bonded_n"]] + [
         f"results/bench/nscd_granular_n{n}.json" for n in bench["granular_n"]
     ]
-    assert plan.bench_tolerance_function(cfg)(SimpleNamespace(case="granular")) == bench["granular_tolerance"]
+    assert plan.from_wildcards(plan.bench_tolerance, cfg)(SimpleNamespace(case="granular")) == bench["granular_tolerance"]
     assert plan.bench_tolerance(cfg, "bonded") == bench["tolerance"]
     assert plan.spaced([3, 6.5]) == "3 6.5" and plan.comma_list([1e-4, 2]) == "0.0001,2"
     assert plan.number(40.0) == "40" and plan.number("1e-05") == "1e-05"
@@ -302,7 +302,7 @@ def test_settings_and_options_of_other_rules():
     assert fn(SimpleNamespace(mode="measured"), SimpleNamespace(summary="s.csv")) == "--frequencies-from s.csv"
     assert plan.harmonic_solver_options(cfg).startswith("--inertia full --solver ")
     assert plan.harmonic_solver_options(cfg).endswith(plan.harmonic_kinematics_options(cfg))
-    assert plan.harmonic_parameters_function(cfg)(SimpleNamespace(mode="measured")) == plan.HARMONIC_PARAMETERS["measured"]
+    assert plan.from_wildcards(plan.harmonic_parameters, cfg)(SimpleNamespace(mode="measured")) == plan.HARMONIC_PARAMETERS["measured"]
     sweep = cfg["harmonic"]["sweep"]
     assert plan.harmonic_sweep(cfg) == f"{sweep['fmin_Hz']} {sweep['fmax_Hz']} {sweep['points']}"
     assert plan.head_rotation(cfg) in ("free", "clamped") and 0 < plan.twopb_poisson_ratio(cfg) < 0.5
@@ -361,3 +361,28 @@ def test_bench_family_schema_lists_every_truth_family():
     schema = yaml.safe_load((SCHEMAS / "diagnosis.schema.yaml").read_text())
     enum = schema["properties"]["bench"]["properties"]["families"]["items"]["enum"]
     assert sorted(enum) == sorted(synthetic.FAMILIES)
+
+
+def test_from_wildcards_takes_the_parameters_without_default():
+    """One helper makes every input or params function of the rules: the parameters of the
+    plain function after ``config`` that have no default are the job's wildcards."""
+    cfg = load_config("config")
+    rows = plan.from_wildcards(plan.mode_rows, cfg)  # mode_rows(config, mode, samples=None)
+    assert rows(SimpleNamespace(mode="measured", samples=["s9"])) == plan.mode_rows(cfg, "measured")
+    assert inspect.getdoc(rows) == "mode_rows(config, mode) of a job's wildcards"
+    transfer = plan.from_wildcards(plan.job_transfer, cfg)
+    assert transfer(SimpleNamespace(sample="s2", mode="extended")) == [plan.transfer_file("s2")]
+
+
+def test_shared_result_files_are_named_once():
+    cfg = load_config("config")
+    assert plan.CALIBRATION_TABLE.format(table="paper_table3") == plan.PAPER_TABLE3 == plan.HARMONIC_PARAMETERS["paper"]
+    assert plan.mode_parameters(cfg, "measured") == plan.BURGERS_PARAMETERS == plan.HARMONIC_PARAMETERS["measured"]
+    assert plan.diagnosis_auto_input(cfg, "harmonic")[0] == plan.harmonic_job_file("s1", "measured")
+    assert plan.crossval_files(cfg, "_summary.csv") == [
+        plan.crossval_file(s, "_summary.csv") for s in cfg["diagnosis"]["crossval"]["schemes"]]
+    # the own-table target is part of the report, plus the master-curve JSON it reads
+    own = plan.own_table_files(cfg)
+    assert len(set(own)) == len(own)
+    assert set(own) - set(plan.report_files(cfg)) == {plan.MASTER_CURVE_JSON}
+    assert set(plan.MATERIAL_CARDS.values()) <= set(plan.report_files(cfg))

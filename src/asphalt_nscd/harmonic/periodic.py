@@ -1,0 +1,395 @@
+"""Periodic start of the numerical 2PB test: the time-discrete steady state of the linear sample.
+
+While no bond breaks and no contact closes, the bonded 2PB sample is a linear system, so its
+periodic steady state under the head motion u(t) = A sin(w t) can be computed directly and
+the test started in it (``campaign.test.start: periodic``): one cycle then measures what the
+paper's from-rest protocol reaches after its transient.
+
+* :func:`theta_laplace` -- the effective Laplace variable of the Moreau-Jean theta-method,
+  s_h = (z - 1) / (h (theta z + 1 - theta)), z = exp(i w h). The harmonic problem
+  (K(s_h) + s_h^2 M) U = F (:meth:`asphalt_nscd.harmonic.solver.HarmonicSystem.solve_law`,
+  ``laplace``) gives the exact periodic orbit of the step map, not of the continuous
+  equations, so a run started on it has no transient.
+* :func:`network_of` -- the harmonic model of a simulation from the core's own bonds (rest
+  lengths, contact points, lever arms as ``Bonds.create`` computed them), without the
+  harmonic solver's rotational regularisation.
+* :func:`periodic_state` -- the initial state at t = 0 (head at u(0) = 0, moving at +A w):
+  sphere positions, velocities, angular velocities, head rotation and every bond's
+  displacement, force and internal variables (Maxwell dashpot ``delta_c``, Kelvin-Voigt
+  units ``delta_k``), every quantity y_0 = Re(-i Y) of its phasor Y. ``breaks`` reports a
+  steady force amplitude at or above a bond's strength R_crit: the test is then not linear
+  and :func:`asphalt_nscd.campaign.twopb.start_test` starts it from rest.
+* :func:`gravity_state` -- the steady state under the sample's weight with the head held,
+  superposed on the periodic one when the simulation has gravity: steady creep for a liquid
+  bond law, static equilibrium for a solid one; zero modes of weakly held spheres
+  (mechanisms) are taken out of the load, and a static solve whose residual exceeds
+  :data:`GRAVITY_RESIDUAL_MAX` is not used (gravity then starts from rest).
+* :func:`apply_periodic_state` -- writes a state into a Simulation at step 0.
+
+The cost is one harmonic solution of the sample (a real factorisation and a few GMRES
+iterations). ``asphalt-nscd periodic-check`` (:func:`asphalt_nscd.campaign.periodic.check_case`)
+measures the equivalence with the from-rest protocol; the derivation, the measurements and
+the treatment of gravity and mechanisms are in docs/choices.md ("Periodic start of the 2PB
+test").
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..rheology.laws import POISSON_RATIO
+
+
+def theta_laplace(frequency_Hz: float, dt: float, theta: float) -> complex:
+    """Effective Laplace variable s_h (1/s) of the Moreau-Jean theta-method at f (module
+    docstring): (z - 1) / (dt (theta z + 1 - theta)), z = exp(i 2 pi f dt); exactly
+    i (2/dt) tan(pi f dt) at theta = 1/2.
+
+    Raises
+    ------
+    ValueError
+        if f dt >= 1/2 (fewer than 2 steps per period) or theta is outside [0.5, 1].
+    """
+    if not (0.5 <= theta <= 1.0):
+        raise ValueError(f"theta must lie in [0.5, 1], got {theta}")
+    phase = 2.0 * math.pi * float(frequency_Hz) * float(dt)
+    if not (0.0 < phase < math.pi):
+        raise ValueError(f"f dt = {frequency_Hz * dt} must lie in (0, 1/2)")
+    if theta == 0.5:
+        return 1j * (2.0 / dt) * math.tan(0.5 * phase)
+    z = complex(math.cos(phase), math.sin(phase))
+    return (z - 1.0) / (dt * (theta * z + 1.0 - theta))
+
+
+@dataclass
+class PeriodicState:
+    """Initial state of a periodic start (arrays in the core's layout, SI units).
+
+    position, velocity, angular_velocity : (N, 3) m, m/s, rad/s.
+    head_rotation, head_angular_velocity : (3,) rad, rad/s.
+    bond_displacement, bond_force, delta_c : (B, 3) m, N, m (bond local frames).
+    delta_k : (B, NK, 3) m.
+    laplace : complex, 1/s — s_h used (or i w with ``continuous``).
+    force_ratio : max over bonds of the steady force amplitude / R_crit (0 if unbreakable).
+    breaks : bool — force_ratio >= 1 (the linear steady state would break bonds).
+    solve_s : wall time of the harmonic solve, s; gmres_iterations : int.
+    head_force : complex, N — the harmonic head force phasor (x), for information.
+    gravity : GravityState superposed (None: the simulation has no gravity).
+    """
+
+    position: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+    head_rotation: np.ndarray
+    head_angular_velocity: np.ndarray
+    bond_displacement: np.ndarray
+    bond_force: np.ndarray
+    delta_c: np.ndarray
+    delta_k: np.ndarray
+    laplace: complex
+    force_ratio: float
+    breaks: bool
+    solve_s: float
+    gmres_iterations: int
+    head_force: complex
+    gravity: "GravityState | None" = None
+
+
+#: iterative refinements of the static solve under gravity (the network is ill-conditioned:
+#: its softest modes are 1e8 times softer than its stiffest on small samples)
+GRAVITY_REFINEMENTS = 2
+#: largest relative residual of the static solve under gravity for the state to be used
+GRAVITY_RESIDUAL_MAX = 1e-8
+
+
+@dataclass
+class GravityState:
+    """Steady state of the bonded 2PB sample under its weight with the head held
+    (:func:`gravity_state`; arrays in the core's layout, SI units).
+
+    displacement, velocity, angular_velocity : (N, 3) m, m/s, rad/s — from the rest
+        configuration at t = 0 (the spheres' rotations enter only the bonds, ``bond_*``).
+    head_rotation, head_angular_velocity : (3,) rad, rad/s.
+    bond_displacement, bond_force, delta_c : (B, 3); delta_k : (B, NK, 3) (bond local frames).
+    creep : bool — steady creep (liquid chain) or static equilibrium (solid chain).
+    residual : relative residual |P F_g - G U_1| / |P F_g| of the refined static solve (P
+        removes the load along the mechanisms' zero modes).
+    n_mechanisms : zero modes of weakly held clusters taken out of the load (module docstring).
+    failed : the reason the steady state is not used (zero state: gravity from rest), or ''.
+    sag_m : largest displacement at t = 0, m; solve_s : wall time, s.
+    """
+
+    displacement: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+    head_rotation: np.ndarray
+    head_angular_velocity: np.ndarray
+    bond_displacement: np.ndarray
+    bond_force: np.ndarray
+    delta_c: np.ndarray
+    delta_k: np.ndarray
+    creep: bool
+    residual: float
+    n_mechanisms: int
+    failed: str
+    sag_m: float
+    solve_s: float
+
+    def info(self) -> dict:
+        """JSON-ready summary (the record's ``start_info['gravity']``)."""
+        return {"creep": self.creep, "residual": self.residual, "n_mechanisms": self.n_mechanisms,
+                "failed": self.failed, "sag_m": self.sag_m, "solve_s": self.solve_s}
+
+
+def network_of(sim):
+    """The harmonic model (:class:`asphalt_nscd.harmonic.network.BondNetwork`) of a 2PB
+    simulation at rest, from the core's own state: positions, radii, masses and rotational
+    inertias of its spheres, its plates (bottom fixed, top = plate 1 with its mass and
+    rotational inertia) and its bonds' i, j, l0, r_min as ``Bonds.create`` computed them from
+    the positions. (The sample file's stored ``bonds/l0`` may differ from the stored
+    positions, e.g. by up to 0.8 % for head bonds of the default samples, where the
+    stabilisation moved the spheres after bonding; the core takes the positions as the rest
+    state, so the periodic state must too.)"""
+    import dataclasses
+
+    from .network import network_from_arrays
+
+    sph, pls, b = sim.spheres, sim.plates, sim.bonds
+    net = network_from_arrays(sph.position, sph.mass, pls.normal[:2], [np.inf, pls.mass[1]], b.i, b.j,
+                              b.l0, b.r_min, radius=sph.radius, rotational_inertia=sph.inertia,
+                              plate_point=pls.point[:2], head_size_m=(1.0, 1.0))
+    head = pls.inertia[1] if pls.rotates[1] else np.zeros(3)
+    return dataclasses.replace(net, plate_inertia=np.array(head, float))
+
+
+def _bond_displacement(bonds, X, TH, THp, up, contact: bool) -> np.ndarray:
+    """Displacement (B, 3) of every bond in its local frame for sphere displacements X and
+    rotations TH (N, 3), head rotation THp (3,) and head translation up (3,), real or
+    complex: frame (Delta_i - Delta_j), Delta = X + Theta x arm (contact kinematics) or X."""
+    i, j = bonds.i, bonds.j
+    sph = j >= 0
+    di = X[i] + (np.cross(TH[i], bonds.arm_i) if contact else 0.0)
+    dj = np.zeros_like(di)
+    dj[sph] = X[j[sph]] + (np.cross(TH[j[sph]], bonds.arm_j[sph]) if contact else 0.0)
+    top = j == -2
+    dj[top] = up + (np.cross(THp[None, :], bonds.arm_j[top]) if contact else 0.0)
+    return np.einsum("bcd,bd->bc", bonds.frame, di - dj)
+
+
+def _bond_laws(bonds):
+    """Km, Cm, Kinf (B, 3) and Kk, Ck (B, NK, 3) of the bonds per local component."""
+    comp = [0, 1, 1]  # normal, tangential, tangential
+    return (bonds.Km[:, comp], bonds.Cm[:, comp], bonds.Kinf[:, comp], bonds.Kk[:, :, comp],
+            bonds.Ck[:, :, comp])
+
+
+def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO) -> GravityState:
+    """Steady state of the 2PB simulation under its gravity with the head held (module
+    docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
+
+    Parameters
+    ----------
+    sim : asphalt_nscd.nscd.Simulation at rest (as :func:`periodic_state`), gravity
+        ``sim.params.gravity`` (m/s^2).
+    law : GeneralizedBurgers (Pa, Pa s), the macro law of the bonds.
+    head_rotation, nu : as :func:`periodic_state`.
+
+    Returns
+    -------
+    GravityState (all zero when the gravity is zero).
+
+    Raises
+    ------
+    ValueError if the law is not a generalized Burger's model.
+    """
+    from .solver import HarmonicSystem
+
+    tic = time.perf_counter()
+    if not all(hasattr(law, k) for k in ("Em", "eta_m", "Ek", "eta_k", "E_inf")):
+        raise ValueError(f"gravity_state: {type(law).__name__} is not a generalized Burger's law")
+    p = sim.params
+    contact = p.bond_kinematics == "contact"
+    head = head_rotation if contact else "clamped"
+    sph, b = sim.spheres, sim.bonds
+    n = sph.n
+    g = np.asarray(p.gravity, float)
+    liquid = np.isfinite(law.eta_m) and law.E_inf == 0.0
+    if liquid:  # steady creep: U_0 = c0 U_1 (springs), V = U_1 / eta_m (Maxwell dashpot)
+        c0, c1 = 1.0 / law.Em + sum(1.0 / e for e in law.Ek), 1.0 / law.eta_m
+    else:       # static equilibrium at the static modulus E(0)
+        chain = 0.0 if np.isfinite(law.eta_m) else 1.0 / (1.0 / law.Em + sum(1.0 / e for e in law.Ek))
+        c0, c1 = 1.0 / (law.E_inf + chain), 0.0
+    X1 = np.zeros((n, 3))
+    TH1 = np.zeros((n, 3))
+    THp1 = np.zeros(3)
+    residual, n_mech, failed = 0.0, 0, ""
+    if np.any(g != 0.0):
+        import scipy.sparse as sp
+
+        net = network_of(sim)
+        system = HarmonicSystem(net, nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
+                                regularisation=0.0)
+        d = system.dof_per_sphere
+        act = np.flatnonzero(system.active)
+        rhs = np.zeros(system.n_free)
+        rhs[:d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
+        g0 = system._reference_blocks()["ff"]
+        # zero modes of weakly held spheres (mechanisms), cluster by cluster: the load that
+        # accelerates them, M V a with a = (V^T M V)^-1 V^T F (their free fall, the same from
+        # rest), is removed; G is stiffened along them
+        extra_r, extra_c, extra_v = [], [], []
+        for dofs, V, scale, _ in system.mechanism_modes():
+            n_mech += V.shape[1]
+            MV = system.mass_free[dofs, None] * V
+            rhs[dofs] -= MV @ np.linalg.solve(V.T @ MV, V.T @ rhs[dofs])
+            extra_r.append(np.repeat(dofs, dofs.size))
+            extra_c.append(np.tile(dofs, dofs.size))
+            extra_v.append(scale * (V @ V.T).ravel())
+        a = g0
+        if extra_v:
+            a = (g0 + sp.csc_matrix((np.concatenate(extra_v), (np.concatenate(extra_r), np.concatenate(extra_c))),
+                                    shape=g0.shape)).tocsc()
+        u = np.zeros_like(rhs)
+        try:
+            lu = system.factorise(a, "G + mechanisms (gravity)")
+            u = lu.solve(rhs)
+            for _ in range(GRAVITY_REFINEMENTS):
+                u = u + lu.solve(rhs - g0 @ u)
+            residual = float(np.linalg.norm(rhs - g0 @ u) / max(np.linalg.norm(rhs), 1e-300))
+        except RuntimeError as exc:
+            residual, failed = float("inf"), f"factorisation failed ({exc})"
+        if not residual <= GRAVITY_RESIDUAL_MAX:
+            failed = failed or (f"residual {residual:.3g} > {GRAVITY_RESIDUAL_MAX:g} (a mechanism of several "
+                                "spheres?): gravity starts from rest")
+            u = np.zeros_like(rhs)
+        q = u[:d * act.size].reshape(-1, d)
+        X1[act] = q[:, :3]
+        if contact:
+            TH1[act] = q[:, 3:]
+        if head == "free":
+            THp1 = u[d * act.size:d * act.size + 3].copy()
+    X0, TH0, THp0 = c0 * X1, c0 * TH1, c0 * THp1
+    delta = _bond_displacement(b, X0, TH0, THp0, np.zeros(3), contact)
+    Km, Cm, Kinf, Kk, Ck = _bond_laws(b)
+    dashpot = np.isfinite(Cm)
+    if liquid:  # dashpots at 0, springs and Kelvin-Voigt units at the steady force
+        r_ch = -delta / (1.0 / Km + (1.0 / Kk).sum(axis=1))
+        d_c = np.zeros_like(delta)
+    else:
+        j0 = 1.0 / Km + (1.0 / Kk).sum(axis=1)
+        r_ch = np.where(dashpot, 0.0, -delta / j0)
+        d_c = np.where(dashpot, delta, 0.0)
+    d_k = -r_ch[:, None, :] / Kk
+    return GravityState(
+        displacement=X0, velocity=c1 * X1, angular_velocity=c1 * TH1,
+        head_rotation=THp0, head_angular_velocity=c1 * THp1, bond_displacement=delta,
+        bond_force=r_ch - Kinf * delta, delta_c=d_c, delta_k=np.ascontiguousarray(d_k), creep=bool(liquid),
+        residual=residual, n_mechanisms=n_mech, failed=failed, sag_m=float(np.abs(X0).max()) if n else 0.0,
+        solve_s=time.perf_counter() - tic)
+
+
+def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
+                   head_rotation: str = "free", nu: float = POISSON_RATIO,
+                   continuous: bool = False, system=None) -> PeriodicState:
+    """Periodic steady state of the 2PB test built by :func:`asphalt_nscd.campaign.twopb.build_simulation` (module
+    docstring), before its first step.
+
+    Parameters
+    ----------
+    sim : asphalt_nscd.nscd.Simulation at rest (time 0, bonds' rest = current configuration),
+        bottom plate 0 fixed, top plate 1 driven; its harmonic model is :func:`network_of`.
+    law : GeneralizedBurgers, macro law of the bonds (Pa, Pa s) as given to Bonds.create.
+    frequency_Hz, amplitude_m : head motion u(t) = A sin(2 pi f t), Hz and m.
+    head_rotation : 'free' | 'clamped' (TwoPBSettings.head_rotation).
+    nu : Poisson's ratio of Eqs. 8-11.
+    continuous : solve at s = i w (the continuous steady state) instead of s_h (for the
+        measurement of what the discrete correction buys).
+    system : a HarmonicSystem of :func:`network_of` (sim) with the same options, to reuse
+        (optional; built with the rotational regularisation off: the inertia makes the
+        dynamic matrix regular, and the core has no such spring).
+
+    Returns
+    -------
+    PeriodicState
+    """
+    from .solver import HarmonicSystem
+
+    tic = time.perf_counter()
+    p = sim.params
+    contact = p.bond_kinematics == "contact"
+    head = head_rotation if contact else "clamped"
+    if system is None:
+        system = HarmonicSystem(network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics,
+                                head_rotation=head, regularisation=0.0)
+    s = (1j * 2.0 * math.pi * frequency_Hz if continuous
+         else theta_laplace(frequency_Hz, p.dt, p.theta))
+    sol = system.solve_law(law, frequency_Hz, amplitude=amplitude_m, inertia="full",
+                           solver="reuse", laplace=s)
+    rot = -1j  # phasor of A sin(w t) from that of A cos(w t)
+    X = rot * sol.displacement
+    TH = rot * (sol.rotation if sol.rotation is not None else np.zeros_like(sol.displacement))
+    THp = rot * (sol.head_rotation if sol.head_rotation is not None else np.zeros(3, complex))
+    up = rot * np.array([amplitude_m, 0.0, 0.0], complex)
+    if not contact:
+        TH = np.zeros_like(TH)
+        THp = np.zeros(3, complex)
+    b = sim.bonds
+    delta = _bond_displacement(b, X, TH, THp, up, contact)
+    Km, Cm, Kinf, Kk, Ck = _bond_laws(b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv_c = np.where(np.isinf(Cm), 0.0, 1.0 / (s * Cm))
+    J = 1.0 / Km + inv_c + (1.0 / (Kk + s * Ck)).sum(axis=1)
+    r_ch = -delta / J
+    force = r_ch - Kinf * delta
+    d_c = -r_ch * inv_c
+    d_k = -r_ch[:, None, :] / (Kk + s * Ck)
+    g = gravity_state(sim, law, head_rotation=head_rotation, nu=nu)  # zero without gravity
+    # peak force per bond: the steady (gravity) force plus the periodic amplitude
+    amp_n = np.abs(g.bond_force[:, 0]) + np.abs(force[:, 0])
+    amp_t = (np.sqrt(g.bond_force[:, 1] ** 2 + g.bond_force[:, 2] ** 2)
+             + np.sqrt(np.abs(force[:, 1]) ** 2 + np.abs(force[:, 2]) ** 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(np.isfinite(b.r_crit), np.maximum(amp_n, amp_t) / b.r_crit, 0.0)
+    ratio = float(ratio.max()) if len(ratio) else 0.0
+    return PeriodicState(
+        position=sim.spheres.position + g.displacement + np.real(X),
+        velocity=g.velocity + np.real(s * X), angular_velocity=g.angular_velocity + np.real(s * TH),
+        head_rotation=g.head_rotation + np.real(THp),
+        head_angular_velocity=g.head_angular_velocity + np.real(s * THp),
+        bond_displacement=g.bond_displacement + np.real(delta), bond_force=g.bond_force + np.real(force),
+        delta_c=g.delta_c + np.real(d_c), delta_k=np.ascontiguousarray(g.delta_k + np.real(d_k)),
+        laplace=complex(s), force_ratio=ratio, breaks=ratio >= 1.0, solve_s=time.perf_counter() - tic,
+        gmres_iterations=int(getattr(system, "last_gmres_iterations", 0)),
+        head_force=complex(rot * sol.force[0]), gravity=g if np.any(p.gravity) else None)
+
+
+def apply_periodic_state(sim, state: PeriodicState) -> None:
+    """Set the state arrays of a Simulation at rest (time 0) to ``state`` in place.
+
+    Only the public state of the core is written (Spheres, Plates and Bonds fields); the
+    top plate (index 1) gets the head rotation when it rotates.
+
+    Raises
+    ------
+    ValueError if the simulation has advanced or the shapes differ.
+    """
+    if sim.step_index != 0:
+        raise ValueError("a periodic start applies to a simulation at step 0")
+    sph, b, pls = sim.spheres, sim.bonds, sim.plates
+    if state.position.shape != sph.position.shape or state.bond_force.shape != b.force.shape \
+            or state.delta_k.shape != b.delta_k.shape:
+        raise ValueError("periodic state and simulation differ in shape")
+    sph.position[:] = state.position
+    sph.velocity[:] = state.velocity
+    sph.angular_velocity[:] = state.angular_velocity
+    if pls.n > 1 and pls.rotates[1]:
+        pls.rotation[1] = state.head_rotation
+        pls.angular_velocity[1] = state.head_angular_velocity
+    b.displacement[:] = state.bond_displacement
+    b.force[:] = state.bond_force
+    b.delta_c[:] = state.delta_c
+    b.delta_k[:] = state.delta_k
