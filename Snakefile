@@ -3,12 +3,18 @@
 # One rule file per package it drives (workflow/rules/{lab,rheology,nscd,sample,campaign,harmonic,
 # diagnosis,figures}.smk). Threads and resources live in the workflow profiles: profiles/default
 # (loaded automatically, a 2-core workstation) and profiles/slurm (`--workflow-profile profiles/slurm`).
+import sys
+import time
+
 from snakemake.utils import min_version, validate
 
 from asphalt_nscd import config as config_files
 from asphalt_nscd import plan
 
 min_version("9.0")
+
+# the start of this run: the rule logs written since hold its errors and warnings (printed below)
+RUN_START = time.time()
 
 
 configfile: "config/config.yaml"
@@ -40,3 +46,17 @@ rule all:
     default_target: True
     input:
         plan.REPORT_INDEX,
+        plan.key_files(config),
+
+
+# Snakemake reports a failed rule as "check log file(s)": print the project's own one-line errors (file, row or
+# key, what was expected) and, after a good run, its warnings (a material card that loses accuracy, a unit or a
+# parameter out of range), from the rule logs of this run.
+onerror:
+    for line in plan.console_messages(RUN_START, "error"):
+        print(line, file=sys.stderr)
+
+
+onsuccess:
+    for line in plan.console_messages(RUN_START, "warning"):
+        print(f"warning: {line}", file=sys.stderr)

@@ -96,6 +96,10 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # the file system's errors (a directory not writable, a full disk): one line
+        where = exc.filename if exc.filename is not None else "file system"
+        print(f"error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     return int(status or 0)
 
 

@@ -74,23 +74,36 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         raise
 
 
-def read_csv(path: str | os.PathLike, **kwargs):
+def read_csv(path: str | os.PathLike, allow_empty: bool = False, **kwargs):
     """Read a CSV file into a pandas DataFrame.
 
     Raises
     ------
     InputError
-        naming the file if it does not exist or is not a readable CSV file.
+        naming the file if it does not exist, is not a readable CSV file, or (unless
+        ``allow_empty``) holds a header and no data row: a table a step wrote incompletely,
+        with the command that rebuilds it.
     """
     import pandas as pd
 
     path = Path(path)
     try:
-        return pd.read_csv(path, **kwargs)
+        frame = pd.read_csv(path, **kwargs)
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
+        raise InputError(f"{path}: not a readable CSV file ({exc}); {rebuild_hint(path)}") from None
+    if len(frame) == 0 and not allow_empty:
+        raise InputError(f"{path}: no data rows after the header (an incomplete table); {rebuild_hint(path)}")
+    return frame
+
+
+def rebuild_hint(path) -> str:
+    """How a user rebuilds a file the workflow wrote (``results/...``), or checks their own."""
+    p = Path(path)
+    if "results" in p.parts:
+        return f"rebuild it: .venv/bin/snakemake --cores 1 --force {p}"
+    return "check the file"
 
 
 def read_json(path: str | os.PathLike, what: str = "JSON file"):

@@ -53,8 +53,13 @@ BURGERS_PARAMETERS = CALIBRATION_TABLE.format(table="burgers_parameters")
 PAPER_TABLE3 = CALIBRATION_TABLE.format(table="paper_table3")
 #: the extended bond law per temperature (rule extend_law) run by the extended mode
 LAW_JSON = "results/diagnosis/generalized_burgers.json"
+#: the law a material card carries (rule extend_law): the selected law, or the best law a Prony series with a
+#: shift function carries when the selected one has a vertical shift, a static trend or a per-isotherm refinement
+CARD_LAW_JSON = "results/diagnosis/card_law.json"
 #: the artifact search and master curve of the measured table (rule master_curve)
 MASTER_CURVE_JSON = "results/diagnosis/master_curve.json"
+#: the artifact search's level calibrated on the measured table (rule calibrate_search)
+CALIBRATION_JSON = "results/diagnosis/search_calibration.json"
 #: the artifact-corrected measured table (rule master_curve)
 CORRECTED_TABLE = "results/diagnosis/corrected_measured.csv"
 #: the directory of the extended law's material cards (rule export_law)
@@ -65,6 +70,7 @@ MATERIAL_CARDS = {
     "lsdyna": f"{MATERIAL_CARDS_DIR}/lsdyna.k",
     "json": f"{MATERIAL_CARDS_DIR}/prony.json",
     "table": f"{MATERIAL_CARDS_DIR}/prony.csv",
+    "errors": f"{MATERIAL_CARDS_DIR}/card_errors.csv",
 }
 #: the figures of rule master_curve_figures: master curve, shift factors, the law's residuals
 MASTER_CURVE_FIGURES = {
@@ -656,9 +662,12 @@ def diagnosis_input_files(config: dict) -> list:
 
 
 def artifact_search_options(config: dict) -> str:
-    """Options of the artifact search (diagnosis.alpha, shift, T_ref_C): rule master_curve."""
+    """Options of the artifact search (diagnosis.alpha, shift, T_ref_C, identifiability):
+    rules calibrate_search and master_curve."""
     diag = config["diagnosis"]
-    opts = f"--alpha {diag['alpha']} --shift {diag['shift']}"
+    ident = diag["identifiability"]
+    opts = (f"--alpha {diag['alpha']} --shift {diag['shift']} --identifiability-null {ident['null']} "
+            f"--identifiability-rival {ident['rival']}")
     if diag.get("T_ref_C") is not None:
         opts += f" --t-ref {diag['T_ref_C']}"
     return opts
@@ -682,6 +691,12 @@ def diagnosis_fit_options(config: dict) -> str:
     if not law.get("artifacts", True):
         opts += " --no-artifacts"
     return opts
+
+
+def calibration_options(config: dict) -> str:
+    """Options of rule calibrate_search (diagnosis.calibration)."""
+    cal = config["diagnosis"]["calibration"]
+    return f"--tables {cal['tables']} --seed {cal['seed']} --familywise-rate {cal['familywise_rate']}"
 
 
 def diagnose_options(config: dict) -> str:
@@ -862,6 +877,7 @@ def report_files(config: dict) -> list:
         SIGMOID_TABLE,
         "results/diagnosis/extended_law_cv_curve.csv",
         CORRECTED_TABLE,
+        CALIBRATION_JSON,
         "results/diagnosis/detection_bench.json",
         "results/diagnosis/detection_bench.csv",
     ]
@@ -870,6 +886,16 @@ def report_files(config: dict) -> list:
         for scheme in config["diagnosis"]["crossval"]["schemes"]
         for suffix in (".csv", "_summary.csv", "_curve.csv", ".png")
     ]
+    return files
+
+
+def key_files(config: dict) -> list:
+    """The key tables and figures the README names: targets of rule all beside the report
+    index, so that a missing one is rebuilt by ``make run`` (a file only the index depends on
+    is not rebuilt while the index is up to date)."""
+    files = [DIAGNOSIS_PAGE, MASTER_CURVE_FIGURES["master"], *MATERIAL_CARDS.values(),
+             "results/harmonic/network_factor.csv"]
+    files += [f"results/campaign/{mode}/table4_{mode}.csv" for mode in config["campaign"]["modes"]]
     return files
 
 
@@ -889,3 +915,30 @@ def own_table_files(config: dict) -> list:
         *crossval_files(config, "_summary.csv"),
         DIAGNOSIS_PAGE,
     ]
+
+
+#: the lines of the project's commands that the console repeats after a run: their one-line
+#: errors and their warnings (asphalt_nscd.cli writes both to the rule's log)
+CONSOLE_PATTERNS = {"error": re.compile(r"^error: .*"), "warning": re.compile(r"\basphalt_nscd WARNING: (.*)")}
+
+
+def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str]:
+    """The project's messages of ``kind`` (``error`` or ``warning``, :data:`CONSOLE_PATTERNS`)
+    in the rule logs under ``log_dir`` written since ``since`` (epoch seconds): ``log: line``,
+    each once, in the order of the logs' times. Snakemake shows only "check log file(s)" for a
+    failed rule; the Snakefile's onerror and onsuccess handlers print these instead."""
+    root = Path(log_dir)
+    if not root.is_dir():
+        return []
+    logs = sorted((p for p in root.rglob("*.log") if p.is_file() and p.stat().st_mtime >= since),
+                  key=lambda p: p.stat().st_mtime)
+    out, seen = [], set()
+    for path in logs:
+        for line in path.read_text(errors="replace").splitlines():
+            m = CONSOLE_PATTERNS[kind].search(line)
+            if m:
+                text = m.group(1) if m.groups() else m.group(0)
+                if text not in seen:
+                    seen.add(text)
+                    out.append(f"{path}: {text}")
+    return out

@@ -10,8 +10,10 @@ import pytest
 from diagnosis_chain import cli_chain
 
 from asphalt_nscd.cli import main
+from scipy import stats
+
 from asphalt_nscd.diagnosis import crossval as cv
-from asphalt_nscd.diagnosis import synthetic
+from asphalt_nscd.diagnosis import scores, synthetic
 from asphalt_nscd.sample.lattice import lattice_sample
 from asphalt_nscd.sample.store import write_sample
 from asphalt_nscd.harmonic.transfer import write_transfer
@@ -85,21 +87,41 @@ def test_folds_rows_and_nested_selection(table, lofo):
 
 
 def test_scores_follow_the_protocol(table, lofo):
-    """MRE per temperature of the summary = an independent computation from the replicate means
-    of the table as given (| |E|p/|E|m - 1 |, | Phi_p - Phi_m | / Phi_m)."""
+    """The summary's scores per temperature = an independent computation: the paper's MRE from
+    the replicate means of the table as given (| |E|p/|E|m - 1 |, | Phi_p - Phi_m | / Phi_m), the
+    signed log error of |E*| against the mean of the specimens' ln|E*| and its t(n-1) interval
+    over the specimens; interpolated and extrapolated cells (the end frequencies) apart."""
     means = table.groupby(["temperature_C", "frequency_Hz"])[["E_norm_MPa", "phase_deg"]].mean().reset_index()
     held = lofo.rows[(lofo.rows["kind"] == "held_out") & (lofo.rows["model"] == "extended_law")]
     m = held.merge(means, on=["temperature_C", "frequency_Hz"])
     eE = (m["E_norm_MPa_predicted"] / m["E_norm_MPa"] - 1).abs()
     eP = (m["phase_deg_predicted"] - m["phase_deg"]).abs() / m["phase_deg"]
-    ref = pd.DataFrame({"T": m["temperature_C"], "E": 100 * eE, "P": 100 * eP}).groupby("T").mean()
-    s = cv.summarize(lofo.rows)
-    s = s[(s["kind"] == "held_out") & (s["model"] == "extended_law")].set_index("temperature_C")
+    ref = pd.DataFrame({"T": m["temperature_C"], "x": m["extrapolation"], "E": 100 * eE, "P": 100 * eP})\
+        .groupby(["T", "x"]).mean()
+    s = scores.summarize(lofo.rows, table)
+    s = s[(s["kind"] == "held_out") & (s["model"] == "extended_law") & s["temperature_C"].notna()]
+    s = s.set_index(["temperature_C", "extrapolation"])
     np.testing.assert_allclose(s.loc[ref.index, "mre_E_norm_pct"], ref["E"], rtol=1e-12)
     np.testing.assert_allclose(s.loc[ref.index, "mre_phase_pct"], ref["P"], rtol=1e-12)
-    head = cv.headline(cv.summarize(lofo.rows))
-    h = head[(head["kind"] == "held_out") & (head["model"] == "extended_law")].iloc[0]
-    assert h["worst_E_norm_pct"] == pytest.approx(ref["E"].max())
+    # signed log error and its t interval at one temperature, computed by hand
+    T = 21.0
+    h = held[(held["temperature_C"] == T) & ~held["extrapolation"]]
+    spec = table[table["temperature_C"] == T]
+    lnE = spec.assign(l=np.log(spec["E_norm_MPa"])).pivot_table(index="specimen", columns="frequency_Hz", values="l")
+    pred = np.log(h.set_index("frequency_Hz")["E_norm_MPa_predicted"])
+    d = pred - lnE[pred.index].mean(axis=0)
+    b = (pred - lnE[pred.index]).mean(axis=1)
+    half = stats.t.ppf(0.975, b.size - 1) * b.std(ddof=1) / np.sqrt(b.size)
+    row = s.loc[(T, False)]
+    assert row["bias_logE_pct"] == pytest.approx(100 * d.mean(), rel=1e-10)
+    assert row["bias_logE_ci95_low"] == pytest.approx(100 * (b.mean() - half), rel=1e-10)
+    assert row["abs_logE_ci95_low"] <= row["abs_logE_pct"] <= row["abs_logE_ci95_high"]
+    assert row["abs_logE_vs_means_pct"] == pytest.approx(100 * d.abs().mean(), rel=1e-10)
+    head = scores.headline(scores.summarize(lofo.rows, table))
+    hd = head[(head["kind"] == "held_out") & (head["model"] == "extended_law")].iloc[0]
+    inner = held[~held["extrapolation"]]
+    assert hd["interp_n_cells"] == len(inner) and hd["extrap_n_cells"] == len(held) - len(inner)
+    assert hd["worst_T_C"] in set(table["temperature_C"])
     # on a thermorheologically simple table the held-out law is within a few percent
     assert ref["E"].max() < 6 and ref["P"].max() < 10
 
@@ -115,16 +137,41 @@ def test_loto_reports_end_temperatures_apart_and_three_temperatures_as_not_compu
     lofo = cv.crossval(three, "lofo", cv.Options())
     assert lofo.rows.loc[(lofo.rows["kind"] == "held_out") & (lofo.rows["model"] == "extended_law"),
                          "computable"].all()
-    # five temperatures: the end ones are extrapolations, left out of the loto headline
+    # five temperatures: the end ones are extrapolations, pooled apart from the inner ones
     five = cv.crossval(table, "loto", cv.Options())
-    s = cv.summarize(five.rows)
+    s = scores.summarize(five.rows, table)
     s = s[(s["kind"] == "held_out") & (s["model"] == "extended_law")]
-    assert s.set_index("temperature_C")["extrapolation"].to_dict() == {-10.0: True, 4.0: False, 21.0: False,
-                                                                       37.0: False, 54.0: True}
-    h = cv.headline(s)
-    assert h.iloc[0]["worst_E_norm_T_C"] in (4.0, 21.0, 37.0)
+    per_T = s[s["temperature_C"].notna()].set_index("temperature_C")["extrapolation"].to_dict()
+    assert per_T == {-10.0: True, 4.0: False, 21.0: False, 37.0: False, 54.0: True}
+    h = scores.headline(s).iloc[0]
+    assert h["worst_T_C"] in (4.0, 21.0, 37.0) and h["interp_n_cells"] == 18 and h["extrap_n_cells"] == 12
     assert five.rows.loc[(five.rows["model"] == "burgers") & (five.rows["kind"] == "held_out"),
                          "reason"].str.contains("no temperature dependence").all()
+
+
+def test_loso_scores_each_specimen_against_itself_and_never_sees_it(table):
+    """Leave one specimen out: every fold trains on the other specimens and is scored against the
+    held-out specimen's own values; changing that specimen's values changes its reference, not its
+    fold's prediction, while the in-sample fit moves."""
+    res = cv.crossval(table, "loso", cv.Options())
+    held = res.rows[(res.rows["kind"] == "held_out") & (res.rows["model"] == "extended_law")]
+    assert set(held["fold"]) == set(table["specimen"]) and held["computable"].all()
+    for spec, g in held.groupby("fold"):
+        own = table[table["specimen"] == spec].set_index(["temperature_C", "frequency_Hz"])["E_norm_MPa"]
+        np.testing.assert_allclose(g.set_index(["temperature_C", "frequency_Hz"])["E_norm_MPa_measured"],
+                                   own.loc[g.set_index(["temperature_C", "frequency_Hz"]).index], rtol=1e-12)
+    bad = table.copy()
+    hit = bad["specimen"] == "S1"
+    bad.loc[hit, "E_norm_MPa"] *= 3.0
+    moved = cv.crossval(bad, "loso", cv.Options())
+    a, b = _held(res.rows, "S1"), _held(moved.rows, "S1")
+    np.testing.assert_array_equal(a["E_norm_MPa_predicted"], b["E_norm_MPa_predicted"])
+    assert np.allclose(b["E_norm_MPa_measured"], 3.0 * a["E_norm_MPa_measured"])
+    s = scores.summarize(res.rows, table)
+    pooled = s[(s["scheme"] == "loso") & (s["kind"] == "held_out") & (s["model"] == "extended_law")
+               & s["temperature_C"].isna()].iloc[0]
+    assert pooled["n_specimens"] == table["specimen"].nunique() and pooled["interval"].startswith("t(n-1)")
+    assert pooled["abs_logE_ci95_low"] <= pooled["abs_logE_pct"] <= pooled["abs_logE_ci95_high"]
 
 
 def test_unbalanced_table_fold_removes_what_it_names(table):
@@ -206,17 +253,24 @@ def test_diagnose_puts_held_out_beside_in_sample(tmp_path, table):
                  "--page", str(out["page.md"])]) == 0
     gain = pd.read_csv(out["gain.csv"]).set_index("temperature_C")
     rows = pd.read_csv(tmp_path / "lofo.csv")
-    held = rows[(rows["kind"] == "held_out") & (rows["model"] == "extended_law")]
-    ref = 100 * held.groupby("temperature_C")["rel_err_E_norm"].mean()
-    np.testing.assert_allclose(gain.loc[ref.index, "E_norm_mre_after_heldout_lofo_pct"], ref, rtol=1e-9)
+    s = scores.summarize(rows, table)
+    inner = s[(s["kind"] == "held_out") & (s["model"] == "extended_law") & ~s["extrapolation"]
+              & s["temperature_C"].notna()].set_index("temperature_C")
+    np.testing.assert_allclose(gain.loc[inner.index, "abs_logE_pct_after_heldout_lofo"], inner["abs_logE_pct"],
+                               rtol=1e-9)
     assert (gain["heldout_after_model"] == "extended_law").all()
-    assert gain["E_norm_mre_before_heldout_lofo_pct"].notna().all()  # Burger's per isotherm
-    assert gain["E_norm_mre_before_heldout_loto_pct"].isna().all()  # not defined for Burger's
-    assert gain["loto_extrapolation"].to_dict()[-10.0] and not gain["loto_extrapolation"].to_dict()[21.0]
+    assert gain["abs_logE_pct_before_heldout_lofo"].notna().all()  # Burger's per isotherm
+    assert gain["abs_logE_pct_before_heldout_loto"].isna().all()  # not defined for Burger's
+    ext = gain["heldout_extrapolation_loto"].to_dict()
+    assert ext[-10.0] and not ext[21.0]
     page = out["page.md"].read_text()
-    assert "## Held-out errors (headline" in page and page.index("Held-out") < page.index("in-sample)")
+    assert "## Held-out errors" in page and page.index("Held-out") < page.index("in-sample)")
     rep = json.loads(out["r.json"].read_text())
     assert {h["scheme"] for h in rep["heldout"]["headline"]} == {"lofo", "loto"}
+    heads = [h for h in rep["heldout"]["headline"] if h["kind"] == "held_out"]
+    assert all(h["verdict_E_norm"] in ("met", "missed", "undecided") for h in heads)
+    # one set of targets on the page, on the held-out errors
+    assert page.count("Targets:") == 1 and "targets met" not in page
 
 
 def test_held_out_predictions_carry_the_folds_artifacts():
@@ -260,13 +314,13 @@ def test_measurement_model_applies_the_training_correction_with_vertical_shifts(
     np.testing.assert_allclose(np.degrees(np.angle(Ec)), corrected["phase_deg"].to_numpy(float), atol=1e-9)
 
 
-def test_noise_floor_and_specimen_bootstrap():
+def test_noise_floor_and_intervals_over_specimens():
     """The noise floor is the relative standard error of the replicate means (a 4 % specimen
-    scatter with 3 specimens gives ~4/sqrt(3) %); the bootstrap interval of an MRE contains the
-    point value, collapses to it when the specimens agree, and widens with their scatter."""
+    scatter with 3 specimens gives ~4/sqrt(3) %); the signed interval is t(n-1) over the
+    specimens; the absolute interval contains its point value, collapses to it when the
+    specimens agree, and widens with their scatter; a t interval's coverage is its level."""
     from asphalt_nscd.diagnosis.budget import target_verdict
 
-    rng = np.random.default_rng(1)
     rows_t, pred = [], []
     for T in (0.0, 20.0):
         for f in (1.0, 10.0):
@@ -275,21 +329,59 @@ def test_noise_floor_and_specimen_bootstrap():
                                "E_norm_MPa": 1000.0 * c, "phase_deg": 20.0 * c})
             pred.append({"scheme": "lofo", "fold": f"{f:g}", "kind": "held_out", "model": "m", "temperature_C": T,
                          "frequency_Hz": f, "E_norm_MPa_predicted": 1050.0, "phase_deg_predicted": 21.0,
-                         "computable": True})
+                         "E_norm_MPa_measured": 1000.0, "phase_deg_measured": 20.0, "rel_err_E_norm": 0.05,
+                         "rel_err_phase": 0.05, "extrapolation": False, "computable": True})
     table = pd.DataFrame(rows_t)
-    floor = cv.noise_floor(table).set_index("temperature_C")
+    floor = scores.noise_floor(table).set_index("temperature_C")
     assert floor.loc[0.0, "noise_floor_E_norm_pct"] == pytest.approx(4.0 / np.sqrt(3), rel=1e-9)
     assert floor.loc[0.0, "n_specimens"] == 3
     rows = pd.DataFrame(pred)
-    ci = cv.specimen_bootstrap(rows, table, n_boot=500).set_index("temperature_C")
-    assert ci.loc[0.0, "mre_E_norm_ci95_low"] < 5.0 < ci.loc[0.0, "mre_E_norm_ci95_high"]
+    summ = scores.summarize(rows, table)
+    assert list(summ.columns) == scores.SUMMARY_COLUMNS
+    r = summ[summ["temperature_C"] == 0.0].iloc[0]
+    lnE = np.log(1000.0 * np.array([0.96, 1.0, 1.04]))
+    b = np.log(1050.0) - lnE
+    half = stats.t.ppf(0.975, 2) * b.std(ddof=1) / np.sqrt(3)
+    assert r["bias_logE_pct"] == pytest.approx(100 * b.mean())
+    assert r["bias_logE_ci95_low"] == pytest.approx(100 * (b.mean() - half))
+    assert r["abs_logE_ci95_low"] <= r["abs_logE_pct"] <= r["abs_logE_ci95_high"]
     same = table.assign(E_norm_MPa=1000.0, phase_deg=20.0)
-    ci0 = cv.specimen_bootstrap(rows, same, n_boot=200).set_index("temperature_C")
-    assert ci0.loc[0.0, "mre_E_norm_ci95_low"] == pytest.approx(5.0) == ci0.loc[0.0, "mre_E_norm_ci95_high"]
-    rows["rel_err_E_norm"], rows["rel_err_phase"], rows["n_replicates"] = 0.05, 0.05, 3
-    rows["extrapolation"] = False
-    summ = cv.summarize(rows, table, n_boot=200)
-    assert list(summ.columns) == cv.SUMMARY_COLUMNS and summ["noise_floor_E_norm_pct"].notna().all()
+    r0 = scores.summarize(rows, same)
+    r0 = r0[r0["temperature_C"] == 0.0].iloc[0]
+    assert r0["abs_logE_ci95_low"] == pytest.approx(100 * np.log(1.05)) == r0["abs_logE_ci95_high"]
+    assert r["abs_logE_ci95_high"] - r["abs_logE_ci95_low"] > 1.0
+    # the t interval covers the mean at its level (normal samples of 3)
+    rng = np.random.default_rng(0)
+    cover = [lo <= 0.0 <= hi for lo, hi in (scores.t_interval(rng.normal(0, 1, 3)) for _ in range(4000))]
+    assert abs(np.mean(cover) - 0.95) < 0.015
     assert target_verdict(5.0, 4.0, 6.0, 5.5) == "undecided"
     assert target_verdict(5.0, 4.0, 5.2, 5.5) == "met" and target_verdict(6.0, 5.6, 6.4, 5.5) == "missed"
     assert target_verdict(5.0, np.nan, np.nan, 5.5) == "met"
+
+
+def test_variance_components_recover_the_specimen_and_residual_scatter():
+    rng = np.random.default_rng(3)
+    Y = rng.normal(0, 0.05, (8, 1))[:, [0] * 40] + rng.normal(0, 0.02, (8, 40)) + np.linspace(0, 1, 40)
+    tau2, sigma2, n = scores.variance_components(Y)
+    assert n == 8 and np.sqrt(sigma2) == pytest.approx(0.02, rel=0.15) and np.sqrt(tau2) == pytest.approx(0.05, rel=0.6)
+
+
+def test_held_out_rows_get_the_drift_correction_they_get_inside_the_whole_table():
+    """A temperature drift fitted on a lofo fold's training rows and evaluated at the held-out
+    rows alone (one frequency) corrects each of them exactly as it corrects that row inside the
+    whole table: the drift is centred on the middle of the isotherm's tests in the whole table,
+    a centre that travels with the rows (it was the middle of the steps of the rows given, so a
+    held-out frequency alone was corrected about itself)."""
+    from asphalt_nscd.diagnosis.effects import ArtifactSearch, prepare_table
+
+    t, _ = synthetic.generate(8, ["temperature_drift"], schedule="aashto_t342", n_specimens=3,
+                              magnitudes={"temperature_drift": {"drift_C_per_test": 1.2}})
+    whole = prepare_table(t)
+    for f in (25.0, 1.0):
+        held = whole[whole["frequency_Hz"] == f]
+        search = ArtifactSearch(whole[whole["frequency_Hz"] != f])
+        drift = next(c for c in search.all_candidates() if c.name == "temperature_drift")
+        model = cv.MeasurementModel(search.fit([drift.term]))
+        alone, inside = model.correction(held), model.correction(whole)[held.index.to_numpy()]
+        np.testing.assert_allclose(alone, inside, rtol=1e-12)
+        assert np.max(np.abs(np.log(np.abs(alone)))) > 0.01  # a real correction, not 1

@@ -34,6 +34,7 @@ import functools
 import os
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.stats import binom
 
@@ -241,6 +242,7 @@ def test_testability_without_optional_columns():
     t = fx.testability(prepare_table(table.drop(columns=["strain_microstrain", "test_order"])))
     assert t["strain_nonlinearity"][0] is False and "strain_microstrain" in t["strain_nonlinearity"][1]
     assert t["self_heating"][0] is False and "test_order" in t["self_heating"][1]
+    assert t["temperature_drift"][0] is False and "test order" in t["temperature_drift"][1]
     assert t["time_lag"][0] and t["temperature_offset"][0]
 
 
@@ -313,3 +315,104 @@ def test_temperature_offset_is_found_on_its_inner_isotherm_and_corrected():
 def test_format_of_small_p_values():
     assert fx.format_p(3e-67) == "< 1e-6" and fx.p_phrase(3e-67) == "p < 1e-6"
     assert fx.p_phrase(0.0123) == "p = 0.012" and fx.format_p(None) == "n/a"
+
+
+DRIFT = {"temperature_drift": {"drift_C_per_test": 1.2}}
+
+
+@pytest.mark.parametrize("schedule", ["aashto_t342", "paper_2pb"])
+def test_a_drift_along_a_frequency_sweep_is_not_identifiable_and_never_named(schedule):
+    """A drift planted along the standard order (every isotherm swept monotonically in frequency)
+    reads exactly as a change of slope per isotherm, a failure of time-temperature superposition:
+    its signature and its rival's have a canonical correlation >= 0.95, so it is reported not
+    identifiable and never named; the same drift along a random order, or with the first
+    frequency repeated at the end of each isotherm, is identifiable and named; without an order,
+    not testable."""
+    for order, expected in (("standard", False), ("random", True), ("repeat", True)):
+        table, truth = synthetic.generate(17, ["temperature_drift"], schedule=schedule, n_specimens=3,
+                                          magnitudes=DRIFT, order=order)
+        search = ArtifactSearch(table, test=from_dict(truth["test"], "x"))
+        result = search.run()
+        e = {x["name"]: x for x in effect_entries(search, result)}["temperature_drift"]
+        assert e["testable"] and e["identifiable"] is expected, (order, e["identifiability"])
+        rho = e["identifiability"]["rival_correlation"]
+        assert (rho >= fx.IDENTIFIABILITY_LIMITS["rival"]) is (not expected)
+        assert e["detected"] is expected
+        if not expected:
+            assert "time-temperature superposition" in e["evidence"] and "temperature_drift" not in \
+                [c.name for c in result["selected"]]
+    no_order, truth = synthetic.generate(17, ["temperature_drift"], schedule=schedule, n_specimens=3,
+                                         magnitudes=DRIFT, test_order=False)
+    search = ArtifactSearch(no_order, test=from_dict(truth["test"], "x"))
+    e = {x["name"]: x for x in effect_entries(search, search.run())}["temperature_drift"]
+    assert not e["testable"] and not e["detected"]
+
+
+def test_the_shipped_table_names_no_artifact_it_cannot_identify():
+    """The shipped UIUC table gives no test order: drift and self-heating are not testable; the
+    time lag and the offset are tested, each identifiable (cosines and correlations reported)."""
+    from pathlib import Path
+
+    from asphalt_nscd.lab.measured import load_measured
+
+    table = load_measured(Path(__file__).resolve().parents[2] / "data/measured/uiuc_fdmix1_utm/complex_modulus.csv")
+    search = ArtifactSearch(table, test=table.attrs["test"])
+    result = search.run()
+    e = {x["name"]: x for x in effect_entries(search, result)}
+    assert not e["temperature_drift"]["testable"] and not e["temperature_drift"]["detected"]
+    assert e["time_lag"]["identifiable"] and 0 < e["time_lag"]["identifiability"]["null_correlation"] < 0.995
+    assert e["temperature_offset"]["identifiable"] and result["family_size"] == 2
+    assert set(e["temperature_offset"]["identifiability"]["per_isotherm"]) == {"4", "21", "37"}
+
+
+def test_offset_with_four_isotherms_cannot_be_told_from_a_bend_of_the_shift_law():
+    table, truth = synthetic.generate(5, [], schedule="paper_2pb", n_specimens=3)
+    four = table[table["temperature_C"].isin([0.0, 10.0, 20.0, 30.0])]
+    search = ArtifactSearch(four, test=from_dict(truth["test"], "x"))
+    result = search.run()
+    e = {x["name"]: x for x in effect_entries(search, result)}["temperature_offset"]
+    assert e["testable"] and e["identifiable"] is False and "bends" in e["evidence"]
+    assert result["offset"] is None
+
+
+def test_calibration_levels_are_seeded_and_control_the_rate_on_the_tables_own_null():
+    """The calibration reruns the whole procedure on tables of the table's fitted clean model:
+    the same seed gives the same numbers; its level is the (floor(rate B) + 1)-th smallest
+    statistic; the procedure at min(level, nominal) names an artifact on at most rate x B of
+    those tables; calibrated p-values count the tables at least as extreme."""
+    from asphalt_nscd.diagnosis import calibration as cal
+
+    table, truth = synthetic.generate(9, [], schedule="aashto_t342", n_specimens=3, family="sigmoidal")
+    test = from_dict(truth["test"], "x")
+    a = cal.calibrate(table, test=test, n_tables=24, seed=4)
+    b = cal.calibrate(table, test=test, n_tables=24, seed=4)
+    assert a["artifacts"]["null_min_p"] == b["artifacts"]["null_min_p"] and a["static"] == b["static"]
+    m = np.sort(a["artifacts"]["null_min_p"])
+    c = a["artifacts"]["calibrated_level"]
+    assert c == m[int(np.floor(0.025 * m.size))] and np.sum(m < c) <= 0.025 * m.size
+    assert a["artifacts"]["level"] == min(c, a["artifacts"]["nominal_level"])
+    assert cal.critical_level([0.3, 0.1, 0.2, 0.4], 0.25) == 0.2 and cal.critical_level([0.5], 0.99) == 0.5
+    assert fx.adjusted_p(0.15, [0.1, 0.2, 0.3]) == pytest.approx(2 / 4) and fx.adjusted_p(None, [0.1]) is None
+    assert cal.static_p(10.0, {"static": {"null_F": [1.0, 20.0, 3.0]}}) == pytest.approx(2 / 4)
+    cm = a["clean_model"]
+    assert cm["sigma_point_lnE"] > 0 and cm["sigma_cell_lnE"] >= 0
+    with pytest.raises(ValueError, match="n_tables"):
+        cal.calibrate(table, n_tables=5)
+    # the search refuses a calibration of other settings
+    from asphalt_nscd.diagnosis import artifacts
+    from asphalt_nscd.io import InputError
+
+    with pytest.raises(InputError, match="calibrate-search"):
+        artifacts.analyse(table, alpha=1e-2, test=test, calibration=a)
+
+
+def test_cell_misfit_is_the_cell_means_scatter_beyond_the_point_noise():
+    from asphalt_nscd.diagnosis.calibration import cell_misfit
+
+    rng = np.random.default_rng(2)
+    rows = pd.DataFrame({"temperature_C": np.repeat(np.arange(40.0), 4), "frequency_Hz": 10.0})
+    cells = np.repeat(rng.normal(0, 0.03, 40), 4)
+    e = cells + rng.normal(0, 0.02, 160)
+    sE, sP = cell_misfit(rows, e, e, (0.02, 0.02), n_params=0)
+    assert sE == pytest.approx(0.03, rel=0.3) and sP == sE
+    assert cell_misfit(rows, rng.normal(0, 0.02, 160), np.zeros(160), (0.02, 0.02), 0)[0] < 0.012

@@ -97,7 +97,7 @@ def test_gain_table_nscd_before_after_and_macro(run):
         assert nscd.loc[T, "E_norm_mre_after_pct"] == pytest.approx(after.loc[T, "aE"], rel=1e-9)
         assert nscd.loc[T, "phase_mre_after_pct"] == pytest.approx(after.loc[T, "aP"], rel=1e-9)
         # a 1.2 network factor keeps the NSCD |E*| about 20 % off after the extension
-        assert not bool(nscd.loc[T, "targets_met"])
+        assert nscd.loc[T, "E_norm_mre_after_pct"] > 10
     # macro rows: Burger's law vs measured before; the law JSON's own MRE after
     laws_json = json.loads(run["laws"].read_text())["temperatures"]
     macro = gain[gain["source"] == "macro"].set_index("temperature_C")

@@ -63,7 +63,7 @@ BAD_CASES = {
     "negative phase": (GOOD.replace("15.0", "-1"), r"line 2, column 'phase_deg'"),
     "non-integer test order": (GOOD.replace(",2,jq", ",2.5,jq"), r"line 3, column 'test_order'"),
     "missing specimen": (GOOD.replace("B,10,3", ",10,3"), r"line 3, column 'specimen'"),
-    "duplicate key": (GOOD.replace("B,10,10", "A,10,10"), r"lines 4, 5.*duplicate"),
+    "duplicate key": (GOOD.replace("B,10,10,16000,13.0,49,4", "A,10,10,16000,13.0,49,3"), r"lines 4, 5.*duplicate"),
     "empty file": ("", r"empty"),
     "header only": (GOOD.splitlines()[0] + "\n", r"no data rows"),
     "binary content": (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", r"not a CSV"),

@@ -185,9 +185,9 @@ def test_diagnosis_inputs_with_auto_settings():
     opts = plan.diagnose_options(cfg)
     # diagnose reads the artifact search and the law (rules master_curve, extend_law): no fit options
     assert opts.startswith("--simulated ") and "--law-" not in opts and "--alpha" not in opts
-    assert plan.artifact_search_options(cfg) == "--alpha 0.001 --shift wlf"
-    assert plan.diagnosis_fit_options(cfg).startswith("--alpha 0.001 --shift wlf --law-shifts wlf --law-statics "
-                                                      "constant trend")
+    search = "--alpha 0.001 --shift wlf --identifiability-null 0.995 --identifiability-rival 0.95"
+    assert plan.artifact_search_options(cfg) == search
+    assert plan.diagnosis_fit_options(cfg).startswith(search + " --law-shifts wlf --law-statics constant trend")
     assert opts.endswith(
         "--simulated results/sim/measured/s1/21C_10Hz.csv --harmonic results/harmonic/jobs/s1_measured.csv"
         " --time-integration results/campaign/measured/dt_policy_phase_error.csv"
@@ -248,9 +248,9 @@ def test_report_files_are_the_report_index_inputs(named_config):
     name, cfg = named_config
     files = plan.report_files(cfg)
     # counts of the collect-report command of the dry runs (smoke: one sample, else four)
-    assert len(files) == {"smoke": 88, "config": 91, "paper": 95}[name]  # paper: + the paper_kPa mode's 4
+    assert len(files) == {"smoke": 94, "config": 97, "paper": 101}[name]  # paper: + the paper_kPa mode's 4
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
-    assert files[-1] == "results/diagnosis/crossval/loto.png"
+    assert files[-1] == "results/diagnosis/crossval/loso.png"
     assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files
     assert "results/campaign/extended/table4_extended.csv" in files
     assert all(f.startswith("results/") for f in files)

@@ -35,7 +35,7 @@ def test_write_read_round_trip_in_pa_and_mpa(tmp_path):
         law_file.read_mpa(path, [21.0, 30.0])
     with pytest.raises(InputError, match="where.json: key 'temperatures': no law at 21.1 degC"):
         law_file.law_at(mpa, 21.1, where="where.json")
-    assert law_file.read_info(path) == {"selection": None, "model": None}
+    assert law_file.read_info(path) == {"selection": None, "model": None, "card": None}
 
 
 def test_write_refuses_a_bad_object_and_leaves_no_file(tmp_path):

@@ -30,10 +30,37 @@ from asphalt_nscd import plan
 DIAG_CATEGORY = "What the simulation gets wrong"
 
 
+rule calibrate_search:
+    # the level of the artifact search calibrated on the table itself: the whole procedure rerun on
+    # diagnosis.calibration.tables tables simulated from the table's fitted clean model (seeded)
+    input:
+        measured=plan.MEASURED,
+        test=plan.MEASURED_TEST,
+    output:
+        report(
+            plan.CALIBRATION_JSON,
+            caption="../report/diagnosis_calibration.rst",
+            category=DIAG_CATEGORY,
+        ),
+    log:
+        "logs/diagnosis/calibrate_search.log",
+    benchmark:
+        "benchmarks/diagnosis/calibrate_search.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    params:
+        options=plan.artifact_search_options(config),
+        calibration=plan.calibration_options(config),
+    shell:
+        "asphalt-nscd calibrate-search --measured {input.measured:q} --test {input.test:q} {params.options} "
+        "{params.calibration} --jobs {threads} -o {output:q} 2> {log}"
+
+
 rule master_curve:
     input:
         measured=plan.MEASURED,
         test=plan.MEASURED_TEST,
+        calibration=rules.calibrate_search.output[0],
     output:
         search=plan.MASTER_CURVE_JSON,
         corrected=plan.CORRECTED_TABLE,
@@ -47,7 +74,7 @@ rule master_curve:
         options=plan.artifact_search_options(config),
     shell:
         "asphalt-nscd master-curve --measured {input.measured} --test {input.test} {params.options} "
-        "-o {output.search} --corrected {output.corrected} 2> {log}"
+        "--calibration {input.calibration} -o {output.search} --corrected {output.corrected} 2> {log}"
 
 
 rule extend_law:
@@ -55,6 +82,7 @@ rule extend_law:
         measured=plan.MEASURED,
         search=rules.master_curve.output.search,
         corrected=rules.master_curve.output.corrected,
+        calibration=rules.calibrate_search.output[0],
     output:
         laws=report(
             plan.LAW_JSON,
@@ -66,6 +94,8 @@ rule extend_law:
             caption="../report/diagnosis_cv_curve.rst",
             category=DIAG_CATEGORY,
         ),
+        card=plan.CARD_LAW_JSON,
+        without_flagged="results/diagnosis/law_without_flagged.json",
     log:
         "logs/diagnosis/extend_law.log",
     benchmark:
@@ -76,7 +106,8 @@ rule extend_law:
         options=plan.diagnosis_fit_options(config),
     shell:
         "asphalt-nscd extend-law --measured {input.measured} {params.options} --master-curve {input.search} "
-        "--corrected-table {input.corrected} -o {output.laws} --cv-curve {output.curve} 2> {log}"
+        "--corrected-table {input.corrected} --calibration {input.calibration} -o {output.laws} "
+        "--cv-curve {output.curve} --card-law {output.card} --without-flagged {output.without_flagged} 2> {log}"
 
 
 if plan.crossval_time_domain_cell(config):
@@ -86,6 +117,7 @@ if plan.crossval_time_domain_cell(config):
         # procedure as that fold of rule crossval)
         input:
             measured=plan.MEASURED,
+            calibration=rules.calibrate_search.output[0],
         output:
             f"results/diagnosis/crossval/fold_law_{plan.crossval_time_domain_case(config)}.json",
         log:
@@ -99,7 +131,7 @@ if plan.crossval_time_domain_cell(config):
             frequency=plan.crossval_time_domain_cell(config)["frequency_Hz"],
             temperature=plan.crossval_time_domain_cell(config)["temperature_C"],
         shell:
-            "asphalt-nscd extend-law --measured {input.measured} {params.options} "
+            "asphalt-nscd extend-law --measured {input.measured} {params.options} --calibration {input.calibration} "
             "--exclude-frequency {params.frequency} --temperatures {params.temperature} -o {output} 2> {log}"
 
     rule crossval_time_domain:
@@ -132,10 +164,13 @@ if plan.crossval_time_domain_cell(config):
 
 
 rule export_law:
-    # material cards of the extended law: relaxation Prony series + WLF shift (Abaqus, LS-DYNA, JSON, CSV)
+    # material cards: relaxation Prony series + WLF shift (Abaqus, LS-DYNA, JSON, CSV) of the law a card carries,
+    # with what it loses against the selected law and its errors against the measured means at every cell
     input:
+        card=rules.extend_law.output.card,
         law=rules.extend_law.output.laws,
         summary=plan.MEASURED_SUMMARY,
+        test=plan.MEASURED_TEST,
     output:
         abaqus=report(
             plan.MATERIAL_CARDS["abaqus"],
@@ -145,6 +180,7 @@ rule export_law:
         lsdyna=plan.MATERIAL_CARDS["lsdyna"],
         json=plan.MATERIAL_CARDS["json"],
         table=plan.MATERIAL_CARDS["table"],
+        errors=plan.MATERIAL_CARDS["errors"],
     log:
         "logs/diagnosis/export_law.log",
     benchmark:
@@ -154,13 +190,14 @@ rule export_law:
     params:
         out_dir=plan.output_directory,
     shell:
-        "asphalt-nscd export-law --law-json {input.law} --measured {input.summary} --allow-loss"
-        " -o {params.out_dir} 2> {log}"
+        "asphalt-nscd export-law --law-json {input.card} --selected-law-json {input.law} --measured {input.summary}"
+        " --test {input.test} -o {params.out_dir} 2> {log}"
 
 
 rule crossval:
     input:
         measured=plan.MEASURED,
+        calibration=rules.calibrate_search.output[0],
         sample=plan.sample_file(plan.crossval_sample(config)),
         transfer=plan.transfer_file(plan.crossval_sample(config)),
         time_domain=plan.from_wildcards(plan.crossval_time_domain_input, config),
@@ -194,7 +231,7 @@ rule crossval:
     benchmark:
         "benchmarks/diagnosis/crossval_{scheme}.tsv"
     wildcard_constraints:
-        scheme="lofo|loto",
+        scheme="lofo|loto|loso",
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
@@ -202,7 +239,7 @@ rule crossval:
         time_domain=plan.time_domain_option,
     shell:
         "asphalt-nscd crossval --measured {input.measured} --scheme {wildcards.scheme} {params.options} "
-        "--sample {input.sample} --transfer {input.transfer} {params.time_domain} -o {output.rows} "
+        "--calibration {input.calibration} --sample {input.sample} --transfer {input.transfer} {params.time_domain} -o {output.rows} "
         "--summary {output.summary} --curve {output.curve} --figure {output.figure} 2> {log}"
 
 
@@ -216,6 +253,8 @@ rule diagnose:
         crossval=plan.crossval_files(config),
         test=plan.MEASURED_TEST,
         simulations=plan.diagnosis_input_files(config),
+        card=plan.MATERIAL_CARDS["json"],
+        without_flagged=rules.extend_law.output.without_flagged,
     output:
         report="results/diagnosis/report.json",
         budget=report(
@@ -251,7 +290,7 @@ rule diagnose:
     shell:
         "asphalt-nscd diagnose --measured {input.measured} --test {input.test} --master-curve {input.search} "
         "--corrected-table {input.corrected} --macro-params {input.macro} --law-json {input.laws} "
-        "--crossval {input.crossval} {params.options} {params.tolerances} -o {output.report} "
+        "--crossval {input.crossval} --card {input.card} --law-without-flagged {input.without_flagged} {params.options} {params.tolerances} -o {output.report} "
         "--budget-csv {output.budget} --effects-csv {output.effects} --gain-csv {output.gain} "
         "--figure {output.figure} --page {output.page} 2> {log}"
 
@@ -280,9 +319,12 @@ rule diagnose_bench:
         base_seed=config["diagnosis"]["bench"]["base_seed"],
         families=plan.comma_list(config["diagnosis"]["bench"]["families"]),
         alpha=config["diagnosis"]["alpha"],
+        configuration=config["diagnosis"]["bench"]["configuration"],
+        power=config["diagnosis"]["bench"]["power"],
     shell:
         "asphalt-nscd diagnose-bench --clean {params.clean} --planted {params.planted} "
         "--base-seed {params.base_seed} --families {params.families} --alpha {params.alpha} "
+        "--configuration {params.configuration} --power {params.power} "
         "-o {output.bench} --table {output.table} 2> {log}"
 
 

@@ -27,9 +27,11 @@ Choices (docs/choices.md, Campaign):
 from __future__ import annotations
 
 import json
+import logging
 import math
 import sys
 import time
+import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -369,14 +371,24 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
 
     sim = None
     if ckpt.exists() and partial.exists():
-        with np.load(partial, allow_pickle=False) as z:
-            arrays = {k: z[k].copy() for k in z.files}
-        if str(arrays.pop("key")) == key:
-            motion = HeadMotion(settings.amplitude_m, frequency_Hz)
-            sim = read_checkpoint(ckpt, drivers=[None, motion])
-            start_info = json.loads(str(arrays["start_info"]))
-            print(f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True,
-                  file=sys.stderr)
+        try:
+            with np.load(partial, allow_pickle=False) as z:
+                arrays = {k: z[k].copy() for k in z.files}
+            if str(arrays.pop("key")) == key:
+                motion = HeadMotion(settings.amplitude_m, frequency_Hz)
+                sim = read_checkpoint(ckpt, drivers=[None, motion])
+                start_info = json.loads(str(arrays["start_info"]))
+                print(f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True,
+                      file=sys.stderr)
+        except (InputError, OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+            # a checkpoint that cannot be read (corrupt, truncated): set aside, the job restarts
+            for path in (ckpt, partial):
+                if path.exists():
+                    path.replace(path.with_name(path.name + ".unreadable"))
+            logging.getLogger("asphalt_nscd").warning(
+                "%s: the checkpoint cannot be read (%s); moved aside as *.unreadable, the job restarts from its "
+                "beginning", ckpt, str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+            sim = None
     if sim is None:
         sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings)
         start_info = start_test(sim, law, frequency_Hz, settings, continuous=continuous_start)

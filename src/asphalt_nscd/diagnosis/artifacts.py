@@ -57,31 +57,113 @@ def checked(df: pd.DataFrame, path, columns, positive=()) -> pd.DataFrame:
 
 
 def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",
-            T_ref_C: float | None = None, test=None) -> dict:
+            T_ref_C: float | None = None, test=None, calibration: dict | None = None,
+            limits: dict | None = None, level: float | None = None, outliers: bool = True) -> dict:
     """Artifact search and master curve of a measured table.
+
+    ``test``: the declared test geometry (:mod:`asphalt_nscd.lab.geometry`); default the
+    one :func:`asphalt_nscd.lab.measured.load_measured` attached to ``measured.attrs``.
+    ``calibration``: the table's calibration (:func:`asphalt_nscd.diagnosis.calibration.calibrate`
+    with the same ``alpha``, ``shift`` and ``limits``), whose level the first step uses
+    (default: the nominal alpha / m). ``limits``: identifiability limits
+    (:data:`asphalt_nscd.diagnosis.effects.IDENTIFIABILITY_LIMITS`). ``level``: a first-step
+    level given directly (a cross-validation fold: the whole table's calibrated level),
+    without a calibration. ``outliers``: look for outlying cells
+    (:func:`asphalt_nscd.diagnosis.quality.cell_outliers`) and name an artifact only if the
+    search without them names it too (its evidence must not rest on one or two cells); off in
+    the cross-validation folds (cost).
 
     Returns
     -------
     dict with ``search`` (effects.ArtifactSearch), ``result`` (its ``run()``), ``corrected``
     (artifact-corrected table, same rows as ``measured``, with ``test_step`` when the table
-    has ``test_order``) and ``master`` (2S2P1D MasterCurveFit of the corrected table, MPa).
-
-    ``test``: the declared test geometry (:mod:`asphalt_nscd.lab.geometry`); default the
-    one :func:`asphalt_nscd.lab.measured.load_measured` attached to ``measured.attrs``.
+    has ``test_order``), ``master`` (2S2P1D MasterCurveFit of the corrected table, MPa) and
+    ``calibration`` (as given).
 
     Raises
     ------
     InputError
-        if the measured table has fewer than 2 temperatures (no master curve).
+        if the measured table has fewer than 2 temperatures (no master curve), or the
+        calibration was computed with other settings.
     """
-    if measured["temperature_C"].nunique() < 2:
-        raise InputError("measured table: a master curve needs >= 2 temperatures")
+    check_design(measured)
     test = test if test is not None else measured.attrs.get("test")
-    search = effects.ArtifactSearch(measured, alpha=alpha, T_ref_C=T_ref_C, shift=shift, test=test)
-    result = search.run()
+    search = effects.ArtifactSearch(measured, alpha=alpha, T_ref_C=T_ref_C, shift=shift, test=test, limits=limits)
+    if calibration is not None:
+        check_calibration(calibration, search)
+        level = calibration["artifacts"]["level"]
+    result = search.run(level=level)
+    from ..lab.checks import quality_report
+    from ..lab.table_format import DisplayUnits
+    from .quality import cell_outliers
+
+    found = cell_outliers(search, result["final"]) if outliers else []
+    if found and result["selected"]:
+        _drop_artifacts_resting_on_outliers(search, result, found, level, measured, alpha, shift, T_ref_C, test,
+                                            limits)
     T_mc = T_ref_C if T_ref_C is not None else search.T_screen
     corrected, master = search.consistent_correction(result, shift=shift, T_ref_C=T_mc)
-    return {"search": search, "result": result, "corrected": corrected, "master": master}
+    quality = {"indicators": quality_report(measured, getattr(test, "quality_limits", None)), "outliers": found}
+    return {"search": search, "result": result, "corrected": corrected, "master": master,
+            "calibration": calibration, "units": DisplayUnits.of(test).as_dict(), "quality": quality}
+
+
+def _drop_artifacts_resting_on_outliers(search, result: dict, found: list, level, measured, alpha, shift, T_ref_C,
+                                       test, limits) -> None:
+    """Rerun the search without the outlying cells ``found``; an artifact it does not name
+    too is unnamed in ``result`` (its test entry says why) and the final fit is refitted
+    without it, in place."""
+    cells = {(round(o["temperature_C"], 6), float(o["frequency_Hz"])) for o in found}
+    keep = [(round(float(T), 6), float(f)) not in cells for T, f in zip(measured["temperature_C"],
+                                                                        measured["frequency_Hz"])]
+    rest = measured[np.asarray(keep)]
+    try:
+        again = effects.ArtifactSearch(rest, alpha=alpha, T_ref_C=T_ref_C, shift=shift, test=test,
+                                       limits=limits).run(level=level)
+    except ValueError:
+        return
+    named = {c.name for c in again["selected"]}
+    kept = [c for c in result["selected"] if c.name in named]
+    dropped = [c for c in result["selected"] if c.name not in named]
+    if not dropped:
+        return
+    final = search.fit([c.term for c in kept]) if kept else result["base"]
+    sizes = [len(c.term.names) for c in kept]
+    start0 = final.x.size - sum(sizes)
+    for i, c in enumerate(kept):
+        t = result["tests"][c.name]
+        start = start0 + sum(sizes[:i])
+        t.update({"fit": final, "index": list(range(start, start + sizes[i]))})
+    where = ", ".join(f"{T:g} degC / {f:g} Hz" for T, f in sorted(cells))
+    for c in dropped:
+        t = result["tests"][c.name]
+        t["detected"] = False
+        t["robustness"] = (f"not named: the search without the outlying cells ({where}) does not name it, so its "
+                           "evidence rests on those cells")
+    result["selected"], result["final"] = kept, final
+
+
+def check_design(measured: pd.DataFrame, where: str = "measured table") -> None:
+    """Raise InputError unless the table can carry a master curve: >= 2 isotherms with >= 3
+    tested frequencies each (the isotherms must overlap in reduced frequency for their shifts
+    to be determined), saying what the table has."""
+    n_f = measured.groupby("temperature_C")["frequency_Hz"].nunique()
+    good = n_f[n_f >= 3]
+    if good.size < 2:
+        have = ", ".join(f"{T:g} degC: {n}" for T, n in n_f.items())
+        raise InputError(f"{where}: a master curve (and the temperature-aware law) needs >= 2 isotherms with >= 3 "
+                         f"tested frequencies each; the table has {n_f.size} isotherm(s) with frequencies {have}")
+
+
+def check_calibration(calibration: dict, search: effects.ArtifactSearch, where: str = "calibration JSON") -> None:
+    """Raise InputError if ``calibration`` was computed with other search settings (alpha,
+    shift, identifiability limits) than ``search``'s."""
+    mine = {"alpha": search.alpha, "shift": search.shift, "limits": dict(search.limits)}
+    theirs = {"alpha": calibration.get("alpha"), "shift": calibration.get("shift"),
+              "limits": calibration.get("limits")}
+    if theirs != mine:
+        raise InputError(f"{where}: computed with {theirs}, the search uses {mine}; rerun 'asphalt-nscd "
+                         "calibrate-search' with the search's settings")
 
 
 def screening_summary(search: effects.ArtifactSearch, result: dict) -> dict:
@@ -104,7 +186,14 @@ class ArtifactRecord:
     ``sigma``: noise of ln|E*| and of Phi (deg); ``noise_from_replicates``; ``screening``
     (:func:`screening_summary`); ``effects``: report entries of the data artifacts;
     ``artifacts``: names of the corrected ones; ``master``: the master curve of the corrected
-    table; ``notes``: free text.
+    table; ``selection``: the procedure's family size, nominal and used level, statistic
+    ``min_p`` and its calibrated p-value; ``calibration``: the table's calibration (None:
+    nominal levels only); ``findings``: the master curve's parameters outside their plausible
+    range or at a bound of the fit (:mod:`asphalt_nscd.rheology.plausibility`); ``notes``: free
+    text; ``units``: the units the lab wrote the table in ({modulus, temperature}, for the
+    figures and pages); ``free_shifts``: {T: log10 aT} of the screening fit; ``quality``: the
+    lab's data-quality indicators and flagged rows (:func:`asphalt_nscd.lab.checks.quality_report`)
+    and the outlying cells (:func:`asphalt_nscd.diagnosis.quality.cell_outliers`).
     """
 
     alpha: float
@@ -116,18 +205,34 @@ class ArtifactRecord:
     effects: list
     artifacts: list
     master: MasterCurveFit
+    selection: dict = field(default_factory=dict)
+    calibration: dict | None = None
+    findings: list = field(default_factory=list)
+    units: dict = field(default_factory=dict)
+    free_shifts: dict = field(default_factory=dict)
+    quality: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
 
 
 def record(analysis: dict, alpha: float, shift: str, T_ref_C: float | None) -> ArtifactRecord:
     """The :class:`ArtifactRecord` of an :func:`analyse` result run with these settings."""
     search, result = analysis["search"], analysis["result"]
+    cal = analysis.get("calibration")
+    null = cal["artifacts"]["null_min_p"] if cal is not None else None
     names = [c.name for c in result["selected"]]
+    selection = {"family_size": int(result["family_size"]), "nominal_level": float(result["nominal_level"]),
+                 "level": float(result["level"]), "min_p": float(result["min_p"]),
+                 "min_p_calibrated": effects.adjusted_p(result["min_p"], null),
+                 "level_source": "nominal alpha / m" if cal is None else
+                 f"min(calibrated, nominal): {cal['artifacts']['binding']}"}
     return ArtifactRecord(alpha=float(alpha), shift=shift, T_ref_C=T_ref_C, sigma=tuple(search.sigma),
                           noise_from_replicates=bool(search.noise_from_replicates),
                           screening=screening_summary(search, result),
-                          effects=json_safe(effects.effect_entries(search, result)), artifacts=names,
-                          master=analysis["master"],
+                          effects=json_safe(effects.effect_entries(search, result, null)), artifacts=names,
+                          master=analysis["master"], selection=selection, calibration=cal,
+                          findings=json_safe(analysis["master"].findings()),
+                          units=dict(analysis.get("units") or {}), quality=json_safe(analysis.get("quality") or {}),
+                          free_shifts={f"{T:g}": float(v) for T, v in zip(*search.free_shifts(result["final"])[:2])},
                           notes=[f"artifacts corrected: {', '.join(names) or 'none detected'}"])
 
 
@@ -154,6 +259,9 @@ def to_json(rec: ArtifactRecord, source: dict | None = None) -> dict:
             "noise": {"sigma_lnE": float(rec.sigma[0]), "sigma_phase_deg": float(rec.sigma[1]),
                       "from_replicates": rec.noise_from_replicates},
             "artifact_screening": json_safe(rec.screening), "artifacts_corrected": list(rec.artifacts),
+            "selection": json_safe(rec.selection), "calibration": json_safe(rec.calibration),
+            "findings": json_safe(rec.findings), "units": dict(rec.units), "free_shifts": dict(rec.free_shifts),
+            "quality": json_safe(rec.quality),
             "notes": list(rec.notes), "effects": json_safe(rec.effects), "master_curve": _fit_json(rec.master, temps)}
 
 
@@ -188,6 +296,9 @@ def read(path) -> ArtifactRecord:
                               noise_from_replicates=bool(noise["from_replicates"]),
                               screening=dict(obj["artifact_screening"]), effects=entries,
                               artifacts=[str(a) for a in obj["artifacts_corrected"]], master=master,
+                              selection=dict(obj["selection"]), calibration=obj["calibration"],
+                              findings=list(obj["findings"]), units=dict(obj["units"]), quality=dict(obj["quality"]),
+                              free_shifts={k: float(v) for k, v in obj["free_shifts"].items()},
                               notes=[str(t) for t in obj.get("notes", [])])
     except KeyError as exc:
         raise InputError(f"{path}: key {exc.args[0]!r}: missing; expected the output of "

@@ -9,8 +9,10 @@ Model form, tested on the measured data:
     replicate means (at least 1 point). Needs >= 3 frequencies per isotherm.
 ``static_modulus``
     Mixes keep a long-time modulus E00; a Burger's model is a liquid. Extra-sum-of-squares
-    F-test of the master curve with E00 free against E00 = 0; ``static_modulus_MPa`` with its
-    delta-method standard error.
+    F-test of the master curve with E00 free against E00 = 0, named when its nominal p-value is
+    below alpha and, given the table's calibration (:mod:`asphalt_nscd.diagnosis.calibration`),
+    its calibrated p-value (F against tables of the table's liquid master curve) below the
+    static group's level; ``static_modulus_MPa`` with its delta-method standard error.
 
 Simulation causes: deterministic effects with a numerical uncertainty U, against a tolerance
 (config ``diagnosis.cause_tolerances``), no p-value:
@@ -187,8 +189,11 @@ def broad_spectrum(measured: pd.DataFrame, master: MasterCurveFit, burgers: pd.D
                          f"exponents k = {c['k']:.3f}, h = {c['h']:.3f}")}
 
 
-def static_modulus(corrected: pd.DataFrame, master: MasterCurveFit, alpha: float) -> dict:
+def static_modulus(corrected: pd.DataFrame, master: MasterCurveFit, alpha: float,
+                   calibration: dict | None = None) -> dict:
     """Report entry of ``static_modulus`` (see the module docstring)."""
+    from .calibration import static_p
+
     liquid = fit_master_curve(corrected, shift=master.shift, T_ref_C=master.T_ref_C, static_modulus=False,
                               sigma=(master.sigma_lnE, master.sigma_phase_deg))
     F, p = f_test(liquid.rss, master.rss, 1, master.n_residuals - master.n_params)
@@ -204,16 +209,21 @@ def static_modulus(corrected: pd.DataFrame, master: MasterCurveFit, alpha: float
     est = {"static_modulus_MPa": float(E00), "static_modulus_MPa_se": se,
            "phase_peak_deg": float(ph.max()), "phase_peak_reduced_frequency_Hz": f_peak,
            "phase_peak_in_data": inside, "T_ref_C": master.T_ref_C}
-    significant = np.isfinite(p) and p < alpha and E00 > 2 * se
+    p_cal = static_p(F, calibration)
+    level = None if calibration is None else float(calibration["static"]["level"])
+    significant = np.isfinite(p) and p < alpha and E00 > 2 * se and (p_cal is None or p_cal < level)
     cm = cell_means(corrected)
     ph_s = np.angle(master.modulus(cm["frequency_Hz"], cm["temperature_C"]))
     ph_l = np.angle(liquid.modulus(cm["frequency_Hz"], cm["temperature_C"]))
     score = float(100 * np.mean(np.abs(ph_l / ph_s - 1)))
+    cal_text = ("" if p_cal is None else
+                f" (calibrated on {len(calibration['static']['null_F'])} tables of the table's liquid master curve: "
+                f"p = {p_cal:.2g}, level {level:g})")
     return {"name": "static_modulus", "category": "model_form", "detected": bool(significant),
-            "testable": True, "score": score, "p_value": None if not np.isfinite(p) else float(p),
-            "estimate": est,
+            "testable": True, "identifiable": True, "score": score,
+            "p_value": None if not np.isfinite(p) else float(p), "p_calibrated": p_cal, "estimate": est,
             "evidence": (f"a master curve with a long-time modulus E00 = {E00:.0f} +- {se:.0f} MPa fits "
-                         f"better than a liquid one (E00 = 0): F = {F:.3g}, {p_phrase(p)}. Phi peaks at "
+                         f"better than a liquid one (E00 = 0): F = {F:.3g}, {p_phrase(p)}{cal_text}. Phi peaks at "
                          f"{ph.max():.1f} deg at reduced frequency {f_peak:.3g} Hz ({master.T_ref_C:g} degC), "
                          f"{'inside' if inside else 'outside'} the tested range; a Burger's model "
                          f"(E_inf = 0) tends to 90 deg at low frequency")}

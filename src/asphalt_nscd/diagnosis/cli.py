@@ -1,6 +1,9 @@
 """Subcommands of the diagnosis step (registered by asphalt_nscd.cli). They parse arguments and
 call the library; reading, validation and physics live in the modules they call.
 
+* ``calibrate-search`` — the level of the artifact search calibrated on the table itself
+                       (parametric bootstrap of its fitted clean model, JSON)
+                       (:mod:`asphalt_nscd.diagnosis.calibration`).
 * ``master-curve``   — artifact search and master curve of a measured table, written once
                        (JSON) with the artifact-corrected table (CSV)
                        (:mod:`asphalt_nscd.diagnosis.artifacts`).
@@ -39,6 +42,50 @@ def _search_options(p) -> None:
                    help="shift law of the master curve of the artifact search")
     p.add_argument("--t-ref", type=float, default=None,
                    help="reference temperature, degC (default: tested one nearest the median)")
+    p.add_argument("--identifiability-null", type=float, default=0.995,
+                   help="a candidate whose signature has at least this cosine with the screening model's span is "
+                        "not identifiable (default 0.995)")
+    p.add_argument("--identifiability-rival", type=float, default=0.95,
+                   help="a candidate whose signature has at least this canonical correlation with its rival's "
+                        "(beyond the screening model) is not identifiable (default 0.95)")
+    p.add_argument("--calibration", type=Path, default=None,
+                   help="the table's calibration (output of 'calibrate-search' with the same search options): "
+                        "the first step's level (default: the nominal alpha / m)")
+
+
+def search_limits(args) -> dict:
+    """Identifiability limits of the search options. Raises InputError outside (0, 1]."""
+    from ..io import InputError
+
+    limits = {"null": float(args.identifiability_null), "rival": float(args.identifiability_rival)}
+    for k, v in limits.items():
+        if not 0.0 < v <= 1.0:
+            raise InputError(f"--identifiability-{k}: expected a number in (0, 1], got {v}")
+    return limits
+
+
+def read_calibration(args) -> dict | None:
+    """The calibration JSON of ``--calibration`` (None without it), checked against the search
+    options. Raises InputError naming the file and the key."""
+    from ..io import InputError, read_json
+
+    if args.calibration is None:
+        return None
+    cal = read_json(args.calibration, "calibration JSON")
+    try:
+        level = float(cal["artifacts"]["level"])
+        cal["static"]["null_F"], cal["artifacts"]["null_min_p"]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"{args.calibration}: key {exc.args[0]!r}: missing or malformed; expected the output of "
+                         "'asphalt-nscd calibrate-search'") from None
+    theirs = {"alpha": cal.get("alpha"), "shift": cal.get("shift"), "limits": cal.get("limits")}
+    mine = {"alpha": float(args.alpha), "shift": args.shift, "limits": search_limits(args)}
+    if theirs != mine:
+        raise InputError(f"{args.calibration}: computed with {theirs}, this command's search uses {mine}; rerun "
+                         "'asphalt-nscd calibrate-search' with the same options")
+    if not 0.0 < level <= 1.0:
+        raise InputError(f"{args.calibration}: key 'artifacts.level': expected a level in (0, 1], got {level}")
+    return cal
 
 
 def _fit_options(p) -> None:
@@ -77,12 +124,37 @@ LAW_DEFAULTS = {"shifts": ("wlf", "arrhenius"), "statics": ("none", "constant", 
 
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
+    _add_calibrate_search(subparsers)
     _add_master_curve(subparsers)
     _add_extend_law(subparsers)
     _add_crossval(subparsers)
     _add_diagnose(subparsers)
     _add_synth(subparsers)
     _add_diagnose_bench(subparsers)
+
+
+def _add_calibrate_search(subparsers) -> None:
+    """``calibrate-search``: the artifact search's level calibrated on the table itself (JSON)."""
+    p = subparsers.add_parser("calibrate-search", help="the artifact search's level calibrated on the table itself "
+                                                       "(parametric bootstrap, JSON)",
+                              description="Simulate tables from the measured table's own fitted clean model (its "
+                              "screening fit with smooth shifts, its specimen factors, point scatter and cell "
+                              "misfit, its design), run the whole artifact procedure and the static-modulus test on "
+                              "each, and write the levels that hold the procedure's family-wise false-alarm rate "
+                              "(asphalt_nscd.diagnosis.calibration).")
+    _search_options(p)
+    p.add_argument("--test", type=Path, default=None,
+                   help="test-geometry JSON of the measured table (default: the sidecar <measured stem>.test.json "
+                        "next to it)")
+    p.add_argument("--tables", type=int, default=200, help="bootstrap tables (default 200, at least 20)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap tables (default 0)")
+    p.add_argument("--familywise-rate", type=float, default=0.05,
+                   help="family-wise false-alarm rate of the whole procedure (default 0.05)")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="calibration JSON: the clean model, the levels, the statistic on every table, the "
+                        "out-of-sample rate")
+    p.set_defaults(func=_calibrate_search)
 
 
 def _add_master_curve(subparsers) -> None:
@@ -134,6 +206,12 @@ def _add_extend_law(subparsers) -> None:
                    help="output: the table the law was fitted on (artifact-corrected unless --no-artifacts) (CSV)")
     p.add_argument("--cv-curve", type=Path, default=None,
                    help="cross-validation curve of the selection: one row per candidate setting (CSV)")
+    p.add_argument("--without-flagged", type=Path, default=None,
+                   help="output: the law fitted without the rows beyond a data-quality limit (law JSON), or a JSON "
+                        "saying that no row is flagged (asphalt_nscd.lab.checks)")
+    p.add_argument("--card-law", type=Path, default=None,
+                   help="output: the law a material card carries (law JSON): the selected law when a Prony series "
+                        "with a shift function carries it, else the best such law, fitted as such")
     p.set_defaults(func=_extend_law)
 
 
@@ -147,8 +225,9 @@ def _add_crossval(subparsers) -> None:
                               "'extend-law' (artifact correction, nested selection of the settings, law) without "
                               "its held-out rows and predicts them; in-sample rows beside.")
     _fit_options(p)
-    p.add_argument("--scheme", choices=["lofo", "loto"], required=True,
-                   help="lofo: leave one frequency out; loto: leave one temperature out")
+    p.add_argument("--scheme", choices=["lofo", "loto", "loso"], required=True,
+                   help="lofo: leave one frequency out; loto: leave one temperature out; loso: leave one specimen "
+                        "out (scored against the held-out specimen)")
     p.add_argument("--sample", type=Path, default=None,
                    help="numerical sample (results/samples/<s>.h5): adds the nscd_sample model (harmonic "
                         "solver, bonds = fold's law / NF_s); needs --transfer")
@@ -169,7 +248,9 @@ def _add_crossval(subparsers) -> None:
                         "model, temperature_C, frequency_Hz, measured and predicted E_norm_MPa and phase_deg, "
                         "relative errors, extrapolation, settings, computable, reason")
     p.add_argument("--summary", type=Path, default=None,
-                   help="CSV: MRE per scheme, kind, model and temperature (%%)")
+                   help="CSV: scores per scheme, kind, model, temperature and extrapolation, and pooled: signed "
+                        "and absolute mean log error of |E*| (%%) and Phi error (deg) with 95 %% intervals over "
+                        "the specimens, the paper's MRE (asphalt_nscd.diagnosis.scores)")
     p.add_argument("--curve", type=Path, default=None,
                    help="CSV: the selection curve of the whole table (fold 'all') and of every fold")
     p.add_argument("--figure", type=Path, default=None,
@@ -213,6 +294,12 @@ def _add_diagnose(subparsers) -> None:
     p.add_argument("--crossval", type=Path, nargs="+", default=None,
                    help="outputs of 'asphalt-nscd crossval' (lofo and/or loto): the gain table and the page "
                         "give the held-out MRE beside the in-sample one")
+    p.add_argument("--law-without-flagged", type=Path, default=None,
+                   help="the law fitted without the rows beyond a data-quality limit (extend-law --without-flagged), "
+                        "compared with the selected law on the page")
+    p.add_argument("--card", type=Path, default=None,
+                   help="the material card's JSON (export-law: prony.json): what it carries and loses and its errors "
+                        "against the measured means, on the page")
     p.add_argument("--macro-params", type=Path, default=None,
                    help="Burger's parameters given to the simulation (temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, "
                         "eta_k_MPa_s); default: fitted to the measured table")
@@ -276,6 +363,12 @@ def _add_diagnose_bench(subparsers) -> None:
                    help="factor on every stated effect size (default 1; e.g. 0.5 for the power curve)")
     p.add_argument("--tolerance", type=float, default=0.25, help="relative tolerance of the estimates (default 0.25)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--configuration", choices=["random", "shipped", "paper"], default="random",
+                   help="design of the tables: random (drawn per table), shipped (the shipped table's: AASHTO T 342, "
+                        "3 specimens, no test order), paper (2PB 6 x 5, 4 specimens, test order) (default random)")
+    p.add_argument("--power", type=int, default=0,
+                   help="tables per size of the power curves of the offset, time lag and mass (default 0: none)")
+    p.add_argument("--power-table", type=Path, default=None, help="power-curve CSV (with --power)")
     p.add_argument("-o", "--output", type=Path, required=True, help="benchmark JSON (summary and every table's outcome)")
     p.add_argument("--table", type=Path, default=None,
                    help="bench table CSV: per artifact and family, detection and false-alarm counts, rates, 95 %% CIs")
@@ -310,9 +403,34 @@ def law_options(args):
                               per_decades=args.law_per_decades)
     except ValueError as exc:
         raise InputError(f"--law-refines/--law-per-decades: {exc}") from None
+    cal = read_calibration(args)
     return Options(candidates=tuple(grid), tolerances=tol, margin_decades=args.margin_decades,
                    artifacts=not args.no_artifacts, alpha=args.alpha, artifact_shift=args.shift,
-                   T_ref_C=args.t_ref, one_se=not args.no_one_se)
+                   T_ref_C=args.t_ref, one_se=not args.no_one_se, limits=search_limits(args),
+                   level=None if cal is None else float(cal["artifacts"]["level"]))
+
+
+def _calibrate_search(args) -> int:
+    from ..io import InputError, write_json
+    from ..lab.measured import load_measured
+    from .calibration import calibrate
+
+    if args.tables < 20:
+        raise InputError(f"--tables: expected >= 20, got {args.tables}")
+    if not 0.0 < args.familywise_rate < 1.0:
+        raise InputError(f"--familywise-rate: expected a rate in (0, 1), got {args.familywise_rate}")
+    if args.jobs < 1:
+        raise InputError(f"--jobs: expected >= 1, got {args.jobs}")
+    from .artifacts import check_design
+
+    measured = load_measured(args.measured, test=args.test)
+    check_design(measured, str(args.measured))
+    cal = calibrate(measured, alpha=args.alpha, shift=args.shift, test=measured.attrs["test"],
+                    limits=search_limits(args), n_tables=args.tables, seed=args.seed, rate=args.familywise_rate,
+                    jobs=args.jobs)
+    cal["source"] = {"measured": str(args.measured)}
+    write_json(cal, args.output)
+    return 0
 
 
 def _master_curve(args) -> int:
@@ -321,10 +439,12 @@ def _master_curve(args) -> int:
     from . import artifacts
 
     measured = load_measured(args.measured, test=args.test)
-    analysis = artifacts.analyse(measured, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref)
+    artifacts.check_design(measured, str(args.measured))
+    analysis = artifacts.analyse(measured, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref,
+                                 calibration=read_calibration(args), limits=search_limits(args))
     rec = artifacts.record(analysis, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref)
     write_json(artifacts.to_json(rec, {"measured": str(args.measured)}), args.output)
-    write_csv(analysis["corrected"].drop(columns=["test_step"], errors="ignore"), args.corrected)
+    write_csv(analysis["corrected"].drop(columns=["test_step", "test_step_centre"], errors="ignore"), args.corrected)
     return 0
 
 
@@ -342,6 +462,8 @@ def _extend_law(args) -> int:
                          "--exclude-temperature (a fold searches its own rows)")
     measured = exclude_rows(load_measured(args.measured), args.exclude_frequency, args.exclude_temperature,
                             where=args.measured)
+    if not (args.exclude_frequency or args.exclude_temperature):
+        artifacts.check_design(measured, str(args.measured))
     given = None
     if args.master_curve is not None:
         given = (artifacts.read_corrected(args.corrected_table), artifacts.read(args.master_curve))
@@ -350,14 +472,54 @@ def _extend_law(args) -> int:
     if fit.law is None:
         raise InputError(f"{args.measured}: no extended law could be fitted: {fit.reason}")
     temps = args.temperatures if args.temperatures else sorted(measured["temperature_C"].unique())
-    law_file.write(law_file_object(fit, measured, temps, options, {
-        "measured": str(args.measured), "excluded_frequencies_Hz": list(args.exclude_frequency),
-        "excluded_temperatures_C": list(args.exclude_temperature)}), args.output)
+    source = {"measured": str(args.measured), "excluded_frequencies_Hz": list(args.exclude_frequency),
+              "excluded_temperatures_C": list(args.exclude_temperature)}
+    law_file.write(law_file_object(fit, measured, temps, options, source), args.output)
+    if args.card_law is not None:
+        if fit.card_law is None:
+            raise InputError(f"{args.measured}: no law that a Prony series with a shift function carries could be "
+                             "fitted (the material card has no law to carry)")
+        if not fit.card_settings == fit.settings:
+            import logging
+
+            logging.getLogger("asphalt_nscd").warning(
+                "the selected law (%s) is not carried by a Prony series with a shift function; the material "
+                "card carries %s instead (its errors: export-law)", fit.settings.label(), fit.card_settings.label())
+        law_file.write(law_file_object(fit, measured, temps, options, source, card=True), args.card_law)
+    if args.without_flagged is not None:
+        _without_flagged(measured, options, temps, source, args.without_flagged)
     if args.corrected is not None:
         write_csv(fit.corrected, args.corrected)
     if args.cv_curve is not None:
         write_csv(fit.curve, args.cv_curve)
     return 0
+
+
+def _without_flagged(measured, options, temps, source: dict, path) -> None:
+    """The law of the rows within every data-quality limit (their own artifact search and
+    selection), or a note that no row is flagged (``extend-law --without-flagged``)."""
+    from ..io import write_json
+    from ..lab.checks import quality_columns, quality_flags
+    from ..rheology import law_file
+    from .crossval import fit_extended, law_file_object
+
+    test = measured.attrs.get("test")
+    flags = quality_flags(measured, getattr(test, "quality_limits", None))
+    n = int(flags["flagged"].sum())
+    if n == 0:
+        write_json({"n_flagged": 0, "n_rows": int(len(measured)),
+                    "note": "no row beyond a data-quality limit" if quality_columns(measured) else
+                    "the table carries no data-quality indicators"}, path)
+        return
+    kept = measured[~flags["flagged"].to_numpy()]
+    fit = fit_extended(kept, options)
+    if fit.law is None:
+        write_json({"n_flagged": n, "n_rows": int(len(measured)),
+                    "note": f"no law could be fitted without the flagged rows: {fit.reason}"}, path)
+        return
+    obj = law_file_object(fit, kept, [T for T in temps if T in set(kept["temperature_C"])], options,
+                          {**source, "n_flagged": n, "n_rows": int(len(measured))})
+    law_file.write(obj, path)
 
 
 def _crossval(args) -> int:
@@ -383,7 +545,9 @@ def _crossval(args) -> int:
     res = cv.crossval(measured, args.scheme, options, sample=sample, time_domain=td)
     write_csv(res.rows, args.output)
     if args.summary is not None:
-        write_csv(cv.summarize(res.rows, measured), args.summary)
+        from .scores import summarize
+
+        write_csv(summarize(res.rows, measured), args.summary)
     if args.curve is not None:
         write_csv(res.curves if len(res.curves) else pd.DataFrame(columns=["scheme", "fold", "settings"]), args.curve)
     if args.figure is not None:
@@ -392,7 +556,7 @@ def _crossval(args) -> int:
 
 
 def _diagnose(args) -> int:
-    from ..io import InputError, write_csv, write_json, write_text
+    from ..io import InputError, read_json, write_csv, write_json, write_text
     from ..lab.measured import load_measured
     from ..rheology import law_file
     from . import artifacts, inputs, render
@@ -413,7 +577,10 @@ def _diagnose(args) -> int:
         transfer=inputs.read_network_factors(args.transfer) if args.transfer else None,
         crossval=inputs.read_crossval(args.crossval) if args.crossval else None,
         cause_tolerances={"network_factor": args.tolerance_network_factor,
-                          "time_integration_deg": args.tolerance_phase_deg})
+                          "time_integration_deg": args.tolerance_phase_deg},
+        card=read_json(args.card, "material card JSON") if args.card is not None else None,
+        without_flagged=read_json(args.law_without_flagged, "law without flagged rows")
+        if args.law_without_flagged is not None else None)
     report["measured"]["test"] = measured.attrs["test"].to_json()
     report["measured"]["path"] = str(args.measured)
     write_json(report, args.output)
@@ -424,7 +591,7 @@ def _diagnose(args) -> int:
     if args.gain_csv is not None:
         write_csv(render.gain_table(report), args.gain_csv)
     if args.figure is not None:
-        render.budget_figure(extra["budget"], args.figure)
+        render.budget_figure(extra["budget"], args.figure, report["baseline"]["model"])
     if args.page is not None:
         write_text(render.markdown_page(report, args.figure.name if args.figure is not None else None), args.page)
     return 0
@@ -455,10 +622,11 @@ def _synth(args) -> int:
 def _bench(args) -> int:
     from ..io import InputError, write_csv, write_json
     from . import synthetic
-    from .bench import bench_table, run_bench
+    from .bench import bench_table, power_table, run_bench
 
-    if args.clean < 0 or args.planted < 0 or args.clean + args.planted == 0:
-        raise InputError(f"--clean, --planted: expected >= 0 and not both 0, got {args.clean}, {args.planted}")
+    if args.clean < 0 or args.planted < 0 or args.clean + args.planted + max(args.power, 0) == 0:
+        raise InputError(f"--clean, --planted, --power: expected >= 0 and not all 0, got {args.clean}, "
+                         f"{args.planted}, {args.power}")
     if args.jobs < 1:
         raise InputError(f"--jobs: expected >= 1, got {args.jobs}")
     if not 0 < args.alpha < 1 or not args.effect_scale > 0:
@@ -467,9 +635,13 @@ def _bench(args) -> int:
     unknown = [f for f in families if f not in synthetic.FAMILIES]
     if unknown or not families:
         raise InputError(f"--families: unknown {unknown}; expected some of {list(synthetic.FAMILIES)}")
+    if args.power < 0:
+        raise InputError(f"--power: expected >= 0, got {args.power}")
     result = run_bench(args.clean, args.planted, args.base_seed, families, args.alpha, args.effect_scale,
-                       args.tolerance, args.jobs)
+                       args.tolerance, args.jobs, args.configuration, args.power)
     write_json(result, args.output)
     if args.table is not None:
         write_csv(bench_table(result), args.table, float_format="%.4g")
+    if args.power_table is not None:
+        write_csv(power_table(result), args.power_table, float_format="%.4g")
     return 0

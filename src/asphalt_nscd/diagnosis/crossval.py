@@ -1,19 +1,24 @@
-"""Held-out validation of the extended law: folds, nested selection of its settings, scores.
+"""Held-out validation of the extended law: folds and nested selection of its settings.
 
-Implements the protocol of docs/validation.md: ``lofo`` (leave one frequency out) and
-``loto`` (leave one temperature out; the end temperatures are extrapolations, reported
-apart). Inside each fold :func:`fit_extended` refits on the training rows only: artifact
-search and correction (:func:`asphalt_nscd.diagnosis.artifacts.analyse`, when >= 2
-temperatures with >= 3 frequencies each), replicate means, the law's settings chosen by
+Implements the protocol of docs/validation.md: ``lofo`` (leave one frequency out; the end
+frequencies are extrapolations, reported apart), ``loto`` (leave one temperature out; the end
+temperatures likewise) and ``loso`` (leave one specimen out: the law of the other specimens
+predicts a new specimen, scored against that specimen's own values). Inside each fold
+:func:`fit_extended` refits on the training rows only: artifact search and correction
+(:func:`asphalt_nscd.diagnosis.artifacts.analyse`, when >= 2 temperatures with >= 3
+frequencies each, at the first-step level calibrated on the whole table,
+:mod:`asphalt_nscd.diagnosis.calibration`), replicate means, the law's settings chosen by
 :func:`select_settings` (inner lofo folds and inner loto folds of the interior temperatures)
 and the :class:`~asphalt_nscd.rheology.extended.ThermoLaw` on all training means. Models
-predicted at the held-out cells: ``burgers`` (per isotherm, Eqs. 27-29; lofo only),
-``extended_law``, ``nscd_sample`` (harmonic steady state of the sample whose bonds follow the
+predicted at the held-out cells: ``burgers`` (per isotherm, Eqs. 27-29; not loto),
+``extended_law``, ``card_law`` (the law a material card carries: the extended law, or the best
+carriable candidate when the extended law is not), ``nscd_sample`` (harmonic steady state of the sample whose bonds follow the
 fold's law / NF_s) and, added from ``run-2pb``, ``nscd_time_domain``; ``in_sample`` rows fit
 every cell. A measured cell is predicted through the fold's :class:`MeasurementModel` (its
-artifact correction at the held-out rows' frequency, strain and test order). Scores: relative
-errors of |E*| and Phi against the replicate means as given, MRE per temperature (%). A fold
-or model that cannot be computed is kept with ``computable = False`` and the reason.
+artifact correction at the held-out rows' frequency, strain and test order). The rows carry
+relative errors against the replicate means as given (the paper's MRE); the scores with their
+intervals are :mod:`asphalt_nscd.diagnosis.scores`'. A fold or model that cannot be computed
+is kept with ``computable = False`` and the reason.
 
 Choices (docs/choices.md, Diagnosis: the temperature-aware extended law and held-out validation):
 * score of a setting: mean over the inner folds of max(MRE|E*|/tol_E, MRE Phi/tol_Phi),
@@ -34,9 +39,10 @@ import pandas as pd
 from ..io import InputError
 from ..rheology import extended
 from ..rheology.extended import LawSettings, ThermoLaw
+from ..rheology.plausibility import describe as describe_findings
 from ..rheology.metrics import at_temperature, cell_means, relative_errors, same_frequency, same_temperature
 
-SCHEMES = ("lofo", "loto")
+SCHEMES = ("lofo", "loto", "loso")
 ROW_COLUMNS = ("scheme", "fold", "kind", "model", "temperature_C", "frequency_Hz", "n_replicates",
                "E_norm_MPa_measured", "phase_deg_measured", "E_norm_MPa_predicted", "phase_deg_predicted",
                "rel_err_E_norm", "rel_err_phase", "extrapolation", "settings", "computable", "reason")
@@ -68,7 +74,10 @@ class Options:
     ``T_ref_C``: reference temperature (None: the training temperature nearest the median);
     ``one_se``: one-standard-error rule (else the best score); ``burgers_starts``: local
     runs of each Burger's fit (``rheology.calibration.fit_burgers``); ``burgers``: predict
-    with the Burger's law per isotherm too (crossval).
+    with the Burger's law per isotherm too (crossval); ``level``: the first-step level of
+    every artifact search (a fold's included), calibrated on the whole table
+    (:mod:`asphalt_nscd.diagnosis.calibration`; None: the nominal alpha / m); ``limits``:
+    identifiability limits of the search.
     """
 
     candidates: tuple = (LawSettings(),)
@@ -81,6 +90,8 @@ class Options:
     one_se: bool = True
     burgers_starts: int = 8
     burgers: bool = True
+    level: float | None = None
+    limits: dict | None = None
 
     def __post_init__(self):
         self.candidates = tuple(self.candidates)
@@ -92,8 +103,11 @@ class Options:
 class FitResult:
     """Output of :func:`fit_extended`: the ``law`` (None if nothing could be fitted, see
     ``reason``), the chosen ``settings``, the selection ``curve`` (one row per candidate),
-    the ``corrected`` table, the ``artifacts`` corrected, free-text ``notes`` and the
-    ``measurement`` model of those artifacts (None without artifacts)."""
+    the ``corrected`` table, the ``artifacts`` corrected, free-text ``notes``, the
+    ``measurement`` model of those artifacts (None without artifacts) and the law a material
+    card carries (``card_law``, ``card_settings``: the chosen law when a Prony series with a
+    shift function carries it, else the best carriable candidate fitted as such; None when
+    none could be fitted)."""
 
     law: ThermoLaw | None
     settings: LawSettings | None
@@ -103,6 +117,8 @@ class FitResult:
     notes: list = field(default_factory=list)
     reason: str = ""
     measurement: MeasurementModel | None = None
+    card_law: ThermoLaw | None = None
+    card_settings: LawSettings | None = None
 
 
 @dataclass
@@ -170,11 +186,12 @@ def correct_artifacts(table: pd.DataFrame, options: Options, given=None) -> tupl
 
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of the fits
-            a = analyse(table, alpha=options.alpha, shift=options.artifact_shift, T_ref_C=options.T_ref_C)
+            a = analyse(table, alpha=options.alpha, shift=options.artifact_shift, T_ref_C=options.T_ref_C,
+                        limits=options.limits, level=options.level, outliers=False)
     except FIT_ERRORS as exc:
         return table, [], [f"artifact search failed ({exc}); law fitted to the table as given"], None
     names = [c.name for c in a["result"]["selected"]]
-    corrected = a["corrected"].drop(columns=["test_step", "test_step_assumed"], errors="ignore")
+    corrected = a["corrected"].drop(columns=["test_step", "test_step_centre"], errors="ignore")
     model = MeasurementModel(a["result"]["final"], float(a["search"].strain_ref)) if names else None
     return corrected, names, [f"artifacts corrected: {', '.join(names) or 'none detected'}"], model
 
@@ -345,22 +362,72 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
                       if ok and s.size > 1 else np.nan,
                       "n_folds": int(s.size), "chosen": False, "reason": "" if ok else reason})
     curve = pd.DataFrame(curve)
-    scored = curve["cv_score"].notna()
-    if not scored.any():  # nothing to choose from: the simplest candidate
-        curve.loc[0, "chosen"] = True
-        return cands[0], curve, fitted
-    best = int(curve.loc[scored, "cv_score"].idxmin())
+    findings = [[] if isinstance(fitted[c.structure], str) else fitted[c.structure].findings() for c in cands]
+    curve["plausible"] = [not f for f in findings]
+    curve["findings"] = [describe_findings(f) for f in findings]
+    curve["carriable"] = [c.carriable for c in cands]
+    curve["chosen_card"] = False
+    curve["note"] = ""
+    scores = {i: np.asarray(rows[c]["scores"], float) for i, c in enumerate(cands)}
+    chosen, note = _choose(curve, scores, overlap, options.one_se, np.ones(len(curve), bool))
+    curve.loc[chosen, "chosen"] = True
+    curve.loc[chosen, "note"] = note
+    card, card_note = _choose(curve, scores, overlap, options.one_se, curve["carriable"].to_numpy(bool))
+    if card is not None:
+        curve.loc[card, "chosen_card"] = True
+        if card != chosen and card_note:
+            curve.loc[card, "note"] = "material card (a law without vertical shift, static trend or refinement): " \
+                + card_note
+    return cands[chosen], curve, fitted
+
+
+#: a gain over the best plausible candidate counts when it exceeds this many of its standard errors
+GAIN_Z = 1.96
+
+
+def _one_se_pick(curve: pd.DataFrame, sel: np.ndarray, one_se: bool) -> int:
+    """The simplest candidate within one standard error of the best score among ``sel``:
+    the fewest fitted parameters, then the coarsest Prony series (fewest internal variables
+    per bond), then the best score (e.g. between the shift laws)."""
+    best = int(curve.loc[sel, "cv_score"].idxmin())
     limit = curve.loc[best, "cv_score"]
-    if options.one_se and np.isfinite(curve.loc[best, "cv_score_se"]):
+    if one_se and np.isfinite(curve.loc[best, "cv_score_se"]):
         limit += curve.loc[best, "cv_score_se"]
-    # the fewest fitted parameters within the limit, then the coarsest Prony series (fewest
-    # internal variables per bond), then the best score (e.g. between the shift laws)
-    within = curve[scored & (curve["cv_score"] <= limit + 1e-12)]
+    within = curve[sel & (curve["cv_score"] <= limit + 1e-12).to_numpy()]
     fewest = within[within["n_params"] == within["n_params"].min()]
     fewest = fewest[fewest["per_decade"] == fewest["per_decade"].min()]
-    chosen = int(fewest["cv_score"].idxmin())
-    curve.loc[chosen, "chosen"] = True
-    return cands[chosen], curve, fitted
+    return int(fewest["cv_score"].idxmin())
+
+
+def _choose(curve: pd.DataFrame, scores: dict, overlap: float, one_se: bool, mask: np.ndarray):
+    """(index, note) of the candidate chosen among ``mask``: the one-standard-error rule
+    (:func:`_one_se_pick`) among the plausible candidates, unless the best implausible one
+    beats the best plausible one by a held-out gain larger than GAIN_Z of its own standard
+    errors (the paired inner-fold differences, Nadeau & Bengio's correction); (None, note)
+    when ``mask`` holds no candidate."""
+    mask = np.asarray(mask, bool)
+    if not mask.any():
+        return None, "no candidate"
+    scored = curve["cv_score"].notna().to_numpy() & mask
+    if not scored.any():  # nothing to choose from: the simplest candidate
+        return int(np.flatnonzero(mask)[0]), "no computable inner fold: the simplest candidate"
+    plaus = scored & curve["plausible"].to_numpy(bool)
+    pick = _one_se_pick(curve, scored, one_se)
+    if curve.loc[pick, "plausible"]:
+        return pick, ""
+    if not plaus.any():
+        return pick, "no candidate with plausible parameters: " + str(curve.loc[pick, "findings"])
+    bi = int(curve.loc[scored & ~plaus, "cv_score"].idxmin())
+    bp = int(curve.loc[plaus, "cv_score"].idxmin())
+    d = scores[bp] - scores[bi]
+    gain = float(np.mean(d))
+    se = float(np.std(d, ddof=1) * np.sqrt(1.0 / d.size + overlap)) if d.size > 1 else np.inf
+    text = (f"held-out gain of the best implausible candidate ({curve.loc[bi, 'settings']}: "
+            f"{curve.loc[bi, 'findings']}) over the best plausible one ({curve.loc[bp, 'settings']}): "
+            f"{gain:.3g} +- {se:.3g} in score")
+    if gain - GAIN_Z * se > 0:
+        return pick, text + f", more than {GAIN_Z:g} standard errors: the implausible law is kept"
+    return _one_se_pick(curve, plaus, one_se), text + f", within {GAIN_Z:g} standard errors: a plausible law is chosen"
 
 
 def fit_extended(table: pd.DataFrame, options: Options, artifacts=None) -> FitResult:
@@ -378,38 +445,68 @@ def fit_extended(table: pd.DataFrame, options: Options, artifacts=None) -> FitRe
         return FitResult(None, None, pd.DataFrame(), corrected, artifacts, notes,
                          f"{n_T} temperature(s): the temperature-aware law needs >= 2", measurement)
     settings, curve, backbones = select_settings(cells, options)
-    order = [settings] + [c for c in options.candidates if c != settings]
     T_ref = _t_ref(cells, options)
+    law, chosen, last = _fit_first(cells, [settings] + [c for c in options.candidates if c != settings],
+                                   backbones, T_ref, options, notes)
+    if law is None:
+        return FitResult(None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})",
+                         measurement)
+    if chosen != settings:
+        curve["chosen"] = curve["settings"] == chosen.label()
+    law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
+    card_law, card = law, chosen
+    if not chosen.carriable:
+        picked = [c for c, on in zip(options.candidates, curve["chosen_card"]) if on] if len(curve) else []
+        fallback = LawSettings(shift=chosen.shift, static="constant" if chosen.static == "trend" else chosen.static,
+                               per_decade=chosen.per_decade)
+        order = picked + [c for c in options.candidates if c.carriable and c not in picked] + [fallback]
+        card_law, card, _ = _fit_first(cells, order, backbones, T_ref, options, notes)
+        if card_law is not None:
+            card_law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
+    return FitResult(law, chosen, curve, corrected, artifacts, notes, measurement=measurement,
+                     card_law=card_law, card_settings=card if card_law is not None else None)
+
+
+def _fit_first(cells, order, backbones, T_ref, options, notes):
+    """(law, settings, last error) of the first settings of ``order`` that can be fitted on
+    ``cells`` (backbones reused where fitted), or (None, None, last error)."""
     last = ""
-    for c in order:  # the chosen one; if it cannot be fitted on all cells, the next candidates
+    for c in order:
         try:
             bb = backbones.get(c.structure)
             if isinstance(bb, str):
                 raise ValueError(bb)
-            law = extended.fit_law(cells, c, T_ref, options.tolerances, options.margin_decades, backbone=bb)
+            return extended.fit_law(cells, c, T_ref, options.tolerances, options.margin_decades, backbone=bb), c, ""
         except FIT_ERRORS as exc:
             last = f"{c.label()}: {exc}"
             notes.append(f"setting {c.label()} not computable on the whole table ({exc})")
-            continue
-        if c != settings:
-            curve["chosen"] = curve["settings"] == c.label()
-        law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
-        return FitResult(law, c, curve, corrected, artifacts, notes, measurement=measurement)
-    return FitResult(None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})",
-                     measurement)
+    return None, None, last
 
 
-def law_file_object(fit: FitResult, measured: pd.DataFrame, temperatures, options: Options, source: dict) -> dict:
+def law_file_object(fit: FitResult, measured: pd.DataFrame, temperatures, options: Options, source: dict,
+                    card: bool = False) -> dict:
     """The law file of ``extend-law`` (:mod:`asphalt_nscd.rheology.law_file`): the law of
-    ``fit`` at ``temperatures`` (degC) with its in-sample MREs against the corrected and
-    (``_vs_measured``) the measured replicate means of ``measured``, the ``selection`` (chosen
-    settings, rule, curve) and the ``source`` (given keys, then the artifact search's)."""
-    obj = fit.law.to_json(temperatures, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
+    ``fit`` (``card``: the law a material card carries, ``fit.card_law``) at ``temperatures``
+    (degC) with its in-sample MREs against the corrected and (``_vs_measured``) the measured
+    replicate means of ``measured``, the ``selection`` (chosen settings, rule, curve, notes),
+    ``card`` (the carried law's settings and whether it is the selected law) and the
+    ``source`` (given keys, then the artifact search's).
+
+    Raises ValueError with ``card`` when no carriable law could be fitted."""
+    law = fit.card_law if card else fit.law
+    if law is None:
+        raise ValueError("no law that a Prony series with a shift function carries could be fitted")
+    obj = law.to_json(temperatures, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
+    notes = [n for n in fit.curve.get("note", pd.Series(dtype=str)).astype(str) if n] if len(fit.curve) else []
     obj["selection"] = {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
                         "rule": ("simplest candidate within one standard error of the best inner-CV score "
-                                 "(fewest fitted parameters, then coarsest Prony series)")
-                        if options.one_se else "best inner-CV score",
-                        "curve": fit.curve.to_dict(orient="records")}
+                                 "(fewest fitted parameters, then coarsest Prony series) among the candidates "
+                                 "with plausible parameters, unless an implausible one gains more than "
+                                 f"{GAIN_Z:g} standard errors") if options.one_se else "best inner-CV score",
+                        "notes": notes, "curve": fit.curve.to_dict(orient="records")}
+    obj["card"] = {"settings": None if fit.card_settings is None else fit.card_settings.label(),
+                   "is_selected_law": fit.card_settings == fit.settings, "this_file": "card law" if card else
+                   "selected law"}
     obj["source"] = {**source,
                      "artifact_search": {"master_curve": "2S2P1D", "shift": options.artifact_shift,
                                          "alpha": options.alpha},
@@ -527,39 +624,45 @@ def _as_measured(E_cells: np.ndarray, cells: pd.DataFrame, rows: pd.DataFrame, f
 
 def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, extrapolation, reason="",
               rows: pd.DataFrame | None = None) -> list:
-    """Rows of the extended law (and of the sample) at the cells ``test``; ``rows``: the
-    measured rows of those cells (with ``test_step``), for the fold's measurement model."""
+    """Rows of the extended law, of the law a material card carries (``card_law``) and of the
+    sample at the cells ``test``; ``rows``: the measured rows of those cells (with
+    ``test_step``), for the fold's measurement model."""
     out = []
-    label = fit.settings.label() if fit is not None and fit.settings is not None else ""
+    models = [("extended_law", None if fit is None else fit.law, None if fit is None else fit.settings),
+              ("card_law", None if fit is None else fit.card_law, None if fit is None else fit.card_settings)]
     for T, g in test.groupby("temperature_C"):
-        law, why = None, reason
-        if not why and (fit is None or fit.law is None):
-            why = fit.reason if fit is not None else "not fitted"
-        if not why:
-            try:
-                law = fit.law.law_at(float(T))
-            except (InputError, *FIT_ERRORS) as exc:
-                why = f"law at {T:g} degC: {exc}"
         f = g["frequency_Hz"].to_numpy(float)
-        pred_law = pred_nscd = None
-        why_s = ""
         g_rows = None if rows is None else at_temperature(rows, T)
-        if law is not None:
-            E = law.complex_modulus(2 * np.pi * f)
-            try:
-                pred_law = _as_measured(E, g, g_rows, fit)
-            except FIT_ERRORS as exc:
-                why = f"measurement model of the fold's artifacts at {T:g} degC: {exc}"
-            if sample is not None and pred_law is not None:
+        preds = {}
+        for name, thermo, settings in models:
+            law, why = None, reason
+            if not why and (fit is None or thermo is None):
+                why = fit.reason if fit is not None and fit.reason else "not fitted"
+            if not why:
                 try:
-                    s = sample.predict(law, float(T), f)
-                    pred_nscd = _as_measured(s[:, 0] * np.exp(1j * np.radians(s[:, 1])), g, g_rows, fit)
+                    law = thermo.law_at(float(T))
+                except (InputError, *FIT_ERRORS) as exc:
+                    why = f"law at {T:g} degC: {exc}"
+            pred = None
+            if law is not None:
+                try:
+                    pred = _as_measured(law.complex_modulus(2 * np.pi * f), g, g_rows, fit)
                 except FIT_ERRORS as exc:
-                    why_s = f"harmonic solve at {T:g} degC: {exc}"
+                    why = f"measurement model of the fold's artifacts at {T:g} degC: {exc}"
+            preds[name] = (law, pred, why, settings.label() if settings is not None else "")
+        law, pred_law, why, label = preds["extended_law"]
+        pred_nscd, why_s = None, ""
+        if sample is not None and pred_law is not None:
+            try:
+                s = sample.predict(law, float(T), f)
+                pred_nscd = _as_measured(s[:, 0] * np.exp(1j * np.radians(s[:, 1])), g, g_rows, fit)
+            except FIT_ERRORS as exc:
+                why_s = f"harmonic solve at {T:g} degC: {exc}"
         for i, (_, cell) in enumerate(g.iterrows()):
             x = extrapolation(cell)
-            out.append(_row(scheme, fold, kind, "extended_law", cell,
-                            None if pred_law is None else pred_law[i], x, label, why))
+            for name in ("extended_law", "card_law"):
+                _, pred, w, lab = preds[name]
+                out.append(_row(scheme, fold, kind, name, cell, None if pred is None else pred[i], x, lab, w))
             if sample is not None:
                 out.append(_row(scheme, fold, kind, "nscd_sample", cell,
                                 None if pred_nscd is None else pred_nscd[i], x, label,
@@ -579,9 +682,10 @@ class CrossvalResult:
     fold_fits: dict
 
 
-def fold_label(scheme: str, value: float) -> str:
-    """``10`` (Hz, lofo) or ``21`` (degC, loto): the held-out value, ``%g``."""
-    return f"{float(value):g}"
+def fold_label(scheme: str, value) -> str:
+    """``10`` (Hz, lofo), ``21`` (degC, loto): the held-out value, ``%g``; the specimen's
+    name (loso)."""
+    return str(value) if scheme == "loso" else f"{float(value):g}"
 
 
 def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleModel | None = None,
@@ -592,7 +696,8 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
     ----------
     table : DataFrame
         Validated measured table (``lab.measured.load_measured``).
-    scheme : {"lofo", "loto"}
+    scheme : {"lofo", "loto", "loso"}
+        loso: leave one specimen out, each fold's reference its own specimen's values.
     options : Options
     sample : SampleModel, optional
         Adds the ``nscd_sample`` model.
@@ -623,19 +728,30 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
     if options.burgers:
         rows += _burgers_rows(scheme, "all", "in_sample", table, cells, lambda c: False, nb)
     rows += _law_rows(scheme, "all", "in_sample", full, cells, sample, lambda c: False, rows=prepared)
-    for value in _fold_values(cells, scheme):
+    folds = sorted(prepared["specimen"].unique()) if scheme == "loso" else _fold_values(cells, scheme)
+    for value in folds:
         label = fold_label(scheme, value)
-        train_cells, reason = fold_split(cells, scheme, value)
-        test = cells[~train_cells]
-        # the training rows keep the test steps of the whole table (the order of the tests)
-        train_rows = prepared[fold_split(prepared, scheme, value)[0]]
-        if scheme == "loto":
-            edge = bool(value <= T_all.min() or value >= T_all.max())
-            extrapolation = lambda c, e=edge: e  # noqa: E731
+        if scheme == "loso":
+            # the reference of a fold is its own specimen: the law of the others predicts a new specimen
+            held = (prepared["specimen"] == value).to_numpy()
+            train_rows, held_rows = prepared[~held], prepared[held]
+            test = cell_means(held_rows)
+            reason = ("" if train_rows["temperature_C"].nunique() >= 2 else
+                      "the other specimens leave fewer than 2 temperatures (a single specimen: none to fit on)")
+            extrapolation = lambda c: False  # noqa: E731
         else:
-            f_tr = train_rows["frequency_Hz"].to_numpy(float)
-            extrapolation = lambda c, f=f_tr: bool(f.size == 0 or c["frequency_Hz"] < f.min()  # noqa: E731
-                                                   or c["frequency_Hz"] > f.max())
+            train_cells, reason = fold_split(cells, scheme, value)
+            test = cells[~train_cells]
+            # the training rows keep the test steps of the whole table (the order of the tests)
+            train_mask = fold_split(prepared, scheme, value)[0]
+            train_rows, held_rows = prepared[train_mask], prepared[~train_mask]
+            if scheme == "loto":
+                edge = bool(value <= T_all.min() or value >= T_all.max())
+                extrapolation = lambda c, e=edge: e  # noqa: E731
+            else:
+                f_tr = train_rows["frequency_Hz"].to_numpy(float)
+                extrapolation = lambda c, f=f_tr: bool(f.size == 0 or c["frequency_Hz"] < f.min()  # noqa: E731
+                                                       or c["frequency_Hz"] > f.max())
         fit = None
         if not reason:
             fit = fit_extended(train_rows, options)
@@ -646,8 +762,7 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
                 reason = fit.reason
         if options.burgers:
             rows += _burgers_rows(scheme, label, "held_out", train_rows, test, extrapolation, nb)
-        rows += _law_rows(scheme, label, "held_out", fit, test, sample, extrapolation, reason,
-                          rows=prepared[~fold_split(prepared, scheme, value)[0]])
+        rows += _law_rows(scheme, label, "held_out", fit, test, sample, extrapolation, reason, rows=held_rows)
     if time_domain is not None and len(time_domain):
         rows += _time_domain_rows(scheme, cells, time_domain, fits)
     out = pd.DataFrame(rows, columns=list(ROW_COLUMNS))
@@ -672,140 +787,6 @@ def _time_domain_rows(scheme, cells, td: pd.DataFrame, fits) -> list:
     return rows
 
 
-#: bootstrap replicates of the held-out MRE intervals (:func:`specimen_bootstrap`)
-N_BOOTSTRAP = 2000
-#: columns of :func:`summarize`
-SUMMARY_COLUMNS = ["scheme", "kind", "model", "temperature_C", "mre_E_norm_pct", "mre_phase_pct", "n_cells",
-                   "n_not_computable", "extrapolation", "mre_E_norm_ci95_low", "mre_E_norm_ci95_high",
-                   "mre_phase_ci95_low", "mre_phase_ci95_high", "noise_floor_E_norm_pct", "noise_floor_phase_pct",
-                   "n_specimens"]
-
-
-def noise_floor(table: pd.DataFrame) -> pd.DataFrame:
-    """Per temperature, the noise floor of a replicate-mean reference: the mean over the
-    isotherm's cells of the standard error of the replicate mean, relative to the mean, for
-    |E*| and for Phi (%), and the number of specimens.
-
-    Columns ``temperature_C, noise_floor_E_norm_pct, noise_floor_phase_pct, n_specimens``;
-    nan where a cell has a single replicate (no scatter to measure).
-    """
-    g = table.groupby(["temperature_C", "frequency_Hz"])
-    cells = pd.DataFrame({"n": g["E_norm_MPa"].size(),
-                          "se_E": g["E_norm_MPa"].std(ddof=1) / np.sqrt(g["E_norm_MPa"].size()) / g["E_norm_MPa"].mean(),
-                          "se_P": g["phase_deg"].std(ddof=1) / np.sqrt(g["phase_deg"].size()) / g["phase_deg"].mean()})
-    cells = cells.reset_index()
-    out = cells.groupby("temperature_C").agg(noise_floor_E_norm_pct=("se_E", "mean"),
-                                             noise_floor_phase_pct=("se_P", "mean")).reset_index()
-    out[["noise_floor_E_norm_pct", "noise_floor_phase_pct"]] *= 100.0
-    spec = table.groupby("temperature_C")["specimen"].nunique().rename("n_specimens").reset_index()
-    return out.merge(spec, on="temperature_C")
-
-
-def specimen_bootstrap(rows: pd.DataFrame, table: pd.DataFrame, n_boot: int = N_BOOTSTRAP,
-                       seed: int = 0) -> pd.DataFrame:
-    """95 % percentile intervals of the MRE per (scheme, kind, model, temperature) by a
-    bootstrap over specimens: the reference replicate means are recomputed from the specimens
-    drawn with replacement, the predictions of the rows kept (the interval is the sampling
-    uncertainty of the measured reference, which is what a held-out error is judged against).
-    A cell that none of the drawn specimens tested is left out of that replicate's mean.
-
-    Returns columns ``scheme, kind, model, temperature_C, mre_E_norm_ci95_low,
-    mre_E_norm_ci95_high, mre_phase_ci95_low, mre_phase_ci95_high`` (%).
-    """
-    t = table.assign(specimen=table["specimen"].astype(str))
-    specimens = np.array(sorted(t["specimen"].unique()))
-    cells = cell_means(t)[["temperature_C", "frequency_Hz"]].reset_index(drop=True)
-    key = {(round(float(a), 6), float(b)): k for k, (a, b) in enumerate(zip(cells["temperature_C"], cells["frequency_Hz"]))}
-    E = np.full((specimens.size, len(cells)), np.nan)
-    P = np.full((specimens.size, len(cells)), np.nan)
-    sidx = {sp: i for i, sp in enumerate(specimens)}
-    for (sp, T, f), g in t.groupby(["specimen", "temperature_C", "frequency_Hz"]):
-        k = key[(round(float(T), 6), float(f))]
-        E[sidx[sp], k] = g["E_norm_MPa"].mean()
-        P[sidx[sp], k] = g["phase_deg"].mean()
-    rng = np.random.default_rng(seed)
-    draw = rng.integers(0, specimens.size, size=(n_boot, specimens.size))
-    with np.errstate(invalid="ignore"):
-        Eb = np.nanmean(E[draw], axis=1)  # (B, cells)
-        Pb = np.nanmean(P[draw], axis=1)
-    ok_rows = rows[rows["computable"]]
-    out = []
-    for grp, g in ok_rows.groupby(["scheme", "kind", "model", "temperature_C"], sort=True):
-        idx = np.array([key.get((round(float(T), 6), float(f)), -1)
-                        for T, f in zip(g["temperature_C"], g["frequency_Hz"])])
-        keep = idx >= 0
-        if not keep.any():
-            continue
-        eE = np.abs(g["E_norm_MPa_predicted"].to_numpy(float)[keep] / Eb[:, idx[keep]] - 1.0)
-        eP = np.abs(g["phase_deg_predicted"].to_numpy(float)[keep] - Pb[:, idx[keep]]) / np.abs(Pb[:, idx[keep]])
-        with np.errstate(invalid="ignore"):
-            mE, mP = 100 * np.nanmean(eE, axis=1), 100 * np.nanmean(eP, axis=1)
-        lo_E, hi_E = np.nanpercentile(mE, [2.5, 97.5])
-        lo_P, hi_P = np.nanpercentile(mP, [2.5, 97.5])
-        out.append({"scheme": grp[0], "kind": grp[1], "model": grp[2], "temperature_C": grp[3],
-                    "mre_E_norm_ci95_low": lo_E, "mre_E_norm_ci95_high": hi_E,
-                    "mre_phase_ci95_low": lo_P, "mre_phase_ci95_high": hi_P})
-    return pd.DataFrame(out, columns=["scheme", "kind", "model", "temperature_C", "mre_E_norm_ci95_low",
-                                      "mre_E_norm_ci95_high", "mre_phase_ci95_low", "mre_phase_ci95_high"])
-
-
-def summarize(rows: pd.DataFrame, table: pd.DataFrame | None = None, n_boot: int = N_BOOTSTRAP) -> pd.DataFrame:
-    """MRE per (scheme, kind, model, temperature): ``mre_E_norm_pct, mre_phase_pct``
-    (mean over the computable cells, %), ``n_cells``, ``n_not_computable``,
-    ``extrapolation`` (every cell of that temperature is an extrapolation); with the measured
-    ``table``, the 95 % interval of each MRE (:func:`specimen_bootstrap`, ``n_boot``
-    replicates) and the temperature's noise floor (:func:`noise_floor`); else those columns
-    are nan."""
-    out = []
-    for key, g in rows.groupby(["scheme", "kind", "model", "temperature_C"], sort=True):
-        ok = g[g["computable"]]
-        out.append({"scheme": key[0], "kind": key[1], "model": key[2], "temperature_C": key[3],
-                    "mre_E_norm_pct": 100 * float(ok["rel_err_E_norm"].mean()) if len(ok) else np.nan,
-                    "mre_phase_pct": 100 * float(ok["rel_err_phase"].mean()) if len(ok) else np.nan,
-                    "n_cells": int(len(ok)), "n_not_computable": int(len(g) - len(ok)),
-                    "extrapolation": bool(g["extrapolation"].all())})
-    summ = pd.DataFrame(out, columns=SUMMARY_COLUMNS[:9])
-    if table is not None and len(summ):
-        keys = ["scheme", "kind", "model", "temperature_C"]
-        summ = summ.merge(specimen_bootstrap(rows, table, n_boot), on=keys, how="left")
-        floor = noise_floor(table)
-        summ["_T"] = summ["temperature_C"].round(6)
-        floor["_T"] = floor["temperature_C"].round(6)
-        summ = summ.merge(floor.drop(columns="temperature_C"), on="_T", how="left").drop(columns="_T")
-    return summ.reindex(columns=SUMMARY_COLUMNS)
-
-
-def headline(summary: pd.DataFrame) -> pd.DataFrame:
-    """Worst temperature per (scheme, kind, model): lofo over every temperature, loto over
-    the inner (non-extrapolated) ones. Columns ``scheme, kind, model, worst_E_norm_pct,
-    worst_E_norm_T_C, worst_phase_pct, worst_phase_T_C`` and, where the summary has them, the
-    interval and noise floor at that temperature (``worst_E_norm_ci95_low/high``,
-    ``worst_E_norm_noise_floor_pct``, and the same for the phase)."""
-    out = []
-    for key, g in summary.groupby(["scheme", "kind", "model"], sort=True):
-        if key[0] == "loto" and key[1] == "held_out":
-            g = g[~g["extrapolation"]]
-        g = g.dropna(subset=["mre_E_norm_pct", "mre_phase_pct"])
-        if g.empty:
-            continue
-        iE, iP = g["mre_E_norm_pct"].idxmax(), g["mre_phase_pct"].idxmax()
-        row = {"scheme": key[0], "kind": key[1], "model": key[2],
-               "worst_E_norm_pct": float(g.loc[iE, "mre_E_norm_pct"]),
-               "worst_E_norm_T_C": float(g.loc[iE, "temperature_C"]),
-               "worst_phase_pct": float(g.loc[iP, "mre_phase_pct"]),
-               "worst_phase_T_C": float(g.loc[iP, "temperature_C"])}
-        for col in ("mre_E_norm_ci95_low", "mre_E_norm_ci95_high", "noise_floor_E_norm_pct"):
-            if col in g.columns:
-                row[f"worst_E_norm_{col.replace('mre_E_norm_', '').replace('_E_norm_pct', '_pct')}"] = \
-                    float(g.loc[iE, col])
-        for col in ("mre_phase_ci95_low", "mre_phase_ci95_high", "noise_floor_phase_pct"):
-            if col in g.columns:
-                row[f"worst_phase_{col.replace('mre_phase_', '').replace('_phase_pct', '_pct')}"] = \
-                    float(g.loc[iP, col])
-        out.append(row)
-    return pd.DataFrame(out)
-
-
 def figure(rows: pd.DataFrame, law: ThermoLaw | None, path, model: str = "extended_law") -> None:
     """Measured, in-sample and held-out isotherms of one model (top |E*|, bottom Phi vs f),
     saved atomically to ``path``; the in-sample law is drawn as curves when given."""
@@ -817,6 +798,16 @@ def figure(rows: pd.DataFrame, law: ThermoLaw | None, path, model: str = "extend
     from ..io import savefig
 
     sub = rows[rows["model"] == model]
+    held = sub[(sub["kind"] == "held_out") & sub["computable"]]
+    if len(sub) and held.empty:  # no fold computable: say why, draw nothing
+        why = "; ".join(sorted(set(sub.loc[sub["kind"] == "held_out", "reason"].astype(str)))) or "no held-out cell"
+        fig, ax = plt.subplots(figsize=(7, 2.5))
+        ax.axis("off")
+        ax.text(0.02, 0.5, f"{sub['scheme'].iloc[0]}: no fold could be computed\n{why}", wrap=True, va="center",
+                fontsize=9)
+        savefig(fig, path)
+        plt.close(fig)
+        return
     meas = sub.drop_duplicates(["temperature_C", "frequency_Hz"])
     temps = sorted(meas["temperature_C"].unique())
     fig, axes = plt.subplots(2, 1, figsize=(7, 8), sharex=True)

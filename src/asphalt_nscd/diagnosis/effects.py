@@ -1,4 +1,5 @@
-"""Data artifacts: nested fits of a flexible screening model, with a level set by a benchmark.
+"""Data artifacts: nested fits of a flexible screening model, named only where the table's
+design identifies them, at a level calibrated on the table itself.
 
 Screening model (the null): a 2S2P1D master curve with a free shift factor and a free vertical
 |E*| factor exp(v_T) per isotherm (both 0 at the reference isotherm), a |E*| factor and a
@@ -12,16 +13,31 @@ phase offset per specimen (:mod:`asphalt_nscd.rheology.master_curve`, shift "fre
 * ``strain_nonlinearity``: |E*| exp(-b (eps - eps_ref) / 100 microstrain), eps_ref the table's
   mean strain (``modulus_drop_per_100_microstrain``);
 * ``self_heating`` (the n-th test of an isotherm at T + c n, |E*| exp(-a n), Phi (1 + b n)) and
-  ``temperature_drift`` (along the assumed test order, at T + d_T (n - n_max/2)).
+  ``temperature_drift`` (along the test order, at T + d_T (n - n_c), n_c the middle of the
+  isotherm's tests in the whole table): both need the table's test order (``test_order``, or
+  the test sequence its sidecar declares).
+
+Identifiability first (:meth:`ArtifactSearch.identify`): a candidate is tested only if the
+design tells its signature (weighted Jacobian columns) from the screening model's freedom and
+from its *rival*, the explanation that is not an artifact: an effect along the test order or
+the strain against the same effect along the frequency (the covariate's least-squares shadow,
+affine in log f per specimen's isotherm: a per-isotherm drift is then a change of slope, a
+failure of time-temperature superposition), an offset against one more degree of the shift
+law. Measured as the cosine with the null's span and the largest canonical correlation with
+the rival beyond the null; limits :data:`IDENTIFIABILITY_LIMITS` (``diagnosis.identifiability``).
 
 :class:`ArtifactSearch` selects terms forward by extra-sum-of-squares F-tests under Holm's
-step-down procedure (Holm 1979, Scand. J. Statist. 6, 65-70) at the family-wise level alpha
-(config ``diagnosis.alpha``, 1e-3), each also needing the physical sign and a practical size
-(``PRACTICAL_MINIMUM``); the temperature offset is tested last (:meth:`ArtifactSearch.offset_test`).
-A point is corrected by the ratio of the model without and with the artifacts (:func:`artifact_ratio`).
+step-down procedure (Holm 1979, Scand. J. Statist. 6, 65-70), each also needing the physical
+sign and a practical size (``PRACTICAL_MINIMUM``); the temperature offset is tested last
+(:meth:`ArtifactSearch.offset_test`). The first step's level is the smaller of the nominal
+alpha / m and the level calibrated on parametric-bootstrap tables of the table's own fitted
+clean model (:mod:`asphalt_nscd.diagnosis.calibration`: the Westfall-Young min-P
+critical value); later steps scale it as Holm does. A point is corrected by the ratio of the
+model without and with the artifacts (:func:`artifact_ratio`).
 
-Choices (docs/choices.md, Diagnosis: causes with measured error rates; Diagnosis: strain
-nonlinearity): the flexible null, Holm, floors set by the benchmark, the centred strain term.
+Choices (docs/choices.md, Diagnosis: causes with measured error rates; Diagnosis: what a
+table can identify; Diagnosis: strain nonlinearity): the flexible null, Holm, the calibrated
+level, floors set by the benchmark, the centred strain and drift terms.
 """
 
 from __future__ import annotations
@@ -60,6 +76,24 @@ SIZE_UNITS = {"time_lag": "deg of phase at the highest frequency",
               "temperature_offset": "degC", "strain_nonlinearity": "% of |E*| over the tested strain range",
               "self_heating": "% of |E*| over an isotherm",
               "temperature_drift": "degC across an isotherm (largest)"}
+#: Limits of identifiability (config ``diagnosis.identifiability``): a candidate whose
+#: signature has a cosine of at least ``null`` with the screening model's span (variance
+#: inflation 1 / (1 - 0.995^2) = 100), or a largest canonical correlation of at least ``rival``
+#: with its rival's signature once the null is projected out, is not identifiable from the
+#: table (docs/choices.md, Diagnosis: what a table can identify).
+IDENTIFIABILITY_LIMITS = {"null": 0.995, "rival": 0.95}
+#: what each candidate's rival is (the explanation that is not that artifact)
+RIVALS = {"time_lag": None, "inertia_uncorrected": None,
+          "strain_nonlinearity": "the same |E*| change along the frequency (the strain's shadow on log f within "
+                                 "each specimen's isotherm)",
+          "self_heating": "the same changes along the frequency (the test step's shadow on log f within each "
+                          "specimen's isotherm): a frequency response of the measurement chain",
+          "temperature_drift": "a change of slope of each isotherm along the frequency (the test step's shadow on "
+                               "log f): a failure of time-temperature superposition",
+          "temperature_offset": "one more degree of the smooth shift law (a shift law that bends there)"}
+#: the row covariate of each candidate whose frequency shadow is its rival
+RIVAL_COVARIATE = {"strain_nonlinearity": "strain_microstrain", "self_heating": "test_step",
+                   "temperature_drift": "test_step"}
 #: artifacts screened by forward selection (the temperature offset has its own test)
 SCREENED = ("time_lag", "inertia_uncorrected", "strain_nonlinearity", "self_heating", "temperature_drift")
 #: Practical size below which a significant artifact is not named (units SIZE_UNITS): time
@@ -73,10 +107,6 @@ SCREENED = ("time_lag", "inertia_uncorrected", "strain_nonlinearity", "self_heat
 #: tables from misspecified truths); docs/choices.md, Diagnosis.
 PRACTICAL_MINIMUM = {"time_lag": 1.0, "inertia_uncorrected": 3.0, "temperature_offset": 0.5,
                      "strain_nonlinearity": 0.5, "self_heating": 1.0, "temperature_drift": 1.0}
-#: The standard test order assumed when a table gives none (AASHTO T 342 / T 378: isotherms
-#: from the coldest to the hottest, frequencies from the highest to the lowest within each),
-#: the order along which a temperature drift is tested (``test_step_assumed``).
-ASSUMED_ORDER = "AASHTO T 342 / T 378: temperatures ascending, frequencies descending within an isotherm"
 
 #: form factor of the paper's 2PB specimen (1/mm), the scale of the inertia parameter
 PAPER_GAMMA_PER_MM = 25.09577742360453
@@ -88,24 +118,19 @@ ARTIFACTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_no
              "self_heating", "temperature_drift")
 
 
-
-
 def prepare_table(df: pd.DataFrame) -> pd.DataFrame:
-    """Add ``test_step``: 0-based rank of ``test_order`` within (specimen, temperature); a
-    table without ``test_order`` gets ``test_step_assumed`` instead, the rank of its
-    frequency from the highest within the isotherm (:data:`ASSUMED_ORDER`). Steps already
-    present are kept: a part of a table (a cross-validation fold's training rows) keeps the
-    steps of the whole table, the order the tests were run in."""
+    """Add ``test_step`` (0-based rank of ``test_order`` within (specimen, temperature)) and
+    ``test_step_centre`` (half the largest step of that specimen's isotherm) to a table with a
+    test order. Steps already present are kept: a part of a table (a cross-validation fold's
+    training or held-out rows) keeps the steps and centres of the whole table, the order the
+    tests were run in, so that a row gets the same drift correction wherever it is."""
     out = df.reset_index(drop=True).copy()
     out["specimen"] = out["specimen"].astype(str)
-    if "test_step" in out.columns or "test_step_assumed" in out.columns:
+    if "test_step" in out.columns or "test_order" not in out.columns:
         return out
-    if "test_order" in out.columns:
-        out["test_step"] = (out.groupby(["specimen", "temperature_C"])["test_order"]
-                            .rank(method="dense").to_numpy(float) - 1.0)
-    else:
-        out["test_step_assumed"] = (out.groupby(["specimen", "temperature_C"])["frequency_Hz"]
-                                    .rank(method="dense", ascending=False).to_numpy(float) - 1.0)
+    groups = ["specimen", "temperature_C"]
+    out["test_step"] = out.groupby(groups)["test_order"].rank(method="dense").to_numpy(float) - 1.0
+    out["test_step_centre"] = 0.5 * out.groupby(groups)["test_step"].transform("max").to_numpy(float)
     return out
 
 
@@ -134,17 +159,16 @@ def testability(df: pd.DataFrame, test=None) -> dict:
         within = ls - df.groupby("specimen")["strain_microstrain"].transform(lambda s: np.log(s).mean()).to_numpy()
         ok = float(np.std(within)) > 0.05
         out["strain_nonlinearity"] = (ok, "" if ok else "strain amplitude does not vary within specimens")
+    no_order = ("the table gives no test order (a test_order column, or the test sequence declared in its "
+                "sidecar): an effect along the tests cannot be told from one along the frequency")
     if "test_step" not in df.columns:
-        out["self_heating"] = (False, "the table has no test_order column")
+        out["self_heating"] = (False, no_order)
+        out["temperature_drift"] = (False, no_order)
     else:
         ok = float(df["test_step"].max()) >= 2
         out["self_heating"] = (ok, "" if ok else "fewer than 3 tests per isotherm and specimen")
-    if "test_step_assumed" not in df.columns:
-        out["temperature_drift"] = (False, "the table gives its test order (a drift along it is self-heating's "
-                                           "temperature term)")
-    else:
-        ok = n_T >= 3 and float(df["test_step_assumed"].max()) >= 2
-        out["temperature_drift"] = (ok, "" if ok else "needs >= 3 isotherms with >= 3 frequencies each")
+        ok = n_T >= 3 and float(df["test_step"].max()) >= 2
+        out["temperature_drift"] = (ok, "" if ok else "needs >= 3 isotherms with >= 3 tests each")
     return out
 
 
@@ -187,14 +211,16 @@ def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: floa
         temps = [float(T) for T in temperatures]
 
         def drift(x, d):
-            # the specimen's temperature moves by x_T degC per test along the assumed order,
-            # centred on the isotherm's middle test (its mean level is the free shift's)
-            n = d["test_step_assumed"]
+            # the specimen's temperature moves by x_T degC per test along the test order,
+            # centred on the middle of the isotherm's tests in the whole table (its mean level
+            # is the free shift's); the centre travels with the rows, so that held-out rows get
+            # the correction they get inside the whole table
+            n = d["test_step"] - d["test_step_centre"]
             out = np.zeros(np.shape(n))
             for i, T in enumerate(temps):
                 sel = same_temperature(d["T"], T)
                 if sel.any():
-                    out[sel] = x[i] * (n[sel] - 0.5 * n[sel].max())
+                    out[sel] = x[i] * n[sel]
             return out
         return Term(name, [f"drift_C_per_test_{T:g}" for T in temps], [0.0] * len(temps), [-5.0] * len(temps),
                     [5.0] * len(temps), delta_T=drift, order=0)
@@ -253,6 +279,59 @@ def _shift_law(law: str):
             [0.0, 25.0, 170.0], [-50.0, 0.1, 1.0], [50.0, 500.0, 1e5])
 
 
+#: floor of the free shifts' standard deviation in the offset test, decades (keeps the
+#: weights finite at the reference isotherm, whose shift is fixed at 0)
+OFFSET_FLOOR_DECADES = 1e-3
+
+
+def signature(problem: MasterCurveProblem, x, index, step: float = 1e-6) -> np.ndarray:
+    """Weighted Jacobian columns d r / d x_j of ``problem``'s residuals at ``x`` for the
+    parameters ``index`` (central differences), shape (n_residuals, len(index))."""
+    x = np.asarray(x, float)
+    cols = []
+    for j in index:
+        h = step * max(1.0, abs(x[j]))
+        e = np.zeros_like(x)
+        e[j] = h
+        cols.append((problem.residuals(x + e) - problem.residuals(x - e)) / (2 * h))
+    return np.column_stack(cols) if cols else np.zeros((2 * problem.data["f"].size, 0))
+
+
+def _orthonormal(A: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
+    """Orthonormal basis of the column span of ``A`` (SVD, rank-revealing), shape (n, rank)."""
+    if A.size == 0:
+        return np.zeros((A.shape[0], 0))
+    U, s, _ = np.linalg.svd(A, full_matrices=False)
+    return U[:, s > rtol * max(s.max(), 1e-300)]
+
+
+def canonical_correlation(A: np.ndarray, B: np.ndarray) -> float:
+    """Largest canonical correlation (cosine of the smallest principal angle) between the
+    column spans of ``A`` and ``B`` (0 if either is empty or null)."""
+    qa, qb = _orthonormal(A), _orthonormal(B)
+    if qa.shape[1] == 0 or qb.shape[1] == 0:
+        return 0.0
+    return float(min(1.0, np.linalg.svd(qa.T @ qb, compute_uv=False).max()))
+
+
+def frequency_shadow(data: dict, key: str) -> np.ndarray:
+    """The part of a row covariate (``data[key]``, shape (n,)) that the frequency explains:
+    within each specimen's isotherm its least-squares fit a + b log10 f (the covariate itself
+    where the isotherm has fewer than 3 distinct frequencies, which a line always fits)."""
+    x = np.asarray(data[key], float)
+    out = x.copy()
+    lf = np.log10(data["f"])
+    for s in np.unique(data["spec"]):
+        for T in data["temperatures"]:
+            sel = (data["spec"] == s) & same_temperature(data["T"], T)
+            if np.unique(lf[sel]).size < 3:
+                continue
+            X = np.column_stack([np.ones(sel.sum()), lf[sel]])
+            coef, *_ = np.linalg.lstsq(X, x[sel], rcond=None)
+            out[sel] = X @ coef
+    return out
+
+
 class ArtifactSearch:
     """Forward selection of artifacts on a tidy measured table (see the module docstring).
 
@@ -274,7 +353,8 @@ class ArtifactSearch:
         (inertia not testable).
     """
 
-    def __init__(self, df: pd.DataFrame, alpha: float = 1e-3, T_ref_C=None, shift: str = "wlf", test=None):
+    def __init__(self, df: pd.DataFrame, alpha: float = 1e-3, T_ref_C=None, shift: str = "wlf", test=None,
+                 limits: dict | None = None):
         from ..lab.geometry import DeclaredTest
 
         self.df = prepare_table(df)
@@ -283,11 +363,14 @@ class ArtifactSearch:
         self.test = test if test is not None else DeclaredTest()
         self.gamma = self.test.form_factor_per_mm
         self.testable = testability(self.df, self.test)
+        self.limits = {**IDENTIFIABILITY_LIMITS, **(limits or {})}
         strain = ("strain_microstrain",) if self.testable["strain_nonlinearity"][0] else ()
         #: reference strain of the strain-nonlinearity term (mean of the table), microstrain
         self.strain_ref = float(np.mean(self.data["strain_microstrain"])) if strain else 0.0
         sE, sP = replicate_noise(self.df, covariates=strain)
         self.noise_from_replicates = sE is not None
+        #: replicate scatter as measured (None without replicates), and the floored levels that weight the fits
+        self.replicate_sigma = (sE, sP)
         self.sigma = (max(sE, 2e-3), max(sP, 0.03)) if sE is not None else (0.02, 0.5)
         self.shift = shift
         self.T_ref_C = T_ref_C
@@ -295,21 +378,25 @@ class ArtifactSearch:
         #: reference isotherm of the screening model (free shifts: aT = 1 there)
         self.T_screen = float(temps[np.argmin(np.abs(temps - np.median(temps)))])
         self.nuisance = [vertical_term(self.data, self.T_screen)] if temps.size > 1 else []
+        #: identifiability of each testable candidate (:meth:`identify`), set by :meth:`run`
+        self.identified: dict = {}
 
     @staticmethod
     def chi2_per_dof(fit: MasterCurveFit) -> float:
         """Reduced chi-square of a screening fit (residuals weighted by the replicate noise)."""
         return float(fit.rss / max(fit.n_residuals - fit.n_params, 1))
 
-    def problem(self, terms) -> MasterCurveProblem:
-        return MasterCurveProblem(self.data, shift="free", T_ref_C=self.T_screen, terms=self.nuisance + list(terms),
-                                  sigma_lnE=self.sigma[0], sigma_phase_deg=self.sigma[1])
+    def problem(self, terms, data: dict | None = None) -> MasterCurveProblem:
+        return MasterCurveProblem(self.data if data is None else data, shift="free", T_ref_C=self.T_screen,
+                                  terms=self.nuisance + list(terms), sigma_lnE=self.sigma[0],
+                                  sigma_phase_deg=self.sigma[1])
 
     def fit(self, terms, x0=None, fixed=()) -> MasterCurveFit:
         """Screening fit with artifact ``terms`` (the nuisance terms are added in front)."""
         return self.problem(terms).fit(x0=x0, fixed=fixed)
 
-    def candidates(self) -> list:
+    def all_candidates(self) -> list:
+        """Every testable candidate, identifiable or not."""
         out = []
         for name in SCREENED:
             if not self.testable[name][0]:
@@ -323,6 +410,56 @@ class ArtifactSearch:
             else:
                 out.append(Candidate(name, make_term(name)))
         return out
+
+    def candidates(self) -> list:
+        """The testable candidates the table identifies (:meth:`identify`; all of them before
+        it ran)."""
+        return [c for c in self.all_candidates()
+                if self.identified.get(c.name, {}).get("identifiable", True)]
+
+    # -------------------------------------------------------------- identifiability
+    def identify(self, base: MasterCurveFit) -> dict:
+        """Identifiability of every testable candidate at the screening fit ``base``
+        (module docstring): per name ``null_correlation`` (largest cosine of a candidate
+        column with the null's span), ``rival`` (what it is), ``rival_correlation`` (largest
+        canonical correlation with the rival's columns once the null is projected out; None
+        without a rival), ``identifiable`` and ``reason``. The temperature offset's entry
+        comes from :meth:`offset_test` (per inner isotherm). Sets :attr:`identified`."""
+        out = {}
+        x_base = np.asarray(base.x, float)
+        J0 = None
+        for c in self.all_candidates():
+            prob = self.problem([c.term])
+            x = np.concatenate([x_base, np.asarray(c.term.x0, float)])
+            if J0 is None:
+                J0 = signature(prob, x, range(x_base.size))
+                Q0 = _orthonormal(J0)
+            Jc = signature(prob, x, range(x_base.size, x.size))
+            norms = np.linalg.norm(Jc, axis=0)
+            cos_null = float(np.max(np.linalg.norm(Q0.T @ Jc, axis=0) / np.where(norms > 0, norms, 1.0)))
+            entry = {"null_correlation": cos_null, "rival": RIVALS[c.name], "rival_correlation": None}
+            key = RIVAL_COVARIATE.get(c.name)
+            if key is not None:
+                data = dict(self.data)
+                data[key] = frequency_shadow(self.data, key)
+                Jr = signature(self.problem([c.term], data), x, range(x_base.size, x.size))
+                entry["rival_correlation"] = canonical_correlation(Jc - Q0 @ (Q0.T @ Jc), Jr - Q0 @ (Q0.T @ Jr))
+            entry.update(self._verdict(entry))
+            out[c.name] = entry
+        self.identified = out
+        return out
+
+    def _verdict(self, entry: dict) -> dict:
+        if entry["null_correlation"] >= self.limits["null"]:
+            return {"identifiable": False,
+                    "reason": (f"its signature lies in the screening model's own freedom (cosine "
+                               f"{entry['null_correlation']:.3f} >= {self.limits['null']:g})")}
+        rho = entry["rival_correlation"]
+        if rho is not None and rho >= self.limits["rival"]:
+            return {"identifiable": False,
+                    "reason": (f"the table cannot tell it from {entry['rival']} (canonical correlation "
+                               f"{rho:.3f} >= {self.limits['rival']:g})")}
+        return {"identifiable": True, "reason": ""}
 
     def _try(self, base: MasterCurveFit, terms, cand: Candidate):
         """Fit base + cand, warm-started.
@@ -359,7 +496,7 @@ class ArtifactSearch:
         if name == "time_lag":
             return abs(360.0 * d["f"].max() * value * 1e-3)
         if name == "temperature_drift":
-            return float(np.max(np.abs(values)) * d["test_step_assumed"].max())
+            return float(np.max(np.abs(values)) * d["test_step"].max())
         if name == "inertia_uncorrected":
             return float(100 * np.max(PAPER_GAMMA_PER_MM * 1e-6 * abs(value) * (2 * np.pi * d["f"]) ** 2
                                       / np.exp(d["lnE"])))
@@ -368,19 +505,41 @@ class ArtifactSearch:
             return 100 * value * (eps.max() - eps.min()) / 100.0
         return value * d["test_step"].max()  # self_heating: mean |E*| drop over an isotherm, %
 
-    def run(self) -> dict:
-        """Forward selection, then the temperature-offset test; returns ``base`` and
-        ``final`` fits (screening model), ``selected`` candidates, ``offset`` (the offset
-        test, :meth:`offset_test`) and ``tests``: per artifact name the entry of the report
-        (see :func:`effect_entries`)."""
-        base = self.fit([])
+    def nominal_level(self, family_size: int) -> float:
+        """Holm's first-step level alpha / m of a family of ``family_size`` tests."""
+        return self.alpha / max(int(family_size), 1)
+
+    def run(self, level: float | None = None, x0=None) -> dict:
+        """Identifiability, forward selection, then the temperature-offset test.
+
+        ``level``: the first step's critical p-value calibrated on the table
+        (:mod:`asphalt_nscd.diagnosis.calibration`); the step uses the smaller of it and the
+        nominal alpha / m, and step k the Holm scaling level m / (m - k). ``x0``: start of the
+        screening fit (default: its several cold starts).
+
+        Returns ``base`` and ``final`` fits (screening model), ``selected`` candidates,
+        ``identified`` (:meth:`identify`, with the offset's entry), ``offset`` (the offset
+        test, :meth:`offset_test`, or None), ``tests`` (per screened artifact the entry of the
+        report, :func:`effect_entries`), ``family_size`` m, ``nominal_level`` alpha / m,
+        ``level`` (the first step's) and ``min_p``: the procedure's statistic, the smallest
+        p-value of the first step among candidates of the right sign and practical size and
+        the offset test on the first step's model; the procedure names an artifact if and
+        only if ``min_p < level``.
+        """
+        base = self.fit([], x0=x0)
+        self.identify(base)
+        offset_id = self.offset_identifiability(base) if self.testable["temperature_offset"][0] else None
+        if offset_id is not None:
+            self.identified["temperature_offset"] = offset_id
         current, selected = base, []
         cands = self.candidates()
-        offset_on = bool(self.testable["temperature_offset"][0])
-        results = []
+        offset_on = bool(offset_id is not None and offset_id["identifiable"])
+        m = len(cands) + offset_on
+        nominal = self.nominal_level(m)
+        first = nominal if level is None else min(float(level), nominal)
+        results, first_round = [], None
         while True:
-            # Holm's step-down over the whole family: the remaining candidates and the offset test
-            level = self.alpha / (len(cands) - len(selected) + offset_on)
+            step_level = first * m / max(m - len(selected), 1)  # Holm's step-down over the whole family
             results = []
             for c in cands:
                 if any(s.name == c.name for s in selected):
@@ -395,8 +554,10 @@ class ArtifactSearch:
             if anchor is not None:
                 continue
             ok = [(p, F, c, fit) for p, F, c, fit in results
-                  if np.isfinite(p) and p < level
-                  and self._sign_ok(c.name, fit.x[fit.x.size - len(c.term.names):], fit)]
+                  if np.isfinite(p) and self._sign_ok(c.name, fit.x[fit.x.size - len(c.term.names):], fit)]
+            if first_round is None:
+                first_round = ([p for p, *_ in ok], current)
+            ok = [r for r in ok if r[0] < step_level]
             if not ok:
                 break
             p, F, c, fit = min(ok, key=lambda r: r[0])
@@ -407,9 +568,9 @@ class ArtifactSearch:
         final = current
         tests = {}
         sizes = [len(c.term.names) for c in selected]
-        first = final.x.size - sum(sizes)
+        start0 = final.x.size - sum(sizes)
         for i, c in enumerate(selected):
-            start = first + sum(sizes[:i])
+            start = start0 + sum(sizes[:i])
             idx = list(range(start, start + sizes[i]))
             others = [s.term for j, s in enumerate(selected) if j != i]
             keep = np.ones(final.x.size, bool)
@@ -424,13 +585,19 @@ class ArtifactSearch:
                 k = len(c.term.names)
                 tests[c.name] = {"detected": False, "p": p, "F": F, "cand": c, "fit": fit,
                                  "index": list(range(fit.x.size - k, fit.x.size))}
-        offset = self.offset_test(final) if offset_on else None
-        if offset is not None:
-            offset["level"] = self.alpha / (len(cands) - len(selected) + 1)
-            offset["detected"] = bool(offset["p"] < offset["level"]
-                                      and abs(offset["offset_C"]) >= PRACTICAL_MINIMUM["temperature_offset"])
+        offset = None
+        p_first = list(first_round[0]) if first_round is not None else []
+        if offset_on:
+            offset = self.offset_test(final, offset_id["isotherms"])
+            offset["level"] = first * m / max(m - len(selected), 1)
+            big = abs(offset["offset_C"]) >= PRACTICAL_MINIMUM["temperature_offset"]
+            offset["detected"] = bool(offset["p"] < offset["level"] and big)
+            at_first = offset if not selected else self.offset_test(first_round[1], offset_id["isotherms"])
+            if abs(at_first["offset_C"]) >= PRACTICAL_MINIMUM["temperature_offset"]:
+                p_first.append(at_first["p"])
         return {"base": base, "final": final, "selected": selected, "tests": tests, "offset": offset,
-                "family_size": len(cands) + offset_on}
+                "identified": dict(self.identified), "family_size": m, "nominal_level": nominal,
+                "level": first, "min_p": float(min(p_first)) if p_first else 1.0}
 
     # -------------------------------------------------------------- temperature offset
     def free_shifts(self, fit: MasterCurveFit) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -450,46 +617,96 @@ class ArtifactSearch:
                 cov[i, j] = fit.cov[pi, pj]
         return temps, a, cov
 
-    def offset_test(self, fit: MasterCurveFit) -> dict:
-        """Temperature offset of each inner isotherm against the smooth shift law of the others.
-
-        For an inner isotherm k (not the coldest nor the hottest: at an end of the range an
-        offset cannot be told from the curvature of the shift law), the shift law
-        (:attr:`shift`, with a free offset) is fitted by weighted least squares to the free
-        shifts of the other isotherms (weights: the inverse variances of the screening fit)
-        and predicts log10 aT_k. The deviation d = a_k - a_k_pred has the variance of the
-        free shifts' estimation error (delta method) plus (OFFSET_MODEL_ERROR_C x
-        |d log10 aT / dT|)^2, the misfit of the smooth law at an isotherm without offset (set
-        by the benchmark); z = d / sd gives a two-sided normal p-value, Bonferroni-corrected
-        over the inner isotherms, and the offset dT = d / (d log10 aT / dT). The isotherm
-        tested is the one whose removal leaves the others most consistent with the law
-        (smallest weighted residual of the fit to the others): an offset isotherm among the
-        others distorts their law and would make its neighbours look offset (masking); when
-        the fits to the others have no residual degree of freedom, the one of largest |z|.
-        Returns that isotherm: ``temperature_C, offset_C, offset_C_se, z, p,
-        deviation_decades, n_tested`` (and ``per_isotherm``, every inner isotherm with its
-        ``others_chi2``).
-        """
+    def _smooth_law(self, temps, a, cov, others=None):
+        """Weighted least-squares fit of the smooth shift law (with a free offset) to the free
+        shifts ``a`` at ``others`` (indices; default all): (theta, law function, weights)."""
         from scipy.optimize import least_squares
 
-        temps, a, cov = self.free_shifts(fit)
         g, x0, lo, hi = _shift_law(self.shift)
         Tr = self.T_screen
-        inner = list(range(1, temps.size - 1))
         lo_ = np.array(lo, float)
         if self.shift == "wlf":
             lo_[2] = max(lo_[2], Tr - temps.min() + 1.0)
         x_start = np.clip(x0, lo_ + 1e-9, np.array(hi) - 1e-9)
+        o = np.arange(temps.size) if others is None else np.asarray(others)
+        w = 1.0 / np.sqrt(np.diag(cov)[o] + OFFSET_FLOOR_DECADES**2)
+        res = least_squares(lambda t: (g(temps[o], t, Tr) - a[o]) * w, x_start, bounds=(lo_, hi))
+        return res, g, w
+
+    def offset_identifiability(self, fit: MasterCurveFit) -> dict:
+        """Which inner isotherms' temperature offset the table identifies: the offset of
+        isotherm k moves its free shift alone, which the smooth law through the isotherms
+        (p constants) cannot follow; its rival is one more degree of that law, a polynomial
+        term ((T - T_mid) / half range)^p. In the metric of the offset test's variances, with
+        the law's Jacobian projected out, the cosine rho_k between the two directions; an
+        isotherm is tested when rho_k < the rival limit. Returns ``rival``,
+        ``rival_correlation`` (the smallest rho_k), ``per_isotherm`` ({T: rho_k}),
+        ``isotherms`` (indices of those tested), ``identifiable``, ``reason``."""
+        temps, a, cov = self.free_shifts(fit)
+        res, g, w = self._smooth_law(temps, a, cov)
+        th, Tr = res.x, self.T_screen
+        p = th.size
+        slope = (g(temps + 0.05, th, Tr) - g(temps - 0.05, th, Tr)) / 0.1
+        sd = np.sqrt(np.diag(cov) + OFFSET_FLOOR_DECADES**2 + (OFFSET_MODEL_ERROR_C * slope) ** 2)
+        G = res.jac / w[:, None] / sd[:, None]            # d g / d theta, whitened
+        t = (temps - 0.5 * (temps.max() + temps.min())) / max(0.5 * (temps.max() - temps.min()), 1e-9)
+        r = t**p / sd
+        Q = _orthonormal(G)
+        r_p = r - Q @ (Q.T @ r)
+        per, keep = {}, []
+        for k in range(1, temps.size - 1):
+            e = np.zeros(temps.size)
+            e[k] = 1.0 / sd[k]
+            e_p = e - Q @ (Q.T @ e)
+            den = np.linalg.norm(e_p) * np.linalg.norm(r_p)
+            rho = 1.0 if den <= 1e-12 * max(np.linalg.norm(e), 1e-300) * max(np.linalg.norm(r), 1e-300) \
+                else float(abs(e_p @ r_p) / den)
+            if temps.size - p < 2:
+                rho = 1.0  # one residual direction at most: it is the rival's
+            per[f"{temps[k]:g}"] = rho
+            if rho < self.limits["rival"]:
+                keep.append(k)
+        entry = {"null_correlation": None, "rival": RIVALS["temperature_offset"],
+                 "rival_correlation": min(per.values()) if per else None, "per_isotherm": per,
+                 "isotherms": keep, "identifiable": bool(keep), "reason": ""}
+        if not keep:
+            entry["reason"] = (f"with {temps.size} isotherms and a {self.shift.upper()} law of {p} constants no inner "
+                               f"isotherm's offset can be told from {RIVALS['temperature_offset']} (cosines "
+                               + ", ".join(f"{T} degC {v:.3f}" for T, v in per.items())
+                               + f" >= {self.limits['rival']:g})")
+        return entry
+
+    def offset_test(self, fit: MasterCurveFit, isotherms=None) -> dict:
+        """Temperature offset of each inner isotherm against the smooth shift law of the others.
+
+        For an inner isotherm k (not the coldest nor the hottest: at an end of the range an
+        offset cannot be told from the curvature of the shift law; ``isotherms``: the indices
+        tested, default every inner one), the shift law (:attr:`shift`, with a free offset) is
+        fitted by weighted least squares to the free shifts of the other isotherms (weights:
+        the inverse variances of the screening fit) and predicts log10 aT_k. The deviation
+        d = a_k - a_k_pred has the variance of the free shifts' estimation error (delta method)
+        plus (OFFSET_MODEL_ERROR_C x |d log10 aT / dT|)^2, the misfit of the smooth law at an
+        isotherm without offset (set by the benchmark); z = d / sd gives a two-sided normal
+        p-value, Bonferroni-corrected over the isotherms tested, and the offset
+        dT = d / (d log10 aT / dT). The isotherm reported is the one whose removal leaves the
+        others most consistent with the law (smallest weighted residual of the fit to the
+        others): an offset isotherm among the others distorts their law and would make its
+        neighbours look offset (masking); when the fits to the others have no residual degree
+        of freedom, the one of largest |z|. Returns that isotherm: ``temperature_C, offset_C,
+        offset_C_se, z, p, deviation_decades, n_tested`` (and ``per_isotherm``, every isotherm
+        tested with its ``others_chi2``).
+        """
+        temps, a, cov = self.free_shifts(fit)
+        Tr = self.T_screen
+        inner = list(range(1, temps.size - 1)) if isotherms is None else [int(k) for k in isotherms]
         rows = []
-        floor = 1e-3  # decades: keeps the weights finite at the reference isotherm
         for k in inner:
             o = [i for i in range(temps.size) if i != k]
-            w = 1.0 / np.sqrt(np.diag(cov)[o] + floor**2)
-            res = least_squares(lambda t: (g(temps[o], t, Tr) - a[o]) * w, x_start, bounds=(lo_, hi))
+            res, g, w = self._smooth_law(temps, a, cov, o)
             th = res.x
             s_o = (g(temps[o] + 0.05, th, Tr) - g(temps[o] - 0.05, th, Tr)) / 0.1
             others_chi2 = float(np.sum((g(temps[o], th, Tr) - a[o]) ** 2
-                                       / (np.diag(cov)[o] + floor**2 + (OFFSET_MODEL_ERROR_C * s_o) ** 2)))
+                                       / (np.diag(cov)[o] + OFFSET_FLOOR_DECADES**2 + (OFFSET_MODEL_ERROR_C * s_o) ** 2)))
             G = res.jac / w[:, None]                     # d g(T_o) / d theta
             eps = 1e-6 * np.maximum(np.abs(th), 1e-3)
             gk = np.array([(g(temps[k], th + e, Tr) - g(temps[k], th - e, Tr)) / (2 * e[j])
@@ -694,7 +911,7 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
         rates = {n.removeprefix("drift_C_per_test_"): (est[n], est[n + "_se"]) for n in est
                  if n.startswith("drift_C_per_test_") and not n.endswith("_se")}
         worst = max(rates, key=lambda T: abs(rates[T][0]))
-        return (f"along the assumed test order ({ASSUMED_ORDER}; the table gives none) the isotherms read as if "
+        return (f"along the table's test order the isotherms read as if "
                 f"the specimen's temperature moved by, per test: "
                 + ", ".join(f"{T} degC {v:+.2f} +- {se:.2f}" for T, (v, se) in rates.items())
                 + f" degC; largest at {worst} degC, {est['size']:.1f} degC across the isotherm ({stat}, "
@@ -709,15 +926,37 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
     return stat
 
 
-def effect_entries(search: ArtifactSearch, result: dict) -> list:
-    """Report entries (name, detected, testable, score, p_value, estimate, evidence)."""
+def adjusted_p(p, null_min_p) -> float | None:
+    """Westfall-Young single-step min-P adjusted p-value of a nominal ``p``: the fraction
+    (1 + #{b: m_b <= p}) / (B + 1) of the procedure's statistic m_b on B tables of the
+    table's own fitted clean model (:mod:`asphalt_nscd.diagnosis.calibration`); None without
+    a calibration or a p-value."""
+    if p is None or null_min_p is None or not np.isfinite(p):
+        return None
+    m = np.asarray(null_min_p, float)
+    return float((1 + np.sum(m <= p)) / (m.size + 1))
+
+
+def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> list:
+    """Report entries (name, detected, testable, identifiable, identifiability, score,
+    p_value, p_calibrated, estimate, evidence). ``null_min_p``: the procedure's statistic on
+    the calibration tables (:func:`adjusted_p`), which gives ``p_calibrated``."""
     entries = []
+    identified = result.get("identified", {})
     for name in ARTIFACTS:
         testable, reason = search.testable[name]
         if not testable:
             entries.append({"name": name, "category": "data", "detected": False, "testable": False,
-                            "score": 0.0, "p_value": None, "estimate": {},
-                            "evidence": f"not testable: {reason}"})
+                            "identifiable": None, "identifiability": {}, "score": 0.0, "p_value": None,
+                            "p_calibrated": None, "estimate": {}, "evidence": f"not testable: {reason}"})
+            continue
+        ident = {k: v for k, v in identified.get(name, {}).items() if k != "isotherms"}
+        if not ident.get("identifiable", True):
+            entries.append({"name": name, "category": "data", "detected": False, "testable": True,
+                            "identifiable": False, "identifiability": ident, "score": 0.0, "p_value": None,
+                            "p_calibrated": None, "estimate": {},
+                            "evidence": f"not identifiable from this table: {ident['reason']}; never named nor "
+                                        "used to correct the data"})
             continue
         if name == "temperature_offset":
             off = result["offset"]
@@ -742,7 +981,9 @@ def effect_entries(search: ArtifactSearch, result: dict) -> list:
                                  "explains the table (a shift law or model-form departure)")
             detected = bool(off["detected"] and off.get("correction_applied", True))
             entries.append({"name": name, "category": "data", "detected": detected,
-                            "testable": True, "score": dphi + dE, "p_value": float(off["p"]),
+                            "testable": True, "identifiable": True, "identifiability": ident,
+                            "score": dphi + dE, "p_value": float(off["p"]),
+                            "p_calibrated": adjusted_p(off["p"], null_min_p), "level": off["level"],
                             "estimate": est, "evidence": evidence})
             continue
         t = result["tests"][name]
@@ -760,7 +1001,7 @@ def effect_entries(search: ArtifactSearch, result: dict) -> list:
         if name == "temperature_drift":  # the rate at the hottest isotherm, where it is largest
             hot = f"drift_C_per_test_{float(search.data['temperatures'].max()):g}"
             est.update({"drift_C_per_test": est[hot], "drift_C_per_test_se": est[hot + "_se"],
-                        "temperature_C": float(search.data["temperatures"].max()), "order": ASSUMED_ORDER})
+                        "temperature_C": float(search.data["temperatures"].max())})
         if name == "self_heating":
             vals = fit.x[idx]
             g0 = np.array(search.heating_effect(fit, vals))
@@ -775,9 +1016,12 @@ def effect_entries(search: ArtifactSearch, result: dict) -> list:
         dphi, dE = search.impact(fit, idx)
         est["phase_change_pct"] = dphi
         est["E_norm_change_pct"] = dE
+        p = None if not np.isfinite(t["p"]) else float(t["p"])
+        evidence = _evidence(name, est, t["F"], t["p"], search, fit)
+        if t.get("robustness"):
+            evidence += f"; {t['robustness']}"
         entries.append({"name": name, "category": "data", "detected": bool(t["detected"]),
-                        "testable": True, "score": dphi + dE,
-                        "p_value": None if not np.isfinite(t["p"]) else float(t["p"]),
-                        "estimate": est,
-                        "evidence": _evidence(name, est, t["F"], t["p"], search, fit)})
+                        "testable": True, "identifiable": True, "identifiability": ident, "score": dphi + dE,
+                        "p_value": p, "p_calibrated": adjusted_p(p, null_min_p), "level": result.get("level"),
+                        "estimate": est, "evidence": evidence})
     return entries

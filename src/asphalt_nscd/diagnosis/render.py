@@ -8,20 +8,29 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..lab.table_format import DisplayUnits
 from . import effects
-from .budget import T_key, nf_text, targets_met
+from .budget import T_key, nf_text
+
+
+def _units(report: dict) -> DisplayUnits:
+    """The units the lab wrote its table in (SI without a declaration)."""
+    return DisplayUnits(**(report.get("units") or {}))
 
 #: crossval model of the held-out "after" (and "before") of each gain source
 HELDOUT_MODELS = {"macro": ("burgers", "extended_law"), "nscd": (None, "nscd_sample"),
                   "law_only": (None, None)}
 
 
-def _heldout_value(report: dict, scheme: str, model: str | None, T: str, q: str):
+def _heldout_row(report: dict, scheme: str, model: str | None, T: str) -> dict | None:
+    """The held-out score row of (scheme, model) at temperature ``T`` (its interpolated cells,
+    else its extrapolated ones), or None."""
     h = report.get("heldout") or {}
-    try:
-        return h["mre"][scheme]["held_out"][model][T][q]
-    except (KeyError, TypeError):
-        return None
+    rows = [r for r in h.get("scores", []) if r["scheme"] == scheme and r["kind"] == "held_out"
+            and r["model"] == model and r.get("temperature_C") is not None and T_key(r["temperature_C"]) == T
+            and r["n_cells"]]
+    rows.sort(key=lambda r: r["extrapolation"])
+    return rows[0] if rows else None
 
 
 def gain_table(report: dict) -> pd.DataFrame:
@@ -36,14 +45,14 @@ def gain_table(report: dict) -> pd.DataFrame:
     empty when none), ``E_norm_mre_before_pct,
     E_norm_mre_after_pct, phase_mre_before_pct, phase_mre_after_pct`` (before: against the
     measured replicate means; after: against the artifact-corrected ones, %),
-    ``E_norm_mre_after_vs_measured_pct, phase_mre_after_vs_measured_pct`` and
-    ``targets_met`` (after-MREs within the targets). The "after" columns are in-sample (the
-    law was fitted on every cell). With crossval rows in the report (``heldout``), the held-out
-    MREs of the matching crossval model beside them: ``heldout_before_model``,
-    ``heldout_after_model`` (``burgers`` / ``extended_law`` for ``macro``, ``nscd_sample`` for
-    ``nscd``; empty when there is none), ``{E_norm,phase}_mre_{before,after}_heldout_{lofo,loto}_pct``
-    (against the measured means) and ``loto_extrapolation`` (the temperature is an end of the
-    tested range).
+    ``E_norm_mre_after_vs_measured_pct, phase_mre_after_vs_measured_pct``. The "after" columns
+    are in-sample (the law was fitted on every cell). With crossval rows in the report
+    (``heldout``), the held-out errors of the matching crossval model beside them:
+    ``heldout_before_model``, ``heldout_after_model`` (``burgers`` / ``extended_law`` for
+    ``macro``, ``nscd_sample`` for ``nscd``; empty when there is none),
+    ``{abs_logE_pct,abs_phase_deg}_{before,after}_heldout_{scheme}`` (absolute log error of
+    |E*|, %, and absolute Phi error, deg, of the temperature's interpolated cells, else its
+    extrapolated ones) and ``heldout_extrapolation_{scheme}``.
     """
     src = report["gain_sources"]
     models = src["models"]
@@ -60,7 +69,6 @@ def gain_table(report: dict) -> pd.DataFrame:
     applied = bool(tr.get("applied"))
     rows = []
     for source, gain, before_model, after_model in blocks:
-        met = targets_met(gain)
         nscd_after = source == "nscd" or source.endswith("_nscd_after")
         corrected = nscd_after and applied
         nf = (tr.get("network_factor_applied_mean") if corrected else
@@ -69,32 +77,34 @@ def gain_table(report: dict) -> pd.DataFrame:
         hb, ha = HELDOUT_MODELS.get(base, (None, None))
         if "_before_" in source:
             hb = HELDOUT_MODELS[source.split("_before_")[0]][0]
+        schemes = sorted((report.get("heldout") or {}).get("schemes", {}))
         for T, g in gain.items():
             held = {}
             if report.get("heldout") is not None:
                 held = {"heldout_before_model": hb or "", "heldout_after_model": ha or ""}
-                for when, model in (("before", hb), ("after", ha)):
-                    for scheme in ("lofo", "loto"):
-                        for q, key in (("E_norm", "E_norm_mre_pct"), ("phase", "phase_mre_pct")):
-                            v = _heldout_value(report, scheme, model, T, key) if model else None
-                            held[f"{q}_mre_{when}_heldout_{scheme}_pct"] = np.nan if v is None else float(v)
-                loto = ((report["heldout"]["mre"].get("loto") or {}).get("held_out") or {})
-                ext = next((m[T]["extrapolation"] for m in loto.values() if T in m), None)
-                held["loto_extrapolation"] = ext
+                for scheme in schemes:
+                    ext = None
+                    for when, model in (("before", hb), ("after", ha)):
+                        r = _heldout_row(report, scheme, model, T) if model else None
+                        held[f"abs_logE_pct_{when}_heldout_{scheme}"] = np.nan if r is None else r["abs_logE_pct"]
+                        held[f"abs_phase_deg_{when}_heldout_{scheme}"] = np.nan if r is None else r["abs_phase_deg"]
+                        ext = ext if r is None else r["extrapolation"]
+                    held[f"heldout_extrapolation_{scheme}"] = ext
             rows.append({"temperature_C": float(T), "source": source, "before_model": before_model,
                          "after_model": after_model, "transfer_correction": corrected,
                          "network_factor": np.nan if nf is None else float(nf),
                          "E_norm_mre_before_pct": g["E_norm"]["before"], "E_norm_mre_after_pct": g["E_norm"]["after"],
                          "phase_mre_before_pct": g["phase"]["before"], "phase_mre_after_pct": g["phase"]["after"],
                          "E_norm_mre_after_vs_measured_pct": g["E_norm"]["after_vs_measured"],
-                         "phase_mre_after_vs_measured_pct": g["phase"]["after_vs_measured"],
-                         "targets_met": met[T], **held})
+                         "phase_mre_after_vs_measured_pct": g["phase"]["after_vs_measured"], **held})
     return pd.DataFrame(rows)
 
 
-def budget_figure(budget: pd.DataFrame, path) -> None:
+def budget_figure(budget: pd.DataFrame, path, baseline: str = "") -> None:
     """Stacked bars of the error budget per temperature (top Phi, bottom |E*| MRE), saved to
-    ``path`` atomically."""
+    ``path`` atomically; ``baseline``: the report's baseline model (the title and the total's
+    label say what ran)."""
+    simulated = baseline.startswith("NSCD")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -116,12 +126,13 @@ def budget_figure(budget: pd.DataFrame, path) -> None:
         tot = budget[budget["component"] == "total"].set_index("temperature_C")
         if len(tot):
             ax.plot(x, [tot[col].get(T, np.nan) for T in temps], "k_", markersize=30, mew=2,
-                    label="total (simulation vs measured)")
+                    label="total (" + ("NSCD simulation" if simulated else "macro Burger's law") + " vs measured)")
         ax.set_ylabel(label)
     axes[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[1].set_xticks(x, [f"{T:g}" for T in temps])
     axes[1].set_xlabel("temperature (degC)")
-    fig.suptitle("Error budget of the simulation per temperature")
+    fig.suptitle("Error budget of the NSCD simulation per temperature" if simulated else
+                 "Error budget of the macro Burger's law per temperature (no simulation ran)")
     savefig(fig, path)
     plt.close(fig)
 
@@ -131,83 +142,190 @@ def _bracket(v) -> str:
     return "" if v is None or v != v else f" ({v:.2f})"
 
 
-HELDOUT_LABELS = {"burgers": "Burger's per isotherm (paper)", "extended_law": "extended law",
+HELDOUT_LABELS = {"burgers": "Burger's per isotherm (paper)", "extended_law": "extended law (selected)",
+                  "card_law": "law of the material card",
                   "nscd_sample": "NSCD sample (harmonic, law / NF_s)",
                   "nscd_time_domain": "NSCD sample (time domain, one fold)"}
 
 
-def _pair(d: dict | None) -> str:
-    """``E [lo-hi] / Phi [lo-hi]`` of one MRE entry (the intervals where the report has them)."""
-    if not d or d.get("E_norm_mre_pct") is None:
-        return "n/a"
-
-    def one(value, ci):
-        ok = ci is not None and len(ci) == 2 and all(v is not None and np.isfinite(v) for v in ci)
-        return f"{value:.2f}" + (f" [{ci[0]:.2f}-{ci[1]:.2f}]" if ok else "")
-
-    return f"{one(d['E_norm_mre_pct'], d.get('E_norm_ci95_pct'))} / {one(d['phase_mre_pct'], d.get('phase_ci95_pct'))}"
+def _num(v, fmt: str = ".2f") -> str:
+    return "n/a" if v is None or not np.isfinite(v) else format(v, fmt)
 
 
-def _ci(d: dict, prefix: str) -> str:
-    """``[lo-hi] (floor f)`` of a headline entry's interval and noise floor (%), or ''."""
-    lo, hi, fl = (d.get(f"{prefix}_{k}") for k in ("ci95_low", "ci95_high", "noise_floor_pct"))
-    text = f"[{lo:.2f}-{hi:.2f}]" if lo is not None and hi is not None and np.isfinite(lo) and np.isfinite(hi) else ""
-    if fl is not None and np.isfinite(fl):
-        text += f" (floor {fl:.2f})"
+def _with_ci(d: dict, key: str, fmt: str = ".2f") -> str:
+    """``v [lo, hi]`` of ``d[key]`` and its ``_ci95_low/_high`` (the interval where finite)."""
+    base = key.rsplit("_", 1)[0]
+    v, lo, hi = d.get(key), d.get(f"{base}_ci95_low"), d.get(f"{base}_ci95_high")
+    text = _num(v, fmt)
+    if lo is not None and hi is not None and np.isfinite(lo) and np.isfinite(hi):
+        text += f" [{lo:{fmt}}, {hi:{fmt}}]"
     return text
 
 
 def heldout_lines(report: dict) -> list:
-    """Markdown lines of the held-out headline (empty without crossval rows in the report)."""
+    """Markdown lines of the held-out errors: the headline per scheme and model (pooled over the
+    interpolated cells, with intervals and the one set of targets), the extrapolated cells
+    apart, the full table per temperature with the worst marked, and the schemes that have no
+    fold to compute (empty without crossval rows in the report)."""
     h = report.get("heldout")
     if not h:
         return []
-    mre = h["mre"]
-    lines = ["## Held-out errors (headline; MRE %, norm of E* / Phi, against the measured means)", "",
-             "Each fold refits the whole procedure (artifact correction, nested choice of the law's settings, "
-             "law) without its held-out rows: *lofo* leaves one frequency out at every temperature, *loto* "
-             "one isotherm (the end temperatures are extrapolations, marked *extrap.*). *In-sample*: the "
-             "same model fitted on every cell. Brackets: the 95 % interval of each MRE by a bootstrap over "
-             "the specimens (the reference means resampled, the predictions kept); *floor*: the noise floor "
-             "of the reference at that temperature, the mean relative standard error of the replicate "
-             "means. A target is *met* when the interval lies below it, *missed* when above, *undecided* "
-             "when it lies inside.", ""]
-    heads = [x for x in h["headline"] if x["kind"] == "held_out"]
+    t = report["targets"]
+    u = _units(report)
+    # the material card's law is the selected one: its rows repeat the selected law's (kept in the CSV)
+    same_card = bool((report.get("material_card") or {}).get("is_selected_law"))
+    skip = {"nscd_time_domain"} | ({"card_law"} if same_card else set())
+    lines = ["## Held-out errors", "",
+             "Each fold refits the whole procedure (artifact correction at the table's calibrated level, nested "
+             "choice of the law's settings, law) without its held-out rows: "
+             + "; ".join(f"*{k}*: {v}" for k, v in h.get("schemes", {}).items()) + ". "
+             "|E*| errors are log ratios (%), ln(predicted / the specimens' mean); Phi errors are in degrees. "
+             "*signed*: the mean error with its t(n-1) interval over the specimens; *absolute*: the mean absolute "
+             "error against the population of specimens (median and 95 % interval of a random-effect model of "
+             "the specimens; in brackets after *vs means*: against these specimens' means). loso scores each "
+             "specimen against itself, with t(n-1) intervals over the held-out specimens. "
+             f"Targets: absolute |E*| error <= {t['abs_logE_pct']:g} % and absolute Phi error <= "
+             f"{t['abs_phase_deg']:g} deg ({t['applies_to']}): *met* when the interval lies below, *missed* when "
+             "above, *undecided* when it straddles the target.", ""]
+    heads = [x for x in h["headline"] if x["kind"] == "held_out" and x["model"] not in skip]
     if heads:
-        lines += ["| scheme | model | worst T: MRE norm of E* [95 % CI] (floor) | worst T: MRE Phi [95 % CI] "
-                  "(floor) | held-out target | verdict E* / Phi |", "|---|---|---|---|---|---|"]
+        lines += ["| scheme | model | cells | |E*| signed % | |E*| absolute % (vs means) | Phi signed deg | "
+                  "Phi absolute deg (vs means) | verdict |E*| / Phi |", "|---|---|---|---|---|---|---|---|"]
         for x in heads:
-            t = x.get("targets") or {}
-            tgt = f"<= {t['E_norm_mre_pct']:g} / {t['phase_mre_pct']:g}" if t else "n/a"
-            where = "inner temperatures" if x["scheme"] == "loto" else "all temperatures"
-            verdict = f"{x.get('verdict_E_norm', 'n/a')} / {x.get('verdict_phase', 'n/a')}"
-            lines.append(f"| {x['scheme']} ({where}) | {HELDOUT_LABELS.get(x['model'], x['model'])} | "
-                         f"{x['worst_E_norm_pct']:.2f} {_ci(x, 'worst_E_norm')} ({x['worst_E_norm_T_C']:g} degC) | "
-                         f"{x['worst_phase_pct']:.2f} {_ci(x, 'worst_phase')} ({x['worst_phase_T_C']:g} degC) | "
-                         f"{tgt} | {verdict} |")
-        lines.append("")
-    for t in h.get("time_domain_check") or []:
-        lines += [f"Time domain vs harmonic solution of the NSCD sample with the law of the {t['scheme']} fold "
-                  f"{t['fold']} at {t['temperature_C']:g} degC, {t['frequency_Hz']:g} Hz (held out): norm of E* "
-                  f"{t['E_norm_MPa_time_domain']:.5g} vs {t['E_norm_MPa_harmonic']:.5g} MPa "
-                  f"({100 * t['E_norm_relative_difference']:+.3f} %), Phi {t['phase_deg_time_domain']:.3f} vs "
-                  f"{t['phase_deg_harmonic']:.3f} deg ({t['phase_difference_deg']:+.3f} deg).", ""]
-    models = [m for m in HELDOUT_LABELS if any(m in (mre.get(s) or {}).get(k, {}) for s in mre
-                                                for k in ("held_out", "in_sample"))]
-    temps = sorted({float(T) for s in mre.values() for k in s.values() for m in k.values() for T in m})
-    lines += ["| T (degC) | model | held out, lofo | held out, loto | in-sample |", "|---|---|---|---|---|"]
-    for T in temps:
-        key = T_key(T)
-        for m in models:
-            lofo = ((mre.get("lofo") or {}).get("held_out") or {}).get(m, {}).get(key)
-            loto = ((mre.get("loto") or {}).get("held_out") or {}).get(m, {}).get(key)
-            ins = None
-            for s in ("lofo", "loto"):
-                ins = ins or ((mre.get(s) or {}).get("in_sample") or {}).get(m, {}).get(key)
-            if lofo is None and loto is None and ins is None:
+            if not (x.get("interp_n_cells") or 0):
                 continue
-            lt = _pair(loto) + (" (extrap.)" if loto and loto.get("extrapolation") else "")
-            lines.append(f"| {T:g} | {HELDOUT_LABELS[m]} | {_pair(lofo)} | {lt} | {_pair(ins)} |")
+            lines.append(f"| {x['scheme']} | {HELDOUT_LABELS.get(x['model'], x['model'])} | "
+                         f"{int(x['interp_n_cells'])} | {_with_ci(x, 'interp_bias_logE_pct')} | "
+                         f"{_with_ci(x, 'interp_abs_logE_pct')} ({_num(x.get('interp_abs_logE_vs_means_pct'))}) | "
+                         f"{_with_ci(x, 'interp_bias_phase_deg')} | {_with_ci(x, 'interp_abs_phase_deg')} "
+                         f"({_num(x.get('interp_abs_phase_vs_means_deg'))}) | "
+                         f"{x.get('verdict_E_norm', 'n/a')} / {x.get('verdict_phase', 'n/a')} |")
+        extrap = [x for x in heads if (x.get("extrap_n_cells") or 0) > 0]
+        if extrap:
+            lines += ["", "Extrapolated cells (outside the fold's tested frequencies or temperatures), apart:", "",
+                      "| scheme | model | cells | |E*| absolute % | Phi absolute deg |", "|---|---|---|---|---|"]
+            for x in extrap:
+                lines.append(f"| {x['scheme']} | {HELDOUT_LABELS.get(x['model'], x['model'])} | "
+                             f"{int(x['extrap_n_cells'])} | {_with_ci(x, 'extrap_abs_logE_pct')} | "
+                             f"{_with_ci(x, 'extrap_abs_phase_deg')} |")
+        lines.append("")
+    for scheme, why in (h.get("not_computable") or {}).items():
+        lines += [f"*{scheme}*: no fold could be computed ({why}); nothing is drawn for it.", ""]
+    for td in h.get("time_domain_check") or []:
+        lines += [f"Time domain vs harmonic solution of the NSCD sample with the law of the {td['scheme']} fold "
+                  f"{td['fold']} at {td['temperature_C']:g} degC, {td['frequency_Hz']:g} Hz (held out): norm of E* "
+                  f"{td['E_norm_MPa_time_domain']:.5g} vs {td['E_norm_MPa_harmonic']:.5g} MPa "
+                  f"({100 * td['E_norm_relative_difference']:+.3f} %), Phi {td['phase_deg_time_domain']:.3f} vs "
+                  f"{td['phase_deg_harmonic']:.3f} deg ({td['phase_difference_deg']:+.3f} deg).", ""]
+    per_T = [r for r in h["scores"] if r.get("temperature_C") is not None and r["kind"] == "held_out"
+             and r["model"] not in skip and r["n_cells"]]
+    if per_T:
+        worst = {}
+        for r in per_T:
+            if not r["extrapolation"] and r.get("abs_logE_pct") is not None:
+                k = (r["scheme"], r["model"])
+                if k not in worst or r["abs_logE_pct"] > worst[k]:
+                    worst[k] = r["abs_logE_pct"]
+        lines += ["Per temperature (held out; * the largest absolute |E*| error of that scheme and model among "
+                  "its interpolated temperatures; MRE: the paper's Table 4 measure against the replicate means, %):",
+                  "", f"| {u.temperature_header()} | scheme | model | cells | |E*| absolute % | Phi absolute deg | "
+                  "MRE |E*| / Phi % |", "|---|---|---|---|---|---|---|"]
+        for r in sorted(per_T, key=lambda r: (r["temperature_C"], r["scheme"], r["model"], r["extrapolation"])):
+            mark = " *" if (not r["extrapolation"] and worst.get((r["scheme"], r["model"])) == r.get("abs_logE_pct")) else ""
+            ex = " (extrap.)" if r["extrapolation"] else ""
+            lines.append(f"| {u.temperature_cell(r['temperature_C'])}{ex} | {r['scheme']} | "
+                         f"{HELDOUT_LABELS.get(r['model'], r['model'])} "
+                         f"| {r['n_cells']} | {_with_ci(r, 'abs_logE_pct')}{mark} | {_with_ci(r, 'abs_phase_deg')} | "
+                         f"{_num(r.get('mre_E_norm_pct'))} / {_num(r.get('mre_phase_pct'))} |")
+    return lines + [""]
+
+
+def card_lines(report: dict) -> list:
+    """Markdown lines of the material card: the law it carries, what it loses against the
+    selected law and its own errors against the measured replicate means, per temperature (empty
+    without a card in the report)."""
+    card = report.get("material_card")
+    if not card:
+        return []
+    from ..rheology.export import loss_lines
+
+    lines = ["## Material card", "",
+             f"Relaxation Prony series of {card['n_terms']} terms at T_ref = "
+             f"{_units(report).temperature_text(card['T_ref_C'])}, E_0 = {_units(report).modulus_text(card['E_0_MPa'])}, "
+             "with a "
+             f"{card['shift']['law']} shift ({card['shift'].get('from', '')}); largest difference to the law it carries "
+             f"over the measured cells: {card['check']['max_E_norm_difference_pct']:.3g} % |E*|, "
+             f"{card['check']['max_phase_difference_deg']:.3g} deg."]
+    if not card["is_selected_law"]:
+        lines += ["", f"**The card does not carry the selected law.** The selected law ({card['selected_law']}) has "
+                  "what a Prony series with a shift function cannot carry; the card carries the best law without it, "
+                  f"fitted as such ({card['carries']}); its held-out errors are the *law of the material card* rows "
+                  "above."]
+    u = _units(report)
+    lines += ["", f"| {u.temperature_header()} | cells | card vs measured: \\|E*\\| mean / max % | Phi mean / max deg | "
+              "selected law vs measured: \\|E*\\| % | Phi deg | card vs selected law: \\|E*\\| % | Phi deg |",
+              "|---|---|---|---|---|---|---|---|"]
+    for r in card.get("loss") or []:
+        T = "all" if r["temperature_C"] == "all" else u.temperature_cell(r["temperature_C"])
+        lines.append(f"| {T} | {r['n_cells']} | {r['card_vs_measured_logE_pct_mean']:.2f} / "
+                     f"{r['card_vs_measured_logE_pct_max']:.2f} | {r['card_vs_measured_phase_deg_mean']:.2f} / "
+                     f"{r['card_vs_measured_phase_deg_max']:.2f} | {r['law_vs_measured_logE_pct_mean']:.2f} / "
+                     f"{r['law_vs_measured_logE_pct_max']:.2f} | {r['law_vs_measured_phase_deg_mean']:.2f} / "
+                     f"{r['law_vs_measured_phase_deg_max']:.2f} | {r['card_vs_law_logE_pct_mean']:.2f} / "
+                     f"{r['card_vs_law_logE_pct_max']:.2f} | {r['card_vs_law_phase_deg_mean']:.2f} / "
+                     f"{r['card_vs_law_phase_deg_max']:.2f} |")
+    lines += ["", "In-sample: against the measured replicate means the law was fitted on (every cell: "
+              "material_cards/card_errors.csv). " + (loss_lines(card)[0] if loss_lines(card) else "") + ".", ""]
+    return lines
+
+
+def findings_lines(report: dict) -> list:
+    """Markdown lines of the parameters outside their plausible range for a mix or at a bound
+    of their fit (empty when there are none)."""
+    found = {k: v for k, v in (report.get("findings") or {}).items() if v}
+    if not found:
+        return []
+    from ..rheology.plausibility import describe
+
+    lines = ["## Parameters at a bound or outside the plausible range", ""]
+    for what, items in found.items():
+        lines.append(f"- {what}: {describe(items)}")
+    return lines + ["", "Ranges and their sources: asphalt_nscd.rheology.plausibility (docs/choices.md).", ""]
+
+
+def quality_lines(report: dict) -> list:
+    """Markdown lines of the table's data quality: the lab's quality indicators and the rows
+    beyond their limits, and the outlying cells with their size (never dropped)."""
+    q = report.get("data_quality") or {}
+    ind, out = q.get("indicators") or {}, q.get("outliers") or []
+    u = _units(report)
+    lines = ["## Data quality", ""]
+    if ind.get("columns"):
+        lim = ", ".join(f"{k} <= {v:g}" for k, v in (ind.get("limits") or {}).items() if v is not None)
+        lines.append(f"Quality indicators of the lab ({lim}): {ind['n_flagged']} of {ind['n_rows']} rows beyond a limit"
+                     + (":" if ind["n_flagged"] else "."))
+        for r in ind["flagged"][:20]:
+            lines.append(f"- {r['specimen']}, {u.temperature_text(r['temperature_C'])}, {r['frequency_Hz']:g} Hz: "
+                         f"{r['reason']}")
+        if ind["n_flagged"] > 20:
+            lines.append(f"- ... and {ind['n_flagged'] - 20} more")
+        wf = report.get("law_without_flagged")
+        if wf:
+            lines += ["", wf]
+    else:
+        lines.append("The table carries no data-quality indicators (AASHTO T 378: load and deformation standard "
+                     "errors, deformation and phase uniformity; declare them in the sidecar's table.quality).")
+    lines.append("")
+    if out:
+        lines.append("Outlying cells (replicate mean against the isotherm's smooth course in the screening model, "
+                     "beyond the replicate scatter and the table's typical cell misfit; Bonferroni over the cells at "
+                     "1 %; reported, not dropped):")
+        for o in out:
+            lines.append(f"- {u.temperature_text(o['temperature_C'])}, {o['frequency_Hz']:g} Hz: {o['quantity']} "
+                         f"{o['size']:+.2f} {o['size_unit']} from the model (z = {o['z']:.2f}, p = {o['p']:.2g}, "
+                         f"{o['n']} tests; typical cell misfit {o['cell_misfit_sd']:.2f} {o['size_unit']})")
+    else:
+        lines.append("No outlying cell (replicate means against the isotherms' smooth course, Bonferroni at 1 %).")
     return lines + [""]
 
 
@@ -220,17 +338,23 @@ def selection_lines(report: dict) -> list:
     curve = pd.DataFrame(sel.get("curve") or [])
     rule = sel.get("rule") or "simplest candidate within one standard error of the best inner-CV score"
     lines = ["## Settings of the extended law, chosen by cross-validation", "",
-             f"Chosen: **{sel.get('chosen_label', '')}** ({rule}). Score: mean over the inner folds (every "
+             f"Selected: **{sel.get('chosen_label', '')}** ({rule}). Score: mean over the inner folds (every "
              "frequency, every interior temperature left out) of max(MRE norm of E* / tol_E, MRE Phi / "
              "tol_Phi); lower is better.", ""]
+    lines += [f"- {n}" for n in sel.get("notes") or []] + ([""] if sel.get("notes") else [])
     if len(curve) and "cv_score" in curve:
-        lines += ["| setting | fitted parameters | CV score | s.e. | chosen |", "|---|---|---|---|---|"]
+        lines += ["| setting | fitted parameters | CV score | s.e. | plausible | card carries it | selected |",
+                  "|---|---|---|---|---|---|---|"]
         shown = curve.sort_values("cv_score").head(6)
-        shown = pd.concat([shown, curve[curve["chosen"].astype(bool) & ~curve.index.isin(shown.index)]])
+        chosen = curve["chosen"].astype(bool) | curve.get("chosen_card", pd.Series(False, index=curve.index)).astype(bool)
+        shown = pd.concat([shown, curve[chosen & ~curve.index.isin(shown.index)]])
         for _, r in shown.iterrows():
             sc = "n/a" if pd.isna(r["cv_score"]) else f"{r['cv_score']:.3f}"
             se = "n/a" if pd.isna(r.get("cv_score_se")) else f"{r['cv_score_se']:.3f}"
-            lines.append(f"| {r['settings']} | {int(r['n_params'])} | {sc} | {se} | {bool(r['chosen'])} |")
+            plaus = "yes" if r.get("plausible", True) else f"no ({r.get('findings', '')})"
+            sel_ = "**selected**" if r["chosen"] else ("card" if r.get("chosen_card") else "")
+            lines.append(f"| {r['settings']} | {int(r['n_params'])} | {sc} | {se} | {plaus} | "
+                         f"{'yes' if r.get('carriable', True) else 'no'} | {sel_} |")
         lines += ["", f"{len(curve)} candidates in all (the whole curve: extended_law_cv_curve.csv)."]
     return lines + [""]
 
@@ -244,11 +368,17 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
     """The report page "What the simulation gets wrong" (Markdown) from a diagnose report: header,
     held-out errors, selected settings, gain, causes, Kramers-Kronig consistency, error budget and
     the budget figure's link (``figure``, a file name)."""
-    lines = ["# What the simulation gets wrong", "",
+    simulated = report["baseline"]["model"].startswith("NSCD")
+    title = ("What the simulation gets wrong" if simulated else
+             "What the paper's Burger's law gets wrong on this table (no simulation ran)")
+    lines = [f"# {title}", "",
              f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
              f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", ""]
     lines += heldout_lines(report)
+    lines += card_lines(report)
     lines += selection_lines(report)
+    lines += findings_lines(report)
+    lines += quality_lines(report)
     lines += gain_lines(report)
     lines += cause_lines(report)
     lines += kramers_kronig_lines(report)
@@ -289,8 +419,8 @@ def gain_lines(report: dict) -> list[str]:
                   "themselves (Burger's before, generalized Burger's after), no simulation. "
                   f"Before: against the {src['reference']['before']}; after: against the "
                   f"{src['reference']['after']} (in brackets: against the measured means)." + note, "",
-                  "| T (degC) | source | MRE \\|E*\\| before | after | MRE Phi before | after | targets met |",
-                  "|---|---|---|---|---|---|---|"]
+                  f"| {_units(report).temperature_header()} | source | MRE \\|E*\\| before | after | MRE Phi before | after |",
+                  "|---|---|---|---|---|---|"]
         order = {"law_only": 1, "macro": 2}
         rows = rows.assign(_o=rows["source"].map(lambda x: order.get(x, 0)))
         for _, r in rows.sort_values(["temperature_C", "_o"]).iterrows():
@@ -301,53 +431,90 @@ def gain_lines(report: dict) -> list[str]:
                 label = f"{labels[b]} -> {labels[a.replace('_after', '')]}"
             if r["transfer_correction"]:
                 label += f" (+ transfer correction, NF_s = {r['network_factor']:.4g})"
-            lines.append(f"| {r['temperature_C']:g} | {label} | {r['E_norm_mre_before_pct']:.2f} | "
+            lines.append(f"| {_units(report).temperature_cell(r['temperature_C'])} | {label} | {r['E_norm_mre_before_pct']:.2f} | "
                          f"{r['E_norm_mre_after_pct']:.2f}{_bracket(r['E_norm_mre_after_vs_measured_pct'])} | "
                          f"{r['phase_mre_before_pct']:.2f} | {r['phase_mre_after_pct']:.2f}"
-                         f"{_bracket(r['phase_mre_after_vs_measured_pct'])} | {bool(r['targets_met'])} |")
+                         f"{_bracket(r['phase_mre_after_vs_measured_pct'])} |")
     else:
-        lines += ["| T (degC) | MRE \\|E*\\| before (%) | after (%) | MRE Phi before (%) | after (%) | targets met |",
-                  "|---|---|---|---|---|---|"]
+        lines += [f"| {_units(report).temperature_header()} | MRE \\|E*\\| before (%) | after (%) | MRE Phi before (%) | after (%) |",
+                  "|---|---|---|---|---|"]
         for T, g in report["gain"].items():
-            lines.append(f"| {T} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
-                         f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} | {report['targets']['met'][T]} |")
-    lines += ["", f"Targets: |E*| MRE <= {report['targets']['E_norm_mre_pct']:g} %, "
-              f"Phi MRE <= {report['targets']['phase_mre_pct']:g} %."]
+            lines.append(f"| {_units(report).temperature_cell(float(T))} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
+                         f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} |")
+    lines += ["", "In-sample: the law was fitted on every cell; no target applies (the targets are on the held-out "
+              "errors above)."]
+    return lines
+
+
+def _p_cell(p) -> str:
+    return "n/a" if p is None else effects.format_p(p)
+
+
+def artifact_lines(report: dict) -> list[str]:
+    """Page section: what the table's design can identify (each candidate's collinearity with
+    the screening model and with its rival), the level of the selection and its calibration on
+    the table itself, and each candidate's nominal and calibrated p-values."""
+    sel = report.get("selection") or {}
+    cal = report.get("calibration")
+    lines = ["", "## Data artifacts: what this table can identify, at a controlled error rate", "",
+             "A candidate is tested only if the table's design tells its signature from the screening model's own "
+             "freedom (cosine with the model's span, limit in brackets) and from its rival, the explanation that is "
+             "not an artifact (largest canonical correlation beyond the model). The tested candidates are selected "
+             "forward under Holm's step-down; the first step's level is the smaller of the nominal alpha / m and the "
+             "level calibrated on this table."]
+    if cal is not None:
+        a, cm = cal["artifacts"], cal["clean_model"]
+        rate = a["rate"]
+        lines[-1] += (f" Calibration: the whole procedure rerun on {cal['n_tables']} tables simulated from this "
+                      f"table's fitted clean model (its screening fit with {cm['shifts']}, its specimen factors, point "
+                      f"scatter {100 * cm['sigma_point_lnE']:.1f} % / {cm['sigma_point_phase_deg']:.2f} deg and cell "
+                      f"misfit {100 * cm['sigma_cell_lnE']:.1f} % / {cm['sigma_cell_phase_deg']:.2f} deg, its design; seed "
+                      f"{cal['seed']}): the level holding the family-wise false-alarm rate at "
+                      f"{cal['familywise_rate'] / cal['groups']:g} (the artifacts' share of {cal['familywise_rate']:g}) is "
+                      f"{a['calibrated_level']:.3g}; nominal {a['nominal_level']:.3g}; used {a['level']:.3g} "
+                      f"({a['binding']}). Out of sample (cross-fitted halves) the procedure at that level named an "
+                      f"artifact on {rate['k']} of {rate['n']} clean tables ({100 * rate['rate']:.1f} %, 95 % interval "
+                      f"{100 * rate['ci95'][0]:.1f}-{100 * rate['ci95'][1]:.1f} %).")
+    elif sel:
+        lines[-1] += f" No calibration was given: the nominal level {sel.get('level', float('nan')):.3g} is used."
+    lines += ["", "| candidate | testable | identifiable (null cosine; rival correlation) | p nominal | p calibrated "
+              "| named |", "|---|---|---|---|---|---|"]
+    for e in report["effects"]:
+        if e["category"] != "data":
+            continue
+        idf = e.get("identifiability") or {}
+        if not e["testable"]:
+            ident = "n/a"
+        else:
+            nc, rc = idf.get("null_correlation"), idf.get("rival_correlation")
+            ident = (("yes" if e.get("identifiable") else "**no**")
+                     + f" ({_num(nc, '.3f') if nc is not None else '-'}; {_num(rc, '.3f') if rc is not None else '-'})")
+        lines.append(f"| {e['name']} | {'yes' if e['testable'] else 'no'} | {ident} | {_p_cell(e.get('p_value'))} | "
+                     f"{_p_cell(e.get('p_calibrated'))} | {'**yes**' if e['detected'] else 'no'} |")
     return lines
 
 
 def cause_lines(report: dict) -> list[str]:
-    """Page section: the named causes (most important first), the candidates not named and
-    what their p-values mean (artifact screening range)."""
+    """Page section: the named causes (most important first), the data artifacts' section
+    (:func:`artifact_lines`), and the candidates not named with why."""
     lines = ["", "## Named causes (most important first)", ""]
     by = {e["name"]: e for e in report["effects"]}
     if not report["causes"]:
         lines.append("None at the chosen significance level and tolerances.")
     for name in report["causes"]:
         e = by[name]
-        lines.append(f"- **{name}** ({e['category']}, {_p_text(e['p_value'])}, score {e['score']:.2f}): "
+        p = "" if e.get("p_calibrated") is None else f", calibrated p = {effects.format_p(e['p_calibrated'])}"
+        lines.append(f"- **{name}** ({e['category']}, {_p_text(e['p_value'])}{p}, score {e['score']:.2f}): "
                      f"{e['evidence']}")
+    lines += artifact_lines(report)
     lines += ["", "## Candidates not named", ""]
     for e in report["effects"]:
         if not e["detected"]:
             p = "" if e["p_value"] is None else f" ({_p_text(e['p_value'])})"
             lines.append(f"- {e['name']}{p}: {e['evidence']}")
-    scr = report.get("artifact_screening") or {}
-    where = ""
-    if scr:
-        where = (f" The screening model fits this table with a reduced chi-square of {scr['chi2_per_dof']:.2f} "
-                 f"(clean benchmark tables: 99 % below {scr['bench_clean_chi2_per_dof_q99']:.2f}, all below "
-                 f"{scr['bench_clean_chi2_per_dof_max']:.2f}): "
-                 + ("inside the range where the false-alarm rates were measured."
-                    if scr["within_bench_range"] else
-                    "beyond 99 % of the clean tables on which the false-alarm rates were measured, so the "
-                    "data-artifact p-values below are nominal: the model misfits this table, and a term can "
-                    "absorb misfit."))
-    lines += ["", "Data artifacts: nominal p-values of nested master-curve tests; the false-alarm rates of "
-              "these decisions are measured by `asphalt-nscd diagnose-bench` on tables drawn from truths "
-              "outside the detector's model (docs/choices.md, Diagnosis)." + where + " broad_spectrum: held-out "
-              "(leave one frequency out) errors, no p-value; network_factor and time_integration: "
-              "deterministic effects with their numerical uncertainty against a tolerance, no p-value."]
+    lines += ["", "broad_spectrum: held-out (leave one frequency out) errors, no p-value; network_factor and "
+              "time_integration: deterministic effects with their numerical uncertainty against a tolerance, no "
+              "p-value."]
     return lines
 
 
@@ -374,14 +541,14 @@ def budget_lines(report: dict) -> list[str]:
     """Page section: the error budget table (MRE %, |E*| / Phi, per temperature and component)
     and what each component compares."""
     lines = ["", "## Error budget (MRE %, \\|E*\\| / Phi)", "",
-             "| T (degC) | data artifacts | model form | micro-macro transfer | numerics | total |",
+             f"| {_units(report).temperature_header()} | data artifacts | model form | micro-macro transfer | numerics | total |",
              "|---|---|---|---|---|---|"]
     for T, comp in report["error_budget"].items():
         cells = []
         for c in ("data_artifacts", "model_form", "micro_macro_transfer", "numerics", "total"):
             v = comp.get(c)
             cells.append("n/a" if v is None else f"{v['mre_E_norm_pct']:.2f} / {v['mre_phase_pct']:.2f}")
-        lines.append(f"| {T} | " + " | ".join(cells) + " |")
+        lines.append(f"| {_units(report).temperature_cell(float(T))} | " + " | ".join(cells) + " |")
     total = "the NSCD simulation" if report["baseline"]["model"].startswith("NSCD") else "the macro Burger's law"
     lines += ["", "Components: data artifacts = measured vs artifact-corrected means; model form = macro "
               "Burger's law vs corrected means; micro-macro transfer = harmonic response of the NSCD "

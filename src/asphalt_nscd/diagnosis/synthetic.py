@@ -11,10 +11,11 @@ and AMPT PP 61, each with its declared test geometry, recorded in the truth as a
 would give it.
 
 :func:`generate` draws the specimens (log-normal |E*| factor, phase offset), the point noise
-of ln|E*| and Phi, ``strain_microstrain`` and ``test_order`` (temperatures ascending,
-frequencies descending within an isotherm), and plants effects at random sizes:
+of ln|E*| and Phi, ``strain_microstrain`` and ``test_order`` (temperatures ascending; within
+an isotherm the order of ``order``), and plants effects at random sizes:
 ``time_lag``, ``inertia_uncorrected``, ``temperature_offset``, ``strain_nonlinearity``,
-``temperature_drift`` (the table then carries no test_order) and ``self_heating``; the truth
+``temperature_drift`` and ``self_heating`` (both along the test order: by default each
+specimen's frequencies in a random order, ``order``); the truth
 JSON uses the estimate keys of the diagnosis report. :func:`kk_reference` gives the
 Kramers-Kronig statistic of clean isotherms, the reference of its percentile.
 
@@ -205,7 +206,8 @@ def random_effect(name: str, rng: np.random.Generator, temperatures, test: str =
 
 def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: int | None = None,
              magnitudes: dict | None = None, family: str = "wlf",
-             frequencies_Hz=None, test_order: bool = True) -> tuple[pd.DataFrame, dict]:
+             frequencies_Hz=None, test_order: bool = True, order: str = "random",
+             vertical_per_100K: float = 0.0) -> tuple[pd.DataFrame, dict]:
     """Generate a synthetic measured table and its truth.
 
     Parameters
@@ -228,7 +230,18 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
         Frequencies in test order (default the schedule's), e.g. those of a measured table.
     test_order : bool
         Keep the ``test_order`` column (False: a table that gives no order, as many labs'
-        do; always False with a planted temperature drift).
+        do; an effect along the tests is then not testable).
+    order : {"random", "standard", "repeat"}
+        The order of an isotherm's tests: ``random`` (each specimen's frequencies in a random
+        order, drawn from a child generator ``default_rng([seed, 4])``), ``standard`` (the
+        schedule's, monotone in frequency) or ``repeat`` (the schedule's, then its first
+        frequency again: a check many labs run). An effect along the tests (self-heating, a
+        temperature drift) can be told from one along the frequency in the random and repeat
+        orders only (docs/choices.md, Diagnosis: what a table can identify). The repeat's own
+        draws come from ``default_rng([seed, 5])``; the other rows do not depend on the order.
+    vertical_per_100K : float
+        A vertical shift of the material (not an artifact): every |E*| times
+        10^(v (T - T_ref) / 100 K), decades per 100 K (a thermorheologically complex mix; 0: none).
 
     Returns
     -------
@@ -262,6 +275,8 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
         raise ValueError(f"n_specimens must lie in 1-5, got {n_specimens}")
     truth = random_truth(rng)
     truth.update(random_family(family, np.random.default_rng([seed, 1])))
+    if vertical_per_100K:
+        truth["vertical_per_100K"] = float(vertical_per_100K)
     noise = {"specimen_lnE_sigma": float(rng.uniform(0.02, 0.05)),
              "specimen_phase_sigma_deg": 0.15,
              "point_lnE_sigma": float(rng.uniform(0.005, 0.02)),
@@ -293,43 +308,60 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
     cell_err = {(T, f): (hard.normal(0.0, ratio * noise["point_lnE_sigma"]),
                          hard.normal(0.0, ratio * noise["point_phase_sigma_deg"]))
                 for T in temps for f in freqs}
+    if order not in ("random", "standard", "repeat"):
+        raise ValueError(f"unknown order '{order}'; expected random, standard or repeat")
+    repeat = order == "repeat"
+    rng_order = np.random.default_rng([seed, 4])
+    rng_repeat = np.random.default_rng([seed, 5])
+    n_max = len(freqs) - (0 if repeat else 1)  # last test step of an isotherm
+
+    def point(draw, s, c, p0, T, f, n):
+        T_eff = T
+        if "temperature_offset" in planted and T == planted["temperature_offset"]["temperature_C"]:
+            T_eff += planted["temperature_offset"]["offset_C"]
+        if "temperature_drift" in planted:
+            rate = planted["temperature_drift"]["drift_C_per_test"] * (T - min(temps)) / (max(temps) - min(temps))
+            T_eff += rate * (n - 0.5 * n_max)
+        strain = draw.uniform(30.0, 150.0)
+        ce, cp = cell_err[(T, f)]
+        E = complex(truth_modulus(truth, f, T_eff)) * np.exp(
+            c + slope[s] * (T - truth["T_ref_C"]) + ce + 1j * np.radians(p0 + cp)) \
+            * 10.0 ** (vertical_per_100K * (T_eff - truth["T_ref_C"]) / 100.0)
+        if "self_heating" in planted:
+            sh = planted["self_heating"]
+            E = abs(E) * np.exp(-sh["modulus_drop_pct_per_test"] / 100 * n
+                                + 1j * np.angle(E) * (1 + sh["phase_rise_pct_per_test"] / 100 * n))
+        if "strain_nonlinearity" in planted:
+            E *= np.exp(-planted["strain_nonlinearity"]["modulus_drop_per_100_microstrain"] * strain / 100.0)
+        if "inertia_uncorrected" in planted:
+            E -= gamma * 1e-6 * planted["inertia_uncorrected"]["mass_factor_g"] * (2 * np.pi * f) ** 2
+        if "time_lag" in planted:
+            E *= np.exp(1j * 2 * np.pi * f * planted["time_lag"]["time_lag_ms"] * 1e-3)
+        lnE = np.log(abs(E)) + draw.normal(0.0, noise["point_lnE_sigma"])
+        phase = np.degrees(np.angle(E)) + draw.normal(0.0, noise["point_phase_sigma_deg"])
+        return {"specimen": f"S{s + 1}", "temperature_C": T, "frequency_Hz": f,
+                "E_norm_MPa": float(np.exp(lnE)), "phase_deg": float(np.clip(phase, 0.01, 89.9)),
+                "strain_microstrain": round(float(strain), 2)}
+
     rows = []
     for s in range(n_specimens):
         c = rng.normal(0.0, noise["specimen_lnE_sigma"])
         p0 = rng.normal(0.0, noise["specimen_phase_sigma_deg"])
-        order = 0
+        done = 0
         for T in temps:
-            for n, f in enumerate(freqs):
-                order += 1
-                T_eff = T
-                if "temperature_offset" in planted and T == planted["temperature_offset"]["temperature_C"]:
-                    T_eff += planted["temperature_offset"]["offset_C"]
-                if "temperature_drift" in planted:
-                    rate = planted["temperature_drift"]["drift_C_per_test"] * (T - min(temps)) / (max(temps) - min(temps))
-                    T_eff += rate * (n - 0.5 * (len(freqs) - 1))
-                strain = rng.uniform(30.0, 150.0)
-                ce, cp = cell_err[(T, f)]
-                E = complex(truth_modulus(truth, f, T_eff)) * np.exp(
-                    c + slope[s] * (T - truth["T_ref_C"]) + ce + 1j * np.radians(p0 + cp))
-                if "self_heating" in planted:
-                    sh = planted["self_heating"]
-                    E = abs(E) * np.exp(-sh["modulus_drop_pct_per_test"] / 100 * n
-                                        + 1j * np.angle(E) * (1 + sh["phase_rise_pct_per_test"] / 100 * n))
-                if "strain_nonlinearity" in planted:
-                    E *= np.exp(-planted["strain_nonlinearity"]["modulus_drop_per_100_microstrain"] * strain / 100.0)
-                if "inertia_uncorrected" in planted:
-                    E -= gamma * 1e-6 * planted["inertia_uncorrected"]["mass_factor_g"] * (2 * np.pi * f) ** 2
-                if "time_lag" in planted:
-                    E *= np.exp(1j * 2 * np.pi * f * planted["time_lag"]["time_lag_ms"] * 1e-3)
-                lnE = np.log(abs(E)) + rng.normal(0.0, noise["point_lnE_sigma"])
-                phase = np.degrees(np.angle(E)) + rng.normal(0.0, noise["point_phase_sigma_deg"])
-                rows.append({"specimen": f"S{s + 1}", "temperature_C": T, "frequency_Hz": f,
-                             "E_norm_MPa": float(np.exp(lnE)), "phase_deg": float(np.clip(phase, 0.01, 89.9)),
-                             "strain_microstrain": round(float(strain), 2), "test_order": order})
-    table = pd.DataFrame(rows).sort_values(["temperature_C", "frequency_Hz", "specimen"]).reset_index(drop=True)
-    if "temperature_drift" in planted or not test_order:  # no test order: the detector assumes the standard one
+            steps = rng_order.permutation(len(freqs)) if order == "random" else np.arange(len(freqs))
+            for i, f in enumerate(freqs):
+                rows.append({**point(rng, s, c, p0, T, f, int(steps[i])), "test_order": done + int(steps[i]) + 1})
+            done += len(freqs)
+            if repeat:
+                done += 1
+                rows.append({**point(rng_repeat, s, c, p0, T, freqs[0], len(freqs)), "test_order": done})
+    table = pd.DataFrame(rows).sort_values(["temperature_C", "frequency_Hz", "specimen", "test_order"])\
+        .reset_index(drop=True)
+    if not test_order:
         table = table.drop(columns="test_order")
     info = {"seed": int(seed), "schedule": schedule, "family": family, "test": test.to_json(),
+            "test_order": bool(test_order), "order": order,
             "n_specimens": n_specimens, "parameters": truth, "noise": noise, "effects": planted}
     return table, info
 
@@ -350,6 +382,7 @@ def kk_reference(frequencies_Hz, n_specimens: int, n_tables: int = 200, seed: in
     for i in range(int(n_tables)):
         fam = families[i % len(families)]
         t, _ = generate(int(np.random.SeedSequence([seed, i]).generate_state(1)[0]), schedule="aashto_t342",
-                        n_specimens=int(min(max(n_specimens, 1), 5)), family=fam, frequencies_Hz=freqs)
+                        n_specimens=int(min(max(n_specimens, 1), 5)), family=fam, frequencies_Hz=freqs,
+                        test_order=False)
         out.extend(isotherm_residuals(t).to_numpy(float))
     return np.asarray(out)

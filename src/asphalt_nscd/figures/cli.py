@@ -64,8 +64,12 @@ def _master_curve_figures(args) -> int:
     from ..rheology.sigmoid import fit_sigmoid
     from . import master_curves as mc
 
-    master = read(args.master_curve).master
+    from ..lab.table_format import DisplayUnits
+
+    rec = read(args.master_curve)
+    master = rec.master
     corrected = read_corrected(args.corrected_table)
+    units = DisplayUnits(**rec.units) if rec.units else DisplayUnits()
     law = read_json(args.law_json, "law JSON") if args.law_json else None
     sig = fit_sigmoid(corrected, master.T_ref_C)
     two = {"model": "2S2P1D", "shift": master.shift, "T_ref_C": master.T_ref_C,
@@ -76,8 +80,10 @@ def _master_curve_figures(args) -> int:
             {**two, **{f"2S2P1D_{k}": v for k, v in dict(zip(master.names, master.x)).items()
                        if not k.startswith(("ln_spec", "phase_spec"))}}]
     write_csv(pd.DataFrame(rows), args.sigmoid)
-    for fig, path in ((mc.master_curve_figure(master, corrected, law, sig), args.master_figure),
-                      (mc.shift_factor_figure(master, law, sig, corrected["temperature_C"].unique()), args.shift_figure)):
+    free = {float(T): float(v) for T, v in rec.free_shifts.items()} if rec.free_shifts else None
+    for fig, path in ((mc.master_curve_figure(master, corrected, law, sig, units), args.master_figure),
+                      (mc.shift_factor_figure(master, law, sig, corrected["temperature_C"].unique(), free, units),
+                       args.shift_figure)):
         savefig(fig, path)
         plt.close(fig)
     if law is not None and (args.residual_figure or args.residual_table):
@@ -85,7 +91,7 @@ def _master_curve_figures(args) -> int:
         if args.residual_table:
             write_csv(res, args.residual_table)
         if args.residual_figure:
-            fig = mc.residual_figure(res)
+            fig = mc.residual_figure(res, units)
             savefig(fig, args.residual_figure)
             plt.close(fig)
     return 0

@@ -58,6 +58,14 @@ SCHEMA = {
         "table": {"type": "object",
                   "description": "how the lab wrote the table: units, form of the modulus, column names "
                                  "(asphalt_nscd.lab.table_format)"},
+        "display": {"type": "object",
+                    "properties": {"modulus_unit": {"enum": ["MPa", "GPa", "kPa", "ksi", "psi"]},
+                                   "temperature_unit": {"enum": ["C", "F"]}},
+                    "required": ["modulus_unit", "temperature_unit"], "additionalProperties": False,
+                    "description": "the units the lab wrote a table in that is now in the project's columns "
+                                   "(figures and pages show them, SI beside)"},
+        "quality_limits": {"type": "object", "additionalProperties": {"type": "number", "exclusiveMinimum": 0},
+                           "description": "limits of the table's data-quality indicators (asphalt_nscd.lab.checks)"},
     },
     "required": ["test"],
     "additionalProperties": False,
@@ -93,6 +101,10 @@ class DeclaredTest:
     description: str = ""
     #: how the lab wrote the table (:class:`asphalt_nscd.lab.table_format.TableFormat`), or None
     table: object = None
+    #: the units to show the table in ({modulus_unit, temperature_unit}; empty: MPa and degC)
+    display: dict = field(default_factory=dict)
+    #: limits of the data-quality indicators (over asphalt_nscd.lab.checks.LIMITS)
+    quality_limits: dict = field(default_factory=dict)
 
     @property
     def form_factor_per_mm(self) -> float | None:
@@ -134,6 +146,10 @@ class DeclaredTest:
         out = {"test": self.test, **self.values, "source": source}
         if self.description:
             out["description"] = self.description
+        if self.display:
+            out["display"] = dict(self.display)
+        if self.quality_limits:
+            out["quality_limits"] = dict(self.quality_limits)
         return out
 
 
@@ -147,6 +163,13 @@ def from_dict(obj, where: str) -> DeclaredTest:
     """
     import jsonschema
 
+    if not isinstance(obj, dict):
+        raise InputError(f"{where}: expected a JSON object with key 'test' ({' | '.join(TESTS)})")
+    if "test" not in obj:
+        raise InputError(f"{where}: key 'test' missing; expected one of {list(TESTS)}")
+    for k, v in obj.items():
+        if isinstance(v, float) and not math.isfinite(v):
+            raise InputError(f"{where}: key '{k}': {v} is not a finite number; expected a positive number or null")
     validator = jsonschema.Draft202012Validator(SCHEMA)
     errors = sorted(validator.iter_errors(obj), key=lambda e: (list(e.absolute_path), e.message))
     if errors:
@@ -169,18 +192,25 @@ def from_dict(obj, where: str) -> DeclaredTest:
         raise InputError(f"{where}: key '{key}': {msg}")
     test = obj["test"]
     values = {k: (None if v is None else float(v)) for k, v in obj.items()
-              if k not in ("test", "description", "source", "table")}
+              if k not in ("test", "description", "source", "table", "display", "quality_limits")}
     if test == "2pb_trapezoid" and None not in (values.get("b_mm"), values.get("B_mm")) \
             and values["b_mm"] >= values["B_mm"]:
         raise InputError(f"{where}: key 'b_mm': head width {values['b_mm']:g} mm must be smaller than the "
                          f"base width B_mm = {values['B_mm']:g} mm")
     table = None
+    display = dict(obj.get("display", {}))
+    limits = dict(obj.get("quality_limits", {}))
     if "table" in obj:
         from .table_format import TableFormat
 
         table = TableFormat.from_dict(obj["table"], str(where))
+        display = {"modulus_unit": table.modulus_unit, "temperature_unit": table.temperature_unit}
+        limits = {**limits, **table.quality_limits}
+    if display == {"modulus_unit": "MPa", "temperature_unit": "C"}:
+        display = {}
     return DeclaredTest(test=test, values=values, origin=str(where), source=str(obj.get("source", "")),
-                        description=str(obj.get("description", "")), table=table)
+                        description=str(obj.get("description", "")), table=table, display=display,
+                        quality_limits=limits)
 
 
 def load_test(path) -> DeclaredTest:

@@ -19,7 +19,9 @@ A lab's own table (other column names, ksi or psi, degF, E1 and E2) is read thro
 ``table`` block of its sidecar (:mod:`asphalt_nscd.lab.table_format`) and converted to these
 columns; the carried columns keep the lab's originals.
 
-(specimen, temperature_C, frequency_Hz) must be unique. The test that produced the table
+(specimen, temperature_C, frequency_Hz) must be unique, or, with a ``test_order``, unique
+with its test order (a frequency tested again at the end of an isotherm: a repeat, which
+is what lets an effect along the tests be told from one along the frequency). The test that produced the table
 (2PB trapezoid, uniaxial cylinder or unknown, with its dimensions) is declared in a JSON
 sidecar ``<table stem>.test.json`` or an explicit file (:mod:`asphalt_nscd.lab.geometry`);
 :func:`load_measured` attaches it to the frame as ``frame.attrs["test"]``. Any violation raises
@@ -34,6 +36,8 @@ for a single specimen) of |E*| and Phi per (temperature, frequency) (the measure
 
 from __future__ import annotations
 
+import logging
+import re
 from pathlib import Path
 
 import numpy as np
@@ -125,8 +129,10 @@ def load_measured(path, test=None) -> pd.DataFrame:
     ------
     InputError
         if the file is missing, empty, not a CSV text table, lacks a required column,
-        holds a non-numeric, NaN or out-of-range value, or repeats a
-        (specimen, temperature_C, frequency_Hz) key — naming file, line and column; or if
+        holds a non-numeric, NaN or out-of-range value (:mod:`.checks`: values no
+        complex-modulus test of a bituminous material gives), or repeats a
+        (specimen, temperature_C, frequency_Hz) key (with the same test_order, when the table
+        has one) — naming file, line and column; or if
         the test-geometry JSON is invalid (naming that file and the key).
     """
     from .geometry import declared_test
@@ -165,6 +171,11 @@ def load_measured(path, test=None) -> pd.DataFrame:
         out[column] = values.astype(int) if column == "test_order" else values
 
     _reject_duplicate_keys(path, out)
+    from .checks import check_values
+
+    unit = declared.table.modulus_unit if declared.table is not None else "MPa"
+    for text in check_values(out, path, unit):
+        logging.getLogger("asphalt_nscd").warning("%s", text)
 
     for column in frame.columns:
         if column not in out.columns:
@@ -172,16 +183,24 @@ def load_measured(path, test=None) -> pd.DataFrame:
                 out[column] = pd.to_numeric(frame[column])
             except (ValueError, TypeError):
                 out[column] = frame[column]
-    out = out.sort_values(["temperature_C", "frequency_Hz", "specimen"], kind="stable").reset_index(drop=True)
+    order = ["temperature_C", "frequency_Hz", "specimen"] + (["test_order"] if "test_order" in out.columns else [])
+    out = out.sort_values(order, kind="stable").reset_index(drop=True)
     out.attrs["test"] = declared
     return out
 
 
 def _read_text_table(path: Path) -> pd.DataFrame:
-    """The CSV at ``path`` as text cells (str, no NaN), header names stripped.
+    """The CSV at ``path`` as text cells (str, no NaN), header names stripped. Columns may be
+    separated by commas, semicolons or tabs (the header's most frequent one); a table separated
+    by semicolons or tabs may write decimal commas (``0,5``), read as points. Blank lines at the
+    end of the file are ignored.
 
-    Raises InputError if the file is missing, not a .csv, empty, binary, not readable as CSV,
-    or repeats a column name."""
+    Raises InputError if the file is missing, not a .csv, empty, binary, not readable as CSV
+    (a line with more fields than the header: decimal commas in a comma-separated file?), or
+    repeats a column name."""
+    import csv
+    import io
+
     if not path.is_file():
         raise InputError(f"{path}: file not found")
     if path.suffix.lower() != ".csv":
@@ -192,20 +211,43 @@ def _read_text_table(path: Path) -> pd.DataFrame:
     if b"\x00" in raw:
         raise InputError(f"{path}: not a CSV text file (binary content)")
     try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False)
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    text = text.rstrip("\r\n\t ") + "\n"  # trailing blank lines
+    first = text.splitlines()[0]
+    sep = max((",", ";", "\t"), key=first.count)
+    header = next(csv.reader([first], delimiter=sep))
+    names = [h.strip() for h in header]
+    dups = sorted({n for n in names if names.count(n) > 1})
+    if dups:
+        raise InputError(f"{path}: line 1 (header): duplicated column(s) {dups}")
+    for i, row in enumerate(csv.reader(io.StringIO(text), delimiter=sep)):
+        if row and len(row) != len(header):
+            hint = (" (unquoted decimal commas in a comma-separated file? write 0.5, or separate the columns "
+                    "with ';')" if sep == "," and len(row) > len(header) and re.search(r"\d,\d", text) else "")
+            raise InputError(f"{path}: line {i + 1}: {len(row)} fields, the header has {len(header)}{hint}")
+    try:
+        frame = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skip_blank_lines=False, sep=sep,
+                            index_col=False)
+    except pd.errors.ParserError as exc:
         raise InputError(f"{path}: not a readable CSV file ({exc})") from None
-    frame.columns = [str(c).strip() for c in frame.columns]
-    dup_cols = frame.columns[frame.columns.duplicated()].tolist()
-    if dup_cols:
-        raise InputError(f"{path}: line 1 (header): duplicated column(s) {dup_cols}")
+    if sep != ",":
+        decimal = re.compile(r"^\s*-?\d+,\d+(?:[eE][-+]?\d+)?\s*$")
+        for c in frame.columns:
+            col = frame[c]
+            if col.str.match(decimal).any():
+                frame[c] = col.str.replace(",", ".", regex=False).where(col.str.match(decimal), col)
+    frame.columns = names
     return frame
 
 
 def _reject_duplicate_keys(path: Path, out: pd.DataFrame) -> None:
     """Raise InputError naming the file lines of the first repeated (specimen, temperature_C,
-    frequency_Hz) key of ``out`` (rows in file order), if any."""
-    dup = out.duplicated(subset=list(KEY_COLUMNS), keep=False).to_numpy()
+    frequency_Hz) key of ``out`` (rows in file order), if any; with a ``test_order`` column a
+    key repeated at another test order is a repeated test, not a duplicate."""
+    key = list(KEY_COLUMNS) + (["test_order"] if "test_order" in out.columns else [])
+    dup = out.duplicated(subset=key, keep=False).to_numpy()
     if dup.any():
         rows = np.flatnonzero(dup)
         first = out.iloc[rows[0]]
@@ -213,9 +255,10 @@ def _reject_duplicate_keys(path: Path, out: pd.DataFrame) -> None:
             (out["specimen"].iloc[rows] == first["specimen"]).to_numpy()
             & (out["temperature_C"].iloc[rows] == first["temperature_C"]).to_numpy()
             & (out["frequency_Hz"].iloc[rows] == first["frequency_Hz"]).to_numpy()
+            & ((out["test_order"].iloc[rows] == first["test_order"]).to_numpy() if "test_order" in key else True)
         ]
         raise InputError(
-            f"{path}: lines {', '.join(str(_line(i)) for i in same)}, columns {list(KEY_COLUMNS)}: duplicate row "
+            f"{path}: lines {', '.join(str(_line(i)) for i in same)}, columns {key}: duplicate row "
             f"(specimen={first['specimen']!r}, temperature_C={first['temperature_C']:g}, frequency_Hz={first['frequency_Hz']:g})"
         )
 

@@ -20,6 +20,11 @@ columns            optional: the table's header of each quantity (``specimen``,
                    ``temperature``, ``frequency``, ``modulus``, ``phase``, ``storage``,
                    ``loss``, ``strain``, ``test_order``); a quantity not mapped is found by
                    its common names (:data:`ALIASES`, case, spaces and punctuation ignored)
+quality            optional: the table's header of each data-quality indicator
+                   (``load_standard_error_pct``, ``deformation_standard_error_pct``,
+                   ``deformation_uniformity_pct``, ``phase_uniformity_deg``: AASHTO T 378),
+                   read into columns ``quality_<indicator>``
+quality_limits     optional: {indicator: limit} replacing the AASHTO T 378 limits
 =================  ===================================================================
 
 A table whose header has the project's own columns needs no declaration. Any other table
@@ -31,6 +36,7 @@ without one, or a declaration that names a missing column or an unknown unit, is
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 
@@ -43,6 +49,9 @@ from ..io import InputError
 MODULUS_UNITS = {"MPa": 1.0, "GPa": 1e3, "kPa": 1e-3, "ksi": 6.894757293168361, "psi": 6.894757293168361e-3}
 TEMPERATURE_UNITS = ("C", "F")
 MODULUS_FORMS = ("norm_phase", "storage_loss")
+#: the data-quality indicators a table may carry (AASHTO T 378; limits: asphalt_nscd.lab.checks.LIMITS)
+QUALITY_INDICATORS = ("load_standard_error_pct", "deformation_standard_error_pct", "deformation_uniformity_pct",
+                      "phase_uniformity_deg")
 #: the quantities a table maps to the project's columns
 QUANTITIES = ("specimen", "temperature", "frequency", "modulus", "phase", "storage", "loss", "strain", "test_order")
 #: common header names of each quantity in AASHTO, EN and lab tables (compared without case,
@@ -83,6 +92,8 @@ class TableFormat:
     modulus_form: str = "norm_phase"
     columns: dict = field(default_factory=dict)
     where: str = ""
+    quality: dict = field(default_factory=dict)
+    quality_limits: dict = field(default_factory=dict)
 
     @classmethod
     def from_dict(cls, obj, where: str) -> "TableFormat":
@@ -96,7 +107,7 @@ class TableFormat:
         if not isinstance(obj, dict):
             raise InputError(f"{where}: key 'table': expected an object with modulus_unit, temperature_unit, "
                              "modulus_form, columns")
-        allowed = {"modulus_unit", "temperature_unit", "modulus_form", "columns"}
+        allowed = {"modulus_unit", "temperature_unit", "modulus_form", "columns", "quality", "quality_limits"}
         extra = sorted(set(obj) - allowed)
         if extra:
             raise InputError(f"{where}: key 'table.{extra[0]}': unknown key; allowed: {sorted(allowed)}")
@@ -114,7 +125,21 @@ class TableFormat:
         if bad:
             raise InputError(f"{where}: key 'table.columns.{bad[0]}': unknown quantity; expected one of "
                              f"{list(QUANTITIES)}")
-        return cls(obj["modulus_unit"], obj["temperature_unit"], obj["modulus_form"], dict(cols), where)
+        quality = obj.get("quality", {})
+        if not isinstance(quality, dict) or not all(isinstance(v, str) for v in quality.values()):
+            raise InputError(f"{where}: key 'table.quality': expected {{indicator: header}} with indicators "
+                             f"{list(QUALITY_INDICATORS)}")
+        limits = obj.get("quality_limits", {})
+        for key, block in (("quality", quality), ("quality_limits", limits)):
+            bad = sorted(set(block) - set(QUALITY_INDICATORS)) if isinstance(block, dict) else ["(not an object)"]
+            if bad:
+                raise InputError(f"{where}: key 'table.{key}.{bad[0]}': unknown indicator; expected one of "
+                                 f"{list(QUALITY_INDICATORS)}")
+        for k, v in limits.items():
+            if not isinstance(v, (int, float)) or isinstance(v, bool) or not (v > 0 and math.isfinite(v)):
+                raise InputError(f"{where}: key 'table.quality_limits.{k}': expected a positive number, got {v!r}")
+        return cls(obj["modulus_unit"], obj["temperature_unit"], obj["modulus_form"], dict(cols), where,
+                   dict(quality), {k: float(v) for k, v in limits.items()})
 
     def needed(self) -> tuple:
         """Quantities the table must give."""
@@ -173,6 +198,7 @@ def to_own_columns(frame: pd.DataFrame, fmt: TableFormat, path) -> tuple[pd.Data
                                  f"'table.columns.{q}'")
             continue
         found[q] = col
+    _check_columns(found, fmt, path)
 
     def number(q):
         col = found[q]
@@ -206,9 +232,121 @@ def to_own_columns(frame: pd.DataFrame, fmt: TableFormat, path) -> tuple[pd.Data
         if q in found and found[q] != OWN_COLUMNS[q]:
             out[OWN_COLUMNS[q]] = frame[found[q]]
             labels[OWN_COLUMNS[q]] = f"{OWN_COLUMNS[q]} (from '{found[q]}')"
+    for indicator, col in fmt.quality.items():
+        if col not in frame.columns:
+            raise InputError(f"{fmt.where or path}: key 'table.quality.{indicator}': column {col!r} is not in the "
+                             f"table's header {list(frame.columns)}")
+        v = pd.to_numeric(frame[col].str.strip(), errors="coerce")
+        bad = np.flatnonzero(v.isna().to_numpy() & (frame[col].str.strip() != "").to_numpy())
+        if bad.size:
+            raise InputError(f"{path}: line {int(bad[0]) + 2}, column '{col}': value {frame[col].iloc[bad[0]]!r} is "
+                             f"not a number; expected the data-quality indicator {indicator}")
+        out[f"quality_{indicator}"] = v.to_numpy(float)
     return out, labels
+
+
+#: a unit written in a header: 'E_norm_MPa', '|E*| (ksi)', 'Temp (F)', 'temperature_degC'
+_HEADER_UNIT = re.compile(r"(?:^|[\s_(\[/])(mpa|gpa|kpa|ksi|psi|degc|degf|°c|°f|c|f)(?:$|[\s_)\]])", re.IGNORECASE)
+
+
+def header_unit(header: str, quantity: str) -> str | None:
+    """The unit a header names for ``quantity`` (temperature: ``C`` | ``F``; a modulus: a key of
+    :data:`MODULUS_UNITS`), or None."""
+    for m in _HEADER_UNIT.finditer(str(header)):
+        u = m.group(1).lower().replace("deg", "").replace("°", "")
+        if quantity == "temperature" and u in ("c", "f"):
+            return u.upper()
+        if quantity in ("modulus", "storage", "loss"):
+            for unit in MODULUS_UNITS:
+                if u == unit.lower():
+                    return unit
+    return None
+
+
+def _check_columns(found: dict, fmt: TableFormat, path) -> None:
+    """Refuse a declaration that maps two quantities to one column, or whose unit contradicts
+    the unit a mapped column's header names (both named)."""
+    seen = {}
+    for q, col in found.items():
+        if col in seen:
+            raise InputError(f"{path}: column '{col}' is mapped to both the {seen[col]} and the {q} "
+                             f"({fmt.where or 'the sidecar'} key 'table.columns'); one column per quantity")
+        seen[col] = q
+    for q, col in found.items():
+        declared = fmt.temperature_unit if q == "temperature" else fmt.modulus_unit if q in ("modulus", "storage",
+                                                                                             "loss") else None
+        named = header_unit(col, q)
+        if declared is not None and named is not None and named != declared:
+            key = "temperature_unit" if q == "temperature" else "modulus_unit"
+            raise InputError(f"{path}: column '{col}' names the unit {named}, but {fmt.where or 'the sidecar'} key "
+                             f"'table.{key}' declares {declared}; declare the column's unit (or map another column)")
 
 
 def _unit(fmt: TableFormat, q: str) -> str:
     return {"temperature": f"deg{fmt.temperature_unit}", "modulus": fmt.modulus_unit, "storage": fmt.modulus_unit,
             "loss": fmt.modulus_unit, "phase": "degrees", "frequency": "Hz"}.get(q, "the table's unit")
+
+
+@dataclass(frozen=True)
+class DisplayUnits:
+    """The units a lab wrote its table in, for figures, tables and pages: values are kept in
+    MPa and degC inside (SI) and shown in the lab's units with SI beside.
+
+    ``modulus``: a key of :data:`MODULUS_UNITS`; ``temperature``: ``C`` or ``F``."""
+
+    modulus: str = "MPa"
+    temperature: str = "C"
+
+    @classmethod
+    def of(cls, test) -> "DisplayUnits":
+        """The units of a declared test (:class:`asphalt_nscd.lab.geometry.DeclaredTest`: its
+        ``display`` units; the project's own MPa and degC without)."""
+        display = getattr(test, "display", None) or {}
+        if not display:
+            return cls()
+        return cls(display["modulus_unit"], display["temperature_unit"])
+
+    @property
+    def is_si(self) -> bool:
+        return self.modulus == "MPa" and self.temperature == "C"
+
+    def modulus_value(self, E_MPa):
+        """|E*| in the lab's unit from MPa (scalar or array)."""
+        return np.asarray(E_MPa, float) / MODULUS_UNITS[self.modulus] if np.ndim(E_MPa) else \
+            float(E_MPa) / MODULUS_UNITS[self.modulus]
+
+    def temperature_value(self, T_C):
+        """Temperature in the lab's unit from degC (scalar or array)."""
+        if self.temperature == "C":
+            return T_C
+        return np.asarray(T_C, float) * 1.8 + 32.0 if np.ndim(T_C) else float(T_C) * 1.8 + 32.0
+
+    def modulus_text(self, E_MPa: float) -> str:
+        """``4,000 ksi (27,579 MPa)``, or ``27,579 MPa`` in SI."""
+        si = f"{E_MPa:,.4g} MPa" if E_MPa < 1e4 else f"{E_MPa:,.0f} MPa"
+        if self.modulus == "MPa":
+            return si
+        v = self.modulus_value(E_MPa)
+        return f"{v:,.4g} {self.modulus} ({si})"
+
+    def temperature_text(self, T_C: float) -> str:
+        """``69.8 degF (21 degC)``, or ``21 degC`` in SI."""
+        if self.temperature == "C":
+            return f"{T_C:g} degC"
+        return f"{self.temperature_value(T_C):.4g} degF ({T_C:g} degC)"
+
+    def temperature_header(self) -> str:
+        return "T (degC)" if self.temperature == "C" else "T (degF (degC))"
+
+    def temperature_cell(self, T_C: float) -> str:
+        """A table cell: ``21`` or ``69.8 (21)``."""
+        return f"{T_C:g}" if self.temperature == "C" else f"{self.temperature_value(T_C):.4g} ({T_C:g})"
+
+    def modulus_label(self) -> str:
+        return f"|E*| ({self.modulus})"
+
+    def temperature_label(self) -> str:
+        return "temperature (°C)" if self.temperature == "C" else "temperature (°F)"
+
+    def as_dict(self) -> dict:
+        return {"modulus": self.modulus, "temperature": self.temperature}

@@ -103,43 +103,68 @@ def _add_export_law(subparsers) -> None:
                     "TIME=PRONY, *TRS WLF), an LS-DYNA *MAT_GENERAL_VISCOELASTIC card, a JSON and a CSV; checked "
                     "against the law at every measured cell.")
     p.add_argument("--law-json", type=Path, required=True,
-                   help="law JSON of 'asphalt-nscd extend-law' (results/diagnosis/generalized_burgers.json)")
+                   help="the law the card carries: law JSON of 'asphalt-nscd extend-law --card-law' "
+                        "(results/diagnosis/card_law.json)")
+    p.add_argument("--selected-law-json", type=Path, default=None,
+                   help="the selected law (extend-law -o), against which the card's loss is stated (default: the "
+                        "--law-json law)")
     p.add_argument("--measured", type=Path, required=True,
-                   help="measured table or summary whose (temperature, frequency) cells the card is checked at")
+                   help="measured summary (temperature_C, frequency_Hz, E_norm_MPa_mean, phase_deg_mean: "
+                        "asphalt-nscd measured --summary) whose cells the card is checked at")
+    p.add_argument("--test", type=Path, default=None,
+                   help="the measured table's test JSON (asphalt-nscd measured --test-output): the units the lab "
+                        "wrote the table in, for the cards' comments (the cards themselves stay in MPa, s, degC)")
     p.add_argument("-o", "--output", type=Path, required=True, help="directory of the cards")
     p.add_argument("--name", default="ASPHALT_MIX", help="material name of the Abaqus card")
     p.add_argument("--per-decade", type=float, default=3.0, help="relaxation times per decade of the Prony series")
     p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of the cards (constant)")
-    p.add_argument("--allow-loss", action="store_true",
-                   help="write the cards even if they miss the law by more than 0.5 %% / 0.2 deg at a cell")
     p.set_defaults(func=_export)
 
 
 def _export(args) -> int:
-    import pandas as pd
+    import logging
 
     from ..io import InputError, atomic_path, read_json, write_csv, write_json
+    from ..lab.measured import read_summary
     from . import export
 
     law = read_json(args.law_json, "law JSON")
-    cells = pd.read_csv(args.measured)
-    missing = {"temperature_C", "frequency_Hz"} - set(cells.columns)
-    if missing:
-        raise InputError(f"{args.measured}: line 1 (header): missing column(s) {sorted(missing)}")
-    cells = cells[["temperature_C", "frequency_Hz"]].drop_duplicates()
+    selected = read_json(args.selected_law_json, "selected law JSON") if args.selected_law_json else law
+    summary = read_summary(args.measured)
+    cells = summary[["temperature_C", "frequency_Hz"]].drop_duplicates()
     try:
         card = export.prony_card(law, cells, per_decade=args.per_decade, nu=args.nu)
     except InputError as exc:
         raise InputError(f"{args.law_json}: {exc}") from None
     c = card["check"]
-    if not card["exact"] and not args.allow_loss:
+    if not card["exact"]:
         raise InputError(
-            f"{args.law_json}: the Prony series with a WLF shift misses the law by "
+            f"{args.law_json}: the Prony series with a WLF shift misses the law it carries by "
             f"{c['max_E_norm_difference_pct']:.3g} % |E*| (at {c['at_E'][0]:g} degC, {c['at_E'][1]:g} Hz) and "
             f"{c['max_phase_difference_deg']:.3g} deg (at {c['at_phase'][0]:g} degC, {c['at_phase'][1]:g} Hz), above "
             f"{export.TOLERANCE_E_PCT} % / {export.TOLERANCE_PHASE_DEG} deg; not carried by a single Prony + shift "
-            f"law: {', '.join(c['not_carried']) or 'none of the law settings (a wider fit band or more terms?)'}; "
-            "use --allow-loss to write it anyway")
+            f"law: {', '.join(c['not_carried']) or 'none of the law settings (more terms: --per-decade?)'}; no card "
+            "written (give it the law of 'extend-law --card-law')")
+    try:
+        errors = export.card_errors(card, summary, selected)
+    except InputError as exc:
+        raise InputError(f"{args.selected_law_json or args.law_json}: {exc}") from None
+    carried = (law.get("model") or {}).get("settings") or {}
+    chosen = (selected.get("selection") or {}).get("chosen_label") or ""
+    label = (law.get("card") or {}).get("settings") or ""
+    display = {}
+    if args.test is not None:
+        from ..lab.geometry import load_test
+        from ..lab.table_format import DisplayUnits
+
+        display = DisplayUnits.of(load_test(args.test)).as_dict()
+    card.update({"carries": label, "selected_law": chosen,
+                 "is_selected_law": bool((law.get("card") or {}).get("is_selected_law", True)),
+                 "carried_settings": carried, "findings": (law.get("model") or {}).get("findings") or [],
+                 "display": display, "loss": export.loss_by_temperature(errors)})
+    log = logging.getLogger("asphalt_nscd")
+    for line in export.loss_lines(card):
+        (log.info if card["is_selected_law"] else log.warning)("material card: %s", line)
     out = args.output
     out.mkdir(parents=True, exist_ok=True)
     for name, text in (("abaqus.inp", export.abaqus_card(card, args.name)), ("lsdyna.k", export.lsdyna_card(card))):
@@ -147,6 +172,7 @@ def _export(args) -> int:
             tmp.write_text(text)
     write_json(export.card_json(card), out / "prony.json")
     write_csv(export.card_table(card), out / "prony.csv")
+    write_csv(errors, out / "card_errors.csv")
     return 0
 
 

@@ -24,11 +24,15 @@ Construction (:func:`prony_card`):
 
 What a single Prony series with a shift law cannot carry: a vertical shift, a static modulus
 that changes with temperature, the per-isotherm refinement of the law (its settings in the
-law JSON). The card is then compared with the law at every calibrated cell and the largest
+law JSON). ``extend-law --card-law`` therefore writes the law a card carries: the selected
+law when it has none of these, else the best candidate without them, fitted as such. The
+card is compared with the law it carries at every calibrated cell and the largest
 differences of |E*| (%) and Phi (deg) are written beside it (``check`` of the JSON); above
 :data:`TOLERANCE_E_PCT` / :data:`TOLERANCE_PHASE_DEG` the card is flagged ``exact: false``
-with the settings that cause it, and ``asphalt-nscd export-law`` refuses to write it unless
-``--allow-loss`` is given.
+and ``asphalt-nscd export-law`` refuses to write it. What the card loses against the
+selected law, and its own errors against the measured replicate means, per cell and per
+temperature (:func:`card_errors`, :func:`loss_by_temperature`), are written in the card's
+header, in its JSON and on the console.
 
 Writers: :func:`abaqus_card` (input-file fragment), :func:`lsdyna_card` (keyword card,
 consistent units N, mm, s, tonne: moduli in MPa), :func:`card_json`, :func:`card_table`.
@@ -168,6 +172,74 @@ def _card_check(card: dict, entries: dict, settings: dict, T: np.ndarray, f: np.
     return check, bool(dE[iE] <= TOLERANCE_E_PCT and dP[iP] <= TOLERANCE_PHASE_DEG)
 
 
+def card_errors(card: dict, summary: pd.DataFrame, selected_law: dict) -> pd.DataFrame:
+    """Per measured cell: the card's, the selected law's and the measured replicate means'
+    |E*| (MPa) and Phi (deg), and the errors (|E*| as 100 ln(a / b), %, Phi in deg) of the card
+    and of the law against the measured means and of the card against the law. ``summary``:
+    ``temperature_C, frequency_Hz, E_norm_MPa_mean, phase_deg_mean``; ``selected_law``: its law
+    JSON, with an entry at every measured temperature.
+
+    Raises InputError if the law lacks a measured temperature."""
+    from . import law_file
+
+    T = summary["temperature_C"].to_numpy(float)
+    f = summary["frequency_Hz"].to_numpy(float)
+    entries = {t: g.scaled(1e-6) for t, g in law_file.validate(selected_law, "selected law JSON").items()}
+    E_law = law_file.complex_modulus(entries, T, f, "selected law JSON")
+    E_card = card_modulus(card, f, T)
+    E_m = summary["E_norm_MPa_mean"].to_numpy(float)
+    P_m = summary["phase_deg_mean"].to_numpy(float)
+    out = pd.DataFrame({"temperature_C": T, "frequency_Hz": f, "E_norm_MPa_measured": E_m, "phase_deg_measured": P_m,
+                        "E_norm_MPa_card": np.abs(E_card), "phase_deg_card": np.degrees(np.angle(E_card)),
+                        "E_norm_MPa_law": np.abs(E_law), "phase_deg_law": np.degrees(np.angle(E_law))})
+    for a, b in (("card", "measured"), ("law", "measured"), ("card", "law")):
+        out[f"{a}_vs_{b}_logE_pct"] = 100 * np.log(out[f"E_norm_MPa_{a}"] / out[f"E_norm_MPa_{b}"])
+        out[f"{a}_vs_{b}_phase_deg"] = out[f"phase_deg_{a}"] - out[f"phase_deg_{b}"]
+    return out
+
+
+def loss_by_temperature(errors: pd.DataFrame) -> list[dict]:
+    """Per temperature (and ``all``): mean and max of the absolute errors of
+    :func:`card_errors` (|E*| %, Phi deg) of the card and of the law against the measured means
+    and of the card against the law."""
+    out = []
+    groups = [(float(T), g) for T, g in errors.groupby("temperature_C")] + [("all", errors)]
+    for T, g in groups:
+        row = {"temperature_C": T, "n_cells": int(len(g))}
+        for pair in ("card_vs_measured", "law_vs_measured", "card_vs_law"):
+            for q in ("logE_pct", "phase_deg"):
+                a = g[f"{pair}_{q}"].abs()
+                row[f"{pair}_{q}_mean"] = float(a.mean())
+                row[f"{pair}_{q}_max"] = float(a.max())
+        out.append(row)
+    return out
+
+
+def loss_lines(card: dict, units=None) -> list[str]:
+    """What the card loses, one line per temperature (the card's header and the console);
+    ``units``: :class:`asphalt_nscd.lab.table_format.DisplayUnits` of the temperatures (default:
+    the card's ``display`` units, else degC)."""
+    from ..lab.table_format import DisplayUnits
+
+    if card.get("loss") is None:
+        return []
+    if units is None:
+        units = DisplayUnits(**card["display"]) if card.get("display") else DisplayUnits()
+    head = (f"the card carries the law '{card['carries']}'" + (" (the selected law)" if card["is_selected_law"] else
+            f", not the selected '{card['selected_law']}', which a Prony series with a shift function cannot carry"))
+    lines = [head + "; |E*| (mean / max |ln ratio|, %) and Phi (mean / max |difference|, deg) per temperature:"]
+    for r in card["loss"]:
+        T = "all" if r["temperature_C"] == "all" else units.temperature_text(r["temperature_C"])
+        lines.append(f"{T}: card vs measured {r['card_vs_measured_logE_pct_mean']:.2f} / "
+                     f"{r['card_vs_measured_logE_pct_max']:.2f} %, {r['card_vs_measured_phase_deg_mean']:.2f} / "
+                     f"{r['card_vs_measured_phase_deg_max']:.2f} deg; selected law vs measured "
+                     f"{r['law_vs_measured_logE_pct_mean']:.2f} / {r['law_vs_measured_logE_pct_max']:.2f} %, "
+                     f"{r['law_vs_measured_phase_deg_mean']:.2f} / {r['law_vs_measured_phase_deg_max']:.2f} deg; "
+                     f"card vs selected law {r['card_vs_law_logE_pct_mean']:.2f} / {r['card_vs_law_logE_pct_max']:.2f} %, "
+                     f"{r['card_vs_law_phase_deg_mean']:.2f} / {r['card_vs_law_phase_deg_max']:.2f} deg")
+    return lines
+
+
 def card_modulus(card: dict, frequency_Hz, temperature_C) -> np.ndarray:
     """E* (MPa) of a card at (f Hz, T degC) pairs: the Prony series at the shifted frequency."""
     f, T = np.broadcast_arrays(np.asarray(frequency_Hz, float), np.asarray(temperature_C, float))
@@ -188,9 +260,10 @@ def abaqus_card(card: dict, name: str = "ASPHALT_MIX") -> str:
     lines = [f"** Linear viscoelastic material card written by asphalt-nscd export-law",
              f"** E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; "
              f"units MPa, s, degC; g_inf = {card['g_inf']:.6g}",
-             f"** largest difference to the law over {card['check']['n_cells']} calibrated cells: "
+             f"** largest difference to the law it carries over {card['check']['n_cells']} calibrated cells: "
              f"{card['check']['max_E_norm_difference_pct']:.3g} % |E*|, "
              f"{card['check']['max_phase_difference_deg']:.3g} deg phase",
+             *(f"** {line}" for line in loss_lines(card)),
              f"*MATERIAL, NAME={name}",
              "*ELASTIC, MODULI=INSTANTANEOUS",
              f"{card['E_0_MPa']:.9g}, {card['nu']:.6g}",
@@ -212,6 +285,7 @@ def lsdyna_card(card: dict, mid: int = 1, density_t_mm3: float = 2.4e-9) -> str:
     bulk = card["E_0_MPa"] * k
     lines = ["$ Linear viscoelastic material card written by asphalt-nscd export-law (units N, mm, s, tonne; MPa)",
              f"$ E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; WLF shift",
+             *(f"$ {line}" for line in loss_lines(card)),
              "*MAT_GENERAL_VISCOELASTIC",
              "$      MID        RO      BULK       PCF        EF      TREF         A         B",
              "".join(f"{v:>10}" for v in (mid, f"{density_t_mm3:.3e}", f"{bulk:.3e}", 0, 0,

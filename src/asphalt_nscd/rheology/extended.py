@@ -89,6 +89,13 @@ class LawSettings:
             object.__setattr__(self, "refine", float(self.refine))
 
     @property
+    def carriable(self) -> bool:
+        """Whether a relaxation Prony series with a shift function (a material card,
+        :mod:`asphalt_nscd.rheology.export`) carries the law: no vertical shift, no static
+        modulus trend, no per-isotherm refinement."""
+        return not self.vertical and self.static != "trend" and self.refine is None
+
+    @property
     def structure(self) -> tuple:
         """The settings that change the backbone fit (all but ``per_decade``)."""
         return (self.shift, self.static, self.vertical, self.refine)
@@ -137,7 +144,8 @@ class Backbone:
     """Fitted backbone modulus of :class:`ThermoLaw` (module docstring), MPa.
 
     ``names``/``x``: parameter layout and values; ``temperatures``: training isotherms (degC,
-    sorted) of the refinement; ``cost``: the robust objective at the solution.
+    sorted) of the refinement; ``cost``: the robust objective at the solution; ``lower`` /
+    ``upper``: the fit's bounds (None when not fitted here).
     """
 
     settings: LawSettings
@@ -146,6 +154,25 @@ class Backbone:
     names: list
     x: np.ndarray
     cost: float = np.nan
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
+
+    def findings(self) -> list[dict]:
+        """Parameters outside their plausible range for a mix, and fit parameters at a bound
+        (:mod:`asphalt_nscd.rheology.plausibility`); the per-isotherm deviations are
+        regularised, not bounded physically, and are not checked."""
+        from .plausibility import at_bound, check_parameters
+
+        c = self.core()
+        values = {k: v for k, v in c.items() if k != "tau_s" and not (k == "E00_MPa" and self.settings.static == "none")}
+        for name in ("C1", "C2_K", "Ea_kJ_mol", "vertical_trend_per_100K", "static_trend_per_100K"):
+            if name in self.names:
+                values[name] = self.value(name)
+        found = check_parameters(values)
+        if self.lower is not None and self.upper is not None:
+            keep = [i for i, n in enumerate(self.names) if not n.startswith("dlog10_")]
+            found += at_bound([self.names[i] for i in keep], self.x[keep], self.lower[keep], self.upper[keep])
+        return found
 
     def value(self, name: str, default: float = 0.0) -> float:
         return float(self.x[self.names.index(name)]) if name in self.names else default
@@ -378,7 +405,7 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
             best = res
     if best is None:
         raise ValueError(f"backbone fit '{settings.label()}' failed from every starting point")
-    return Backbone(settings, float(T_ref_C), temps, names, best.x.copy(), float(best.cost))
+    return Backbone(settings, float(T_ref_C), temps, names, best.x.copy(), float(best.cost), lo, hi)
 
 
 @dataclass
@@ -512,6 +539,8 @@ class ThermoLaw:
                 "frequency_band_Hz": list(self.band_Hz), "margin_decades": self.margin_decades,
                 "shift": shift, "backbone": {k: float(v) for k, v in zip(bb.names, bb.x)},
                 "backbone_2s2p1d_at_T_ref": {k: float(v) for k, v in bb.core().items()},
+                "vertical_trend_decades_per_100K": bb.value("vertical_trend_per_100K"),
+                "carriable_by_a_prony_card": bb.settings.carriable, "findings": bb.findings(),
                 "prony_at_T_ref": {**p, "units": "Pa, Pa s"}, **self.info}
 
 

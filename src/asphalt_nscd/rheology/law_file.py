@@ -147,9 +147,9 @@ def read_mpa(path, temperatures=None) -> dict:
 
 
 def read_info(path) -> dict:
-    """``selection`` and ``model`` objects of a law file (None where absent)."""
+    """``selection``, ``model`` and ``card`` objects of a law file (None where absent)."""
     obj = read_json(path, "law JSON")
-    return {k: obj.get(k) if isinstance(obj, dict) else None for k in ("selection", "model")}
+    return {k: obj.get(k) if isinstance(obj, dict) else None for k in ("selection", "model", "card")}
 
 
 def law_at(laws: dict, temperature_C: float, where="") -> GeneralizedBurgers:

@@ -73,6 +73,9 @@ class MasterCurveFit:
     specimen_mean: tuple = (0.0, 0.0)
 
     n_free: int | None = None
+    #: the fit's box bounds (None when not fitted here)
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
 
     @property
     def n_params(self) -> int:
@@ -88,6 +91,20 @@ class MasterCurveFit:
     def core(self) -> dict:
         """2S2P1D parameters in natural units (MPa, s) and the shift constants."""
         return _core_values(self.x, self.names, self.static_modulus)
+
+    def findings(self, fixed=()) -> list[dict]:
+        """2S2P1D and shift parameters outside their plausible range for a mix, and fitted
+        parameters at a bound of the fit (:mod:`asphalt_nscd.rheology.plausibility`);
+        ``fixed``: names held at their value (not checked against the bounds)."""
+        from .plausibility import at_bound, check_parameters
+
+        values = {k: v for k, v in self.core().items()
+                  if k not in ("tau_ref_s",) and not (k == "E00_MPa" and not self.static_modulus)}
+        found = check_parameters(values)
+        if self.lower is not None and self.upper is not None:
+            core = [i for i, n in enumerate(self.names) if not n.startswith(("ln_factor_", "phase_offset_deg_"))]
+            found += at_bound([self.names[i] for i in core], self.x[core], self.lower[core], self.upper[core], fixed)
+        return found
 
     def log_shift(self, temperature_C) -> np.ndarray:
         """log10 aT of the fitted shift law at ``temperature_C`` (degC)."""
@@ -155,7 +172,7 @@ def data_arrays(df: pd.DataFrame) -> dict:
         "specimens": specimens,
         "temperatures": np.sort(df["temperature_C"].unique()).astype(float),
     }
-    for col in ("strain_microstrain", "test_step", "test_step_assumed"):
+    for col in ("strain_microstrain", "test_step", "test_step_centre"):
         if col in df.columns:
             out[col] = df[col].to_numpy(float)
     return out
@@ -389,7 +406,7 @@ class MasterCurveProblem:
             temperatures=self.temperatures, specimens=list(d["specimens"]),
             sigma_lnE=self.sigma[0], sigma_phase_deg=self.sigma[1], terms=list(self.terms),
             residuals=best.fun, fitted=fitted,
-            specimen_mean=tuple(float(np.mean(v)) for v in self.specimen_terms(best.x)))
+            specimen_mean=tuple(float(np.mean(v)) for v in self.specimen_terms(best.x)), lower=lo, upper=hi)
 
 
 def fit_master_curve(df: pd.DataFrame, shift: str = "wlf", T_ref_C: float | None = None,

@@ -61,8 +61,9 @@ def cell_means(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def same_temperature(a, b) -> np.ndarray | bool:
-    """True where temperatures ``a`` and ``b`` (degC, broadcast) are the same isotherm."""
-    return np.isclose(a, b, rtol=0.0, atol=TEMPERATURE_TOL_C)
+    """True where temperatures ``a`` and ``b`` (degC, broadcast) are the same isotherm
+    (|a - b| <= :data:`TEMPERATURE_TOL_C`; an infinite temperature is never an isotherm)."""
+    return np.abs(np.subtract(a, b, dtype=float)) <= TEMPERATURE_TOL_C
 
 
 def same_frequency(a, b) -> np.ndarray | bool:
