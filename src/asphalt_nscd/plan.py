@@ -71,6 +71,7 @@ MATERIAL_CARDS = {
     "json": f"{MATERIAL_CARDS_DIR}/prony.json",
     "table": f"{MATERIAL_CARDS_DIR}/prony.csv",
     "errors": f"{MATERIAL_CARDS_DIR}/card_errors.csv",
+    "functions": f"{MATERIAL_CARDS_DIR}/relaxation_creep.csv",
 }
 #: the figures of rule master_curve_figures: master curve, shift factors, the law's residuals
 MASTER_CURVE_FIGURES = {
@@ -217,7 +218,9 @@ def measured_test_input(config: dict) -> list:
 
 def measured_test_option(wildcards, input) -> str:
     """Params function of rule measured_table: ``--test {json}`` when the job has one."""
-    return f"--test {input.test[0]}" if input.test else ""
+    import shlex
+
+    return f"--test {shlex.quote(str(input.test[0]))}" if input.test else ""
 
 
 def record_file(config: dict, record: str) -> str:

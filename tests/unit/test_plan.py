@@ -248,7 +248,7 @@ def test_report_files_are_the_report_index_inputs(named_config):
     name, cfg = named_config
     files = plan.report_files(cfg)
     # counts of the collect-report command of the dry runs (smoke: one sample, else four)
-    assert len(files) == {"smoke": 94, "config": 97, "paper": 101}[name]  # paper: + the paper_kPa mode's 4
+    assert len(files) == {"smoke": 95, "config": 98, "paper": 102}[name]  # paper: + the paper_kPa mode's 4
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
     assert files[-1] == "results/diagnosis/crossval/loso.png"
     assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files

@@ -134,3 +134,41 @@ def test_arrhenius_is_carried_as_its_exact_wlf_form():
     C2 = 21.0 + 273.15
     C1 = 200e3 / (8.314462618 * np.log(10) * C2)
     assert np.allclose(export.wlf_log_shift(T, 21.0, C1, C2), a, atol=1e-9)
+
+
+def test_fewest_terms_meets_its_tolerance_with_no_spare_term():
+    """A 5-term relaxation series over 6 decades is matched within 0.5 % / 0.2 deg by at most
+    5 free terms; every smaller N tried misses the tolerance, and the card's curve says so."""
+    from asphalt_nscd.rheology.models import generalized_maxwell_modulus
+
+    tau = np.logspace(-4, 2, 5)
+    E_i = np.array([8000.0, 6000.0, 3000.0, 1200.0, 400.0])
+    omega = np.logspace(-3, 5, 161)
+    E = generalized_maxwell_modulus(omega, 50.0, E_i, tau)
+    fit = export.fewest_terms(omega, E, (0.5, 0.2))
+    assert fit["met"] and fit["n"] <= 5
+    assert fit["max_E_pct"] <= 0.5 and fit["max_phase_deg"] <= 0.2
+    for row in fit["curve"][:-1]:
+        assert row["max_E_pct"] > 0.5 or row["max_phase_deg"] > 0.2
+    E_fit = generalized_maxwell_modulus(omega, fit["E_inf"], fit["E_i"], fit["tau_s"])
+    assert np.max(np.abs(np.log(np.abs(E_fit) / np.abs(E)))) <= 0.005 + 1e-9
+
+
+def test_creep_compliance_is_the_exact_interconversion_of_the_card(tmp_path):
+    """D(t) of a card: D(0) = 1/E_0, D(inf) = 1/E_inf, rising monotonically, and the
+    interconversion identity int_0^t E(t - u) dD(u) = 1 holds to 1e-9 at every time and
+    temperature written (relaxation_creep.csv), E_T(t) = E_ref(t / aT)."""
+    law_path, table = _law(tmp_path)
+    cards = tmp_path / "cards"
+    assert main(["export-law", "--law-json", str(law_path), "--measured", str(table), "-o", str(cards)]) == 0
+    card = json.loads((cards / "prony.json").read_text())
+    ct = export.creep_terms(card)
+    assert ct["D_0"] == pytest.approx(1 / card["E_0_MPa"], rel=1e-9)
+    assert ct["D_inf"] == pytest.approx(1 / card["E_inf_MPa"], rel=1e-12) and (ct["d"] > 0).all()
+    f = pd.read_csv(cards / "relaxation_creep.csv")
+    assert f["check"].abs().max() < 1e-9
+    for T, g in f.groupby("temperature_C"):
+        assert np.all(np.diff(g["D_per_MPa"]) >= 0) and np.all(np.diff(g["E_MPa"]) <= 0)
+        assert np.allclose(g["G_MPa"], g["E_MPa"] / (2 * (1 + card["nu"])))
+    ref, hot = f[f["temperature_C"] == card["T_ref_C"]], f[f["temperature_C"] == f["temperature_C"].max()]
+    assert hot["E_MPa"].iloc[10] < ref["E_MPa"].iloc[10]  # a warmer mix relaxes sooner

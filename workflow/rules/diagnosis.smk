@@ -181,6 +181,7 @@ rule export_law:
         json=plan.MATERIAL_CARDS["json"],
         table=plan.MATERIAL_CARDS["table"],
         errors=plan.MATERIAL_CARDS["errors"],
+        functions=plan.MATERIAL_CARDS["functions"],
     log:
         "logs/diagnosis/export_law.log",
     benchmark:

@@ -31,8 +31,8 @@ rule measured_table:
     params:
         test=plan.measured_test_option,
     shell:
-        "asphalt-nscd measured {input.table} {params.test} -o {output.table} --summary {output.summary} "
-        "--test-output {output.test} 2> {log}"
+        "asphalt-nscd measured {input.table:q} {params.test} -o {output.table:q} --summary {output.summary:q} "
+        "--test-output {output.test:q} 2> {log:q}"
 
 
 rule reduce_record:

@@ -116,13 +116,17 @@ def _add_export_law(subparsers) -> None:
                         "wrote the table in, for the cards' comments (the cards themselves stay in MPa, s, degC)")
     p.add_argument("-o", "--output", type=Path, required=True, help="directory of the cards")
     p.add_argument("--name", default="ASPHALT_MIX", help="material name of the Abaqus card")
-    p.add_argument("--per-decade", type=float, default=3.0, help="relaxation times per decade of the Prony series")
+    p.add_argument("--tolerance", type=float, nargs=2, default=[0.5, 0.2], metavar=("E_PCT", "PHASE_DEG"),
+                   help="largest difference of the card to its law over the measured reduced band widened by a decade "
+                        "at each end: |E*| %% and Phi deg (default 0.5 0.2); the fewest Prony terms that meet it")
     p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of the cards (constant)")
     p.set_defaults(func=_export)
 
 
 def _export(args) -> int:
     import logging
+
+    import numpy as np
 
     from ..io import InputError, atomic_path, read_json, write_csv, write_json
     from ..lab.measured import read_summary
@@ -133,7 +137,9 @@ def _export(args) -> int:
     summary = read_summary(args.measured)
     cells = summary[["temperature_C", "frequency_Hz"]].drop_duplicates()
     try:
-        card = export.prony_card(law, cells, per_decade=args.per_decade, nu=args.nu)
+        if not all(v > 0 for v in args.tolerance):
+            raise InputError(f"--tolerance: expected two positive numbers, got {args.tolerance}")
+        card = export.prony_card(law, cells, tolerance=tuple(args.tolerance), nu=args.nu)
     except InputError as exc:
         raise InputError(f"{args.law_json}: {exc}") from None
     c = card["check"]
@@ -170,9 +176,16 @@ def _export(args) -> int:
     for name, text in (("abaqus.inp", export.abaqus_card(card, args.name)), ("lsdyna.k", export.lsdyna_card(card))):
         with atomic_path(out / name) as tmp:
             tmp.write_text(text)
-    write_json(export.card_json(card), out / "prony.json")
+    write_json(export.card_json(card), out / "prony.json")  # E(t), D(t): relaxation_creep.csv below
     write_csv(export.card_table(card), out / "prony.csv")
     write_csv(errors, out / "card_errors.csv")
+    try:
+        band = card["terms_selection"]["band_rad_s"]
+        times = np.logspace(-np.log10(band[1]), -np.log10(band[0]), 81)
+        functions = export.relaxation_and_creep(card, sorted(summary["temperature_C"].unique()), times)
+    except ValueError as exc:  # a liquid card: no finite creep limit
+        raise InputError(f"{args.law_json}: {exc}") from None
+    write_csv(functions, out / "relaxation_creep.csv")
     return 0
 
 

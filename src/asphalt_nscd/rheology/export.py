@@ -17,10 +17,14 @@ Construction (:func:`prony_card`):
   per-temperature entry is the law there;
 * shift: the law's WLF constants; an Arrhenius law is replaced by the WLF law fitted to it
   over the calibrated range (least squares in log10 aT, the largest difference reported);
-* Prony series: the relaxation (generalized Maxwell) series fitted by non-negative least
-  squares (:func:`asphalt_nscd.rheology.models.fit_generalized_maxwell`) to the law at T_ref
-  on ``per_decade`` log-spaced relaxation times over the reduced band of the calibrated
-  cells (every tested (T, f) shifted to T_ref) widened by ``margin_decades``.
+* Prony series: the fewest relaxation (generalized Maxwell) terms that stay within a stated
+  tolerance of the law at T_ref (default 0.5 % in |E*| and 0.2 deg in Phi, the largest
+  difference) over the reduced band of the calibrated cells (every tested (T, f) shifted to
+  T_ref) widened by ``margin_decades`` (1 decade) at each end (:func:`fewest_terms`): for
+  N = 1, 2, ... the relaxation times are free (least squares in log10 tau, the weights by
+  non-negative least squares for each set of times: variable projection), refined towards the
+  largest difference (an L8 norm), until the tolerance is met; the error-versus-N curve is
+  kept.
 
 What a single Prony series with a shift law cannot carry: a vertical shift, a static modulus
 that changes with temperature, the per-isotherm refinement of the law (its settings in the
@@ -69,7 +73,72 @@ def wlf_log_shift(T, T_ref: float, C1: float, C2: float) -> np.ndarray:
     return -C1 * d / (C2 + d)
 
 
-def prony_card(law: dict, cells: pd.DataFrame, per_decade: float = 3.0, margin_decades: float = 1.0,
+#: default tolerance of the card against its law over the widened band: |E*| %, Phi deg
+CARD_TOLERANCE = (0.5, 0.2)
+#: most Prony terms tried
+MAX_TERMS = 40
+
+
+def _nnls_weights(omega, E, tau):
+    """(E_inf, E_i) >= 0 of a relaxation series with times ``tau`` fitted to E* (relative
+    residuals), and the fitted E* (arrays of shape (m,))."""
+    from scipy.optimize import nnls
+
+    A = np.column_stack([np.ones_like(omega, complex)] + [1j * omega * t / (1 + 1j * omega * t) for t in tau])
+    A = A / np.abs(E)[:, None]
+    A2 = np.vstack([A.real, A.imag])
+    norms = np.linalg.norm(A2, axis=0)
+    b = np.concatenate([(E / np.abs(E)).real, (E / np.abs(E)).imag])
+    x, _ = nnls(A2 / norms, b, maxiter=100 * A2.shape[1])
+    x = x / norms
+    return x, A @ x * np.abs(E)
+
+
+def fewest_terms(omega, E, tolerance=CARD_TOLERANCE, max_terms: int = MAX_TERMS) -> dict:
+    """The fewest relaxation terms within ``tolerance`` (|E*| %, Phi deg; the largest
+    differences) of E* (complex, shape (m,)) at ``omega`` (rad/s, shape (m,)) (module
+    docstring).
+
+    Returns ``E_inf``, ``E_i`` (n,), ``tau_s`` (n,), ``max_E_pct``, ``max_phase_deg``, ``n``,
+    ``met`` (bool) and ``curve`` (one {n, max_E_pct, max_phase_deg} per N tried)."""
+    from scipy.optimize import least_squares
+
+    lo, hi = -math.log10(omega.max()), -math.log10(omega.min())
+    bounds = (lo - 1.0, hi + 1.0)
+    tol_E, tol_P = tolerance
+
+    def errors(u):
+        x, Ef = _nnls_weights(omega, E, 10.0 ** u)
+        r = np.log(Ef / E)
+        return x, r
+
+    def l2(u):
+        _, r = errors(u)
+        return np.concatenate([r.real, r.imag])
+
+    def l8(u):  # towards the largest difference, in units of the tolerances
+        _, r = errors(u)
+        a = np.concatenate([r.real / (tol_E / 100.0), r.imag / math.radians(tol_P)])
+        return np.sign(a) * np.abs(a) ** 4
+
+    curve, best = [], None
+    for n in range(1, int(max_terms) + 1):
+        u = np.linspace(lo, hi, n) if n > 1 else np.array([0.5 * (lo + hi)])
+        u = least_squares(l2, u, bounds=bounds).x
+        u = least_squares(l8, u, bounds=bounds).x
+        x, r = errors(u)
+        eE, eP = 100.0 * float(np.abs(r.real).max()), math.degrees(float(np.abs(r.imag).max()))
+        curve.append({"n": n, "max_E_pct": eE, "max_phase_deg": eP})
+        keep = x[1:] > 0
+        best = {"E_inf": float(x[0]), "E_i": x[1:][keep], "tau_s": 10.0 ** u[keep], "max_E_pct": eE,
+                "max_phase_deg": eP, "n": int(keep.sum()), "met": eE <= tol_E and eP <= tol_P}
+        if best["met"]:
+            break
+    best["curve"] = curve
+    return best
+
+
+def prony_card(law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_decades: float = 1.0,
                nu: float = POISSON_RATIO) -> dict:
     """The material card of a law JSON object (module docstring).
 
@@ -78,7 +147,8 @@ def prony_card(law: dict, cells: pd.DataFrame, per_decade: float = 3.0, margin_d
     law : the law JSON (:mod:`asphalt_nscd.rheology.law_file` format, with ``model``), with an
         entry at T_ref and at every temperature of ``cells``.
     cells : the calibrated (T degC, f Hz) cells (columns ``temperature_C, frequency_Hz``).
-    per_decade : relaxation times per decade of the Prony series.
+    tolerance : (|E*| %, Phi deg) the card must stay within over the widened band
+        (:func:`fewest_terms`).
     margin_decades : decades added on each side of the reduced band.
     nu : Poisson's ratio of the card (constant; bulk and shear relax alike).
 
@@ -111,24 +181,30 @@ def prony_card(law: dict, cells: pd.DataFrame, per_decade: float = 3.0, margin_d
     C1, C2, from_law, diff = _card_wlf(shift, T_ref, float(T.min()), float(T.max()))
     wr = 2 * np.pi * f * 10.0 ** wlf_log_shift(T, T_ref, C1, C2)
     w_lo, w_hi = wr.min() / 10**margin_decades, wr.max() * 10**margin_decades
-    omega = np.logspace(math.log10(w_lo), math.log10(w_hi), int(10 * math.log10(w_hi / w_lo)) + 1)
+    omega = np.logspace(math.log10(w_lo), math.log10(w_hi), int(20 * math.log10(w_hi / w_lo)) + 1)
     # the law's whole chain at T_ref (the per-temperature entries merge the units far outside
     # their own tested band; the card must cover every calibrated cell's reduced frequency)
     chain = model.get("prony_at_T_ref")
     law_ref = (_chain(chain) if chain else entries[temperature_key(entries, T_ref)].scaled(1e6)).scaled(1e-6)
     E_ref = law_ref.complex_modulus(omega)
-    n_tau = int(math.ceil(per_decade * math.log10(w_hi / w_lo))) + 1
-    tau = np.logspace(-math.log10(w_hi), -math.log10(w_lo), n_tau)
-    fit = fit_generalized_maxwell(omega, E_ref, tau)
-    keep = fit["E_i"] > 0
-    E_i, tau = fit["E_i"][keep], fit["rho_s"][keep]
+    fit = fewest_terms(omega, E_ref, tolerance)
+    E_i, tau = fit["E_i"], fit["tau_s"]
+    order = np.argsort(tau)
+    E_i, tau = E_i[order], tau[order]
     E_inf = float(fit["E_inf"])
     E_0 = E_inf + float(E_i.sum())
     card = {"T_ref_C": T_ref, "E_0_MPa": E_0, "E_inf_MPa": E_inf, "g_inf": E_inf / E_0,
             "terms": [{"g": float(e / E_0), "tau_s": float(t), "E_MPa": float(e)} for e, t in zip(E_i, tau)],
             "shift": {"law": "WLF", "C1": C1, "C2_K": C2, "T_ref_C": T_ref, "from": from_law,
                       "max_log10_aT_difference": diff},
-            "nu": float(nu), "units": {"modulus": "MPa", "time": "s", "temperature": "degC"}}
+            "nu": float(nu), "units": {"modulus": "MPa", "time": "s", "temperature": "degC"},
+            "terms_selection": {"n_terms": len(E_i), "tolerance": {"E_norm_pct": tolerance[0],
+                                                                   "phase_deg": tolerance[1]},
+                                "band_rad_s": [float(w_lo), float(w_hi)], "margin_decades": margin_decades,
+                                "max_E_norm_difference_pct": fit["max_E_pct"],
+                                "max_phase_difference_deg": fit["max_phase_deg"], "met": bool(fit["met"]),
+                                "curve": fit["curve"],
+                                "method": "fewest free relaxation times (variable projection, L2 then L8)"}}
     card["check"], card["exact"] = _card_check(card, entries, model.get("settings") or {}, T, f)
     return card
 
@@ -240,6 +316,78 @@ def loss_lines(card: dict, units=None) -> list[str]:
     return lines
 
 
+def creep_terms(card: dict) -> dict:
+    """The creep compliance of a card, D(t) = D_inf - sum_j d_j exp(-t / lambda_j) (1/MPa,
+    s), interconverted exactly from its relaxation series (Park & Schapery 1999, Int. J. Solids
+    Struct. 36: the Laplace transforms satisfy s E(s) s D(s) = 1). sE(s) = E_inf + sum E_i s
+    tau_i / (1 + s tau_i) has one real root between consecutive poles -1/tau_i; each root r_j
+    gives lambda_j = -1/r_j and d_j = -1 / (r_j sE'(r_j)); D_inf = 1 / E_inf.
+
+    Returns ``D_inf`` (1/MPa; inf for E_inf = 0), ``d`` (n,), ``lambda_s`` (n,), ``D_0``.
+
+    Raises ValueError without a long-term modulus (a liquid card creeps without bound)."""
+    from scipy.optimize import brentq
+
+    E_inf = float(card["E_inf_MPa"])
+    if not E_inf > 0:
+        raise ValueError("the card has no long-term modulus (E_inf = 0): its creep has no finite limit")
+    E = np.array([t["E_MPa"] for t in card["terms"]], float)
+    tau = np.array([t["tau_s"] for t in card["terms"]], float)
+    order = np.argsort(tau)[::-1]  # poles -1/tau from the closest to 0
+    E, tau = E[order], tau[order]
+
+    def sE(x):  # x = -s > 0: sE(-x)
+        return E_inf + float(np.sum(E * (-x * tau) / (1.0 - x * tau)))
+
+    def dsE(x):  # d sE / ds at s = -x
+        return float(np.sum(E * tau / (1.0 - x * tau) ** 2))
+
+    poles = 1.0 / tau  # x at the poles, increasing
+    edges = np.concatenate([[0.0], poles])
+    roots = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        lo, hi = a + 1e-12 * (b - a) + (1e-300 if a == 0 else 0.0), b - 1e-12 * (b - a)
+        roots.append(brentq(sE, lo, hi, xtol=1e-14 * b, rtol=1e-13, maxiter=500))
+    r = -np.array(roots)  # s roots (negative)
+    d = np.array([-1.0 / (rj * dsE(-rj)) for rj in r])
+    D_inf = 1.0 / E_inf
+    return {"D_inf": D_inf, "d": d, "lambda_s": -1.0 / r, "D_0": float(D_inf - d.sum())}
+
+
+def relaxation_and_creep(card: dict, temperatures, times_s) -> pd.DataFrame:
+    """E(t) and D(t) of a card at T_ref and at each of ``temperatures`` (degC) at the times
+    ``times_s`` (s): columns ``temperature_C, time_s, E_MPa, G_MPa`` (shear relaxation E / (2
+    (1 + nu)), nu of the card), ``D_per_MPa`` (creep compliance) and ``check`` (the
+    interconversion identity int_0^t E(t - u) dD(u) = 1, evaluated in closed form, minus 1).
+    At temperature T the times scale with aT of the card's shift: E_T(t) = E_ref(t / aT)."""
+    ct = creep_terms(card)
+    E = np.array([t["E_MPa"] for t in card["terms"]], float)
+    tau = np.array([t["tau_s"] for t in card["terms"]], float)
+    s = card["shift"]
+    rows = []
+    temps = [float(card["T_ref_C"])] + [float(T) for T in temperatures if abs(float(T) - card["T_ref_C"]) > 1e-9]
+    for T in temps:
+        aT = 10.0 ** wlf_log_shift(T, s["T_ref_C"], s["C1"], s["C2_K"])
+        t = np.asarray(times_s, float) / aT  # reduced time
+        Et = card["E_inf_MPa"] + np.exp(-t[:, None] / tau) @ E
+        Dt = ct["D_inf"] - np.exp(-t[:, None] / ct["lambda_s"]) @ ct["d"]
+        # int_0^t E(t-u) D'(u) du + E(t) D(0), D'(u) = sum d_j / l_j exp(-u / l_j), in closed form
+        lam, d = ct["lambda_s"], ct["d"]
+        conv = card["E_inf_MPa"] * (ct["D_inf"] - ct["D_0"] - np.exp(-t[:, None] / lam) @ d)
+        for Ei, ti in zip(E, tau):
+            k = 1.0 / lam - 1.0 / ti  # e^{-(t-u)/ti} e^{-u/lam}: int = e^{-t/ti} (1 - e^{-k t}) / k
+            with np.errstate(over="ignore", invalid="ignore"):
+                term = np.where(np.abs(k)[None, :] * np.maximum(t[:, None], 1e-300) < 1e-8, t[:, None],
+                                (np.exp(-t[:, None] / ti) - np.exp(-t[:, None] / lam)) / k)
+            conv = conv + Ei * (term @ (d / lam))
+        check = conv + Et * ct["D_0"] - 1.0
+        for i in range(t.size):
+            rows.append({"temperature_C": T, "time_s": float(times_s[i]), "E_MPa": float(Et[i]),
+                         "G_MPa": float(Et[i] / (2.0 * (1.0 + card["nu"]))), "D_per_MPa": float(Dt[i]),
+                         "check": float(check[i])})
+    return pd.DataFrame(rows)
+
+
 def card_modulus(card: dict, frequency_Hz, temperature_C) -> np.ndarray:
     """E* (MPa) of a card at (f Hz, T degC) pairs: the Prony series at the shifted frequency."""
     f, T = np.broadcast_arrays(np.asarray(frequency_Hz, float), np.asarray(temperature_C, float))
@@ -257,7 +405,13 @@ def abaqus_card(card: dict, name: str = "ASPHALT_MIX") -> str:
     ``*VISCOELASTIC, TIME=PRONY`` (g_i, k_i = g_i, tau_i: shear and bulk relax alike) and
     ``*TRS, DEFINITION=WLF`` (T_ref, C1, C2). Units MPa and s; temperatures in degC."""
     s = card["shift"]
+    sel = card.get("terms_selection", {})
     lines = [f"** Linear viscoelastic material card written by asphalt-nscd export-law",
+             f"** {len(card['terms'])} Prony terms: the fewest within {sel.get('tolerance', {}).get('E_norm_pct', '?')} % |E*| "
+             f"and {sel.get('tolerance', {}).get('phase_deg', '?')} deg of the law over the reduced band "
+             f"{sel.get('band_rad_s', ['?', '?'])[0]:.3g}-{sel.get('band_rad_s', ['?', '?'])[1]:.3g} rad/s at T_ref "
+             f"(the measured band widened by {sel.get('margin_decades', '?')} decade at each end; achieved "
+             f"{sel.get('max_E_norm_difference_pct', float('nan')):.3g} % / {sel.get('max_phase_difference_deg', float('nan')):.3g} deg)",
              f"** E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; "
              f"units MPa, s, degC; g_inf = {card['g_inf']:.6g}",
              f"** largest difference to the law it carries over {card['check']['n_cells']} calibrated cells: "
