@@ -217,7 +217,6 @@ def test_ssor_galerkin_start_reuses_the_products_of_the_last_solutions():
     without them (a resumed run) computes the same numbers. A velocity field that is not
     a stored solution (changed between steps) gets its product computed, in each of the four
     steps whose Galerkin start holds it."""
-    from asphalt_nscd.nscd import linear
 
     s, plates, bonds = random_bonded_network(n=40)
     params = NSCDParameters(dt=5e-5, friction=0.7, gravity=(0, 0, -9.81), fast_path=True,

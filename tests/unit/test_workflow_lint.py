@@ -1,5 +1,5 @@
 """The workflow passes `snakemake --lint` (no lint on config/smoke.yaml) and is formatted by
-snakefmt (line length of pyproject.toml [tool.snakefmt]). The tools are the virtual
+snakefmt (line length of pyproject.toml [tool.snakefmt]); the Python sources pass ruff. The tools are the virtual
 environment's, pinned in requirements.lock."""
 
 from __future__ import annotations
@@ -112,3 +112,13 @@ def test_config_with_a_former_resource_key_is_rejected_with_its_new_place(tmp_pa
     out = proc.stdout + proc.stderr
     assert proc.returncode != 0
     assert "campaign.job_runtime_min" in out and "profiles/default/config.yaml" in out
+
+
+def test_python_sources_pass_ruff():
+    """Unused imports and variables, undefined names and syntax errors in the package and its
+    tests (rules of pyproject.toml [tool.ruff.lint])."""
+    proc = subprocess.run(
+        [str(BIN / "ruff"), "check", "--no-cache", "src", "tests"],
+        cwd=REPO, capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 0, f"ruff check src tests (ruff check --fix to repair):\n{proc.stdout[-4000:]}"

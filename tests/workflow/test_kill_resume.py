@@ -5,7 +5,6 @@ leaves no half-written output behind."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys

@@ -6,7 +6,6 @@ fit, the measured- and extended-mode NSCD jobs, the extended law and the diagnos
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 import yaml

@@ -30,7 +30,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from ..io import InputError, read_json
+from ..io import InputError
 from ..rheology import law_file
 from ..rheology.calibration import burgers_model
 from ..rheology.metrics import at_temperature, mre_pct

@@ -192,7 +192,6 @@ def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: floa
         # parameter: the mass (g) that would give the same E1 deficit on the paper's 2PB
         # specimen, so that its scale does not depend on the test (gamma differs by 1e3
         # between a 2PB trapezoid and a uniaxial cylinder); mass = x PAPER_GAMMA / gamma
-        g = float(gamma_per_mm)
         return Term(name, [INERTIA_PARAMETER], [0.0], [-5000.0], [5000.0],
                     apply=lambda x, E, d: E - PAPER_GAMMA_PER_MM * 1e-6 * x[0] * (2 * np.pi * d["f"]) ** 2,
                     order=2)
@@ -911,8 +910,8 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
         rates = {n.removeprefix("drift_C_per_test_"): (est[n], est[n + "_se"]) for n in est
                  if n.startswith("drift_C_per_test_") and not n.endswith("_se")}
         worst = max(rates, key=lambda T: abs(rates[T][0]))
-        return (f"along the table's test order the isotherms read as if "
-                f"the specimen's temperature moved by, per test: "
+        return ("along the table's test order the isotherms read as if "
+                "the specimen's temperature moved by, per test: "
                 + ", ".join(f"{T} degC {v:+.2f} +- {se:.2f}" for T, (v, se) in rates.items())
                 + f" degC; largest at {worst} degC, {est['size']:.1f} degC across the isotherm ({stat}, "
                 f"{len(rates)} degrees of freedom): a specimen not at the test temperature when the isotherm "

@@ -399,7 +399,6 @@ def _bench_previous_inertia_path(system, ref: dict, law, f: float, new_s: float)
     u, info = spla.gmres(op, rhs, x0=g_inv(rhs), rtol=1e-12, atol=0.0, M=prec, restart=50,
                          maxiter=200, callback=tick, callback_type="pr_norm")
     t_gm = time.perf_counter() - t0
-    del lu
     return {"method": "MMD(A^T+A) factor of G, GMRES preconditioned by G^-1 (previous)",
             "frequency_Hz": f, "factor_s": t_fac, "gmres_s": t_gm,
             "gmres_iterations": count[0], "converged": bool(info == 0),

@@ -165,7 +165,6 @@ def prony_card(law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_
     """
     from . import law_file
     from .metrics import temperature_key
-    from .models import fit_generalized_maxwell
 
     model = law.get("model") if isinstance(law, dict) else None
     if not model or "T_ref_C" not in model or "shift" not in model:
@@ -406,7 +405,7 @@ def abaqus_card(card: dict, name: str = "ASPHALT_MIX") -> str:
     ``*TRS, DEFINITION=WLF`` (T_ref, C1, C2). Units MPa and s; temperatures in degC."""
     s = card["shift"]
     sel = card.get("terms_selection", {})
-    lines = [f"** Linear viscoelastic material card written by asphalt-nscd export-law",
+    lines = ["** Linear viscoelastic material card written by asphalt-nscd export-law",
              f"** {len(card['terms'])} Prony terms: the fewest within {sel.get('tolerance', {}).get('E_norm_pct', '?')} % |E*| "
              f"and {sel.get('tolerance', {}).get('phase_deg', '?')} deg of the law over the reduced band "
              f"{sel.get('band_rad_s', ['?', '?'])[0]:.3g}-{sel.get('band_rad_s', ['?', '?'])[1]:.3g} rad/s at T_ref "
