@@ -103,3 +103,29 @@ def test_level_for_goal_and_power_curves():
              "estimate_ok": {"time_lag": s >= 0.2}} for s in bench.POWER_SIZES["time_lag"][1] for _ in range(4)]
     pc = bench.power_curves(runs)["time_lag"]
     assert pc["size_95"] == 0.2 and [r["detection"]["k"] for r in pc["curve"]] == [0, 0, 4, 4, 4]
+
+
+def test_calibrated_alarms_recount_the_complete_procedure():
+    """Only clean tables with a nominal alarm are calibrated (the calibrated level is never
+    above the nominal one); a table stays an alarm only below its calibrated level; a run
+    whose table the plan does not regenerate is refused."""
+    result = bench.run_bench(3, 0, base_seed=11, families=["gmaxwell"], configuration="shipped")
+    runs = result["runs"]
+    # pretend the first table raised a nominal alarm, at two statistics around its calibrated level
+    runs[0]["detected"], runs[0]["min_p"] = ["time_lag"], 1e-30
+    runs[1]["detected"], runs[1]["min_p"] = ["temperature_offset"], runs[1]["level"] * 0.999
+    bench.calibrate_alarms(result, n_tables=20)
+    assert result["calibration_tables"] == 20
+    for r in runs[:2]:
+        assert 0.0 < r["calibrated_level"] <= r["level"]
+        assert r["detected_calibrated"] == (r["min_p"] < r["calibrated_level"])
+    assert runs[0]["detected_calibrated"]
+    assert "calibrated_level" not in runs[2] and runs[2]["detected_calibrated"] is False
+    fw = result["family_wise"]["gmaxwell"]
+    assert fw["false_alarm_any_calibrated"]["n"] == 3
+    assert fw["false_alarm_any_calibrated"]["k"] == sum(r["detected_calibrated"] for r in runs)
+    table = bench.bench_table(result)
+    assert "any, calibrated on the table" in set(table["artifact"])
+    runs[0]["seed"] += 1
+    with pytest.raises(ValueError, match="not in the result's plan"):
+        bench.calibrate_alarms(result, n_tables=20)

@@ -26,7 +26,10 @@ per size and the smallest size detected with 95 % power.
 The level: the procedure runs at its nominal level alpha / m (the ceiling of the level
 calibrated on a table, :mod:`asphalt_nscd.diagnosis.calibration`, which can only be stricter);
 each clean table records the statistic ``min_p``, so the largest level whose family-wise
-false-alarm upper bound is <= 5 % in every family is computed too (``level_for_goal``).
+false-alarm upper bound is <= 5 % in every family is computed too (``level_for_goal``). The
+complete procedure, its level calibrated on each table, is measured by calibrating the clean
+tables with a nominal alarm (``calibration_tables``, :func:`calibrate_alarms`): the others
+cannot raise one.
 
 Seeds: table seeds come from ``numpy.random.SeedSequence([base_seed, family, kind, i])``; the
 base seed (default: fresh from the operating system) is recorded, so ``--base-seed`` reruns a
@@ -200,8 +203,10 @@ def estimate_ok(name: str, entry: dict, truth: dict, tolerance: float, n_se: flo
     return abs(est - true) <= max(tolerance * abs(true), n_se * se)
 
 
-def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
-    """Generate one table of a case and diagnose its artifacts; the outcome."""
+def case_table(case: dict) -> tuple:
+    """The table of a case (a dict of :func:`plan`) as its configuration shows it: the
+    table, the truth (:func:`asphalt_nscd.diagnosis.synthetic.generate`) and the declared test
+    (:class:`~asphalt_nscd.lab.geometry.TestGeometry`)."""
     from ..lab.geometry import from_dict
 
     conf = CONFIGURATIONS.get(case.get("configuration", "random"))
@@ -213,8 +218,14 @@ def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
     if conf is not None and not conf["strain"]:
         table = table.drop(columns="strain_microstrain")
     test = truth["test"] if conf is None or conf["test"] is None else conf["test"]
+    return table, truth, from_dict(test, "synthetic")
+
+
+def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
+    """Generate one table of a case and diagnose its artifacts; the outcome."""
+    table, truth, test = case_table(case)
     t0 = time.process_time()
-    search = ArtifactSearch(table, alpha=alpha, test=from_dict(test, "synthetic"))
+    search = ArtifactSearch(table, alpha=alpha, test=test)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         result = search.run()
     if result["offset"] is not None and result["offset"].get("detected"):
@@ -254,11 +265,73 @@ def family_wise(runs: list, families) -> dict:
         chi = np.array([r["screening_chi2_per_dof"] for r in clean], float)
         rate = _rate(sum(bool(r["detected"]) for r in clean), len(clean))
         rate["ok"] = rate["ci95"][1] is not None and rate["ci95"][1] <= GOALS["false_alarm_rate"]
-        out[fam] = {"false_alarm_any": rate,
+        out[fam] = {"false_alarm_any": rate}
+        if clean and all("detected_calibrated" in r for r in clean):
+            cal = _rate(sum(bool(r["detected_calibrated"]) for r in clean), len(clean))
+            cal["ok"] = cal["ci95"][1] <= GOALS["false_alarm_rate"]
+            out[fam]["false_alarm_any_calibrated"] = cal
+        out[fam].update({
                     "screening_chi2_per_dof": {"median": float(np.median(chi)) if chi.size else None,
                                                "p99": float(np.percentile(chi, 99)) if chi.size else None,
-                                               "max": float(chi.max()) if chi.size else None}}
+                                               "max": float(chi.max()) if chi.size else None}})
     return out
+
+
+def _calibrated_level(args) -> dict:
+    from .calibration import calibrate
+
+    case, alpha, n_tables = args
+    table, _, test = case_table(case)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        cal = calibrate(table, alpha=alpha, test=test, n_tables=n_tables, seed=case["seed"])
+    return {"level": cal["artifacts"]["level"], "calibrated_level": cal["artifacts"]["calibrated_level"],
+            "cpu_seconds": cal["cpu_seconds"]}
+
+
+def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
+    """The complete procedure's false alarms on the clean tables of a benchmark result: each
+    clean table on which the nominal procedure names an artifact is calibrated on itself
+    (:func:`asphalt_nscd.diagnosis.calibration.calibrate`, ``n_tables`` bootstrap tables
+    seeded by the table's seed) and counts as an alarm only if its ``min_p`` is below the
+    calibrated level. The calibrated level is never above the nominal one, so a table
+    without a nominal alarm has none after calibration: the count is exact without
+    calibrating those. Adds ``detected_calibrated`` (and ``calibrated_level`` where it was
+    computed) to every clean run and ``calibration_tables`` to the result; recomputes
+    ``family_wise``. Returns ``result`` (changed in place).
+
+    Raises ValueError when a run's table cannot be regenerated from the result's plan."""
+    runs = result["runs"]
+    cases = {(c["family"], c["kind"], c["index"]): c
+             for c in plan(result["base_seed"], result["families"], result["n_clean_per_family"], 0,
+                           result["effect_scale"], result["configuration"], 0)}
+    todo = []
+    for r in runs:
+        if r["kind"] != "clean":
+            continue
+        r["detected_calibrated"] = False
+        if r["detected"]:
+            case = cases.get((r["family"], r["kind"], r["index"]))
+            if case is None or case["seed"] != r["seed"]:
+                raise ValueError(f"clean table {r['family']} #{r['index']}: not in the result's plan (base seed "
+                                 f"{result['base_seed']}); was the result produced by another version?")
+            todo.append((r, case))
+    outs = _map_cases(_calibrated_level, [(c, result["alpha"], int(n_tables)) for _, c in todo], jobs)
+    for (r, _), out in zip(todo, outs):
+        r["calibrated_level"] = out["level"]
+        r["calibration_cpu_seconds"] = out["cpu_seconds"]
+        r["detected_calibrated"] = bool(r["min_p"] < out["level"])
+    result["calibration_tables"] = int(n_tables)
+    result["family_wise"] = family_wise(runs, result["families"])
+    return result
+
+
+def _map_cases(fn, tasks: list, jobs: int) -> list:
+    if jobs > 1 and len(tasks) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            return list(pool.map(fn, tasks))
+    return [fn(t) for t in tasks]
 
 
 def level_for_goal(runs: list, families, goal: float = GOALS["false_alarm_rate"]) -> float | None:
@@ -341,7 +414,7 @@ def goals_met(summary: dict) -> dict:
 
 def run_bench(n_clean: int, n_planted: int, base_seed: int | None = None, families=synthetic.FAMILIES,
               alpha: float = 1e-3, effect_scale: float = 1.0, tolerance: float = 0.25, jobs: int = 1,
-              configuration: str = "random", power: int = 0) -> dict:
+              configuration: str = "random", power: int = 0, calibration_tables: int = 0) -> dict:
     """Run the benchmark (module docstring) and return its JSON-ready summary.
 
     Parameters
@@ -364,6 +437,9 @@ def run_bench(n_clean: int, n_planted: int, base_seed: int | None = None, famili
         Design of the tables (:data:`CONFIGURATIONS`).
     power : int
         Tables per size of the power curves (0: none).
+    calibration_tables : int
+        Bootstrap tables of the calibration of each clean table with a nominal alarm
+        (:func:`calibrate_alarms`; 0: none, the family-wise rate at the nominal level only).
 
     Raises
     ------
@@ -389,7 +465,7 @@ def run_bench(n_clean: int, n_planted: int, base_seed: int | None = None, famili
         runs = [run_case(c, alpha, tolerance) for c in cases]
     summary = summarize(runs, families)
     fw = family_wise(runs, families)
-    return {"base_seed": base_seed, "configuration": configuration,
+    result = {"base_seed": base_seed, "configuration": configuration,
             "design": CONFIGURATIONS[configuration], "family_wise": fw,
             "family_wise_ok": {f: bool(v["false_alarm_any"]["ok"]) for f, v in fw.items()},
             "level_for_goal": level_for_goal(runs, families), "power_curves": power_curves(runs),
@@ -401,12 +477,16 @@ def run_bench(n_clean: int, n_planted: int, base_seed: int | None = None, famili
             "summary": summary, "goals_met": goals_met(summary),
             "seconds_per_table_wall": (time.perf_counter() - t0) / len(cases),
             "cpu_seconds_main_process": time.process_time() - c0, "n_tables": len(cases), "runs": runs}
+    if calibration_tables:
+        calibrate_alarms(result, calibration_tables, jobs)
+    return result
 
 
 def bench_table(result: dict) -> pd.DataFrame:
     """One row per artifact and family (and ``all``): configuration, effect size, detection
     and false-alarm counts, rates and 95 % intervals; the family-wise false alarms as artifact
-    ``any``."""
+    ``any`` (at the nominal level) and ``any, calibrated on the table`` (the complete
+    procedure, :func:`calibrate_alarms`, where it was run)."""
     rows = []
     conf = result.get("configuration", "random")
     for fam, v in result["family_wise"].items():
@@ -414,6 +494,12 @@ def bench_table(result: dict) -> pd.DataFrame:
         rows.append({"configuration": conf, "artifact": "any", "family": fam, "effect_size": "",
                      "n_clean": fa["n"], "false_alarms": fa["k"], "false_alarm_rate": fa["rate"],
                      "false_alarm_ci_low": fa["ci95"][0], "false_alarm_ci_high": fa["ci95"][1]})
+        if "false_alarm_any_calibrated" in v:
+            fa = v["false_alarm_any_calibrated"]
+            rows.append({"configuration": conf, "artifact": "any, calibrated on the table",
+                         "family": fam, "effect_size": "", "n_clean": fa["n"], "false_alarms": fa["k"],
+                         "false_alarm_rate": fa["rate"], "false_alarm_ci_low": fa["ci95"][0],
+                         "false_alarm_ci_high": fa["ci95"][1]})
     for name, per in result["summary"].items():
         size = "; ".join(f"{k} = {v:g}" for k, v in result["effect_sizes"][name].items())
         for fam, r in per.items():

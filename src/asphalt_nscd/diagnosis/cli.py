@@ -369,6 +369,9 @@ def _add_diagnose_bench(subparsers) -> None:
     p.add_argument("--power", type=int, default=0,
                    help="tables per size of the power curves of the offset, time lag and mass (default 0: none)")
     p.add_argument("--power-table", type=Path, default=None, help="power-curve CSV (with --power)")
+    p.add_argument("--calibration-tables", type=int, default=0,
+                   help="bootstrap tables of the calibration of each clean table with a nominal alarm: the "
+                        "family-wise false alarms of the complete procedure (default 0: nominal level only)")
     p.add_argument("-o", "--output", type=Path, required=True, help="benchmark JSON (summary and every table's outcome)")
     p.add_argument("--table", type=Path, default=None,
                    help="bench table CSV: per artifact and family, detection and false-alarm counts, rates, 95 %% CIs")
@@ -637,8 +640,10 @@ def _bench(args) -> int:
         raise InputError(f"--families: unknown {unknown}; expected some of {list(synthetic.FAMILIES)}")
     if args.power < 0:
         raise InputError(f"--power: expected >= 0, got {args.power}")
+    if args.calibration_tables != 0 and args.calibration_tables < 20:
+        raise InputError(f"--calibration-tables: expected 0 or >= 20, got {args.calibration_tables}")
     result = run_bench(args.clean, args.planted, args.base_seed, families, args.alpha, args.effect_scale,
-                       args.tolerance, args.jobs, args.configuration, args.power)
+                       args.tolerance, args.jobs, args.configuration, args.power, args.calibration_tables)
     write_json(result, args.output)
     if args.table is not None:
         write_csv(bench_table(result), args.table, float_format="%.4g")
