@@ -321,9 +321,11 @@ def quality_lines(report: dict) -> list:
                      "beyond the replicate scatter and the table's typical cell misfit; Bonferroni over the cells at "
                      "1 %; reported, not dropped):")
         for o in out:
+            misfit = (f"{o['cell_misfit_sd']:.2f} {o['size_unit']}" if o["cell_misfit_sd"] >= 0.005
+                      else "none beyond the replicate scatter")
             lines.append(f"- {u.temperature_text(o['temperature_C'])}, {o['frequency_Hz']:g} Hz: {o['quantity']} "
                          f"{o['size']:+.2f} {o['size_unit']} from the model (z = {o['z']:.2f}, p = {o['p']:.2g}, "
-                         f"{o['n']} tests; typical cell misfit {o['cell_misfit_sd']:.2f} {o['size_unit']})")
+                         f"{o['n']} replicates; typical cell misfit {misfit})")
     else:
         lines.append("No outlying cell (replicate means against the isotherms' smooth course, Bonferroni at 1 %).")
     return lines + [""]
