@@ -45,6 +45,7 @@ import pandas as pd
 
 from . import synthetic
 from .effects import ARTIFACTS, ArtifactSearch, effect_entries
+from .scores import binomial_ci
 
 #: estimate key of each effect in the report and the truth
 ESTIMATE_KEYS = {
@@ -104,16 +105,6 @@ def plantable(kind: str, configuration: dict | None) -> bool:
     if kind == "temperature_offset" and len(synthetic.SCHEDULES[configuration["schedule"]][0]) < 4:
         return False
     return True
-
-
-def binomial_ci(k: int, n: int, level: float = 0.95) -> tuple[float | None, float | None]:
-    """Exact (Clopper-Pearson) confidence interval of a proportion k/n; (None, None) for n = 0."""
-    if n <= 0:
-        return None, None
-    from scipy import stats
-
-    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="exact")
-    return float(ci.low), float(ci.high)
 
 
 def case_seed(base_seed: int, family: str, kind: str, i: int) -> int:

@@ -45,6 +45,7 @@ import pandas as pd
 
 from ..rheology.master_curve import fit_master_curve
 from .effects import ArtifactSearch, f_test
+from .scores import binomial_ci
 
 #: bootstrap tables of a calibration (config ``diagnosis.calibration.tables``)
 N_TABLES = 200
@@ -196,8 +197,6 @@ def calibrate(table: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf", test
     ValueError
         on n_tables < 20 or a rate outside (0, 1).
     """
-    from .bench import binomial_ci
-
     if int(n_tables) < 20:
         raise ValueError(f"n_tables must be >= 20, got {n_tables}")
     if not 0.0 < rate < 1.0:

@@ -84,6 +84,14 @@ def t_interval(values, level: float = 0.95) -> tuple[float, float]:
     return float(v.mean() - half), float(v.mean() + half)
 
 
+def binomial_ci(k: int, n: int, level: float = 0.95) -> tuple[float | None, float | None]:
+    """Exact (Clopper-Pearson) confidence interval of a proportion k/n; (None, None) for n = 0."""
+    if n <= 0:
+        return None, None
+    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="exact")
+    return float(ci.low), float(ci.high)
+
+
 def variance_components(Y: np.ndarray) -> tuple[float, float, int]:
     """(tau^2, sigma^2, n) of a specimen-by-cell table ``Y`` (n_specimens, n_cells; NaN where
     a specimen did not test a cell): the specimen effects' variance and the residual variance

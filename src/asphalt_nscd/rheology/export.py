@@ -7,14 +7,12 @@ read: the relaxation modulus at a reference temperature as a Prony series
     E(t) = E_inf + sum_i E_i exp(-t / tau_i) = E_0 [g_inf + sum_i g_i exp(-t / tau_i)],
     E*(w) = E_inf + sum_i E_i i w tau_i / (1 + i w tau_i),
 
-with E_0 = E_inf + sum E_i (instantaneous modulus) and the normalised weights g_i = E_i / E_0,
-and the time-temperature superposition of a WLF law, log10 aT = -C1 (T - T_ref) / (C2 + T -
-T_ref) (Abaqus ``*TRS, DEFINITION=WLF``; LS-DYNA ``*MAT_GENERAL_VISCOELASTIC`` TREF, A, B).
+with g_i = E_i / E_0, and a WLF shift, log10 aT = -C1 (T - T_ref) / (C2 + T - T_ref) (Abaqus
+``*TRS, DEFINITION=WLF``; LS-DYNA ``*MAT_GENERAL_VISCOELASTIC`` TREF, A, B).
 
 Construction (:func:`prony_card`):
 
-* reference temperature: the law's T_ref (``model.T_ref_C`` of the law JSON), whose
-  per-temperature entry is the law there;
+* reference temperature: the law's T_ref (``model.T_ref_C`` of the law JSON);
 * shift: the law's WLF constants; an Arrhenius law is replaced by the WLF law fitted to it
   over the calibrated range (least squares in log10 aT, the largest difference reported);
 * Prony series: the fewest relaxation (generalized Maxwell) terms that stay within a stated
@@ -38,8 +36,8 @@ selected law, and its own errors against the measured replicate means, per cell 
 temperature (:func:`card_errors`, :func:`loss_by_temperature`), are written in the card's
 header, in its JSON and on the console.
 
-Writers: :func:`abaqus_card` (input-file fragment), :func:`lsdyna_card` (keyword card,
-consistent units N, mm, s, tonne: moduli in MPa), :func:`card_json`, :func:`card_table`.
+Writers: :func:`abaqus_card`, :func:`lsdyna_card` (units N, mm, s, tonne: moduli in MPa),
+:func:`card_json`, :func:`card_table`.
 """
 
 from __future__ import annotations
