@@ -129,3 +129,11 @@ def test_calibrated_alarms_recount_the_complete_procedure():
     runs[0]["seed"] += 1
     with pytest.raises(ValueError, match="not in the result's plan"):
         bench.calibrate_alarms(result, n_tables=20)
+
+
+def test_bench_help_names_every_truth_family(capsys):
+    with pytest.raises(SystemExit):
+        main(["diagnose-bench", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    default = text.split("--families FAMILIES comma-separated")[1].split("--base-seed")[0]
+    assert all(f in default for f in synthetic.FAMILIES), default

@@ -355,7 +355,7 @@ def _add_diagnose_bench(subparsers) -> None:
                    help="planted tables per family and artifact (default 40)")
     p.add_argument("--families", type=str, default=None,
                    help="comma-separated truth families (default: all: wlf, glassy_drift, arrhenius, "
-                        "static_drift, poly_shift, mixed)")
+                        "static_drift, poly_shift, mixed, huet_sayegh, gmaxwell, sigmoidal)")
     p.add_argument("--base-seed", type=int, default=None,
                    help="base seed of every table's seed (default: a fresh one, recorded in the JSON)")
     p.add_argument("--alpha", type=float, default=1e-3, help="significance level (default 1e-3)")
