@@ -177,3 +177,23 @@ def test_quality_indicators_have_limits():
     from asphalt_nscd.lab.table_format import QUALITY_INDICATORS
 
     assert tuple(LIMITS) == QUALITY_INDICATORS
+
+
+def test_an_implausible_selected_or_card_law_is_warned_about(caplog):
+    """A selected law or a card law with parameters at a bound or outside the documented ranges
+    is named on the console with its findings; a plausible one is not."""
+    from asphalt_nscd.diagnosis.cli import _warn_implausible
+
+    curve = pd.DataFrame({"settings": ["a", "b", "c"], "plausible": [True, False, False],
+                          "findings": ["", "beta = 1e+09 at the high bound", "E0 outside"],
+                          "chosen": [True, False, False], "chosen_card": [False, True, False]})
+    caplog.set_level(logging.WARNING, logger="asphalt_nscd")
+    _warn_implausible(curve, card=False)
+    assert not caplog.records
+    _warn_implausible(curve, card=True)
+    warned = [r.getMessage() for r in caplog.records]
+    assert len(warned) == 1 and "law of the material card (b)" in warned[0] and "beta = 1e+09" in warned[0]
+    curve["chosen"] = [False, False, True]
+    caplog.clear()
+    _warn_implausible(curve, card=False)
+    assert "selected law (c) has implausible parameters: E0 outside" in caplog.records[0].getMessage()

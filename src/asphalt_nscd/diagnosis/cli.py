@@ -451,6 +451,21 @@ def _master_curve(args) -> int:
     return 0
 
 
+def _warn_implausible(curve, card: bool) -> None:
+    """Console warning when the selected law (or the material card's law) has parameters at a
+    bound or outside the documented physical ranges (the ``findings`` of the candidate curve)."""
+    import logging
+
+    if curve is None or "plausible" not in curve:
+        return
+    roles = [("chosen", "selected law")] + ([("chosen_card", "law of the material card")] if card else [])
+    for column, role in roles:
+        rows = curve[curve[column].astype(bool) & ~curve["plausible"].astype(bool)]
+        for _, r in rows.iterrows():
+            logging.getLogger("asphalt_nscd").warning("the %s (%s) has implausible parameters: %s", role,
+                                                      r["settings"], r["findings"])
+
+
 def _extend_law(args) -> int:
     from ..io import InputError, write_csv
     from ..lab.measured import load_measured
@@ -478,6 +493,7 @@ def _extend_law(args) -> int:
     source = {"measured": str(args.measured), "excluded_frequencies_Hz": list(args.exclude_frequency),
               "excluded_temperatures_C": list(args.exclude_temperature)}
     law_file.write(law_file_object(fit, measured, temps, options, source), args.output)
+    _warn_implausible(fit.curve, card=args.card_law is not None)
     if args.card_law is not None:
         if fit.card_law is None:
             raise InputError(f"{args.measured}: no law that a Prony series with a shift function carries could be "

@@ -247,7 +247,6 @@ def card_lines(report: dict) -> list:
     card = report.get("material_card")
     if not card:
         return []
-    from ..rheology.export import loss_lines
 
     lines = ["## Material card", "",
              f"Relaxation Prony series of {card['n_terms']} terms at T_ref = "
@@ -275,7 +274,7 @@ def card_lines(report: dict) -> list:
                      f"{r['card_vs_law_logE_pct_max']:.2f} | {r['card_vs_law_phase_deg_mean']:.2f} / "
                      f"{r['card_vs_law_phase_deg_max']:.2f} |")
     lines += ["", "In-sample: against the measured replicate means the law was fitted on (every cell: "
-              "material_cards/card_errors.csv). " + (loss_lines(card)[0] if loss_lines(card) else "") + ".", ""]
+              "material_cards/card_errors.csv).", ""]
     return lines
 
 
