@@ -98,7 +98,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except OSError as exc:  # the file system's errors (a directory not writable, a full disk): one line
         where = exc.filename if exc.filename is not None else "file system"
-        print(f"error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        print(f"error: {where}: {exc.strerror or exc} (a file or folder could not be read or written; check the "
+              "path and its permissions)", file=sys.stderr)
         return 2
     return int(status or 0)
 

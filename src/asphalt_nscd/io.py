@@ -98,6 +98,18 @@ def read_csv(path: str | os.PathLike, allow_empty: bool = False, **kwargs):
     return frame
 
 
+def content_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 (hex) of a file's bytes: the stamp that ties a result to the table it came from.
+
+    Raises InputError naming the file if it cannot be read."""
+    import hashlib
+
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+
+
 def rebuild_hint(path) -> str:
     """How a user rebuilds a file the workflow wrote (``results/...``), or checks their own."""
     p = Path(path)

@@ -172,3 +172,18 @@ def test_cli_chain_runs_on_regression_tables(tmp_path, name):
         "--law-json", str(tmp_path / "law.json"), "-o", str(tmp_path / "report.json"), "--page", str(tmp_path / "p.md"))
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["measured"]["test"]["test"] == json.loads((tmp_path / "measured.test.json").read_text())["test"]
+
+
+def test_crossval_says_what_a_table_too_thin_for_a_master_curve_lacks(tmp_path, capsys):
+    """A table of one frequency per isotherm: crossval stops with the design's message (as
+    master-curve and extend-law do) instead of writing rows that nothing can be computed from."""
+    from asphalt_nscd.cli import main
+
+    table = pd.read_csv(DATA / "three_frequencies.csv")
+    one = table[table["frequency_Hz"] == table["frequency_Hz"].max()]
+    path = tmp_path / "one_frequency.csv"
+    one.to_csv(path, index=False)
+    assert main(["crossval", "--measured", str(path), "--scheme", "lofo", "--no-burgers",
+                 "-o", str(tmp_path / "cv.csv")]) == 2
+    assert "needs >= 2 isotherms with >= 3 tested frequencies" in capsys.readouterr().err
+    assert not (tmp_path / "cv.csv").exists()

@@ -118,7 +118,8 @@ def test_a_unit_declared_wrong_by_6_895_is_named(tmp_path, caplog):
     t.loc[3, "|E*| (ksi)"] = 1e300
     t.to_csv(tmp_path / "big.csv", index=False)
     (tmp_path / "big.test.json").write_text((tmp_path / "ok.test.json").read_text())
-    with pytest.raises(InputError, match=r"line 5, column 'E_norm_MPa'.*out of range"):
+    # the lab's own column is named beside the project's
+    with pytest.raises(InputError, match=r"line 5, column E_norm_MPa \(from '\|E\*\| \(ksi\)' in ksi\).*out of range"):
         load_measured(tmp_path / "big.csv")
 
 
@@ -197,3 +198,32 @@ def test_an_implausible_selected_or_card_law_is_warned_about(caplog):
     caplog.clear()
     _warn_implausible(curve, card=False)
     assert "selected law (c) has implausible parameters: E0 outside" in caplog.records[0].getMessage()
+
+
+def test_results_from_another_table_are_refused_by_the_page(tmp_path):
+    """The master curve, law and card carry the SHA-256 of the measured table they came from;
+    the diagnosis refuses to put a result from an earlier table beside a new one, naming it."""
+    from asphalt_nscd.diagnosis.cli import same_table
+
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text("x\n1\n")
+    b.write_text("x\n2\n")
+    from asphalt_nscd.io import content_sha256
+
+    ha = content_sha256(a)
+    assert same_table(a, [("law.json", {"source": {"measured_sha256": ha}}), ("old.json", {"source": {}})]) == ha
+    with pytest.raises(InputError, match=r"law\.json: computed from another measured table"):
+        same_table(b, [("mc.json", {"source": {"measured_sha256": content_sha256(b)}}),
+                       ("law.json", {"source": {"measured_sha256": ha}})])
+
+
+def test_the_chain_stamps_its_results_with_the_table(tmp_path):
+    d = chain(tmp_path, lab_table(tmp_path))
+    from asphalt_nscd.io import content_sha256
+
+    h = content_sha256(d["m.csv"])
+    for key in ("cal.json", "mc.json", "law.json", "card.json"):
+        assert json.loads(d[key].read_text())["source"]["measured_sha256"] == h, key
+    assert json.loads((d["cards"] / "prony.json").read_text())["source"]["measured_sha256"] == h
+    assert f"sha256 {h}" in (d["cards"] / "abaqus.inp").read_text()
+    assert f"sha256 {h}" in (d["cards"] / "lsdyna.k").read_text()

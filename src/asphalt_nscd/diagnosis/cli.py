@@ -414,7 +414,7 @@ def law_options(args):
 
 
 def _calibrate_search(args) -> int:
-    from ..io import InputError, write_json
+    from ..io import InputError, content_sha256, write_json
     from ..lab.measured import load_measured
     from .calibration import calibrate
 
@@ -431,13 +431,13 @@ def _calibrate_search(args) -> int:
     cal = calibrate(measured, alpha=args.alpha, shift=args.shift, test=measured.attrs["test"],
                     limits=search_limits(args), n_tables=args.tables, seed=args.seed, rate=args.familywise_rate,
                     jobs=args.jobs)
-    cal["source"] = {"measured": str(args.measured)}
+    cal["source"] = {"measured": str(args.measured), "measured_sha256": content_sha256(args.measured)}
     write_json(cal, args.output)
     return 0
 
 
 def _master_curve(args) -> int:
-    from ..io import write_csv, write_json
+    from ..io import content_sha256, write_csv, write_json
     from ..lab.measured import load_measured
     from . import artifacts
 
@@ -446,7 +446,8 @@ def _master_curve(args) -> int:
     analysis = artifacts.analyse(measured, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref,
                                  calibration=read_calibration(args), limits=search_limits(args))
     rec = artifacts.record(analysis, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref)
-    write_json(artifacts.to_json(rec, {"measured": str(args.measured)}), args.output)
+    write_json(artifacts.to_json(rec, {"measured": str(args.measured), "measured_sha256": content_sha256(args.measured)}),
+               args.output)
     write_csv(analysis["corrected"].drop(columns=["test_step", "test_step_centre"], errors="ignore"), args.corrected)
     return 0
 
@@ -467,7 +468,7 @@ def _warn_implausible(curve, card: bool) -> None:
 
 
 def _extend_law(args) -> int:
-    from ..io import InputError, write_csv
+    from ..io import InputError, content_sha256, write_csv
     from ..lab.measured import load_measured
     from ..rheology import law_file
     from . import artifacts
@@ -490,7 +491,8 @@ def _extend_law(args) -> int:
     if fit.law is None:
         raise InputError(f"{args.measured}: no extended law could be fitted: {fit.reason}")
     temps = args.temperatures if args.temperatures else sorted(measured["temperature_C"].unique())
-    source = {"measured": str(args.measured), "excluded_frequencies_Hz": list(args.exclude_frequency),
+    source = {"measured": str(args.measured), "measured_sha256": content_sha256(args.measured),
+              "excluded_frequencies_Hz": list(args.exclude_frequency),
               "excluded_temperatures_C": list(args.exclude_temperature)}
     law_file.write(law_file_object(fit, measured, temps, options, source), args.output)
     _warn_implausible(fit.curve, card=args.card_law is not None)
@@ -547,9 +549,11 @@ def _crossval(args) -> int:
     from ..io import InputError, write_csv
     from ..lab.measured import load_measured
     from . import crossval as cv
+    from . import artifacts
     from .inputs import read_simulated_many
 
     measured = load_measured(args.measured)
+    artifacts.check_design(measured, str(args.measured))
     sample = None
     if (args.sample is None) != (args.transfer is None):
         raise InputError("--sample and --transfer: give both (the sample and its network factor JSON) or neither")
@@ -574,6 +578,25 @@ def _crossval(args) -> int:
     return 0
 
 
+def same_table(measured_path, results: list) -> str:
+    """SHA-256 of the measured table at ``measured_path``, after checking that every result of
+    ``results`` ((path, JSON object) pairs of the master curve, the law, the material card ...)
+    was computed from it (their ``source.measured_sha256``; results without one are not checked).
+
+    Raises InputError naming the result and both tables' stamps when one came from another table
+    (a result left from an earlier run beside a new table)."""
+    from ..io import InputError, content_sha256
+
+    mine = content_sha256(measured_path)
+    for path, obj in results:
+        theirs = ((obj or {}).get("source") or {}).get("measured_sha256") if isinstance(obj, dict) else None
+        if theirs is not None and theirs != mine:
+            raise InputError(f"{path}: computed from another measured table (sha256 {theirs[:12]}) than "
+                             f"{measured_path} (sha256 {mine[:12]}); rerun the workflow so that every result "
+                             "comes from the same table")
+    return mine
+
+
 def _diagnose(args) -> int:
     from ..io import InputError, read_json, write_csv, write_json, write_text
     from ..lab.measured import load_measured
@@ -582,6 +605,10 @@ def _diagnose(args) -> int:
     from .budget import diagnose
 
     measured = load_measured(args.measured, test=args.test)
+    card = read_json(args.card, "material card JSON") if args.card is not None else None
+    stamp = same_table(args.measured, [(args.master_curve, read_json(args.master_curve, "master-curve JSON")),
+                                       (args.law_json, read_json(args.law_json, "law JSON")),
+                                       *([(args.card, card)] if card is not None else [])])
     if not (args.tolerance_network_factor > 0 and args.tolerance_phase_deg > 0):
         raise InputError("--tolerance-network-factor and --tolerance-phase-deg: expected positive numbers, got "
                          f"{args.tolerance_network_factor}, {args.tolerance_phase_deg}")
@@ -597,11 +624,12 @@ def _diagnose(args) -> int:
         crossval=inputs.read_crossval(args.crossval) if args.crossval else None,
         cause_tolerances={"network_factor": args.tolerance_network_factor,
                           "time_integration_deg": args.tolerance_phase_deg},
-        card=read_json(args.card, "material card JSON") if args.card is not None else None,
+        card=card,
         without_flagged=read_json(args.law_without_flagged, "law without flagged rows")
         if args.law_without_flagged is not None else None)
     report["measured"]["test"] = measured.attrs["test"].to_json()
     report["measured"]["path"] = str(args.measured)
+    report["measured"]["sha256"] = stamp
     write_json(report, args.output)
     if args.budget_csv is not None:
         write_csv(extra["budget"], args.budget_csv)

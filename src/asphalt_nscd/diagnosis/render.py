@@ -372,8 +372,12 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
     simulated = report["baseline"]["model"].startswith("NSCD")
     title = ("What the simulation gets wrong" if simulated else
              "What the paper's Burger's law gets wrong on this table (no simulation ran)")
-    lines = [f"# {title}", "",
-             f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
+    table = report.get("measured") or {}
+    lines = [f"# {title}", ""]
+    if table.get("path"):
+        lines += [f"Measured table: {table['path']}" + (f" (sha256 {table['sha256'][:16]})" if table.get("sha256")
+                                                         else "") + ": the master curve, the law and the material card were checked to come from it.", ""]
+    lines += [f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
              f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", ""]
     lines += heldout_lines(report)
     lines += card_lines(report)

@@ -57,10 +57,11 @@ def _line(index) -> int:
     return int(index) + 2
 
 
-def check_values(table: pd.DataFrame, path, units: str = "MPa") -> list[str]:
+def check_values(table: pd.DataFrame, path, units: str = "MPa", labels: dict | None = None) -> list[str]:
     """Refuse impossible values and return the warnings of a measured table (module
     docstring). ``table``: the project's columns, rows in file order (index = data row);
-    ``units``: the declared modulus unit (named in the messages).
+    ``units``: the declared modulus unit (named in the messages); ``labels``: the lab's
+    description of a converted column (:func:`.table_format.to_own_columns`).
 
     Raises InputError naming the file, the line and the column of the first impossible value."""
     for col, (lo, hi, unit, what) in REFUSED.items():
@@ -71,7 +72,8 @@ def check_values(table: pd.DataFrame, path, units: str = "MPa") -> list[str]:
             hint = ""
             if col == "E_norm_MPa":
                 hint = _unit_hint(table, float(table["E_norm_MPa"].max()), units)
-            raise InputError(f"{path}: line {_line(table.index[i])}, column '{col}': value {v[i]:g} {unit} out of "
+            name = (labels or {}).get(col) or f"'{col}'"
+            raise InputError(f"{path}: line {_line(table.index[i])}, column {name}: value {v[i]:g} {unit} out of "
                              f"range; expected {what} in {lo:g}-{hi:g} {unit}{hint}")
     warnings = []
     cold = table[table["temperature_C"] <= COLD_C]

@@ -174,7 +174,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
     from .checks import check_values
 
     unit = declared.table.modulus_unit if declared.table is not None else "MPa"
-    for text in check_values(out, path, unit):
+    for text in check_values(out, path, unit, labels):
         logging.getLogger("asphalt_nscd").warning("%s", text)
 
     for column in frame.columns:

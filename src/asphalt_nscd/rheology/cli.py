@@ -167,7 +167,8 @@ def _export(args) -> int:
     card.update({"carries": label, "selected_law": chosen,
                  "is_selected_law": bool((law.get("card") or {}).get("is_selected_law", True)),
                  "carried_settings": carried, "findings": (law.get("model") or {}).get("findings") or [],
-                 "display": display, "loss": export.loss_by_temperature(errors)})
+                 "display": display, "loss": export.loss_by_temperature(errors),
+                 "source": {k: v for k, v in (law.get("source") or {}).items() if k in ("measured", "measured_sha256")}})
     log = logging.getLogger("asphalt_nscd")
     for line in export.loss_lines(card):
         (log.info if card["is_selected_law"] else log.warning)("material card: %s", line)

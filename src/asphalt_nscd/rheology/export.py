@@ -288,6 +288,14 @@ def loss_by_temperature(errors: pd.DataFrame) -> list[dict]:
     return out
 
 
+def source_lines(card: dict) -> list[str]:
+    """The measured table the card's law was fitted to (path and SHA-256), for the card's header."""
+    src = card.get("source") or {}
+    if not src.get("measured_sha256"):
+        return []
+    return [f"fitted to the measured table {src.get('measured', '?')} (sha256 {src['measured_sha256']})"]
+
+
 def loss_lines(card: dict, units=None) -> list[str]:
     """What the card loses, one line per temperature (the card's header and the console);
     ``units``: :class:`asphalt_nscd.lab.table_format.DisplayUnits` of the temperatures (default:
@@ -414,6 +422,7 @@ def abaqus_card(card: dict, name: str = "ASPHALT_MIX") -> str:
              f"** largest difference to the law it carries over {card['check']['n_cells']} calibrated cells: "
              f"{card['check']['max_E_norm_difference_pct']:.3g} % |E*|, "
              f"{card['check']['max_phase_difference_deg']:.3g} deg phase",
+             *(f"** {line}" for line in source_lines(card)),
              *(f"** {line}" for line in loss_lines(card)),
              f"*MATERIAL, NAME={name}",
              "*ELASTIC, MODULI=INSTANTANEOUS",
@@ -436,6 +445,7 @@ def lsdyna_card(card: dict, mid: int = 1, density_t_mm3: float = 2.4e-9) -> str:
     bulk = card["E_0_MPa"] * k
     lines = ["$ Linear viscoelastic material card written by asphalt-nscd export-law (units N, mm, s, tonne; MPa)",
              f"$ E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; WLF shift",
+             *(f"$ {line}" for line in source_lines(card)),
              *(f"$ {line}" for line in loss_lines(card)),
              "*MAT_GENERAL_VISCOELASTIC",
              "$      MID        RO      BULK       PCF        EF      TREF         A         B",

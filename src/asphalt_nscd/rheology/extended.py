@@ -544,12 +544,18 @@ class ThermoLaw:
                 "prony_at_T_ref": {**p, "units": "Pa, Pa s"}, **self.info}
 
 
+#: widest reduced-frequency band (decades, margins included) a fitted shift law may spread the
+#: tested cells over; asphalt mixes span about 10-20 (a wider one is a failed fit, e.g. phases in radians)
+MAX_BAND_DECADES = 40.0
+
+
 def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = None,
             tolerances=TOLERANCES, margin_decades: float = 2.0, backbone: Backbone | None = None) -> ThermoLaw:
     """Fit :class:`ThermoLaw` to cell means (``temperature_C, frequency_Hz, E_norm_MPa,
     phase_deg``); ``backbone``: an already fitted one of the same structure (reused).
 
-    Raises ValueError as :func:`fit_backbone`, or if the Prony fit fails.
+    Raises ValueError as :func:`fit_backbone`, when the shift law spreads the cells over more
+    than :data:`MAX_BAND_DECADES` of reduced frequency, or if the Prony fit fails.
     """
     bb = backbone if backbone is not None else fit_backbone(cells, settings, T_ref_C, tolerances)
     if backbone is not None and backbone.settings.structure != settings.structure:
@@ -557,8 +563,13 @@ def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = 
     bb = Backbone(settings, bb.T_ref_C, bb.temperatures, bb.names, bb.x, bb.cost)
     T = cells["temperature_C"].to_numpy(float)
     f = cells["frequency_Hz"].to_numpy(float)
-    wr = 2 * np.pi * f * 10.0 ** bb.log_shift(T)
-    w_lo, w_hi = wr.min() / 10 ** margin_decades, wr.max() * 10 ** margin_decades
+    with np.errstate(over="ignore", invalid="ignore"):
+        wr = 2 * np.pi * f * 10.0 ** bb.log_shift(T)
+        w_lo, w_hi = wr.min() / 10 ** margin_decades, wr.max() * 10 ** margin_decades
+        span = float(np.log10(w_hi / w_lo)) if w_lo > 0 else np.inf
+    if not (np.isfinite(span) and span <= MAX_BAND_DECADES):
+        raise ValueError(f"fit_law: the shift law spreads the tested cells over {span:.3g} decades of reduced "
+                         f"frequency (more than {MAX_BAND_DECADES}): not a plausible shift law")
     omega = np.logspace(np.log10(w_lo), np.log10(w_hi), int(np.ceil(10 * np.log10(w_hi / w_lo))) + 1)
     c = bb.core()
     E_ref = two_s2p1d_modulus(omega, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], c["tau_s"])
