@@ -42,6 +42,8 @@ def merge(results: list[dict]) -> dict:
             "level_for_goal": bench.level_for_goal(runs, families), "power_curves": bench.power_curves(runs),
             "summary": summary, "goals_met": bench.goals_met(summary),
             "n_tables": len(runs), "cpu_seconds_tables": sum(run["cpu_seconds"] for run in runs),
+            "calibration_tables": max((r.get("calibration_tables", 0) for r in results), default=0),
+            "cpu_seconds_calibration": sum(run.get("calibration_cpu_seconds", 0.0) for run in runs),
             "runs": runs}
 
 
@@ -50,6 +52,7 @@ def tables(runs: list[dict]) -> pd.DataFrame:
     for run in runs:
         row = {k: run[k] for k in ("family", "kind", "index", "seed", "schedule", "power_size", "n_specimens",
                                    "min_p", "level", "screening_chi2_per_dof", "cpu_seconds")}
+        row.update({k: run[k] for k in ("detected_calibrated", "calibrated_level") if k in run})
         row.update({k: ";".join(run[k]) for k in ("planted", "detected", "testable", "not_identifiable")})
         row.update({f"p_{k}": v for k, v in run["p_values"].items()})
         row.update({f"size_{k}": v for k, v in run["sizes"].items()})

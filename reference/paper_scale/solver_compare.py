@@ -2,7 +2,7 @@
 import json, sys, time, dataclasses
 import numpy as np
 from asphalt_nscd import config
-from asphalt_nscd.campaign import study, twopb
+from asphalt_nscd.campaign import study
 from asphalt_nscd.campaign.twopb import TwoPBSettings, build_simulation, start_test, mode_settings, time_step
 from asphalt_nscd.sample.store import read_sample
 
