@@ -386,3 +386,28 @@ def test_shared_result_files_are_named_once():
     assert len(set(own)) == len(own)
     assert set(own) - set(plan.report_files(cfg)) == {plan.MASTER_CURVE_JSON}
     assert set(plan.MATERIAL_CARDS.values()) <= set(plan.report_files(cfg))
+
+
+def test_console_messages_of_this_run_once_each_and_both_kinds_printed_on_error(tmp_path):
+    """The project's errors and warnings of the rule logs written since the run started, each
+    once; older logs are not repeated. The Snakefile prints warnings on failure too (a warning,
+    e.g. phases that look like radians, is often the cause of the failure)."""
+    import os
+    import re
+    import time
+
+    old = tmp_path / "lab" / "old.log"
+    old.parent.mkdir()
+    old.write_text("error: from an earlier run\n")
+    os.utime(old, (time.time() - 100, time.time() - 100))
+    new = tmp_path / "diagnosis" / "extend_law.log"
+    new.parent.mkdir()
+    new.write_text("2026 asphalt_nscd WARNING: the phases look like radians\n"
+                   "2026 asphalt_nscd WARNING: the phases look like radians\n"
+                   "error: t.csv: line 3, column 'phase_deg': value nan\nTraceback ignored\n")
+    start = time.time() - 10
+    assert plan.console_messages(start, "warning", str(tmp_path)) == [f"{new}: the phases look like radians"]
+    assert plan.console_messages(start, "error", str(tmp_path)) == [f"{new}: error: t.csv: line 3, column 'phase_deg': value nan"]
+    snakefile = (Path(__file__).resolve().parents[2] / "Snakefile").read_text()
+    onerror = re.search(r"^onerror:\n((?:    .*\n)+)", snakefile, re.M).group(1)
+    assert '"warning"' in onerror and '"error"' in onerror
