@@ -102,9 +102,15 @@ def test_a_unit_declared_wrong_by_6_895_is_named(tmp_path, caplog):
     MPa is refused with both units named; an impossible modulus is refused with its line."""
     caplog.set_level(logging.WARNING, logger="asphalt_nscd")
     path = lab_table(tmp_path, unit="MPa", header="Dynamic Modulus")
-    load_measured(path)
+    table = load_measured(path)
     warned = " ".join(r.getMessage() for r in caplog.records)
     assert "ksi (x 6.895)" in warned and "stiffest cell" in warned
+    # and on the page, where the user reads the diagnosis
+    from asphalt_nscd.diagnosis.render import quality_lines
+
+    assert any("ksi (x 6.895)" in w for w in table.attrs["warnings"])
+    page = "\n".join(quality_lines({"measured": {"warnings": table.attrs["warnings"]}}))
+    assert "Checks of the values as read" in page and "ksi (x 6.895)" in page
     good = load_measured(lab_table(tmp_path, name="ok"))
     assert good["E_norm_MPa"].max() > 10000
     t = pd.read_csv(path).rename(columns={"Dynamic Modulus": "E_norm_MPa"})

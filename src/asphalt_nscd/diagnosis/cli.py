@@ -630,6 +630,7 @@ def _diagnose(args) -> int:
     report["measured"]["test"] = measured.attrs["test"].to_json()
     report["measured"]["path"] = str(args.measured)
     report["measured"]["sha256"] = stamp
+    report["measured"]["warnings"] = list(measured.attrs.get("warnings", []))
     write_json(report, args.output)
     if args.budget_csv is not None:
         write_csv(extra["budget"], args.budget_csv)

@@ -299,6 +299,10 @@ def quality_lines(report: dict) -> list:
     ind, out = q.get("indicators") or {}, q.get("outliers") or []
     u = _units(report)
     lines = ["## Data quality", ""]
+    warned = (report.get("measured") or {}).get("warnings") or []
+    if warned:
+        lines += ["**Checks of the values as read** (units and plausible ranges; the table was used as declared):"]
+        lines += [f"- {w}" for w in warned] + [""]
     if ind.get("columns"):
         lim = ", ".join(f"{k} <= {v:g}" for k, v in (ind.get("limits") or {}).items() if v is not None)
         lines.append(f"Quality indicators of the lab ({lim}): {ind['n_flagged']} of {ind['n_rows']} rows beyond a limit"

@@ -123,7 +123,8 @@ def load_measured(path, test=None) -> pd.DataFrame:
         Required columns first (specimen as str, the others float), optional ones next
         (test_order as int), other columns carried along; rows sorted by temperature,
         frequency and specimen. ``attrs["test"]``: the declared test
-        (:class:`asphalt_nscd.lab.geometry.DeclaredTest`).
+        (:class:`asphalt_nscd.lab.geometry.DeclaredTest`); ``attrs["warnings"]``: the
+        plausibility warnings of the values (:func:`asphalt_nscd.lab.checks.check_values`).
 
     Raises
     ------
@@ -174,7 +175,8 @@ def load_measured(path, test=None) -> pd.DataFrame:
     from .checks import check_values
 
     unit = declared.table.modulus_unit if declared.table is not None else "MPa"
-    for text in check_values(out, path, unit, labels):
+    warned = check_values(out, path, unit, labels)
+    for text in warned:
         logging.getLogger("asphalt_nscd").warning("%s", text)
 
     for column in frame.columns:
@@ -186,6 +188,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
     order = ["temperature_C", "frequency_Hz", "specimen"] + (["test_order"] if "test_order" in out.columns else [])
     out = out.sort_values(order, kind="stable").reset_index(drop=True)
     out.attrs["test"] = declared
+    out.attrs["warnings"] = list(warned)
     return out
 
 
