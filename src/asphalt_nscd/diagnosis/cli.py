@@ -414,7 +414,7 @@ def law_options(args):
 
 
 def _calibrate_search(args) -> int:
-    from ..io import InputError, content_sha256, write_json
+    from ..io import InputError, write_json
     from ..lab.measured import load_measured
     from .calibration import calibrate
 
@@ -431,13 +431,13 @@ def _calibrate_search(args) -> int:
     cal = calibrate(measured, alpha=args.alpha, shift=args.shift, test=measured.attrs["test"],
                     limits=search_limits(args), n_tables=args.tables, seed=args.seed, rate=args.familywise_rate,
                     jobs=args.jobs)
-    cal["source"] = {"measured": str(args.measured), "measured_sha256": content_sha256(args.measured)}
+    cal["source"] = _table_source(args.measured)
     write_json(cal, args.output)
     return 0
 
 
 def _master_curve(args) -> int:
-    from ..io import content_sha256, write_csv, write_json
+    from ..io import write_csv, write_json
     from ..lab.measured import load_measured
     from . import artifacts
 
@@ -446,8 +446,7 @@ def _master_curve(args) -> int:
     analysis = artifacts.analyse(measured, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref,
                                  calibration=read_calibration(args), limits=search_limits(args))
     rec = artifacts.record(analysis, alpha=args.alpha, shift=args.shift, T_ref_C=args.t_ref)
-    write_json(artifacts.to_json(rec, {"measured": str(args.measured), "measured_sha256": content_sha256(args.measured)}),
-               args.output)
+    write_json(artifacts.to_json(rec, _table_source(args.measured)), args.output)
     write_csv(analysis["corrected"].drop(columns=["test_step", "test_step_centre"], errors="ignore"), args.corrected)
     return 0
 
@@ -468,7 +467,7 @@ def _warn_implausible(curve, card: bool) -> None:
 
 
 def _extend_law(args) -> int:
-    from ..io import InputError, content_sha256, write_csv
+    from ..io import InputError, write_csv
     from ..lab.measured import load_measured
     from ..rheology import law_file
     from . import artifacts
@@ -491,8 +490,7 @@ def _extend_law(args) -> int:
     if fit.law is None:
         raise InputError(f"{args.measured}: no extended law could be fitted: {fit.reason}")
     temps = args.temperatures if args.temperatures else sorted(measured["temperature_C"].unique())
-    source = {"measured": str(args.measured), "measured_sha256": content_sha256(args.measured),
-              "excluded_frequencies_Hz": list(args.exclude_frequency),
+    source = {**_table_source(args.measured), "excluded_frequencies_Hz": list(args.exclude_frequency),
               "excluded_temperatures_C": list(args.exclude_temperature)}
     law_file.write(law_file_object(fit, measured, temps, options, source), args.output)
     _warn_implausible(fit.curve, card=args.card_law is not None)
@@ -576,6 +574,13 @@ def _crossval(args) -> int:
     if args.figure is not None:
         cv.figure(res.rows, res.full.law, args.figure)
     return 0
+
+
+def _table_source(path) -> dict:
+    """The ``source`` stamp of a result: the measured table's path and SHA-256 (:func:`same_table`)."""
+    from ..io import content_sha256
+
+    return {"measured": str(path), "measured_sha256": content_sha256(path)}
 
 
 def same_table(measured_path, results: list) -> str:
