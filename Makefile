@@ -7,7 +7,6 @@ BIN    := $(VENV)/bin
 CORES  ?= 2
 # CONFIG: config/config.yaml, or an overlay merged over it by Snakemake (config/paper.yaml, config/smoke.yaml)
 CONFIG ?= config/config.yaml
-comma := ,
 
 .PHONY: run test setup report dry-run bench clean table
 
@@ -25,13 +24,15 @@ run: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --printshellcmds --rerun-incomplete
 
 # Your own table: make table TABLE=path/to/table.csv [TEST=path/to/sidecar.json]
-# (the sidecar <table>.test.json next to the table is found by itself; README, "Your own table")
+# (the sidecar <table>.test.json next to the table is found by itself; README, "Your own table").
+# The paths reach the workflow through a YAML overlay written by asphalt-nscd (no shell or JSON quoting of them),
+# so a path with spaces, quotes or non-ASCII characters works: make table "TABLE=my lab/mïx.csv".
+# The complete run is copied to results/tables/<folder>-<table>/ once every step has succeeded.
+TABLE_OVERLAY := results/own_table.yaml
 table: setup
-	@test -n "$(TABLE)" || { echo "usage: make table TABLE=path/to/table.csv [TEST=path/to/table.test.json]" >&2; exit 2; }
-	$(BIN)/snakemake own_table --cores $(CORES) --rerun-incomplete --configfile config/config.yaml config/table.yaml \
-	  --config 'measured={"table": "$(TABLE)"$(if $(TEST),$(comma) "test": "$(TEST)")}'
-	@echo "law: results/diagnosis/generalized_burgers.json; cards: results/diagnosis/material_cards/;" \
-	  "figures: results/diagnosis/figures/; page: results/diagnosis/what_the_simulation_gets_wrong.md"
+	@test -n "$$TABLE" || { echo "usage: make table TABLE=path/to/table.csv [TEST=path/to/table.test.json]" >&2; exit 2; }
+	$(BIN)/asphalt-nscd own-table-config "$$TABLE" $${TEST:+--test "$$TEST"} -o $(TABLE_OVERLAY)
+	$(BIN)/snakemake own_table --cores $(CORES) --rerun-incomplete --configfile config/config.yaml config/table.yaml $(TABLE_OVERLAY)
 
 report: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html

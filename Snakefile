@@ -42,11 +42,13 @@ include: "workflow/rules/diagnosis.smk"
 include: "workflow/rules/figures.smk"
 
 
+# Every file of the report is a target beside its index: a result that is missing (deleted, or removed with a job
+# that failed) is rebuilt by the next run even while the index is up to date.
 rule all:
     default_target: True
     input:
         plan.REPORT_INDEX,
-        plan.key_files(config),
+        plan.report_files(config),
 
 
 # Snakemake reports a failed rule as "check log file(s)": print the project's own one-line errors (file, row or

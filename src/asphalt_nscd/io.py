@@ -111,10 +111,15 @@ def content_sha256(path: str | os.PathLike) -> str:
 
 
 def rebuild_hint(path) -> str:
-    """How a user rebuilds a file the workflow wrote (``results/...``), or checks their own."""
+    """How a user rebuilds a file the workflow wrote (``results/...``), or checks their own.
+
+    A missing file under ``results/`` is rebuilt by the workflow with the configuration that
+    made the rest (``make run`` with the same ``CONFIG``, or ``make table`` with the same
+    ``TABLE``), so the hint is to delete it and rerun, not a command tied to one configuration."""
     p = Path(path)
     if "results" in p.parts:
-        return f"rebuild it: .venv/bin/snakemake --cores 1 --force {p}"
+        return ("delete it and rerun the command that made it (make run, or make table, with the same "
+                "CONFIG or TABLE): the workflow rebuilds it")
     return "check the file"
 
 
@@ -135,7 +140,7 @@ def read_json(path: str | os.PathLike, what: str = "JSON file"):
     except OSError as exc:
         raise InputError(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
     except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from None
+        raise InputError(f"{path}: not valid JSON ({exc}); {rebuild_hint(path)}") from None
 
 
 def write_csv(frame, path: str | os.PathLike, **kwargs) -> None:
@@ -192,3 +197,46 @@ def json_safe(obj):
     if isinstance(obj, float) and not np.isfinite(obj):
         return None
     return obj
+
+
+def publish_directory(files: list, root: str | os.PathLike, destination: str | os.PathLike,
+                      manifest: dict) -> Path:
+    """Copy ``files`` (paths under ``root``) into ``destination``, keeping their paths relative
+    to ``root``, with ``manifest.json`` (``manifest`` plus each file's SHA-256 under
+    ``"files"``), and put the folder in place by renames: ``destination`` holds the previous
+    complete set or this one, never a mix of two runs. A copy left by a killed publisher
+    (``.<name>.new-*`` beside ``destination``) is removed first.
+
+    Raises InputError naming a file that does not exist or is not under ``root``."""
+    import shutil
+
+    root, destination = Path(root), Path(destination)
+    rels = []
+    for f in files:
+        p = Path(f)
+        if not p.is_file():
+            raise InputError(f"{p}: file not found (a result to publish in {destination})")
+        try:
+            rels.append(p.resolve().relative_to(root.resolve()))
+        except ValueError:
+            raise InputError(f"{p}: not under {root}, cannot be published in {destination}") from None
+    destination.parent.mkdir(parents=True, exist_ok=True)
+    for stale in destination.parent.glob(f".{destination.name}.new-*"):
+        shutil.rmtree(stale, ignore_errors=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{destination.name}.new-", dir=destination.parent))
+    try:
+        for rel in dict.fromkeys(rels):
+            (staging / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(root / rel, staging / rel)
+        record = dict(manifest, files={rel.as_posix(): content_sha256(staging / rel) for rel in dict.fromkeys(rels)})
+        (staging / "manifest.json").write_text(json.dumps(record, indent=2, default=_json_default) + "\n")
+        os.chmod(staging, 0o777 & ~_UMASK)
+        old = destination.with_name(f".{destination.name}.old-{os.getpid()}")
+        if destination.exists():
+            os.replace(destination, old)
+        os.replace(staging, destination)
+        shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return destination

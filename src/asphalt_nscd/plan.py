@@ -73,6 +73,11 @@ MATERIAL_CARDS = {
     "errors": f"{MATERIAL_CARDS_DIR}/card_errors.csv",
     "functions": f"{MATERIAL_CARDS_DIR}/relaxation_creep.csv",
 }
+#: the figures of rule card_figures: isochrones of the card against the measured means, its E(t) and D(t)
+MATERIAL_CARD_FIGURES = {
+    "isochrones": f"{MATERIAL_CARDS_DIR}/isochrones.png",
+    "relaxation_creep": f"{MATERIAL_CARDS_DIR}/relaxation_creep.png",
+}
 #: the figures of rule master_curve_figures: master curve, shift factors, the law's residuals
 MASTER_CURVE_FIGURES = {
     "master": "results/diagnosis/figures/master_curve.png",
@@ -875,6 +880,7 @@ def report_files(config: dict) -> list:
         "results/diagnosis/report.json",
         LAW_JSON,
         *MATERIAL_CARDS.values(),
+        *MATERIAL_CARD_FIGURES.values(),
         *MASTER_CURVE_FIGURES.values(),
         "results/diagnosis/law_residuals.csv",
         SIGMOID_TABLE,
@@ -892,32 +898,18 @@ def report_files(config: dict) -> list:
     return files
 
 
-def key_files(config: dict) -> list:
-    """The key tables and figures the README names: targets of rule all beside the report
-    index, so that a missing one is rebuilt by ``make run`` (a file only the index depends on
-    is not rebuilt while the index is up to date)."""
-    files = [DIAGNOSIS_PAGE, MASTER_CURVE_FIGURES["master"], *MATERIAL_CARDS.values(),
-             "results/harmonic/network_factor.csv"]
-    files += [f"results/campaign/{mode}/table4_{mode}.csv" for mode in config["campaign"]["modes"]]
-    return files
+#: where ``make table`` puts the complete run of each table (rule own_table)
+OWN_TABLES = "results/tables"
 
 
-def own_table_files(config: dict) -> list:
-    """The files of rule own_table ("your own table", README): the law JSON, its material cards,
-    the master-curve figures, the held-out errors and the diagnosis page of measured.table,
-    without the NSCD campaign."""
-    return [
-        MEASURED,
-        MASTER_CURVE_JSON,
-        LAW_JSON,
-        MATERIAL_CARDS["abaqus"],
-        MATERIAL_CARDS["lsdyna"],
-        MATERIAL_CARDS["json"],
-        *MASTER_CURVE_FIGURES.values(),
-        SIGMOID_TABLE,
-        *crossval_files(config, "_summary.csv"),
-        DIAGNOSIS_PAGE,
-    ]
+def own_table_dir(config: dict) -> str:
+    """``results/tables/<folder>-<stem>``: the folder of the last complete ``make table`` run on
+    measured.table (its folder's name and its file name without suffix, e.g.
+    ``results/tables/uiuc_fdmix1_utm-complex_modulus``); a table at the working directory's
+    root gives ``results/tables/<stem>``."""
+    table = Path(config["measured"]["table"])
+    folder = table.resolve().parent.name
+    return f"{OWN_TABLES}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{OWN_TABLES}/{table.stem}"
 
 
 #: the lines of the project's commands that the console repeats after a run: their one-line

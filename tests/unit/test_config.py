@@ -339,3 +339,12 @@ def test_calibration_defaults_are_the_default_config():
     assert d.get_default("n_starts") == cal["n_starts"]
     assert d.get_default("weight_log_modulus") == cal["weight_log_modulus"]
     assert d.get_default("weight_phase") == cal["weight_phase"]
+
+
+def test_material_card_tolerance_default_is_the_default_config():
+    """export-law's default tolerance (rheology.export.CARD_TOLERANCE, used when --tolerance is
+    not given) = config/config.yaml's diagnosis.material_card.tolerance."""
+    from asphalt_nscd.rheology import export
+
+    assert list(export.CARD_TOLERANCE) == raw("config")["diagnosis"]["material_card"]["tolerance"]
+    assert _subparser("export-law").get_default("tolerance") is None

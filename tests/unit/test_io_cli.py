@@ -86,3 +86,69 @@ def test_termination_request_unwinds_and_is_remembered(monkeypatch):
     assert exc.value.code == 143
     with pytest.raises(SystemExit):  # a swallowed SystemExit still stops the next step
         io.check_termination()
+
+
+def _run(tmp_path, monkeypatch, *argv) -> int:
+    monkeypatch.chdir(tmp_path)
+    return cli.main(list(argv))
+
+
+def test_own_table_overlay_keeps_a_path_with_spaces_quotes_and_non_ascii(tmp_path, monkeypatch, capsys):
+    import yaml
+
+    name = "my lab \u00ef/m\u00efx 'q\" (ksi).csv"
+    (tmp_path / name).parent.mkdir()
+    (tmp_path / name).write_text("x\n")
+    assert _run(tmp_path, monkeypatch, "own-table-config", name, "-o", "results/own_table.yaml") == 0
+    overlay = yaml.safe_load((tmp_path / "results" / "own_table.yaml").read_text(encoding="utf-8"))
+    assert overlay == {"measured": {"table": name}}
+    assert _run(tmp_path, monkeypatch, "own-table-config", "missing.csv", "-o", "o.yaml") == 2
+    assert "TABLE=missing.csv: file not found" in capsys.readouterr().err
+    assert not (tmp_path / "o.yaml").exists()
+
+
+def _results(root, sha="a" * 64):
+    """A results/ tree of one table: the validated table and a law JSON stamped with ``sha``."""
+    import json
+
+    (root / "results" / "lab").mkdir(parents=True, exist_ok=True)
+    (root / "results" / "diagnosis").mkdir(parents=True, exist_ok=True)
+    (root / "results" / "lab" / "measured.csv").write_text("specimen\nA\n")
+    law = root / "results" / "diagnosis" / "law.json"
+    law.write_text(json.dumps({"source": {"measured_sha256": sha}}))
+    return root / "results" / "lab" / "measured.csv", law
+
+
+def test_publish_table_puts_a_complete_run_in_place_and_keeps_it_when_the_next_fails(tmp_path, monkeypatch, capsys):
+    """The folder of a table's complete run, with its manifest; a next run whose results come from
+    another table, or lack a file, is refused and leaves the folder as it was."""
+    import json
+
+    (tmp_path / "mix.csv").write_text("lab table\n")
+    measured, law = _results(tmp_path)
+    law.write_text(json.dumps({"source": {"measured_sha256": io.content_sha256(measured)}}))
+    # a test JSON whose "source" says where its values come from (a text, not a stamp)
+    (tmp_path / "results" / "lab" / "measured.test.json").write_text(json.dumps({"source": "the lab's report"}))
+    args = ["publish-table", "results/lab/measured.csv", "results/diagnosis/law.json", "results/lab/measured.test.json",
+            "--table", "mix.csv",
+            "--measured", "results/lab/measured.csv", "-o", "results/tables/mix"]
+    assert _run(tmp_path, monkeypatch, *args) == 0
+    out = tmp_path / "results" / "tables" / "mix"
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["table_sha256"] == io.content_sha256(tmp_path / "mix.csv")
+    assert set(manifest["files"]) == {"lab/measured.csv", "diagnosis/law.json", "lab/measured.test.json"}
+    assert manifest["files"]["diagnosis/law.json"] == io.content_sha256(law)
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    # a new table beside the old law: refused, the folder untouched
+    measured.write_text("specimen\nB\n")
+    assert _run(tmp_path, monkeypatch, *args) == 2
+    assert "computed from another measured table" in capsys.readouterr().err
+    # a missing result: refused, the folder untouched
+    law.write_text(json.dumps({"source": {"measured_sha256": io.content_sha256(measured)}}))
+    assert _run(tmp_path, monkeypatch, *args[:3], "results/diagnosis/page.md", *args[3:]) == 2
+    assert "page.md: file not found" in capsys.readouterr().err
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert sorted(p.name for p in out.parent.iterdir()) == ["mix"]  # no staging copy left
+    # the complete run of the new table replaces it
+    assert _run(tmp_path, monkeypatch, *args) == 0
+    assert json.loads((out / "manifest.json").read_text())["measured_sha256"] == io.content_sha256(measured)

@@ -248,7 +248,7 @@ def test_report_files_are_the_report_index_inputs(named_config):
     name, cfg = named_config
     files = plan.report_files(cfg)
     # counts of the collect-report command of the dry runs (smoke: one sample, else four)
-    assert len(files) == {"smoke": 95, "config": 98, "paper": 102}[name]  # paper: + the paper_kPa mode's 4
+    assert len(files) == {"smoke": 97, "config": 100, "paper": 104}[name]  # paper: + the paper_kPa mode's 4
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
     assert files[-1] == "results/diagnosis/crossval/loso.png"
     assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files
@@ -381,11 +381,16 @@ def test_shared_result_files_are_named_once():
     assert plan.diagnosis_auto_input(cfg, "harmonic")[0] == plan.harmonic_job_file("s1", "measured")
     assert plan.crossval_files(cfg, "_summary.csv") == [
         plan.crossval_file(s, "_summary.csv") for s in cfg["diagnosis"]["crossval"]["schemes"]]
-    # the own-table target is part of the report, plus the master-curve JSON it reads
-    own = plan.own_table_files(cfg)
-    assert len(set(own)) == len(own)
-    assert set(own) - set(plan.report_files(cfg)) == {plan.MASTER_CURVE_JSON}
     assert set(plan.MATERIAL_CARDS.values()) <= set(plan.report_files(cfg))
+
+
+def test_own_table_folder_is_named_by_the_tables_folder_and_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    cfg = {"measured": {"table": "data/measured/uiuc_fdmix1_utm/complex_modulus.csv"}}
+    assert plan.own_table_dir(cfg) == "results/tables/uiuc_fdmix1_utm-complex_modulus"
+    assert plan.own_table_dir({"measured": {"table": "my lab \u00ef/m\u00efx (ksi).csv"}}) == \
+        "results/tables/my lab \u00ef-m\u00efx (ksi)"
+    assert plan.own_table_dir({"measured": {"table": "mix.csv"}}) == "results/tables/mix"
 
 
 def test_console_messages_of_this_run_once_each_and_both_kinds_printed_on_error(tmp_path):

@@ -1,10 +1,11 @@
 """Material cards of the extended law: each exported card (Abaqus, LS-DYNA, JSON) evaluated
-back at every measured (T, f) matches the law within 0.5 % in |E*| and 0.2 deg in Phi; a law
+back at every measured (T, f) matches the law within the card's tolerance (default 1 % in |E*| and 0.2 deg in Phi); a law
 a single Prony series with a WLF shift cannot carry is refused, naming what is lost (the law a
 card carries instead: tests/unit/test_lab_table_in.py)."""
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -64,8 +65,8 @@ def test_exported_cards_round_trip(tmp_path):
     E_law = law_file.complex_modulus(laws, T, f)
 
     def check(E):
-        assert np.max(np.abs(np.abs(E) / np.abs(E_law) - 1)) <= 0.005
-        assert np.max(np.abs(np.degrees(np.angle(E) - np.angle(E_law)))) <= 0.2
+        assert np.max(np.abs(np.abs(E) / np.abs(E_law) - 1)) <= export.CARD_TOLERANCE[0] / 100
+        assert np.max(np.abs(np.degrees(np.angle(E) - np.angle(E_law)))) <= export.CARD_TOLERANCE[1]
 
     def prony(E0, g_inf, terms, shift, wr_of):
         wr = wr_of(shift)
@@ -79,7 +80,7 @@ def test_exported_cards_round_trip(tmp_path):
         return 2 * np.pi * f * 10.0 ** (-C1 * (T - T_ref) / (C2 + T - T_ref))
 
     card = json.loads((cards / "prony.json").read_text())
-    assert card["exact"] and card["check"]["max_E_norm_difference_pct"] <= 0.5
+    assert card["exact"] and card["check"]["max_E_norm_difference_pct"] <= card["check"]["tolerances"]["E_norm_pct"]
     check(prony(card["E_0_MPa"], card["g_inf"], [(t["g"], t["tau_s"]) for t in card["terms"]],
                 (card["shift"]["T_ref_C"], card["shift"]["C1"], card["shift"]["C2_K"]), wr_of))
     E0, terms, shift = _abaqus((cards / "abaqus.inp").read_text())
@@ -172,3 +173,35 @@ def test_creep_compliance_is_the_exact_interconversion_of_the_card(tmp_path):
         assert np.allclose(g["G_MPa"], g["E_MPa"] / (2 * (1 + card["nu"])))
     ref, hot = f[f["temperature_C"] == card["T_ref_C"]], f[f["temperature_C"] == f["temperature_C"].max()]
     assert hot["E_MPa"].iloc[10] < ref["E_MPa"].iloc[10]  # a warmer mix relaxes sooner
+    # the card's figures: isochrones against the measured means, E(t) and D(t)
+    figs = [str(tmp_path / "iso.png"), str(tmp_path / "rc.png")]
+    base = ["card-figures", "--card", str(cards / "prony.json"), "--functions", str(cards / "relaxation_creep.csv"),
+            "--isochrones", figs[0], "--relaxation-creep", figs[1]]
+    assert main([*base, "--errors", str(cards / "card_errors.csv")]) == 0
+    assert all(Path(p).stat().st_size > 20_000 for p in figs)
+    pd.read_csv(cards / "card_errors.csv").drop(columns="phase_deg_measured").to_csv(tmp_path / "e.csv", index=False)
+    assert main([*base, "--errors", str(tmp_path / "e.csv")]) == 2
+
+
+def test_joint_refinement_lowers_the_largest_difference_in_tolerance_units():
+    """Times and weights free together (after the variable projection of N terms) never make
+    the largest difference, in units of the tolerances, worse; on a 5-term series fitted with
+    3 terms they make it smaller."""
+    from asphalt_nscd.rheology.models import generalized_maxwell_modulus
+
+    tau = np.logspace(-4, 2, 5)
+    omega = np.logspace(-3, 5, 161)
+    E = generalized_maxwell_modulus(omega, 50.0, np.array([8000.0, 6000.0, 3000.0, 1200.0, 400.0]), tau)
+    tol = (1.0, 0.2)
+
+    def scaled(r):
+        return max(100 * np.abs(r.real).max() / tol[0], np.degrees(np.abs(r.imag).max()) / tol[1])
+
+    u = np.log10(np.logspace(-3.5, 1.5, 3))
+    x, Ef = export._nnls_weights(omega, E, 10.0 ** u)
+    r = np.log(Ef / E)
+    x2, u2, r2 = export._joint_minimax(omega, E, x, u, r, tol, (-6.0, 4.0), scaled)
+    assert scaled(r2) < scaled(r)
+    assert (x2 >= 0).all() and len(u2) == 3
+    E2 = generalized_maxwell_modulus(omega, x2[0], x2[1:], 10.0 ** u2)
+    np.testing.assert_allclose(np.log(E2 / E), r2, atol=1e-12)

@@ -22,13 +22,17 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+
+from asphalt_nscd.io import content_sha256
 
 REPO = Path(__file__).resolve().parents[2]
 SMOKE = "config/smoke.yaml"
@@ -304,6 +308,47 @@ def test_two_runs_of_the_same_config_give_identical_tables(smoke_run):
                 np.testing.assert_array_equal(fa[n][()], fb[n][()], err_msg=f"{pa.name}:{n}")
 
 
+@pytest.mark.slow
+def test_faults_in_the_workflows_own_files_end_in_the_reference_results(smoke_run):
+    """Three faults at once in the smoke run's own files: a key table deleted, a 2PB job's output
+    gone with an unreadable checkpoint beside it, another job's row cut to its header. ``make
+    run`` rebuilds the key table, restarts the job from its beginning (the checkpoint moved aside,
+    said on the console) and stops on the header-only row with the project's one-line error on
+    the console, naming the file and what to do; done as told, the next ``make run`` ends in the
+    reference results (identical tables)."""
+    results = smoke_run / "results"
+    reference = smoke_run / "results_reference"
+    shutil.copytree(results, reference)
+    env = newcomer_env()
+    make = ["make", "run", f"CONFIG={SMOKE}", *make_args(env)]
+    key = sorted(results.glob("campaign/*/table4_*.csv"))[0]
+    key.unlink()
+    rows = sorted(results.glob("sim/*/s1/*.csv"))
+    assert len(rows) >= 2, rows
+    restarted, cut = rows[0], rows[1]
+    record = restarted.with_suffix(".h5")
+    record.unlink()
+    restarted.unlink()
+    rng = np.random.default_rng(7)
+    for suffix in (".ckpt.h5", ".partial.npz"):
+        record.with_name(record.name + suffix).write_bytes(rng.bytes(4096))
+    cut.write_text(cut.read_text().splitlines()[0] + "\n")
+    proc = subprocess.run(make, cwd=smoke_run, env=env, capture_output=True, text=True, timeout=3600)
+    assert proc.returncode != 0, proc.stdout[-3000:]
+    rel = cut.relative_to(smoke_run).as_posix()
+    assert f"{rel}: no data rows after the header" in proc.stderr and "delete it and rerun" in proc.stderr, \
+        proc.stderr[-5000:]
+    assert "the checkpoint cannot be read" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr[-5000:]
+    assert record.with_name(record.name + ".ckpt.h5.unreadable").exists() and restarted.exists()
+    cut.unlink()  # as the error says
+    run(make, smoke_run, env)
+    a, b = _tables(reference), _tables(results)
+    assert set(a) == set(b)
+    differ = differing_tables(a, b)
+    assert not differ, f"tables that differ from the reference after the faults: {differ}"
+    shutil.rmtree(reference)
+
+
 def readme_own_table_command() -> str:
     """The command of the README's section "Your own table" (its first code block)."""
     text = (REPO / "README.md").read_text()
@@ -330,15 +375,17 @@ def test_own_table_in_ksi_and_degF_through_the_readme_command(smoke_run):
                         "Frequency (Hz)": table["frequency_Hz"],
                         "|E*| (ksi)": table["E_norm_MPa"] / MODULUS_UNITS["ksi"],
                         "Phase Angle (deg)": table["phase_deg"]})
-    folder = smoke_run / "my_lab"
+    # a path with a space, a quote and non-ASCII characters, as labs name folders
+    folder = smoke_run / "my lab's d\u00e9p\u00f4t"
     folder.mkdir(exist_ok=True)
-    lab.to_csv(folder / "mix.csv", index=False)
-    (folder / "mix.test.json").write_text(json.dumps({
+    lab.to_csv(folder / "m\u00efx.csv", index=False)
+    (folder / "m\u00efx.test.json").write_text(json.dumps({
         "test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150,
         "table": {"modulus_unit": "ksi", "temperature_unit": "F", "modulus_form": "norm_phase"}}))
     # the README's command with its placeholder path replaced by this table's
-    command = ["TABLE=my_lab/mix.csv" if c.startswith("TABLE=") else c for c in readme_own_table_command().split()]
-    assert command.count("TABLE=my_lab/mix.csv") == 1, readme_own_table_command()
+    table_arg = f"TABLE={folder.name}/m\u00efx.csv"
+    command = [table_arg if c.startswith("TABLE=") else c for c in readme_own_table_command().split()]
+    assert command.count(table_arg) == 1, readme_own_table_command()
     env = newcomer_env()
     run(command + make_args(env), smoke_run, env)
     results = smoke_run / "results"
@@ -354,3 +401,26 @@ def test_own_table_in_ksi_and_degF_through_the_readme_command(smoke_run):
     assert "no simulation ran" in page and page.count("Targets:") == 1
     measured = pd.read_csv(results / "lab" / "measured.csv")
     np.testing.assert_allclose(np.sort(measured["E_norm_MPa"]), np.sort(table["E_norm_MPa"]), rtol=1e-9)
+    # the complete run, copied with its manifest; a second table under the same name, stopped once
+    # its lab step has replaced results/lab, leaves that copy whole
+    published = results / "tables" / f"{folder.name}-m\u00efx"
+    manifest = json.loads((published / "manifest.json").read_text())
+    assert manifest["table_sha256"] == content_sha256(folder / "m\u00efx.csv")
+    assert {"lab/measured.csv", "diagnosis/generalized_burgers.json", "diagnosis/material_cards/abaqus.inp",
+            "diagnosis/what_the_simulation_gets_wrong.md", "diagnosis/figures/master_curve.png"} <= set(manifest["files"])
+    assert {rel: content_sha256(published / rel) for rel in manifest["files"]} == manifest["files"]
+    first = {p.relative_to(published): p.read_bytes() for p in published.rglob("*") if p.is_file()}
+    lab.assign(**{"|E*| (ksi)": lab["|E*| (ksi)"] * 1.25}).to_csv(folder / "m\u00efx.csv", index=False)
+    lab_step = content_sha256(results / "lab" / "measured.csv")
+    proc = subprocess.Popen(command + make_args(env), cwd=smoke_run, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 600
+        while content_sha256(results / "lab" / "measured.csv") == lab_step:
+            assert proc.poll() is None and time.monotonic() < deadline, "the second run did not reach its lab step"
+            time.sleep(0.5)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    assert {p.relative_to(published): p.read_bytes() for p in published.rglob("*") if p.is_file()} == first
+    assert sorted(p.name for p in published.parent.iterdir()) == [published.name]

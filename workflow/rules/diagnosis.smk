@@ -190,9 +190,10 @@ rule export_law:
         "../envs/asphalt-nscd.yaml"
     params:
         out_dir=plan.output_directory,
+        tolerance=config["diagnosis"]["material_card"]["tolerance"],
     shell:
         "asphalt-nscd export-law --law-json {input.card} --selected-law-json {input.law} --measured {input.summary}"
-        " --test {input.test} -o {params.out_dir} 2> {log}"
+        " --test {input.test} --tolerance {params.tolerance} -o {params.out_dir} 2> {log}"
 
 
 rule crossval:
@@ -332,6 +333,31 @@ rule diagnose_bench:
 rule own_table:
     # "your own table" (README, make table TABLE=...): the law JSON, its material cards, the master-curve
     # figures, the held-out errors and the diagnosis page of measured.table, without the NSCD campaign
-    # (config/table.yaml sets the diagnosis' simulation inputs to null)
+    # (config/table.yaml sets the diagnosis' simulation inputs to null). results/lab and results/diagnosis are
+    # the working area; this rule, the last, copies the run's results into results/tables/<folder>-<table>/
+    # with manifest.json (the table's SHA-256, each file's), in place only once every step has succeeded.
     input:
-        plan.own_table_files(config),
+        measured=plan.MEASURED,
+        files=[
+            *rules.measured_table.output,
+            *rules.calibrate_search.output,
+            *rules.master_curve.output,
+            *rules.extend_law.output,
+            *rules.export_law.output,
+            *expand(rules.crossval.output, scheme=config["diagnosis"]["crossval"]["schemes"]),
+            *plan.MASTER_CURVE_FIGURES.values(),
+            *plan.MATERIAL_CARD_FIGURES.values(),
+            plan.SIGMOID_TABLE,
+            *rules.diagnose.output,
+        ],
+    output:
+        directory(plan.own_table_dir(config)),
+    log:
+        "logs/diagnosis/own_table.log",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    params:
+        table=config["measured"]["table"],
+    shell:
+        "asphalt-nscd publish-table {input.files:q} --table {params.table:q} --measured {input.measured:q}"
+        " -o {output:q} 2> {log}"

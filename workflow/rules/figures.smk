@@ -114,6 +114,34 @@ rule master_curve_figures:
         " 2> {log}"
 
 
+rule card_figures:
+    # the material card against the measured means along temperature (isochrones), its E(t) and D(t)
+    input:
+        card=plan.MATERIAL_CARDS["json"],
+        errors=plan.MATERIAL_CARDS["errors"],
+        functions=plan.MATERIAL_CARDS["functions"],
+    output:
+        isochrones=report(
+            plan.MATERIAL_CARD_FIGURES["isochrones"],
+            caption="../report/diagnosis_card_figures.rst",
+            category="Diagnosis",
+        ),
+        relaxation_creep=report(
+            plan.MATERIAL_CARD_FIGURES["relaxation_creep"],
+            caption="../report/diagnosis_card_figures.rst",
+            category="Diagnosis",
+        ),
+    log:
+        "logs/figures/card_figures.log",
+    benchmark:
+        "benchmarks/figures/card_figures.tsv"
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    shell:
+        "asphalt-nscd card-figures --card {input.card} --errors {input.errors} --functions {input.functions}"
+        " --isochrones {output.isochrones} --relaxation-creep {output.relaxation_creep} 2> {log}"
+
+
 rule report_index:
     input:
         plan.report_files(config),

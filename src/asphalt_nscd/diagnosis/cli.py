@@ -131,6 +131,65 @@ def register(subparsers) -> None:
     _add_diagnose(subparsers)
     _add_synth(subparsers)
     _add_diagnose_bench(subparsers)
+    _add_own_table(subparsers)
+
+
+def _add_own_table(subparsers) -> None:
+    """``own-table-config`` and ``publish-table``: the two ends of ``make table`` (README, "Your
+    own table"): the configuration overlay naming the table, and the folder of its complete run."""
+    p = subparsers.add_parser("own-table-config",
+                              help="configuration overlay of make table: the measured table (and its sidecar)")
+    p.add_argument("table", type=Path, help="the lab's measured table (any path: spaces, non-ASCII, quotes)")
+    p.add_argument("--test", type=Path, default=None,
+                   help="its test-geometry sidecar (default: <table stem>.test.json beside it, if any)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="overlay YAML for snakemake --configfile")
+    p.set_defaults(func=_own_table_config)
+    p = subparsers.add_parser("publish-table",
+                              help="copy a complete own-table run to results/tables/<name>/ with its manifest")
+    p.add_argument("files", type=Path, nargs="+", help="the run's results (paths under results/)")
+    p.add_argument("--table", type=Path, required=True, help="the lab's table the run read (measured.table)")
+    p.add_argument("--measured", type=Path, required=True,
+                   help="the validated table of the lab step (results/lab/measured.csv): every result must "
+                        "carry its SHA-256")
+    p.add_argument("-o", "--output", type=Path, required=True, help="the folder of this table's complete run")
+    p.set_defaults(func=_publish_table)
+
+
+def _own_table_config(args) -> int:
+    import yaml
+
+    from ..io import InputError, write_text
+
+    for what, path in (("TABLE", args.table), ("TEST", args.test)):
+        if path is not None and not path.is_file():
+            raise InputError(f"{what}={path}: file not found (expected the lab's "
+                             f"{'table' if what == 'TABLE' else 'test-geometry sidecar'})")
+    measured = {"table": str(args.table), **({"test": str(args.test)} if args.test is not None else {})}
+    write_text("# written by make table (asphalt-nscd own-table-config): the table of this run\n"
+               + yaml.safe_dump({"measured": measured}, allow_unicode=True, sort_keys=False), args.output)
+    return 0
+
+
+def _publish_table(args) -> int:
+    from ..io import content_sha256, publish_directory, read_json
+
+    results = [(f, read_json(f, "result JSON")) for f in args.files if f.suffix == ".json"]
+    stamp = same_table(args.measured, results)
+    root = args.measured.resolve().parents[1]  # results/ (the lab step writes results/lab/measured.csv)
+    manifest = {"table": str(args.table), "table_sha256": content_sha256(args.table),
+                "measured": str(args.measured), "measured_sha256": stamp,
+                "written_utc": _utc_now(),
+                "about": "the last complete run of make table on this table; a run that fails or is stopped "
+                         "leaves this folder as it was"}
+    out = publish_directory(args.files, root, args.output, manifest)
+    print(f"the complete results of {args.table}: {out}/ ({len(set(args.files))} files, manifest.json)")
+    return 0
+
+
+def _utc_now() -> str:
+    from datetime import datetime, timezone
+
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
 
 
 def _add_calibrate_search(subparsers) -> None:
@@ -594,7 +653,8 @@ def same_table(measured_path, results: list) -> str:
 
     mine = content_sha256(measured_path)
     for path, obj in results:
-        theirs = ((obj or {}).get("source") or {}).get("measured_sha256") if isinstance(obj, dict) else None
+        src = obj.get("source") if isinstance(obj, dict) else None  # a test JSON's "source" is a text
+        theirs = src.get("measured_sha256") if isinstance(src, dict) else None
         if theirs is not None and theirs != mine:
             raise InputError(f"{path}: computed from another measured table (sha256 {theirs[:12]}) than "
                              f"{measured_path} (sha256 {mine[:12]}); rerun the workflow so that every result "

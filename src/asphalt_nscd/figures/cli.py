@@ -51,6 +51,52 @@ def register(subparsers) -> None:
     p.add_argument("--sigmoid", type=Path, required=True, help="sigmoid parameters beside 2S2P1D's (csv)")
     p.set_defaults(func=_master_curve_figures)
 
+    p = subparsers.add_parser(
+        "card-figures",
+        help="isochrones of a material card against the measured means; its E(t) and D(t)",
+        description="The figures of a material card (asphalt_nscd.figures.cards): |E*| and Phi against temperature "
+                    "at each tested frequency, the measured replicate means and the card; the card's relaxation "
+                    "modulus E(t) and creep compliance D(t) at each tested temperature. In the lab's units.")
+    p.add_argument("--card", type=Path, required=True, help="card JSON (export-law: prony.json)")
+    p.add_argument("--errors", type=Path, required=True, help="the card's cells (export-law: card_errors.csv)")
+    p.add_argument("--functions", type=Path, required=True,
+                   help="E(t), D(t) of the card (export-law: relaxation_creep.csv)")
+    p.add_argument("--isochrones", type=Path, required=True, help="isochrones figure (png)")
+    p.add_argument("--relaxation-creep", type=Path, required=True, help="E(t) and D(t) figure (png)")
+    p.set_defaults(func=_card_figures)
+
+
+def _card_figures(args) -> int:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io import read_json, savefig
+    from ..lab.table_format import MODULUS_UNITS, DisplayUnits
+    from . import cards
+
+    card = read_json(args.card, "material card JSON")
+    if not isinstance(card, dict) or not isinstance(card.get("terms"), list) or "shift" not in card:
+        raise InputError(f"{args.card}: keys 'terms' and 'shift' expected (a card of asphalt-nscd export-law)")
+    display = card.get("display") or {}
+    units = DisplayUnits(display.get("modulus", "MPa"), display.get("temperature", "C"))
+    if units.modulus not in MODULUS_UNITS or units.temperature not in ("C", "F"):
+        raise InputError(f"{args.card}: key 'display': unknown units {display}")
+    errors = read_csv(args.errors)
+    functions = read_csv(args.functions)
+    for frame, path, need in ((errors, args.errors, ("temperature_C", "frequency_Hz", "E_norm_MPa_measured",
+                                                     "phase_deg_measured")),
+                              (functions, args.functions, ("temperature_C", "time_s", "E_MPa", "D_per_MPa"))):
+        missing = [c for c in need if c not in frame.columns]
+        if missing:
+            raise InputError(f"{path}: missing column(s) {', '.join(missing)}")
+    for fig, path in ((cards.isochrones_figure(card, errors, units), args.isochrones),
+                      (cards.relaxation_creep_figure(functions, units), args.relaxation_creep)):
+        savefig(fig, path)
+        plt.close(fig)
+    return 0
+
 
 def _master_curve_figures(args) -> int:
     import matplotlib

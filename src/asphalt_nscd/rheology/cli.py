@@ -116,9 +116,10 @@ def _add_export_law(subparsers) -> None:
                         "wrote the table in, for the cards' comments (the cards themselves stay in MPa, s, degC)")
     p.add_argument("-o", "--output", type=Path, required=True, help="directory of the cards")
     p.add_argument("--name", default="ASPHALT_MIX", help="material name of the Abaqus card")
-    p.add_argument("--tolerance", type=float, nargs=2, default=[0.5, 0.2], metavar=("E_PCT", "PHASE_DEG"),
+    p.add_argument("--tolerance", type=float, nargs=2, default=None, metavar=("E_PCT", "PHASE_DEG"),
                    help="largest difference of the card to its law over the measured reduced band widened by a decade "
-                        "at each end: |E*| %% and Phi deg (default 0.5 0.2); the fewest Prony terms that meet it")
+                        "at each end and at every measured cell: |E*| %% and Phi deg (default 1 0.2, config "
+                        "diagnosis.material_card.tolerance); the fewest Prony terms that meet it")
     p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of the cards (constant)")
     p.set_defaults(func=_export)
 
@@ -136,10 +137,11 @@ def _export(args) -> int:
     selected = read_json(args.selected_law_json, "selected law JSON") if args.selected_law_json else law
     summary = read_summary(args.measured)
     cells = summary[["temperature_C", "frequency_Hz"]].drop_duplicates()
+    tolerance = tuple(args.tolerance) if args.tolerance is not None else export.CARD_TOLERANCE
     try:
-        if not all(v > 0 for v in args.tolerance):
-            raise InputError(f"--tolerance: expected two positive numbers, got {args.tolerance}")
-        card = export.prony_card(law, cells, tolerance=tuple(args.tolerance), nu=args.nu)
+        if not all(v > 0 for v in tolerance):
+            raise InputError(f"--tolerance: expected two positive numbers, got {list(tolerance)}")
+        card = export.prony_card(law, cells, tolerance=tolerance, nu=args.nu)
     except InputError as exc:
         raise InputError(f"{args.law_json}: {exc}") from None
     c = card["check"]
@@ -148,7 +150,7 @@ def _export(args) -> int:
             f"{args.law_json}: the Prony series with a WLF shift misses the law it carries by "
             f"{c['max_E_norm_difference_pct']:.3g} % |E*| (at {c['at_E'][0]:g} degC, {c['at_E'][1]:g} Hz) and "
             f"{c['max_phase_difference_deg']:.3g} deg (at {c['at_phase'][0]:g} degC, {c['at_phase'][1]:g} Hz), above "
-            f"{export.TOLERANCE_E_PCT} % / {export.TOLERANCE_PHASE_DEG} deg; not carried by a single Prony + shift "
+            f"{tolerance[0]:g} % / {tolerance[1]:g} deg; not carried by a single Prony + shift "
             f"law: {', '.join(c['not_carried']) or 'none of the law settings (more terms: --per-decade?)'}; no card "
             "written (give it the law of 'extend-law --card-law')")
     try:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import InputError, atomic_path
+from ..io import InputError, atomic_path, rebuild_hint
 
 UNITS = {
     "spheres/position": "m",
@@ -150,7 +150,7 @@ def read_sample(path: str | Path) -> SampleData:
                     value = json.loads(value)
                 attrs[key] = value.item() if isinstance(value, np.generic) else value
     except OSError as exc:
-        raise InputError(f"{path}: not a readable HDF5 sample file ({exc})") from exc
+        raise InputError(f"{path}: not a readable HDF5 sample file ({exc}); {rebuild_hint(path)}") from exc
     _check_arrays(path, data)
     return SampleData(
         position=data["spheres/position"],
