@@ -348,3 +348,19 @@ def test_material_card_tolerance_default_is_the_default_config():
 
     assert list(export.CARD_TOLERANCE) == raw("config")["diagnosis"]["material_card"]["tolerance"]
     assert _subparser("export-law").get_default("tolerance") is None
+
+
+def test_2pb_settings_defaults_are_the_default_config():
+    """campaign.twopb.TwoPBSettings has no default of its own: each field that
+    config/config.yaml's campaign.test sets equals it (the time-step policy, its cap, the
+    fast-path contacts among them)."""
+    import dataclasses
+
+    from asphalt_nscd.campaign.twopb import TwoPBSettings
+
+    test = raw("config")["campaign"]["test"]
+    fields = {f.name: f.default for f in dataclasses.fields(TwoPBSettings)}
+    assert set(test) <= set(fields)
+    assert {k: fields[k] for k in test} == test
+    assert fields["window_cycles"] == raw("config")["lab"]["simulation_window_cycles"]
+    assert fields["bond_kinematics"] == raw("config")["nscd"]["bond_kinematics"]

@@ -85,10 +85,10 @@ class TwoPBSettings:
     amplitude_m: float = HEAD_AMPLITUDE_M
     n_cycles: float = 5.0
     window_cycles: float = 1.0
-    dt_policy: str = "fixed"
+    dt_policy: str = "steps_per_cycle"
     dt_s: float = 5e-5
     steps_per_cycle: int = 500
-    dt_max_s: float = 1e-3
+    dt_max_s: float = 0.02
     theta: float = 0.5
     tolerance: float = 1e-6
     max_iterations: int = 500
@@ -106,7 +106,7 @@ class TwoPBSettings:
     periodic_cycles: float = 1.0
     linear_solver: str = "cg"
     linear_tolerance: float = 1e-10
-    fast_path_contacts: int = 0
+    fast_path_contacts: int = 16
 
     def __post_init__(self):
         if self.start not in START_MODES:
