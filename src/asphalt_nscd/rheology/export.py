@@ -151,13 +151,15 @@ def _joint_minimax(omega, E, x, u, r, tolerance, bounds, scaled_max):
     when the refinement does not lower the largest scaled difference."""
     from scipy.optimize import least_squares
 
+    from .models import generalized_maxwell_modulus
+
     n = len(u)
     tol_E, tol_P = tolerance
     w0 = np.maximum(x, 1e-12 * max(float(x.max()), 1e-300))
 
     def model(v):
-        tau, w = 10.0 ** v[:n], np.exp(v[n:])
-        return w[0] + (w[1:] * (1j * omega[:, None] * tau) / (1 + 1j * omega[:, None] * tau)).sum(axis=1)
+        w = np.exp(v[n:])
+        return generalized_maxwell_modulus(omega, w[0], w[1:], 10.0 ** v[:n])
 
     def lp(v, p):
         rr = np.log(model(v) / E)
