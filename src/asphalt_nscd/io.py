@@ -98,6 +98,32 @@ def read_csv(path: str | os.PathLike, allow_empty: bool = False, **kwargs):
     return frame
 
 
+def checked(df, path, columns, positive=()):
+    """``df`` (a table read from ``path``) with its numeric ``columns`` checked (present; finite
+    numbers; ``positive``: > 0) and made floats, in place: the one check of a table's required
+    columns.
+
+    Raises
+    ------
+    InputError
+        naming the file and the missing column(s), or the line and column of a bad value.
+    """
+    import numpy as np
+    import pandas as pd
+
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(columns)}")
+    for c in columns:
+        v = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
+        bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in positive else False))
+        if bad.size:
+            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number"
+                             + (" > 0" if c in positive else ""))
+        df[c] = v
+    return df
+
+
 def content_sha256(path: str | os.PathLike) -> str:
     """SHA-256 (hex) of a file's bytes: the stamp that ties a result to the table it came from.
 

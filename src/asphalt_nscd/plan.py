@@ -73,10 +73,12 @@ MATERIAL_CARDS = {
     "errors": f"{MATERIAL_CARDS_DIR}/card_errors.csv",
     "functions": f"{MATERIAL_CARDS_DIR}/relaxation_creep.csv",
 }
-#: the figures of rule card_figures: isochrones of the card against the measured means, its E(t) and D(t)
+#: the figures of rule card_figures: isochrones of the card against the measured means, its E(t) and D(t), its
+#: error against the number of Prony terms
 MATERIAL_CARD_FIGURES = {
     "isochrones": f"{MATERIAL_CARDS_DIR}/isochrones.png",
     "relaxation_creep": f"{MATERIAL_CARDS_DIR}/relaxation_creep.png",
+    "terms_curve": f"{MATERIAL_CARDS_DIR}/terms_curve.png",
 }
 #: the figures of rule master_curve_figures: master curve, shift factors, the law's residuals
 MASTER_CURVE_FIGURES = {
@@ -527,6 +529,7 @@ def case_options(config: dict, mode: str, sample: str, case: str) -> str:
     return f"{opts} --table3-units {table3_reading(config, mode)}"
 
 
+
 def mode_summary(config: dict, mode: str) -> list:
     """The lab summary the isotherms of a mode are compared with (measured, extended), else none."""
     return [MEASURED_SUMMARY] if mode in ("measured", "extended") else []
@@ -682,7 +685,8 @@ def artifact_search_options(config: dict) -> str:
 
 
 def diagnosis_fit_options(config: dict) -> str:
-    """Options of the artifact search and of the extended law's candidates (diagnosis.law)."""
+    """Options of the artifact search, of the extended law's candidates (diagnosis.law) and of
+    the law a material card carries (diagnosis.material_card)."""
     diag = config["diagnosis"]
     law = diag["law"]
     refines = " ".join("off" if r is None else str(r) for r in law["refines"])
@@ -698,6 +702,8 @@ def diagnosis_fit_options(config: dict) -> str:
         opts += " --no-one-se"
     if not law.get("artifacts", True):
         opts += " --no-artifacts"
+    card = diag["material_card"]
+    opts += f" --card-fit {card['fit']} --card-shift {card['shift']}"
     return opts
 
 

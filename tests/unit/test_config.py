@@ -350,6 +350,20 @@ def test_material_card_tolerance_default_is_the_default_config():
     assert _subparser("export-law").get_default("tolerance") is None
 
 
+def test_card_law_defaults_are_the_default_config():
+    """The card law's fit and shift (extend-law, crossval options; diagnosis.crossval.Options)
+    = config/config.yaml's diagnosis.material_card.fit and shift."""
+    from asphalt_nscd.diagnosis.cli import LAW_DEFAULTS
+    from asphalt_nscd.diagnosis.crossval import Options
+
+    card = raw("config")["diagnosis"]["material_card"]
+    assert (LAW_DEFAULTS["card_fit"], LAW_DEFAULTS["card_shift"]) == (card["fit"], card["shift"])
+    assert (Options().card_fit, Options().card_shift) == (card["fit"], card["shift"])
+    for command in ("extend-law", "crossval"):
+        d = _subparser(command)
+        assert (d.get_default("card_fit"), d.get_default("card_shift")) == (card["fit"], card["shift"])
+
+
 def test_2pb_settings_defaults_are_the_default_config():
     """campaign.twopb.TwoPBSettings has no default of its own: each field that
     config/config.yaml's campaign.test sets equals it (the time-step policy, its cap, the

@@ -385,3 +385,37 @@ def test_held_out_rows_get_the_drift_correction_they_get_inside_the_whole_table(
         alone, inside = model.correction(held), model.correction(whole)[held.index.to_numpy()]
         np.testing.assert_allclose(alone, inside, rtol=1e-12)
         assert np.max(np.abs(np.log(np.abs(alone)))) > 0.01  # a real correction, not 1
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_card_law_weighs_every_cell(seed):
+    """The law a material card carries is fitted by least squares at every cell: on a table
+    with one cell 25 % too stiff (the hottest isotherm's highest frequency, as a lab's outlying
+    cell), it misses that cell by less than the robust fit of the same settings does, and the
+    default card law has the card's WLF shift; with the robust loss and the law's own shift it is
+    the selected law itself."""
+    from asphalt_nscd.rheology.extended import LawSettings
+    from asphalt_nscd.rheology.metrics import cell_means
+
+    table, _ = synthetic.generate(seed, schedule="aashto_t342", n_specimens=3, test_order=False)
+    hot = (table["temperature_C"] == table["temperature_C"].max()) & (table["frequency_Hz"] == table["frequency_Hz"].max())
+    table.loc[hot, "E_norm_MPa"] *= 1.25
+    cells = cell_means(table)
+    k = int(np.flatnonzero((cells["temperature_C"] == table["temperature_C"].max()).to_numpy()
+                           & (cells["frequency_Hz"] == table["frequency_Hz"].max()).to_numpy())[0])
+
+    def miss(law):
+        E = law.complex_modulus(cells["frequency_Hz"].to_numpy(), cells["temperature_C"].to_numpy())
+        return 100 * abs(np.log(abs(E[k]) / cells["E_norm_MPa"].iloc[k]))
+
+    arrhenius = (LawSettings(shift="arrhenius", static="constant"),)
+    same = cv.fit_extended(table, cv.Options(candidates=arrhenius, artifacts=False, card_shift="law"))
+    assert same.card_settings == same.settings and same.card_law is not same.law
+    assert same.law.backbone.loss == "robust" and same.card_law.backbone.loss == "least_squares"
+    assert miss(same.card_law) < miss(same.law) - 1.0
+    default = cv.fit_extended(table, cv.Options(candidates=arrhenius, artifacts=False))
+    assert default.card_settings == LawSettings(shift="wlf", static="constant")
+    assert miss(default.card_law) < miss(default.law) - 1.0
+    robust = cv.fit_extended(table, cv.Options(candidates=arrhenius, artifacts=False, card_fit="robust",
+                                               card_shift="law"))
+    assert robust.card_law is robust.law

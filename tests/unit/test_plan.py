@@ -248,7 +248,7 @@ def test_report_files_are_the_report_index_inputs(named_config):
     name, cfg = named_config
     files = plan.report_files(cfg)
     # counts of the collect-report command of the dry runs (smoke: one sample, else four)
-    assert len(files) == {"smoke": 97, "config": 100, "paper": 104}[name]  # paper: + the paper_kPa mode's 4
+    assert len(files) == {"smoke": 98, "config": 101, "paper": 105}[name]  # paper: + the paper_kPa mode's 4
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
     assert files[-1] == "results/diagnosis/crossval/loso.png"
     assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files

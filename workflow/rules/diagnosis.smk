@@ -170,6 +170,7 @@ rule export_law:
         card=rules.extend_law.output.card,
         law=rules.extend_law.output.laws,
         summary=plan.MEASURED_SUMMARY,
+        corrected=rules.master_curve.output.corrected,
         test=plan.MEASURED_TEST,
     output:
         abaqus=report(
@@ -193,7 +194,7 @@ rule export_law:
         tolerance=config["diagnosis"]["material_card"]["tolerance"],
     shell:
         "asphalt-nscd export-law --law-json {input.card} --selected-law-json {input.law} --measured {input.summary}"
-        " --test {input.test} --tolerance {params.tolerance} -o {params.out_dir} 2> {log}"
+        " --corrected {input.corrected} --test {input.test} --tolerance {params.tolerance} -o {params.out_dir} 2> {log}"
 
 
 rule crossval:

@@ -115,7 +115,8 @@ rule master_curve_figures:
 
 
 rule card_figures:
-    # the material card against the measured means along temperature (isochrones), its E(t) and D(t)
+    # the material card against the measured means along temperature (isochrones), its E(t) and D(t), its error
+    # against the number of Prony terms
     input:
         card=plan.MATERIAL_CARDS["json"],
         errors=plan.MATERIAL_CARDS["errors"],
@@ -131,6 +132,11 @@ rule card_figures:
             caption="../report/diagnosis_card_figures.rst",
             category="Diagnosis",
         ),
+        terms_curve=report(
+            plan.MATERIAL_CARD_FIGURES["terms_curve"],
+            caption="../report/diagnosis_card_figures.rst",
+            category="Diagnosis",
+        ),
     log:
         "logs/figures/card_figures.log",
     benchmark:
@@ -139,7 +145,8 @@ rule card_figures:
         "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd card-figures --card {input.card} --errors {input.errors} --functions {input.functions}"
-        " --isochrones {output.isochrones} --relaxation-creep {output.relaxation_creep} 2> {log}"
+        " --isochrones {output.isochrones} --relaxation-creep {output.relaxation_creep}"
+        " --terms-curve {output.terms_curve} 2> {log}"
 
 
 rule report_index:

@@ -28,32 +28,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..io import InputError, json_safe, read_csv, read_json
+from ..io import InputError, checked, json_safe, read_csv, read_json
 from ..rheology.master_curve import MasterCurveFit
 from . import effects
 
 #: columns of a corrected table (those of a measured table; the optional ones when present)
 CORRECTED_COLUMNS = ("specimen", "temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg")
-
-
-def checked(df: pd.DataFrame, path, columns, positive=()) -> pd.DataFrame:
-    """``df`` (read from ``path``) with its numeric ``columns`` checked (finite numbers;
-    ``positive``: > 0) and made floats, in place.
-
-    Raises InputError naming the file and the missing column, or the line and column of a bad
-    value.
-    """
-    missing = [c for c in columns if c not in df.columns]
-    if missing:
-        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(columns)}")
-    for c in columns:
-        v = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
-        bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in positive else False))
-        if bad.size:
-            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number"
-                             + (" > 0" if c in positive else ""))
-        df[c] = v
-    return df
 
 
 def analyse(measured: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf",

@@ -606,8 +606,10 @@ def card_block(card: dict | None) -> dict | None:
     """What the page says of the material card (``export-law``'s JSON), or None."""
     if card is None:
         return None
-    keys = ("carries", "selected_law", "is_selected_law", "loss", "check", "T_ref_C", "E_0_MPa", "shift", "display",
-            "findings")
+    keys = ("carries", "selected_law", "is_selected_law", "fit", "selected_fit", "selected_carriable", "corrections",
+            "loss", "check",
+            "T_ref_C", "E_0_MPa", "shift", "display", "findings", "terms_selection", "nu", "nu_source",
+            "interconversion")
     return {k: card.get(k) for k in keys} | {"n_terms": len(card.get("terms", []))}
 
 

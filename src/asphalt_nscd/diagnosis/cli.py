@@ -113,13 +113,21 @@ def _fit_options(p) -> None:
                    help="choose the best cross-validation score, not the simplest within one standard error")
     g.add_argument("--no-artifacts", action="store_true",
                    help="fit the law to the table as given (no artifact search and correction)")
+    g.add_argument("--card-fit", choices=["least_squares", "robust"], default=LAW_DEFAULTS["card_fit"],
+                   help="loss of the law a material card carries: least_squares (every cell weighs by its square: "
+                        "a card is judged at every measured cell) or robust (the selected law's soft L1) "
+                        "(default: least_squares)")
+    g.add_argument("--card-shift", choices=["wlf", "law"], default=LAW_DEFAULTS["card_shift"],
+                   help="shift law of the law a material card carries: wlf (the card's own, which Abaqus and "
+                        "LS-DYNA take natively) or law (the selected law's) (default: wlf)")
 
 
 #: default candidate settings of the extended law: config/config.yaml's diagnosis.law in the
 #: options' spelling (verticals off/on = false/true, refines off = null); tests/unit/test_config.py
 #: checks them equal, with the other option defaults that config/config.yaml also sets
 LAW_DEFAULTS = {"shifts": ("wlf", "arrhenius"), "statics": ("none", "constant", "trend"),
-                "verticals": ("off", "on"), "refines": ("off", "1"), "per_decades": (2.0, 4.0)}
+                "verticals": ("off", "on"), "refines": ("off", "1"), "per_decades": (2.0, 4.0),
+                "card_fit": "least_squares", "card_shift": "wlf"}
 
 
 def register(subparsers) -> None:
@@ -269,8 +277,9 @@ def _add_extend_law(subparsers) -> None:
                    help="output: the law fitted without the rows beyond a data-quality limit (law JSON), or a JSON "
                         "saying that no row is flagged (asphalt_nscd.lab.checks)")
     p.add_argument("--card-law", type=Path, default=None,
-                   help="output: the law a material card carries (law JSON): the selected law when a Prony series "
-                        "with a shift function carries it, else the best such law, fitted as such")
+                   help="output: the law a material card carries (law JSON): the selected settings without what a "
+                        "Prony series with a shift function cannot carry, with --card-shift, fitted with --card-fit "
+                        "(the selected law itself when it is that law)")
     p.set_defaults(func=_extend_law)
 
 
@@ -469,7 +478,8 @@ def law_options(args):
     return Options(candidates=tuple(grid), tolerances=tol, margin_decades=args.margin_decades,
                    artifacts=not args.no_artifacts, alpha=args.alpha, artifact_shift=args.shift,
                    T_ref_C=args.t_ref, one_se=not args.no_one_se, limits=search_limits(args),
-                   level=None if cal is None else float(cal["artifacts"]["level"]))
+                   level=None if cal is None else float(cal["artifacts"]["level"]),
+                   card_fit=args.card_fit, card_shift=args.card_shift)
 
 
 def _calibrate_search(args) -> int:
@@ -557,12 +567,16 @@ def _extend_law(args) -> int:
         if fit.card_law is None:
             raise InputError(f"{args.measured}: no law that a Prony series with a shift function carries could be "
                              "fitted (the material card has no law to carry)")
-        if not fit.card_settings == fit.settings:
+        if fit.card_law is not fit.law:
             import logging
 
-            logging.getLogger("asphalt_nscd").warning(
-                "the selected law (%s) is not carried by a Prony series with a shift function; the material "
-                "card carries %s instead (its errors: export-law)", fit.settings.label(), fit.card_settings.label())
+            why = ("has what a Prony series with a shift function cannot carry" if not fit.settings.carriable else
+                   f"is refitted for the card (diagnosis.material_card: --card-fit {options.card_fit}, --card-shift "
+                   f"{options.card_shift})")
+            log = logging.getLogger("asphalt_nscd")
+            (log.info if fit.settings.carriable else log.warning)(
+                "the selected law (%s) %s; the material card carries %s (its errors: export-law)",
+                fit.settings.label(), why, fit.card_settings.label())
         law_file.write(law_file_object(fit, measured, temps, options, source, card=True), args.card_law)
     if args.without_flagged is not None:
         _without_flagged(measured, options, temps, source, args.without_flagged)

@@ -11,8 +11,8 @@ frequencies each, at the first-step level calibrated on the whole table,
 :func:`select_settings` (inner lofo folds and inner loto folds of the interior temperatures)
 and the :class:`~asphalt_nscd.rheology.extended.ThermoLaw` on all training means. Models
 predicted at the held-out cells: ``burgers`` (per isotherm, Eqs. 27-29; not loto),
-``extended_law``, ``card_law`` (the law a material card carries: the extended law, or the best
-carriable candidate when the extended law is not), ``nscd_sample`` (harmonic steady state of the sample whose bonds follow the
+``extended_law``, ``card_law`` (the law a material card carries, :func:`card_law_settings`),
+``nscd_sample`` (harmonic steady state of the sample whose bonds follow the
 fold's law / NF_s) and, added from ``run-2pb``, ``nscd_time_domain``; ``in_sample`` rows fit
 every cell. A measured cell is predicted through the fold's :class:`MeasurementModel` (its
 artifact correction at the held-out rows' frequency, strain and test order). The rows carry
@@ -25,7 +25,12 @@ Choices (docs/choices.md, Diagnosis: the temperature-aware extended law and held
   tolerances 3 % and 5 %;
 * one-standard-error rule: the fewest fitted parameters, then the coarsest Prony series, then
   the best score; standard error sd sqrt(1/n + n_test/n_train) (Nadeau & Bengio 2003);
-* the inner folds share the artifact correction of their outer training table.
+* the inner folds share the artifact correction of their outer training table;
+* the law a material card carries (``Options.card_fit``, ``Options.card_shift``): the chosen
+  settings without what a Prony series with a shift function cannot carry (vertical shift,
+  static trend -> constant, refinement), with the card's own WLF shift, refitted by least squares
+  at every cell: a card is judged at every cell the lab measured, where the robust fit of the
+  selected law lets a cell it cannot follow go.
 """
 
 from __future__ import annotations
@@ -43,6 +48,8 @@ from ..rheology.plausibility import describe as describe_findings
 from ..rheology.metrics import at_temperature, cell_means, relative_errors, same_frequency, same_temperature
 
 SCHEMES = ("lofo", "loto", "loso")
+#: shift law of the law a material card carries: the card's own (WLF) or the chosen law's
+CARD_SHIFTS = ("wlf", "law")
 ROW_COLUMNS = ("scheme", "fold", "kind", "model", "temperature_C", "frequency_Hz", "n_replicates",
                "E_norm_MPa_measured", "phase_deg_measured", "E_norm_MPa_predicted", "phase_deg_predicted",
                "rel_err_E_norm", "rel_err_phase", "extrapolation", "settings", "computable", "reason")
@@ -77,7 +84,9 @@ class Options:
     with the Burger's law per isotherm too (crossval); ``level``: the first-step level of
     every artifact search (a fold's included), calibrated on the whole table
     (:mod:`asphalt_nscd.diagnosis.calibration`; None: the nominal alpha / m); ``limits``:
-    identifiability limits of the search.
+    identifiability limits of the search; ``card_fit``: loss of the law a material card carries
+    (``least_squares`` or ``robust``, :data:`asphalt_nscd.rheology.extended.LOSSES`);
+    ``card_shift``: its shift law (``wlf``: the card's own; ``law``: the chosen law's).
     """
 
     candidates: tuple = (LawSettings(),)
@@ -92,11 +101,17 @@ class Options:
     burgers: bool = True
     level: float | None = None
     limits: dict | None = None
+    card_fit: str = "least_squares"
+    card_shift: str = "wlf"
 
     def __post_init__(self):
         self.candidates = tuple(self.candidates)
         if not self.candidates:
             raise ValueError("Options: no candidate setting")
+        if self.card_fit not in extended.LOSSES:
+            raise ValueError(f"Options: card_fit: expected one of {list(extended.LOSSES)}, got {self.card_fit!r}")
+        if self.card_shift not in CARD_SHIFTS:
+            raise ValueError(f"Options: card_shift: expected one of {list(CARD_SHIFTS)}, got {self.card_shift!r}")
 
 
 @dataclass
@@ -105,9 +120,9 @@ class FitResult:
     ``reason``), the chosen ``settings``, the selection ``curve`` (one row per candidate),
     the ``corrected`` table, the ``artifacts`` corrected, free-text ``notes``, the
     ``measurement`` model of those artifacts (None without artifacts) and the law a material
-    card carries (``card_law``, ``card_settings``: the chosen law when a Prony series with a
-    shift function carries it, else the best carriable candidate fitted as such; None when
-    none could be fitted)."""
+    card carries (``card_law``, ``card_settings``: :func:`card_law_settings` fitted with
+    ``Options.card_fit``, the chosen law itself when it is that law; None when no carriable law
+    could be fitted)."""
 
     law: ThermoLaw | None
     settings: LawSettings | None
@@ -454,17 +469,60 @@ def fit_extended(table: pd.DataFrame, options: Options, artifacts=None) -> FitRe
     if chosen != settings:
         curve["chosen"] = curve["settings"] == chosen.label()
     law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
-    card_law, card = law, chosen
-    if not chosen.carriable:
-        picked = [c for c, on in zip(options.candidates, curve["chosen_card"]) if on] if len(curve) else []
-        fallback = LawSettings(shift=chosen.shift, static="constant" if chosen.static == "trend" else chosen.static,
-                               per_decade=chosen.per_decade)
-        order = picked + [c for c in options.candidates if c.carriable and c not in picked] + [fallback]
-        card_law, card, _ = _fit_first(cells, order, backbones, T_ref, options, notes)
-        if card_law is not None:
-            card_law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
+    card_law, card = _fit_card_law(cells, law, chosen, curve, backbones, T_ref, options, notes)
+    if card_law is not None and card_law is not law:
+        card_law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
     return FitResult(law, chosen, curve, corrected, artifacts, notes, measurement=measurement,
                      card_law=card_law, card_settings=card if card_law is not None else None)
+
+
+def card_law_settings(chosen: LawSettings, options: Options) -> LawSettings:
+    """The settings of the law a material card carries (module docstring): ``chosen`` without a
+    vertical shift or refinement, a static trend made constant, the shift of ``options.card_shift``."""
+    return LawSettings(shift="wlf" if options.card_shift == "wlf" else chosen.shift,
+                       static="constant" if chosen.static == "trend" else chosen.static,
+                       per_decade=chosen.per_decade)
+
+
+def _fit_card_law(cells, law: ThermoLaw, chosen: LawSettings, curve, backbones, T_ref, options: Options, notes):
+    """(law, settings) a material card carries (:func:`card_law_settings`, fitted with
+    ``options.card_fit`` from the cold starts and from the chosen law's backbone); the chosen law
+    itself when it is that law; else the first carriable candidate that can be fitted (robust), or
+    (None, None)."""
+    settings = card_law_settings(chosen, options)
+    if settings == chosen and options.card_fit == law.backbone.loss:
+        return law, chosen
+    try:
+        start = _card_start(law, settings, cells)
+        card_law = extended.fit_law(cells, settings, T_ref, options.tolerances, options.margin_decades,
+                                    loss=options.card_fit, starts=[start])
+        return card_law, settings
+    except FIT_ERRORS as exc:
+        notes.append(f"material card law {settings.label()} ({options.card_fit}) not computable ({exc}); the card "
+                     "carries the first carriable candidate instead")
+    if chosen.carriable:
+        return law, chosen
+    picked = [c for c, on in zip(options.candidates, curve["chosen_card"]) if on] if len(curve) else []
+    fallback = LawSettings(shift=chosen.shift, static="constant" if chosen.static == "trend" else chosen.static,
+                           per_decade=chosen.per_decade)
+    order = picked + [c for c in options.candidates if c.carriable and c not in picked] + [fallback]
+    card_law, card, _ = _fit_first(cells, order, backbones, T_ref, options, notes)
+    return card_law, card
+
+
+def _card_start(law: ThermoLaw, settings: LawSettings, cells) -> dict:
+    """Starting point of the card law's fit from the chosen law's backbone (its core and static
+    modulus; an Arrhenius shift turned into the WLF law nearest it over the tested temperatures)."""
+    bb = law.backbone
+    start = {n: float(v) for n, v in zip(bb.names, bb.x) if not n.startswith("dlog10_")}
+    if settings.shift == "wlf" and bb.settings.shift != "wlf":
+        from ..rheology.export import card_wlf
+
+        T = cells["temperature_C"].to_numpy(float)
+        C1, C2, _, _ = card_wlf({"law": "Arrhenius", "Ea_kJ_mol": bb.value("Ea_kJ_mol")}, bb.T_ref_C,
+                                 float(T.min()), float(T.max()))
+        start.update({"C1": C1, "C2_K": C2})
+    return start
 
 
 def _fit_first(cells, order, backbones, T_ref, options, notes):
@@ -504,9 +562,11 @@ def law_file_object(fit: FitResult, measured: pd.DataFrame, temperatures, option
                                  "with plausible parameters, unless an implausible one gains more than "
                                  f"{GAIN_Z:g} standard errors") if options.one_se else "best inner-CV score",
                         "notes": notes, "curve": fit.curve.to_dict(orient="records")}
+    card_fit = None if fit.card_law is None else fit.card_law.backbone.loss
     obj["card"] = {"settings": None if fit.card_settings is None else fit.card_settings.label(),
-                   "is_selected_law": fit.card_settings == fit.settings, "this_file": "card law" if card else
-                   "selected law"}
+                   "fit": card_fit, "selected_fit": fit.law.backbone.loss if fit.law is not None else None,
+                   "is_selected_law": fit.card_law is not None and fit.card_law is fit.law,
+                   "this_file": "card law" if card else "selected law"}
     obj["source"] = {**source,
                      "artifact_search": {"master_curve": "2S2P1D", "shift": options.artifact_shift,
                                          "alpha": options.alpha},

@@ -9,8 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..io import InputError, read_csv
-from .artifacts import checked
+from ..io import InputError, checked, read_csv
 from .crossval import ROW_COLUMNS
 
 SIM_COLUMNS = ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg")

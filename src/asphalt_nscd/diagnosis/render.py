@@ -248,34 +248,55 @@ def card_lines(report: dict) -> list:
     if not card:
         return []
 
-    lines = ["## Material card", "",
-             f"Relaxation Prony series of {card['n_terms']} terms at T_ref = "
-             f"{_units(report).temperature_text(card['T_ref_C'])}, E_0 = {_units(report).modulus_text(card['E_0_MPa'])}, "
-             "with a "
-             f"{card['shift']['law']} shift ({card['shift'].get('from', '')}); largest difference to the law it carries "
-             f"over the measured cells: {card['check']['max_E_norm_difference_pct']:.3g} % |E*|, "
-             f"{card['check']['max_phase_difference_deg']:.3g} deg."]
-    if not card["is_selected_law"]:
-        lines += ["", f"**The card does not carry the selected law.** The selected law ({card['selected_law']}) has "
-                  "what a Prony series with a shift function cannot carry; the card carries the best law without it, "
-                  f"fitted as such ({card['carries']}); its held-out errors are the *law of the material card* rows "
-                  "above."]
+    from ..rheology.export import carried_text, worse_than_selected
+
     u = _units(report)
+    sel = card.get("terms_selection") or {}
+    tol, band = sel.get("tolerance") or {}, sel.get("band_rad_s")
+    lines = ["## Material card", "",
+             f"Relaxation Prony series of **{card['n_terms']} terms** at T_ref = {u.temperature_text(card['T_ref_C'])}, "
+             f"E_0 = {u.modulus_text(card['E_0_MPa'])}, with a {card['shift']['law']} shift "
+             f"({card['shift'].get('from', '')}): the fewest terms within "
+             f"{tol.get('E_norm_pct', '?')} % |E*| and {tol.get('phase_deg', '?')} deg of the law it carries"
+             + (f" over the reduced band {band[0]:.3g}-{band[1]:.3g} rad/s at T_ref (the measured band widened by "
+                f"{sel.get('margin_decades', '?')} decade at each end) and at the measured cells" if band else "")
+             + f"; achieved {card['check']['max_E_norm_difference_pct']:.3g} % |E*| and "
+             f"{card['check']['max_phase_difference_deg']:.3g} deg at the measured cells "
+             "(error against the number of terms: material_cards/prony.json, terms_selection.curve).", "",
+             carried_text(card)[0].upper() + carried_text(card)[1:] + "."]
+    if not card["is_selected_law"]:
+        lines[-1] += " Its held-out errors are the *law of the material card* rows above."
+    worse = worse_than_selected(card)
+    if worse:
+        lines += ["", "**Against the lab's means the card is worse than the selected law in " + "; ".join(worse) + ".**"]
+    if card.get("nu") is not None:
+        lines += ["", f"Poisson's ratio {card['nu']:g}, {card.get('nu_source') or 'given'}; the shear relaxation "
+                  "G(t) = E(t) / (2 (1 + nu)) is in material_cards/relaxation_creep.csv and the LS-DYNA card."]
+    ic = card.get("interconversion")
+    if ic:
+        lines += ["", f"Creep compliance D(t) interconverted exactly from the relaxation series: largest residual of "
+                  f"the convolution identity {100 * ic['max_abs_residual']:.2g} % over every temperature and time "
+                  f"(check {'met' if ic['met'] else '**missed**'} at {100 * ic['tolerance']:g} %)."]
+    corrected = any("card_vs_corrected_logE_pct_mean" in r for r in card.get("loss") or [])
     lines += ["", f"| {u.temperature_header()} | cells | card vs measured: \\|E*\\| mean / max % | Phi mean / max deg | "
-              "selected law vs measured: \\|E*\\| % | Phi deg | card vs selected law: \\|E*\\| % | Phi deg |",
-              "|---|---|---|---|---|---|---|---|"]
+              "selected law vs measured: \\|E*\\| % | Phi deg | card vs selected law: \\|E*\\| % | Phi deg |"
+              + (" card vs corrected: \\|E*\\| % | Phi deg | correction: \\|E*\\| % | Phi deg |" if corrected else ""),
+              "|---|---|---|---|---|---|---|---|" + ("---|---|---|---|" if corrected else "")]
     for r in card.get("loss") or []:
         T = "all" if r["temperature_C"] == "all" else u.temperature_cell(r["temperature_C"])
-        lines.append(f"| {T} | {r['n_cells']} | {r['card_vs_measured_logE_pct_mean']:.2f} / "
-                     f"{r['card_vs_measured_logE_pct_max']:.2f} | {r['card_vs_measured_phase_deg_mean']:.2f} / "
-                     f"{r['card_vs_measured_phase_deg_max']:.2f} | {r['law_vs_measured_logE_pct_mean']:.2f} / "
-                     f"{r['law_vs_measured_logE_pct_max']:.2f} | {r['law_vs_measured_phase_deg_mean']:.2f} / "
-                     f"{r['law_vs_measured_phase_deg_max']:.2f} | {r['card_vs_law_logE_pct_mean']:.2f} / "
-                     f"{r['card_vs_law_logE_pct_max']:.2f} | {r['card_vs_law_phase_deg_mean']:.2f} / "
-                     f"{r['card_vs_law_phase_deg_max']:.2f} |")
+        pairs = ["card_vs_measured", "law_vs_measured", "card_vs_law"]
+        if corrected:
+            pairs += ["card_vs_corrected", "corrected_vs_measured"]
+        cells = [f"{r[f'{p}_logE_pct_mean']:.2f} / {r[f'{p}_logE_pct_max']:.2f} | "
+                 f"{r[f'{p}_phase_deg_mean']:.2f} / {r[f'{p}_phase_deg_max']:.2f}" for p in pairs]
+        lines.append(f"| {T} | {r['n_cells']} | " + " | ".join(cells) + " |")
     lines += ["", "In-sample: against the measured replicate means the law was fitted on (every cell: "
-              "material_cards/card_errors.csv).", ""]
-    return lines
+              "material_cards/card_errors.csv)."]
+    if corrected:
+        named = ", ".join(card.get("corrections") or []) or "the artifacts the diagnosis named"
+        lines += ["", f"The laws were fitted to the table corrected for {named}, which the diagnosis names as "
+                  "identifiable from this table; *correction* is what it changes in the replicate means."]
+    return lines + [""]
 
 
 def findings_lines(report: dict) -> list:

@@ -5,7 +5,9 @@ in the units the lab wrote its table in (:class:`asphalt_nscd.lab.table_format.D
   measured replicate means (markers) and the card (lines, evaluated on a fine temperature grid
   through its WLF shift), so that a card which misses an isotherm shows where;
 * :func:`relaxation_creep_figure` -- the card's relaxation modulus E(t) and creep compliance
-  D(t) at each tested temperature (the columns of ``relaxation_creep.csv``), log-log.
+  D(t) at each tested temperature (the columns of ``relaxation_creep.csv``), log-log;
+* :func:`terms_curve_figure` -- the largest difference of the card to the law it carries
+  against the number of Prony terms tried, with the tolerance, so that the chosen N shows why.
 """
 
 from __future__ import annotations
@@ -74,4 +76,28 @@ def relaxation_creep_figure(functions: pd.DataFrame, units: DisplayUnits = Displ
     ax_D.set_ylabel(f"creep compliance D(t) (1/{units.modulus})")
     ax_E.legend(fontsize=7)
     fig.suptitle("The material card's relaxation modulus and creep compliance (interconverted exactly)")
+    return fig
+
+
+def terms_curve_figure(card: dict):
+    """The error-versus-N curve of the card's term selection (``terms_selection.curve`` of
+    ``prony.json``: one {n, max_E_pct, max_phase_deg} per N tried) against the tolerance
+    (``terms_selection.tolerance``). Returns the matplotlib figure (|E*| % and Phi deg on log axes
+    against N, the tolerances dashed, the chosen N marked)."""
+    import matplotlib.pyplot as plt
+
+    sel = card["terms_selection"]
+    curve = pd.DataFrame(sel["curve"])
+    tol = sel["tolerance"]
+    fig, (ax_E, ax_P) = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    for ax, col, t, label in ((ax_E, "max_E_pct", tol["E_norm_pct"], "largest |E*| difference (%)"),
+                              (ax_P, "max_phase_deg", tol["phase_deg"], "largest phase difference (deg)")):
+        ax.semilogy(curve["n"], curve[col], "o-", ms=4, color="tab:blue")
+        ax.axhline(t, ls="--", color="tab:red", lw=1, label=f"tolerance {t:g}")
+        ax.axvline(sel["n_terms"], ls=":", color="0.3", lw=1, label=f"chosen N = {sel['n_terms']}")
+        ax.set_xlabel("number of Prony terms N")
+        ax.set_ylabel(label)
+        ax.legend(fontsize=7)
+    fig.suptitle("The card against the law it carries, by number of Prony terms (band widened by "
+                 f"{sel.get('margin_decades', 1):g} decade and the measured cells)")
     return fig

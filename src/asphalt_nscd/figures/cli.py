@@ -53,16 +53,19 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser(
         "card-figures",
-        help="isochrones of a material card against the measured means; its E(t) and D(t)",
+        help="isochrones of a material card against the measured means; its E(t) and D(t); error against N",
         description="The figures of a material card (asphalt_nscd.figures.cards): |E*| and Phi against temperature "
                     "at each tested frequency, the measured replicate means and the card; the card's relaxation "
-                    "modulus E(t) and creep compliance D(t) at each tested temperature. In the lab's units.")
+                    "modulus E(t) and creep compliance D(t) at each tested temperature; its largest difference to the "
+                    "law it carries against the number of Prony terms. In the lab's units.")
     p.add_argument("--card", type=Path, required=True, help="card JSON (export-law: prony.json)")
     p.add_argument("--errors", type=Path, required=True, help="the card's cells (export-law: card_errors.csv)")
     p.add_argument("--functions", type=Path, required=True,
                    help="E(t), D(t) of the card (export-law: relaxation_creep.csv)")
     p.add_argument("--isochrones", type=Path, required=True, help="isochrones figure (png)")
     p.add_argument("--relaxation-creep", type=Path, required=True, help="E(t) and D(t) figure (png)")
+    p.add_argument("--terms-curve", type=Path, required=True,
+                   help="the card's largest difference to its law against the number of Prony terms (png)")
     p.set_defaults(func=_card_figures)
 
 
@@ -91,8 +94,12 @@ def _card_figures(args) -> int:
         missing = [c for c in need if c not in frame.columns]
         if missing:
             raise InputError(f"{path}: missing column(s) {', '.join(missing)}")
+    if not isinstance(card.get("terms_selection"), dict) or "curve" not in card["terms_selection"]:
+        raise InputError(f"{args.card}: key 'terms_selection' with its 'curve' expected (a card of asphalt-nscd "
+                         "export-law)")
     for fig, path in ((cards.isochrones_figure(card, errors, units), args.isochrones),
-                      (cards.relaxation_creep_figure(functions, units), args.relaxation_creep)):
+                      (cards.relaxation_creep_figure(functions, units), args.relaxation_creep),
+                      (cards.terms_curve_figure(card), args.terms_curve)):
         savefig(fig, path)
         plt.close(fig)
     return 0

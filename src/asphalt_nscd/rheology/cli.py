@@ -120,7 +120,12 @@ def _add_export_law(subparsers) -> None:
                    help="largest difference of the card to its law over the measured reduced band widened by a decade "
                         "at each end and at every measured cell: |E*| %% and Phi deg (default 1 0.2, config "
                         "diagnosis.material_card.tolerance); the fewest Prony terms that meet it")
-    p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of the cards (constant)")
+    p.add_argument("--nu", type=float, default=None,
+                   help="Poisson's ratio of the cards (constant; default: the paper's 0.35, Eqs. 8-11)")
+    p.add_argument("--corrected", type=Path, default=None,
+                   help="the artifact-corrected table the laws were fitted on (extend-law --corrected, or "
+                        "master-curve's): the card's errors against it and what the correction changes, per "
+                        "temperature")
     p.set_defaults(func=_export)
 
 
@@ -138,10 +143,13 @@ def _export(args) -> int:
     summary = read_summary(args.measured)
     cells = summary[["temperature_C", "frequency_Hz"]].drop_duplicates()
     tolerance = tuple(args.tolerance) if args.tolerance is not None else export.CARD_TOLERANCE
+    nu, nu_source = (export.POISSON_RATIO, export.POISSON_SOURCE) if args.nu is None else (args.nu, "given (--nu)")
     try:
         if not all(v > 0 for v in tolerance):
             raise InputError(f"--tolerance: expected two positive numbers, got {list(tolerance)}")
-        card = export.prony_card(law, cells, tolerance=tolerance, nu=args.nu)
+        if not -1.0 < nu < 0.5:
+            raise InputError(f"--nu: expected a Poisson's ratio in (-1, 0.5), got {nu}")
+        card = export.prony_card(law, cells, tolerance=tolerance, nu=nu)
     except InputError as exc:
         raise InputError(f"{args.law_json}: {exc}") from None
     c = card["check"]
@@ -153,41 +161,62 @@ def _export(args) -> int:
             f"{tolerance[0]:g} % / {tolerance[1]:g} deg; not carried by a single Prony + shift "
             f"law: {', '.join(c['not_carried']) or 'none of the law settings (more terms: --per-decade?)'}; no card "
             "written (give it the law of 'extend-law --card-law')")
+    corrected = None
+    if args.corrected is not None:
+        from ..io import checked, read_csv
+        from .metrics import cell_means
+
+        corrected = cell_means(checked(read_csv(args.corrected), args.corrected,
+                                       ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg"),
+                                       positive=("frequency_Hz", "E_norm_MPa")))
     try:
-        errors = export.card_errors(card, summary, selected)
+        errors = export.card_errors(card, summary, selected, corrected)
     except InputError as exc:
-        raise InputError(f"{args.selected_law_json or args.law_json}: {exc}") from None
+        raise InputError(f"{args.corrected if corrected is not None else args.selected_law_json or args.law_json}: "
+                         f"{exc}") from None
+    if corrected is not None and not (errors[["corrected_vs_measured_logE_pct", "corrected_vs_measured_phase_deg"]]
+                                      .abs().to_numpy() > 1e-3).any():
+        errors = export.card_errors(card, summary, selected)  # no correction was made: the table as measured
     carried = (law.get("model") or {}).get("settings") or {}
     chosen = (selected.get("selection") or {}).get("chosen_label") or ""
-    label = (law.get("card") or {}).get("settings") or ""
+    about = law.get("card") or {}
     display = {}
     if args.test is not None:
         from ..lab.geometry import load_test
         from ..lab.table_format import DisplayUnits
 
         display = DisplayUnits.of(load_test(args.test)).as_dict()
-    card.update({"carries": label, "selected_law": chosen,
-                 "is_selected_law": bool((law.get("card") or {}).get("is_selected_law", True)),
+    card.update({"carries": about.get("settings") or "", "selected_law": chosen,
+                 "is_selected_law": bool(about.get("is_selected_law", True)),
+                 "fit": about.get("fit") or (law.get("model") or {}).get("fit_loss"),
+                 "selected_fit": about.get("selected_fit") or (selected.get("model") or {}).get("fit_loss"),
+                 "selected_carriable": (selected.get("model") or {}).get("carriable_by_a_prony_card"),
+                 "corrections": [str(a) for a in (law.get("model") or {}).get("artifacts_corrected") or []],
                  "carried_settings": carried, "findings": (law.get("model") or {}).get("findings") or [],
-                 "display": display, "loss": export.loss_by_temperature(errors),
+                 "nu_source": nu_source, "display": display, "loss": export.loss_by_temperature(errors),
                  "source": {k: v for k, v in (law.get("source") or {}).items() if k in ("measured", "measured_sha256")}})
-    log = logging.getLogger("asphalt_nscd")
-    for line in export.loss_lines(card):
-        (log.info if card["is_selected_law"] else log.warning)("material card: %s", line)
-    out = args.output
-    out.mkdir(parents=True, exist_ok=True)
-    for name, text in (("abaqus.inp", export.abaqus_card(card, args.name)), ("lsdyna.k", export.lsdyna_card(card))):
-        with atomic_path(out / name) as tmp:
-            tmp.write_text(text)
-    write_json(export.card_json(card), out / "prony.json")  # E(t), D(t): relaxation_creep.csv below
-    write_csv(export.card_table(card), out / "prony.csv")
-    write_csv(errors, out / "card_errors.csv")
     try:
         band = card["terms_selection"]["band_rad_s"]
         times = np.logspace(-np.log10(band[1]), -np.log10(band[0]), 81)
         functions = export.relaxation_and_creep(card, sorted(summary["temperature_C"].unique()), times)
     except ValueError as exc:  # a liquid card: no finite creep limit
         raise InputError(f"{args.law_json}: {exc}") from None
+    card["interconversion"] = export.interconversion_summary(functions)
+    log = logging.getLogger("asphalt_nscd")
+    for line in export.loss_lines(card):
+        log.info("material card: %s", line)
+    worse = export.worse_than_selected(card)
+    if worse:
+        log.warning("material card: against the lab's means the card is worse than the selected law in %s "
+                    "(card_errors.csv; the card's header)", "; ".join(worse))
+    out = args.output
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in (("abaqus.inp", export.abaqus_card(card, args.name)), ("lsdyna.k", export.lsdyna_card(card))):
+        with atomic_path(out / name) as tmp:
+            tmp.write_text(text)
+    write_json(export.card_json(card), out / "prony.json")
+    write_csv(export.card_table(card), out / "prony.csv")
+    write_csv(errors, out / "card_errors.csv")
     write_csv(functions, out / "relaxation_creep.csv")
     return 0
 

@@ -66,6 +66,11 @@ def wlf_log_shift(T, T_ref: float, C1: float, C2: float) -> np.ndarray:
     return -C1 * d / (C2 + d)
 
 
+#: where the cards' default Poisson's ratio (:data:`asphalt_nscd.rheology.laws.POISSON_RATIO`) comes from
+POISSON_SOURCE = "the paper's value for the mix (Quezada & Chazallon 2020, Eqs. 8-11: 'set to 0.35')"
+#: largest |interconversion residual| of E(t) and D(t) accepted by the card's own check
+INTERCONVERSION_TOLERANCE = 0.005
+
 #: default tolerance of the card against its law, |E*| %, Phi deg: the largest difference over the
 #: widened reduced band at T_ref (selection of the terms) and at every calibrated cell (``exact``)
 CARD_TOLERANCE = (1.0, 0.2)
@@ -216,7 +221,7 @@ def prony_card(law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_
     shift = model["shift"]
     T = cells["temperature_C"].to_numpy(float)
     f = cells["frequency_Hz"].to_numpy(float)
-    C1, C2, from_law, diff = _card_wlf(shift, T_ref, float(T.min()), float(T.max()))
+    C1, C2, from_law, diff = card_wlf(shift, T_ref, float(T.min()), float(T.max()))
     wr = 2 * np.pi * f * 10.0 ** wlf_log_shift(T, T_ref, C1, C2)
     w_lo, w_hi = wr.min() / 10**margin_decades, wr.max() * 10**margin_decades
     omega = np.logspace(math.log10(w_lo), math.log10(w_hi), int(20 * math.log10(w_hi / w_lo)) + 1)
@@ -250,7 +255,7 @@ def prony_card(law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_
     return card
 
 
-def _card_wlf(shift: dict, T_ref: float, lo: float, hi: float) -> tuple[float, float, str, float]:
+def card_wlf(shift: dict, T_ref: float, lo: float, hi: float) -> tuple[float, float, str, float]:
     """The card's WLF shift (:func:`prony_card`): (C1, C2 in K, its origin, largest |log10 aT|
     difference to the law's shift). A WLF law is taken as it is; an Arrhenius one is replaced by
     the WLF law nearest it on [lo, hi] degC (least squares on 41 temperatures)."""
@@ -291,14 +296,18 @@ def _card_check(card: dict, entries: dict, settings: dict, T: np.ndarray, f: np.
     return check, bool(dE[iE] <= tolerance[0] and dP[iP] <= tolerance[1])
 
 
-def card_errors(card: dict, summary: pd.DataFrame, selected_law: dict) -> pd.DataFrame:
+def card_errors(card: dict, summary: pd.DataFrame, selected_law: dict,
+                corrected: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per measured cell: the card's, the selected law's and the measured replicate means'
     |E*| (MPa) and Phi (deg), and the errors (|E*| as 100 ln(a / b), %, Phi in deg) of the card
     and of the law against the measured means and of the card against the law. ``summary``:
     ``temperature_C, frequency_Hz, E_norm_MPa_mean, phase_deg_mean``; ``selected_law``: its law
-    JSON, with an entry at every measured temperature.
+    JSON, with an entry at every measured temperature; ``corrected``: the artifact-corrected
+    cell means the laws were fitted on (``temperature_C, frequency_Hz, E_norm_MPa, phase_deg``),
+    when a correction was made: their values and the card's errors against them too
+    (``*_corrected``, ``card_vs_corrected_*``, ``corrected_vs_measured_*``).
 
-    Raises InputError if the law lacks a measured temperature."""
+    Raises InputError if the law lacks a measured temperature or ``corrected`` a measured cell."""
     from . import law_file
 
     T = summary["temperature_C"].to_numpy(float)
@@ -311,7 +320,20 @@ def card_errors(card: dict, summary: pd.DataFrame, selected_law: dict) -> pd.Dat
     out = pd.DataFrame({"temperature_C": T, "frequency_Hz": f, "E_norm_MPa_measured": E_m, "phase_deg_measured": P_m,
                         "E_norm_MPa_card": np.abs(E_card), "phase_deg_card": np.degrees(np.angle(E_card)),
                         "E_norm_MPa_law": np.abs(E_law), "phase_deg_law": np.degrees(np.angle(E_law))})
-    for a, b in (("card", "measured"), ("law", "measured"), ("card", "law")):
+    pairs = [("card", "measured"), ("law", "measured"), ("card", "law")]
+    if corrected is not None:
+        from .metrics import same_frequency, same_temperature
+
+        Ec, Pc = np.empty(T.size), np.empty(T.size)
+        cT, cf = corrected["temperature_C"].to_numpy(float), corrected["frequency_Hz"].to_numpy(float)
+        for i in range(T.size):
+            hit = np.flatnonzero(same_temperature(cT, T[i]) & same_frequency(cf, f[i]))
+            if hit.size != 1:
+                raise InputError(f"corrected table: {hit.size} cells at {T[i]:g} degC, {f[i]:g} Hz (expected 1)")
+            Ec[i], Pc[i] = corrected["E_norm_MPa"].iloc[hit[0]], corrected["phase_deg"].iloc[hit[0]]
+        out["E_norm_MPa_corrected"], out["phase_deg_corrected"] = Ec, Pc
+        pairs += [("card", "corrected"), ("corrected", "measured")]
+    for a, b in pairs:
         out[f"{a}_vs_{b}_logE_pct"] = 100 * np.log(out[f"E_norm_MPa_{a}"] / out[f"E_norm_MPa_{b}"])
         out[f"{a}_vs_{b}_phase_deg"] = out[f"phase_deg_{a}"] - out[f"phase_deg_{b}"]
     return out
@@ -319,13 +341,16 @@ def card_errors(card: dict, summary: pd.DataFrame, selected_law: dict) -> pd.Dat
 
 def loss_by_temperature(errors: pd.DataFrame) -> list[dict]:
     """Per temperature (and ``all``): mean and max of the absolute errors of
-    :func:`card_errors` (|E*| %, Phi deg) of the card and of the law against the measured means
-    and of the card against the law."""
+    :func:`card_errors` (|E*| %, Phi deg) of the card and of the law against the measured means,
+    of the card against the law and, with a corrected table, of the card against it and of the
+    correction itself (corrected vs measured)."""
     out = []
     groups = [(float(T), g) for T, g in errors.groupby("temperature_C")] + [("all", errors)]
+    pairs = [p for p in ("card_vs_measured", "law_vs_measured", "card_vs_law", "card_vs_corrected",
+                         "corrected_vs_measured") if f"{p}_logE_pct" in errors]
     for T, g in groups:
         row = {"temperature_C": T, "n_cells": int(len(g))}
-        for pair in ("card_vs_measured", "law_vs_measured", "card_vs_law"):
+        for pair in pairs:
             for q in ("logE_pct", "phase_deg"):
                 a = g[f"{pair}_{q}"].abs()
                 row[f"{pair}_{q}_mean"] = float(a.mean())
@@ -352,9 +377,8 @@ def loss_lines(card: dict, units=None) -> list[str]:
         return []
     if units is None:
         units = DisplayUnits(**card["display"]) if card.get("display") else DisplayUnits()
-    head = (f"the card carries the law '{card['carries']}'" + (" (the selected law)" if card["is_selected_law"] else
-            f", not the selected '{card['selected_law']}', which a Prony series with a shift function cannot carry"))
-    lines = [head + "; |E*| (mean / max |ln ratio|, %) and Phi (mean / max |difference|, deg) per temperature:"]
+    lines = [carried_text(card) + "; |E*| (mean / max |ln ratio|, %) and Phi (mean / max |difference|, deg) per "
+             "temperature, in-sample:"]
     for r in card["loss"]:
         T = "all" if r["temperature_C"] == "all" else units.temperature_text(r["temperature_C"])
         lines.append(f"{T}: card vs measured {r['card_vs_measured_logE_pct_mean']:.2f} / "
@@ -363,7 +387,66 @@ def loss_lines(card: dict, units=None) -> list[str]:
                      f"{r['law_vs_measured_logE_pct_mean']:.2f} / {r['law_vs_measured_logE_pct_max']:.2f} %, "
                      f"{r['law_vs_measured_phase_deg_mean']:.2f} / {r['law_vs_measured_phase_deg_max']:.2f} deg; "
                      f"card vs selected law {r['card_vs_law_logE_pct_mean']:.2f} / {r['card_vs_law_logE_pct_max']:.2f} %, "
-                     f"{r['card_vs_law_phase_deg_mean']:.2f} / {r['card_vs_law_phase_deg_max']:.2f} deg")
+                     f"{r['card_vs_law_phase_deg_mean']:.2f} / {r['card_vs_law_phase_deg_max']:.2f} deg"
+                     + (f"; card vs corrected {r['card_vs_corrected_logE_pct_mean']:.2f} / "
+                        f"{r['card_vs_corrected_logE_pct_max']:.2f} %, {r['card_vs_corrected_phase_deg_mean']:.2f} / "
+                        f"{r['card_vs_corrected_phase_deg_max']:.2f} deg" if "card_vs_corrected_logE_pct_mean" in r
+                        else ""))
+    return lines + correction_lines(card, units)
+
+
+def worse_than_selected(card: dict) -> list[str]:
+    """The overall figures (mean and largest |E*| and Phi error against the lab's replicate
+    means) in which the card is worse than the selected law by more than the card's tolerance,
+    as text (empty: the card is as good as the selected law, or better, in all four)."""
+    rows = [r for r in card.get("loss") or [] if r["temperature_C"] == "all"]
+    if not rows:
+        return []
+    r, tol = rows[0], card.get("terms_selection", {}).get("tolerance", {})
+    out = []
+    for q, unit, t in (("logE_pct", "%", tol.get("E_norm_pct", CARD_TOLERANCE[0])),
+                       ("phase_deg", "deg", tol.get("phase_deg", CARD_TOLERANCE[1]))):
+        for stat in ("mean", "max"):
+            c, law = r[f"card_vs_measured_{q}_{stat}"], r[f"law_vs_measured_{q}_{stat}"]
+            if c > law + t:
+                name = "|E*|" if q == "logE_pct" else "Phi"
+                out.append(f"{stat} {name} error {c:.2f} {unit} vs {law:.2f} {unit}")
+    return out
+
+
+def carried_text(card: dict) -> str:
+    """One sentence: the law the card carries, how it was fitted, and whether it is the selected
+    law (and why not)."""
+    fits = {"least_squares": "by least squares at every measured cell", "robust": "by the robust (soft L1) fit"}
+    how = fits.get(card.get("fit") or "", "")
+    if card["is_selected_law"]:
+        return f"the card carries the selected law '{card['carries']}'" + (f", fitted {how}" if how else "")
+    text = f"the card carries the law '{card['carries']}'" + (f", fitted {how}" if how else "")
+    if card.get("selected_carriable") is False:
+        return text + f", not the selected '{card['selected_law']}', which a Prony series with a shift function cannot carry"
+    return (text + f", not the selected '{card['selected_law']}'"
+            + (f" (fitted {fits[card['selected_fit']]})" if card.get("selected_fit") in fits else "")
+            + ": the card's law is refitted in the card's own shift and loss (diagnosis.material_card)")
+
+
+def correction_lines(card: dict, units=None) -> list[str]:
+    """What the data correction the laws were fitted on changes, per temperature (the corrected
+    replicate means against the measured ones; empty without a correction)."""
+    from ..lab.table_format import DisplayUnits
+
+    rows = [r for r in card.get("loss") or [] if "corrected_vs_measured_logE_pct_mean" in r]
+    if not rows or max(max(r["corrected_vs_measured_logE_pct_max"], r["corrected_vs_measured_phase_deg_max"])
+                       for r in rows) == 0:
+        return []
+    if units is None:
+        units = DisplayUnits(**card["display"]) if card.get("display") else DisplayUnits()
+    named = ", ".join(card.get("corrections") or []) or "the artifacts the diagnosis named"
+    lines = [f"the laws were fitted to the table corrected for {named} (named by the diagnosis as identifiable from "
+             "the table); the correction changes the replicate means (mean / max |change|, |E*| %, Phi deg):"]
+    for r in rows:
+        T = "all" if r["temperature_C"] == "all" else units.temperature_text(r["temperature_C"])
+        lines.append(f"{T}: {r['corrected_vs_measured_logE_pct_mean']:.2f} / {r['corrected_vs_measured_logE_pct_max']:.2f} %, "
+                     f"{r['corrected_vs_measured_phase_deg_mean']:.2f} / {r['corrected_vs_measured_phase_deg_max']:.2f} deg")
     return lines
 
 
@@ -439,6 +522,45 @@ def relaxation_and_creep(card: dict, temperatures, times_s) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def interconversion_summary(functions: pd.DataFrame) -> dict:
+    """The interconversion check of :func:`relaxation_and_creep`'s table: the largest
+    |int_0^t E(t - u) dD(u) - 1| over every temperature and time, against
+    :data:`INTERCONVERSION_TOLERANCE` (``met``), with the method's source."""
+    worst = float(np.abs(functions["check"].to_numpy(float)).max())
+    return {"max_abs_residual": worst, "tolerance": INTERCONVERSION_TOLERANCE,
+            "met": bool(worst <= INTERCONVERSION_TOLERANCE),
+            "method": "exact interconversion of the Prony series (Park & Schapery 1999, Int. J. Solids Struct. 36: "
+                      "1653-1675); residual of the convolution identity int_0^t E(t-u) dD(u) = 1"}
+
+
+def header_lines(card: dict) -> list[str]:
+    """The card's own statements (the comment block of every card file): the selected number of
+    terms with its tolerance and band, the law carried and how it was fitted, the Poisson's ratio
+    and its source, the E(t)/D(t) interconversion check, the measured table, and the errors
+    against the lab's means per temperature (:func:`loss_lines`)."""
+    sel = card.get("terms_selection", {})
+    tol = sel.get("tolerance", {})
+    band = sel.get("band_rad_s", [float("nan"), float("nan")])
+    lines = [f"{len(card['terms'])} Prony terms: the fewest within {tol.get('E_norm_pct', '?')} % |E*| and "
+             f"{tol.get('phase_deg', '?')} deg of the law it carries over the reduced band {band[0]:.3g}-{band[1]:.3g} "
+             f"rad/s at T_ref (the measured band widened by {sel.get('margin_decades', '?')} decade at each end) and at "
+             f"the measured cells; achieved {sel.get('max_E_norm_difference_pct', float('nan')):.3g} % / "
+             f"{sel.get('max_phase_difference_deg', float('nan')):.3g} deg",
+             f"E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; units MPa, s, degC; "
+             f"g_inf = {card['g_inf']:.6g}",
+             f"largest difference to the law it carries over {card['check']['n_cells']} measured cells: "
+             f"{card['check']['max_E_norm_difference_pct']:.3g} % |E*|, {card['check']['max_phase_difference_deg']:.3g} "
+             "deg phase"]
+    if card.get("nu_source"):
+        lines.append(f"Poisson's ratio {card['nu']:g}: {card['nu_source']}; shear and bulk relax alike")
+    ic = card.get("interconversion")
+    if ic:
+        lines.append(f"creep compliance D(t) interconverted exactly from E(t): largest residual "
+                     f"{100 * ic['max_abs_residual']:.2g} % (check {'met' if ic['met'] else 'MISSED'} at "
+                     f"{100 * ic['tolerance']:g} %)")
+    return lines + source_lines(card) + loss_lines(card)
+
+
 def card_modulus(card: dict, frequency_Hz, temperature_C) -> np.ndarray:
     """E* (MPa) of a card at (f Hz, T degC) pairs: the Prony series at the shifted frequency."""
     f, T = np.broadcast_arrays(np.asarray(frequency_Hz, float), np.asarray(temperature_C, float))
@@ -456,20 +578,8 @@ def abaqus_card(card: dict, name: str = "ASPHALT_MIX") -> str:
     ``*VISCOELASTIC, TIME=PRONY`` (g_i, k_i = g_i, tau_i: shear and bulk relax alike) and
     ``*TRS, DEFINITION=WLF`` (T_ref, C1, C2). Units MPa and s; temperatures in degC."""
     s = card["shift"]
-    sel = card.get("terms_selection", {})
     lines = ["** Linear viscoelastic material card written by asphalt-nscd export-law",
-             f"** {len(card['terms'])} Prony terms: the fewest within {sel.get('tolerance', {}).get('E_norm_pct', '?')} % |E*| "
-             f"and {sel.get('tolerance', {}).get('phase_deg', '?')} deg of the law over the reduced band "
-             f"{sel.get('band_rad_s', ['?', '?'])[0]:.3g}-{sel.get('band_rad_s', ['?', '?'])[1]:.3g} rad/s at T_ref "
-             f"(the measured band widened by {sel.get('margin_decades', '?')} decade at each end; achieved "
-             f"{sel.get('max_E_norm_difference_pct', float('nan')):.3g} % / {sel.get('max_phase_difference_deg', float('nan')):.3g} deg)",
-             f"** E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; "
-             f"units MPa, s, degC; g_inf = {card['g_inf']:.6g}",
-             f"** largest difference to the law it carries over {card['check']['n_cells']} calibrated cells: "
-             f"{card['check']['max_E_norm_difference_pct']:.3g} % |E*|, "
-             f"{card['check']['max_phase_difference_deg']:.3g} deg phase",
-             *(f"** {line}" for line in source_lines(card)),
-             *(f"** {line}" for line in loss_lines(card)),
+             *(f"** {line}" for line in header_lines(card)),
              f"*MATERIAL, NAME={name}",
              "*ELASTIC, MODULI=INSTANTANEOUS",
              f"{card['E_0_MPa']:.9g}, {card['nu']:.6g}",
@@ -489,10 +599,9 @@ def lsdyna_card(card: dict, mid: int = 1, density_t_mm3: float = 2.4e-9) -> str:
     s = card["shift"]
     terms = [(card["E_inf_MPa"], 0.0)] + [(t["E_MPa"], 1.0 / t["tau_s"]) for t in card["terms"]]
     bulk = card["E_0_MPa"] * k
-    lines = ["$ Linear viscoelastic material card written by asphalt-nscd export-law (units N, mm, s, tonne; MPa)",
-             f"$ E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; WLF shift",
-             *(f"$ {line}" for line in source_lines(card)),
-             *(f"$ {line}" for line in loss_lines(card)),
+    lines = ["$ Linear viscoelastic material card written by asphalt-nscd export-law (units N, mm, s, tonne; MPa); "
+             "WLF shift (TREF, A = C1, B = C2)",
+             *(f"$ {line}" for line in header_lines(card)),
              "*MAT_GENERAL_VISCOELASTIC",
              "$      MID        RO      BULK       PCF        EF      TREF         A         B",
              "".join(f"{v:>10}" for v in (mid, f"{density_t_mm3:.3e}", f"{bulk:.3e}", 0, 0,

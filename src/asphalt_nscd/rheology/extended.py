@@ -20,7 +20,10 @@ law of :mod:`asphalt_nscd.rheology.law_file`, E_inf + [1/Em + 1/(i w eta_m) + su
 Choices (docs/choices.md, Diagnosis: the temperature-aware extended law and held-out validation):
 * a parametric backbone, not a free spectrum; settings chosen by held-out error
   (:mod:`asphalt_nscd.diagnosis.crossval`), never by in-sample error;
-* soft-L1 loss on residuals scaled by the tolerances (3 %, 5 %); weak priors on the trends;
+* soft-L1 loss on residuals scaled by the tolerances (3 %, 5 %) (``loss="robust"``: a cell the
+  backbone cannot follow weighs less than its square); ``loss="least_squares"`` weighs every cell
+  by its square (the law a material card carries: :mod:`asphalt_nscd.diagnosis.crossval`); weak
+  priors on the trends;
 * ``per_decade`` retardation times per decade, ``margin_decades`` for the band and the merging.
 """
 
@@ -49,6 +52,8 @@ TREND_NAMES = ("static_trend_per_100K", "vertical_trend_per_100K")
 TREND_SCALE = 1.0
 SHIFTS = ("wlf", "arrhenius")
 STATICS = ("none", "constant", "trend")
+#: fit losses of :func:`fit_backbone`: its name -> scipy.optimize.least_squares' ``loss``
+LOSSES = {"robust": "soft_l1", "least_squares": "linear"}
 #: quantities of the per-isotherm refinement: log10 aT, log10 b, log10 E00
 REFINED = ("aT", "b", "E00")
 CORE_NAMES = ("log10_E0_MPa", "log10_delta", "k_over_h", "h", "log10_beta", "log10_tau_s")
@@ -144,8 +149,9 @@ class Backbone:
     """Fitted backbone modulus of :class:`ThermoLaw` (module docstring), MPa.
 
     ``names``/``x``: parameter layout and values; ``temperatures``: training isotherms (degC,
-    sorted) of the refinement; ``cost``: the robust objective at the solution; ``lower`` /
-    ``upper``: the fit's bounds (None when not fitted here).
+    sorted) of the refinement; ``cost``: the objective at the solution; ``lower`` /
+    ``upper``: the fit's bounds (None when not fitted here); ``loss``: the fit loss (a key of
+    :data:`LOSSES`).
     """
 
     settings: LawSettings
@@ -156,6 +162,7 @@ class Backbone:
     cost: float = np.nan
     lower: np.ndarray | None = None
     upper: np.ndarray | None = None
+    loss: str = "robust"
 
     def findings(self) -> list[dict]:
         """Parameters outside their plausible range for a mix, and fit parameters at a bound
@@ -326,7 +333,8 @@ def _cold_starts(names, T, E, T_ref) -> list:
 
 
 def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = None,
-                 tolerances=TOLERANCES, start: dict | None = None) -> Backbone:
+                 tolerances=TOLERANCES, start: dict | None = None, loss: str = "robust",
+                 starts: list | None = None) -> Backbone:
     """Fit the backbone of :class:`ThermoLaw` to cell means (module docstring).
 
     Parameters
@@ -343,6 +351,11 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
         Starting values by parameter name (e.g. a simpler fit's); missing ones start at 0
         (deviations, trends) or at the default starting point. Without it several cold
         starts are tried.
+    loss : str
+        ``robust`` (soft L1 of the scaled residuals) or ``least_squares`` (:data:`LOSSES`).
+    starts : list of dict, optional
+        Further starting points tried besides ``start`` or the cold starts (the lowest
+        objective wins).
 
     Returns
     -------
@@ -351,10 +364,13 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
     Raises
     ------
     ValueError
-        with fewer than 2 temperatures, fewer residuals than parameters, or no successful fit.
+        with fewer than 2 temperatures, fewer residuals than parameters, an unknown loss, or no
+        successful fit.
     """
     from scipy.optimize import least_squares
 
+    if loss not in LOSSES:
+        raise ValueError(f"fit_backbone: loss: expected one of {list(LOSSES)}, got {loss!r}")
     T, f, E, ph = _cell_arrays(cells)
     temps = np.unique(T)
     if temps.size < 2:
@@ -391,13 +407,13 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
         out = np.vstack([D.real / tol_E, D.imag / (ph * tol_P)[:, None], R])
         return np.where(np.isfinite(out), out, 0.0)
 
-    starts = [start] if start is not None else _cold_starts(names, T, E, T_ref_C)
+    starts = ([start] if start is not None else _cold_starts(names, T, E, T_ref_C)) + list(starts or [])
     best = None
     for s in starts:
         x0 = np.array([s.get(n, 0.0) for n in names], float)
         x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
         try:
-            res = least_squares(resid, x0, jac=jac, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=1.0,
+            res = least_squares(resid, x0, jac=jac, bounds=(lo, hi), method="trf", loss=LOSSES[loss], f_scale=1.0,
                                 x_scale="jac", max_nfev=2000)
         except ValueError:
             continue
@@ -405,7 +421,7 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
             best = res
     if best is None:
         raise ValueError(f"backbone fit '{settings.label()}' failed from every starting point")
-    return Backbone(settings, float(T_ref_C), temps, names, best.x.copy(), float(best.cost), lo, hi)
+    return Backbone(settings, float(T_ref_C), temps, names, best.x.copy(), float(best.cost), lo, hi, loss)
 
 
 @dataclass
@@ -537,7 +553,7 @@ class ThermoLaw:
                 "settings": bb.settings.as_dict(), "T_ref_C": bb.T_ref_C,
                 "calibrated_temperature_range_C": list(self.temperature_range_C),
                 "frequency_band_Hz": list(self.band_Hz), "margin_decades": self.margin_decades,
-                "shift": shift, "backbone": {k: float(v) for k, v in zip(bb.names, bb.x)},
+                "shift": shift, "fit_loss": bb.loss, "backbone": {k: float(v) for k, v in zip(bb.names, bb.x)},
                 "backbone_2s2p1d_at_T_ref": {k: float(v) for k, v in bb.core().items()},
                 "vertical_trend_decades_per_100K": bb.value("vertical_trend_per_100K"),
                 "carriable_by_a_prony_card": bb.settings.carriable, "findings": bb.findings(),
@@ -551,18 +567,21 @@ MAX_BAND_DECADES = 40.0
 
 
 def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = None,
-            tolerances=TOLERANCES, margin_decades: float = 2.0, backbone: Backbone | None = None) -> ThermoLaw:
+            tolerances=TOLERANCES, margin_decades: float = 2.0, backbone: Backbone | None = None,
+            loss: str = "robust", starts: list | None = None) -> ThermoLaw:
     """Fit :class:`ThermoLaw` to cell means (``temperature_C, frequency_Hz, E_norm_MPa,
-    phase_deg``); ``backbone``: an already fitted one of the same structure (reused).
+    phase_deg``); ``backbone``: an already fitted one of the same structure (reused); ``loss``,
+    ``starts``: of :func:`fit_backbone` (without ``backbone``).
 
     Raises ValueError as :func:`fit_backbone`, when the shift law spreads the cells over an
     infinite band, or if the Prony fit fails. Over a band wider than :data:`MAX_BAND_DECADES`
     the relaxation times are thinned to at most that many decades' worth.
     """
-    bb = backbone if backbone is not None else fit_backbone(cells, settings, T_ref_C, tolerances)
+    bb = backbone if backbone is not None else fit_backbone(cells, settings, T_ref_C, tolerances, loss=loss,
+                                                            starts=starts)
     if backbone is not None and backbone.settings.structure != settings.structure:
         raise ValueError("fit_law: the given backbone has another structure than the settings")
-    bb = Backbone(settings, bb.T_ref_C, bb.temperatures, bb.names, bb.x, bb.cost)
+    bb = Backbone(settings, bb.T_ref_C, bb.temperatures, bb.names, bb.x, bb.cost, bb.lower, bb.upper, bb.loss)
     T = cells["temperature_C"].to_numpy(float)
     f = cells["frequency_Hz"].to_numpy(float)
     with np.errstate(over="ignore", invalid="ignore"):
