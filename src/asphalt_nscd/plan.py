@@ -524,10 +524,23 @@ def case_options(config: dict, mode: str, sample: str, case: str) -> str:
         opts += f" --factor {c['p']}={c['x']}"
     if mode == "extended" and transfer_correction(config):
         opts += f" --network-factor-json {transfer_file(sample)}"
+    if not c["dt"] and not c["p"] and is_verification(config, mode, c["T"], c["f"]):
+        opts += " --verify"
     if mode in ("measured", "extended"):
         return opts
     return f"{opts} --table3-units {table3_reading(config, mode)}"
 
+
+def is_verification(config: dict, mode: str, T, f) -> bool:
+    """Whether the main-campaign job of ``mode`` at (T degC, f Hz) is a verification job
+    (campaign.verification: ``ends`` = the coldest and warmest temperature at the lowest and
+    highest frequency of the mode's schedule; null = none): it steps in time and records its
+    orbit's result beside (asphalt_nscd.campaign.twopb.run_test)."""
+    if config["campaign"].get("verification") != "ends" or mode not in ISOTHERM_MODES.split("|"):
+        return False
+    sched = schedule(config, mode)
+    temps, freqs = [float(t) for t in sched["temperatures_C"]], [float(x) for x in sched["frequencies_Hz"]]
+    return float(T) in (min(temps), max(temps)) and float(f) in (min(freqs), max(freqs))
 
 
 def mode_summary(config: dict, mode: str) -> list:

@@ -193,7 +193,7 @@ def test_periodic_cycles_are_identical(tiny_sample, tmp_path):
     """Two cycles from the periodic start reduce to the same |E*| and Phi (no transient)."""
     s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=60, dt_max_s=1.0, checkpoint_every=0,
                             start="periodic", periodic_cycles=2, bond_kinematics="barycentre",
-                            head_rotation="clamped")
+                            head_rotation="clamped", method="time_domain")
     rec = twopb.run_test(tiny_sample, LAW_GEN, 3.0, s, tmp_path / "p.h5", progress=False)
     first = twopb.reduce_test(twopb.truncate_record(rec, 1), 1)
     second = twopb.reduce_test(rec, 1)
@@ -216,7 +216,7 @@ def test_periodic_start_falls_back_to_rest_when_bonds_would_break(tiny_sample, t
 
 def test_resume_with_periodic_start(tiny_sample, tmp_path):
     s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=60, dt_max_s=0.02, checkpoint_every=25,
-                            profile_instants=4, start="periodic", periodic_cycles=2)
+                            profile_instants=4, start="periodic", periodic_cycles=2, method="time_domain")
     full = twopb.run_test(tiny_sample, LAW_GEN, 10.0, s, tmp_path / "a.h5", progress=False)
     out = tmp_path / "b.h5"
     assert twopb.run_test(tiny_sample, LAW_GEN, 10.0, s, out, progress=False, stop_after=70) is None

@@ -96,10 +96,19 @@ def test_case_names_round_trip():
 
 def test_case_options_of_known_cases():
     cfg = load_config("smoke")
+    # the smoke schedule's one cell is its coldest and warmest, lowest and highest: a verification job
     assert plan.case_options(cfg, "extended", "s1", "21C_10Hz") == (
-        "--temperature 21 --frequency 10 --network-factor-json results/harmonic/transfer/s1.json"
+        "--temperature 21 --frequency 10 --network-factor-json results/harmonic/transfer/s1.json --verify"
     )
+    assert plan.case_options(cfg, "measured", "s1", "21C_10Hz") == "--temperature 21 --frequency 10 --verify"
+    cfg = copy.deepcopy(cfg)
+    cfg["campaign"]["verification"] = None
     assert plan.case_options(cfg, "measured", "s1", "21C_10Hz") == "--temperature 21 --frequency 10"
+    paper = load_config("paper")
+    ends = [(T, f) for T in paper["campaign"]["paper"]["temperatures_C"] for f in paper["campaign"]["paper"]["frequencies_Hz"]
+            if plan.is_verification(paper, "paper_kPa", T, f)]
+    assert ends == [(-10, 3), (-10, 40), (30, 3), (30, 40)]
+    assert not plan.is_verification(paper, "sensitivity", -10, 3)
     assert plan.case_options(cfg, "sensitivity", "s1", "20C_40Hz_eta_kx0.5") == (
         "--temperature 20 --frequency 40 --factor eta_k=0.5 --table3-units Pa"
     )

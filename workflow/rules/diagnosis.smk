@@ -136,7 +136,8 @@ if plan.crossval_time_domain_cell(config):
 
     rule crossval_time_domain:
         # one time-domain NSCD test of the sample with that fold's law (transfer correction on, the
-        # extended mode's test settings) at the held-out cell
+        # extended mode's test settings) at the held-out cell; --verify: it steps in time whatever
+        # campaign.test.method says
         input:
             sample=plan.sample_file(plan.crossval_sample(config)),
             law=rules.crossval_fold_law.output[0],
@@ -159,7 +160,7 @@ if plan.crossval_time_domain_cell(config):
         shell:
             "asphalt-nscd run-2pb --sample {input.sample} --sample-name {params.sample} --mode crossval"
             " --law-json {input.law} --temperature {params.temperature} --frequency {params.frequency}"
-            " --network-factor-json {input.transfer} --settings-json {params.settings:q}"
+            " --network-factor-json {input.transfer} --settings-json {params.settings:q} --verify"
             " --window-cycles {params.window} -o {output.record} --row {output.row} 2> {log}"
 
 

@@ -80,6 +80,9 @@ def _add_run_2pb(subparsers) -> None:
     _settings_options(p)
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True,
                    help="progress bar on stderr (the job log)")
+    p.add_argument("--verify", action="store_true",
+                   help="a verification job: step in time whatever the settings' method says, and record the "
+                        "exact periodic orbit's result beside (asphalt_nscd.harmonic.orbit)")
     p.add_argument("-o", "--output", required=True, help="record (.h5)")
     p.add_argument("--row", required=True, help="reduced row (.csv)")
     p.set_defaults(func=_run)
@@ -419,7 +422,7 @@ def _run(args) -> int:
             "factor": float(next(iter(factors.values()))) if len(factors) == 1 else 1.0,
             **{k: v for k, v in params.items()}}
     rec = twopb.run_test(args.sample, law, args.frequency, settings, args.output, meta=meta,
-                         progress=args.progress)
+                         progress=args.progress, verify=args.verify)
     row = twopb.reduce_test(rec, settings.window_cycles)
     row.update({k: v for k, v in params.items()})
     first = ["temperature_C", "frequency_Hz", "sample", "mode"]

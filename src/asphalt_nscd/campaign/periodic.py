@@ -62,7 +62,7 @@ def check_case(sample_path, law, frequency_Hz: float, settings, long_cycles: int
     rest_cycles = float(settings.n_cycles if rest_cycles is None else rest_cycles)
     if long_cycles < rest_cycles:
         raise ValueError(f"long_cycles ({long_cycles}) must be >= rest_cycles ({rest_cycles})")
-    base = dataclasses.replace(settings, checkpoint_every=0)
+    base = dataclasses.replace(settings, checkpoint_every=0, method="time_domain")  # a check of the time stepping
     w = base.window_cycles
     meta = dict(meta or {})
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:

@@ -44,6 +44,8 @@ from ..harmonic import periodic
 
 #: how a test starts: at rest, or in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`)
 START_MODES = ("rest", "periodic")
+#: how a job is computed (module docstring)
+METHODS = ("auto", "time_domain", "orbit")
 DT_POLICIES = ("fixed", "steps_per_cycle")
 FORCE_READINGS = ("bonds", "driver")
 #: per-step statistics stored under ``stats/``
@@ -80,6 +82,7 @@ class TwoPBSettings:
     fast_path_contacts : most contacts a fast-path step solves on their condensed Delassus
         operator (:class:`asphalt_nscd.nscd.NSCDParameters`, :mod:`asphalt_nscd.nscd.condensed`;
         0 = every closing contact sends the step to NLGS, the former behaviour).
+    method : 'auto' | 'time_domain' | 'orbit' (module docstring).
     """
 
     amplitude_m: float = HEAD_AMPLITUDE_M
@@ -107,8 +110,11 @@ class TwoPBSettings:
     linear_solver: str = "cg"
     linear_tolerance: float = 1e-10
     fast_path_contacts: int = 16
+    method: str = "auto"
 
     def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
         if self.start not in START_MODES:
             raise ValueError(f"start must be one of {START_MODES}, got {self.start!r}")
         if self.start == "periodic" and not (0 < self.window_cycles <= self.periodic_cycles):
@@ -281,9 +287,16 @@ def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
                continuous: bool = False) -> dict:
     """Put a freshly built simulation in its initial state: at rest, or, with ``settings.start
     == 'periodic'``, in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`) unless that state would
-    break a bond (then at rest, with a message on stderr).
+    break a bond (then at rest, with a message on stderr). The ``info`` of :func:`periodic_start`."""
+    return periodic_start(sim, law, frequency_Hz, settings, continuous)[0]
 
-    Returns dict: start ('rest' | 'periodic', the start used), requested, and for a
+
+def periodic_start(sim, law, frequency_Hz: float, settings: TwoPBSettings,
+                   continuous: bool = False) -> tuple[dict, "periodic.PeriodicState | None"]:
+    """:func:`start_test` with the periodic state it computed: (info, state; None without a
+    periodic request).
+
+    ``info``: start ('rest' | 'periodic', the start used), requested, and for a
     periodic request (``continuous``: the continuous steady state s = i w instead of the
     theta-method's, :func:`asphalt_nscd.harmonic.periodic.periodic_state`, for ``periodic-check``) solve_s and solve_cpu_s (wall and CPU time of the solve, counted in the
     record's times), force_ratio (steady bond force / strength), gravity (with gravity on: the
@@ -293,7 +306,7 @@ def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
     """
     info = {"start": "rest", "requested": settings.start}
     if settings.start != "periodic":
-        return info
+        return info, None
     cpu = time.process_time()
     state = periodic.periodic_state(sim, law, frequency_Hz, settings.amplitude_m,
                                     head_rotation=settings.head_rotation, nu=settings.nu,
@@ -308,12 +321,69 @@ def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
         info["fallback"] = (f"the steady state would break bonds (force / strength up to "
                             f"{state.force_ratio:.3g}): the test is not linear, started from rest")
         print(f"periodic start: {info['fallback']}", file=sys.stderr, flush=True)
-        return info
+        return info, state
     periodic.apply_periodic_state(sim, state)
     info["start"] = "periodic"
     if continuous:
         info["continuous"] = True
-    return info
+    return info, state
+
+
+def choose_path(settings: TwoPBSettings, start_info: dict, certificate, verify: bool) -> tuple[str, str]:
+    """(path, why) of a job (module docstring, ``method``): ``orbit`` or ``time_domain``.
+
+    Raises InputError for ``method: orbit`` on a job whose certificate fails or that does not
+    start periodic."""
+    if verify:
+        return "time_domain", "verification job: steps in time, its orbit's result recorded beside"
+    if settings.method == "time_domain":
+        return "time_domain", "method time_domain"
+    started = start_info["start"] == "periodic" and certificate is not None
+    if settings.method == "orbit":
+        if not started or not certificate.holds:
+            why = certificate.reason if started else f"the job starts {start_info['start']}, not periodic"
+            raise InputError(f"method orbit: the job is not certified linear ({why}); run it with method auto or "
+                             "time_domain")
+        return "orbit", "method orbit, certificate holds"
+    if not started:
+        return "time_domain", (f"starts {start_info['start']}"
+                               + (f" ({start_info['fallback']})" if start_info.get("fallback") else ""))
+    if not certificate.holds:
+        return "time_domain", f"certificate fails: {certificate.reason}"
+    return "orbit", "certificate holds: the exact periodic orbit, no time steps"
+
+
+def _orbit_arrays(sim, state, rest_z: np.ndarray, n_steps: int, prof_steps, edges, counts) -> dict:
+    """The arrays of :func:`run_test` on the orbit (:func:`asphalt_nscd.harmonic.orbit.orbit_record`):
+    the head forces, the velocity profile at ``prof_steps`` (binned as the time-stepping loop bins
+    it: by the current heights ``edges``, divided by the ``counts`` at rest), and the statistics of
+    linear steps (no NLGS, no contact; ``n_contacts`` and ``dissipated`` not computed: NaN).
+    ``rest_z``: the spheres' heights at rest (the state's reference)."""
+    from ..harmonic.orbit import orbit_record
+
+    sig = orbit_record(sim, state, n_steps)
+    ph = state.phasors
+    g = ph["gravity_state"]
+    dt = sim.params.dt
+    z = np.exp(1j * 2.0 * math.pi * ph["frequency_Hz"] * dt)
+    vhat = state.laplace * ph["displacement"]
+    bins = len(edges) - 1
+    out = {"t": sig["time_s"], "plate_fx": sig["plate_fx"], "driver_fx": sig["driver_fx"],
+           "profile_vx": np.zeros((len(prof_steps), bins))}
+    for n, k in enumerate(prof_steps):  # the state after step k: y_{k+1}
+        zk = z ** (k + 1)
+        vx = np.real(vhat[:, 0] * zk) + (g.velocity[:, 0] if g is not None else 0.0)
+        hz = rest_z + np.real(ph["displacement"][:, 2] * zk)
+        if g is not None:
+            hz = hz + g.displacement[:, 2] + g.velocity[:, 2] * (k + 1) * dt
+        pos = np.clip(np.digitize(hz, edges) - 1, 0, bins - 1)
+        out["profile_vx"][n] = np.bincount(pos, weights=vx, minlength=bins) / np.maximum(counts, 1)
+    stats = {"iterations": 0.0, "residual_quad": 0.0, "residual_max": 0.0, "converged": 1.0, "n_contacts": np.nan,
+             "n_active_contacts": 0.0, "n_bonds": float(sim.bonds.n), "n_broken_total": 0.0, "dissipated": np.nan,
+             "linear": 1.0}
+    for k in STAT_KEYS:
+        out[k] = np.full(n_steps, stats[k])
+    return out
 
 
 def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
@@ -325,7 +395,7 @@ def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
 
 def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, output,
              meta: dict | None = None, progress: bool = True, stop_after: int | None = None,
-             continuous_start: bool = False):
+             continuous_start: bool = False, verify: bool = False):
     """Run (or resume) the numerical 2PB test and write its record (HDF5) atomically.
 
     Parameters
@@ -342,6 +412,8 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     continuous_start : with ``settings.start == 'periodic'``, start from the continuous
         steady state (s = i w) instead of the theta-method's (``periodic-check`` measures
         the difference).
+    verify : step in time whatever ``settings.method`` says, and record the orbit's reduced
+        result (``start_info['orbit']``) beside (a verification job).
 
     Returns
     -------
@@ -363,7 +435,8 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     for path in (output, ckpt, partial):  # left by a writer killed outright
         remove_stale_temporaries(path)
     key = json.dumps({"sample": str(sample_path), "law": law.as_dict(), "f": frequency_Hz, "dt": dt,
-                      "settings": asdict(settings), "continuous_start": bool(continuous_start)},
+                      "settings": asdict(settings), "continuous_start": bool(continuous_start),
+                      "verify": bool(verify)},
                      sort_keys=True)
     per_period = 1.0 / (frequency_Hz * dt)
     z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
@@ -391,8 +464,38 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
             sim = None
     if sim is None:
         sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings)
-        start_info = start_test(sim, law, frequency_Hz, settings, continuous=continuous_start)
+        rest_z = sim.spheres.position[:, 2].copy()
+        start_info, state = periodic_start(sim, law, frequency_Hz, settings, continuous=continuous_start)
         n_steps = n_steps_of(frequency_Hz, dt, settings, start_info["start"])
+        cert = None
+        if state is not None and state.phasors is not None and not continuous_start:
+            from ..harmonic.orbit import certify
+
+            cpu = time.process_time()
+            cert = certify(sim, state, n_steps * dt)
+            start_info["certificate"] = cert.row()
+            start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
+        path, why = choose_path(settings, start_info, cert, verify)
+        start_info.update({"path": path, "path_reason": why})
+        if path == "orbit" or (verify and cert is not None and start_info["start"] == "periodic"):
+            cpu = time.process_time()
+            prof = _profile_steps(n_steps, per_period, settings.profile_instants)
+            zbin0 = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
+            orbit_arrays = _orbit_arrays(sim, state, rest_z, n_steps, prof, edges,
+                                         np.bincount(zbin0, minlength=settings.profile_bins))
+            start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
+            if verify:
+                rec = _record(orbit_arrays, motion, sample, specimen, settings, dt, n_steps, sim, law, sample_path,
+                              meta, {**start_info, "path": "orbit"}, 0.0, 0.0, frequency_Hz)
+                red = reduce_test(rec, settings.window_cycles)
+                start_info["orbit"] = {"E_norm_MPa": red["E_norm_MPa"], "phase_deg": red["phase_deg"],
+                                       "certified": bool(cert.holds)}
+        if path == "orbit":
+            wall = start_info.get("solve_s", 0.0) + (cert.seconds if cert else 0.0)
+            record = _record(orbit_arrays, motion, sample, specimen, settings, dt, n_steps, sim, law, sample_path,
+                             meta, start_info, wall, start_info.get("solve_cpu_s", 0.0), frequency_Hz)
+            write_record(record, output)
+            return record
         arrays = {"t": np.zeros(n_steps), "plate_fx": np.zeros(n_steps), "driver_fx": np.zeros(n_steps),
                   "profile_vx": np.zeros((len(_profile_steps(n_steps, per_period, settings.profile_instants)),
                                           settings.profile_bins)),
@@ -442,18 +545,35 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     bar.close()
     wall = wall0 + time.perf_counter() - tic
     cpu = cpu0 + time.process_time() - cpu_tic
+    record = _record(arrays, motion, sample, specimen, settings, dt, n_steps, sim, law, sample_path, meta,
+                     start_info, wall, cpu, frequency_Hz)
+    write_record(record, output)
+    ckpt.unlink(missing_ok=True)
+    partial.unlink(missing_ok=True)
+    return record
+
+
+def _record(arrays: dict, motion, sample, specimen, settings: TwoPBSettings, dt: float, n_steps: int, sim, law,
+            sample_path, meta, start_info: dict, wall: float, cpu: float, frequency_Hz: float) -> dict:
+    """The record of :func:`run_test` from its per-step ``arrays`` (``t, plate_fx, driver_fx,
+    profile_vx`` and :data:`STAT_KEYS`), stepped in time or sampled on the orbit."""
     t = arrays["t"]
     x = motion.x(t)
     m_head = float(sample.plate_mass[1])
     force_bonds = -arrays["plate_fx"] - m_head * motion.omega**2 * x
+    z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
+    edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
+    zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
+    counts = np.bincount(zbin, minlength=settings.profile_bins)
+    prof_steps = _profile_steps(n_steps, 1.0 / (frequency_Hz * dt), settings.profile_instants)
     record = {
         "time_s": t, "displacement_m": x, "force_bonds_N": force_bonds,
-        "force_driver_N": arrays["driver_fx"].copy(),
+        "force_driver_N": np.asarray(arrays["driver_fx"]).copy(),
         "stats": {k: arrays[k] for k in STAT_KEYS},
         "profile": {"time_s": t[prof_steps], "z_m": 0.5 * (edges[1:] + edges[:-1]),
                     "vx_m_s": arrays["profile_vx"], "count": counts},
-        "attrs": {**(meta or {}), "frequency_Hz": float(frequency_Hz), "dt_s": dt, "n_steps": n_steps,
-                  "n_spheres": int(sim.spheres.n), "n_bonds": int(len(sim.bonds.i)),
+        "attrs": {**(meta or {}), "frequency_Hz": float(frequency_Hz), "dt_s": dt,
+                  "n_steps": n_steps, "n_spheres": int(sim.spheres.n), "n_bonds": int(len(sim.bonds.i)),
                   "n_mechanisms_dropped": int(sample.radius.size - sim.spheres.n),
                   "wall_time_s": wall, "cpu_time_s": cpu,
                   "cpu_per_sphere_step_s": cpu / (n_steps * sim.spheres.n),
@@ -462,12 +582,10 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                   "head_mass_kg": m_head, "amplitude_m": settings.amplitude_m,
                   "start": start_info["start"], "start_requested": settings.start,
                   "n_cycles_simulated": cycles_of(settings, start_info["start"]),
+                  "path": start_info.get("path", "time_domain"), "path_reason": start_info.get("path_reason", ""),
                   "start_info": json.dumps(start_info)},
     }
     record["force_N"] = record[f"force_{settings.force_reading}_N"]
-    write_record(record, output)
-    ckpt.unlink(missing_ok=True)
-    partial.unlink(missing_ok=True)
     return record
 
 
@@ -535,7 +653,10 @@ def reduce_test(record: dict, window_cycles: float, force_reading: str | None = 
     meta attributes, the other force reading's ``E_norm_MPa_other_reading,
     phase_deg_other_reading`` and run statistics (``dt_s, n_steps, wall_time_s,
     cpu_per_sphere_step_s, n_nlgs_steps, n_not_converged, max_iterations_used,
-    n_broken_total``).
+    n_broken_total``), the ``path`` the job took and why (``path_reason``), its linearity
+    certificate (``cert_*``, :class:`asphalt_nscd.harmonic.orbit.Certificate`) and, for a
+    verification job (``verification``), the orbit's ``E_norm_MPa_orbit, phase_deg_orbit`` and
+    their differences to the time domain (``orbit_vs_time_domain_E_pct``, ``_phase_deg``).
     """
     from ..lab.en12697 import Specimen2PB, reduce_record
 
@@ -563,4 +684,13 @@ def reduce_test(record: dict, window_cycles: float, force_reading: str | None = 
                 "n_not_converged": int((s["converged"] == 0).sum()),
                 "max_iterations_used": int(s["iterations"].max()),
                 "n_broken_total": int(s["n_broken_total"][-1])})
+    info = json.loads(a.get("start_info", "{}") or "{}")
+    row.update({"path": a.get("path", "time_domain"), "path_reason": a.get("path_reason", "")})
+    row.update(info.get("certificate") or {})
+    orbit = info.get("orbit")
+    row["verification"] = orbit is not None
+    if orbit is not None:
+        row.update({"E_norm_MPa_orbit": orbit["E_norm_MPa"], "phase_deg_orbit": orbit["phase_deg"],
+                    "orbit_vs_time_domain_E_pct": 100.0 * (orbit["E_norm_MPa"] / row["E_norm_MPa"] - 1.0),
+                    "orbit_vs_time_domain_phase_deg": orbit["phase_deg"] - row["phase_deg"]})
     return row

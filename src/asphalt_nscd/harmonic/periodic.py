@@ -79,6 +79,10 @@ class PeriodicState:
     solve_s : wall time of the harmonic solve, s; gmres_iterations : int.
     head_force : complex, N — the harmonic head force phasor (x), for information.
     gravity : GravityState superposed (None: the simulation has no gravity).
+    phasors : the orbit's phasors at t = 0, y_n = Re(Y z^n) + gravity part at step n (z =
+        exp(i w dt)): ``displacement``, ``rotation`` (N, 3), ``head_rotation``,
+        ``head_translation`` (3,), ``bond_force``, ``bond_displacement`` (B, 3) complex (SI;
+        :mod:`asphalt_nscd.harmonic.orbit` certifies and samples the orbit from them).
     """
 
     position: np.ndarray
@@ -97,6 +101,7 @@ class PeriodicState:
     gmres_iterations: int
     head_force: complex
     gravity: "GravityState | None" = None
+    phasors: dict | None = None
 
 
 #: iterative refinements of the static solve under gravity (the network is ill-conditioned:
@@ -364,7 +369,10 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
         delta_c=g.delta_c + np.real(d_c), delta_k=np.ascontiguousarray(g.delta_k + np.real(d_k)),
         laplace=complex(s), force_ratio=ratio, breaks=ratio >= 1.0, solve_s=time.perf_counter() - tic,
         gmres_iterations=int(getattr(system, "last_gmres_iterations", 0)),
-        head_force=complex(rot * sol.force[0]), gravity=g if np.any(p.gravity) else None)
+        head_force=complex(rot * sol.force[0]), gravity=g if np.any(p.gravity) else None,
+        phasors={"displacement": X, "rotation": TH, "head_rotation": THp, "head_translation": up,
+                 "bond_force": force, "bond_displacement": delta, "frequency_Hz": float(frequency_Hz),
+                 "amplitude_m": float(amplitude_m), "gravity_state": g})
 
 
 def apply_periodic_state(sim, state: PeriodicState) -> None:
