@@ -43,6 +43,27 @@ def test_fast_path_matches_nlgs(solver, kinematics):
                                    sim_g.spheres.angular_velocity, atol=1e-7 * w_scale)
 
 
+@pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
+def test_direct_cholesky_equals_superlu(kinematics):
+    """The two factorisations of the direct fast path (cholespy's Cholesky, the default, and
+    SuperLU in symmetric mode) give the same steps to round-off, under gravity with a driven
+    head."""
+    out = {}
+    for fact in ("cholesky", "superlu"):
+        s, plates, bonds = random_bonded_network(n=64)
+        s.velocity[:] = np.random.default_rng(5).normal(0, 1e-3, s.velocity.shape)
+        params = NSCDParameters(dt=5e-5, gravity=(0, 0, -9.81), linear_solver="direct", bond_kinematics=kinematics,
+                                direct_factorisation=fact)
+        sim = Simulation(s, plates, bonds, params)
+        df = sim.run(20)
+        assert (df.solver == "linear").all()
+        out[fact] = (bonds.force.copy(), s.velocity.copy(), df.plate1_Fx_N.to_numpy())
+    for a, b in zip(out["cholesky"], out["superlu"]):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * np.abs(b).max())
+    with pytest.raises(ValueError, match="direct_factorisation"):
+        NSCDParameters(dt=5e-5, direct_factorisation="lu")
+
+
 @pytest.mark.kernels
 @pytest.mark.parametrize("bonded_contact", ["always", "open_at_bonding"])
 def test_fast_path_falls_back_when_contacts_close(bonded_contact):

@@ -56,6 +56,9 @@ class Certificate:
     n_pairs : unbonded pairs within reach (gap in the gravity state below twice the largest
         displacement amplitude plus the creep drift); n_closed_at_start : of them, touching in
         the gravity state.
+    creep_m : the largest creep of a sphere under gravity over the job (steady creep of a liquid
+        bond law, |v_g| T; 0 for a solid one), m; amplitude_m : the largest periodic
+        displacement amplitude of a sphere, m.
     duration_s : the interval certified; seconds : wall time of the certificate.
     """
 
@@ -68,6 +71,8 @@ class Certificate:
     gap_start_m: float
     n_pairs: int
     n_closed_at_start: int
+    creep_m: float
+    amplitude_m: float
     duration_s: float
     seconds: float
 
@@ -171,7 +176,10 @@ def certify(sim, state, duration_s: float) -> Certificate:
                        f"{gap_start:.3g} m in the gravity state)")
     return Certificate(holds=not reasons, reason="; ".join(reasons), bond_force_ratio=bond_ratio, bond_at=bond_at,
                        min_gap_m=min_gap, gap_at=gap_at, gap_start_m=gap_start, n_pairs=int(gaps.size),
-                       n_closed_at_start=closed, duration_s=T, seconds=time.perf_counter() - tic)
+                       n_closed_at_start=closed,
+                       creep_m=float(np.sqrt((V ** 2).sum(axis=1)).max() * T) if len(V) else 0.0,
+                       amplitude_m=float(ellipse_semi_major(X).max()) if len(X) else 0.0,
+                       duration_s=T, seconds=time.perf_counter() - tic)
 
 
 def orbit_record(sim, state, n_steps: int) -> dict:

@@ -225,7 +225,8 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         sim = make_sim(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
-        rec["factor_nnz"] = int(sim._linear.nnz_factor) if sim._linear else 0
+        nnz = sim._linear.nnz_factor if sim._linear else 0
+        rec["factor_nnz"] = None if nnz is None else int(nnz)
         wall, wall_clock, df, br = _timed(sim, steps)
         rec.update(n_bonds=int(bonds.n), solver=str(df.solver.mode()[0]),
                    wall_s_per_particle_step=wall_clock / (steps * n),
@@ -281,7 +282,9 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         direct_setup = time.perf_counter() - t3
         cpu3, _, _, _ = _timed(sim3, steps)
         scale = float(np.abs(bonds3.force).max()) or 1.0
-        rec.update(direct_setup_s=direct_setup, direct_factor_nnz=int(sim3._linear.nnz_factor),
+        nnz3 = sim3._linear.nnz_factor
+        rec.update(direct_setup_s=direct_setup, direct_factor_nnz=None if nnz3 is None else int(nnz3),
+                   direct_factorisation=sim3.params.direct_factorisation,
                    direct_s_per_particle_step=cpu3 / (steps * n),
                    direct_vs_cg_max_force_difference=float(
                        np.abs(bonds.force - bonds3.force).max() / scale))

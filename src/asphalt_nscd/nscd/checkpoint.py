@@ -27,7 +27,7 @@ _BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "
 _PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations",
            "relaxation",
            "alert_distance", "fast_path", "linear_solver", "linear_tolerance", "bond_kinematics", "bonded_contact",
-           "fast_path_contacts")
+           "fast_path_contacts", "direct_factorisation")
 
 
 def write_checkpoint(sim, path) -> None:
@@ -122,9 +122,11 @@ def read_checkpoint(path, drivers=None, external_force=None):
         # checkpoints written before bonded_contact existed ran with the former behaviour
         # (and before fast_path_contacts existed, with every closing contact sent to NLGS)
         pa = {k: f["params"].attrs[k] for k in _PARAMS
-              if k not in ("bonded_contact", "fast_path_contacts")}
+              if k not in ("bonded_contact", "fast_path_contacts", "direct_factorisation")}
         pa["bonded_contact"] = str(f["params"].attrs.get("bonded_contact", "always"))
         pa["fast_path_contacts"] = int(f["params"].attrs.get("fast_path_contacts", 0))
+        # (and before direct_factorisation existed, with SuperLU)
+        pa["direct_factorisation"] = str(f["params"].attrs.get("direct_factorisation", "superlu"))
         ad = float(pa["alert_distance"])
         pa["alert_distance"] = None if np.isnan(ad) else ad
         pa["max_iterations"] = int(pa["max_iterations"])

@@ -546,7 +546,8 @@ class Simulation:
                                             bnd.j, bnd.frame, self._bond_work.cg, bnd.broken,
                                             method=p.linear_solver,
                                             tolerance=p.linear_tolerance, rotation=rotation,
-                                            threads=p.threads, ssor_omega=p.linear_ssor_omega)
+                                            threads=p.threads, ssor_omega=p.linear_ssor_omega,
+                                            factorisation=p.direct_factorisation)
             self._linear_key = key
         return self._linear
 

@@ -431,7 +431,10 @@ class NSCDParameters:
         no bond breakage (falls back to NLGS automatically).
     linear_solver : 'cg' (matrix-free conjugate gradient, 3x3 block-Jacobi preconditioner),
         'cg_ssor' (the same with symmetric successive over-relaxation on the body blocks,
-        Eisenstat's form, Galerkin initial guess; sequential, ignores ``threads``) or 'direct' (SuperLU, small systems).
+        Eisenstat's form, Galerkin initial guess; sequential, ignores ``threads``) or 'direct' (a sparse
+        factorisation of the step matrix per intact-bond set, ``direct_factorisation``).
+    direct_factorisation : 'cholesky' (default: cholespy's sparse Cholesky, 20-25 % faster per
+        solve on paper-scale samples) or 'superlu' (SuperLU, symmetric mode) (:mod:`.linear.direct`).
     linear_tolerance : relative residual of 'cg' and 'cg_ssor'.
     linear_ssor_omega : relaxation factor omega in (0, 2) of 'cg_ssor' (symmetric successive
         over-relaxation, :mod:`.linear`); 1 = symmetric Gauss-Seidel.
@@ -472,6 +475,7 @@ class NSCDParameters:
     alert_distance: float | None = None
     fast_path: bool = True
     linear_solver: str = "cg"
+    direct_factorisation: str = "cholesky"
     linear_tolerance: float = 1e-10
     linear_ssor_omega: float = 1.2
     fast_path_contacts: int = 0
@@ -499,6 +503,11 @@ class NSCDParameters:
         if self.linear_solver not in ("cg", "cg_ssor", "direct"):
             raise ValueError("linear_solver must be 'cg', 'cg_ssor' or 'direct', "
                              f"got {self.linear_solver!r}")
+        from .linear.direct import FACTORISATIONS
+
+        if self.direct_factorisation not in FACTORISATIONS:
+            raise ValueError(f"direct_factorisation must be one of {FACTORISATIONS}, "
+                             f"got {self.direct_factorisation!r}")
         if not (0.0 < self.linear_ssor_omega < 2.0):
             raise ValueError(f"linear_ssor_omega must lie in (0, 2), got {self.linear_ssor_omega}")
         if not (isinstance(self.fast_path_contacts, (int, np.integer))

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..bundles import Velocities
 from .cg import _matvec, _pcg, _pcg_threaded, block_jacobi, matrix_free_operator
-from .direct import assemble_matrix, splu_symmetric
+from .direct import assemble_matrix, factor_spd
 from .dofs import DofMap, _gather, _rhs, _scatter, bond_impulses, dof_numbering, skew
 from .ssor import (_SSOR_KEYS, SSORStructure, _galerkin_combine, _galerkin_gram, _pcg_ssor,
                    ssor_structure)
@@ -31,6 +31,7 @@ class LinearBondSolver:
     threads : > 1: 'cg' runs on that many numba threads (bonds ordered by partitions of the
         unknowns, cg._partition); 1: sequential kernels.
     ssor_omega : relaxation of 'cg_ssor', in (0, 2).
+    factorisation : of 'direct': 'cholesky' (default) or 'superlu' (:func:`.direct.factor_spd`).
     rotation : dict or None — for the 'contact' kinematics: ``arm_i``, ``arm_j`` (B,3) m,
         ``inv_inertia`` (N,) and ``inv_inertia_plate`` (P,3) 1/(kg m²) (0 = no rotation).
         None: 'barycentre' kinematics (translations only).
@@ -43,7 +44,7 @@ class LinearBondSolver:
 
     def __init__(self, inv_mass, inv_mass_plate, bi, bj, frame, cg, broken, method="cg",
                  tolerance=1e-10, max_iterations=10000, rotation=None, threads=1,
-                 ssor_omega=1.0):
+                 ssor_omega=1.0, factorisation="cholesky"):
         if method not in LINEAR_SOLVERS:
             raise ValueError(f"linear solver must be one of {LINEAR_SOLVERS}, got {method!r}")
         if not 0.0 < ssor_omega < 2.0:
@@ -117,8 +118,10 @@ class LinearBondSolver:
             return
         K = assemble_matrix(self.mass_dof, self.blk, L, G)
         self.nnz_matrix = K.nnz
-        self.lu = splu_symmetric(K) if self.ndof else None
-        self.nnz_factor = self.lu.L.nnz + self.lu.U.nnz if self.ndof else 0
+        self.lu = factor_spd(K, factorisation) if self.ndof else None
+        #: stored factor entries (SuperLU's L and U), None where the factorisation does not report them
+        self.nnz_factor = (None if self.lu is None or factorisation != "superlu"
+                           else self.lu.L.nnz + self.lu.U.nnz) if self.ndof else 0
 
     def solve(self, free, bonds, c0, cg, out, impulse, start=None, previous=None):
         """End-of-step velocities and bond impulses.
