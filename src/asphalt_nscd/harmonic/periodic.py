@@ -192,7 +192,7 @@ def _bond_laws(bonds):
             bonds.Ck[:, :, comp])
 
 
-def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO) -> GravityState:
+def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None) -> GravityState:
     """Steady state of the 2PB simulation under its gravity with the head held (module
     docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
 
@@ -202,6 +202,8 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         ``sim.params.gravity`` (m/s^2).
     law : GeneralizedBurgers (Pa, Pa s), the macro law of the bonds.
     head_rotation, nu : as :func:`periodic_state`.
+    system : the HarmonicSystem of :func:`network_of` (sim) with these options and no
+        rotational regularisation, to reuse (optional; :func:`periodic_state` passes its own).
 
     Returns
     -------
@@ -235,9 +237,9 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
     if np.any(g != 0.0):
         import scipy.sparse as sp
 
-        net = network_of(sim)
-        system = HarmonicSystem(net, nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
-                                regularisation=0.0)
+        if system is None:
+            system = HarmonicSystem(network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
+                                    regularisation=0.0)
         d = system.dof_per_sphere
         act = np.flatnonzero(system.active)
         rhs = np.zeros(system.n_free)
@@ -352,7 +354,7 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
     force = r_ch - Kinf * delta
     d_c = -r_ch * inv_c
     d_k = -r_ch[:, None, :] / (Kk + s * Ck)
-    g = gravity_state(sim, law, head_rotation=head_rotation, nu=nu)  # zero without gravity
+    g = gravity_state(sim, law, head_rotation=head_rotation, nu=nu, system=system)  # zero without gravity
     # peak force per bond: the steady (gravity) force plus the periodic amplitude
     amp_n = np.abs(g.bond_force[:, 0]) + np.abs(force[:, 0])
     amp_t = (np.sqrt(g.bond_force[:, 1] ** 2 + g.bond_force[:, 2] ** 2)
