@@ -98,6 +98,22 @@ def read_csv(path: str | os.PathLike, allow_empty: bool = False, **kwargs):
     return frame
 
 
+def require_columns(frame, columns, where, expected: str | None = None) -> None:
+    """Raise if ``frame`` (a table read from ``where``: a path or a name) lacks any of ``columns``:
+    the one check of a table's required columns.
+
+    Raises
+    ------
+    InputError
+        "<where>: line 1 (header): missing column(s) [...]; expected <expected>" (default: the
+        columns asked for), naming what was found too.
+    """
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise InputError(f"{where}: line 1 (header): missing column(s) {missing}; found {list(frame.columns)}; "
+                         f"expected {expected or list(columns)}")
+
+
 def checked(df, path, columns, positive=()):
     """``df`` (a table read from ``path``) with its numeric ``columns`` checked (present; finite
     numbers; ``positive``: > 0) and made floats, in place: the one check of a table's required
@@ -111,9 +127,7 @@ def checked(df, path, columns, positive=()):
     import numpy as np
     import pandas as pd
 
-    missing = [c for c in columns if c not in df.columns]
-    if missing:
-        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected {list(columns)}")
+    require_columns(df, columns, path)
     for c in columns:
         v = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
         bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in positive else False))

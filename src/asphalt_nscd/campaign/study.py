@@ -164,9 +164,9 @@ def burgers_reference(table: pd.DataFrame, temperature_C, frequency_Hz) -> pd.Da
 def measured_reference(summary: pd.DataFrame) -> pd.DataFrame:
     """Reference columns from results/lab/measured_summary.csv (means of the replicates)."""
     need = ("temperature_C", "frequency_Hz", "E_norm_MPa_mean", "phase_deg_mean")
-    missing = [c for c in need if c not in summary.columns]
-    if missing:
-        raise InputError(f"measured summary: missing column(s) {missing}")
+    from ..io import require_columns
+
+    require_columns(summary, need, "measured summary")
     return summary.rename(columns={"E_norm_MPa_mean": "E_norm_MPa_ref", "phase_deg_mean": "phase_deg_ref"})[
         ["temperature_C", "frequency_Hz", "E_norm_MPa_ref", "phase_deg_ref"]]
 

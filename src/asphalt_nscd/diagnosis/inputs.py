@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..io import InputError, checked, read_csv
+from ..io import InputError, checked, read_csv, require_columns
 from .crossval import ROW_COLUMNS
 
 SIM_COLUMNS = ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg")
@@ -51,10 +51,7 @@ def read_crossval(paths) -> pd.DataFrame:
     frames = []
     for path in [paths] if isinstance(paths, (str, bytes)) or not hasattr(paths, "__iter__") else paths:
         df = read_csv(path)
-        missing = [c for c in ROW_COLUMNS if c not in df.columns]
-        if missing:
-            raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; expected the output of "
-                             "'asphalt-nscd crossval'")
+        require_columns(df, ROW_COLUMNS, path, "the output of 'asphalt-nscd crossval'")
         df["computable"] = df["computable"].astype(str).str.lower().isin(["true", "1"])
         df["extrapolation"] = df["extrapolation"].astype(str).str.lower().isin(["true", "1"])
         frames.append(df)

@@ -7,7 +7,7 @@ import shutil
 import numpy as np
 from pathlib import Path
 
-from ..io import InputError, atomic_path, read_csv, write_text
+from ..io import InputError, atomic_path, read_csv, require_columns, write_text
 
 
 def register(subparsers) -> None:
@@ -91,9 +91,7 @@ def _card_figures(args) -> int:
     for frame, path, need in ((errors, args.errors, ("temperature_C", "frequency_Hz", "E_norm_MPa_measured",
                                                      "phase_deg_measured")),
                               (functions, args.functions, ("temperature_C", "time_s", "E_MPa", "D_per_MPa"))):
-        missing = [c for c in need if c not in frame.columns]
-        if missing:
-            raise InputError(f"{path}: missing column(s) {', '.join(missing)}")
+        require_columns(frame, need, path)
     if not isinstance(card.get("terms_selection"), dict) or "curve" not in card["terms_selection"]:
         raise InputError(f"{args.card}: key 'terms_selection' with its 'curve' expected (a card of asphalt-nscd "
                          "export-law)")

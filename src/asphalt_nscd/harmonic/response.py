@@ -111,12 +111,10 @@ def read_harmonic_rows(path, extra=("sample", "mode")) -> pd.DataFrame:
         naming the file: missing or not a CSV table, or a column of :data:`ROW_COLUMNS` or
         ``extra`` missing.
     """
-    from ..io import read_csv
+    from ..io import read_csv, require_columns
 
     frame = read_csv(path)
-    missing = [c for c in (*extra, *ROW_COLUMNS) if c not in frame.columns]
-    if missing:
-        raise InputError(f"{path}: missing column(s) {missing}; expected an output of 'asphalt-nscd harmonic'")
+    require_columns(frame, (*extra, *ROW_COLUMNS), path, "an output of 'asphalt-nscd harmonic'")
     return frame
 
 

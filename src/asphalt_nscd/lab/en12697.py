@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import InputError, read_csv
+from ..io import InputError, read_csv, require_columns
 
 #: Keys of the JSON sidecar of a lab record (specimen geometry and test conditions).
 RECORD_META_KEYS = ("b_mm", "B_mm", "e_mm", "h_mm", "M_kg", "m_kg", "temperature_C", "frequency_Hz")
@@ -394,9 +394,7 @@ def read_record(csv_path, meta_path) -> tuple[dict, Specimen2PB, dict]:
 
     csv_path = Path(csv_path)
     frame = read_csv(csv_path)
-    missing = [c for c in RECORD_COLUMNS if c not in frame.columns]
-    if missing:
-        raise InputError(f"{csv_path}: missing column(s) {missing}; expected {list(RECORD_COLUMNS)}")
+    require_columns(frame, RECORD_COLUMNS, csv_path)
     columns = {}
     for c in RECORD_COLUMNS:
         values = pd.to_numeric(frame[c], errors="coerce").to_numpy(dtype=float)

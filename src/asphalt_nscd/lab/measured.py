@@ -310,14 +310,11 @@ def read_summary(path) -> pd.DataFrame:
         phase in [0, 90) degrees, n an integer >= 1, std >= 0), or a (temperature_C,
         frequency_Hz) pair is repeated.
     """
-    from ..io import read_csv
+    from ..io import read_csv, require_columns
 
     frame = read_csv(path)
-    missing = [c for c in SUMMARY_COLUMNS if c not in frame.columns]
-    if missing:
-        raise InputError(f"{path}: line 1 (header): missing column(s) {missing}; "
-                         f"found {list(frame.columns)}, expected {list(SUMMARY_COLUMNS)} "
-                         "(a measured summary of 'asphalt-nscd measured')")
+    require_columns(frame, SUMMARY_COLUMNS, path, f"{list(SUMMARY_COLUMNS)} (a measured summary of "
+                    "'asphalt-nscd measured')")
     if len(frame) == 0:
         raise InputError(f"{path}: no data rows after the header")
     for column in SUMMARY_COLUMNS:

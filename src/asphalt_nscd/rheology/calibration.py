@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..io import InputError, read_csv
+from ..io import InputError, read_csv, require_columns
 from .laws import POISSON_RATIO, GeneralizedBurgers, bond_scale, tangential_ratio
 from .metrics import mre_pct
 
@@ -72,9 +72,7 @@ def load_table3(path, units: str = "Pa") -> pd.DataFrame:
     if units not in TABLE3_UNITS:
         raise InputError(f"{path}: unknown Table 3 unit reading {units!r}; expected one of {sorted(TABLE3_UNITS)}")
     raw = read_csv(path, comment="#")
-    missing = [c for c in TABLE3_COLUMNS if c not in raw.columns]
-    if missing:
-        raise InputError(f"{path}: missing column(s) {missing}; expected {list(TABLE3_COLUMNS)}")
+    require_columns(raw, TABLE3_COLUMNS, path)
     out = pd.DataFrame({"temperature_C": pd.to_numeric(raw["temperature_C"], errors="coerce")})
     factor = TABLE3_UNITS[units]
     for src, dst in zip(TABLE3_COLUMNS[1:], PARAM_COLUMNS):
@@ -315,9 +313,7 @@ def fit_table(measured_df: pd.DataFrame, weights=None, n_starts: int = 8) -> pd.
     if "E_norm_MPa" not in measured_df.columns and "E_norm_MPa_mean" in measured_df.columns:
         cols = {"E": "E_norm_MPa_mean", "phi": "phase_deg_mean"}
     needed = ["temperature_C", "frequency_Hz", cols["E"], cols["phi"]]
-    missing = [c for c in needed if c not in measured_df.columns]
-    if missing:
-        raise InputError(f"measured table: missing column(s) {missing}")
+    require_columns(measured_df, needed, "measured table")
     rows = []
     for T, group in measured_df.groupby("temperature_C", sort=True):
         try:
@@ -414,9 +410,7 @@ def read_parameters(path) -> pd.DataFrame:
     """
     path = Path(path)
     frame = read_csv(path)
-    missing = [c for c in ("temperature_C", *PARAM_COLUMNS) if c not in frame.columns]
-    if missing:
-        raise InputError(f"{path}: missing column(s) {missing}; expected temperature_C and {list(PARAM_COLUMNS)}")
+    require_columns(frame, ("temperature_C", *PARAM_COLUMNS), path)
     for c in PARAM_COLUMNS:
         bad = np.flatnonzero(~(pd.to_numeric(frame[c], errors="coerce") > 0).to_numpy())
         if bad.size:
