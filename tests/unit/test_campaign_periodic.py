@@ -285,13 +285,16 @@ def test_periodic_check_cli(tiny_sample, tmp_path):
         cli._periodic_check(cli_args(cases=["measured:21:10"]))
 
 
-def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_path, monkeypatch):
+@pytest.mark.parametrize("mechanisms", ["free", "supported"])
+def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_path, monkeypatch, mechanisms):
     """A sphere hanging by one bond on the side of a lattice (it can roll about the bond's
     contact point: three zero modes of the network) and a second sphere bonded only to it (a
     two-sphere mechanism). The test leaves both out (held_spheres); kept in (as a simulation
-    built by hand would), the steady state under gravity removes the load that accelerates
-    the zero modes (found cluster by cluster), solves the rest exactly, and one period later
-    every bond force is back while the mechanisms fall as they would from rest."""
+    built by hand would), the steady state under gravity solves the rest of the network
+    exactly with the weight along the zero modes (found cluster by cluster) either left out
+    (free: one period later every bond force is back while the mechanisms fall as they would
+    from rest) or cancelled by the support force, which the time domain then applies too
+    (supported: every bond force is back and the mechanisms stay in the steady state)."""
     from asphalt_nscd.harmonic import timedomain
     from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
     from asphalt_nscd.sample.store import write_sample
@@ -319,14 +322,20 @@ def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_p
     monkeypatch.setattr(timedomain, "held_spheres", lambda sample, *a, **k: np.ones(sample.radius.size, bool))
     sim, _ = twopb.build_simulation(read_sample(path), LAW_15C, f, twopb.time_step(f, s), s)
     sim.params.linear_tolerance = 1e-13
-    state = periodic.periodic_state(sim, LAW_15C, f, s.amplitude_m, s.head_rotation)
+    state = periodic.periodic_state(sim, LAW_15C, f, s.amplitude_m, s.head_rotation, mechanisms=mechanisms)
     g = state.gravity
     assert g.n_mechanisms >= 3 and not g.failed and g.residual < 1e-9
+    assert (np.abs(g.support_force).sum(axis=1) > 0).any() == (mechanisms == "supported")
+    assert (np.abs(g.mechanism_acceleration).sum(axis=1) > 0).any() == (mechanisms == "free")
     periodic.apply_periodic_state(sim, state)
+    if mechanisms == "supported":
+        sim.external_force = g.support_force.copy()
     for _ in range(40):
         assert sim.step().solver == "linear"
     err = np.abs(sim.bonds.force - state.bond_force).max() / np.abs(state.bond_force).max()
     assert err < 1e-8
-    # the same start with the weight's whole load on the network (no mechanism handling) is
-    # not a steady state: the check above can fail
-    assert np.abs(sim.spheres.velocity[n:] - state.velocity[n:]).max() > 0  # the mechanisms fall
+    fall = np.abs(sim.spheres.velocity[n:] - state.velocity[n:]).max()
+    if mechanisms == "free":  # the same start with the weight's whole load on the network is not a steady state
+        assert fall > 1e-3  # the mechanisms fall (m/s after one period)
+    else:
+        assert fall < 1e-6 * max(np.abs(state.velocity).max(), 1e-3)  # supported: they stay

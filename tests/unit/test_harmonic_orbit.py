@@ -90,3 +90,49 @@ def test_the_gap_margin_is_the_time_domains_and_a_closing_gap_fails(tiny_sample)
     assert cert.min_gap_m <= gaps.min() <= cert.min_gap_m + w_dt ** 2 * 2e-3  # e(D) < 2 mm
     cert2, _, active2 = _gap_history(tiny_sample, dataclasses.replace(BASE, amplitude_m=2e-3), f, None)
     assert not cert2.holds and cert2.min_gap_m < 0 and "closes" in cert2.reason and active2.max() >= 1
+
+
+def test_the_support_cancels_the_weight_along_the_zero_modes_only():
+    """mechanism_support on a cluster of two spheres with two zero modes (random, orthonormal,
+    translations and rotations mixed): the support force leaves no load along either mode,
+    it is the smallest such force (the weight's projection on the modes' translations, so no
+    larger than the weight), and the free fall is (V^T M V)^-1 V^T f_g along the translations."""
+    from types import SimpleNamespace
+
+    from asphalt_nscd.harmonic.periodic import mechanism_support
+
+    rng = np.random.default_rng(4)
+    d, spheres = 6, np.array([3, 7])
+    V, _ = np.linalg.qr(rng.normal(size=(2 * d, 2)))
+    mass_free = np.concatenate([np.r_[np.full(3, 2e-5), np.full(3, 3e-11)], np.r_[np.full(3, 5e-5), np.full(3, 8e-11)]])
+    system = SimpleNamespace(dof_per_sphere=d, mass_free=np.zeros(100),
+                             mechanism_modes=lambda: iter([(np.arange(2 * d), V, 1.0, spheres)]))
+    system.mass_free[:2 * d] = mass_free
+    mass = np.full(10, 1.0)
+    mass[spheres] = [2e-5, 5e-5]
+    g = np.array([0.0, 0.0, -9.81])
+    support, accel, n_modes = mechanism_support(system, mass, g)
+    assert n_modes == 2 and not support[[0, 1, 2, 4, 5, 6, 8, 9]].any()
+    T = V[np.r_[0:3, 6:9]]
+    fg = (mass[spheres][:, None] * g).ravel()
+    np.testing.assert_allclose(T.T @ (fg + support[spheres].ravel()), 0.0, atol=1e-12 * np.abs(fg).max())
+    assert np.linalg.norm(support[spheres]) <= np.linalg.norm(fg) * (1 + 1e-12)
+    MV = mass_free[:, None] * V
+    np.testing.assert_allclose(accel[spheres].ravel(), T @ np.linalg.solve(V.T @ MV, T.T @ fg), rtol=1e-12)
+
+
+def test_a_floating_cluster_is_left_out_of_the_test(tmp_path):
+    """Spheres no chain of bonds ties to a plate carry no load and, under gravity, would fall
+    through the sample: the test leaves them out (harmonic.timedomain.held_spheres)."""
+    from asphalt_nscd.harmonic.timedomain import held_spheres
+    from asphalt_nscd.sample.lattice import lattice_sample
+
+    smp = lattice_sample(40, seed=3, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3))
+    assert held_spheres(smp).all()
+    i, j = smp.bonds["i"], smp.bonds["j"]
+    a = 20  # cut every bond of sphere 20: it floats
+    keep = (i != a) & (j != a)
+    loose = dataclasses.replace(smp, bonds={k: v[keep] for k, v in smp.bonds.items()})
+    held = held_spheres(loose)
+    assert not held[a] and held.sum() == smp.radius.size - 1
+    assert not held_spheres(loose, bond_kinematics="barycentre", head_rotation="clamped")[a]

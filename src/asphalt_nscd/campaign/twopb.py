@@ -83,6 +83,9 @@ class TwoPBSettings:
         operator (:class:`asphalt_nscd.nscd.NSCDParameters`, :mod:`asphalt_nscd.nscd.condensed`;
         0 = every closing contact sends the step to NLGS, the former behaviour).
     method : 'auto' | 'time_domain' | 'orbit' (module docstring).
+    mechanisms : 'supported' | 'free' -- how the weakly held spheres' zero modes meet gravity
+        (:data:`asphalt_nscd.harmonic.periodic.MECHANISMS`); with 'supported' and gravity, every
+        job (time domain and orbit, any start) applies the support force to them.
     """
 
     amplitude_m: float = HEAD_AMPLITUDE_M
@@ -111,8 +114,11 @@ class TwoPBSettings:
     linear_tolerance: float = 1e-10
     fast_path_contacts: int = 16
     method: str = "auto"
+    mechanisms: str = "supported"
 
     def __post_init__(self):
+        if self.mechanisms not in periodic.MECHANISMS:
+            raise ValueError(f"mechanisms must be one of {periodic.MECHANISMS}, got {self.mechanisms!r}")
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
         if self.start not in START_MODES:
@@ -296,6 +302,10 @@ def periodic_start(sim, law, frequency_Hz: float, settings: TwoPBSettings,
     """:func:`start_test` with the periodic state it computed: (info, state; None without a
     periodic request).
 
+    With gravity and ``settings.mechanisms == 'supported'`` the simulation's external force is set
+    to the weakly held spheres' support force (:func:`asphalt_nscd.harmonic.periodic.support_force`),
+    whatever the start.
+
     ``info``: start ('rest' | 'periodic', the start used), requested, and for a
     periodic request (``continuous``: the continuous steady state s = i w instead of the
     theta-method's, :func:`asphalt_nscd.harmonic.periodic.periodic_state`, for ``periodic-check``) solve_s and solve_cpu_s (wall and CPU time of the solve, counted in the
@@ -306,17 +316,21 @@ def periodic_start(sim, law, frequency_Hz: float, settings: TwoPBSettings,
     """
     info = {"start": "rest", "requested": settings.start}
     if settings.start != "periodic":
+        if settings.gravity and settings.mechanisms == "supported":
+            sim.external_force = periodic.support_force(sim, settings.head_rotation, settings.nu)
         return info, None
     cpu = time.process_time()
     state = periodic.periodic_state(sim, law, frequency_Hz, settings.amplitude_m,
                                     head_rotation=settings.head_rotation, nu=settings.nu,
-                                    continuous=continuous)
+                                    continuous=continuous, mechanisms=settings.mechanisms)
     info.update({"solve_s": state.solve_s, "solve_cpu_s": time.process_time() - cpu,
                  "force_ratio": state.force_ratio,
                  "gmres_iterations": state.gmres_iterations, "laplace_real": state.laplace.real,
                  "laplace_imag": state.laplace.imag})
     if state.gravity is not None:
         info["gravity"] = state.gravity.info()
+        if settings.mechanisms == "supported":
+            sim.external_force = state.gravity.support_force.copy()
     if state.breaks:
         info["fallback"] = (f"the steady state would break bonds (force / strength up to "
                             f"{state.force_ratio:.3g}): the test is not linear, started from rest")

@@ -20,7 +20,11 @@ its record is that orbit sampled at its own steps, reduced by the same Eqs. 1-5.
   |c . c|) / 2) the semi-major axis of the ellipse Re(c e^{iwt}) traces (a creep drift adds
   |v_rel| T); where the bound does not clear (a bond at or above R_crit, a gap at or below 0),
   the exact values at every step, and for gaps between steps the interpolation bound
-  (w dt)^2 / 8 e(c). A pair already touching in the gravity state (gap <= 0, a closed contact
+  (w dt)^2 / 8 e(c). Weakly held spheres (zero modes of the contact kinematics: a sphere held
+  by two bonds spins about the line through both) are supported against their weight along
+  those modes by default, in the orbit and the time domain alike; left free
+  (``mechanisms='free'``) they fall, 1/2 a T^2, which the gap bound adds. A pair already touching
+  in the gravity state (gap <= 0, a closed contact
   whose force the bonded orbit does not carry) fails the certificate outright, so no closed
   contact is left whose opening or Coulomb cone would need checking.
 * :func:`orbit_record` -- what the core records at each step on the orbit: the head plate's
@@ -133,9 +137,16 @@ def certify(sim, state, duration_s: float) -> Certificate:
     V = g.velocity if g is not None else np.zeros_like(x0)
     mask = sim.excluded_bonds()
     exclude = (bonded_exclusions(sph.n, pls.n, b.i[mask], b.j[mask]) if mask.any() else None)
+    # weakly held spheres left free under gravity fall along their zero modes: 1/2 a T^2 (mechanisms 'free')
+    fall = (0.5 * T ** 2 * np.sqrt((g.mechanism_acceleration ** 2).sum(axis=1))
+            if g is not None and g.mechanism_acceleration is not None else np.zeros(len(x0)))
     amp = ellipse_semi_major(X) + np.sqrt((V ** 2).sum(axis=1)) * T
     head = ph["head_translation"]
     reach = 2.0 * float(amp.max() if amp.size else 0.0) + ellipse_semi_major(head[None, :])[0] + 1e-12
+    # a falling sphere is checked against its neighbourhood (a diameter around it): farther it cannot go unmet
+    near = 2.0 * float(sph.radius[fall > 0].max()) if (fall > 0).any() else 0.0
+    if near:
+        reach = reach + min(2.0 * float(fall.max()), near)
     between = (2.0 * math.pi * ph["frequency_Hz"] * dt) ** 2 / 8.0  # x e(c): the gap between two steps
     t = dt * np.arange(n_steps + 1)
     i, j, gap0 = sphere_pairs(x0, sph.radius, reach, exclude)
@@ -144,8 +155,9 @@ def certify(sim, state, duration_s: float) -> Certificate:
     Vr = V[i] - V[j]
     rsum = sph.radius[i] + sph.radius[j]
     eD = ellipse_semi_major(D)
-    low = np.sqrt((d ** 2).sum(axis=1)) - rsum - eD - np.sqrt((Vr ** 2).sum(axis=1)) * T
-    for m in np.flatnonzero(low <= 0.0):  # exact at every step
+    low = np.sqrt((d ** 2).sum(axis=1)) - rsum - eD - np.sqrt((Vr ** 2).sum(axis=1)) * T - fall[i] - fall[j]
+    falling = (fall[i] > 0) | (fall[j] > 0)
+    for m in np.flatnonzero((low <= 0.0) & ~falling):  # exact at every step
         path = d[m, :, None] + np.real(D[m, :, None] * z[None, :]) + Vr[m, :, None] * t[None, :]
         low[m] = float(np.sqrt((path ** 2).sum(axis=0)).min()) - rsum[m] - between * eD[m]
     pi, pk, pgap0 = plate_pairs(x0, sph.radius, pls.point, pls.normal, reach, exclude)
@@ -153,8 +165,8 @@ def certify(sim, state, duration_s: float) -> Certificate:
     n = pls.normal[pk]
     G = (n * (X[pi] - moving[pk])).sum(axis=1)  # contacts see the plates' translation, not their rotation
     Gv = (n * V[pi]).sum(axis=1)
-    plow = pgap0 - np.abs(G) - np.abs(Gv) * T
-    for m in np.flatnonzero(plow <= 0.0):
+    plow = pgap0 - np.abs(G) - np.abs(Gv) * T - fall[pi]
+    for m in np.flatnonzero((plow <= 0.0) & ~(fall[pi] > 0)):
         plow[m] = float((pgap0[m] + np.real(G[m] * z) + Gv[m] * t).min()) - between * abs(G[m])
     gaps = np.concatenate([low, plow])
     starts = np.concatenate([gap0, pgap0])
@@ -166,13 +178,20 @@ def certify(sim, state, duration_s: float) -> Certificate:
     else:
         min_gap, gap_at, gap_start = math.inf, [], math.inf
     reasons = []
+    falls = np.concatenate([falling, fall[pi] > 0]) if gaps.size else np.zeros(0, bool)
+    if near and fall.max() > near:
+        k = int(np.argmax(fall))
+        reasons.append(f"a weakly held sphere ({k}) falls {fall[k]:.3g} m along its zero mode over the job "
+                       "(mechanisms 'free'), beyond its neighbourhood")
     if bond_ratio >= 1.0:
         reasons.append(f"a bond's force reaches {bond_ratio:.3g} x its strength R_crit (bond {bond_at})")
     if closed:
         reasons.append(f"{closed} unbonded pair(s) touch in the gravity state (a closed contact carries a force "
                        "the bonded orbit does not)")
     elif min_gap <= 0.0:
-        reasons.append(f"an unbonded pair closes: smallest gap {min_gap:.3g} m over the job (pair {gap_at}, "
+        why = (" as a weakly held sphere falls along its zero mode (mechanisms 'free')"
+               if falls.size and falls[int(np.argmin(gaps))] else "")
+        reasons.append(f"an unbonded pair closes{why}: smallest gap {min_gap:.3g} m over the job (pair {gap_at}, "
                        f"{gap_start:.3g} m in the gravity state)")
     return Certificate(holds=not reasons, reason="; ".join(reasons), bond_force_ratio=bond_ratio, bond_at=bond_at,
                        min_gap_m=min_gap, gap_at=gap_at, gap_start_m=gap_start, n_pairs=int(gaps.size),

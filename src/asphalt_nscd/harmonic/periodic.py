@@ -104,6 +104,13 @@ class PeriodicState:
     phasors: dict | None = None
 
 
+#: how the weakly held spheres' zero modes meet gravity (``campaign.test.mechanisms``): ``supported``
+#: -- a force on their barycentres cancels their weight along the zero modes, in the steady state
+#: and in the time domain alike (:func:`mechanism_support`); ``free`` -- nothing holds them: they
+#: fall along their zero modes (a sphere held by two bonds swings about the line through both
+#: until it meets a neighbour), which the steady state leaves out and the certificate must cover
+MECHANISMS = ("supported", "free")
+
 #: iterative refinements of the static solve under gravity (the network is ill-conditioned:
 #: its softest modes are 1e8 times softer than its stiffest on small samples)
 GRAVITY_REFINEMENTS = 2
@@ -123,7 +130,13 @@ class GravityState:
     creep : bool — steady creep (liquid chain) or static equilibrium (solid chain).
     residual : relative residual |P F_g - G U_1| / |P F_g| of the refined static solve (P
         removes the load along the mechanisms' zero modes).
-    n_mechanisms : zero modes of weakly held clusters taken out of the load (module docstring).
+    n_mechanisms : zero modes of weakly held clusters (module docstring, :data:`MECHANISMS`).
+    support_force : (N, 3) N -- with ``mechanisms='supported'``, the force on the barycentres of
+        the weakly held spheres that cancels their weight along their zero modes (the time domain
+        applies it as the simulation's external force); zero otherwise.
+    mechanism_acceleration : (N, 3) m/s^2 -- with ``mechanisms='free'``, the free fall of the
+        weakly held spheres along their zero modes under their weight, which the steady state
+        leaves out (the certificate adds 1/2 a T^2 to their motion); zero otherwise.
     failed : the reason the steady state is not used (zero state: gravity from rest), or ''.
     sag_m : largest displacement at t = 0, m; solve_s : wall time, s.
     """
@@ -143,11 +156,16 @@ class GravityState:
     failed: str
     sag_m: float
     solve_s: float
+    support_force: np.ndarray | None = None
+    mechanism_acceleration: np.ndarray | None = None
 
     def info(self) -> dict:
         """JSON-ready summary (the record's ``start_info['gravity']``)."""
+        sup = self.support_force if self.support_force is not None else np.zeros((0, 3))
         return {"creep": self.creep, "residual": self.residual, "n_mechanisms": self.n_mechanisms,
-                "failed": self.failed, "sag_m": self.sag_m, "solve_s": self.solve_s}
+                "failed": self.failed, "sag_m": self.sag_m, "solve_s": self.solve_s,
+                "support_force_max_N": float(np.sqrt((sup ** 2).sum(axis=1)).max()) if len(sup) else 0.0,
+                "n_supported_spheres": int((np.abs(sup).sum(axis=1) > 0).sum()) if len(sup) else 0}
 
 
 def network_of(sim):
@@ -192,7 +210,50 @@ def _bond_laws(bonds):
             bonds.Ck[:, :, comp])
 
 
-def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None) -> GravityState:
+def mechanism_support(system, mass, gravity) -> tuple[np.ndarray, np.ndarray, int]:
+    """The weakly held spheres of a HarmonicSystem (its ``mechanism_modes``, the system's sphere
+    layout) under the weight of spheres of ``mass`` (N,) kg in ``gravity`` (3,) m/s^2:
+    (support force (N, 3) N, free-fall acceleration (N, 3) m/s^2, number of zero modes).
+
+    Per cluster with zero modes V (its free DOFs, translation rows T): the support is the weight
+    projected onto the span of T, f_s = -T (T^T T)^+ T^T f_g, so that V^T (f_g + f_s) = 0 (no
+    zero mode is loaded) with the smallest force; the free fall is T a, a = (V^T M V)^-1 V^T f_g
+    (the mass matrix's M of the DOFs)."""
+    n = len(mass)
+    support = np.zeros((n, 3))
+    accel = np.zeros((n, 3))
+    d = system.dof_per_sphere
+    g = np.asarray(gravity, float)
+    n_modes = 0
+    for dofs, V, _, spheres in system.mechanism_modes():
+        n_modes += V.shape[1]
+        k = len(spheres)
+        trans = (np.arange(k)[:, None] * d + np.arange(3)).ravel()  # the clusters' translation rows in dofs
+        T = V[trans]                                                 # (3k, m)
+        fg = (mass[spheres][:, None] * g[None, :]).ravel()           # (3k,)
+        support[spheres] = (-T @ np.linalg.pinv(T.T @ T) @ (T.T @ fg)).reshape(k, 3)
+        MV = system.mass_free[dofs, None] * V
+        a = np.linalg.solve(V.T @ MV, T.T @ fg)
+        accel[spheres] = (T @ a).reshape(k, 3)
+    return support, accel, n_modes
+
+
+def support_force(sim, head_rotation: str = "free", nu: float = POISSON_RATIO) -> np.ndarray:
+    """The support force (N, 3) N of the weakly held spheres of a 2PB simulation under its gravity
+    (:func:`mechanism_support` on :func:`network_of` (sim)); zero without gravity or mechanisms."""
+    from .solver import HarmonicSystem
+
+    p = sim.params
+    g = np.asarray(p.gravity, float)
+    if not np.any(g != 0.0) or p.bond_kinematics != "contact":
+        return np.zeros((sim.spheres.n, 3))
+    system = HarmonicSystem(network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head_rotation,
+                            regularisation=0.0)
+    return mechanism_support(system, sim.spheres.mass, g)[0]
+
+
+def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None,
+                  mechanisms: str = "supported") -> GravityState:
     """Steady state of the 2PB simulation under its gravity with the head held (module
     docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
 
@@ -204,6 +265,10 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
     head_rotation, nu : as :func:`periodic_state`.
     system : the HarmonicSystem of :func:`network_of` (sim) with these options and no
         rotational regularisation, to reuse (optional; :func:`periodic_state` passes its own).
+    mechanisms : :data:`MECHANISMS` -- ``supported``: the weight of the weakly held spheres along
+        their zero modes is cancelled by ``support_force`` (which the time domain must apply too);
+        ``free``: that load is left out of the steady state and its free fall reported
+        (``mechanism_acceleration``).
 
     Returns
     -------
@@ -230,9 +295,12 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
     else:       # static equilibrium at the static modulus E(0)
         chain = 0.0 if np.isfinite(law.eta_m) else 1.0 / (1.0 / law.Em + sum(1.0 / e for e in law.Ek))
         c0, c1 = 1.0 / (law.E_inf + chain), 0.0
+    if mechanisms not in MECHANISMS:
+        raise ValueError(f"mechanisms must be one of {MECHANISMS}, got {mechanisms!r}")
     X1 = np.zeros((n, 3))
     TH1 = np.zeros((n, 3))
     THp1 = np.zeros(3)
+    support, accel = np.zeros((n, 3)), np.zeros((n, 3))
     residual, n_mech, failed = 0.0, 0, ""
     if np.any(g != 0.0):
         import scipy.sparse as sp
@@ -245,14 +313,17 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         rhs = np.zeros(system.n_free)
         rhs[:d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
         g0 = system._reference_blocks()["ff"]
-        # zero modes of weakly held spheres (mechanisms), cluster by cluster: the load that
-        # accelerates them, M V a with a = (V^T M V)^-1 V^T F (their free fall, the same from
-        # rest), is removed; G is stiffened along them
+        # zero modes of weakly held spheres (mechanisms), cluster by cluster (:func:`mechanism_support`):
+        # their weight along the zero modes is cancelled by the support force (supported) or left out
+        # of the load, the spheres' free fall (free); G is stiffened along them
+        support, accel, n_mech = mechanism_support(system, sph.mass, g)
+        if mechanisms == "supported":
+            rhs[:d * act.size].reshape(-1, d)[:, :3] += support[act]
         extra_r, extra_c, extra_v = [], [], []
         for dofs, V, scale, _ in system.mechanism_modes():
-            n_mech += V.shape[1]
-            MV = system.mass_free[dofs, None] * V
-            rhs[dofs] -= MV @ np.linalg.solve(V.T @ MV, V.T @ rhs[dofs])
+            if mechanisms == "free":
+                MV = system.mass_free[dofs, None] * V
+                rhs[dofs] -= MV @ np.linalg.solve(V.T @ MV, V.T @ rhs[dofs])
             extra_r.append(np.repeat(dofs, dofs.size))
             extra_c.append(np.tile(dofs, dofs.size))
             extra_v.append(scale * (V @ V.T).ravel())
@@ -296,12 +367,14 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         head_rotation=THp0, head_angular_velocity=c1 * THp1, bond_displacement=delta,
         bond_force=r_ch - Kinf * delta, delta_c=d_c, delta_k=np.ascontiguousarray(d_k), creep=bool(liquid),
         residual=residual, n_mechanisms=n_mech, failed=failed, sag_m=float(np.abs(X0).max()) if n else 0.0,
-        solve_s=time.perf_counter() - tic)
+        solve_s=time.perf_counter() - tic,
+        support_force=support if mechanisms == "supported" else np.zeros((n, 3)),
+        mechanism_acceleration=accel if mechanisms == "free" else np.zeros((n, 3)))
 
 
 def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
                    head_rotation: str = "free", nu: float = POISSON_RATIO,
-                   continuous: bool = False, system=None) -> PeriodicState:
+                   continuous: bool = False, system=None, mechanisms: str = "supported") -> PeriodicState:
     """Periodic steady state of the 2PB test built by :func:`asphalt_nscd.campaign.twopb.build_simulation` (module
     docstring), before its first step.
 
@@ -318,6 +391,7 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
     system : a HarmonicSystem of :func:`network_of` (sim) with the same options, to reuse
         (optional; built with the rotational regularisation off: the inertia makes the
         dynamic matrix regular, and the core has no such spring).
+    mechanisms : of :func:`gravity_state` (:data:`MECHANISMS`).
 
     Returns
     -------
@@ -354,7 +428,8 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
     force = r_ch - Kinf * delta
     d_c = -r_ch * inv_c
     d_k = -r_ch[:, None, :] / (Kk + s * Ck)
-    g = gravity_state(sim, law, head_rotation=head_rotation, nu=nu, system=system)  # zero without gravity
+    g = gravity_state(sim, law, head_rotation=head_rotation, nu=nu, system=system,
+                      mechanisms=mechanisms)  # zero without gravity
     # peak force per bond: the steady (gravity) force plus the periodic amplitude
     amp_n = np.abs(g.bond_force[:, 0]) + np.abs(force[:, 0])
     amp_t = (np.sqrt(g.bond_force[:, 1] ** 2 + g.bond_force[:, 2] ** 2)
