@@ -55,7 +55,7 @@ JOB_KEYS = ["mode", "sample", "temperature_C", "frequency_Hz", "table3_units", "
             "E_norm_MPa", "phase_deg", "F0_N", "z0_m", "E_norm_MPa_orbit", "phase_deg_orbit",
             "orbit_vs_time_domain_E_pct", "orbit_vs_time_domain_phase_deg", "cert_holds", "cert_reason",
             "cert_bond_force_ratio", "cert_bond_at", "cert_min_gap_m", "cert_gap_at", "cert_gap_start_m",
-            "cert_n_pairs", "cert_n_closed_at_start", "cert_creep_m", "cert_amplitude_m", "n_nlgs_steps",
+            "cert_n_pairs", "cert_n_closed_at_start", "cert_creep_m", "cert_amplitude_m", "n_nlgs_steps", "n_contact_steps",
             "n_broken_total", "cpu_time_s", "process_cpu_s", "wall_time_s"]
 #: the two readings of Table 3 and their campaign modes
 READINGS = {"paper": "Pa", "paper_kPa": "kPa"}

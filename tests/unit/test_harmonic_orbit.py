@@ -45,6 +45,7 @@ def test_a_certified_job_takes_its_orbit_equal_to_the_time_domain(tiny_sample, t
     assert v["verification"] and abs(v["orbit_vs_time_domain_E_pct"]) < 1e-2
     assert abs(v["orbit_vs_time_domain_phase_deg"]) < 1e-3 and v["E_norm_MPa"] == t["E_norm_MPa"]
     assert o["n_steps"] == t["n_steps"] and o["cpu_time_s"] < t["cpu_time_s"]
+    assert t["n_contact_steps"] == 0 and o["n_contact_steps"] == 0  # certified: no contact in the time domain
 
 
 def test_the_certificate_fails_on_a_weak_bond_and_the_time_domain_breaks_it(tiny_sample, tmp_path):

@@ -666,8 +666,8 @@ def reduce_test(record: dict, window_cycles: float, force_reading: str | None = 
     Returns the row of :func:`asphalt_nscd.lab.en12697.reduce_record` plus the record's
     meta attributes, the other force reading's ``E_norm_MPa_other_reading,
     phase_deg_other_reading`` and run statistics (``dt_s, n_steps, wall_time_s,
-    cpu_per_sphere_step_s, n_nlgs_steps, n_not_converged, max_iterations_used,
-    n_broken_total``), the ``path`` the job took and why (``path_reason``), its linearity
+    cpu_per_sphere_step_s, n_nlgs_steps, n_contact_steps`` (steps with an active contact),
+    ``n_not_converged, max_iterations_used, n_broken_total``), the ``path`` the job took and why (``path_reason``), its linearity
     certificate (``cert_*``, :class:`asphalt_nscd.harmonic.orbit.Certificate`) and, for a
     verification job (``verification``), the orbit's ``E_norm_MPa_orbit, phase_deg_orbit`` and
     their differences to the time domain (``orbit_vs_time_domain_E_pct``, ``_phase_deg``).
@@ -695,6 +695,7 @@ def reduce_test(record: dict, window_cycles: float, force_reading: str | None = 
                 "wall_time_s": float(a["wall_time_s"]), "cpu_time_s": float(a["cpu_time_s"]),
                 "cpu_per_sphere_step_s": float(a["cpu_per_sphere_step_s"]),
                 "n_nlgs_steps": int((s["linear"] == 0).sum()),
+                "n_contact_steps": int((np.nan_to_num(s["n_active_contacts"]) > 0).sum()),
                 "n_not_converged": int((s["converged"] == 0).sum()),
                 "max_iterations_used": int(s["iterations"].max()),
                 "n_broken_total": int(s["n_broken_total"][-1])})
