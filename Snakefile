@@ -1,13 +1,14 @@
 # Complex modulus of asphalt concrete by NSCD: the reproducible workflow.
 # Run: `make run` (default config) or `snakemake --cores 2 --configfile config/smoke.yaml`.
-# One rule file per package it drives (workflow/rules/{lab,rheology,nscd,sample,campaign,harmonic,
-# diagnosis,figures}.smk). Threads and resources live in the workflow profiles: profiles/default
-# (loaded automatically, a 2-core workstation) and profiles/slurm (`--workflow-profile profiles/slurm`).
+# One rule file per package it drives (workflow/rules/<stage>.smk, in the order of asphalt_nscd.STAGES).
+# Threads and resources live in the workflow profiles: profiles/default (loaded automatically, a 2-core
+# workstation) and profiles/slurm (`--workflow-profile profiles/slurm`).
 import sys
 import time
 
 from snakemake.utils import min_version, validate
 
+from asphalt_nscd import STAGES
 from asphalt_nscd import config as config_files
 from asphalt_nscd import plan
 
@@ -32,14 +33,12 @@ report: "workflow/report/workflow.rst"
 
 
 include: "workflow/rules/common.smk"
-include: "workflow/rules/lab.smk"
-include: "workflow/rules/rheology.smk"
-include: "workflow/rules/nscd.smk"
-include: "workflow/rules/sample.smk"
-include: "workflow/rules/campaign.smk"
-include: "workflow/rules/harmonic.smk"
-include: "workflow/rules/diagnosis.smk"
-include: "workflow/rules/figures.smk"
+
+
+# one rule file per stage of the package, in the package's order (asphalt_nscd.STAGES)
+for stage in STAGES:
+
+    include: f"workflow/rules/{stage}.smk"
 
 
 # Every file of the report is a target beside its index: a result that is missing (deleted, or removed with a job

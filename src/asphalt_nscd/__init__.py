@@ -22,6 +22,11 @@ edges (tables, figures, CLI), converted explicitly where read or written.
 
 from importlib import metadata as _metadata
 
+#: The package's stages in the order of their imports: each imports only the ones before it (and
+#: ``io``, ``config``). The one list of them: the CLI registers its subcommands in this order, the
+#: layer test enforces it and the Snakefile includes ``workflow/rules/<stage>.smk`` in it.
+STAGES = ("lab", "rheology", "nscd", "sample", "harmonic", "campaign", "diagnosis", "figures")
+
 try:  # one version string: the package metadata (pyproject.toml)
     __version__ = _metadata.version("asphalt-nscd")
 except _metadata.PackageNotFoundError:  # pragma: no cover - a source tree that is not installed

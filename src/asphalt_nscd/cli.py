@@ -15,19 +15,11 @@ import importlib
 import signal
 import sys
 
+from . import STAGES
 from .io import InputError, request_termination
 
-#: Subpackages contributing subcommands, in the order of the workflow's chain.
-SUBCOMMAND_PACKAGES = (
-    "lab",
-    "rheology",
-    "sample",
-    "nscd",
-    "campaign",
-    "harmonic",
-    "diagnosis",
-    "figures",
-)
+#: Subpackages contributing subcommands: the stages (:data:`asphalt_nscd.STAGES`).
+SUBCOMMAND_PACKAGES = STAGES
 
 
 #: Help groups of the subcommands: the package that registers a command names its group; the

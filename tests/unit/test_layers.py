@@ -19,9 +19,11 @@ from pathlib import Path
 
 import pytest
 
+from asphalt_nscd import STAGES
+
 ROOT = Path(__file__).resolve().parents[2] / "src"
 PACKAGE = "asphalt_nscd"
-LAYERS = ("io", "lab", "rheology", "nscd", "sample", "harmonic", "campaign", "diagnosis", "figures")
+LAYERS = ("io", *STAGES)
 TOP = len(LAYERS)
 #: top-level modules of the lowest layer
 BASE_MODULES = ("io", "config")
