@@ -137,3 +137,31 @@ def test_a_floating_cluster_is_left_out_of_the_test(tmp_path):
     held = held_spheres(loose)
     assert not held[a] and held.sum() == smp.radius.size - 1
     assert not held_spheres(loose, bond_kinematics="barycentre", head_rotation="clamped")[a]
+
+
+def test_a_steady_state_under_gravity_that_fails_fails_the_certificate(tiny_sample, tmp_path, monkeypatch):
+    """When the steady state under gravity cannot be used (here: a residual bound no solve meets),
+    the job starts with gravity from rest, not on its orbit: the certificate fails saying so and
+    the job steps in time."""
+    from asphalt_nscd.harmonic import periodic
+
+    monkeypatch.setattr(periodic, "GRAVITY_RESIDUAL_MAX", 0.0)
+    row = twopb.reduce_test(twopb.run_test(tiny_sample, LAW, 10.0, BASE, tmp_path / "g.h5", progress=False), 1)
+    assert not row["cert_holds"] and "steady state under gravity is not used" in row["cert_reason"]
+    assert row["path"] == "time_domain"
+
+
+def test_a_job_that_steps_in_time_takes_its_own_steps_per_cycle(tiny_sample, tmp_path):
+    """With time_domain_steps_per_cycle, a job on its orbit keeps the dt policy's step (here the
+    paper's fixed 5e-5 s) and a job that steps in time (a verification job) takes 1 / (f N), its
+    orbit compared at that same step."""
+    s = dataclasses.replace(BASE, dt_policy="fixed", dt_s=5e-5, time_domain_steps_per_cycle=100)
+    f = 40.0
+    o = twopb.reduce_test(twopb.run_test(tiny_sample, LAW, f, s, tmp_path / "o.h5", progress=False), 1)
+    v = twopb.reduce_test(twopb.run_test(tiny_sample, LAW, f, s, tmp_path / "v.h5", progress=False, verify=True), 1)
+    assert o["path"] == "orbit" and o["dt_s"] == 5e-5 and o["n_steps"] == 500
+    assert v["path"] == "time_domain" and v["dt_s"] == pytest.approx(1 / (f * 100)) and v["n_steps"] == 100
+    assert "100 steps per cycle" in v["path_reason"] and abs(v["orbit_vs_time_domain_E_pct"]) < 1e-2
+    assert abs(v["E_norm_MPa"] / o["E_norm_MPa"] - 1) < 2e-3  # 100 steps per cycle against 500 (O((w dt)^2))
+    with pytest.raises(ValueError, match="time_domain_steps_per_cycle"):
+        dataclasses.replace(BASE, time_domain_steps_per_cycle=4)

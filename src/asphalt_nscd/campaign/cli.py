@@ -388,8 +388,8 @@ def _run(args) -> int:
     from . import study, twopb
 
     settings = _settings(args)
-    if args.dt is not None:
-        settings = dataclasses.replace(settings, dt_policy="fixed", dt_s=args.dt)
+    if args.dt is not None:  # the job's dt on every path (a time-step study)
+        settings = dataclasses.replace(settings, dt_policy="fixed", dt_s=args.dt, time_domain_steps_per_cycle=None)
     factors = {}
     for item in args.factor:
         name, _, value = item.partition("=")

@@ -24,9 +24,10 @@ its record is that orbit sampled at its own steps, reduced by the same Eqs. 1-5.
   by two bonds spins about the line through both) are supported against their weight along
   those modes by default, in the orbit and the time domain alike; left free
   (``mechanisms='free'``) they fall, 1/2 a T^2, which the gap bound adds. A pair already touching
-  in the gravity state (gap <= 0, a closed contact
-  whose force the bonded orbit does not carry) fails the certificate outright, so no closed
-  contact is left whose opening or Coulomb cone would need checking.
+  in the gravity state (gap <= 0, a closed contact whose force the bonded orbit does not carry)
+  fails the certificate outright, so no closed contact is left whose opening or Coulomb cone
+  would need checking; so does a steady state under gravity that could not be computed (the
+  job then starts with gravity from rest, not on its orbit).
 * :func:`orbit_record` -- what the core records at each step on the orbit: the head plate's
   force theta R(t_{n+1}) + (1 - theta) R(t_n) (``Simulation._plate_forces``), R the head bonds'
   reaction, and the driver force, at the mid-step times.
@@ -63,6 +64,9 @@ class Certificate:
     creep_m : the largest creep of a sphere under gravity over the job (steady creep of a liquid
         bond law, |v_g| T; 0 for a solid one), m; amplitude_m : the largest periodic
         displacement amplitude of a sphere, m.
+    gravity_unbalanced_ratio : the force the steady state under gravity leaves unbalanced (its
+        relative residual times the weights' norm) over the head force amplitude; above
+        :data:`GRAVITY_UNBALANCED_MAX` the job is not certified.
     duration_s : the interval certified; seconds : wall time of the certificate.
     """
 
@@ -77,12 +81,17 @@ class Certificate:
     n_closed_at_start: int
     creep_m: float
     amplitude_m: float
+    gravity_unbalanced_ratio: float
     duration_s: float
     seconds: float
 
     def row(self) -> dict:
         """Columns of the job's row (``cert_*``)."""
         return {f"cert_{k}": (json_list(v) if isinstance(v, list) else v) for k, v in asdict(self).items()}
+
+
+#: largest unbalanced force of the steady state under gravity, relative to the head force amplitude
+GRAVITY_UNBALANCED_MAX = 1e-4
 
 
 def json_list(v) -> str:
@@ -178,6 +187,13 @@ def certify(sim, state, duration_s: float) -> Certificate:
     else:
         min_gap, gap_at, gap_start = math.inf, [], math.inf
     reasons = []
+    if g is not None and g.failed:
+        reasons.append(f"the steady state under gravity is not used ({g.failed}): the job does not start on its orbit")
+    unbalanced = (g.residual * g.load_N / max(abs(state.head_force), 1e-300)
+                  if g is not None and not g.failed and np.isfinite(g.residual) else 0.0)
+    if unbalanced > GRAVITY_UNBALANCED_MAX:
+        reasons.append(f"the steady state under gravity leaves {unbalanced:.3g} of the head force unbalanced "
+                       f"(above {GRAVITY_UNBALANCED_MAX:g})")
     falls = np.concatenate([falling, fall[pi] > 0]) if gaps.size else np.zeros(0, bool)
     if near and fall.max() > near:
         k = int(np.argmax(fall))
@@ -198,7 +214,7 @@ def certify(sim, state, duration_s: float) -> Certificate:
                        n_closed_at_start=closed,
                        creep_m=float(np.sqrt((V ** 2).sum(axis=1)).max() * T) if len(V) else 0.0,
                        amplitude_m=float(ellipse_semi_major(X).max()) if len(X) else 0.0,
-                       duration_s=T, seconds=time.perf_counter() - tic)
+                       gravity_unbalanced_ratio=float(unbalanced), duration_s=T, seconds=time.perf_counter() - tic)
 
 
 def orbit_record(sim, state, n_steps: int) -> dict:

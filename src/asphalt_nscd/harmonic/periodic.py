@@ -111,11 +111,16 @@ class PeriodicState:
 #: until it meets a neighbour), which the steady state leaves out and the certificate must cover
 MECHANISMS = ("supported", "free")
 
-#: iterative refinements of the static solve under gravity (the network is ill-conditioned:
-#: its softest modes are 1e8 times softer than its stiffest on small samples)
-GRAVITY_REFINEMENTS = 2
-#: largest relative residual of the static solve under gravity for the state to be used
-GRAVITY_RESIDUAL_MAX = 1e-8
+#: most iterative refinements of the static solve under gravity (the network is ill-conditioned:
+#: its softest modes are 1e8 times softer than its stiffest on small samples); they stop once the
+#: residual is below GRAVITY_RESIDUAL_MAX or stops falling
+GRAVITY_REFINEMENTS = 8
+#: largest relative residual of the static solve under gravity for the state to be used: the
+#: rest of the load acts along the network's softest (near-zero) modes, which no solve resolves;
+#: measured on the paper-scale samples 5e-8 to 8e-8 (a few soft rotational modes of spheres with
+#: 3-5 bonds), against the head force an unbalanced force 1e-7 of it or less, and the orbit then
+#: within 2e-4 % of the time domain (docs/choices.md); the certificate bounds that ratio per job
+GRAVITY_RESIDUAL_MAX = 1e-6
 
 
 @dataclass
@@ -139,6 +144,7 @@ class GravityState:
         leaves out (the certificate adds 1/2 a T^2 to their motion); zero otherwise.
     failed : the reason the steady state is not used (zero state: gravity from rest), or ''.
     sag_m : largest displacement at t = 0, m; solve_s : wall time, s.
+    load_N : Euclidean norm of the weights (N, the load whose relative ``residual`` is left).
     """
 
     displacement: np.ndarray
@@ -158,6 +164,7 @@ class GravityState:
     solve_s: float
     support_force: np.ndarray | None = None
     mechanism_acceleration: np.ndarray | None = None
+    load_N: float = 0.0
 
     def info(self) -> dict:
         """JSON-ready summary (the record's ``start_info['gravity']``)."""
@@ -335,9 +342,16 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         try:
             lu = system.factorise(a, "G + mechanisms (gravity)")
             u = lu.solve(rhs)
+            norm = max(np.linalg.norm(rhs), 1e-300)
+            residual = float(np.linalg.norm(rhs - g0 @ u) / norm)
             for _ in range(GRAVITY_REFINEMENTS):
-                u = u + lu.solve(rhs - g0 @ u)
-            residual = float(np.linalg.norm(rhs - g0 @ u) / max(np.linalg.norm(rhs), 1e-300))
+                if residual <= GRAVITY_RESIDUAL_MAX:
+                    break
+                refined = u + lu.solve(rhs - g0 @ u)
+                r_new = float(np.linalg.norm(rhs - g0 @ refined) / norm)
+                if not r_new < residual:
+                    break
+                u, residual = refined, r_new
         except RuntimeError as exc:
             residual, failed = float("inf"), f"factorisation failed ({exc})"
         if not residual <= GRAVITY_RESIDUAL_MAX:
@@ -369,7 +383,8 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         residual=residual, n_mechanisms=n_mech, failed=failed, sag_m=float(np.abs(X0).max()) if n else 0.0,
         solve_s=time.perf_counter() - tic,
         support_force=support if mechanisms == "supported" else np.zeros((n, 3)),
-        mechanism_acceleration=accel if mechanisms == "free" else np.zeros((n, 3)))
+        mechanism_acceleration=accel if mechanisms == "free" else np.zeros((n, 3)),
+        load_N=float(np.linalg.norm(sph.mass * np.linalg.norm(g))) if n else 0.0)
 
 
 def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
