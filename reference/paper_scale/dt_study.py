@@ -10,7 +10,7 @@ written with its reason and no value.
 
 Usage, from a run's working directory (the paper-scale samples prepared):
 
-    .venv/bin/python /path/to/reference/paper_scale/dt_study.py results/samples/s2.h5 OUT.csv
+    .venv/bin/python /path/to/reference/paper_scale/dt_study.py results/samples/s2.h5 dt_study_orbit.csv
 """
 
 from __future__ import annotations
