@@ -28,7 +28,7 @@ class InputError(ValueError):
 
 
 #: Signal number of a termination request received by this process (None: none).
-_TERMINATION = {"signal": None}
+_TERMINATION: dict[str, int | None] = {"signal": None}
 
 
 def request_termination(signum: int) -> None:

@@ -27,6 +27,7 @@ protocol everywhere (the "before" of the periodic start).
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 
@@ -186,7 +187,7 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
     from .twopb import mode_settings, start_test
 
     sample = read_sample(sample_path)
-    out = {}
+    out: dict[tuple, dict[str, dict[str, Any]]] = {}
     periodic_classes = {job_class(j) for j in jobs if j["start"] == "periodic"}
     for cls in dict.fromkeys(job_class(j) for j in jobs):
         mode, T, f, dt = cls
@@ -200,9 +201,9 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
                 continue
             s = dataclasses.replace(base, start=start)
             sim, _ = build_simulation(sample, law, f, dt, s)
-            cpu = time.process_time()
+            cpu_start = time.process_time()
             info = start_test(sim, law, f, s)
-            solve = time.process_time() - cpu if start == "periodic" else 0.0
+            solve = time.process_time() - cpu_start if start == "periodic" else 0.0
             sims = [sim]
             if baseline:
                 s_b = dataclasses.replace(s, **baseline)
@@ -252,7 +253,9 @@ def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_
     def cost(fn, job):
         return fn(job) if callable(fn) else float(fn)
 
-    per_job, by_mode, steps_by_mode = [], {}, {}
+    per_job: list[float] = []
+    by_mode: dict[str, float] = {}
+    steps_by_mode: dict[str, int] = {}
     for j in jobs:
         t = j["n_steps"] * cost(s_per_step, j) + overhead_s
         if j["start"] == "periodic":
@@ -264,7 +267,7 @@ def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_
     total_jobs = float(np.sum(per_job))
     total = total_jobs + prepare
     longest = float(np.max(per_job)) + prepare_s_per_sample
-    n_jobs = {}
+    n_jobs: dict[str, int] = {}
     for j in jobs:
         n_jobs[j["mode"]] = n_jobs.get(j["mode"], 0) + j["n_samples"]
     return {"n_jobs": len(per_job), "total_core_h": total / 3600, "jobs_core_h": total_jobs / 3600,

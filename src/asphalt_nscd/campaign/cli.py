@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 
 
@@ -598,7 +599,7 @@ def _bench(args) -> int:
         if not args.per_job:
             raise InputError("--baseline-settings-json needs --per-job")
     cost = bench.measure_step_cost(args.sample, n_spheres=args.n_spheres, n_steps=args.steps)
-    out = {"measurement": cost, "prepare_s_per_sample": prepare_s, "projections": {}}
+    out: dict[str, Any] = {"measurement": cost, "prepare_s_per_sample": prepare_s, "projections": {}}
     for path in args.config:
         cfg = twopb.read_config(path)
         camp = cfg["campaign"]

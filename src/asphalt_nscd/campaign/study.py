@@ -26,6 +26,7 @@ MRE = mean_f |x_num - x_ref| / |x_ref| x 100 %, for |E*| and Phi.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -117,7 +118,7 @@ class JobLaws:
         self.table3, self.table3_units = table3, table3_units
         self.parameters, self.law_json = parameters, law_json
         self.network_factor_json, self.sample_name = network_factor_json, sample_name
-        self._cache = {}
+        self._cache: dict[Any, Any] = {}
 
     def _read(self, key, fn):
         if key not in self._cache:
@@ -327,9 +328,9 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
 
 
 #: the paper's internal evidence on the units of Table 3 (Sections 2, 3.2): the values it states
-PAPER_EVIDENCE = {"dt_e_s": 2e-5, "dt_g_s": 2e-3, "p_Pa": 2.79e3, "d_g_m": 2.52e-3, "m_g_kg": 2.86e-5,
-                  "density_kg_m3": 3415.0, "yield_stress_Pa": 2.7e6, "amplitude_m": 63e-6, "strain_max": 50e-6,
-                  "band_Hz": (3.0, 40.0)}
+PAPER_EVIDENCE: dict[str, Any] = {
+    "dt_e_s": 2e-5, "dt_g_s": 2e-3, "p_Pa": 2.79e3, "d_g_m": 2.52e-3, "m_g_kg": 2.86e-5, "density_kg_m3": 3415.0,
+    "yield_stress_Pa": 2.7e6, "amplitude_m": 63e-6, "strain_max": 50e-6, "band_Hz": (3.0, 40.0)}
 
 
 def max_bending_strain(amplitude_m: float, specimen) -> float:

@@ -34,6 +34,7 @@ import time
 import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -41,6 +42,9 @@ from ..io import InputError, atomic_path, check_termination, remove_stale_tempor
 from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
 from ..rheology.laws import POISSON_RATIO
 from ..harmonic import periodic
+
+if TYPE_CHECKING:
+    from ..lab.en12697 import Specimen2PB
 
 #: how a test starts: at rest, or in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`)
 START_MODES = ("rest", "periodic")
@@ -256,7 +260,7 @@ class HeadMotion:
         return self.amplitude * np.sin(self.omega * np.asarray(t, float))
 
 
-def specimen_of(sample) -> "Specimen2PB":  # noqa: F821
+def specimen_of(sample) -> Specimen2PB:
     """EN 12697-26 specimen of a sample: the scaled geometry of the sample store
     (:func:`asphalt_nscd.sample.store.specimen_geometry_mm`), M = sum of the sphere masses,
     m = top-plate mass (kg)."""
@@ -320,7 +324,7 @@ def periodic_start(sim, law, frequency_Hz: float, settings: TwoPBSettings,
     laplace_imag (the theta-method's effective angular frequency, rad/s) and fallback
     (reason, when it starts from rest).
     """
-    info = {"start": "rest", "requested": settings.start}
+    info: dict[str, Any] = {"start": "rest", "requested": settings.start}
     if settings.start != "periodic":
         if settings.gravity and settings.mechanisms == "supported":
             sim.external_force = periodic.support_force(sim, settings.head_rotation, settings.nu)
@@ -336,6 +340,7 @@ def periodic_start(sim, law, frequency_Hz: float, settings: TwoPBSettings,
     if state.gravity is not None:
         info["gravity"] = state.gravity.info()
         if settings.mechanisms == "supported":
+            assert state.gravity.support_force is not None  # computed for supported mechanisms
             sim.external_force = state.gravity.support_force.copy()
     if state.breaks:
         info["fallback"] = (f"the steady state would break bonds (force / strength up to "
@@ -478,8 +483,8 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     specimen = specimen_of(sample)
     ckpt = output.with_name(output.name + ".ckpt.h5")
     partial = output.with_name(output.name + ".partial.npz")
-    for path in (output, ckpt, partial):  # left by a writer killed outright
-        remove_stale_temporaries(path)
+    for stale in (output, ckpt, partial):  # left by a writer killed outright
+        remove_stale_temporaries(stale)
     key = json.dumps({"sample": str(sample_path), "law": law.as_dict(), "f": frequency_Hz, "dt": dt,
                       "settings": asdict(settings), "continuous_start": bool(continuous_start),
                       "verify": bool(verify)},
@@ -501,9 +506,9 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                       file=sys.stderr)
         except (InputError, OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
             # a checkpoint that cannot be read (corrupt, truncated): set aside, the job restarts
-            for path in (ckpt, partial):
-                if path.exists():
-                    path.replace(path.with_name(path.name + ".unreadable"))
+            for unreadable in (ckpt, partial):
+                if unreadable.exists():
+                    unreadable.replace(unreadable.with_name(unreadable.name + ".unreadable"))
             logging.getLogger("asphalt_nscd").warning(
                 "%s: the checkpoint cannot be read (%s); moved aside as *.unreadable, the job restarts from its "
                 "beginning", ckpt, str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
@@ -538,6 +543,7 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                 rec = _record(orbit_arrays, motion, sample, specimen, settings, dt, n_steps, sim, law, sample_path,
                               meta, {**start_info, "path": "orbit"}, 0.0, 0.0, frequency_Hz)
                 red = reduce_test(rec, settings.window_cycles)
+                assert cert is not None  # a verification job comes here only with a certificate
                 start_info["orbit"] = {"E_norm_MPa": red["E_norm_MPa"], "phase_deg": red["phase_deg"],
                                        "certified": bool(cert.holds)}
         if path == "orbit":
@@ -552,8 +558,8 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                   "wall": np.array([start_info.get("solve_s", 0.0)]),
                   "cpu": np.array([start_info.get("solve_cpu_s", 0.0)]),
                   "start_info": np.array(json.dumps(start_info))}
-        for k in STAT_KEYS:
-            arrays[k] = np.zeros(n_steps)
+        for name in STAT_KEYS:
+            arrays[name] = np.zeros(n_steps)
     n_steps = len(arrays["t"])
     dt = float(sim.params.dt)  # the policy's, or time_domain_steps_per_cycle's (also on a resumed run)
     per_period = 1.0 / (frequency_Hz * dt)
@@ -690,8 +696,8 @@ def truncate_record(record: dict, end_cycle: float) -> dict:
     n = int(math.ceil(end_cycle / (float(a["frequency_Hz"]) * float(a["dt_s"])) - 1e-9))
     if n > len(record["time_s"]):
         raise ValueError(f"record of {len(record['time_s'])} steps is shorter than {end_cycle} cycles ({n} steps)")
-    out = {k: np.asarray(record[k])[:n] for k in ("time_s", "displacement_m", "force_N", "force_bonds_N",
-                                                  "force_driver_N")}
+    out: dict[str, Any] = {k: np.asarray(record[k])[:n]
+                           for k in ("time_s", "displacement_m", "force_N", "force_bonds_N", "force_driver_N")}
     out["stats"] = {k: np.asarray(v)[:n] for k, v in record["stats"].items()}
     out["profile"] = record["profile"]
     out["attrs"] = {**a, "n_steps": n}
@@ -718,7 +724,7 @@ def reduce_test(record: dict, window_cycles: float, force_reading: str | None = 
     other = "driver" if reading == "bonds" else "bonds"
     spec = Specimen2PB(**json.loads(a["specimen"]))
     f = float(a["frequency_Hz"])
-    args = dict(specimen=spec, frequency_Hz=f, window_cycles=window_cycles)
+    args: dict[str, Any] = dict(specimen=spec, frequency_Hz=f, window_cycles=window_cycles)
     row = {k: a[k] for k in ("mode", "sample", "temperature_C", "variant", "parameter", "factor",
                              "table3_units") if k in a}
     row.update(reduce_record(record["time_s"], record["displacement_m"], record[f"force_{reading}_N"], **args))

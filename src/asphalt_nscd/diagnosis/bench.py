@@ -39,6 +39,7 @@ run exactly.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -79,7 +80,7 @@ PLANTED_SCHEDULES = {"inertia_uncorrected": ("paper_2pb",),
 GOALS = {"detection_rate": 0.95, "false_alarm_rate": 0.05}
 KINDS = ("clean",) + ARTIFACTS
 #: designs of the benchmark tables (module docstring); None: drawn per table
-CONFIGURATIONS = {
+CONFIGURATIONS: dict[str, dict[str, Any] | None] = {
     "random": None,
     "shipped": {"schedule": "aashto_t342", "n_specimens": 3, "test_order": False, "order": "standard",
                 "strain": False, "test": {"test": "uniaxial_cylinder", "diameter_mm": None, "height_mm": None}},
@@ -87,9 +88,10 @@ CONFIGURATIONS = {
               "test": None},
 }
 #: sizes of the power curves (key of the planted magnitude: values)
-POWER_SIZES = {"temperature_offset": ("offset_C", (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)),
-               "time_lag": ("time_lag_ms", (0.05, 0.1, 0.2, 0.3, 0.5)),
-               "inertia_uncorrected": ("E_deficit_pct", (1.0, 2.0, 3.0, 5.0, 8.0))}
+POWER_SIZES: dict[str, tuple[str, tuple[float, ...]]] = {
+    "temperature_offset": ("offset_C", (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)),
+    "time_lag": ("time_lag_ms", (0.05, 0.1, 0.2, 0.3, 0.5)),
+    "inertia_uncorrected": ("E_deficit_pct", (1.0, 2.0, 3.0, 5.0, 8.0))}
 
 
 def plantable(kind: str, configuration: dict | None) -> bool:
@@ -333,9 +335,15 @@ def level_for_goal(runs: list, families, goal: float = GOALS["false_alarm_rate"]
     per = [m for m in per if m.size]
     if not per:
         return None
+
+    def upper(m: np.ndarray, c: float) -> float:
+        hi = binomial_ci(int(np.sum(m < c)), m.size)[1]
+        assert hi is not None  # m is not empty
+        return hi
+
     best = 0.0
     for c in np.unique(np.concatenate(per + [np.array([1.0])])):
-        if all(binomial_ci(int(np.sum(m < c)), m.size)[1] <= goal for m in per):
+        if all(upper(m, c) <= goal for m in per):
             best = float(c)
         else:
             break
@@ -351,7 +359,7 @@ def power_curves(runs: list) -> dict:
         rs = [r for r in runs if r["kind"] == f"power:{name}"]
         if not rs:
             continue
-        rows = []
+        rows: list[dict[str, Any]] = []
         for size in sizes:
             at = [r for r in rs if r["power_size"] == size]
             rows.append({"size": size, "size_key": key,
@@ -368,7 +376,7 @@ def summarize(runs: list, families) -> dict:
     on tables planted with another artifact, detection and estimate rates at the stated size
     (the power-curve tables are summarised apart, :func:`power_curves`)."""
     runs = [r for r in runs if not r["kind"].startswith("power:")]
-    out = {}
+    out: dict[str, dict] = {}
     for name in ARTIFACTS:
         out[name] = {}
         for fam in list(families) + ["all"]:
@@ -444,7 +452,9 @@ def run_bench(n_clean: int, n_planted: int, base_seed: int | None = None, famili
     if n_clean < 0 or n_planted < 0 or power < 0 or n_clean + n_planted + power == 0:
         raise ValueError(f"need n_clean, n_planted, power >= 0 and not all 0, got {n_clean}, {n_planted}, {power}")
     if base_seed is None:
-        base_seed = int(np.random.SeedSequence().entropy % (2**63))
+        entropy = np.random.SeedSequence().entropy
+        assert isinstance(entropy, int)  # fresh entropy drawn from the system: an int
+        base_seed = int(entropy % (2**63))
     cases = plan(base_seed, families, n_clean, n_planted, effect_scale, configuration, power)
     t0, c0 = time.perf_counter(), time.process_time()
     if jobs > 1:

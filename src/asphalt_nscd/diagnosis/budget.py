@@ -27,6 +27,7 @@ correction; causes: docs/choices.md, Diagnosis: causes with measured error rates
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -370,7 +371,8 @@ def budget_stage(cells: Cells) -> Budget:
         comps["micro_macro_transfer"] = compare(harm, hb.dropna())
         if cells.sim is not None:
             comps["numerics"] = compare(cells.sim, harm)
-    rows, by_T = [], {}
+    rows: list[dict] = []
+    by_T: dict[str, dict[str, Any]] = {}
     for T in cells.temps:
         by_T[T_key(T)] = {}
         for name, frame in comps.items():

@@ -224,6 +224,7 @@ def calibrate(table: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf", test
     T_ref = search.T_screen
     full = fit_master_curve(search.df, shift=shift, T_ref_C=T_ref, sigma=search.sigma)
     liquid = fit_master_curve(search.df, shift=shift, T_ref_C=T_ref, static_modulus=False, sigma=search.sigma)
+    assert liquid.fitted is not None  # set by every fit
     E_liq = liquid.fitted["E_norm_MPa_model"].to_numpy(float) * np.exp(
         1j * np.radians(liquid.fitted["phase_deg_model"].to_numpy(float)))
     rng_s = np.random.default_rng([int(seed), 2])

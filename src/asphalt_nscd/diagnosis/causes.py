@@ -28,6 +28,8 @@ Choices (docs/choices.md, Diagnosis: causes with measured error rates).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -211,14 +213,17 @@ def static_modulus(corrected: pd.DataFrame, master: MasterCurveFit, alpha: float
            "phase_peak_in_data": inside, "T_ref_C": master.T_ref_C}
     p_cal = static_p(F, calibration)
     level = None if calibration is None else float(calibration["static"]["level"])
-    significant = np.isfinite(p) and p < alpha and E00 > 2 * se and (p_cal is None or p_cal < level)
+    calibrated, cal_text = True, ""
+    if p_cal is not None:
+        assert calibration is not None and level is not None  # static_p gives a p only with a calibration
+        calibrated = p_cal < level
+        cal_text = (f" (calibrated on {len(calibration['static']['null_F'])} tables of the table's liquid master "
+                    f"curve: p = {p_cal:.2g}, level {level:g})")
+    significant = np.isfinite(p) and p < alpha and E00 > 2 * se and calibrated
     cm = cell_means(corrected)
     ph_s = np.angle(master.modulus(cm["frequency_Hz"], cm["temperature_C"]))
     ph_l = np.angle(liquid.modulus(cm["frequency_Hz"], cm["temperature_C"]))
     score = float(100 * np.mean(np.abs(ph_l / ph_s - 1)))
-    cal_text = ("" if p_cal is None else
-                f" (calibrated on {len(calibration['static']['null_F'])} tables of the table's liquid master curve: "
-                f"p = {p_cal:.2g}, level {level:g})")
     return {"name": "static_modulus", "category": "model_form", "detected": bool(significant),
             "testable": True, "identifiable": True, "score": score,
             "p_value": None if not np.isfinite(p) else float(p), "p_calibrated": p_cal, "estimate": est,
@@ -239,7 +244,7 @@ def network_factor(sample: pd.DataFrame | None, burgers: pd.DataFrame, source: s
                    tolerance: float = TOLERANCES["network_factor"]) -> dict:
     """Report entry of ``network_factor``: sample (harmonic) response vs its macro law, an
     effect with its numerical uncertainty against ``tolerance`` (module docstring)."""
-    entry = {"name": "network_factor", "category": "simulation", "estimate": {}, "p_value": None}
+    entry: dict[str, Any] = {"name": "network_factor", "category": "simulation", "estimate": {}, "p_value": None}
     if sample is None or len(sample) < 1:
         return {**entry, "detected": False, "testable": False, "score": 0.0,
                 "evidence": "not testable: needs the harmonic (or simulated) response of the numerical "
@@ -273,7 +278,7 @@ def time_integration(errors: pd.DataFrame | None,
                      tolerance_deg: float = TOLERANCES["time_integration_deg"]) -> dict:
     """Report entry of ``time_integration`` from a table ``frequency_Hz, dt_s, phase_error_deg``:
     an effect with its numerical uncertainty against ``tolerance_deg`` (module docstring)."""
-    entry = {"name": "time_integration", "category": "simulation", "estimate": {}, "p_value": None}
+    entry: dict[str, Any] = {"name": "time_integration", "category": "simulation", "estimate": {}, "p_value": None}
     need = {"frequency_Hz", "dt_s", "phase_error_deg"}
     if errors is None or not need <= set(errors.columns) or len(errors) < 1:
         return {**entry, "detected": False, "testable": False, "score": 0.0,

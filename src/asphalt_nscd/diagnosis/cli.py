@@ -570,6 +570,7 @@ def _extend_law(args) -> int:
         if fit.card_law is not fit.law:
             import logging
 
+            assert fit.settings is not None and fit.card_settings is not None  # chosen with the fitted laws
             why = ("has what a Prony series with a shift function cannot carry" if not fit.settings.carriable else
                    f"is refitted for the card (diagnosis.material_card: --card-fit {options.card_fit}, --card-shift "
                    f"{options.card_shift})")

@@ -36,7 +36,9 @@ Choices (docs/choices.md, Diagnosis: the temperature-aware extended law and held
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -46,6 +48,10 @@ from ..rheology import extended
 from ..rheology.extended import LawSettings, ThermoLaw
 from ..rheology.plausibility import describe as describe_findings
 from ..rheology.metrics import at_temperature, cell_means, relative_errors, same_frequency, same_temperature
+
+if TYPE_CHECKING:
+    from ..harmonic.solver import HarmonicSystem
+    from ..rheology.master_curve import MasterCurveFit
 
 SCHEMES = ("lofo", "loto", "loso")
 #: shift law of the law a material card carries: the card's own (WLF) or the chosen law's
@@ -149,7 +155,7 @@ class MeasurementModel:
     from the material law L is then L / R.
     """
 
-    fit: object
+    fit: MasterCurveFit
     strain_ref: float = 0.0
 
     def correction(self, rows: pd.DataFrame) -> np.ndarray:
@@ -251,7 +257,7 @@ def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances) 
     -------
     dict structure -> Backbone, or the error message (str) when the fit is not computable.
     """
-    out = {}
+    out: dict[tuple, extended.Backbone | str] = {}
     ordered = sorted(set(structures), key=lambda s: LawSettings(*s).complexity())  # a total order
     for st in ordered:
         settings = LawSettings(*st)
@@ -335,7 +341,7 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     structures = [c.structure for c in cands]
     fitted = fit_structures(cells, structures, T_ref, options.tolerances)
     folds = _inner_folds(cells) if len(cands) > 1 else []
-    rows = {c: {"scores": [], "reason": ""} for c in cands}
+    rows: dict[LawSettings, dict[str, Any]] = {c: {"scores": [], "reason": ""} for c in cands}
     ratios = []
     for scheme, value in folds:
         train, _ = fold_split(cells, scheme, value)
@@ -556,6 +562,7 @@ def law_file_object(fit: FitResult, measured: pd.DataFrame, temperatures, option
         raise ValueError("no law that a Prony series with a shift function carries could be fitted")
     obj = law.to_json(temperatures, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
     notes = [n for n in fit.curve.get("note", pd.Series(dtype=str)).astype(str) if n] if len(fit.curve) else []
+    assert fit.settings is not None  # chosen with every fitted law
     obj["selection"] = {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
                         "rule": ("simplest candidate within one standard error of the best inner-CV score "
                                  "(fewest fitted parameters, then coarsest Prony series) among the candidates "
@@ -581,7 +588,7 @@ class SampleModel:
     """The numerical sample for the ``nscd_sample`` predictions: a harmonic system, its
     EN 12697-26 geometry, the network factor NF_s (transfer JSON) and the solver options."""
 
-    system: object
+    system: HarmonicSystem
     geometry_mm: dict
     network_factor: float
     name: str
@@ -663,18 +670,20 @@ def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFra
     return out
 
 
-def _as_measured(E_cells: np.ndarray, cells: pd.DataFrame, rows: pd.DataFrame, fit: FitResult) -> np.ndarray:
+def _as_measured(E_cells: np.ndarray | float, cells: pd.DataFrame, rows: pd.DataFrame | None,
+                 fit: FitResult | None) -> np.ndarray:
     """Predicted replicate means (|E*| MPa, Phi deg; array (n_cells, 2)) of the measured
     table from the material's E* per cell: each held-out row's prediction is E* / R (R of the
     fold's artifact fit at that row, :class:`MeasurementModel`), averaged per cell like the
     measured replicates. Without artifacts: |E*| and Phi of E*."""
-    E_cells = np.asarray(E_cells, complex)
+    E = np.asarray(E_cells, complex)
     if fit is None or fit.measurement is None:
-        return np.column_stack([np.abs(E_cells), np.degrees(np.angle(E_cells))])
+        return np.column_stack([np.abs(E), np.degrees(np.angle(E))])
+    assert rows is not None  # a measurement model comes with the measured rows
     R = fit.measurement.correction(rows)
     key = {(float(T), float(f)): i for i, (T, f) in enumerate(zip(cells["temperature_C"], cells["frequency_Hz"]))}
     idx = np.array([key[(float(T), float(f))] for T, f in zip(rows["temperature_C"], rows["frequency_Hz"])])
-    M = E_cells[idx] / R
+    M = E[idx] / R
     out = np.zeros((len(cells), 2))
     for i in range(len(cells)):
         sel = idx == i
@@ -682,7 +691,7 @@ def _as_measured(E_cells: np.ndarray, cells: pd.DataFrame, rows: pd.DataFrame, f
     return out
 
 
-def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, extrapolation, reason="",
+def _law_rows(scheme, fold, kind, fit: FitResult | None, test: pd.DataFrame, sample, extrapolation, reason="",
               rows: pd.DataFrame | None = None) -> list:
     """Rows of the extended law, of the law a material card carries (``card_law``) and of the
     sample at the cells ``test``; ``rows``: the measured rows of those cells (with
@@ -699,6 +708,7 @@ def _law_rows(scheme, fold, kind, fit: FitResult, test: pd.DataFrame, sample, ex
             if not why and (fit is None or thermo is None):
                 why = fit.reason if fit is not None and fit.reason else "not fitted"
             if not why:
+                assert thermo is not None  # why names the reason when there is no law
                 try:
                     law = thermo.law_at(float(T))
                 except (InputError, *FIT_ERRORS) as exc:
@@ -791,6 +801,7 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
     folds = sorted(prepared["specimen"].unique()) if scheme == "loso" else _fold_values(cells, scheme)
     for value in folds:
         label = fold_label(scheme, value)
+        extrapolation: Callable[..., bool]
         if scheme == "loso":
             # the reference of a fold is its own specimen: the law of the others predicts a new specimen
             held = (prepared["specimen"] == value).to_numpy()
@@ -873,7 +884,8 @@ def figure(rows: pd.DataFrame, law: ThermoLaw | None, path, model: str = "extend
     fig, axes = plt.subplots(2, 1, figsize=(7, 8), sharex=True)
     colors = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(temps), 1)))
     f_all = meas["frequency_Hz"].to_numpy(float)
-    fg = np.logspace(np.log10(f_all.min()) - 0.2, np.log10(f_all.max()) + 0.2, 80) if f_all.size else []
+    fg: np.ndarray | list = (np.logspace(np.log10(f_all.min()) - 0.2, np.log10(f_all.max()) + 0.2, 80)
+                             if f_all.size else [])
     scheme = sub["scheme"].iloc[0] if len(sub) else ""
     for T, color in zip(temps, colors):
         m = meas[meas["temperature_C"] == T].sort_values("frequency_Hz")

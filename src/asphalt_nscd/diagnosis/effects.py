@@ -370,7 +370,7 @@ class ArtifactSearch:
         self.noise_from_replicates = sE is not None
         #: replicate scatter as measured (None without replicates), and the floored levels that weight the fits
         self.replicate_sigma = (sE, sP)
-        self.sigma = (max(sE, 2e-3), max(sP, 0.03)) if sE is not None else (0.02, 0.5)
+        self.sigma = (max(sE, 2e-3), max(sP, 0.03)) if sE is not None and sP is not None else (0.02, 0.5)
         self.shift = shift
         self.T_ref_C = T_ref_C
         temps = self.data["temperatures"]
@@ -530,13 +530,15 @@ class ArtifactSearch:
         offset_id = self.offset_identifiability(base) if self.testable["temperature_offset"][0] else None
         if offset_id is not None:
             self.identified["temperature_offset"] = offset_id
-        current, selected = base, []
+        current = base
+        selected: list[Candidate] = []
         cands = self.candidates()
         offset_on = bool(offset_id is not None and offset_id["identifiable"])
         m = len(cands) + offset_on
         nominal = self.nominal_level(m)
         first = nominal if level is None else min(float(level), nominal)
-        results, first_round = [], None
+        results: list[tuple] = []
+        first_round: tuple[list, MasterCurveFit] | None = None
         while True:
             step_level = first * m / max(m - len(selected), 1)  # Holm's step-down over the whole family
             results = []
@@ -587,6 +589,7 @@ class ArtifactSearch:
         offset = None
         p_first = list(first_round[0]) if first_round is not None else []
         if offset_on:
+            assert offset_id is not None  # offset_on only with an identifiability verdict
             offset = self.offset_test(final, offset_id["isotherms"])
             offset["level"] = first * m / max(m - len(selected), 1)
             big = abs(offset["offset_C"]) >= PRACTICAL_MINIMUM["temperature_offset"]
@@ -658,7 +661,7 @@ class ArtifactSearch:
             e[k] = 1.0 / sd[k]
             e_p = e - Q @ (Q.T @ e)
             den = np.linalg.norm(e_p) * np.linalg.norm(r_p)
-            rho = 1.0 if den <= 1e-12 * max(np.linalg.norm(e), 1e-300) * max(np.linalg.norm(r), 1e-300) \
+            rho = 1.0 if den <= 1e-12 * max(float(np.linalg.norm(e)), 1e-300) * max(float(np.linalg.norm(r)), 1e-300) \
                 else float(abs(e_p @ r_p) / den)
             if temps.size - p < 2:
                 rho = 1.0  # one residual direction at most: it is the rival's
@@ -756,7 +759,9 @@ class ArtifactSearch:
         n = d["test_step"]
         sel = n > 0
         E0 = fit.modulus(d["f"], d["T"])
-        E1 = make_term("self_heating").apply(np.asarray(values, float), fit.modulus(d["f"], d["T"] + values[0] * n), d)
+        heating = make_term("self_heating").apply
+        assert heating is not None  # the self-heating term acts on the modulus
+        E1 = heating(np.asarray(values, float), fit.modulus(d["f"], d["T"] + values[0] * n), d)
         drop = -np.log(np.abs(E1[sel]) / np.abs(E0[sel])) / n[sel] * 100
         rise = (np.angle(E1[sel]) / np.angle(E0[sel]) - 1) / n[sel] * 100
         return float(np.mean(drop)), float(np.mean(rise))
@@ -890,6 +895,7 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
                 f"Kramers-Kronig (Booij-Thoone) phase residual gives dt = {kk['time_lag_ms']:.3f} "
                 f"+- {kk['time_lag_se_ms']:.3f} ms")
     if name == "inertia_uncorrected":
+        assert search.gamma is not None  # inertia is testable only with a form factor
         f_max = float(search.df["frequency_Hz"].max())
         dE1 = search.gamma * 1e-6 * est["mass_factor_g"] * (2 * np.pi * f_max) ** 2
         return (f"in-phase modulus deficit proportional to w^2 (mass term gamma m w^2 of the declared "
@@ -992,6 +998,7 @@ def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> lis
             est[fit.names[i]] = float(fit.x[i])
             est[f"{fit.names[i]}_se"] = float(fit.se[i])
         if name == "inertia_uncorrected":
+            assert search.gamma is not None  # inertia is testable only with a form factor
             to_g = PAPER_GAMMA_PER_MM / search.gamma
             est["mass_factor_g"] = est[INERTIA_PARAMETER] * to_g
             est["mass_factor_g_se"] = est[INERTIA_PARAMETER + "_se"] * to_g

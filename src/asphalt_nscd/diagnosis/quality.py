@@ -90,7 +90,8 @@ def cell_outliers(search, fit, alpha: float = OUTLIER_ALPHA, max_cells: int = 5)
     quantity`` (``E_norm`` or ``phase``), ``size`` (|E*| %: 100 ln(measured / model); Phi:
     deg), ``z``, ``p`` (Bonferroni-adjusted over the cells and both quantities), ``n``."""
     s_pt = [v if v is not None else s for v, s in zip(search.replicate_sigma, search.sigma)]
-    named, out = [], []
+    named: list[str] = []
+    out: list[dict] = []
     for _ in range(int(max_cells)):
         cells = deleted_residuals(search, fit, named)
         if cells.empty:

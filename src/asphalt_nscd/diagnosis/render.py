@@ -5,6 +5,8 @@ computed (nothing is computed here but formatting).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -79,7 +81,7 @@ def gain_table(report: dict) -> pd.DataFrame:
             hb = HELDOUT_MODELS[source.split("_before_")[0]][0]
         schemes = sorted((report.get("heldout") or {}).get("schemes", {}))
         for T, g in gain.items():
-            held = {}
+            held: dict[str, Any] = {}
             if report.get("heldout") is not None:
                 held = {"heldout_before_model": hb or "", "heldout_after_model": ha or ""}
                 for scheme in schemes:
@@ -220,7 +222,7 @@ def heldout_lines(report: dict) -> list:
     per_T = [r for r in h["scores"] if r.get("temperature_C") is not None and r["kind"] == "held_out"
              and r["model"] not in skip and r["n_cells"]]
     if per_T:
-        worst = {}
+        worst: dict[tuple, float] = {}
         for r in per_T:
             if not r["extrapolation"] and r.get("abs_logE_pct") is not None:
                 k = (r["scheme"], r["model"])

@@ -109,7 +109,7 @@ def variance_components(Y: np.ndarray) -> tuple[float, float, int]:
     n_c = max(int(np.isfinite(Y).any(axis=0).sum()), 1)
     dof = max(ok.sum() - n_c - n + 1, 1)
     sigma2 = float(np.nansum(r**2) / dof)
-    tau2 = float(max(np.var(u, ddof=1) - sigma2 / n_c, 0.0))
+    tau2 = float(max(float(np.var(u, ddof=1)) - sigma2 / n_c, 0.0))
     return tau2, sigma2, n
 
 

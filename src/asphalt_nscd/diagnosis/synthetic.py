@@ -25,6 +25,8 @@ Every range and its source: docs/choices.md, Diagnosis: causes with measured err
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -115,7 +117,7 @@ def random_family(name: str, rng: np.random.Generator) -> dict:
     """
     if name not in FAMILIES:
         raise ValueError(f"unknown truth family '{name}'; expected one of {', '.join(FAMILIES)}")
-    out = {"family": name}
+    out: dict[str, Any] = {"family": name}
     if name in HARD_FAMILIES:
         out["model"] = name
         out["specimen_T_slope_sigma"] = float(rng.uniform(0.0005, 0.0015))

@@ -141,7 +141,8 @@ def shift_factor_figure(master, law: dict | None, sigmoid: dict | None, temperat
         ax.plot(x, poly - (sigmoid["a1_per_C"] * d0 + sigmoid["a2_per_C2"] * d0**2), "C1:", label="sigmoid (quadratic)")
     ax.set_xlabel(units.temperature_label())
     if units.temperature == "F":
-        sec = ax.secondary_xaxis("top", functions=(lambda v: (v - 32.0) / 1.8, lambda v: v * 1.8 + 32.0))
+        sec = ax.secondary_xaxis("top", functions=(lambda v: (np.asanyarray(v) - 32.0) / 1.8,
+                                                   lambda v: np.asanyarray(v) * 1.8 + 32.0))
         sec.set_xlabel("temperature (°C)")
     ax.set_ylabel(f"log10 aT (relative to {units.temperature_text(T_ref)})")
     ax.grid(True, lw=0.3)

@@ -134,9 +134,9 @@ def certify(sim, state, duration_s: float) -> Certificate:
     strong = ~np.isfinite(b.r_crit) | b.broken
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(strong, 0.0, np.maximum(amp_n, amp_t) / b.r_crit)
-    for k in np.flatnonzero(ratio >= 1.0):
-        Fn = Fg[k, :, None] + np.real(F[k, :, None] * z[None, :])  # (3, n_steps + 1)
-        ratio[k] = max(np.abs(Fn[0]).max(), np.sqrt(Fn[1] ** 2 + Fn[2] ** 2).max()) / b.r_crit[k]
+    for kb in np.flatnonzero(ratio >= 1.0):
+        Fn = Fg[kb, :, None] + np.real(F[kb, :, None] * z[None, :])  # (3, n_steps + 1)
+        ratio[kb] = max(np.abs(Fn[0]).max(), np.sqrt(Fn[1] ** 2 + Fn[2] ** 2).max()) / b.r_crit[kb]
     k = int(np.argmax(ratio)) if ratio.size else -1
     bond_ratio = float(ratio[k]) if ratio.size else 0.0
     bond_at = [int(b.i[k]), int(b.j[k])] if ratio.size else []
@@ -166,17 +166,17 @@ def certify(sim, state, duration_s: float) -> Certificate:
     eD = ellipse_semi_major(D)
     low = np.sqrt((d ** 2).sum(axis=1)) - rsum - eD - np.sqrt((Vr ** 2).sum(axis=1)) * T - fall[i] - fall[j]
     falling = (fall[i] > 0) | (fall[j] > 0)
-    for m in np.flatnonzero((low <= 0.0) & ~falling):  # exact at every step
-        path = d[m, :, None] + np.real(D[m, :, None] * z[None, :]) + Vr[m, :, None] * t[None, :]
-        low[m] = float(np.sqrt((path ** 2).sum(axis=0)).min()) - rsum[m] - between * eD[m]
+    for mp in np.flatnonzero((low <= 0.0) & ~falling):  # exact at every step
+        path = d[mp, :, None] + np.real(D[mp, :, None] * z[None, :]) + Vr[mp, :, None] * t[None, :]
+        low[mp] = float(np.sqrt((path ** 2).sum(axis=0)).min()) - rsum[mp] - between * eD[mp]
     pi, pk, pgap0 = plate_pairs(x0, sph.radius, pls.point, pls.normal, reach, exclude)
     moving = np.array([head if q == 1 else np.zeros(3, complex) for q in range(pls.n)]) if pls.n else np.zeros((0, 3))
     n = pls.normal[pk]
     G = (n * (X[pi] - moving[pk])).sum(axis=1)  # contacts see the plates' translation, not their rotation
     Gv = (n * V[pi]).sum(axis=1)
     plow = pgap0 - np.abs(G) - np.abs(Gv) * T - fall[pi]
-    for m in np.flatnonzero((plow <= 0.0) & ~(fall[pi] > 0)):
-        plow[m] = float((pgap0[m] + np.real(G[m] * z) + Gv[m] * t).min()) - between * abs(G[m])
+    for mp in np.flatnonzero((plow <= 0.0) & ~(fall[pi] > 0)):
+        plow[mp] = float((pgap0[mp] + np.real(G[mp] * z) + Gv[mp] * t).min()) - between * abs(G[mp])
     gaps = np.concatenate([low, plow])
     starts = np.concatenate([gap0, pgap0])
     pairs = np.concatenate([np.stack([i, j], 1), np.stack([pi, -1 - pk], 1)]) if gaps.size else np.zeros((0, 2), int)

@@ -48,8 +48,8 @@ def nested_dissection(n_nodes: int, edge_i, edge_j, seed: int = 0) -> np.ndarray
     graph.sort_indices()
     options = pymetis.Options(seed=int(seed))
     adjacency = pymetis.CSRAdjacency(graph.indptr.astype(np.int32), graph.indices.astype(np.int32))
-    perm, _ = pymetis.nested_dissection(adjacency, options=options)
-    perm = np.asarray(perm, np.int64)
+    metis_perm, _ = pymetis.nested_dissection(adjacency, options=options)
+    perm = np.asarray(metis_perm, np.int64)
     if np.any(np.sort(perm) != np.arange(n_nodes)):
         raise RuntimeError("METIS returned an invalid permutation")
     return perm

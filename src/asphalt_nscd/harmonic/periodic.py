@@ -342,7 +342,7 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         try:
             lu = system.factorise(a, "G + mechanisms (gravity)")
             u = lu.solve(rhs)
-            norm = max(np.linalg.norm(rhs), 1e-300)
+            norm = max(float(np.linalg.norm(rhs)), 1e-300)
             residual = float(np.linalg.norm(rhs - g0 @ u) / norm)
             for _ in range(GRAVITY_REFINEMENTS):
                 if residual <= GRAVITY_RESIDUAL_MAX:
@@ -450,8 +450,8 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
     amp_t = (np.sqrt(g.bond_force[:, 1] ** 2 + g.bond_force[:, 2] ** 2)
              + np.sqrt(np.abs(force[:, 1]) ** 2 + np.abs(force[:, 2]) ** 2))
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(np.isfinite(b.r_crit), np.maximum(amp_n, amp_t) / b.r_crit, 0.0)
-    ratio = float(ratio.max()) if len(ratio) else 0.0
+        ratios = np.where(np.isfinite(b.r_crit), np.maximum(amp_n, amp_t) / b.r_crit, 0.0)
+    ratio = float(ratios.max()) if len(ratios) else 0.0
     return PeriodicState(
         position=sim.spheres.position + g.displacement + np.real(X),
         velocity=g.velocity + np.real(s * X), angular_velocity=g.angular_velocity + np.real(s * TH),

@@ -205,7 +205,11 @@ class HarmonicSystem:
         c_body = np.where(j >= 0, j, n_sph - 1 - j)[self.keep]  # -1 -> n_sph, -2 -> n_sph + 1
         n = network.normal[self.keep]
         # Point where the bond acts: contact point, or the barycentre of sphere i.
-        point = network.contact_point[self.keep] if contact else network.position[a_body]
+        if contact:
+            assert network.contact_point is not None  # checked above
+            point = network.contact_point[self.keep]
+        else:
+            point = network.position[a_body]
         centre = np.vstack([network.position, network.plate_point if network.plate_point
                             is not None else np.zeros((2, 3))])
         # L (B, 6, 6) per side: (relative displacement at the point, relative rotation)
@@ -272,6 +276,7 @@ class HarmonicSystem:
         mass = np.zeros((n_act, d))
         mass[:, :3] = network.mass[act, None]
         if contact:
+            assert network.rotational_inertia is not None  # given with the contact points
             mass[:, 3:] = network.rotational_inertia[act, None]
         head = np.asarray(network.plate_inertia if network.plate_inertia is not None
                           else np.zeros(3), float)[:n_head_rot]
@@ -503,6 +508,7 @@ class HarmonicSystem:
         if solver not in SOLVERS:
             raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
         omega = 2.0 * np.pi * float(frequency_Hz)
+        omega2: float | complex
         if laplace is None:
             e = complex(law.complex_modulus(omega))
             omega2 = omega**2

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -206,9 +207,10 @@ def build_simulation(sample, law, displacement, params, head_rotation: str = "cl
         sample = subsample(sample, keep)
     spheres = Spheres(position=np.array(sample.position, dtype=float), radius=sample.radius,
                       mass=sample.mass, inertia=sample.inertia)
-    head = {}
+    head: dict[str, Any] = {}
     if head_rotation == "free":
         inertia = network_from_sample(sample).plate_inertia
+        assert inertia is not None  # the network of a sample has its head's inertia
         if not np.all((inertia > 0) & np.isfinite(inertia)):
             raise InputError(f"head_rotation 'free': the head has no positive finite rotational "
                              f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "

@@ -144,7 +144,7 @@ def quality_flags(table: pd.DataFrame, limits: dict | None = None) -> pd.DataFra
 
     Returns a frame with the index of ``table``."""
     lim = {k: v[0] for k, v in LIMITS.items()} | dict(limits or {})
-    reasons = [[] for _ in range(len(table))]
+    reasons: list[list[str]] = [[] for _ in range(len(table))]
     for col in quality_columns(table):
         name = col.removeprefix("quality_")
         if name not in lim:

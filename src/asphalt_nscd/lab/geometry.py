@@ -30,14 +30,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..io import InputError
+
+if TYPE_CHECKING:
+    from .table_format import TableFormat
 
 TESTS = ("2pb_trapezoid", "uniaxial_cylinder", "unknown")
 
 _POSITIVE_OR_NULL = {"type": ["number", "null"], "exclusiveMinimum": 0}
 #: JSON schema of a test-geometry declaration (sidecar ``<table stem>.test.json``).
-SCHEMA = {
+SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "Test geometry of a measured complex-modulus table",
     "type": "object",
@@ -100,7 +104,7 @@ class DeclaredTest:
     source: str = ""
     description: str = ""
     #: how the lab wrote the table (:class:`asphalt_nscd.lab.table_format.TableFormat`), or None
-    table: object = None
+    table: TableFormat | None = None
     #: the units to show the table in ({modulus_unit, temperature_unit}; empty: MPa and degC)
     display: dict = field(default_factory=dict)
     #: limits of the data-quality indicators (over asphalt_nscd.lab.checks.LIMITS)
@@ -193,10 +197,10 @@ def from_dict(obj, where: str) -> DeclaredTest:
     test = obj["test"]
     values = {k: (None if v is None else float(v)) for k, v in obj.items()
               if k not in ("test", "description", "source", "table", "display", "quality_limits")}
-    if test == "2pb_trapezoid" and None not in (values.get("b_mm"), values.get("B_mm")) \
-            and values["b_mm"] >= values["B_mm"]:
-        raise InputError(f"{where}: key 'b_mm': head width {values['b_mm']:g} mm must be smaller than the "
-                         f"base width B_mm = {values['B_mm']:g} mm")
+    b_mm, B_mm = values.get("b_mm"), values.get("B_mm")
+    if test == "2pb_trapezoid" and b_mm is not None and B_mm is not None and b_mm >= B_mm:
+        raise InputError(f"{where}: key 'b_mm': head width {b_mm:g} mm must be smaller than the "
+                         f"base width B_mm = {B_mm:g} mm")
     table = None
     display = dict(obj.get("display", {}))
     limits = dict(obj.get("quality_limits", {}))

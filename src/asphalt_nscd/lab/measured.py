@@ -76,7 +76,7 @@ _SUMMARY_RANGES = {
 }
 
 
-def _line(index: int) -> int:
+def _line(index: int | np.integer) -> int:
     """File line of data row ``index`` (0-based; header on line 1)."""
     return int(index) + 2
 
@@ -142,7 +142,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
     path = Path(path)
     frame = _read_text_table(path)
     declared = declared_test(path, test)
-    labels = {}
+    labels: dict[str, str] = {}
     if declared.table is not None:  # a lab's table: its columns and units declared in the sidecar
         if len(frame) == 0:
             raise InputError(f"{path}: no data rows after the header")

@@ -266,7 +266,7 @@ def header_unit(header: str, quantity: str) -> str | None:
 def _check_columns(found: dict, fmt: TableFormat, path) -> None:
     """Refuse a declaration that maps two quantities to one column, or whose unit contradicts
     the unit a mapped column's header names (both named)."""
-    seen = {}
+    seen: dict[str, str] = {}
     for q, col in found.items():
         if col in seen:
             raise InputError(f"{path}: column '{col}' is mapped to both the {seen[col]} and the {q} "

@@ -33,7 +33,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 def _probe() -> bool:
     try:
-        @njit(_nrt=False)
+        @njit(_nrt=False)  # type: ignore[call-overload]  # a private option that numba's typing does not declare
         def _f(a):
             return a[0]
 

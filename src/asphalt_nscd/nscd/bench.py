@@ -28,6 +28,7 @@ import os
 import platform
 import resource
 import time
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +44,7 @@ DRIVE_HZ = 40.0  # Hz: head motion of the bonded case (amplitude HEAD_AMPLITUDE_
 
 
 def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
-                  density: float = 3415.0):
+                  density: float = 3415.0) -> tuple[Spheres, Plates, Bonds]:
     """Spheres, plates and bonds of the bench's 2PB-like sample (see module docstring)."""
     rng = np.random.default_rng(seed)
     vol = BOX[0] * BOX[1] * BOX[2]
@@ -197,8 +198,9 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         raise InputError(f"--ssor-omega must lie in (0, 2), got {ssor_omega}")
     if n < 2 or steps < 1:
         raise InputError(f"--n must be >= 2 and --steps >= 1 (got {n}, {steps})")
-    if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-        raise InputError(f"--threads must lie in [1, {numba.config.NUMBA_NUM_THREADS}] "
+    max_threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set by numba at run time, undeclared
+    if not 1 <= threads <= max_threads:
+        raise InputError(f"--threads must lie in [1, {max_threads}] "
                          f"(NUMBA_NUM_THREADS), got {threads}")
     if not settle_speed > 0:
         raise InputError(f"--settle-speed must be > 0 m/s, got {settle_speed}")
@@ -206,7 +208,7 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
     t0 = time.perf_counter()
     rec: dict = {"case": case, "n_particles": int(n), "steps": int(steps),
                  "tolerance": tolerance, "threads": int(threads),
-                 "numba_threads_available": int(numba.config.NUMBA_NUM_THREADS),
+                 "numba_threads_available": int(max_threads),
                  "compile_s": comp, "seed": seed, "bond_kinematics": bond_kinematics,
                  "bonded_contact": bonded_contact, "start": start,
                  "cpu": platform.processor() or platform.machine(),
@@ -215,13 +217,12 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         gravity = (0.0, 0.0, -9.81) if start == "rest" else (0.0, 0.0, 0.0)
         make_sim = (starter or _at_rest)(start, rec)
         s, plates, bonds = bonded_sample(n, seed=seed)
+        ssor: dict[str, Any] = {} if ssor_omega is None else {"linear_ssor_omega": ssor_omega}
         params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
                                 max_iterations=5000, fast_path=True,
                                 linear_tolerance=linear_tolerance, linear_solver=linear_solver,
                                 bond_kinematics=bond_kinematics, threads=threads,
-                                bonded_contact=bonded_contact, gravity=gravity,
-                                **({} if ssor_omega is None
-                                   else {"linear_ssor_omega": ssor_omega}))
+                                bonded_contact=bonded_contact, gravity=gravity, **ssor)
         sim = make_sim(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0

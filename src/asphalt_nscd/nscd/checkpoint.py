@@ -44,9 +44,9 @@ def write_checkpoint(sim, path) -> None:
             for k in _PLATE:
                 g[k] = getattr(sim.plates, k)
             g["plate_external_force"] = sim.plate_external_force
-            for k, drv in enumerate(sim.plates.drivers):
+            for index, drv in enumerate(sim.plates.drivers):
                 if drv is not None and not callable(drv):
-                    d = g.create_group(f"driver_{k}")
+                    d = g.create_group(f"driver_{index}")
                     d["times"] = np.asarray(drv[0], float)
                     d["disp"] = np.asarray(drv[1], float)
             g = f.create_group("bonds")
@@ -65,9 +65,9 @@ def write_checkpoint(sim, path) -> None:
                 g["vp_before"] = sim._vp_before
                 g["w_before"] = sim._w_before
                 g["wp_before"] = sim._wp_before
-                for k, fields in enumerate(sim._older):  # the older fields of the Galerkin start
+                for age, fields in enumerate(sim._older):  # the older fields of the Galerkin start
                     for name, arr in zip(("v", "w", "vp", "wp"), fields):
-                        g[f"{name}_before{k + 2}"] = arr
+                        g[f"{name}_before{age + 2}"] = arr
             g = f.create_group("params")
             for k in _PARAMS:
                 val = getattr(sim.params, k)

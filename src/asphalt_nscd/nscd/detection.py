@@ -328,10 +328,10 @@ class CandidateList:
     def __init__(self, alert_distance: float, skin: float | None = None):
         self.alert = float(alert_distance)
         self.skin = float(alert_distance if skin is None else skin)
-        self.x_ref = None
-        self.p_ref = None
+        self.x_ref: np.ndarray | None = None
+        self.p_ref: np.ndarray | None = None
         self.n_searches = 0
-        self.exclude = None
+        self.exclude: Exclusions | None = None
 
     def set_exclusions(self, exclude: Exclusions | None) -> None:
         """Pairs to skip from now on (None: none); the next call searches afresh."""

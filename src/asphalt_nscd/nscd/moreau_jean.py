@@ -83,6 +83,10 @@ class Simulation:
     bond_impulse : (B,3) N s, last step's bond impulses (local frames).
     """
 
+    #: spheres left out of the test because the bond network does not hold them; set only by
+    #: :func:`asphalt_nscd.harmonic.timedomain.build_simulation`
+    n_mechanisms_dropped: int
+
     def __init__(self, spheres: Spheres, plates: Plates | None = None,
                  bonds: Bonds | None = None, params: NSCDParameters | None = None,
                  external_force: np.ndarray | Callable | None = None):
@@ -101,28 +105,28 @@ class Simulation:
         self.contact_j = np.zeros(0, np.int64)
         self.contact_impulse = np.zeros((0, 3))
         self.contact_frame = np.zeros((0, 3, 3))
-        self._linear = None
-        self._linear_key = None
-        self._coef_key = None
-        self._bond_work = None  # per-step bond work arrays, reused (bond_predict fills them)
+        self._linear: LinearBondSolver | None = None
+        self._linear_key: tuple | None = None
+        self._coef_key: tuple | None = None
+        self._bond_work: BondStep | None = None  # per-step bond work arrays, reused (bond_predict fills them)
         #: (P, 3) N m, mean torque of the bonds on each plate about its reference point over
         #: the last step ('contact' kinematics; zero with 'barycentre').
         self.plate_torque = np.zeros((self.plates.n, 3))
         self.linear_iterations = 0
-        self._v_before = None
-        self._vp_before = None
-        self._w_before = None
-        self._wp_before = None
+        self._v_before: np.ndarray | None = None
+        self._vp_before: np.ndarray | None = None
+        self._w_before: np.ndarray | None = None
+        self._wp_before: np.ndarray | None = None
         #: the velocity fields two and three steps before, most recent first (the third and
         #: fourth fields of cg_ssor's Galerkin start)
-        self._older = []
+        self._older: list[tuple] = []
         self.timings = {"detection": 0.0, "solve": 0.0, "bonds": 0.0, "other": 0.0}
         if self.params.alert_distance is None:
             self.alert_distance = 0.5 * float(spheres.radius.min()) if spheres.n else 0.0
         else:
             self.alert_distance = float(self.params.alert_distance)
         self._candidates = detection.CandidateList(self.alert_distance)
-        self._exclusion_key = None
+        self._exclusion_key: tuple | None = None
 
     # ------------------------------------------------------------------ helpers
     def _external(self, t0, t1):
@@ -258,7 +262,7 @@ class Simulation:
         v_m = sph.velocity.copy()
         w_m = sph.angular_velocity.copy()
         v = v_m.copy()
-        v[finite] += h * p.gravity
+        v[finite] += h * np.asarray(p.gravity)  # an array once the parameters are constructed
         fext = self._external(t0, t1)
         if fext is not None:
             v[finite] += h * fext[finite] * bodies.inv_mass[finite, None]
@@ -303,8 +307,8 @@ class Simulation:
         bnd = self.bonds
         nb = bnd.n
         if self._bond_work is None or self._bond_work.c0.shape[0] != nb:
-            self._bond_work = BondStep(*(np.zeros((nb, 3)) for _ in range(4)), np.zeros(nb),
-                                       np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3)),
+            self._bond_work = BondStep(np.zeros((nb, 3)), np.zeros((nb, 3)), np.zeros((nb, 3)), np.zeros((nb, 3)),
+                                       np.zeros(nb), np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3)),
                                        self.bond_impulse)
         if self._bond_work.impulse is not self.bond_impulse:
             self._bond_work = self._bond_work._replace(impulse=self.bond_impulse)
@@ -537,6 +541,7 @@ class Simulation:
         key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
                p.linear_tolerance, rot, p.threads, p.linear_ssor_omega)
         if self._linear_key != key:
+            assert self._bond_work is not None  # the step's bond laws are predicted before the solve
             rotation = None
             if rot:
                 rotation = dict(arm_i=bnd.arm_i, arm_j=bnd.arm_j,
@@ -549,6 +554,7 @@ class Simulation:
                                             threads=p.threads, ssor_omega=p.linear_ssor_omega,
                                             factorisation=p.direct_factorisation)
             self._linear_key = key
+        assert self._linear is not None  # built with its key
         return self._linear
 
     def _initial_guess(self):

@@ -18,7 +18,7 @@ All arrays are numpy, SI units (m, kg, s, N). Conventions shared by every module
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -48,6 +48,10 @@ BONDED_CONTACT = ("after_break", "open_at_bonding", "always")
 #: Yield stress of the bonds, Pa (paper, Section 3.1: 2.7 MPa).
 YIELD_STRESS = 2.7e6
 
+#: Default (None) of an array field that ``__post_init__`` fills in or requires: typed Any so
+#: that the field keeps its array type, which it has once the object is constructed.
+_SET_IN_POST_INIT: Any = None
+
 
 def _as(a, shape_tail, name, dtype=float):
     arr = np.ascontiguousarray(np.asarray(a, dtype=dtype))
@@ -75,8 +79,8 @@ class Spheres:
     radius: np.ndarray
     mass: np.ndarray
     inertia: np.ndarray
-    velocity: np.ndarray = None
-    angular_velocity: np.ndarray = None
+    velocity: np.ndarray = _SET_IN_POST_INIT
+    angular_velocity: np.ndarray = _SET_IN_POST_INIT
 
     def __post_init__(self):
         self.position = _as(self.position, (3,), "position")
@@ -137,8 +141,8 @@ class Plate:
         scalar; required (finite, > 0) when ``rotation`` is True.
     """
 
-    point: Sequence[float]
-    normal: Sequence[float]
+    point: Sequence[float] | np.ndarray
+    normal: Sequence[float] | np.ndarray
     mode: str = "fixed"
     mass: float = np.inf
     displacement: Callable | tuple | None = None
@@ -277,13 +281,13 @@ class Bonds:
     Ck: np.ndarray
     Kinf: np.ndarray
     r_crit: np.ndarray
-    arm_i: np.ndarray = None
-    arm_j: np.ndarray = None
-    displacement: np.ndarray = None
-    force: np.ndarray = None
-    delta_c: np.ndarray = None
-    delta_k: np.ndarray = None
-    broken: np.ndarray = None
+    arm_i: np.ndarray = _SET_IN_POST_INIT
+    arm_j: np.ndarray = _SET_IN_POST_INIT
+    displacement: np.ndarray = _SET_IN_POST_INIT
+    force: np.ndarray = _SET_IN_POST_INIT
+    delta_c: np.ndarray = _SET_IN_POST_INIT
+    delta_k: np.ndarray = _SET_IN_POST_INIT
+    broken: np.ndarray = _SET_IN_POST_INIT
     law: dict = field(default_factory=dict)
 
     def __post_init__(self):

@@ -106,15 +106,16 @@ def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5,
                                                 bond_kinematics=kinematics),
                      external_force=f)
     micro = bond_law(LAW_15C, tangential=direction != "normal")
-    times, num = [], []
+    sampled_t: list[float] = []
+    sampled_delta: list[float] = []
     x0 = s.position[1].copy()
     n_steps = int(round(t_end / dt))
     for k in range(n_steps):
         sim.step()
         if (k + 1) % max(1, n_steps // 50) == 0:
-            times.append(sim.time)
-            num.append((s.position[1] - x0) @ axis)
-    times, num = np.array(times), np.array(num)
+            sampled_t.append(sim.time)
+            sampled_delta.append((s.position[1] - x0) @ axis)
+    times, num = np.array(sampled_t), np.array(sampled_delta)
     ana = F * micro.creep_compliance(times)
     worst = int(np.argmax(np.abs(num - ana) / ana))
     return [_row(f"creep_{direction}", f"delta at t = {times[worst]:.3g} s (worst of 50)",
@@ -153,7 +154,8 @@ def relaxation_response(micro: GeneralizedBurgers, gap: float, times) -> np.ndar
 
 def case_relaxation(dt: float = 1e-4, t_end: float = 0.3, theta: float = 0.5) -> list[dict]:
     """Sphere fixed, bonded to a plate whose displacement steps by u0 during the first step."""
-    s = Spheres(position=[[0.0, 0.0, L0]], radius=[R_SPHERE], mass=[np.inf], inertia=[np.inf])
+    s = Spheres(position=np.array([[0.0, 0.0, L0]]), radius=np.array([R_SPHERE]), mass=np.array([np.inf]),
+                inertia=np.array([np.inf]))
     u0 = 1e-6
     plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1,
                            displacement=(np.array([0.0, dt, 1e9]),
@@ -264,8 +266,8 @@ def phase_error_table(law: GeneralizedBurgers = LAW_15C, omegas=(2 * np.pi * 40.
         kstar = complex(micro.complex_modulus(omega))
         for dt in dts:
             for theta in thetas:
-                s = Spheres(position=[[0.0, 0.0, L0]], radius=[R_SPHERE], mass=[np.inf],
-                            inertia=[np.inf])
+                s = Spheres(position=np.array([[0.0, 0.0, L0]]), radius=np.array([R_SPHERE]),
+                            mass=np.array([np.inf]), inertia=np.array([np.inf]))
                 drive = (lambda t, w=omega: np.array([0.0, 0.0, amplitude * np.sin(w * t)]))
                 plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1,
                                        displacement=drive)])
@@ -362,7 +364,7 @@ def case_column(n: int = 5, dt: float = 1e-4, n_steps: int = 300) -> list[dict]:
     r = 0.005
     pos = np.array([[0.0, 0.0, r + 2 * r * k] for k in range(n)])
     m = DENSITY * 4.0 / 3.0 * np.pi * r**3
-    s = Spheres(position=pos, radius=r, mass=m, inertia=0.4 * m * r**2)
+    s = Spheres(position=pos, radius=np.asarray(r), mass=np.asarray(m), inertia=np.asarray(0.4 * m * r**2))
     plates = Plates([Plate([0, 0, 0], [0, 0, 1])])
     sim = Simulation(s, plates, None, NSCDParameters(dt=dt, friction=0.7, tolerance=1e-10))
     for _ in range(n_steps):
@@ -421,7 +423,8 @@ def rigid_rotation_force(kinematics: str, with_plate: bool = False, omega: float
     w = np.array([0.0, 0.0, omega]) if not with_plate else np.array([0.0, omega, 0.0])
     if with_plate:
         pos = np.array([[0.0, 0.0, L0 / 2]])
-        s = Spheres(position=pos, radius=[R_SPHERE], mass=[m], inertia=[0.4 * m * R_SPHERE**2])
+        s = Spheres(position=pos, radius=np.array([R_SPHERE]), mass=np.array([m]),
+                    inertia=np.array([0.4 * m * R_SPHERE**2]))
         plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1,
                                displacement=lambda t: np.zeros(3), rotation=True,
                                inertia=1e-4)])
@@ -429,8 +432,8 @@ def rigid_rotation_force(kinematics: str, with_plate: bool = False, omega: float
         b = Bonds.create(s, plates, [0], [-1], LAW_15C)
     else:
         pos = np.array([[0.0, 0.0, 0.0], [L0, 0.0, 0.0]])
-        s = Spheres(position=pos, radius=[R_SPHERE] * 2, mass=[m] * 2,
-                    inertia=[0.4 * m * R_SPHERE**2] * 2)
+        s = Spheres(position=pos, radius=np.array([R_SPHERE] * 2), mass=np.array([m] * 2),
+                    inertia=np.array([0.4 * m * R_SPHERE**2] * 2))
         plates = Plates([])
         b = Bonds.create(s, plates, [1], [0], LAW_15C)
     s.angular_velocity[:] = w
@@ -654,7 +657,7 @@ def case_solver_tolerance_phase() -> list[dict]:
 
 
 def run_all(phase_omegas=(2 * np.pi * 40.0,), phase_dts=(1e-5, 2e-5, 5e-5, 1e-4, 2e-4),
-            phase_thetas=(0.5, 0.55, 1.0)):
+            phase_thetas=(0.5, 0.55, 1.0)) -> tuple[list[dict], pd.DataFrame]:
     """All verification cases. Returns (rows list, phase error DataFrame)."""
     rows: list[dict] = []
     rows += case_creep("normal")

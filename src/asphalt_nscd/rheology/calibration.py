@@ -259,6 +259,7 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
             res = solve(res.x, 4000)
         if best is None or res.cost < best.cost:
             best = res
+    assert best is not None  # runs holds at least one start
     x = best.x
     p = np.exp(x)
     m, n = 2 * f.size, 4

@@ -43,6 +43,7 @@ Writers: :func:`abaqus_card`, :func:`lsdyna_card` (units N, mm, s, tonne: moduli
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -123,7 +124,8 @@ def fewest_terms(omega, E, tolerance=CARD_TOLERANCE, max_terms: int = MAX_TERMS)
     def scaled_max(r):  # the largest difference in units of the tolerances
         return max(100.0 * float(np.abs(r.real).max()) / tol_E, math.degrees(float(np.abs(r.imag).max())) / tol_P)
 
-    curve, best = [], None
+    curve: list[dict] = []
+    best: dict[str, Any] | None = None
     for n in range(1, int(max_terms) + 1):
         u = np.linspace(lo, hi, n) if n > 1 else np.array([0.5 * (lo + hi)])
         u = least_squares(l2, u, bounds=bounds).x
@@ -138,6 +140,7 @@ def fewest_terms(omega, E, tolerance=CARD_TOLERANCE, max_terms: int = MAX_TERMS)
                 "max_phase_deg": eP, "n": int(keep.sum()), "met": eE <= tol_E and eP <= tol_P}
         if best["met"]:
             break
+    assert best is not None  # at least one number of terms is tried
     best["curve"] = curve
     return best
 

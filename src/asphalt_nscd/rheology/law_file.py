@@ -21,6 +21,8 @@ diagnosis works in MPa (:func:`read_mpa`). Temperatures are matched with the rul
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..io import InputError, read_json, write_json
@@ -44,12 +46,13 @@ def to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None = None
     no Maxwell dashpot) and, if given, the in-sample MREs (%) ``in_sample_mre_E_norm_pct,
     in_sample_mre_phase_pct`` ({T: value}).
     """
-    out = {"units": dict(UNITS), "law": LAW_TEXT, "temperatures": {}}
+    out: dict[str, Any] = {"units": dict(UNITS), "law": LAW_TEXT, "temperatures": {}}
     for T, law in sorted(laws.items()):
         d = law.scaled(1e6).as_dict()
         if not np.isfinite(d["eta_m"]):
             d["eta_m"] = None
         if mre_E is not None:
+            assert mre_phase is not None  # the MREs are given together
             d["in_sample_mre_E_norm_pct"] = mre_E.get(T)
             d["in_sample_mre_phase_pct"] = mre_phase.get(T)
         out["temperatures"][f"{T:g}"] = d
@@ -90,7 +93,7 @@ def validate(obj, path) -> dict:
                              f"finite number, got {value!r}")
         return float(value)
 
-    laws = {}
+    laws: dict[float, GeneralizedBurgers] = {}
     for key, d in obj["temperatures"].items():
         where = f"'temperatures.{key}'"
         try:

@@ -77,7 +77,7 @@ class GeneralizedBurgers:
     def n_kelvin(self) -> int:
         return len(self.Ek)
 
-    def complex_compliance(self, omega) -> np.ndarray:
+    def complex_compliance(self, omega) -> np.ndarray | float:
         """Complex compliance D*(w) = D' - i D'' of the series chain (no E_inf), 1/Pa.
 
         Eqs. 28-29 for one Kelvin-Voigt unit. ``omega`` (rad/s) any shape, > 0.
@@ -88,7 +88,7 @@ class GeneralizedBurgers:
             d = d + 1.0 / (ek + 1j * w * ck)
         return d
 
-    def complex_modulus(self, omega) -> np.ndarray:
+    def complex_modulus(self, omega) -> np.ndarray | float:
         """Complex modulus E*(w) = E1 + i E2 (Pa), same shape as ``omega`` (rad/s)."""
         return self.E_inf + 1.0 / self.complex_compliance(omega)
 
@@ -97,7 +97,7 @@ class GeneralizedBurgers:
         e = self.complex_modulus(omega)
         return np.abs(e), np.degrees(np.angle(e))
 
-    def creep_compliance(self, t) -> np.ndarray:
+    def creep_compliance(self, t) -> np.ndarray | float:
         """Creep compliance J(t) (1/Pa) of the series chain, t >= 0 (s); needs E_inf = 0.
 
         J(t) = 1/Em + t/eta_m + sum_i (1 - exp(-Ek[i] t / eta_k[i])) / Ek[i].

@@ -20,6 +20,7 @@ Standard errors are Jacobian (Gauss-Newton) estimates with the residual variance
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,8 +43,8 @@ class Term:
     x0: list
     lower: list
     upper: list
-    delta_T: object = None
-    apply: object = None
+    delta_T: Callable | None = None
+    apply: Callable | None = None
     #: terms' ``apply`` run in increasing ``order`` (not in the order of the parameter layout)
     order: int = 0
 
@@ -446,7 +447,7 @@ def fit_master_curve(df: pd.DataFrame, shift: str = "wlf", T_ref_C: float | None
         raise ValueError("a master curve needs at least 2 temperatures")
     if sigma is None:
         sE, sP = replicate_noise(df)
-        sigma = (max(sE, 2e-3), max(sP, 0.03)) if sE is not None else (0.02, 0.5)
+        sigma = (max(sE, 2e-3), max(sP, 0.03)) if sE is not None and sP is not None else (0.02, 0.5)
     prob = MasterCurveProblem(data, shift=shift, T_ref_C=T_ref_C, static_modulus=static_modulus,
                               terms=terms, sigma_lnE=sigma[0], sigma_phase_deg=sigma[1])
     return prob.fit(x0=x0)

@@ -60,13 +60,13 @@ def cell_means(df: pd.DataFrame) -> pd.DataFrame:
                  phase_deg=("phase_deg", "mean"), lnE=("lnE", "mean")))
 
 
-def same_temperature(a, b) -> np.ndarray | bool:
+def same_temperature(a, b) -> np.ndarray | np.bool_:
     """True where temperatures ``a`` and ``b`` (degC, broadcast) are the same isotherm
     (|a - b| <= :data:`TEMPERATURE_TOL_C`; an infinite temperature is never an isotherm)."""
     return np.abs(np.subtract(a, b, dtype=float)) <= TEMPERATURE_TOL_C
 
 
-def same_frequency(a, b) -> np.ndarray | bool:
+def same_frequency(a, b) -> np.ndarray | np.bool_:
     """True where frequencies ``a`` and ``b`` (Hz, > 0, broadcast) are the same."""
     return np.isclose(a, b, rtol=FREQUENCY_RTOL, atol=0.0)
 

@@ -122,7 +122,7 @@ def fit_generalized_kelvin(omega, E_star, tau_grid, E_inf: float = 0.0,
     D = 1.0 / chain
     scale = np.abs(D) if weights is None else np.abs(D) / np.asarray(weights, dtype=float).ravel()
     fixed_J0 = glassy_modulus is not None
-    if fixed_J0:
+    if glassy_modulus is not None:
         if not glassy_modulus > 0:
             raise ValueError(f"glassy modulus must be positive, got {glassy_modulus}")
         D = D - 1.0 / glassy_modulus
@@ -138,7 +138,7 @@ def fit_generalized_kelvin(omega, E_star, tau_grid, E_inf: float = 0.0,
     norms[norms == 0] = 1.0
     x, _ = nnls(A_ri / norms, np.concatenate([b.real, b.imag]), maxiter=50 * A_ri.shape[1])
     x = x / norms
-    if fixed_J0:
+    if glassy_modulus is not None:
         x = np.concatenate([[1.0 / glassy_modulus], x])
     J0 = x[0]
     if not J0 > 0:

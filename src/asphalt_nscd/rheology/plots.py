@@ -23,12 +23,16 @@ Example::
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
+if TYPE_CHECKING:
+    from matplotlib.typing import LineStyleType
+
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
-LINESTYLES = ("-", "--", ":", "-.")
+LINESTYLES: tuple[LineStyleType, ...] = ("-", "--", ":", "-.")
 
 
 @dataclass
@@ -60,7 +64,7 @@ class CurveSet:
     data: pd.DataFrame
     kind: str = "points"
     marker: str | None = None
-    linestyle: str | None = None
+    linestyle: LineStyleType | None = None
     style: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -125,7 +129,7 @@ def temperature_colors(temperatures, cmap: str = "coolwarm") -> dict:
     return {float(T): colormap(i / (temps.size - 1)) for i, T in enumerate(temps)}
 
 
-def _style(cs: CurveSet, index: int) -> tuple[str, str]:
+def _style(cs: CurveSet, index: int) -> tuple[str, LineStyleType]:
     marker = cs.marker or MARKERS[index % len(MARKERS)]
     linestyle = cs.linestyle or LINESTYLES[index % len(LINESTYLES)]
     return marker, linestyle

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 import time
+from typing import Any
 
 import numpy as np
 
@@ -191,7 +192,7 @@ def vibrate(position, radius, cfg: dict, geo: dict):
     # avoids inf * 0 in the core's driver-force formula.
     wall = Plate([0.0, 0.0, z0], [0.0, 0.0, -1.0], mode="driven", mass=1.0, displacement=disp)
     params = _params(cfg, vib["time_step_s"], cfg["friction_deposition"])
-    info = {"layer_top_before_mm": z0 * 1e3}
+    info: dict[str, Any] = {"layer_top_before_mm": z0 * 1e3}
     if vib["duration_s"] > 0 and amp > 0:
         sim = Simulation(spheres, box_plates(geo["box"], top=wall), None, params)
         info["shaking"] = _run(sim, int(np.ceil(vib["duration_s"] / vib["time_step_s"])), label="vibration")
@@ -227,7 +228,7 @@ def stabilise(position, radius, mass, plate_point, plate_normal, plate_mass, bon
 
     st = cfg["stabilisation"]
     x0 = np.array(position, dtype=float)
-    info = {"steps": 0}
+    info: dict[str, Any] = {"steps": 0}
     if st["steps"] == 0:
         return x0, info
     m = np.asarray(mass, dtype=float)

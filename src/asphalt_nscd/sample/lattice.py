@@ -56,8 +56,8 @@ def sample_from_bonds(position, radius, mass, plate_point, i, j, plate_mass=(np.
                       bonds={"i": i, "j": j, "delta0": delta0, "l0": l0, "r_min": r_min}, attrs=attrs)
 
 
-def lattice_sample(n_spheres: int, seed: int = 0, spacing: float = 4.0e-3,
-                   aspect=(1.0, 0.5, 4.0), radius_range=(1.0e-3, 1.6e-3), jitter: float = 0.05,
+def lattice_sample(n_spheres: int, seed: int = 0, spacing: float = 4.0e-3, aspect=(1.0, 0.5, 4.0),
+                   radius_range: tuple[float, float] = (1.0e-3, 1.6e-3), jitter: float = 0.05,
                    density_kg_m3: float = 3415.0, d_min: float = 2e-3,
                    plate_mass=(np.inf, 0.235)) -> SampleData:
     """Spheres on a jittered cubic lattice with bonds where the gap is below ``d_min``.

@@ -29,6 +29,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,6 +38,9 @@ import logging
 from ..io import InputError
 from . import geometry, psd, settings
 from .store import SampleData, write_bonds_vtu, write_sample, write_vtu
+
+if TYPE_CHECKING:
+    import pandas
 
 #: A contact, for the coordination number, is a surface gap below this fraction of d_min.
 CONTACT_TOLERANCE = 0.01
@@ -98,7 +102,7 @@ def sphere_population(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return d, counts, volume
 
 
-def counts_table(cfg: dict, summaries=()) -> "pandas.DataFrame":  # noqa: F821
+def counts_table(cfg: dict, summaries=()) -> pandas.DataFrame:
     """Counts per diameter: paper (Table 2), our rule at full scale (scale 1, cut 2 mm),
     this configuration's layer, and the mean inside the prepared samples.
 

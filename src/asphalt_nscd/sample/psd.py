@@ -26,7 +26,12 @@ trimmed the large classes in a way it does not describe.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    import pandas
 
 #: Table 1: sieve opening (mm) -> percentage passing.
 TABLE1_PASSING = {
@@ -122,7 +127,7 @@ def sphere_counts(solid_volume_m3: float, diameter_m, fraction) -> np.ndarray:
     return np.rint(solid_volume_m3 * f / (np.pi * d**3 / 6.0)).astype(np.int64)
 
 
-def table2_comparison(diameter_m, counts) -> "pandas.DataFrame":  # noqa: F821
+def table2_comparison(diameter_m, counts) -> pandas.DataFrame:
     """Our counts beside Table 2: columns ``diameter_mm, n_ours, n_paper, rel_diff_pct``.
 
     Classes absent on one side get NaN on that side.
