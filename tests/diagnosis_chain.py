@@ -29,8 +29,14 @@ def diagnose_table(measured, alpha: float = 1e-3, shift: str = "wlf", T_ref_C=No
         failure = str(exc)
     if failure is None:
         laws = fit.law.laws(sorted(measured["temperature_C"].unique()))
-        info = {"selection": {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
-                              "curve": fit.curve.to_dict(orient="records")}, "model": fit.law.description()}
+        info = {
+            "selection": {
+                "chosen": fit.settings.as_dict(),
+                "chosen_label": fit.settings.label(),
+                "curve": fit.curve.to_dict(orient="records"),
+            },
+            "model": fit.law.description(),
+        }
     return diagnose(measured, rec, corrected, laws, law_info=info, law_failure=failure, **kwargs)
 
 
@@ -45,10 +51,48 @@ def cli_chain(measured: Path, out: Path, fit_options=(), test=None) -> dict:
         if a in ("--alpha", "--shift", "--t-ref"):
             keep += [a, search[i + 1]]
     testopt = ["--test", str(test)] if test is not None else []
-    assert main(["master-curve", "--measured", str(measured), *keep, *testopt, "-o", str(paths["search"]),
-                 "--corrected", str(paths["corrected"])]) == 0
-    assert main(["extend-law", "--measured", str(measured), *fit_options, "--master-curve", str(paths["search"]),
-                 "--corrected-table", str(paths["corrected"]), "-o", str(paths["law"])]) == 0
-    paths["args"] = ["--measured", str(measured), *testopt, "--master-curve", str(paths["search"]),
-                     "--corrected-table", str(paths["corrected"]), "--law-json", str(paths["law"])]
+    assert (
+        main(
+            [
+                "master-curve",
+                "--measured",
+                str(measured),
+                *keep,
+                *testopt,
+                "-o",
+                str(paths["search"]),
+                "--corrected",
+                str(paths["corrected"]),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "extend-law",
+                "--measured",
+                str(measured),
+                *fit_options,
+                "--master-curve",
+                str(paths["search"]),
+                "--corrected-table",
+                str(paths["corrected"]),
+                "-o",
+                str(paths["law"]),
+            ]
+        )
+        == 0
+    )
+    paths["args"] = [
+        "--measured",
+        str(measured),
+        *testopt,
+        "--master-curve",
+        str(paths["search"]),
+        "--corrected-table",
+        str(paths["corrected"]),
+        "--law-json",
+        str(paths["law"]),
+    ]
     return paths

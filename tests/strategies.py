@@ -35,24 +35,43 @@ COLUMNS = ("specimen", "temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg
 def truths(draw) -> dict:
     """2S2P1D + WLF parameters (MPa, s, K) of a mix or a binder-rich mix."""
     u = lambda lo, hi: draw(st.floats(lo, hi, allow_nan=False, allow_infinity=False))
-    return {"E0_MPa": 10 ** u(4.2, 4.65), "E00_MPa": 10 ** u(0.0, 2.6), "delta": u(1.2, 4.0),
-            "k": u(0.12, 0.26), "h": u(0.45, 0.72), "beta": 10 ** u(1.5, 4.0), "tau_ref_s": 10 ** u(-3.0, 0.5),
-            "C1": u(15.0, 40.0), "C2_K": u(110.0, 260.0), "T_ref_C": 15.0}
+    return {
+        "E0_MPa": 10 ** u(4.2, 4.65),
+        "E00_MPa": 10 ** u(0.0, 2.6),
+        "delta": u(1.2, 4.0),
+        "k": u(0.12, 0.26),
+        "h": u(0.45, 0.72),
+        "beta": 10 ** u(1.5, 4.0),
+        "tau_ref_s": 10 ** u(-3.0, 0.5),
+        "C1": u(15.0, 40.0),
+        "C2_K": u(110.0, 260.0),
+        "T_ref_C": 15.0,
+    }
 
 
 @st.composite
-def measured_tables(draw, min_specimens: int = 1, max_specimens: int = 5, min_temperatures: int = 3,
-                    max_temperatures: int = 8, min_frequencies: int = 3, max_frequencies: int = 9,
-                    kind: str | None = None) -> pd.DataFrame:
+def measured_tables(
+    draw,
+    min_specimens: int = 1,
+    max_specimens: int = 5,
+    min_temperatures: int = 3,
+    max_temperatures: int = 8,
+    min_frequencies: int = 3,
+    max_frequencies: int = 9,
+    kind: str | None = None,
+) -> pd.DataFrame:
     """A measured table (module docstring); the arguments narrow the domain."""
     from asphalt_nscd.diagnosis.synthetic import truth_modulus
 
     n_spec = draw(st.integers(min_specimens, max_specimens))
-    temps = sorted(draw(st.lists(st.integers(-20, 60), min_size=min_temperatures, max_size=max_temperatures,
-                                 unique=True)))
+    temps = sorted(
+        draw(st.lists(st.integers(-20, 60), min_size=min_temperatures, max_size=max_temperatures, unique=True))
+    )
     # frequencies on a 0.1-decade grid from 0.01 to 100 Hz
-    logf = sorted(draw(st.lists(st.integers(-20, 20), min_size=min_frequencies, max_size=max_frequencies,
-                                unique=True)), reverse=True)
+    logf = sorted(
+        draw(st.lists(st.integers(-20, 20), min_size=min_frequencies, max_size=max_frequencies, unique=True)),
+        reverse=True,
+    )
     freqs = [round(10 ** (k / 10), 6) for k in logf]
     kind = kind or draw(st.sampled_from(["physical", "physical", "physical", "wild"]))
     missing = draw(st.sampled_from(["none", "row", "cell"]))
@@ -75,8 +94,13 @@ def measured_tables(draw, min_specimens: int = 1, max_specimens: int = 5, min_te
                 else:
                     E_norm = 10 ** rng.uniform(np.log10(5.0), np.log10(4e4))
                     phase = rng.uniform(1.0, 60.0)
-                row = {"specimen": f"S{s + 1}", "temperature_C": float(T), "frequency_Hz": f,
-                       "E_norm_MPa": float(round(E_norm, 4)), "phase_deg": float(round(np.clip(phase, 1.0, 60.0), 3))}
+                row = {
+                    "specimen": f"S{s + 1}",
+                    "temperature_C": float(T),
+                    "frequency_Hz": f,
+                    "E_norm_MPa": float(round(E_norm, 4)),
+                    "phase_deg": float(round(np.clip(phase, 1.0, 60.0), 3)),
+                }
                 if with_strain:
                     row["strain_microstrain"] = round(float(rng.uniform(20.0, 150.0)), 1)
                 if with_order:

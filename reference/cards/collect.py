@@ -25,15 +25,22 @@ def main(root: Path = Path("results/tables"), out: Path = Path(__file__).with_na
         card = json.loads(card_path.read_text())
         sel = card["terms_selection"]
         for loss in card["loss"]:
-            rows.append({"table": manifest["table"], "table_sha256": manifest["table_sha256"][:16],
-                         "n_terms": sel["n_terms"], "tolerance_E_pct": sel["tolerance"]["E_norm_pct"],
-                         "tolerance_phase_deg": sel["tolerance"]["phase_deg"],
-                         "card_vs_law_max_E_pct_cells": card["check"]["max_E_norm_difference_pct"],
-                         "card_vs_law_max_phase_deg_cells": card["check"]["max_phase_difference_deg"],
-                         "carries": card.get("carries"), "card_law_fit": card.get("fit"),
-                         "carries_selected_law": card["is_selected_law"],
-                         "interconversion_max_residual": (card.get("interconversion") or {}).get("max_abs_residual"),
-                         **loss})
+            rows.append(
+                {
+                    "table": manifest["table"],
+                    "table_sha256": manifest["table_sha256"][:16],
+                    "n_terms": sel["n_terms"],
+                    "tolerance_E_pct": sel["tolerance"]["E_norm_pct"],
+                    "tolerance_phase_deg": sel["tolerance"]["phase_deg"],
+                    "card_vs_law_max_E_pct_cells": card["check"]["max_E_norm_difference_pct"],
+                    "card_vs_law_max_phase_deg_cells": card["check"]["max_phase_difference_deg"],
+                    "carries": card.get("carries"),
+                    "card_law_fit": card.get("fit"),
+                    "carries_selected_law": card["is_selected_law"],
+                    "interconversion_max_residual": (card.get("interconversion") or {}).get("max_abs_residual"),
+                    **loss,
+                }
+            )
     if not rows:
         print(f"error: no card under {root}/*/diagnosis/material_cards/ (run make table first)", file=sys.stderr)
         return 2

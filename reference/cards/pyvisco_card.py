@@ -65,19 +65,32 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("summary", type=Path, help="measured summary (asphalt-nscd measured --summary)")
     p.add_argument("--t-ref", type=float, default=21.0, help="reference temperature, degC (the nearest tested one)")
-    p.add_argument("--table", type=Path, required=True, help="the measured table the summary came from (its name "
-                                                             "and SHA-256 go in the row)")
+    p.add_argument(
+        "--table",
+        type=Path,
+        required=True,
+        help="the measured table the summary came from (its name and SHA-256 go in the row)",
+    )
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV row of the four figures")
     args = p.parse_args()
     s = pd.read_csv(args.summary)
     cells = s.rename(columns={"E_norm_MPa_mean": "E_norm_MPa", "phase_deg_mean": "phase_deg"})
     series, ref, C1, C2 = pyvisco_card(cells, args.t_ref)
     dE, dP = card_errors(series, ref, C1, C2, cells)
-    row = {"table": str(args.table), "table_sha256": hashlib.sha256(args.table.read_bytes()).hexdigest()[:16],
-           "tool": "pyvisco 1.0.4 (defaults; WLF shift)", "n_terms": len(series["df_terms"]), "T_ref_C": ref,
-           "C1": C1, "C2_K": C2, "n_cells": len(cells),
-           "card_vs_measured_logE_pct_mean": dE.mean(), "card_vs_measured_logE_pct_max": dE.max(),
-           "card_vs_measured_phase_deg_mean": dP.mean(), "card_vs_measured_phase_deg_max": dP.max()}
+    row = {
+        "table": str(args.table),
+        "table_sha256": hashlib.sha256(args.table.read_bytes()).hexdigest()[:16],
+        "tool": "pyvisco 1.0.4 (defaults; WLF shift)",
+        "n_terms": len(series["df_terms"]),
+        "T_ref_C": ref,
+        "C1": C1,
+        "C2_K": C2,
+        "n_cells": len(cells),
+        "card_vs_measured_logE_pct_mean": dE.mean(),
+        "card_vs_measured_logE_pct_max": dE.max(),
+        "card_vs_measured_phase_deg_mean": dP.mean(),
+        "card_vs_measured_phase_deg_max": dP.max(),
+    }
     pd.DataFrame([row]).to_csv(args.output, index=False, float_format="%.4g")
 
 

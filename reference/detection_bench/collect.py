@@ -33,25 +33,48 @@ def merge(results: list[dict]) -> dict:
     summary = bench.summarize(runs, families)
     fw = bench.family_wise(runs, families)
     first = results[0]
-    return {**{k: first[k] for k in SAME}, "design": first["design"], "families": families,
-            "n_clean_per_family": max(r["n_clean_per_family"] for r in results),
-            "n_planted_per_family_and_artifact": max(r["n_planted_per_family_and_artifact"] for r in results),
-            "power_tables_per_size": max(r["power_tables_per_size"] for r in results),
-            "effect_sizes": first["effect_sizes"], "goals": first["goals"],
-            "family_wise": fw, "family_wise_ok": {f: bool(v["false_alarm_any"]["ok"]) for f, v in fw.items()},
-            "level_for_goal": bench.level_for_goal(runs, families), "power_curves": bench.power_curves(runs),
-            "summary": summary, "goals_met": bench.goals_met(summary),
-            "n_tables": len(runs), "cpu_seconds_tables": sum(run["cpu_seconds"] for run in runs),
-            "calibration_tables": max((r.get("calibration_tables", 0) for r in results), default=0),
-            "cpu_seconds_calibration": sum(run.get("calibration_cpu_seconds", 0.0) for run in runs),
-            "runs": runs}
+    return {
+        **{k: first[k] for k in SAME},
+        "design": first["design"],
+        "families": families,
+        "n_clean_per_family": max(r["n_clean_per_family"] for r in results),
+        "n_planted_per_family_and_artifact": max(r["n_planted_per_family_and_artifact"] for r in results),
+        "power_tables_per_size": max(r["power_tables_per_size"] for r in results),
+        "effect_sizes": first["effect_sizes"],
+        "goals": first["goals"],
+        "family_wise": fw,
+        "family_wise_ok": {f: bool(v["false_alarm_any"]["ok"]) for f, v in fw.items()},
+        "level_for_goal": bench.level_for_goal(runs, families),
+        "power_curves": bench.power_curves(runs),
+        "summary": summary,
+        "goals_met": bench.goals_met(summary),
+        "n_tables": len(runs),
+        "cpu_seconds_tables": sum(run["cpu_seconds"] for run in runs),
+        "calibration_tables": max((r.get("calibration_tables", 0) for r in results), default=0),
+        "cpu_seconds_calibration": sum(run.get("calibration_cpu_seconds", 0.0) for run in runs),
+        "runs": runs,
+    }
 
 
 def tables(runs: list[dict]) -> pd.DataFrame:
     rows = []
     for run in runs:
-        row = {k: run[k] for k in ("family", "kind", "index", "seed", "schedule", "power_size", "n_specimens",
-                                   "min_p", "level", "screening_chi2_per_dof", "cpu_seconds")}
+        row = {
+            k: run[k]
+            for k in (
+                "family",
+                "kind",
+                "index",
+                "seed",
+                "schedule",
+                "power_size",
+                "n_specimens",
+                "min_p",
+                "level",
+                "screening_chi2_per_dof",
+                "cpu_seconds",
+            )
+        }
         row.update({k: run[k] for k in ("detected_calibrated", "calibrated_level") if k in run})
         row.update({k: ";".join(run[k]) for k in ("planted", "detected", "testable", "not_identifiable")})
         row.update({f"p_{k}": v for k, v in run["p_values"].items()})
@@ -71,7 +94,8 @@ def main(argv: list[str]) -> None:
     bench.power_table(merged).to_csv(out / f"{conf}_power.csv", index=False, float_format="%.4g")
     tables(merged["runs"]).to_csv(out / f"{conf}_tables.csv.gz", index=False, float_format="%.6g")
     (out / f"{conf}_summary.json").write_text(
-        json.dumps({k: v for k, v in merged.items() if k != "runs"}, indent=1) + "\n")
+        json.dumps({k: v for k, v in merged.items() if k != "runs"}, indent=1) + "\n"
+    )
 
 
 if __name__ == "__main__":

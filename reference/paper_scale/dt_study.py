@@ -46,13 +46,25 @@ def main(sample: str, out: str) -> None:
                 dts = [("paper", PAPER_DT_S)] + [(str(n), 1.0 / (f * n)) for n in STEPS_PER_CYCLE]
                 for label, dt in dts:
                     s = dataclasses.replace(base, dt_policy="fixed", dt_s=dt)
-                    row = {"reading": units, "temperature_C": T, "frequency_Hz": f, "dt_label": label, "dt_s": dt,
-                           "steps_per_cycle": 1.0 / (f * dt)}
+                    row = {
+                        "reading": units,
+                        "temperature_C": T,
+                        "frequency_Hz": f,
+                        "dt_label": label,
+                        "dt_s": dt,
+                        "steps_per_cycle": 1.0 / (f * dt),
+                    }
                     try:
                         rec = twopb.run_test(sample, law, f, s, Path(tmp) / "job.h5", progress=False)
                         r = twopb.reduce_test(rec, 1)
-                        row.update({"E_norm_MPa": r["E_norm_MPa"], "phase_deg": r["phase_deg"],
-                                    "cert_min_gap_m": r["cert_min_gap_m"], "cpu_s": r["cpu_time_s"]})
+                        row.update(
+                            {
+                                "E_norm_MPa": r["E_norm_MPa"],
+                                "phase_deg": r["phase_deg"],
+                                "cert_min_gap_m": r["cert_min_gap_m"],
+                                "cpu_s": r["cpu_time_s"],
+                            }
+                        )
                     except Exception as exc:  # a certificate that fails: said, not computed
                         row["not_certified"] = str(exc).splitlines()[0]
                     rows.append(row)
@@ -61,10 +73,13 @@ def main(sample: str, out: str) -> None:
     ref = frame[frame["dt_label"] == "2000"].set_index(["reading", "temperature_C", "frequency_Hz"])
     key = list(zip(frame["reading"], frame["temperature_C"], frame["frequency_Hz"]))
     if "E_norm_MPa" in frame:
-        frame["E_vs_2000_pct"] = [100 * (e / ref.loc[k, "E_norm_MPa"] - 1) if k in ref.index else float("nan")
-                                  for e, k in zip(frame["E_norm_MPa"], key)]
-        frame["phase_vs_2000_deg"] = [p - ref.loc[k, "phase_deg"] if k in ref.index else float("nan")
-                                      for p, k in zip(frame["phase_deg"], key)]
+        frame["E_vs_2000_pct"] = [
+            100 * (e / ref.loc[k, "E_norm_MPa"] - 1) if k in ref.index else float("nan")
+            for e, k in zip(frame["E_norm_MPa"], key)
+        ]
+        frame["phase_vs_2000_deg"] = [
+            p - ref.loc[k, "phase_deg"] if k in ref.index else float("nan") for p, k in zip(frame["phase_deg"], key)
+        ]
     frame.to_csv(out, index=False, float_format="%.6g")
 
 

@@ -25,8 +25,14 @@ SUBCOMMAND_PACKAGES = STAGES
 #: Help groups of the subcommands: the package that registers a command names its group; the
 #: benchmarks (commands ending in "bench") form a group of their own.
 COMMAND_GROUPS = {
-    "lab": "data", "rheology": "calibration", "sample": "samples", "nscd": "simulation",
-    "campaign": "simulation", "harmonic": "harmonic", "diagnosis": "diagnosis", "figures": "figures",
+    "lab": "data",
+    "rheology": "calibration",
+    "sample": "samples",
+    "nscd": "simulation",
+    "campaign": "simulation",
+    "harmonic": "harmonic",
+    "diagnosis": "diagnosis",
+    "figures": "figures",
 }
 GROUP_ORDER = ("data", "calibration", "samples", "simulation", "harmonic", "diagnosis", "figures", "benchmarks")
 
@@ -37,9 +43,10 @@ def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
     parser = argparse.ArgumentParser(
-        prog="asphalt-nscd", formatter_class=argparse.RawDescriptionHelpFormatter,
+        prog="asphalt-nscd",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
         description="NSCD modelling of the complex modulus of asphalt concrete (Quezada & Chazallon 2020), "
-                    "from the lab table to the material card.",
+        "from the lab table to the material card.",
     )
     parser.add_argument("--version", action="version", version=f"asphalt-nscd {__version__}")
     level = parser.add_mutually_exclusive_group()
@@ -79,8 +86,11 @@ def main(argv: list[str] | None = None) -> int:
     import logging
 
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO,
-                        format="%(asctime)s %(name)s %(levelname)s: %(message)s", stream=sys.stderr)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO,
+        format="%(asctime)s %(name)s %(levelname)s: %(message)s",
+        stream=sys.stderr,
+    )
     logging.getLogger("asphalt_nscd").debug("asphalt-nscd %s", " ".join(sys.argv[1:] if argv is None else argv))
     signal.signal(signal.SIGTERM, _terminate)
     try:
@@ -90,8 +100,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except OSError as exc:  # the file system's errors (a directory not writable, a full disk): one line
         where = exc.filename if exc.filename is not None else "file system"
-        print(f"error: {where}: {exc.strerror or exc} (a file or folder could not be read or written; check the "
-              "path and its permissions)", file=sys.stderr)
+        print(
+            f"error: {where}: {exc.strerror or exc} (a file or folder could not be read or written; check the "
+            "path and its permissions)",
+            file=sys.stderr,
+        )
         return 2
     return int(status or 0)
 

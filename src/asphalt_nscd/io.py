@@ -110,8 +110,10 @@ def require_columns(frame, columns, where, expected: str | None = None) -> None:
     """
     missing = [c for c in columns if c not in frame.columns]
     if missing:
-        raise InputError(f"{where}: line 1 (header): missing column(s) {missing}; found {list(frame.columns)}; "
-                         f"expected {expected or list(columns)}")
+        raise InputError(
+            f"{where}: line 1 (header): missing column(s) {missing}; found {list(frame.columns)}; "
+            f"expected {expected or list(columns)}"
+        )
 
 
 def checked(df, path, columns, positive=()):
@@ -132,8 +134,9 @@ def checked(df, path, columns, positive=()):
         v = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
         bad = np.flatnonzero(~np.isfinite(v) | ((v <= 0) if c in positive else False))
         if bad.size:
-            raise InputError(f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number"
-                             + (" > 0" if c in positive else ""))
+            raise InputError(
+                f"{path}: line {bad[0] + 2}, column '{c}': expected a finite number" + (" > 0" if c in positive else "")
+            )
         df[c] = v
     return df
 
@@ -158,8 +161,10 @@ def rebuild_hint(path) -> str:
     ``TABLE``), so the hint is to delete it and rerun, not a command tied to one configuration."""
     p = Path(path)
     if "results" in p.parts:
-        return ("delete it and rerun the command that made it (make run, or make table, with the same "
-                "CONFIG or TABLE): the workflow rebuilds it")
+        return (
+            "delete it and rerun the command that made it (make run, or make table, with the same "
+            "CONFIG or TABLE): the workflow rebuilds it"
+        )
     return "check the file"
 
 
@@ -239,8 +244,7 @@ def json_safe(obj):
     return obj
 
 
-def publish_directory(files: list, root: str | os.PathLike, destination: str | os.PathLike,
-                      manifest: dict) -> Path:
+def publish_directory(files: list, root: str | os.PathLike, destination: str | os.PathLike, manifest: dict) -> Path:
     """Copy ``files`` (paths under ``root``) into ``destination``, keeping their paths relative
     to ``root``, with ``manifest.json`` (``manifest`` plus each file's SHA-256 under
     ``"files"``), and put the folder in place by renames: ``destination`` holds the previous

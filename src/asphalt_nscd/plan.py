@@ -98,8 +98,10 @@ READING_MODES = tuple(f"paper_{u}" for u in TABLE3_READINGS)
 #: main campaign modes with a numerical isotherms / Table 4 aggregation (wildcard constraint)
 ISOTHERM_MODES = "paper|paper_Pa|paper_kPa|measured|extended"
 #: every job mode of rule run_2pb (wildcard constraint)
-JOB_MODES = ("paper|paper_Pa|paper_kPa|measured|extended|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak"
-             "|units_kPa_nobreak")
+JOB_MODES = (
+    "paper|paper_Pa|paper_kPa|measured|extended|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak"
+    "|units_kPa_nobreak"
+)
 #: modes of the dt-policy check (wildcard constraint)
 POLICY_MODES = "paper|paper_Pa|paper_kPa|measured"
 #: the Burger's parameters of the sensitivity study, in the order of its figures 11-14
@@ -177,9 +179,11 @@ def reject_resource_keys(config: dict) -> None:
                 break
             node = node[part]
         else:
-            raise InputError(f"config key {key} is a resource, not science: it moved to the workflow "
-                             f"profiles (profiles/default/config.yaml, profiles/slurm/config.yaml: "
-                             f"{where}); remove it from the config file")
+            raise InputError(
+                f"config key {key} is a resource, not science: it moved to the workflow "
+                f"profiles (profiles/default/config.yaml, profiles/slurm/config.yaml: "
+                f"{where}); remove it from the config file"
+            )
 
 
 def from_wildcards(func, config: dict):
@@ -308,8 +312,10 @@ def resolution_levels(config: dict) -> dict:
     name (:func:`asphalt_nscd.harmonic.resolution.level_name`) -> {scale, cut_mm}."""
     from .harmonic.resolution import level_name
 
-    return {level_name(lv["scale"], lv["cut_mm"]): {"scale": float(lv["scale"]), "cut_mm": float(lv["cut_mm"])}
-            for lv in config["harmonic"]["resolution"]["levels"]}
+    return {
+        level_name(lv["scale"], lv["cut_mm"]): {"scale": float(lv["scale"]), "cut_mm": float(lv["cut_mm"])}
+        for lv in config["harmonic"]["resolution"]["levels"]
+    }
 
 
 def resolution_sample_settings(config: dict, level: str) -> str:
@@ -476,9 +482,15 @@ def mode_settings_json(config: dict, mode: str) -> str:
     (:func:`asphalt_nscd.campaign.twopb.mode_settings`, shared with campaign-bench)."""
     from .campaign.twopb import mode_settings
 
-    return json.dumps(mode_settings(config["campaign"], mode, bond_kinematics(config),
-                                    config["nscd"].get("linear_solver", "cg"),
-                                    config["nscd"].get("linear_tolerance")))
+    return json.dumps(
+        mode_settings(
+            config["campaign"],
+            mode,
+            bond_kinematics(config),
+            config["nscd"].get("linear_solver", "cg"),
+            config["nscd"].get("linear_tolerance"),
+        )
+    )
 
 
 def transfer_correction(config: dict) -> bool:
@@ -622,8 +634,9 @@ def harmonic_kinematics_options(config: dict) -> str:
 def harmonic_solver_options(config: dict) -> str:
     """Inertia, solver, tolerance and kinematics options of the harmonic solver."""
     harm = config["harmonic"]
-    return f"--inertia {harm['inertia']} --solver {harm['solver']} --rtol {harm['rtol']} " + harmonic_kinematics_options(
-        config
+    return (
+        f"--inertia {harm['inertia']} --solver {harm['solver']} --rtol {harm['rtol']} "
+        + harmonic_kinematics_options(config)
     )
 
 
@@ -690,8 +703,10 @@ def artifact_search_options(config: dict) -> str:
     rules calibrate_search and master_curve."""
     diag = config["diagnosis"]
     ident = diag["identifiability"]
-    opts = (f"--alpha {diag['alpha']} --shift {diag['shift']} --identifiability-null {ident['null']} "
-            f"--identifiability-rival {ident['rival']}")
+    opts = (
+        f"--alpha {diag['alpha']} --shift {diag['shift']} --identifiability-null {ident['null']} "
+        f"--identifiability-rival {ident['rival']}"
+    )
     if diag.get("T_ref_C") is not None:
         opts += f" --t-ref {diag['T_ref_C']}"
     return opts
@@ -779,8 +794,10 @@ def crossval_time_domain_cell(config: dict):
     try:  # as the workflow reads it (a lab's columns and units converted through its sidecar)
         frame = load_measured(table, config["measured"].get("test"))
     except InputError as exc:
-        raise InputError(f"config diagnosis.crossval.time_domain: cannot read the measured cells of {table} ({exc}); "
-                         "set the cell or null") from exc
+        raise InputError(
+            f"config diagnosis.crossval.time_domain: cannot read the measured cells of {table} ({exc}); "
+            "set the cell or null"
+        ) from exc
     cells = {(float(T), float(f)) for T, f in zip(frame["temperature_C"], frame["frequency_Hz"])}
     if value == "auto":
         temps = sorted({T for T, _ in cells})
@@ -928,7 +945,9 @@ def own_table_dir(config: dict) -> str:
     root gives ``results/tables/<stem>``."""
     table = Path(config["measured"]["table"])
     folder = table.resolve().parent.name
-    return f"{OWN_TABLES}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{OWN_TABLES}/{table.stem}"
+    return (
+        f"{OWN_TABLES}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{OWN_TABLES}/{table.stem}"
+    )
 
 
 #: the lines of the project's commands that the console repeats after a run: their one-line
@@ -944,8 +963,9 @@ def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str
     root = Path(log_dir)
     if not root.is_dir():
         return []
-    logs = sorted((p for p in root.rglob("*.log") if p.is_file() and p.stat().st_mtime >= since),
-                  key=lambda p: p.stat().st_mtime)
+    logs = sorted(
+        (p for p in root.rglob("*.log") if p.is_file() and p.stat().st_mtime >= since), key=lambda p: p.stat().st_mtime
+    )
     out, seen = [], set()
     for path in logs:
         for line in path.read_text(errors="replace").splitlines():

@@ -30,10 +30,30 @@ import pandas as pd
 
 HERE = Path(__file__).resolve().parent
 SEED = 20261121
-MIX = dict(E0_MPa=33000.0, E00_MPa=80.0, delta=2.2, k=0.19, h=0.58, beta=800.0, tau_ref_s=0.08,
-           C1=26.0, C2_K=175.0, T_ref_C=15.0)
-BINDER_RICH = dict(E0_MPa=35000.0, E00_MPa=2.0, delta=2.0, k=0.22, h=0.62, beta=300.0, tau_ref_s=0.05,
-                   C1=28.0, C2_K=180.0, T_ref_C=15.0)
+MIX = dict(
+    E0_MPa=33000.0,
+    E00_MPa=80.0,
+    delta=2.2,
+    k=0.19,
+    h=0.58,
+    beta=800.0,
+    tau_ref_s=0.08,
+    C1=26.0,
+    C2_K=175.0,
+    T_ref_C=15.0,
+)
+BINDER_RICH = dict(
+    E0_MPa=35000.0,
+    E00_MPa=2.0,
+    delta=2.0,
+    k=0.22,
+    h=0.62,
+    beta=300.0,
+    tau_ref_s=0.05,
+    C1=28.0,
+    C2_K=180.0,
+    T_ref_C=15.0,
+)
 
 
 def _table(rng, truth, temps, freqs, n_spec, strain=None, order=False, drop=()):
@@ -49,9 +69,13 @@ def _table(rng, truth, temps, freqs, n_spec, strain=None, order=False, drop=()):
                 if (f"S{s + 1}", T, f) in drop or ("*", T, f) in drop:
                     continue
                 E = complex(truth_modulus(truth, f, T))
-                row = {"specimen": f"syn-S{s + 1}", "temperature_C": T, "frequency_Hz": f,
-                       "E_norm_MPa": round(float(abs(E) * np.exp(c + rng.normal(0.0, 0.01))), 2),
-                       "phase_deg": round(float(np.degrees(np.angle(E)) + rng.normal(0.0, 0.2)), 2)}
+                row = {
+                    "specimen": f"syn-S{s + 1}",
+                    "temperature_C": T,
+                    "frequency_Hz": f,
+                    "E_norm_MPa": round(float(abs(E) * np.exp(c + rng.normal(0.0, 0.01))), 2),
+                    "phase_deg": round(float(np.degrees(np.angle(E)) + rng.normal(0.0, 0.2)), 2),
+                }
                 if strain is not None:
                     row["strain_microstrain"] = round(float(rng.uniform(*strain)), 1)
                 if order:
@@ -64,23 +88,38 @@ def tables() -> dict:
     """{file name: DataFrame} of every regression table."""
     rng = np.random.default_rng(SEED)
     out = {}
-    out["ampt_like_3x3x6.csv"] = _table(rng, MIX, [4.0, 21.0, 37.0], [25.0, 10.0, 5.0, 1.0, 0.5, 0.1], 3,
-                                        strain=(75.0, 125.0))
+    out["ampt_like_3x3x6.csv"] = _table(
+        rng, MIX, [4.0, 21.0, 37.0], [25.0, 10.0, 5.0, 1.0, 0.5, 0.1], 3, strain=(75.0, 125.0)
+    )
     out["three_frequencies.csv"] = _table(rng, MIX, [-10.0, 10.0, 25.0, 40.0], [10.0, 1.0, 0.1], 2, order=True)
-    unb = _table(rng, MIX, [-10.0, 4.0, 21.0, 37.0, 54.0], [25.0, 10.0, 5.0, 1.0, 0.5, 0.1], 3, order=True,
-                 drop={("*", 37.0, 0.5), ("S2", -10.0, 25.0)})
+    unb = _table(
+        rng,
+        MIX,
+        [-10.0, 4.0, 21.0, 37.0, 54.0],
+        [25.0, 10.0, 5.0, 1.0, 0.5, 0.1],
+        3,
+        order=True,
+        drop={("*", 37.0, 0.5), ("S2", -10.0, 25.0)},
+    )
     extra = _table(rng, MIX, [54.0], [0.01], 3)
     extra["test_order"] = 31
     out["unbalanced.csv"] = pd.concat([unb, extra], ignore_index=True)
-    out["extreme_phase.csv"] = _table(rng, BINDER_RICH, [-10.0, 0.0, 20.0, 40.0, 60.0],
-                                      [100.0, 10.0, 1.0, 0.1, 0.01], 1)
+    out["extreme_phase.csv"] = _table(
+        rng, BINDER_RICH, [-10.0, 0.0, 20.0, 40.0, 60.0], [100.0, 10.0, 1.0, 0.1, 0.01], 1
+    )
     return out
 
 
-SIDECARS = {"ampt_like_3x3x6.test.json": {
-    "test": "uniaxial_cylinder", "diameter_mm": 100.0, "height_mm": 150.0, "moving_mass_kg": None,
-    "description": "synthetic AMPT-like table (AASHTO PP 61 specimen 100 mm x 150 mm)",
-    "source": "tests/data/make_regression_tables.py"}}
+SIDECARS = {
+    "ampt_like_3x3x6.test.json": {
+        "test": "uniaxial_cylinder",
+        "diameter_mm": 100.0,
+        "height_mm": 150.0,
+        "moving_mass_kg": None,
+        "description": "synthetic AMPT-like table (AASHTO PP 61 specimen 100 mm x 150 mm)",
+        "source": "tests/data/make_regression_tables.py",
+    }
+}
 
 
 def main() -> int:

@@ -38,7 +38,7 @@ def _compare(name: str, got: dict, rtol: float, atol: float = 0.0) -> None:
         path.write_text(json.dumps(got, indent=1, sort_keys=True) + "\n")
         pytest.fail(f"{path} regenerated (ASPHALT_NSCD_REGENERATE=1): review and commit it, then rerun without")
     want = json.loads(path.read_text())
-    assert set(got) == set(want), (sorted(set(got) ^ set(want)))
+    assert set(got) == set(want), sorted(set(got) ^ set(want))
     for k, w in want.items():
         g = got[k]
         if isinstance(w, float) or isinstance(g, float):
@@ -62,8 +62,14 @@ def test_twopb_job(lattice, tmp_path):
     from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
     law = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
-    base = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=100, dt_max_s=1.0, n_cycles=2,
-                               checkpoint_every=0, yield_stress_Pa=None)
+    base = twopb.TwoPBSettings(
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=100,
+        dt_max_s=1.0,
+        n_cycles=2,
+        checkpoint_every=0,
+        yield_stress_Pa=None,
+    )
     got = {}
     for label, s in (("rest", base), ("orbit", twopb.TwoPBSettings(**{**base.__dict__, "start": "periodic"}))):
         row = twopb.reduce_test(twopb.run_test(lattice, law, 10.0, s, tmp_path / f"{label}.h5", progress=False), 1)
@@ -100,10 +106,12 @@ def test_diagnosis():
     from diagnosis_chain import diagnose_table
 
     report, _ = diagnose_table(_table())
-    got = {"causes": sorted(report["causes"]),
-           "detected": sorted(e["name"] for e in report["effects"] if e.get("detected")),
-           "noise_sigma_lnE": float(report["noise"]["sigma_lnE"]),
-           "noise_sigma_phase_deg": float(report["noise"]["sigma_phase_deg"])}
+    got = {
+        "causes": sorted(report["causes"]),
+        "detected": sorted(e["name"] for e in report["effects"] if e.get("detected")),
+        "noise_sigma_lnE": float(report["noise"]["sigma_lnE"]),
+        "noise_sigma_phase_deg": float(report["noise"]["sigma_phase_deg"]),
+    }
     got.update({f"master_curve_{k}": float(v) for k, v in report["master_curve"]["parameters"].items()})
     for T, parts in report["error_budget"].items():
         for part in ("model_form", "total"):

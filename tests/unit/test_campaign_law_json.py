@@ -54,28 +54,45 @@ def test_reader_round_trips_the_extend_law_output(good):
     assert row == {"n_kelvin": 2, "Em_MPa": 3e3, "eta_m_MPa_s": math.inf, "E_inf_MPa": 40.0}
 
 
-@pytest.mark.parametrize("edit, message", [
-    (lambda o: "{not json", "not valid JSON"),
-    (lambda o: {"units": o["units"]}, "key 'temperatures'"),
-    (lambda o: {**o, "temperatures": {}}, "key 'temperatures'"),
-    (lambda o: {**o, "units": {**o["units"], "Em": "MPa"}}, "key 'units'"),
-    (lambda o: {**o, "temperatures": {"warm": o["temperatures"]["21"]}}, "key 'temperatures.warm'"),
-    (lambda o: {**o, "temperatures": {"21": {k: v for k, v in o["temperatures"]["21"].items() if k != "E_inf"}}},
-     r"key 'temperatures.21': missing field\(s\) \['E_inf'\]"),
-    (lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "Ek": [-1.0]}}},
-     r"key 'temperatures.21.Ek\[0\]'.*positive"),
-    (lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "eta_k": [1.0, 2.0]}}},
-     "Ek has 1 units but eta_k has 2"),
-    (lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "eta_m": "big"}}},
-     "key 'temperatures.21.eta_m'"),
-    (lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "Em": 0}}}, "key 'temperatures.21.Em'"),
-    (lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "E_inf": -5.0}}},
-     "key 'temperatures.21.E_inf'.*non-negative"),
-    (lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "Ek": 4.8e7}}},
-     "key 'temperatures.21.Ek': expected a list"),
-    (lambda o: {**o, "temperatures": {"21": o["temperatures"]["21"], "21.0": o["temperatures"]["21"]}},
-     "given twice"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda o: "{not json", "not valid JSON"),
+        (lambda o: {"units": o["units"]}, "key 'temperatures'"),
+        (lambda o: {**o, "temperatures": {}}, "key 'temperatures'"),
+        (lambda o: {**o, "units": {**o["units"], "Em": "MPa"}}, "key 'units'"),
+        (lambda o: {**o, "temperatures": {"warm": o["temperatures"]["21"]}}, "key 'temperatures.warm'"),
+        (
+            lambda o: {**o, "temperatures": {"21": {k: v for k, v in o["temperatures"]["21"].items() if k != "E_inf"}}},
+            r"key 'temperatures.21': missing field\(s\) \['E_inf'\]",
+        ),
+        (
+            lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "Ek": [-1.0]}}},
+            r"key 'temperatures.21.Ek\[0\]'.*positive",
+        ),
+        (
+            lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "eta_k": [1.0, 2.0]}}},
+            "Ek has 1 units but eta_k has 2",
+        ),
+        (
+            lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "eta_m": "big"}}},
+            "key 'temperatures.21.eta_m'",
+        ),
+        (lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "Em": 0}}}, "key 'temperatures.21.Em'"),
+        (
+            lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "E_inf": -5.0}}},
+            "key 'temperatures.21.E_inf'.*non-negative",
+        ),
+        (
+            lambda o: {**o, "temperatures": {"21": {**o["temperatures"]["21"], "Ek": 4.8e7}}},
+            "key 'temperatures.21.Ek': expected a list",
+        ),
+        (
+            lambda o: {**o, "temperatures": {"21": o["temperatures"]["21"], "21.0": o["temperatures"]["21"]}},
+            "given twice",
+        ),
+    ],
+)
 def test_reader_rejects_bad_files_naming_file_and_key(tmp_path, good, edit, message):
     bad = _write(tmp_path / "bad.json", edit(json.loads(good.read_text())))
     with pytest.raises(InputError, match=message) as err:
@@ -107,14 +124,40 @@ def sample(tmp_path_factory):
     return path
 
 
-SETTINGS = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40, "dt_max_s": 0.02,
-                       "checkpoint_every": 0, "profile_instants": 4})
+SETTINGS = json.dumps(
+    {
+        "n_cycles": 2,
+        "dt_policy": "steps_per_cycle",
+        "steps_per_cycle": 40,
+        "dt_max_s": 0.02,
+        "checkpoint_every": 0,
+        "profile_instants": 4,
+    }
+)
 
 
 def _run(sample, tmp_path, name, source, freq=10):
-    return main(["run-2pb", "--sample", str(sample), *source, "--temperature", "20", "--frequency", str(freq),
-                 "--settings-json", SETTINGS, "--no-progress", "--mode", "extended",
-                 "-o", str(tmp_path / f"{name}.h5"), "--row", str(tmp_path / f"{name}.csv")])
+    return main(
+        [
+            "run-2pb",
+            "--sample",
+            str(sample),
+            *source,
+            "--temperature",
+            "20",
+            "--frequency",
+            str(freq),
+            "--settings-json",
+            SETTINGS,
+            "--no-progress",
+            "--mode",
+            "extended",
+            "-o",
+            str(tmp_path / f"{name}.h5"),
+            "--row",
+            str(tmp_path / f"{name}.csv"),
+        ]
+    )
 
 
 def test_run_2pb_law_json_equals_the_burgers_table_run(sample, tmp_path):
@@ -154,9 +197,26 @@ def test_campaign_isotherms_with_law_json(sample, tmp_path):
         assert _run(sample, tmp_path, f"20C_{f}Hz", ["--law-json", str(path)], freq=f) == 0
         rows.append(str(tmp_path / f"20C_{f}Hz.csv"))
     out = tmp_path / "out"
-    assert main(["campaign-isotherms", "--rows", *rows, "--law-json", str(path),
-                 "--isotherms", str(out / "iso.csv"), "--table4", str(out / "t4.csv"),
-                 "--figure-modulus", str(out / "f9.png"), "--figure-phase", str(out / "f10.png")]) == 0
+    assert (
+        main(
+            [
+                "campaign-isotherms",
+                "--rows",
+                *rows,
+                "--law-json",
+                str(path),
+                "--isotherms",
+                str(out / "iso.csv"),
+                "--table4",
+                str(out / "t4.csv"),
+                "--figure-modulus",
+                str(out / "f9.png"),
+                "--figure-phase",
+                str(out / "f10.png"),
+            ]
+        )
+        == 0
+    )
     iso = pd.read_csv(out / "iso.csv")
     e = law.complex_modulus(2 * np.pi * iso["frequency_Hz"].to_numpy()) * 1e-6
     np.testing.assert_allclose(iso["E_norm_MPa_ref"], np.abs(e), rtol=1e-9)  # reference = the law

@@ -16,8 +16,7 @@ from asphalt_nscd.sample.store import read_sample
 
 LAW_15C = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
 #: a generalized law with three Kelvin-Voigt units and a static spring
-LAW_GEN = GeneralizedBurgers(Em=3.0e7, eta_m=2.0e6, Ek=(6e7, 9e7, 2e8), eta_k=(3e6, 4e5, 2e4),
-                             E_inf=2e6)
+LAW_GEN = GeneralizedBurgers(Em=3.0e7, eta_m=2.0e6, Ek=(6e7, 9e7, 2e8), eta_k=(3e6, 4e5, 2e4), E_inf=2e6)
 
 
 def test_theta_laplace():
@@ -49,17 +48,23 @@ def test_laplace_modulus():
         laplace_modulus(Tabulated(), 1 + 5j)
 
 
-@pytest.mark.parametrize("kinematics,theta,law", [("contact", 0.5, LAW_15C), ("barycentre", 0.5, LAW_15C),
-                                                  ("contact", 0.7, LAW_GEN)])
+@pytest.mark.parametrize(
+    "kinematics,theta,law", [("contact", 0.5, LAW_15C), ("barycentre", 0.5, LAW_15C), ("contact", 0.7, LAW_GEN)]
+)
 def test_periodic_state_is_an_orbit_of_the_step_map(tiny_sample, kinematics, theta, law):
     """One period (40 steps) after the periodic start every state variable (positions,
     velocities, angular velocities, bond forces, Maxwell and Kelvin-Voigt internal variables)
     is back to its initial value, and in between the positions are a pure sinusoid of the
     period: the state is the exact periodic solution of the discrete scheme."""
     f = 10.0
-    s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=1.0, theta=theta,
-                            bond_kinematics=kinematics,
-                            head_rotation="free" if kinematics == "contact" else "clamped")
+    s = twopb.TwoPBSettings(
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=40,
+        dt_max_s=1.0,
+        theta=theta,
+        bond_kinematics=kinematics,
+        head_rotation="free" if kinematics == "contact" else "clamped",
+    )
     dt = twopb.time_step(f, s)
     sample = read_sample(tiny_sample)
     sim, _ = twopb.build_simulation(sample, law, f, dt, s)
@@ -99,8 +104,15 @@ LAW_SOLID = GeneralizedBurgers(Em=3.0e7, eta_m=np.inf, Ek=(6e7, 9e7), eta_k=(3e6
 LAW_STATIC = GeneralizedBurgers(Em=3.0e7, eta_m=2.0e6, Ek=(6e7, 9e7, 2e8), eta_k=(3e6, 4e5, 2e4), E_inf=2e8)
 
 
-@pytest.mark.parametrize("kinematics,law,creep", [("contact", LAW_15C, True), ("barycentre", LAW_15C, True),
-                                                  ("contact", LAW_SOLID, False), ("contact", LAW_STATIC, False)])
+@pytest.mark.parametrize(
+    "kinematics,law,creep",
+    [
+        ("contact", LAW_15C, True),
+        ("barycentre", LAW_15C, True),
+        ("contact", LAW_SOLID, False),
+        ("contact", LAW_STATIC, False),
+    ],
+)
 def test_periodic_state_with_gravity_is_an_orbit_of_the_step_map(tiny_sample, kinematics, law, creep):
     """With gravity on, the periodic state plus the steady state under gravity (head held) is
     an orbit of the step map too: after one period every force, velocity and internal
@@ -108,9 +120,14 @@ def test_periodic_state_with_gravity_is_an_orbit_of_the_step_map(tiny_sample, ki
     the steady creep (a liquid bond law) or not at all (a solid one). Without the gravity
     part, the same start is not an orbit (gravity's transient)."""
     f = 10.0
-    s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=1.0, gravity=True,
-                            bond_kinematics=kinematics,
-                            head_rotation="free" if kinematics == "contact" else "clamped")
+    s = twopb.TwoPBSettings(
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=40,
+        dt_max_s=1.0,
+        gravity=True,
+        bond_kinematics=kinematics,
+        head_rotation="free" if kinematics == "contact" else "clamped",
+    )
     dt = twopb.time_step(f, s)
     sample = read_sample(tiny_sample)
     errors = {}
@@ -123,13 +140,17 @@ def test_periodic_state_with_gravity_is_an_orbit_of_the_step_map(tiny_sample, ki
         if not with_gravity:  # the periodic part alone: gravity starts from rest
             g = state.gravity
             state = dataclasses.replace(
-                state, position=state.position - g.displacement, velocity=state.velocity - g.velocity,
+                state,
+                position=state.position - g.displacement,
+                velocity=state.velocity - g.velocity,
                 angular_velocity=state.angular_velocity - g.angular_velocity,
                 head_rotation=state.head_rotation - g.head_rotation,
                 head_angular_velocity=state.head_angular_velocity - g.head_angular_velocity,
                 bond_displacement=state.bond_displacement - g.bond_displacement,
-                bond_force=state.bond_force - g.bond_force, delta_c=state.delta_c - g.delta_c,
-                delta_k=state.delta_k - g.delta_k)
+                bond_force=state.bond_force - g.bond_force,
+                delta_c=state.delta_c - g.delta_c,
+                delta_k=state.delta_k - g.delta_k,
+            )
         periodic.apply_periodic_state(sim, state)
         for _ in range(40):
             st = sim.step()
@@ -139,7 +160,8 @@ def test_periodic_state_with_gravity_is_an_orbit_of_the_step_map(tiny_sample, ki
             np.abs(sim.bonds.force - state.bond_force).max() / np.abs(state.bond_force).max(),
             np.abs(sim.spheres.velocity - state.velocity).max() / np.abs(state.velocity).max(),
             np.abs(sim.bonds.delta_k - state.delta_k).max() / np.abs(state.delta_k).max(),
-            np.abs(sim.spheres.position - state.position - drift).max() / s.amplitude_m)
+            np.abs(sim.spheres.position - state.position - drift).max() / s.amplitude_m,
+        )
         if with_gravity and creep:
             assert np.abs(state.gravity.velocity).max() > 0
         elif with_gravity:
@@ -173,10 +195,17 @@ def test_periodic_start_gives_the_converged_from_rest_cycle(tiny_sample, tmp_pat
     """At reduced size: one cycle from the periodic start gives the
     last-cycle |E*| of a long from-rest run within 0.1 % and Phi within 0.05 deg, while 5
     cycles from rest have not converged on this lightly damped lattice."""
-    s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=100, dt_max_s=1.0,
-                            checkpoint_every=0, start="periodic", periodic_cycles=2)
-    row, cycles = periodic_check.check_case(tiny_sample, LAW_15C, 10.0, s, long_cycles=25, workdir=tmp_path,
-                                      meta={"mode": "test", "temperature_C": 15.0})
+    s = twopb.TwoPBSettings(
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=100,
+        dt_max_s=1.0,
+        checkpoint_every=0,
+        start="periodic",
+        periodic_cycles=2,
+    )
+    row, cycles = periodic_check.check_case(
+        tiny_sample, LAW_15C, 10.0, s, long_cycles=25, workdir=tmp_path, meta={"mode": "test", "temperature_C": 15.0}
+    )
     assert row["start_periodic_run"] == "periodic"
     assert row["periodic_equal"]
     assert abs(row["dE_periodic_pct"]) < 0.1 and abs(row["dphase_periodic_deg"]) < 0.05
@@ -191,9 +220,17 @@ def test_periodic_start_gives_the_converged_from_rest_cycle(tiny_sample, tmp_pat
 
 def test_periodic_cycles_are_identical(tiny_sample, tmp_path):
     """Two cycles from the periodic start reduce to the same |E*| and Phi (no transient)."""
-    s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=60, dt_max_s=1.0, checkpoint_every=0,
-                            start="periodic", periodic_cycles=2, bond_kinematics="barycentre",
-                            head_rotation="clamped", method="time_domain")
+    s = twopb.TwoPBSettings(
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=60,
+        dt_max_s=1.0,
+        checkpoint_every=0,
+        start="periodic",
+        periodic_cycles=2,
+        bond_kinematics="barycentre",
+        head_rotation="clamped",
+        method="time_domain",
+    )
     rec = twopb.run_test(tiny_sample, LAW_GEN, 3.0, s, tmp_path / "p.h5", progress=False)
     first = twopb.reduce_test(twopb.truncate_record(rec, 1), 1)
     second = twopb.reduce_test(rec, 1)
@@ -206,8 +243,15 @@ def test_periodic_cycles_are_identical(tiny_sample, tmp_path):
 
 
 def test_periodic_start_falls_back_to_rest_when_bonds_would_break(tiny_sample, tmp_path):
-    s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=1.0, checkpoint_every=0,
-                            start="periodic", n_cycles=2, yield_stress_Pa=1.0)
+    s = twopb.TwoPBSettings(
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=40,
+        dt_max_s=1.0,
+        checkpoint_every=0,
+        start="periodic",
+        n_cycles=2,
+        yield_stress_Pa=1.0,
+    )
     rec = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "b.h5", progress=False)
     assert rec["attrs"]["start"] == "rest" and rec["attrs"]["start_requested"] == "periodic"
     assert rec["attrs"]["n_steps"] == 2 * 40  # n_cycles (2) from rest
@@ -215,8 +259,16 @@ def test_periodic_start_falls_back_to_rest_when_bonds_would_break(tiny_sample, t
 
 
 def test_resume_with_periodic_start(tiny_sample, tmp_path):
-    s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=60, dt_max_s=0.02, checkpoint_every=25,
-                            profile_instants=4, start="periodic", periodic_cycles=2, method="time_domain")
+    s = twopb.TwoPBSettings(
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=60,
+        dt_max_s=0.02,
+        checkpoint_every=25,
+        profile_instants=4,
+        start="periodic",
+        periodic_cycles=2,
+        method="time_domain",
+    )
     full = twopb.run_test(tiny_sample, LAW_GEN, 10.0, s, tmp_path / "a.h5", progress=False)
     out = tmp_path / "b.h5"
     assert twopb.run_test(tiny_sample, LAW_GEN, 10.0, s, out, progress=False, stop_after=70) is None
@@ -237,11 +289,15 @@ def test_settings_validation():
 
 
 def test_mode_settings_start_inheritance():
-    camp = {"test": {"n_cycles": 5, "start": "rest", "periodic_cycles": 1},
-            "paper": {"dt_policy": "fixed"},
-            "measured": {"yield_stress_Pa": None, "start": "periodic"},
-            "extended": {}, "dt_study": {}, "sensitivity": {"start": "periodic"},
-            "units_question": {"start": "rest"}}
+    camp = {
+        "test": {"n_cycles": 5, "start": "rest", "periodic_cycles": 1},
+        "paper": {"dt_policy": "fixed"},
+        "measured": {"yield_stress_Pa": None, "start": "periodic"},
+        "extended": {},
+        "dt_study": {},
+        "sensitivity": {"start": "periodic"},
+        "units_question": {"start": "rest"},
+    }
     ms = twopb.mode_settings
     assert ms(camp, "paper")["start"] == "rest" and ms(camp, "paper")["dt_policy"] == "fixed"
     assert ms(camp, "measured")["start"] == "periodic"
@@ -266,15 +322,40 @@ def test_periodic_check_cli(tiny_sample, tmp_path):
     from asphalt_nscd.io import InputError
 
     def cli_args(cases):
-        return build_parser().parse_args(["periodic-check", "--sample", str(tiny_sample), "--cases", *cases,
-                                          "-o", str(tmp_path / "x.csv")])
+        return build_parser().parse_args(
+            ["periodic-check", "--sample", str(tiny_sample), "--cases", *cases, "-o", str(tmp_path / "x.csv")]
+        )
 
-    settings = json.dumps({"dt_policy": "steps_per_cycle", "steps_per_cycle": 40, "dt_max_s": 1.0,
-                           "head_rotation": "clamped", "bond_kinematics": "barycentre"})
+    settings = json.dumps(
+        {
+            "dt_policy": "steps_per_cycle",
+            "steps_per_cycle": 40,
+            "dt_max_s": 1.0,
+            "head_rotation": "clamped",
+            "bond_kinematics": "barycentre",
+        }
+    )
     out = tmp_path / "check.csv"
-    assert main(["periodic-check", "--sample", str(tiny_sample), "--cases", "paper:15:3",
-                 "--settings-json", settings, "--long-cycles", "6", "-o", str(out),
-                 "--cycles-table", str(tmp_path / "cycles.csv")]) == 0
+    assert (
+        main(
+            [
+                "periodic-check",
+                "--sample",
+                str(tiny_sample),
+                "--cases",
+                "paper:15:3",
+                "--settings-json",
+                settings,
+                "--long-cycles",
+                "6",
+                "-o",
+                str(out),
+                "--cycles-table",
+                str(tmp_path / "cycles.csv"),
+            ]
+        )
+        == 0
+    )
     row = pd.read_csv(out).iloc[0]
     assert row["mode"] == "paper" and row["temperature_C"] == 15 and row["start_periodic_run"] == "periodic"
     assert row["steps_periodic"] == 40 and row["steps_rest"] == 200
@@ -308,8 +389,15 @@ def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_p
     pos = np.vstack([base.position, extra, extra2])
     rad = np.append(base.radius, [base.radius[k], base.radius[k]])
     mass = np.append(base.mass, [base.mass[k], base.mass[k]])
-    sample = sample_from_bonds(pos, rad, mass, base.plate_point, np.append(b["i"], [k, n]),
-                               np.append(b["j"], [n, n + 1]), plate_mass=base.plate_mass)
+    sample = sample_from_bonds(
+        pos,
+        rad,
+        mass,
+        base.plate_point,
+        np.append(b["i"], [k, n]),
+        np.append(b["j"], [n, n + 1]),
+        plate_mass=base.plate_mass,
+    )
     path = tmp_path / "mech.h5"
     write_sample(path, sample)
     f = 200.0  # a short period: the mechanisms fall ~0.1 mm in it and touch nothing

@@ -29,10 +29,20 @@ def _rows(table, T, freqs, factor_E=1.0, dphi=0.0, samples=("s1", "s2")):
     for s in samples:
         for _, r in ref.iterrows():
             E, P = r["E_norm_MPa_ref"] * factor_E, r["phase_deg_ref"] + dphi
-            out.append({"temperature_C": T, "frequency_Hz": r["frequency_Hz"], "sample": s,
-                        "E_norm_MPa": E, "phase_deg": P, "E1_MPa": E * math.cos(math.radians(P)),
-                        "E2_MPa": E * math.sin(math.radians(P)), "F0_N": E, "z0_m": 63e-6,
-                        "dt_s": 5e-5})
+            out.append(
+                {
+                    "temperature_C": T,
+                    "frequency_Hz": r["frequency_Hz"],
+                    "sample": s,
+                    "E_norm_MPa": E,
+                    "phase_deg": P,
+                    "E1_MPa": E * math.cos(math.radians(P)),
+                    "E2_MPa": E * math.sin(math.radians(P)),
+                    "F0_N": E,
+                    "z0_m": 63e-6,
+                    "dt_s": 5e-5,
+                }
+            )
     return pd.DataFrame(out)
 
 
@@ -86,8 +96,9 @@ def test_units_question_scaling(tmp_path):
     out = study.units_question(TABLE3, rows, sample, 15, micro).set_index("table3_units")
     assert out.loc["Pa", "dt_e_paper_s"] == pytest.approx(2.74e-5, rel=0.01)  # data/paper/SOURCE.md
     assert out.loc["Pa", "dt_e_paper_s"] / out.loc["kPa", "dt_e_paper_s"] == pytest.approx(math.sqrt(1e3))
-    assert out.loc["kPa", "first_resonance_Em_Hz"] / out.loc["Pa", "first_resonance_Em_Hz"] == \
-        pytest.approx(math.sqrt(1e3))
+    assert out.loc["kPa", "first_resonance_Em_Hz"] / out.loc["Pa", "first_resonance_Em_Hz"] == pytest.approx(
+        math.sqrt(1e3)
+    )
     assert out.loc["Pa", "mre_E_norm_pct"] == pytest.approx(0.0, abs=1e-9)
     # head stiffness from the 2PB form factor: Em / gamma (MPa / (1/mm) = N/mm)
     assert out.loc["Pa", "head_stiffness_Em_N_m"] == pytest.approx(24.3 / out.loc["Pa", "gamma_per_mm"] * 1e3)
@@ -104,8 +115,9 @@ def test_reading_evidence_is_computed_under_each_reading(tmp_path):
     for units in ("Pa", "kPa"):
         r = _rows(load_table3(TABLE3, units), 15, [3.0, 40.0], samples=("s1",))
         # the head stiffness of a 2PB cantilever of the Burger's modulus: F0 / z0 = |E*| / gamma
-        rows[units] = r.assign(F0_N=r["E_norm_MPa"] / 25.1 * 1e3 * r["z0_m"], n_bonds=100,
-                               n_broken_total=0 if units == "Pa" else 2)
+        rows[units] = r.assign(
+            F0_N=r["E_norm_MPa"] / 25.1 * 1e3 * r["z0_m"], n_bonds=100, n_broken_total=0 if units == "Pa" else 2
+        )
     micro = {"grain_mass_kg": 2.86e-5, "r_min_mm": [1.0], "l0_mm": [2.0]}
     units = study.units_question(TABLE3, rows, read_sample(path), 15, micro)
     ev = study.reading_evidence(units, mix_E_MPa=1.5e4)
@@ -132,9 +144,15 @@ def test_mix_modulus_at_interpolates_between_isotherms():
     from asphalt_nscd.lab.measured import summarize
 
     # the summary's own schema (two tests per cell, averaged)
-    measured = pd.DataFrame({"temperature_C": [10.0, 10.0, 20.0, 20.0] * 2, "frequency_Hz": [1.0, 100.0] * 4,
-                             "E_norm_MPa": [0.9e4, 0.9e4 * 100, 0.9e3, 0.9e3 * 100, 1.1e4, 1.1e4 * 100, 1.1e3, 1.1e3 * 100],
-                             "phase_deg": [10.0] * 8, "test": ["a"] * 4 + ["b"] * 4})
+    measured = pd.DataFrame(
+        {
+            "temperature_C": [10.0, 10.0, 20.0, 20.0] * 2,
+            "frequency_Hz": [1.0, 100.0] * 4,
+            "E_norm_MPa": [0.9e4, 0.9e4 * 100, 0.9e3, 0.9e3 * 100, 1.1e4, 1.1e4 * 100, 1.1e3, 1.1e3 * 100],
+            "phase_deg": [10.0] * 8,
+            "test": ["a"] * 4 + ["b"] * 4,
+        }
+    )
     summary = summarize(measured)
     assert study.mix_modulus_at(summary, 15.0, 10.0) == pytest.approx(math.sqrt(1e4 * 1e3) * 10, rel=1e-12)
     with pytest.raises(InputError, match="bracket"):
@@ -146,11 +164,29 @@ def test_mix_modulus_at_interpolates_between_isotherms():
 def test_cli_run_2pb_and_bad_input(tmp_path):
     sample = tmp_path / "s1.h5"
     write_sample(sample, lattice_sample(30, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
-    settings = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40,
-                           "dt_max_s": 0.02, "checkpoint_every": 0})
-    base = ["run-2pb", "--sample", str(sample), "--parameters", TABLE3, "--table3-units", "Pa",
-            "--temperature", "20", "--frequency", "10", "--settings-json", settings, "--no-progress",
-            "-o", str(tmp_path / "r.h5"), "--row", str(tmp_path / "r.csv")]
+    settings = json.dumps(
+        {"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40, "dt_max_s": 0.02, "checkpoint_every": 0}
+    )
+    base = [
+        "run-2pb",
+        "--sample",
+        str(sample),
+        "--parameters",
+        TABLE3,
+        "--table3-units",
+        "Pa",
+        "--temperature",
+        "20",
+        "--frequency",
+        "10",
+        "--settings-json",
+        settings,
+        "--no-progress",
+        "-o",
+        str(tmp_path / "r.h5"),
+        "--row",
+        str(tmp_path / "r.csv"),
+    ]
     assert main(base + ["--factor", "Em=1.5", "--mode", "sensitivity"]) == 0
     row = pd.read_csv(tmp_path / "r.csv").iloc[0]
     assert row["sample"] == "s1" and row["mode"] == "sensitivity" and row["parameter"] == "Em"
@@ -162,27 +198,107 @@ def test_cli_run_2pb_and_bad_input(tmp_path):
 def test_cli_aggregation_and_figures(tmp_path):
     sample = tmp_path / "s1.h5"
     write_sample(sample, lattice_sample(30, seed=4, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
-    settings = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40,
-                           "dt_max_s": 0.02, "checkpoint_every": 0, "profile_instants": 4})
+    settings = json.dumps(
+        {
+            "n_cycles": 2,
+            "dt_policy": "steps_per_cycle",
+            "steps_per_cycle": 40,
+            "dt_max_s": 0.02,
+            "checkpoint_every": 0,
+            "profile_instants": 4,
+        }
+    )
     rows, recs = [], []
     for f in (3, 40):
         rec, row = tmp_path / f"20C_{f}Hz.h5", tmp_path / f"20C_{f}Hz.csv"
-        assert main(["run-2pb", "--sample", str(sample), "--parameters", TABLE3, "--table3-units", "Pa",
-                     "--temperature", "20", "--frequency", str(f), "--settings-json", settings,
-                     "--no-progress", "-o", str(rec), "--row", str(row)]) == 0
+        assert (
+            main(
+                [
+                    "run-2pb",
+                    "--sample",
+                    str(sample),
+                    "--parameters",
+                    TABLE3,
+                    "--table3-units",
+                    "Pa",
+                    "--temperature",
+                    "20",
+                    "--frequency",
+                    str(f),
+                    "--settings-json",
+                    settings,
+                    "--no-progress",
+                    "-o",
+                    str(rec),
+                    "--row",
+                    str(row),
+                ]
+            )
+            == 0
+        )
         rows.append(str(row))
         recs.append(str(rec))
     out = tmp_path / "out"
-    assert main(["campaign-isotherms", "--rows", *rows, "--parameters", TABLE3, "--table3-units", "Pa",
-                 "--paper-table4", "data/paper/table4_mre.csv", "--isotherms", str(out / "iso.csv"),
-                 "--table4", str(out / "t4.csv"), "--figure-modulus", str(out / "f9.png"),
-                 "--figure-phase", str(out / "f10.png")]) == 0
+    assert (
+        main(
+            [
+                "campaign-isotherms",
+                "--rows",
+                *rows,
+                "--parameters",
+                TABLE3,
+                "--table3-units",
+                "Pa",
+                "--paper-table4",
+                "data/paper/table4_mre.csv",
+                "--isotherms",
+                str(out / "iso.csv"),
+                "--table4",
+                str(out / "t4.csv"),
+                "--figure-modulus",
+                str(out / "f9.png"),
+                "--figure-phase",
+                str(out / "f10.png"),
+            ]
+        )
+        == 0
+    )
     t4 = pd.read_csv(out / "t4.csv")
     assert list(t4["temperature_C"]) == [20.0] and t4["n_frequencies"].iloc[0] == 2
-    assert main(["campaign-last-cycle", "--record", recs[1], "--figure-cycle", str(out / "f7.png"),
-                 "--figure-profile", str(out / "f8.png")]) == 0
-    assert main(["campaign-dt-study", "--records", *recs[:1], "--rows", *rows[:1], "--parameters", TABLE3,
-                 "--table3-units", "Pa", "--table", str(out / "dt.csv"), "--figure", str(out / "f6.png")]) == 0
+    assert (
+        main(
+            [
+                "campaign-last-cycle",
+                "--record",
+                recs[1],
+                "--figure-cycle",
+                str(out / "f7.png"),
+                "--figure-profile",
+                str(out / "f8.png"),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "campaign-dt-study",
+                "--records",
+                *recs[:1],
+                "--rows",
+                *rows[:1],
+                "--parameters",
+                TABLE3,
+                "--table3-units",
+                "Pa",
+                "--table",
+                str(out / "dt.csv"),
+                "--figure",
+                str(out / "f6.png"),
+            ]
+        )
+        == 0
+    )
     for name in ("f6", "f7", "f8", "f9", "f10"):
         assert (out / f"{name}.png").stat().st_size > 1000
 
@@ -198,8 +314,9 @@ def test_projection_counts_the_workflow_jobs():
     assert sum(j["n_samples"] for j in jobs) == 16
     ext = [j for j in jobs if j["mode"] == "extended"]
     meas = [j for j in jobs if j["mode"] == "measured"]
-    assert [(j["temperature_C"], j["frequency_Hz"], j["dt_s"]) for j in ext] == \
-        [(j["temperature_C"], j["frequency_Hz"], j["dt_s"]) for j in meas]
+    assert [(j["temperature_C"], j["frequency_Hz"], j["dt_s"]) for j in ext] == [
+        (j["temperature_C"], j["frequency_Hz"], j["dt_s"]) for j in meas
+    ]
     p = project_campaign(cfg["campaign"], 1, s_per_step=1e-3, overhead_s=0.0)
     assert p["total_core_h"] * 3600 == pytest.approx(p["n_steps_total"] * 1e-3)
     assert p["wall_h"]["2"] == pytest.approx(max(p["total_core_h"] / 2, p["longest_job_h"]))
@@ -240,11 +357,15 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
     sample = tmp_path / "s1.h5"
     write_sample(sample, lattice_sample(60, seed=2, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3)))
     params = tmp_path / "burgers.csv"
-    pd.DataFrame([{"temperature_C": 21.0, "Em_MPa": 1.0e4, "eta_m_MPa_s": 1.2e4, "Ek_MPa": 7.7e3,
-                   "eta_k_MPa_s": 830.0}]).to_csv(params, index=False)
+    pd.DataFrame(
+        [{"temperature_C": 21.0, "Em_MPa": 1.0e4, "eta_m_MPa_s": 1.2e4, "Ek_MPa": 7.7e3, "eta_k_MPa_s": 830.0}]
+    ).to_csv(params, index=False)
     law = tmp_path / "law.json"
-    law.write_text(json.dumps({"temperatures": {"21": {"Em": 1e10, "eta_m": 1e10, "Ek": [8e9, 2e10],
-                                                        "eta_k": [8e8, 1e8], "E_inf": 5e7}}}))
+    law.write_text(
+        json.dumps(
+            {"temperatures": {"21": {"Em": 1e10, "eta_m": 1e10, "Ek": [8e9, 2e10], "eta_k": [8e8, 1e8], "E_inf": 5e7}}}
+        )
+    )
     cfg = config.load(["config/smoke.yaml"])  # merged over config/config.yaml, as Snakemake
     cfg["campaign"]["dt_study"]["dt_s"] = [2.0e-4]
     cfg_path = tmp_path / "smoke.yaml"
@@ -252,9 +373,33 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
     summary = tmp_path / "summary.json"
     summary.write_text(json.dumps({"timings_s": {"total_s": 360.0}}))
     out = tmp_path / "bench.json"
-    assert main(["campaign-bench", "--sample", str(sample), "--steps", "3", "--config", str(cfg_path), "--per-job",
-                 "--job-steps", "2", "--table3", TABLE3, "--parameters", str(params), "--law-json", str(law),
-                 "--prepare-json", str(summary), "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "campaign-bench",
+                "--sample",
+                str(sample),
+                "--steps",
+                "3",
+                "--config",
+                str(cfg_path),
+                "--per-job",
+                "--job-steps",
+                "2",
+                "--table3",
+                TABLE3,
+                "--parameters",
+                str(params),
+                "--law-json",
+                str(law),
+                "--prepare-json",
+                str(summary),
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     res = json.loads(out.read_text())
     proj = res["projections"][str(cfg_path)]
     assert res["prepare_s_per_sample"] == 360.0
@@ -273,6 +418,7 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
     args = ["campaign-bench", "--steps", "1", "--n-spheres", "20", "--prepare-json", str(bad), "-o", str(out)]
     from asphalt_nscd.campaign.cli import _prepare_seconds
     from asphalt_nscd.cli import build_parser
+
     with pytest.raises(InputError, match="timings_s.total_s"):
         _prepare_seconds(build_parser().parse_args(args))
 
@@ -289,16 +435,36 @@ def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
     cfg_path = tmp_path / "smoke.yaml"
     cfg_path.write_text(yaml.safe_dump(cfg))
     out = tmp_path / "bench.json"
-    base = ["campaign-bench", "--sample", str(sample), "--steps", "2", "--config", str(cfg_path), "--per-job",
-            "--job-steps", "3", "--table3", TABLE3, "-o", str(out)]
-    assert main(base + ["--modes", "paper", "--job-warmup", "1", "--baseline-settings-json",
-                        '{"linear_solver": "direct"}']) == 0
+    base = [
+        "campaign-bench",
+        "--sample",
+        str(sample),
+        "--steps",
+        "2",
+        "--config",
+        str(cfg_path),
+        "--per-job",
+        "--job-steps",
+        "3",
+        "--table3",
+        TABLE3,
+        "-o",
+        str(out),
+    ]
+    assert (
+        main(
+            base + ["--modes", "paper", "--job-warmup", "1", "--baseline-settings-json", '{"linear_solver": "direct"}']
+        )
+        == 0
+    )
     proj = json.loads(out.read_text())["projections"][str(cfg_path)]
     costs = proj["job_costs"]
     assert costs and {c["mode"] for c in costs} == {"paper"}
     assert set(proj["configured"]["n_steps_by_mode"]) == {"paper"}
     for c in costs:
-        assert c["s_per_step_baseline"] > 0 and c["speedup"] == pytest.approx(c["s_per_step_baseline"] / c["s_per_step"])
+        assert c["s_per_step_baseline"] > 0 and c["speedup"] == pytest.approx(
+            c["s_per_step_baseline"] / c["s_per_step"]
+        )
     assert main(base + ["--modes", "nonsense"]) == 2
     assert "--modes ['nonsense']: no such jobs" in capsys.readouterr().err
     assert main(base + ["--job-warmup", "-1"]) == 2

@@ -22,8 +22,14 @@ def test_time_step_policies():
 
 
 def test_resume_gives_the_uninterrupted_run(tiny_sample, tmp_path):
-    s = twopb.TwoPBSettings(n_cycles=2, dt_policy="steps_per_cycle", steps_per_cycle=60, dt_max_s=0.02,
-                            checkpoint_every=25, profile_instants=4)
+    s = twopb.TwoPBSettings(
+        n_cycles=2,
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=60,
+        dt_max_s=0.02,
+        checkpoint_every=25,
+        profile_instants=4,
+    )
     full = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "a.h5", progress=False)
     out = tmp_path / "b.h5"
     assert twopb.run_test(tiny_sample, LAW_15C, 10.0, s, out, progress=False, stop_after=70) is None
@@ -44,9 +50,14 @@ def test_reduction_recovers_burgers_phase(tiny_sample, tmp_path):
     Barycentre kinematics and clamped head: with the contact kinematics and a free head this
     40-sphere lattice is so compliant in bending that the sphere inertia dominates the force
     at 3 Hz (the harmonic solver agrees: psi = 136 deg), so the premise does not hold."""
-    s = twopb.TwoPBSettings(n_cycles=3, dt_policy="steps_per_cycle", steps_per_cycle=200,
-                            checkpoint_every=0, bond_kinematics="barycentre",
-                            head_rotation="clamped")
+    s = twopb.TwoPBSettings(
+        n_cycles=3,
+        dt_policy="steps_per_cycle",
+        steps_per_cycle=200,
+        checkpoint_every=0,
+        bond_kinematics="barycentre",
+        head_rotation="clamped",
+    )
     rec = twopb.run_test(tiny_sample, LAW_15C, 3.0, s, tmp_path / "r.h5", progress=False)
     row = twopb.reduce_test(rec, window_cycles=1)
     _, phase = LAW_15C.norm_and_phase(2 * np.pi * 3.0)

@@ -102,8 +102,10 @@ def test_regression_table_goes_through_diagnose(name):
     by = {e["name"]: e for e in report["effects"]}
     # synthetic 2S2P1D tables: a Burger's law cannot follow them, no artifact was planted
     assert by["broad_spectrum"]["testable"] and by["broad_spectrum"]["detected"]
-    assert not any(by[n]["detected"] for n in ("time_lag", "inertia_uncorrected", "temperature_offset",
-                                                "strain_nonlinearity", "self_heating"))
+    assert not any(
+        by[n]["detected"]
+        for n in ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity", "self_heating")
+    )
 
 
 def test_ampt_like_table_declares_a_uniaxial_test_and_inertia_uses_its_form_factor():
@@ -160,16 +162,54 @@ def test_cli_chain_runs_on_regression_tables(tmp_path, name):
         assert proc.returncode == 0, proc.stderr[-3000:]
         assert "Traceback" not in proc.stderr
 
-    run("measured", str(src), "-o", str(tmp_path / "measured.csv"), "--summary", str(tmp_path / "summary.csv"),
-        "--test-output", str(tmp_path / "measured.test.json"))
+    run(
+        "measured",
+        str(src),
+        "-o",
+        str(tmp_path / "measured.csv"),
+        "--summary",
+        str(tmp_path / "summary.csv"),
+        "--test-output",
+        str(tmp_path / "measured.test.json"),
+    )
     run("fit", "--measured", str(tmp_path / "measured.csv"), "--model", "burgers", "-o", str(tmp_path / "burgers.csv"))
-    run("master-curve", "--measured", str(tmp_path / "measured.csv"), "-o", str(tmp_path / "mc.json"),
-        "--corrected", str(tmp_path / "corrected.csv"))
-    run("extend-law", "--measured", str(tmp_path / "measured.csv"), "--master-curve", str(tmp_path / "mc.json"),
-        "--corrected-table", str(tmp_path / "corrected.csv"), "-o", str(tmp_path / "law.json"))
-    run("diagnose", "--measured", str(tmp_path / "measured.csv"), "--master-curve", str(tmp_path / "mc.json"),
-        "--corrected-table", str(tmp_path / "corrected.csv"), "--macro-params", str(tmp_path / "burgers.csv"),
-        "--law-json", str(tmp_path / "law.json"), "-o", str(tmp_path / "report.json"), "--page", str(tmp_path / "p.md"))
+    run(
+        "master-curve",
+        "--measured",
+        str(tmp_path / "measured.csv"),
+        "-o",
+        str(tmp_path / "mc.json"),
+        "--corrected",
+        str(tmp_path / "corrected.csv"),
+    )
+    run(
+        "extend-law",
+        "--measured",
+        str(tmp_path / "measured.csv"),
+        "--master-curve",
+        str(tmp_path / "mc.json"),
+        "--corrected-table",
+        str(tmp_path / "corrected.csv"),
+        "-o",
+        str(tmp_path / "law.json"),
+    )
+    run(
+        "diagnose",
+        "--measured",
+        str(tmp_path / "measured.csv"),
+        "--master-curve",
+        str(tmp_path / "mc.json"),
+        "--corrected-table",
+        str(tmp_path / "corrected.csv"),
+        "--macro-params",
+        str(tmp_path / "burgers.csv"),
+        "--law-json",
+        str(tmp_path / "law.json"),
+        "-o",
+        str(tmp_path / "report.json"),
+        "--page",
+        str(tmp_path / "p.md"),
+    )
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["measured"]["test"]["test"] == json.loads((tmp_path / "measured.test.json").read_text())["test"]
 
@@ -183,7 +223,9 @@ def test_crossval_says_what_a_table_too_thin_for_a_master_curve_lacks(tmp_path, 
     one = table[table["frequency_Hz"] == table["frequency_Hz"].max()]
     path = tmp_path / "one_frequency.csv"
     one.to_csv(path, index=False)
-    assert main(["crossval", "--measured", str(path), "--scheme", "lofo", "--no-burgers",
-                 "-o", str(tmp_path / "cv.csv")]) == 2
+    assert (
+        main(["crossval", "--measured", str(path), "--scheme", "lofo", "--no-burgers", "-o", str(tmp_path / "cv.csv")])
+        == 2
+    )
     assert "needs >= 2 isotherms with >= 3 tested frequencies" in capsys.readouterr().err
     assert not (tmp_path / "cv.csv").exists()

@@ -84,8 +84,9 @@ def test_load_without_a_default(tmp_path, monkeypatch):
     assert config.load([CONFIG / "table.yaml"], default=None) == raw("table")
 
 
-_scalars = st.one_of(st.none(), st.booleans(), st.integers(-3, 3), st.sampled_from(["a", "b"]),
-                     st.lists(st.integers(0, 3), max_size=3))
+_scalars = st.one_of(
+    st.none(), st.booleans(), st.integers(-3, 3), st.sampled_from(["a", "b"]), st.lists(st.integers(0, 3), max_size=3)
+)
 _keys = st.sampled_from(["a", "b", "c", "d"])
 _configs = st.recursive(_scalars, lambda children: st.dictionaries(_keys, children, max_size=4), max_leaves=12)
 
@@ -111,11 +112,14 @@ def test_merge_shares_nothing_with_its_arguments():
     assert base == {"a": {"x": [1, 2]}} and overlay == {"b": {"y": [3]}}
 
 
-@pytest.mark.parametrize("name, text, message", [
-    ("bad.yaml", "sample: [1, 2\n", "bad.yaml: not valid YAML"),
-    ("bad.json", "{\"sample\": }", "bad.json: not valid JSON"),
-    ("list.yaml", "- 1\n- 2\n", "list.yaml: expected a mapping of config sections"),
-])
+@pytest.mark.parametrize(
+    "name, text, message",
+    [
+        ("bad.yaml", "sample: [1, 2\n", "bad.yaml: not valid YAML"),
+        ("bad.json", '{"sample": }', "bad.json: not valid JSON"),
+        ("list.yaml", "- 1\n- 2\n", "list.yaml: expected a mapping of config sections"),
+    ],
+)
 def test_bad_file_named(tmp_path, name, text, message):
     path = tmp_path / name
     path.write_text(text)
@@ -153,8 +157,9 @@ def test_workflow_order_is_the_default_configs(name, in_repo):
 
 
 def test_ordered_like_keeps_values_and_extra_keys():
-    out = config.ordered_like({"b": 1, "x": {"q": 1, "p": [2]}, "a": {"d": 1, "c": 2}},
-                              {"a": {"c": 0, "d": 0}, "b": 0, "x": 5})
+    out = config.ordered_like(
+        {"b": 1, "x": {"q": 1, "p": [2]}, "a": {"d": 1, "c": 2}}, {"a": {"c": 0, "d": 0}, "b": 0, "x": 5}
+    )
     assert json.dumps(out) == json.dumps({"a": {"c": 2, "d": 1}, "b": 1, "x": {"q": 1, "p": [2]}})
 
 
@@ -265,9 +270,13 @@ def test_sample_table_command_merges_the_overlay(tmp_path, in_repo):
     from asphalt_nscd.cli import main
 
     outs = []
-    for k, opts in enumerate((["--config", "config/smoke.yaml"],
-                              ["--config", "config/config.yaml", "config/smoke.yaml"],
-                              ["--config-json", json.dumps(snakemake_config("smoke")["sample"])])):
+    for k, opts in enumerate(
+        (
+            ["--config", "config/smoke.yaml"],
+            ["--config", "config/config.yaml", "config/smoke.yaml"],
+            ["--config-json", json.dumps(snakemake_config("smoke")["sample"])],
+        )
+    ):
         out = tmp_path / f"t{k}.csv"
         assert main(["sample-table", *opts, "-o", str(out)]) == 0
         outs.append(pd.read_csv(out))
@@ -292,8 +301,12 @@ def test_sample_defaults_are_the_default_config_at_paper_scale():
     full-scale values (Section 3.2.1) where the reduced-size default differs."""
     from asphalt_nscd.sample import settings
 
-    paper_values = {"scale": 1.0, "psd": {"cut_mm": 2.0}, "vibration": {"duration_s": 1.0},
-                    "solver": {"tolerance": 1.0e-4}}
+    paper_values = {
+        "scale": 1.0,
+        "psd": {"cut_mm": 2.0},
+        "vibration": {"duration_s": 1.0},
+        "solver": {"tolerance": 1.0e-4},
+    }
     assert settings.DEFAULTS == config.merge(raw("config")["sample"], paper_values)
     # the paper's values also stand in config/paper.yaml
     paper = snakemake_config("paper")["sample"]

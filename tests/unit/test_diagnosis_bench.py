@@ -40,11 +40,23 @@ def test_plan_is_reproducible_and_plants_at_the_stated_size():
 
 
 def test_summary_counts_false_alarms_on_clean_tables_only():
-    runs = [{"family": "wlf", "kind": "clean", "detected": ["time_lag"], "testable": list(bench.KINDS[1:]),
-             "estimate_ok": {}},
-            {"family": "wlf", "kind": "clean", "detected": [], "testable": list(bench.KINDS[1:]), "estimate_ok": {}},
-            {"family": "wlf", "kind": "time_lag", "detected": ["time_lag", "self_heating"],
-             "testable": list(bench.KINDS[1:]), "estimate_ok": {"time_lag": True}}]
+    runs = [
+        {
+            "family": "wlf",
+            "kind": "clean",
+            "detected": ["time_lag"],
+            "testable": list(bench.KINDS[1:]),
+            "estimate_ok": {},
+        },
+        {"family": "wlf", "kind": "clean", "detected": [], "testable": list(bench.KINDS[1:]), "estimate_ok": {}},
+        {
+            "family": "wlf",
+            "kind": "time_lag",
+            "detected": ["time_lag", "self_heating"],
+            "testable": list(bench.KINDS[1:]),
+            "estimate_ok": {"time_lag": True},
+        },
+    ]
     s = bench.summarize(runs, ["wlf"])
     assert s["time_lag"]["wlf"]["false_alarm"]["k"] == 1 and s["time_lag"]["wlf"]["false_alarm"]["n"] == 2
     assert s["time_lag"]["wlf"]["detection"]["rate"] == 1.0
@@ -61,14 +73,32 @@ def test_bench_command_is_reproducible_from_its_base_seed(tmp_path):
     table = pd.read_csv(tmp_path / "a.csv")
     assert set(table["artifact"]) == {"any", *bench.KINDS[1:]} and set(table["family"]) == {"mixed", "all"}
     assert {"detection_ci_low", "false_alarm_ci_high", "effect_size"} <= set(table.columns)
-    assert main(["diagnose-bench", "--clean", "1", "--planted", "0", "--families", "mixed", "--base-seed", "3",
-                 "-o", str(tmp_path / "b.json")]) == 0
+    assert (
+        main(
+            [
+                "diagnose-bench",
+                "--clean",
+                "1",
+                "--planted",
+                "0",
+                "--families",
+                "mixed",
+                "--base-seed",
+                "3",
+                "-o",
+                str(tmp_path / "b.json"),
+            ]
+        )
+        == 0
+    )
     b = json.loads((tmp_path / "b.json").read_text())
     # the clean table of the same seed, the same outcome (all but its measured compute time)
     assert {**b["runs"][0], "cpu_seconds": 0} == {**a["runs"][0], "cpu_seconds": 0}
     # default: a fresh base seed, recorded
-    assert main(["diagnose-bench", "--clean", "1", "--planted", "0", "--families", "wlf",
-                 "-o", str(tmp_path / "c.json")]) == 0
+    assert (
+        main(["diagnose-bench", "--clean", "1", "--planted", "0", "--families", "wlf", "-o", str(tmp_path / "c.json")])
+        == 0
+    )
     assert isinstance(json.loads((tmp_path / "c.json").read_text())["base_seed"], int)
     assert main(["diagnose-bench", "--families", "bogus", "-o", str(tmp_path / "d.json")]) == 2
 
@@ -80,8 +110,9 @@ def test_configurations_plant_what_their_design_can_test_and_power_cases():
     assert all(c["schedule"] == "aashto_t342" and c["test_order"] is False for c in shipped)
     power = [c for c in shipped if c["kind"] == "power:temperature_offset"]
     assert len(power) == 2 * len(bench.POWER_SIZES["temperature_offset"][1])
-    assert sorted({abs(c["magnitudes"]["temperature_offset"]["offset_C"]) for c in power}) == \
-        sorted(bench.POWER_SIZES["temperature_offset"][1])
+    assert sorted({abs(c["magnitudes"]["temperature_offset"]["offset_C"]) for c in power}) == sorted(
+        bench.POWER_SIZES["temperature_offset"][1]
+    )
     paper = bench.plan(5, ["wlf"], 1, 1, configuration="paper")
     assert {c["kind"] for c in paper} == set(bench.KINDS)
     with pytest.raises(ValueError, match="unknown configuration"):
@@ -94,13 +125,22 @@ def test_configurations_plant_what_their_design_can_test_and_power_cases():
 def test_level_for_goal_and_power_curves():
     def clean(fam, p):
         return {"family": fam, "kind": "clean", "min_p": p}
+
     # 100 clean tables per family, one with min_p 1e-4 in family a: below that level no alarm
     runs = [clean("a", 0.5)] * 99 + [clean("a", 1e-4)] + [clean("b", 0.5)] * 100
     c = bench.level_for_goal(runs, ["a", "b"])
     assert c == 1e-4  # at any larger level family a has one alarm in 100: a 95 % upper bound of 5.4 %
     assert bench.binomial_ci(1, 100)[1] > 0.05 and bench.binomial_ci(0, 100)[1] < 0.05
-    runs = [{"kind": "power:time_lag", "power_size": s, "detected": ["time_lag"] if s >= 0.2 else [],
-             "estimate_ok": {"time_lag": s >= 0.2}} for s in bench.POWER_SIZES["time_lag"][1] for _ in range(4)]
+    runs = [
+        {
+            "kind": "power:time_lag",
+            "power_size": s,
+            "detected": ["time_lag"] if s >= 0.2 else [],
+            "estimate_ok": {"time_lag": s >= 0.2},
+        }
+        for s in bench.POWER_SIZES["time_lag"][1]
+        for _ in range(4)
+    ]
     pc = bench.power_curves(runs)["time_lag"]
     assert pc["size_95"] == 0.2 and [r["detection"]["k"] for r in pc["curve"]] == [0, 0, 4, 4, 4]
 

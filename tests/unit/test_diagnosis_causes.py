@@ -16,15 +16,26 @@ def _burgers_table(seed: int) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
     rows = []
     for T, scale in ((0.0, 1.0), (15.0, 0.3), (30.0, 0.08)):
-        p = {"Em_MPa": 25000.0 * scale**0.3, "eta_m_MPa_s": 3e4 * scale, "Ek_MPa": 30000.0 * scale**0.5,
-             "eta_k_MPa_s": 800.0 * scale}
+        p = {
+            "Em_MPa": 25000.0 * scale**0.3,
+            "eta_m_MPa_s": 3e4 * scale,
+            "Ek_MPa": 30000.0 * scale**0.5,
+            "eta_k_MPa_s": 800.0 * scale,
+        }
         f = np.array([25.0, 10.0, 5.0, 1.0, 0.5, 0.1])
         E, phi = burgers_isotherm(p, f)
         for s in range(3):
             c = rng.normal(0, 0.02)
             for fi, Ei, pi in zip(f, E, phi):
-                rows.append({"specimen": f"S{s}", "temperature_C": T, "frequency_Hz": fi,
-                             "E_norm_MPa": Ei * np.exp(c + rng.normal(0, 0.01)), "phase_deg": pi + rng.normal(0, 0.2)})
+                rows.append(
+                    {
+                        "specimen": f"S{s}",
+                        "temperature_C": T,
+                        "frequency_Hz": fi,
+                        "E_norm_MPa": Ei * np.exp(c + rng.normal(0, 0.01)),
+                        "phase_deg": pi + rng.normal(0, 0.2),
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -66,16 +77,26 @@ def test_broad_spectrum_not_testable_with_two_frequencies_left():
 
 
 def _macro():
-    return pd.DataFrame({"temperature_C": [10.0, 20.0], "Em_MPa": 30e3, "eta_m_MPa_s": [3e4, 5e3],
-                         "Ek_MPa": 40e3, "eta_k_MPa_s": [100.0, 30.0]})
+    return pd.DataFrame(
+        {
+            "temperature_C": [10.0, 20.0],
+            "Em_MPa": 30e3,
+            "eta_m_MPa_s": [3e4, 5e3],
+            "Ek_MPa": 40e3,
+            "eta_k_MPa_s": [100.0, 30.0],
+        }
+    )
 
 
-@pytest.mark.parametrize("factors,detected", [
-    ([1.02, 1.02, 1.02, 1.02], True),      # 2 % exactly: effect 2 %, uncertainty 0
-    ([1.008, 1.008, 1.008, 1.008], False),  # below the 1 % tolerance
-    ([0.99, 1.03, 1.01, 1.01], False),      # 1 % effect, 2 % row-to-row spread
-    ([1.05, 1.06, 1.04, 1.05], True),       # 5 % +- 1 %
-])
+@pytest.mark.parametrize(
+    "factors,detected",
+    [
+        ([1.02, 1.02, 1.02, 1.02], True),  # 2 % exactly: effect 2 %, uncertainty 0
+        ([1.008, 1.008, 1.008, 1.008], False),  # below the 1 % tolerance
+        ([0.99, 1.03, 1.01, 1.01], False),  # 1 % effect, 2 % row-to-row spread
+        ([1.05, 1.06, 1.04, 1.05], True),  # 5 % +- 1 %
+    ],
+)
 def test_network_factor_is_an_effect_against_its_tolerance(factors, detected):
     macro = _macro()
     grid = pd.DataFrame({"temperature_C": [10.0, 10.0, 20.0, 20.0], "frequency_Hz": [3.0, 30.0, 3.0, 30.0]})
@@ -85,8 +106,9 @@ def test_network_factor_is_an_effect_against_its_tolerance(factors, detected):
     nf = np.exp(np.mean(np.log(factors)))
     assert e["p_value"] is None and e["testable"] and e["detected"] is detected
     assert e["estimate"]["network_factor"] == pytest.approx(nf, rel=1e-9)
-    assert e["estimate"]["network_factor_uncertainty"] == pytest.approx(np.max(np.abs(np.array(factors) / nf - 1)) * nf,
-                                                                        rel=1e-9)
+    assert e["estimate"]["network_factor_uncertainty"] == pytest.approx(
+        np.max(np.abs(np.array(factors) / nf - 1)) * nf, rel=1e-9
+    )
 
 
 def test_time_integration_is_an_effect_against_its_tolerance():

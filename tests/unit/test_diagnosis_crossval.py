@@ -38,8 +38,9 @@ def _held(rows, fold, model="extended_law"):
     return r.sort_values(["temperature_C", "frequency_Hz"]).reset_index(drop=True)
 
 
-@pytest.mark.parametrize("scheme, column, value, other", [("lofo", "frequency_Hz", 1.0, "10"),
-                                                          ("loto", "temperature_C", 21.0, "37")])
+@pytest.mark.parametrize(
+    "scheme, column, value, other", [("lofo", "frequency_Hz", 1.0, "10"), ("loto", "temperature_C", 21.0, "37")]
+)
 def test_a_held_out_value_never_reaches_its_fold(table, lofo, scheme, column, value, other):
     """Multiply the held-out rows' |E*| by 10 and shift their phase by 15 deg: the fold's
     predictions (artifact correction, nested choice of the settings and law all refitted) do
@@ -96,8 +97,11 @@ def test_scores_follow_the_protocol(table, lofo):
     m = held.merge(means, on=["temperature_C", "frequency_Hz"])
     eE = (m["E_norm_MPa_predicted"] / m["E_norm_MPa"] - 1).abs()
     eP = (m["phase_deg_predicted"] - m["phase_deg"]).abs() / m["phase_deg"]
-    ref = pd.DataFrame({"T": m["temperature_C"], "x": m["extrapolation"], "E": 100 * eE, "P": 100 * eP})\
-        .groupby(["T", "x"]).mean()
+    ref = (
+        pd.DataFrame({"T": m["temperature_C"], "x": m["extrapolation"], "E": 100 * eE, "P": 100 * eP})
+        .groupby(["T", "x"])
+        .mean()
+    )
     s = scores.summarize(lofo.rows, table)
     s = s[(s["kind"] == "held_out") & (s["model"] == "extended_law") & s["temperature_C"].notna()]
     s = s.set_index(["temperature_C", "extrapolation"])
@@ -135,8 +139,7 @@ def test_loto_reports_end_temperatures_apart_and_three_temperatures_as_not_compu
     # the in-sample rows are still there, and the lofo folds of the same table are computable
     assert res.rows.loc[res.rows["kind"] == "in_sample", "computable"].all()
     lofo = cv.crossval(three, "lofo", cv.Options())
-    assert lofo.rows.loc[(lofo.rows["kind"] == "held_out") & (lofo.rows["model"] == "extended_law"),
-                         "computable"].all()
+    assert lofo.rows.loc[(lofo.rows["kind"] == "held_out") & (lofo.rows["model"] == "extended_law"), "computable"].all()
     # five temperatures: the end ones are extrapolations, pooled apart from the inner ones
     five = cv.crossval(table, "loto", cv.Options())
     s = scores.summarize(five.rows, table)
@@ -145,8 +148,11 @@ def test_loto_reports_end_temperatures_apart_and_three_temperatures_as_not_compu
     assert per_T == {-10.0: True, 4.0: False, 21.0: False, 37.0: False, 54.0: True}
     h = scores.headline(s).iloc[0]
     assert h["worst_T_C"] in (4.0, 21.0, 37.0) and h["interp_n_cells"] == 18 and h["extrap_n_cells"] == 12
-    assert five.rows.loc[(five.rows["model"] == "burgers") & (five.rows["kind"] == "held_out"),
-                         "reason"].str.contains("no temperature dependence").all()
+    assert (
+        five.rows.loc[(five.rows["model"] == "burgers") & (five.rows["kind"] == "held_out"), "reason"]
+        .str.contains("no temperature dependence")
+        .all()
+    )
 
 
 def test_loso_scores_each_specimen_against_itself_and_never_sees_it(table):
@@ -158,8 +164,11 @@ def test_loso_scores_each_specimen_against_itself_and_never_sees_it(table):
     assert set(held["fold"]) == set(table["specimen"]) and held["computable"].all()
     for spec, g in held.groupby("fold"):
         own = table[table["specimen"] == spec].set_index(["temperature_C", "frequency_Hz"])["E_norm_MPa"]
-        np.testing.assert_allclose(g.set_index(["temperature_C", "frequency_Hz"])["E_norm_MPa_measured"],
-                                   own.loc[g.set_index(["temperature_C", "frequency_Hz"]).index], rtol=1e-12)
+        np.testing.assert_allclose(
+            g.set_index(["temperature_C", "frequency_Hz"])["E_norm_MPa_measured"],
+            own.loc[g.set_index(["temperature_C", "frequency_Hz"]).index],
+            rtol=1e-12,
+        )
     bad = table.copy()
     hit = bad["specimen"] == "S1"
     bad.loc[hit, "E_norm_MPa"] *= 3.0
@@ -168,8 +177,9 @@ def test_loso_scores_each_specimen_against_itself_and_never_sees_it(table):
     np.testing.assert_array_equal(a["E_norm_MPa_predicted"], b["E_norm_MPa_predicted"])
     assert np.allclose(b["E_norm_MPa_measured"], 3.0 * a["E_norm_MPa_measured"])
     s = scores.summarize(res.rows, table)
-    pooled = s[(s["scheme"] == "loso") & (s["kind"] == "held_out") & (s["model"] == "extended_law")
-               & s["temperature_C"].isna()].iloc[0]
+    pooled = s[
+        (s["scheme"] == "loso") & (s["kind"] == "held_out") & (s["model"] == "extended_law") & s["temperature_C"].isna()
+    ].iloc[0]
     assert pooled["n_specimens"] == table["specimen"].nunique() and pooled["interval"].startswith("t(n-1)")
     assert pooled["abs_logE_ci95_low"] <= pooled["abs_logE_pct"] <= pooled["abs_logE_ci95_high"]
 
@@ -222,17 +232,49 @@ def test_cli_crossval_outputs_and_time_domain_rows(tmp_path, table):
     means = table.groupby(["temperature_C", "frequency_Hz"])[["E_norm_MPa", "phase_deg"]].mean().reset_index()
     means[(means["temperature_C"] == 21.0) & (means["frequency_Hz"] == 10.0)].to_csv(td, index=False)
     out = {k: tmp_path / k for k in ("cv.csv", "s.csv", "c.csv", "f.png")}
-    args = ["crossval", "--measured", str(m), "--scheme", "lofo", "--law-statics", "constant", "--law-shifts", "wlf",
-            "--law-verticals", "off", "--law-refines", "off", "--law-per-decades", "2"]
-    assert main([*args, "--time-domain", str(td), "-o", str(out["cv.csv"]), "--summary", str(out["s.csv"]),
-                 "--curve", str(out["c.csv"]), "--figure", str(out["f.png"])]) == 0
+    args = [
+        "crossval",
+        "--measured",
+        str(m),
+        "--scheme",
+        "lofo",
+        "--law-statics",
+        "constant",
+        "--law-shifts",
+        "wlf",
+        "--law-verticals",
+        "off",
+        "--law-refines",
+        "off",
+        "--law-per-decades",
+        "2",
+    ]
+    assert (
+        main(
+            [
+                *args,
+                "--time-domain",
+                str(td),
+                "-o",
+                str(out["cv.csv"]),
+                "--summary",
+                str(out["s.csv"]),
+                "--curve",
+                str(out["c.csv"]),
+                "--figure",
+                str(out["f.png"]),
+            ]
+        )
+        == 0
+    )
     rows = pd.read_csv(out["cv.csv"])
     t = rows[rows["model"] == "nscd_time_domain"]
     assert len(t) == 1 and str(t["fold"].iloc[0]) == "10" and t["rel_err_E_norm"].iloc[0] == pytest.approx(0, abs=1e-12)
     assert out["f.png"].stat().st_size > 0 and len(pd.read_csv(out["s.csv"])) > 0
     # a time-domain row at a cell that is not measured, or --sample without --transfer: clear errors
-    pd.DataFrame({"temperature_C": [22.0], "frequency_Hz": [10.0], "E_norm_MPa": [1.0],
-                  "phase_deg": [10.0]}).to_csv(td, index=False)
+    pd.DataFrame({"temperature_C": [22.0], "frequency_Hz": [10.0], "E_norm_MPa": [1.0], "phase_deg": [10.0]}).to_csv(
+        td, index=False
+    )
     assert main([*args, "--time-domain", str(td), "-o", str(tmp_path / "x.csv")]) != 0
     assert main([*args, "--sample", str(m), "-o", str(tmp_path / "x.csv")]) != 0
     assert not (tmp_path / "x.csv").exists()
@@ -241,23 +283,52 @@ def test_cli_crossval_outputs_and_time_domain_rows(tmp_path, table):
 def test_diagnose_puts_held_out_beside_in_sample(tmp_path, table):
     m = tmp_path / "M.csv"
     table.to_csv(m, index=False)
-    opts = ["--law-statics", "constant", "--law-shifts", "wlf", "--law-verticals", "off", "--law-refines", "off",
-            "--law-per-decades", "2"]
+    opts = [
+        "--law-statics",
+        "constant",
+        "--law-shifts",
+        "wlf",
+        "--law-verticals",
+        "off",
+        "--law-refines",
+        "off",
+        "--law-per-decades",
+        "2",
+    ]
     for scheme in ("lofo", "loto"):
-        assert main(["crossval", "--measured", str(m), "--scheme", scheme, *opts,
-                     "-o", str(tmp_path / f"{scheme}.csv")]) == 0
+        assert (
+            main(["crossval", "--measured", str(m), "--scheme", scheme, *opts, "-o", str(tmp_path / f"{scheme}.csv")])
+            == 0
+        )
     out = {k: tmp_path / k for k in ("r.json", "gain.csv", "page.md")}
     chain = cli_chain(m, tmp_path / "chain", opts)
-    assert main(["diagnose", *chain["args"], "--crossval", str(tmp_path / "lofo.csv"),
-                 str(tmp_path / "loto.csv"), "-o", str(out["r.json"]), "--gain-csv", str(out["gain.csv"]),
-                 "--page", str(out["page.md"])]) == 0
+    assert (
+        main(
+            [
+                "diagnose",
+                *chain["args"],
+                "--crossval",
+                str(tmp_path / "lofo.csv"),
+                str(tmp_path / "loto.csv"),
+                "-o",
+                str(out["r.json"]),
+                "--gain-csv",
+                str(out["gain.csv"]),
+                "--page",
+                str(out["page.md"]),
+            ]
+        )
+        == 0
+    )
     gain = pd.read_csv(out["gain.csv"]).set_index("temperature_C")
     rows = pd.read_csv(tmp_path / "lofo.csv")
     s = scores.summarize(rows, table)
-    inner = s[(s["kind"] == "held_out") & (s["model"] == "extended_law") & ~s["extrapolation"]
-              & s["temperature_C"].notna()].set_index("temperature_C")
-    np.testing.assert_allclose(gain.loc[inner.index, "abs_logE_pct_after_heldout_lofo"], inner["abs_logE_pct"],
-                               rtol=1e-9)
+    inner = s[
+        (s["kind"] == "held_out") & (s["model"] == "extended_law") & ~s["extrapolation"] & s["temperature_C"].notna()
+    ].set_index("temperature_C")
+    np.testing.assert_allclose(
+        gain.loc[inner.index, "abs_logE_pct_after_heldout_lofo"], inner["abs_logE_pct"], rtol=1e-9
+    )
     assert (gain["heldout_after_model"] == "extended_law").all()
     assert gain["abs_logE_pct_before_heldout_lofo"].notna().all()  # Burger's per isotherm
     assert gain["abs_logE_pct_before_heldout_loto"].isna().all()  # not defined for Burger's
@@ -325,12 +396,33 @@ def test_noise_floor_and_intervals_over_specimens():
     for T in (0.0, 20.0):
         for f in (1.0, 10.0):
             for s, c in enumerate((0.96, 1.0, 1.04)):
-                rows_t.append({"specimen": f"S{s}", "temperature_C": T, "frequency_Hz": f,
-                               "E_norm_MPa": 1000.0 * c, "phase_deg": 20.0 * c})
-            pred.append({"scheme": "lofo", "fold": f"{f:g}", "kind": "held_out", "model": "m", "temperature_C": T,
-                         "frequency_Hz": f, "E_norm_MPa_predicted": 1050.0, "phase_deg_predicted": 21.0,
-                         "E_norm_MPa_measured": 1000.0, "phase_deg_measured": 20.0, "rel_err_E_norm": 0.05,
-                         "rel_err_phase": 0.05, "extrapolation": False, "computable": True})
+                rows_t.append(
+                    {
+                        "specimen": f"S{s}",
+                        "temperature_C": T,
+                        "frequency_Hz": f,
+                        "E_norm_MPa": 1000.0 * c,
+                        "phase_deg": 20.0 * c,
+                    }
+                )
+            pred.append(
+                {
+                    "scheme": "lofo",
+                    "fold": f"{f:g}",
+                    "kind": "held_out",
+                    "model": "m",
+                    "temperature_C": T,
+                    "frequency_Hz": f,
+                    "E_norm_MPa_predicted": 1050.0,
+                    "phase_deg_predicted": 21.0,
+                    "E_norm_MPa_measured": 1000.0,
+                    "phase_deg_measured": 20.0,
+                    "rel_err_E_norm": 0.05,
+                    "rel_err_phase": 0.05,
+                    "extrapolation": False,
+                    "computable": True,
+                }
+            )
     table = pd.DataFrame(rows_t)
     floor = scores.noise_floor(table).set_index("temperature_C")
     assert floor.loc[0.0, "noise_floor_E_norm_pct"] == pytest.approx(4.0 / np.sqrt(3), rel=1e-9)
@@ -374,8 +466,13 @@ def test_held_out_rows_get_the_drift_correction_they_get_inside_the_whole_table(
     held-out frequency alone was corrected about itself)."""
     from asphalt_nscd.diagnosis.effects import ArtifactSearch, prepare_table
 
-    t, _ = synthetic.generate(8, ["temperature_drift"], schedule="aashto_t342", n_specimens=3,
-                              magnitudes={"temperature_drift": {"drift_C_per_test": 1.2}})
+    t, _ = synthetic.generate(
+        8,
+        ["temperature_drift"],
+        schedule="aashto_t342",
+        n_specimens=3,
+        magnitudes={"temperature_drift": {"drift_C_per_test": 1.2}},
+    )
     whole = prepare_table(t)
     for f in (25.0, 1.0):
         held = whole[whole["frequency_Hz"] == f]
@@ -398,11 +495,17 @@ def test_the_card_law_weighs_every_cell(seed):
     from asphalt_nscd.rheology.metrics import cell_means
 
     table, _ = synthetic.generate(seed, schedule="aashto_t342", n_specimens=3, test_order=False)
-    hot = (table["temperature_C"] == table["temperature_C"].max()) & (table["frequency_Hz"] == table["frequency_Hz"].max())
+    hot = (table["temperature_C"] == table["temperature_C"].max()) & (
+        table["frequency_Hz"] == table["frequency_Hz"].max()
+    )
     table.loc[hot, "E_norm_MPa"] *= 1.25
     cells = cell_means(table)
-    k = int(np.flatnonzero((cells["temperature_C"] == table["temperature_C"].max()).to_numpy()
-                           & (cells["frequency_Hz"] == table["frequency_Hz"].max()).to_numpy())[0])
+    k = int(
+        np.flatnonzero(
+            (cells["temperature_C"] == table["temperature_C"].max()).to_numpy()
+            & (cells["frequency_Hz"] == table["frequency_Hz"].max()).to_numpy()
+        )[0]
+    )
 
     def miss(law):
         E = law.complex_modulus(cells["frequency_Hz"].to_numpy(), cells["temperature_C"].to_numpy())
@@ -416,6 +519,7 @@ def test_the_card_law_weighs_every_cell(seed):
     default = cv.fit_extended(table, cv.Options(candidates=arrhenius, artifacts=False))
     assert default.card_settings == LawSettings(shift="wlf", static="constant")
     assert miss(default.card_law) < miss(default.law) - 1.0
-    robust = cv.fit_extended(table, cv.Options(candidates=arrhenius, artifacts=False, card_fit="robust",
-                                               card_shift="law"))
+    robust = cv.fit_extended(
+        table, cv.Options(candidates=arrhenius, artifacts=False, card_fit="robust", card_shift="law")
+    )
     assert robust.card_law is robust.law

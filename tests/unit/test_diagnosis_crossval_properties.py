@@ -19,15 +19,43 @@ from asphalt_nscd.rheology.models import two_s2p1d_modulus
 
 AMPT = Path(__file__).resolve().parents[1] / "data" / "ampt_like_mix.csv"
 #: fixed profile: deterministic examples (CI), no example database, modest count
-PROFILE = settings(max_examples=20, deadline=None, derandomize=True, database=None,
-                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
-                                          HealthCheck.function_scoped_fixture])
+PROFILE = settings(
+    max_examples=20,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.function_scoped_fixture],
+)
 FREQUENCY_GRID = tuple(float(f) for f in np.round(np.logspace(-2, 2, 33), 6))
 #: small candidate sets keep the tests short; two settings make the nested selection run
-LAW = ["--law-shifts", "wlf", "--law-statics", "constant", "trend", "--law-verticals", "off",
-       "--law-refines", "off", "--law-per-decades", "2"]
-ONE = ["--law-shifts", "wlf", "--law-statics", "constant", "--law-verticals", "off", "--law-refines", "off",
-       "--law-per-decades", "2", "--no-artifacts", "--burgers-starts", "1"]
+LAW = [
+    "--law-shifts",
+    "wlf",
+    "--law-statics",
+    "constant",
+    "trend",
+    "--law-verticals",
+    "off",
+    "--law-refines",
+    "off",
+    "--law-per-decades",
+    "2",
+]
+ONE = [
+    "--law-shifts",
+    "wlf",
+    "--law-statics",
+    "constant",
+    "--law-verticals",
+    "off",
+    "--law-refines",
+    "off",
+    "--law-per-decades",
+    "2",
+    "--no-artifacts",
+    "--burgers-starts",
+    "1",
+]
 
 
 @st.composite
@@ -40,17 +68,33 @@ def tables(draw):
     T, f = (a.ravel() for a in np.meshgrid(np.array(temps, float), np.array(freqs), indexing="ij"))
     if kind == "mix":  # a 2S2P1D/WLF mix, phases clipped to 1-60 deg
         tau = np.exp(rng.uniform(np.log(0.005), np.log(1.0))) * 10.0 ** (-27.0 * (T - 20) / (180.0 + T - 20))
-        E = two_s2p1d_modulus(2 * np.pi * f, rng.uniform(20, 300), rng.uniform(25e3, 45e3), rng.uniform(1.5, 3.5),
-                              rng.uniform(0.12, 0.25), rng.uniform(0.45, 0.7), rng.uniform(50, 5000), tau)
+        E = two_s2p1d_modulus(
+            2 * np.pi * f,
+            rng.uniform(20, 300),
+            rng.uniform(25e3, 45e3),
+            rng.uniform(1.5, 3.5),
+            rng.uniform(0.12, 0.25),
+            rng.uniform(0.45, 0.7),
+            rng.uniform(50, 5000),
+            tau,
+        )
         E_norm, phase = np.abs(E), np.clip(np.degrees(np.angle(E)), 1.0, 60.0)
     else:  # anything the loader accepts: no consistent viscoelastic behaviour at all
         E_norm, phase = np.exp(rng.uniform(np.log(5.0), np.log(4e4), T.size)), rng.uniform(1.0, 60.0, T.size)
     rows = []
     for s in range(n_spec):
         c = np.exp(rng.normal(0, 0.04))
-        rows.append(pd.DataFrame({"specimen": f"S{s + 1}", "temperature_C": T, "frequency_Hz": f,
-                                  "E_norm_MPa": E_norm * c * np.exp(rng.normal(0, 0.02, T.size)),
-                                  "phase_deg": np.clip(phase + rng.normal(0, 0.3, T.size), 1.0, 60.0)}))
+        rows.append(
+            pd.DataFrame(
+                {
+                    "specimen": f"S{s + 1}",
+                    "temperature_C": T,
+                    "frequency_Hz": f,
+                    "E_norm_MPa": E_norm * c * np.exp(rng.normal(0, 0.02, T.size)),
+                    "phase_deg": np.clip(phase + rng.normal(0, 0.3, T.size), 1.0, 60.0),
+                }
+            )
+        )
     table = pd.concat(rows, ignore_index=True)
     if draw(st.booleans()):
         table["strain_microstrain"] = np.round(rng.uniform(30, 150, len(table)), 1)
@@ -79,9 +123,24 @@ def test_extend_law_goes_through_any_accepted_table(tmp_path_factory, drawn):
     path = _write(d, table)
     out = d / "law.json"
     unmeasured = float(np.mean(table["temperature_C"].unique())) + 0.5
-    assert main(["extend-law", "--measured", str(path), *LAW, "--temperatures",
-                 *[str(t) for t in sorted(table["temperature_C"].unique())], str(unmeasured),
-                 "-o", str(out), "--cv-curve", str(d / "c.csv")]) == 0
+    assert (
+        main(
+            [
+                "extend-law",
+                "--measured",
+                str(path),
+                *LAW,
+                "--temperatures",
+                *[str(t) for t in sorted(table["temperature_C"].unique())],
+                str(unmeasured),
+                "-o",
+                str(out),
+                "--cv-curve",
+                str(d / "c.csv"),
+            ]
+        )
+        == 0
+    )
     laws = law_file.read(out)  # the campaign's reader accepts it: positive, finite
     assert len(laws) == table["temperature_C"].nunique() + (unmeasured not in set(table["temperature_C"]))
     w = 2 * np.pi * np.array([0.01, 1.0, 100.0])
@@ -104,8 +163,24 @@ def test_crossval_goes_through_any_accepted_table(tmp_path_factory, drawn):
     for scheme in ("lofo", "loto"):
         out = d / f"{scheme}.csv"
         burgers = [] if kind == "mix" and scheme == "lofo" else ["--no-burgers"]
-        assert main(["crossval", "--measured", str(path), "--scheme", scheme, *ONE, *burgers, "-o", str(out),
-                     "--summary", str(d / "s.csv")]) == 0
+        assert (
+            main(
+                [
+                    "crossval",
+                    "--measured",
+                    str(path),
+                    "--scheme",
+                    scheme,
+                    *ONE,
+                    *burgers,
+                    "-o",
+                    str(out),
+                    "--summary",
+                    str(d / "s.csv"),
+                ]
+            )
+            == 0
+        )
         rows = pd.read_csv(out)
         assert list(rows.columns) == list(ROW_COLUMNS)
         law = rows[(rows["model"] == "extended_law") & (rows["kind"] == "held_out")]
@@ -126,8 +201,10 @@ def test_ampt_shaped_regression_table(tmp_path):
     search on, nested selection) at the measured and an unmeasured temperature; lofo computable
     and close to the data, loto not computable (two temperatures left) with the reason."""
     out = tmp_path / "law.json"
-    assert main(["extend-law", "--measured", str(AMPT), *LAW, "--temperatures", "4", "21", "30", "37",
-                 "-o", str(out)]) == 0
+    assert (
+        main(["extend-law", "--measured", str(AMPT), *LAW, "--temperatures", "4", "21", "30", "37", "-o", str(out)])
+        == 0
+    )
     obj = json.loads(out.read_text())
     assert set(obj["temperatures"]) == {"4", "21", "30", "37"}
     assert not any(v["extrapolation"] for v in obj["temperatures"].values())
@@ -138,8 +215,23 @@ def test_ampt_shaped_regression_table(tmp_path):
     E21, E30, E37 = (law_file.read(out)[T].complex_modulus(2 * np.pi * 1.0) for T in (21.0, 30.0, 37.0))
     assert abs(E37) < abs(E30) < abs(E21) and law30.n_kelvin >= 2
     for scheme in ("lofo", "loto"):
-        assert main(["crossval", "--measured", str(AMPT), "--scheme", scheme, *LAW, "-o",
-                     str(tmp_path / f"{scheme}.csv"), "--summary", str(tmp_path / f"{scheme}_s.csv")]) == 0
+        assert (
+            main(
+                [
+                    "crossval",
+                    "--measured",
+                    str(AMPT),
+                    "--scheme",
+                    scheme,
+                    *LAW,
+                    "-o",
+                    str(tmp_path / f"{scheme}.csv"),
+                    "--summary",
+                    str(tmp_path / f"{scheme}_s.csv"),
+                ]
+            )
+            == 0
+        )
     lofo = pd.read_csv(tmp_path / "lofo.csv")
     held = lofo[(lofo["kind"] == "held_out") & (lofo["model"] == "extended_law")]
     assert len(held) == 18 and held["computable"].all()

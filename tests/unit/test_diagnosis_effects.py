@@ -57,10 +57,13 @@ def _seed_bases() -> list:
 
 SEED_BASES = _seed_bases()
 #: planted sizes in the upper part of the generator's ranges
-SIZES = {"time_lag": {"time_lag_ms": 1.0}, "inertia_uncorrected": {"mass_factor_g": 350.0},
-         "strain_nonlinearity": {"modulus_drop_per_100_microstrain": 0.05},
-         "self_heating": {"modulus_drop_pct_per_test": 1.5, "phase_rise_pct_per_test": 1.5},
-         "temperature_drift": {"drift_C_per_test": 1.2}}
+SIZES = {
+    "time_lag": {"time_lag_ms": 1.0},
+    "inertia_uncorrected": {"mass_factor_g": 350.0},
+    "strain_nonlinearity": {"modulus_drop_per_100_microstrain": 0.05},
+    "self_heating": {"modulus_drop_pct_per_test": 1.5, "phase_rise_pct_per_test": 1.5},
+    "temperature_drift": {"drift_C_per_test": 1.2},
+}
 #: an estimate passes within its relative tolerance or within N_SE of its own standard errors
 #: (a 1-in-370 chance of a miss for an unbiased estimate with a correct s.e.), its s.e. at
 #: most half the planted size
@@ -96,8 +99,10 @@ def _diagnose(seed, effects, family):
         temps = synthetic.SCHEDULES[schedule][0]
         ref = temps[int(np.argmin(np.abs(np.asarray(temps) - np.median(temps))))]
         inner = [T for T in temps[1:-1] if T != ref]
-        mags["temperature_offset"] = {"temperature_C": float(rng.choice(inner)),
-                                      "offset_C": float(rng.choice([-5.0, 5.0]))}
+        mags["temperature_offset"] = {
+            "temperature_C": float(rng.choice(inner)),
+            "offset_C": float(rng.choice([-5.0, 5.0])),
+        }
     table, truth = synthetic.generate(seed, effects, schedule=schedule, magnitudes=mags, family=family)
     search = ArtifactSearch(table, test=from_dict(truth["test"], "synthetic"))
     entries = {e["name"]: e for e in effect_entries(search, search.run())}
@@ -127,11 +132,16 @@ def _outcomes(index: int) -> tuple:
             se = e["estimate"][ESTIMATE_KEYS[name] + "_se"]
             true = truth["effects"][name][ESTIMATE_KEYS[name]]
             # outside its own model the detector's estimates are biased by the misfit: 50 %
-            ok = ok and e["testable"] and 0 < se <= 0.5 * abs(true) \
+            ok = (
+                ok
+                and e["testable"]
+                and 0 < se <= 0.5 * abs(true)
                 and estimate_ok(name, e, truth, 0.25 if family == "wlf" else 0.5, n_se=N_SE)
+            )
         extra = sorted(detected - set(effects)) if exact else []
-        out.append((seed, sorted(detected), ok, extra,
-                    {n: entries[n]["estimate"].get(ESTIMATE_KEYS[n]) for n in effects}))
+        out.append(
+            (seed, sorted(detected), ok, extra, {n: entries[n]["estimate"].get(ESTIMATE_KEYS[n]) for n in effects})
+        )
     return tuple(out)
 
 
@@ -158,11 +168,13 @@ def test_planted_effects_are_named_and_estimated_on_fresh_seeds(index, case):
         missed = [o for o in outcomes if not o[2]]
         assert len(missed) <= _allowed_failures(n, 1 - POWER, CASE_LEVEL), (
             f"{family} {effects}: planted effects missed or misestimated on {len(missed)} of {n} seeds "
-            f"(seed, named, ok, extra, estimates): {missed}; {_rerun_hint()}")
+            f"(seed, named, ok, extra, estimates): {missed}; {_rerun_hint()}"
+        )
     alarms = [o for o in outcomes if o[3]]
     assert len(alarms) <= _allowed_failures(n, FALSE_ALARM_RATE, CASE_LEVEL), (
         f"{family} {effects}: effects named that were not planted on {len(alarms)} of {n} seeds: {alarms}; "
-        f"{_rerun_hint()}")
+        f"{_rerun_hint()}"
+    )
 
 
 def test_fresh_seed_rates_over_all_cases():
@@ -174,8 +186,10 @@ def test_fresh_seed_rates_over_all_cases():
     missed = [(CASES[i][:2], o) for i, o in planted if not o[2]]
     exact = [(i, o) for i, o in rows if CASES[i][2]]
     alarms = [(CASES[i][:2], o) for i, o in exact if o[3]]
-    print(f"fresh seeds {SEED_BASES}: {len(planted) - len(missed)} of {len(planted)} planted tables named and "
-          f"estimated; unplanted effects named on {len(alarms)} of {len(exact)} tables")
+    print(
+        f"fresh seeds {SEED_BASES}: {len(planted) - len(missed)} of {len(planted)} planted tables named and "
+        f"estimated; unplanted effects named on {len(alarms)} of {len(exact)} tables"
+    )
     assert len(missed) <= _allowed_failures(len(planted), 1 - POWER, ALL_LEVEL), (missed, _rerun_hint())
     assert len(alarms) <= _allowed_failures(len(exact), FALSE_ALARM_RATE, ALL_LEVEL), (alarms, _rerun_hint())
 
@@ -184,8 +198,15 @@ def test_generator_is_seeded_and_physical():
     a, ta = synthetic.generate(3, ["time_lag"], schedule="paper_2pb", n_specimens=2)
     b, tb = synthetic.generate(3, ["time_lag"], schedule="paper_2pb", n_specimens=2)
     assert a.equals(b) and ta == tb
-    assert set(a.columns) >= {"specimen", "temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg",
-                              "strain_microstrain", "test_order"}
+    assert set(a.columns) >= {
+        "specimen",
+        "temperature_C",
+        "frequency_Hz",
+        "E_norm_MPa",
+        "phase_deg",
+        "strain_microstrain",
+        "test_order",
+    }
     assert len(a) == 2 * 6 * 5
     assert a["phase_deg"].between(0, 90).all() and (a["E_norm_MPa"] > 0).all()
     with pytest.raises(ValueError, match="unknown effect"):
@@ -223,8 +244,9 @@ def test_inertia_uses_the_declared_form_factor():
     that test's moving mass, not of a 2PB head."""
     cyl = from_dict({"test": "uniaxial_cylinder", "diameter_mm": 100.0, "height_mm": 150.0}, "x")
     mags = {"inertia_uncorrected": {"mass_factor_g": 40000.0}}
-    table, truth = synthetic.generate(31, ["inertia_uncorrected"], schedule="aashto_t342", n_specimens=3,
-                                      magnitudes=mags)
+    table, truth = synthetic.generate(
+        31, ["inertia_uncorrected"], schedule="aashto_t342", n_specimens=3, magnitudes=mags
+    )
     m = truth["effects"]["inertia_uncorrected"]["mass_factor_g"]
     assert truth["test"]["test"] == "uniaxial_cylinder"
     search = ArtifactSearch(table, test=cyl)
@@ -250,8 +272,15 @@ def test_testability_without_optional_columns():
 
 
 def test_bench_case_outcome():
-    case = {"family": "wlf", "kind": "time_lag", "index": 0, "seed": 7003, "schedule": "aashto_t342",
-            "effects": ["time_lag"], "magnitudes": {"time_lag": {"time_lag_ms": 0.5}}}
+    case = {
+        "family": "wlf",
+        "kind": "time_lag",
+        "index": 0,
+        "seed": 7003,
+        "schedule": "aashto_t342",
+        "effects": ["time_lag"],
+        "magnitudes": {"time_lag": {"time_lag_ms": 0.5}},
+    }
     r = run_case(case)
     assert r["planted"] == ["time_lag"] and "time_lag" in r["detected"] and r["estimate_ok"]["time_lag"]
 
@@ -260,8 +289,7 @@ def test_replicate_noise_regresses_out_the_strain_effect():
     from asphalt_nscd.rheology.master_curve import replicate_noise
 
     mags = {"strain_nonlinearity": {"modulus_drop_per_100_microstrain": 0.06}}
-    table, truth = synthetic.generate(21, ["strain_nonlinearity"], schedule="paper_2pb", n_specimens=4,
-                                      magnitudes=mags)
+    table, truth = synthetic.generate(21, ["strain_nonlinearity"], schedule="paper_2pb", n_specimens=4, magnitudes=mags)
     true_sigma = truth["noise"]["point_lnE_sigma"]
     plain, _ = replicate_noise(table)
     adjusted, sP = replicate_noise(table, covariates=("strain_microstrain",))
@@ -294,8 +322,7 @@ def test_strain_term_is_centred_and_correction_goes_to_small_strain():
 
 def test_temperature_offset_is_found_on_its_inner_isotherm_and_corrected():
     mags = {"temperature_offset": {"temperature_C": 10.0, "offset_C": -3.0}}
-    table, truth = synthetic.generate(41, ["temperature_offset"], schedule="paper_2pb", n_specimens=3,
-                                      magnitudes=mags)
+    table, truth = synthetic.generate(41, ["temperature_offset"], schedule="paper_2pb", n_specimens=3, magnitudes=mags)
     search = ArtifactSearch(table)
     result = search.run()
     off = result["offset"]
@@ -309,7 +336,10 @@ def test_temperature_offset_is_found_on_its_inner_isotherm_and_corrected():
     assert abs(next(r for r in again["per_isotherm"] if r["temperature_C"] == 10.0)["offset_C"]) < 0.5
     # a planted offset passes the consistency check: the corrected table fits the master curve better
     corrected, _ = search.consistent_correction(result)
-    assert off["correction_applied"] and off["master_curve_rss"]["offset_corrected"] < off["master_curve_rss"]["not_corrected"]
+    assert (
+        off["correction_applied"]
+        and off["master_curve_rss"]["offset_corrected"] < off["master_curve_rss"]["not_corrected"]
+    )
     assert np.allclose(corrected["E_norm_MPa"], search.corrected_table(result)["E_norm_MPa"])
     entry = next(e for e in fx.effect_entries(search, result) if e["name"] == "temperature_offset")
     assert entry["detected"] and "corrected in the table" in entry["evidence"]
@@ -332,8 +362,9 @@ def test_a_drift_along_a_frequency_sweep_is_not_identifiable_and_never_named(sch
     frequency repeated at the end of each isotherm, is identifiable and named; without an order,
     not testable."""
     for order, expected in (("standard", False), ("random", True), ("repeat", True)):
-        table, truth = synthetic.generate(17, ["temperature_drift"], schedule=schedule, n_specimens=3,
-                                          magnitudes=DRIFT, order=order)
+        table, truth = synthetic.generate(
+            17, ["temperature_drift"], schedule=schedule, n_specimens=3, magnitudes=DRIFT, order=order
+        )
         search = ArtifactSearch(table, test=from_dict(truth["test"], "x"))
         result = search.run()
         e = {x["name"]: x for x in effect_entries(search, result)}["temperature_drift"]
@@ -342,10 +373,12 @@ def test_a_drift_along_a_frequency_sweep_is_not_identifiable_and_never_named(sch
         assert (rho >= fx.IDENTIFIABILITY_LIMITS["rival"]) is (not expected)
         assert e["detected"] is expected
         if not expected:
-            assert "time-temperature superposition" in e["evidence"] and "temperature_drift" not in \
-                [c.name for c in result["selected"]]
-    no_order, truth = synthetic.generate(17, ["temperature_drift"], schedule=schedule, n_specimens=3,
-                                         magnitudes=DRIFT, test_order=False)
+            assert "time-temperature superposition" in e["evidence"] and "temperature_drift" not in [
+                c.name for c in result["selected"]
+            ]
+    no_order, truth = synthetic.generate(
+        17, ["temperature_drift"], schedule=schedule, n_specimens=3, magnitudes=DRIFT, test_order=False
+    )
     search = ArtifactSearch(no_order, test=from_dict(truth["test"], "x"))
     e = {x["name"]: x for x in effect_entries(search, search.run())}["temperature_drift"]
     assert not e["testable"] and not e["detected"]
@@ -459,11 +492,15 @@ def test_committed_power_claim_holds_on_fresh_seeds(claim):
     conf, artifact, key, size, low = claim
     n = POWER_CHECK_TABLES[conf]
     base = SEED_BASES[0]
-    cases = [c for c in bench.plan(base, list(synthetic.FAMILIES), 0, 0, configuration=conf, power=n)
-             if c["kind"] == f"power:{artifact}" and c["power_size"] == size]
+    cases = [
+        c
+        for c in bench.plan(base, list(synthetic.FAMILIES), 0, 0, configuration=conf, power=n)
+        if c["kind"] == f"power:{artifact}" and c["power_size"] == size
+    ]
     assert len(cases) == n
     runs = [run_case(c) for c in cases]
     missed = [(r["family"], r["seed"], r["detected"]) for r in runs if artifact not in r["detected"]]
     assert len(missed) <= _allowed_failures(n, 1.0 - low, ALL_LEVEL), (
         f"{conf}: {artifact} at {key} = {size:g} missed on {len(missed)} of {n} tables {missed}; "
-        f"the committed benchmark's rate is >= {low:.3f}; {_rerun_hint()}")
+        f"the committed benchmark's rate is >= {low:.3f}; {_rerun_hint()}"
+    )

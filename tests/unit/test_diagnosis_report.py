@@ -16,8 +16,18 @@ from asphalt_nscd.diagnosis.causes import burgers_predict
 from asphalt_nscd.lab.measured import load_measured
 
 REAL = Path(__file__).resolve().parents[2] / "data/measured/uiuc_fdmix1_utm/complex_modulus.csv"
-NAMES = {"broad_spectrum", "static_modulus", "time_lag", "inertia_uncorrected", "temperature_offset",
-         "strain_nonlinearity", "self_heating", "temperature_drift", "network_factor", "time_integration"}
+NAMES = {
+    "broad_spectrum",
+    "static_modulus",
+    "time_lag",
+    "inertia_uncorrected",
+    "temperature_offset",
+    "strain_nonlinearity",
+    "self_heating",
+    "temperature_drift",
+    "network_factor",
+    "time_integration",
+}
 
 
 @pytest.fixture(scope="module")
@@ -26,10 +36,27 @@ def real_report(tmp_path_factory):
     out = d / "report.json"
     chain = cli_chain(REAL, d)
     (d / "laws.json").write_text(chain["law"].read_text())
-    assert main(["diagnose", *chain["args"], "-o", str(out),
-                 "--budget-csv", str(d / "budget.csv"), "--gain-csv", str(d / "gain.csv"),
-                 "--effects-csv", str(d / "effects.csv"), "--figure", str(d / "budget.png"),
-                 "--page", str(d / "page.md")]) == 0
+    assert (
+        main(
+            [
+                "diagnose",
+                *chain["args"],
+                "-o",
+                str(out),
+                "--budget-csv",
+                str(d / "budget.csv"),
+                "--gain-csv",
+                str(d / "gain.csv"),
+                "--effects-csv",
+                str(d / "effects.csv"),
+                "--figure",
+                str(d / "budget.png"),
+                "--page",
+                str(d / "page.md"),
+            ]
+        )
+        == 0
+    )
     return json.loads(out.read_text()), d
 
 
@@ -95,39 +122,88 @@ def test_laws_json_round_trip_reproduces_mre(real_report):
     m = extended.law_metrics({T: law.scaled(1e-6) for T, law in laws.items()}, cells)
     mre = 100 * m.groupby("temperature_C")[["rel_err_E_norm", "rel_err_phase"]].mean()
     for T in laws:
-        assert mre.loc[T, "rel_err_E_norm"] == pytest.approx(rep["extended"]["mre_E_norm_pct_vs_measured"][f"{T:g}"], rel=1e-6)
-        assert mre.loc[T, "rel_err_phase"] == pytest.approx(rep["extended"]["mre_phase_pct_vs_measured"][f"{T:g}"], rel=1e-6)
+        assert mre.loc[T, "rel_err_E_norm"] == pytest.approx(
+            rep["extended"]["mre_E_norm_pct_vs_measured"][f"{T:g}"], rel=1e-6
+        )
+        assert mre.loc[T, "rel_err_phase"] == pytest.approx(
+            rep["extended"]["mre_phase_pct_vs_measured"][f"{T:g}"], rel=1e-6
+        )
         assert laws[T].n_kelvin >= 2
 
 
 def test_synth_then_diagnose_with_simulation_inputs(tmp_path):
     m = tmp_path / "M.csv"
-    assert main(["synth", "--seed", "11", "--effects", "time_lag", "--schedule", "paper_2pb",
-                 "--specimens", "3", "-o", str(m)]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--seed",
+                "11",
+                "--effects",
+                "time_lag",
+                "--schedule",
+                "paper_2pb",
+                "--specimens",
+                "3",
+                "-o",
+                str(m),
+            ]
+        )
+        == 0
+    )
     truth = json.loads((tmp_path / "M.truth.json").read_text())
     lag = truth["effects"]["time_lag"]["time_lag_ms"]
     # macro Burger's law given to the simulation, and its sample responses
-    macro = pd.DataFrame({"temperature_C": [-10.0, 0.0, 10.0, 15.0, 20.0, 30.0], "Em_MPa": 30e3,
-                          "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3], "Ek_MPa": 40e3,
-                          "eta_k_MPa_s": [400.0, 200.0, 100.0, 50.0, 30.0, 10.0]})
+    macro = pd.DataFrame(
+        {
+            "temperature_C": [-10.0, 0.0, 10.0, 15.0, 20.0, 30.0],
+            "Em_MPa": 30e3,
+            "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3],
+            "Ek_MPa": 40e3,
+            "eta_k_MPa_s": [400.0, 200.0, 100.0, 50.0, 30.0, 10.0],
+        }
+    )
     macro.to_csv(tmp_path / "macro.csv", index=False)
-    grid = pd.DataFrame([(T, f) for T in macro["temperature_C"] for f in (3.0, 10.0, 40.0)],
-                        columns=["temperature_C", "frequency_Hz"])
+    grid = pd.DataFrame(
+        [(T, f) for T in macro["temperature_C"] for f in (3.0, 10.0, 40.0)], columns=["temperature_C", "frequency_Hz"]
+    )
     E = burgers_predict(macro, grid["temperature_C"], grid["frequency_Hz"])
     harm = grid.assign(E_norm_MPa=1.2 * np.abs(E), phase_deg=np.degrees(np.angle(E)), solver="harmonic")
     dt = 5e-5
     nscd = harm.assign(solver="nscd", dt_s=dt, phase_deg=harm["phase_deg"] + 0.5 * 360 * grid["frequency_Hz"] * dt)
     pd.concat([harm, nscd]).to_csv(tmp_path / "S.csv", index=False)
     # a time-integration table with two thetas (as results/nscd/phase_error.csv)
-    ti = pd.DataFrame([(f, dt, th, c * 360 * f * dt) for f in (3.0, 40.0) for dt in (2e-5, 1e-4)
-                       for th, c in ((0.5, 0.5), (1.0, 2.0))],
-                      columns=["frequency_Hz", "dt_s", "theta", "phase_error_deg"])
+    ti = pd.DataFrame(
+        [
+            (f, dt, th, c * 360 * f * dt)
+            for f in (3.0, 40.0)
+            for dt in (2e-5, 1e-4)
+            for th, c in ((0.5, 0.5), (1.0, 2.0))
+        ],
+        columns=["frequency_Hz", "dt_s", "theta", "phase_error_deg"],
+    )
     ti.to_csv(tmp_path / "ti.csv", index=False)
     out = tmp_path / "r.json"
     chain = cli_chain(m, tmp_path / "chain")
-    assert main(["diagnose", *chain["args"], "--simulated", str(tmp_path / "S.csv"),
-                 "--time-integration", str(tmp_path / "ti.csv"), "--theta", "0.5",
-                 "--macro-params", str(tmp_path / "macro.csv"), "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "diagnose",
+                *chain["args"],
+                "--simulated",
+                str(tmp_path / "S.csv"),
+                "--time-integration",
+                str(tmp_path / "ti.csv"),
+                "--theta",
+                "0.5",
+                "--macro-params",
+                str(tmp_path / "macro.csv"),
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     rep = json.loads(out.read_text())
     by = {e["name"]: e for e in rep["effects"]}
     assert by["time_lag"]["detected"] and by["time_lag"]["estimate"]["time_lag_ms"] == pytest.approx(lag, rel=0.25)
@@ -151,8 +227,16 @@ def test_synth_then_diagnose_with_simulation_inputs(tmp_path):
 
 
 def _real_args(d):
-    return ["--measured", str(REAL), "--master-curve", str(d / "master_curve.json"),
-            "--corrected-table", str(d / "corrected.csv"), "--law-json", str(d / "law.json")]
+    return [
+        "--measured",
+        str(REAL),
+        "--master-curve",
+        str(d / "master_curve.json"),
+        "--corrected-table",
+        str(d / "corrected.csv"),
+        "--law-json",
+        str(d / "law.json"),
+    ]
 
 
 def test_input_errors(real_report, tmp_path, capsys):
@@ -169,8 +253,9 @@ def test_input_errors(real_report, tmp_path, capsys):
     assert main(["diagnose", *args, "-o", str(tmp_path / "r.json")]) == 2
     assert f"{bad}: line 1 (header): missing column(s) ['phase_deg']" in capsys.readouterr().err
     mc = tmp_path / "mc.json"
-    mc.write_text(json.dumps({k: v for k, v in json.loads((d / "master_curve.json").read_text()).items()
-                              if k != "master_curve"}))
+    mc.write_text(
+        json.dumps({k: v for k, v in json.loads((d / "master_curve.json").read_text()).items() if k != "master_curve"})
+    )
     args = _real_args(d)
     args[args.index("--master-curve") + 1] = str(mc)
     assert main(["diagnose", *args, "-o", str(tmp_path / "r.json")]) == 2
@@ -182,8 +267,14 @@ def test_input_errors(real_report, tmp_path, capsys):
 def test_time_integration_from_paired_rows():
     from asphalt_nscd.diagnosis.budget import derived_time_integration
 
-    harm = pd.DataFrame({"temperature_C": [10.0, 10.0], "frequency_Hz": [3.0, 40.0],
-                         "E_norm_MPa": [1e4, 1.2e4], "phase_deg": [20.0, 15.0]})
+    harm = pd.DataFrame(
+        {
+            "temperature_C": [10.0, 10.0],
+            "frequency_Hz": [3.0, 40.0],
+            "E_norm_MPa": [1e4, 1.2e4],
+            "phase_deg": [20.0, 15.0],
+        }
+    )
     sim = harm.assign(dt_s=5e-5, phase_deg=harm["phase_deg"] + [0.1, 1.0])
     t = derived_time_integration(sim, harm)
     assert list(t["phase_error_deg"]) == pytest.approx([0.1, 1.0])

@@ -15,8 +15,15 @@ from asphalt_nscd.diagnosis.causes import burgers_predict
 from asphalt_nscd.rheology.metrics import cell_means
 
 TEMPS = [-10.0, 0.0, 10.0, 15.0, 20.0, 30.0]
-MACRO = pd.DataFrame({"temperature_C": TEMPS, "Em_MPa": 30e3, "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3],
-                      "Ek_MPa": 40e3, "eta_k_MPa_s": [400.0, 200.0, 100.0, 50.0, 30.0, 10.0]})
+MACRO = pd.DataFrame(
+    {
+        "temperature_C": TEMPS,
+        "Em_MPa": 30e3,
+        "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3],
+        "Ek_MPa": 40e3,
+        "eta_k_MPa_s": [400.0, 200.0, 100.0, 50.0, 30.0, 10.0],
+    }
+)
 DT = 5e-5
 
 
@@ -40,30 +47,78 @@ def run(tmp_path_factory):
     E = burgers_predict(MACRO, grid["temperature_C"], grid["frequency_Hz"])
     paths = {"sim": [], "harm": []}
     for s, factor in (("s1", 1.19), ("s2", 1.21)):  # sample mean: network factor 1.2
-        harm = grid.assign(sample=s, mode="measured", solver="reuse", E_norm_MPa=factor * np.abs(E),
-                           phase_deg=np.degrees(np.angle(E)))
+        harm = grid.assign(
+            sample=s, mode="measured", solver="reuse", E_norm_MPa=factor * np.abs(E), phase_deg=np.degrees(np.angle(E))
+        )
         harm.to_csv(d / f"{s}_measured.csv", index=False)
         paths["harm"].append(str(d / f"{s}_measured.csv"))
-        sim = harm.drop(columns="solver").assign(dt_s=DT, phase_deg=harm["phase_deg"] + 0.5 * 360 * grid["frequency_Hz"] * DT)
+        sim = harm.drop(columns="solver").assign(
+            dt_s=DT, phase_deg=harm["phase_deg"] + 0.5 * 360 * grid["frequency_Hz"] * DT
+        )
         sim.to_csv(d / f"{s}_nscd.csv", index=False)
         paths["sim"].append(str(d / f"{s}_nscd.csv"))
     # the extended run: 1.2 x the extended law, as numerical isotherms (sample means)
     laws = law_file.read(laws_path)
-    Ex = np.array([laws[T].complex_modulus(2 * np.pi * f) * 1e-6 for T, f in zip(grid["temperature_C"], grid["frequency_Hz"])])
+    Ex = np.array(
+        [laws[T].complex_modulus(2 * np.pi * f) * 1e-6 for T, f in zip(grid["temperature_C"], grid["frequency_Hz"])]
+    )
     ext = grid.assign(n_samples=2, E_norm_MPa_mean=1.2 * np.abs(Ex), phase_deg_mean=np.degrees(np.angle(Ex)))
     ext.to_csv(d / "iso_extended.csv", index=False)
-    ti = pd.DataFrame([(f, dt, th, c * 360 * f * dt) for f in (3.0, 40.0) for dt in (2e-5, 1e-4)
-                       for th, c in ((0.5, 0.5), (1.0, 2.0))], columns=["frequency_Hz", "dt_s", "theta", "phase_error_deg"])
+    ti = pd.DataFrame(
+        [
+            (f, dt, th, c * 360 * f * dt)
+            for f in (3.0, 40.0)
+            for dt in (2e-5, 1e-4)
+            for th, c in ((0.5, 0.5), (1.0, 2.0))
+        ],
+        columns=["frequency_Hz", "dt_s", "theta", "phase_error_deg"],
+    )
     ti.to_csv(d / "ti.csv", index=False)
     out = {k: d / k for k in ("r.json", "gain.csv", "budget.csv", "page.md", "effects.csv", "fig.png")}
-    assert main(["diagnose", *chain["args"], "--macro-params", str(d / "macro.csv"),
-                 "--simulated", *paths["sim"], "--harmonic", *paths["harm"], "--simulated-extended",
-                 str(d / "iso_extended.csv"), "--time-integration", str(d / "ti.csv"), "--theta", "0.5",
-                 "-o", str(out["r.json"]), "--gain-csv", str(out["gain.csv"]), "--budget-csv", str(out["budget.csv"]),
-                 "--page", str(out["page.md"]), "--effects-csv", str(out["effects.csv"]),
-                 "--figure", str(out["fig.png"])]) == 0
-    return {"dir": d, "measured": m, "laws": laws_path, "chain": chain, "grid": grid, "E": E, "Ex": Ex, "out": out,
-            "report": json.loads(out["r.json"].read_text())}
+    assert (
+        main(
+            [
+                "diagnose",
+                *chain["args"],
+                "--macro-params",
+                str(d / "macro.csv"),
+                "--simulated",
+                *paths["sim"],
+                "--harmonic",
+                *paths["harm"],
+                "--simulated-extended",
+                str(d / "iso_extended.csv"),
+                "--time-integration",
+                str(d / "ti.csv"),
+                "--theta",
+                "0.5",
+                "-o",
+                str(out["r.json"]),
+                "--gain-csv",
+                str(out["gain.csv"]),
+                "--budget-csv",
+                str(out["budget.csv"]),
+                "--page",
+                str(out["page.md"]),
+                "--effects-csv",
+                str(out["effects.csv"]),
+                "--figure",
+                str(out["fig.png"]),
+            ]
+        )
+        == 0
+    )
+    return {
+        "dir": d,
+        "measured": m,
+        "laws": laws_path,
+        "chain": chain,
+        "grid": grid,
+        "E": E,
+        "Ex": Ex,
+        "out": out,
+        "report": json.loads(out["r.json"].read_text()),
+    }
 
 
 def test_simulation_causes_are_testable_with_estimates(run):
@@ -87,7 +142,9 @@ def test_gain_table_nscd_before_after_and_macro(run):
     measured = cell_means(pd.read_csv(run["measured"]))
     corrected = cell_means(pd.read_csv(run["chain"]["corrected"]))
     E = run["E"]
-    sim = grid.assign(E_norm_MPa=1.2 * np.abs(E), phase_deg=np.degrees(np.angle(E)) + 0.5 * 360 * grid["frequency_Hz"] * DT)
+    sim = grid.assign(
+        E_norm_MPa=1.2 * np.abs(E), phase_deg=np.degrees(np.angle(E)) + 0.5 * 360 * grid["frequency_Hz"] * DT
+    )
     ext = grid.assign(E_norm_MPa=1.2 * np.abs(run["Ex"]), phase_deg=np.degrees(np.angle(run["Ex"])))
     before, after = _mre(sim, measured), _mre(ext, corrected)
     nscd = gain[gain["source"] == "nscd"].set_index("temperature_C")
@@ -102,11 +159,15 @@ def test_gain_table_nscd_before_after_and_macro(run):
     laws_json = json.loads(run["laws"].read_text())["temperatures"]
     macro = gain[gain["source"] == "macro"].set_index("temperature_C")
     Em = burgers_predict(MACRO, measured["temperature_C"], measured["frequency_Hz"])  # every measured cell
-    burgers = measured[["temperature_C", "frequency_Hz"]].assign(E_norm_MPa=np.abs(Em), phase_deg=np.degrees(np.angle(Em)))
+    burgers = measured[["temperature_C", "frequency_Hz"]].assign(
+        E_norm_MPa=np.abs(Em), phase_deg=np.degrees(np.angle(Em))
+    )
     mb = _mre(burgers, measured)
     for T in TEMPS:
         assert macro.loc[T, "E_norm_mre_before_pct"] == pytest.approx(mb.loc[T, "aE"], rel=1e-9)
-        assert macro.loc[T, "phase_mre_after_pct"] == pytest.approx(laws_json[f"{T:g}"]["in_sample_mre_phase_pct"], rel=1e-9)
+        assert macro.loc[T, "phase_mre_after_pct"] == pytest.approx(
+            laws_json[f"{T:g}"]["in_sample_mre_phase_pct"], rel=1e-9
+        )
     assert rep["gain_nscd"] == rep["gain"] and set(rep["gain_macro"]) == {f"{T:g}" for T in TEMPS}
 
 
@@ -130,8 +191,10 @@ def test_extend_law_from_the_written_search_equals_its_own_search(run, tmp_path)
     """The split keeps the law: extend-law on the search that master-curve wrote gives the very
     law file of extend-law searching the table itself (the workflow's outputs do not change)."""
     out = tmp_path / "l.json"
-    assert main(["extend-law", "--measured", str(run["measured"]), "-o", str(out),
-                 "--corrected", str(tmp_path / "c.csv")]) == 0
+    assert (
+        main(["extend-law", "--measured", str(run["measured"]), "-o", str(out), "--corrected", str(tmp_path / "c.csv")])
+        == 0
+    )
     assert json.loads(out.read_text()) == json.loads(run["laws"].read_text())
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "c.csv"), pd.read_csv(run["chain"]["corrected"]))
 
@@ -142,7 +205,7 @@ def test_diagnose_law_json_must_cover_the_measured_temperatures(run, tmp_path, c
     bad = tmp_path / "laws.json"
     bad.write_text(json.dumps(obj))
     args = run["chain"]["args"]
-    args = args[:args.index("--law-json")] + ["--law-json", str(bad)]
+    args = args[: args.index("--law-json")] + ["--law-json", str(bad)]
     assert main(["diagnose", *args, "-o", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err
     assert f"{bad}: key 'temperatures': no law at [15.0] degC" in err

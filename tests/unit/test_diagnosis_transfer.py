@@ -15,8 +15,15 @@ from asphalt_nscd.diagnosis.causes import burgers_predict
 from asphalt_nscd.rheology.metrics import cell_means
 
 TEMPS = [-10.0, 0.0, 10.0, 15.0, 20.0, 30.0]
-MACRO = pd.DataFrame({"temperature_C": TEMPS, "Em_MPa": 30e3, "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3],
-                      "Ek_MPa": 40e3, "eta_k_MPa_s": [400.0, 200.0, 100.0, 50.0, 30.0, 10.0]})
+MACRO = pd.DataFrame(
+    {
+        "temperature_C": TEMPS,
+        "Em_MPa": 30e3,
+        "eta_m_MPa_s": [3e5, 1e5, 3e4, 1e4, 5e3, 1e3],
+        "Ek_MPa": 40e3,
+        "eta_k_MPa_s": [400.0, 200.0, 100.0, 50.0, 30.0, 10.0],
+    }
+)
 NF = {"s1": 0.90, "s2": 0.92}  # network factors of the two samples
 
 
@@ -27,8 +34,11 @@ def _mre_E(model: pd.DataFrame, data: pd.DataFrame) -> pd.Series:
 
 
 def _transfer_json(path, sample, nf):
-    path.write_text(json.dumps({"network_factor": nf, "sample": sample, "bond_kinematics": "contact",
-                                "head_rotation": "free", "nu": 0.35}))
+    path.write_text(
+        json.dumps(
+            {"network_factor": nf, "sample": sample, "bond_kinematics": "contact", "head_rotation": "free", "nu": 0.35}
+        )
+    )
     return str(path)
 
 
@@ -43,25 +53,63 @@ def setup(tmp_path_factory):
     grid = pd.DataFrame([(T, f) for T in TEMPS for f in (3.0, 10.0, 40.0)], columns=["temperature_C", "frequency_Hz"])
     E = burgers_predict(MACRO, grid["temperature_C"], grid["frequency_Hz"])
     laws = law_file.read(laws_path)
-    Ex = np.array([laws[T].complex_modulus(2 * np.pi * f) * 1e-6 for T, f in zip(grid["temperature_C"], grid["frequency_Hz"])])
+    Ex = np.array(
+        [laws[T].complex_modulus(2 * np.pi * f) * 1e-6 for T, f in zip(grid["temperature_C"], grid["frequency_Hz"])]
+    )
     sims, exts, transfers = [], [], []
     for s, nf in NF.items():
         sim = grid.assign(sample=s, mode="measured", E_norm_MPa=nf * np.abs(E), phase_deg=np.degrees(np.angle(E)))
         sim.to_csv(d / f"{s}_measured.csv", index=False)
         sims.append(str(d / f"{s}_measured.csv"))
         # corrected extended run: the law itself, 0.5 % high (inertia/time integration)
-        ext = grid.assign(sample=s, mode="extended", E_norm_MPa=1.005 * np.abs(Ex), phase_deg=np.degrees(np.angle(Ex)),
-                          transfer_network_factor=nf, transfer_json=f"results/harmonic/transfer/{s}.json")
+        ext = grid.assign(
+            sample=s,
+            mode="extended",
+            E_norm_MPa=1.005 * np.abs(Ex),
+            phase_deg=np.degrees(np.angle(Ex)),
+            transfer_network_factor=nf,
+            transfer_json=f"results/harmonic/transfer/{s}.json",
+        )
         ext.to_csv(d / f"{s}_extended.csv", index=False)
         exts.append(str(d / f"{s}_extended.csv"))
         transfers.append(_transfer_json(d / f"{s}_transfer.json", s, nf))
     out = {k: d / k for k in ("r.json", "gain.csv", "page.md")}
-    args = ["diagnose", *chain["args"], "--macro-params", str(d / "macro.csv"),
-            "--simulated", *sims, "--simulated-extended", *exts]
-    assert main([*args, "--transfer", *transfers, "-o", str(out["r.json"]), "--gain-csv", str(out["gain.csv"]),
-                 "--page", str(out["page.md"])]) == 0
-    return {"dir": d, "args": args, "measured": m, "grid": grid, "Ex": Ex, "out": out, "exts": exts,
-            "report": json.loads(out["r.json"].read_text())}
+    args = [
+        "diagnose",
+        *chain["args"],
+        "--macro-params",
+        str(d / "macro.csv"),
+        "--simulated",
+        *sims,
+        "--simulated-extended",
+        *exts,
+    ]
+    assert (
+        main(
+            [
+                *args,
+                "--transfer",
+                *transfers,
+                "-o",
+                str(out["r.json"]),
+                "--gain-csv",
+                str(out["gain.csv"]),
+                "--page",
+                str(out["page.md"]),
+            ]
+        )
+        == 0
+    )
+    return {
+        "dir": d,
+        "args": args,
+        "measured": m,
+        "grid": grid,
+        "Ex": Ex,
+        "out": out,
+        "exts": exts,
+        "report": json.loads(out["r.json"].read_text()),
+    }
 
 
 def test_report_states_the_transfer_correction(setup):
@@ -124,7 +172,7 @@ def test_uncorrected_extended_rows_are_labelled(setup, tmp_path):
         f = tmp_path / p.rsplit("/", 1)[1]
         pd.read_csv(p).drop(columns=["transfer_network_factor", "transfer_json"]).to_csv(f, index=False)
         plain.append(str(f))
-    args = [a for a in setup["args"][:setup["args"].index("--simulated-extended")]]
+    args = [a for a in setup["args"][: setup["args"].index("--simulated-extended")]]
     out, page = tmp_path / "r.json", tmp_path / "p.md"
     assert main([*args, "--simulated-extended", *plain, "-o", str(out), "--page", str(page)]) == 0
     rep = json.loads(out.read_text())

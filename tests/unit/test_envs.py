@@ -57,7 +57,6 @@ def test_env_covers_the_runtime_dependencies():
     assert env_pins()["python"].startswith("3.11")
 
 
-
 def test_every_rule_uses_the_env():
     """Every rule of workflow/rules/*.smk that runs something (also those under an ``if``,
     indented) declares the environment; snakefmt puts directives in its own order, so the block is searched."""

@@ -27,16 +27,36 @@ def summary():
     rows = []
     for T in (0.0, 20.0):
         for f in (1.0, 10.0):
-            rows.append({"temperature_C": T, "frequency_Hz": f, "n": 2, "E_norm_MPa_mean": 10000 / (1 + T) * f**0.2,
-                         "E_norm_MPa_std": 100.0, "phase_deg_mean": 10 + T / 2, "phase_deg_std": 0.5})
+            rows.append(
+                {
+                    "temperature_C": T,
+                    "frequency_Hz": f,
+                    "n": 2,
+                    "E_norm_MPa_mean": 10000 / (1 + T) * f**0.2,
+                    "E_norm_MPa_std": 100.0,
+                    "phase_deg_mean": 10 + T / 2,
+                    "phase_deg_std": 0.5,
+                }
+            )
     return pd.DataFrame(rows)
 
 
 @pytest.fixture
 def curves():
     f = np.logspace(-1, 2, 20)
-    return pd.concat([pd.DataFrame({"temperature_C": T, "frequency_Hz": f, "E_norm_MPa": 9000 / (1 + T) * f**0.2,
-                                    "phase_deg": 12 + T / 2 + 0 * f}) for T in (0.0, 20.0)])
+    return pd.concat(
+        [
+            pd.DataFrame(
+                {
+                    "temperature_C": T,
+                    "frequency_Hz": f,
+                    "E_norm_MPa": 9000 / (1 + T) * f**0.2,
+                    "phase_deg": 12 + T / 2 + 0 * f,
+                }
+            )
+            for T in (0.0, 20.0)
+        ]
+    )
 
 
 def teardown_function():

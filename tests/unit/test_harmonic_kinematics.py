@@ -40,8 +40,19 @@ def axial_network(position, radius, i, j, length, mass=None):
             l0[b] = abs(position[a, 0] - plate_point[-1 - c, 0])
             r_min[b] = radius[a]
     mass = np.full(len(position), 1e-4) if mass is None else np.asarray(mass, float)
-    return network_from_arrays(position, mass, plate_normal, [np.inf, 0.235], i, j, l0, r_min,
-                               radius=radius, plate_point=plate_point, head_size_m=(0.02, 0.02))
+    return network_from_arrays(
+        position,
+        mass,
+        plate_normal,
+        [np.inf, 0.235],
+        i,
+        j,
+        l0,
+        r_min,
+        radius=radius,
+        plate_point=plate_point,
+        head_size_m=(0.02, 0.02),
+    )
 
 
 def k_of(r_min, l0, omega):
@@ -99,8 +110,14 @@ def test_axial_columns_in_parallel(kinematics, head):
 def pair_system(kinematics):
     pos = np.array([[0.0, 0, 5e-3], [2.2e-3, 1.1e-3, 6.0e-3]])
     radius = np.array([1.0e-3, 1.2e-3])
-    path_args = dict(position=pos, radius=radius, mass=np.full(2, 1e-4),
-                     plate_point=[[0, 0, 0], [0, 0, 0.01]], i=[0, 0, 1], j=[1, -1, -2])
+    path_args = dict(
+        position=pos,
+        radius=radius,
+        mass=np.full(2, 1e-4),
+        plate_point=[[0, 0, 0], [0, 0, 0.01]],
+        i=[0, 0, 1],
+        j=[1, -1, -2],
+    )
     return pos, radius, path_args
 
 
@@ -108,17 +125,18 @@ def pair_system(kinematics):
 def test_rigid_rotation_of_a_bonded_pair(tmp_path, kinematics):
     pos, radius, args = pair_system(kinematics)
     write_sample(tmp_path / "pair.h5", sample_from_bonds(**args))
-    system = HarmonicSystem(network_from_sample(read_sample(tmp_path / "pair.h5")), bond_kinematics=kinematics,
-                            head_rotation="clamped")
+    system = HarmonicSystem(
+        network_from_sample(read_sample(tmp_path / "pair.h5")), bond_kinematics=kinematics, head_rotation="clamped"
+    )
     kn = np.array([1.0e5, 0.0, 0.0])  # only the sphere-sphere bond (plate bonds off)
     K = system.blocks(kn, kn * RT)["ff"].toarray().real
     theta = np.array([0.3, -0.7, 0.5]) * 1e-3
     d = system.dof_per_sphere
     q = np.zeros(2 * d)
     for k in range(2):
-        q[d * k:d * k + 3] = np.cross(theta, pos[k])  # u = theta x x
+        q[d * k : d * k + 3] = np.cross(theta, pos[k])  # u = theta x x
         if d == 6:
-            q[d * k + 3:d * k + 6] = theta
+            q[d * k + 3 : d * k + 6] = theta
     force = (K @ q).reshape(2, d)[:, :3]
     n = (pos[1] - pos[0]) / np.linalg.norm(pos[1] - pos[0])
     if kinematics == "contact":
@@ -131,7 +149,7 @@ def test_rigid_rotation_of_a_bonded_pair(tmp_path, kinematics):
     # a rigid translation strains nothing with either kinematics
     t = np.zeros(2 * d)
     for k in range(2):
-        t[d * k:d * k + 3] = [1e-6, -2e-6, 3e-6]
+        t[d * k : d * k + 3] = [1e-6, -2e-6, 3e-6]
     assert np.all(np.abs(K @ t) < 1e-12 * kn[0] * 1e-6)
 
 
@@ -143,8 +161,7 @@ def dense_reaction(position, radius, i, j, top_z, kn, kt, head, eps):
     """Independent dense assembly (loops, 6 DOF per body) of the contact kinematics;
     bottom plate at z = 0 fixed, head at (0, 0, top_z) translated by (A, 0, 0)."""
     n_sph = len(position)
-    plates = {-1: (np.array([0, 0, 0.0]), np.array([0, 0, 1.0])),
-              -2: (np.array([0, 0, top_z]), np.array([0, 0, -1.0]))}
+    plates = {-1: (np.array([0, 0, 0.0]), np.array([0, 0, 1.0])), -2: (np.array([0, 0, top_z]), np.array([0, 0, -1.0]))}
     ndof = 6 * n_sph + 6  # + head (u, theta)
     K = np.zeros((ndof, ndof), complex)
     for b in range(len(i)):
@@ -185,8 +202,7 @@ def ladder(n_levels, spacing=3e-3, width=3e-3, r=1.2e-3):
     """Two vertical chains x = +-width/2, rungs at every level; the base level bonded to the
     bottom plate, the top level to the head (a cantilever loaded at the head)."""
     z = spacing * (np.arange(n_levels) + 0.5)
-    pos = np.concatenate([np.column_stack([np.full(n_levels, s * width / 2), np.zeros(n_levels),
-                                           z]) for s in (-1, 1)])
+    pos = np.concatenate([np.column_stack([np.full(n_levels, s * width / 2), np.zeros(n_levels), z]) for s in (-1, 1)])
     left, right = np.arange(n_levels), n_levels + np.arange(n_levels)
     i = np.concatenate([left[:-1], right[:-1], left, [left[0], right[0], left[-1], right[-1]]])
     j = np.concatenate([left[1:], right[1:], right, [-1, -1, -2, -2]])
@@ -196,19 +212,19 @@ def ladder(n_levels, spacing=3e-3, width=3e-3, r=1.2e-3):
 @pytest.mark.parametrize("head", ["free", "clamped"])
 def test_ladder_cantilever_against_dense_assembly(tmp_path, head):
     pos, radius, i, j, top = ladder(5)
-    write_sample(tmp_path / "ladder.h5", sample_from_bonds(pos, radius, np.full(len(pos), 1e-4),
-                 [[0, 0, 0], [0, 0, top]], i, j))
-    system = HarmonicSystem(network_from_sample(read_sample(tmp_path / "ladder.h5")), bond_kinematics="contact",
-                            head_rotation=head)
+    write_sample(
+        tmp_path / "ladder.h5", sample_from_bonds(pos, radius, np.full(len(pos), 1e-4), [[0, 0, 0], [0, 0, top]], i, j)
+    )
+    system = HarmonicSystem(
+        network_from_sample(read_sample(tmp_path / "ladder.h5")), bond_kinematics="contact", head_rotation=head
+    )
     w = 2 * np.pi * 10.0
     e = LAW.complex_modulus(w)
     kn = system.network.scale * e
-    expected = dense_reaction(pos, radius, i, j, top, kn, kn * RT, head,
-                              system.regularisation)
+    expected = dense_reaction(pos, radius, i, j, top, kn, kn * RT, head, system.regularisation)
     for solver in ("reuse", "direct"):
         sol = system.solve_law(LAW, 10.0, inertia="none", solver=solver)
-        np.testing.assert_allclose(sol.reaction, expected, rtol=1e-9,
-                                   atol=1e-9 * abs(expected[0]))
+        np.testing.assert_allclose(sol.reaction, expected, rtol=1e-9, atol=1e-9 * abs(expected[0]))
 
 
 def test_long_ladder_follows_euler_bernoulli():
@@ -220,11 +236,25 @@ def test_long_ladder_follows_euler_bernoulli():
     levels = [20, 30, 40, 50]
     for n in levels:
         pos, radius, i, j, top = ladder(n, spacing, width, r)
-        l0 = np.array([np.linalg.norm(pos[b] - pos[c]) if c >= 0 else
-                       (pos[b, 2] if c == -1 else top - pos[b, 2]) for b, c in zip(i, j)])
-        net = network_from_arrays(pos, np.full(len(pos), 1e-4), [[0, 0, 1], [0, 0, -1]],
-                                  [np.inf, 0.235], i, j, l0, np.full(len(i), r), radius=radius,
-                                  plate_point=[[0, 0, 0], [0, 0, top]], head_size_m=(0, 0))
+        l0 = np.array(
+            [
+                np.linalg.norm(pos[b] - pos[c]) if c >= 0 else (pos[b, 2] if c == -1 else top - pos[b, 2])
+                for b, c in zip(i, j)
+            ]
+        )
+        net = network_from_arrays(
+            pos,
+            np.full(len(pos), 1e-4),
+            [[0, 0, 1], [0, 0, -1]],
+            [np.inf, 0.235],
+            i,
+            j,
+            l0,
+            np.full(len(i), r),
+            radius=radius,
+            plate_point=[[0, 0, 0], [0, 0, top]],
+            head_size_m=(0, 0),
+        )
         system = HarmonicSystem(net, bond_kinematics="contact", head_rotation="free")
         sol = system.solve_law(LAW, 1.0, inertia="none", solver="direct")
         g = sol.reaction[0] / (A * LAW.complex_modulus(2 * np.pi))  # K = E* G: stiffness G
@@ -243,8 +273,7 @@ def test_regularisation_does_not_change_the_head_force(tmp_path):
     net = network_from_sample(read_sample(path))
     forces = []
     for eps in (1e-8, 1e-12):
-        system = HarmonicSystem(net, bond_kinematics="contact", head_rotation="free",
-                                regularisation=eps)
+        system = HarmonicSystem(net, bond_kinematics="contact", head_rotation="free", regularisation=eps)
         forces.append(system.solve_law(LAW, 10.0, inertia="none").reaction[0])
         full = system.solve_law(LAW, 10.0, inertia="full", solver="direct")
         assert full.residual < 1e-10
@@ -261,8 +290,13 @@ def test_rotation_lowers_the_bending_stiffness(tmp_path):
     path = tmp_path / "lattice.h5"
     write_sample(path, lattice_sample(150, seed=5))
     net = network_from_sample(read_sample(path))
-    k = {opt: HarmonicSystem(net, bond_kinematics=opt[0], head_rotation=opt[1]).solve_law(
-        LAW, 10.0, inertia="none").reaction[0].real for opt in OPTIONS}
+    k = {
+        opt: HarmonicSystem(net, bond_kinematics=opt[0], head_rotation=opt[1])
+        .solve_law(LAW, 10.0, inertia="none")
+        .reaction[0]
+        .real
+        for opt in OPTIONS
+    }
     assert k[("contact", "free")] < k[("contact", "clamped")] < k[("barycentre", "clamped")]
     assert k[("barycentre", "free")] < k[("barycentre", "clamped")]
 
@@ -291,12 +325,33 @@ def test_kinematics_study_cli(tmp_path):
     path = tmp_path / "lattice.h5"
     write_sample(path, lattice_sample(60, seed=4))
     params = tmp_path / "params.csv"
-    pd.DataFrame({"temperature_C": [20.0, 30.0], "Em_MPa": [20.2, 13.0],
-                  "eta_m_MPa_s": [1.79, 0.345], "Ek_MPa": [27.2, 9.31],
-                  "eta_k_MPa_s": [0.461, 0.131]}).to_csv(params, index=False)
+    pd.DataFrame(
+        {
+            "temperature_C": [20.0, 30.0],
+            "Em_MPa": [20.2, 13.0],
+            "eta_m_MPa_s": [1.79, 0.345],
+            "Ek_MPa": [27.2, 9.31],
+            "eta_k_MPa_s": [0.461, 0.131],
+        }
+    ).to_csv(params, index=False)
     out = tmp_path / "study.csv"
-    assert main(["harmonic-kinematics", "--sample", str(path), "--parameters", str(params),
-                 "--frequency", "3", "10", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "harmonic-kinematics",
+                "--sample",
+                str(path),
+                "--parameters",
+                str(params),
+                "--frequency",
+                "3",
+                "10",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     frame = pd.read_csv(out)
     assert len(frame) == 4 * 2 * 2 * 2  # options x inertia x T x f
     quasi = frame[frame["inertia"] == "none"]
@@ -307,5 +362,19 @@ def test_kinematics_study_cli(tmp_path):
     assert factor["contact", "free"] < factor["barycentre", "clamped"]
     dofs = frame.groupby(["bond_kinematics", "head_rotation"])["n_free_dof"].first()
     assert dofs["contact", "free"] == 2 * dofs["barycentre", "free"] - 3
-    assert main(["harmonic-kinematics", "--sample", str(path), "--parameters", str(params),
-                 "--frequency", "-3", "-o", str(out)]) == 2
+    assert (
+        main(
+            [
+                "harmonic-kinematics",
+                "--sample",
+                str(path),
+                "--parameters",
+                str(params),
+                "--frequency",
+                "-3",
+                "-o",
+                str(out),
+            ]
+        )
+        == 2
+    )

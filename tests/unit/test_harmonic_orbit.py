@@ -16,9 +16,17 @@ from asphalt_nscd.rheology.laws import GeneralizedBurgers
 from asphalt_nscd.sample.store import read_sample
 
 LAW = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
-BASE = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=200, dt_max_s=1.0, start="periodic",
-                           periodic_cycles=1, window_cycles=1, gravity=True, yield_stress_Pa=None,
-                           checkpoint_every=0)
+BASE = twopb.TwoPBSettings(
+    dt_policy="steps_per_cycle",
+    steps_per_cycle=200,
+    dt_max_s=1.0,
+    start="periodic",
+    periodic_cycles=1,
+    window_cycles=1,
+    gravity=True,
+    yield_stress_Pa=None,
+    checkpoint_every=0,
+)
 
 
 def test_ellipse_semi_major_is_the_largest_real_part():
@@ -35,8 +43,9 @@ def test_a_certified_job_takes_its_orbit_equal_to_the_time_domain(tiny_sample, t
     time gives the same |E*| to 1e-4 (0.01 %) and phase to 1e-3 deg, and a verification job
     records both."""
     rec_o = twopb.run_test(tiny_sample, LAW, frequency, BASE, tmp_path / "o.h5", progress=False)
-    rec_t = twopb.run_test(tiny_sample, LAW, frequency, dataclasses.replace(BASE, method="time_domain"),
-                           tmp_path / "t.h5", progress=False)
+    rec_t = twopb.run_test(
+        tiny_sample, LAW, frequency, dataclasses.replace(BASE, method="time_domain"), tmp_path / "t.h5", progress=False
+    )
     rec_v = twopb.run_test(tiny_sample, LAW, frequency, BASE, tmp_path / "v.h5", progress=False, verify=True)
     o, t, v = (twopb.reduce_test(r, 1) for r in (rec_o, rec_t, rec_v))
     assert o["path"] == "orbit" and o["cert_holds"] and t["path"] == "time_domain" and v["path"] == "time_domain"
@@ -54,8 +63,9 @@ def test_the_certificate_fails_on_a_weak_bond_and_the_time_domain_breaks_it(tiny
     assert row["path"] == "time_domain" and not row["cert_holds"] and row["cert_bond_force_ratio"] >= 1.0
     assert "break bonds" in row["path_reason"] and row["n_broken_total"] > 0
     with pytest.raises(InputError, match="not certified linear"):
-        twopb.run_test(tiny_sample, LAW, 10.0, dataclasses.replace(weak, method="orbit"), tmp_path / "x.h5",
-                       progress=False)
+        twopb.run_test(
+            tiny_sample, LAW, 10.0, dataclasses.replace(weak, method="orbit"), tmp_path / "x.h5", progress=False
+        )
     strong = dataclasses.replace(BASE, yield_stress_Pa=1e7)
     row = twopb.reduce_test(twopb.run_test(tiny_sample, LAW, 10.0, strong, tmp_path / "s.h5", progress=False), 1)
     assert row["path"] == "orbit" and 0 < row["cert_bond_force_ratio"] < 1.0
@@ -73,8 +83,11 @@ def _gap_history(sample_path, settings, frequency, pair):
     gaps, active = [], []
     for _ in range(twopb.n_steps_of(frequency, dt, settings, "periodic")):
         st = sim.step()
-        gaps.append(np.linalg.norm(sim.spheres.position[i] - sim.spheres.position[j])
-                    - sim.spheres.radius[i] - sim.spheres.radius[j])
+        gaps.append(
+            np.linalg.norm(sim.spheres.position[i] - sim.spheres.position[j])
+            - sim.spheres.radius[i]
+            - sim.spheres.radius[j]
+        )
         active.append(st.n_active_contacts)
     return cert, np.array(gaps), np.array(active)
 
@@ -88,7 +101,7 @@ def test_the_gap_margin_is_the_time_domains_and_a_closing_gap_fails(tiny_sample)
     cert, gaps, active = _gap_history(tiny_sample, s, f, None)
     assert cert.holds and cert.n_pairs > 0 and active.max() == 0
     w_dt = 2 * math.pi * f * twopb.time_step(f, s)
-    assert cert.min_gap_m <= gaps.min() <= cert.min_gap_m + w_dt ** 2 * 2e-3  # e(D) < 2 mm
+    assert cert.min_gap_m <= gaps.min() <= cert.min_gap_m + w_dt**2 * 2e-3  # e(D) < 2 mm
     cert2, _, active2 = _gap_history(tiny_sample, dataclasses.replace(BASE, amplitude_m=2e-3), f, None)
     assert not cert2.holds and cert2.min_gap_m < 0 and "closes" in cert2.reason and active2.max() >= 1
 
@@ -106,9 +119,10 @@ def test_the_support_cancels_the_weight_along_the_zero_modes_only():
     d, spheres = 6, np.array([3, 7])
     V, _ = np.linalg.qr(rng.normal(size=(2 * d, 2)))
     mass_free = np.concatenate([np.r_[np.full(3, 2e-5), np.full(3, 3e-11)], np.r_[np.full(3, 5e-5), np.full(3, 8e-11)]])
-    system = SimpleNamespace(dof_per_sphere=d, mass_free=np.zeros(100),
-                             mechanism_modes=lambda: iter([(np.arange(2 * d), V, 1.0, spheres)]))
-    system.mass_free[:2 * d] = mass_free
+    system = SimpleNamespace(
+        dof_per_sphere=d, mass_free=np.zeros(100), mechanism_modes=lambda: iter([(np.arange(2 * d), V, 1.0, spheres)])
+    )
+    system.mass_free[: 2 * d] = mass_free
     mass = np.full(10, 1.0)
     mass[spheres] = [2e-5, 5e-5]
     g = np.array([0.0, 0.0, -9.81])

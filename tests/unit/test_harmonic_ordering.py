@@ -32,8 +32,7 @@ def test_nested_dissection_of_a_path_is_a_permutation_with_a_separator_last():
     assert sorted(perm) == list(range(7))
     assert perm[-1] in (2, 3, 4)
     # duplicates, reversed edges and self-loops are accepted
-    again = nested_dissection(7, np.r_[np.arange(6), np.arange(1, 7), 3],
-                              np.r_[np.arange(1, 7), np.arange(6), 3])
+    again = nested_dissection(7, np.r_[np.arange(6), np.arange(1, 7), 3], np.r_[np.arange(1, 7), np.arange(6), 3])
     assert sorted(again) == list(range(7))
 
 
@@ -51,8 +50,7 @@ def test_permuted_splu_solves_real_complex_and_multiple_rhs():
     for rhs in (b[:, 0].real, b[:, 0], b):
         x = lu.solve(rhs)
         assert x.shape == rhs.shape
-        np.testing.assert_allclose(x, spsolve(a.astype(complex), rhs.astype(complex)),
-                                   rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(x, spsolve(a.astype(complex), rhs.astype(complex)), rtol=1e-12, atol=1e-14)
     assert lu.L.nnz + lu.U.nnz >= a.nnz
 
 
@@ -84,8 +82,7 @@ def test_shifted_factor_is_reused_for_nearby_frequencies_and_replaced_far_away(n
         np.testing.assert_allclose(a.force, b.force, rtol=1e-9)
     # the shift of a new factor is Re(w^2 / E*)
     w = 2 * np.pi * 100.0
-    assert system.factor_log[-1]["shift"] == pytest.approx(
-        (w**2 / LAW.complex_modulus(w)).real, rel=1e-5)
+    assert system.factor_log[-1]["shift"] == pytest.approx((w**2 / LAW.complex_modulus(w)).real, rel=1e-5)
     assert len(system._shifted) == solver_module.MAX_SHIFTED_FACTORS
 
 

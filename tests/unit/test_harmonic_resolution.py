@@ -41,7 +41,9 @@ def test_summary_recovers_a_planted_trend():
     levels, fits = resolution_summary(pd.DataFrame(rows))
     assert list(levels["n_spheres_mean"]) == [200, 1500, 9000, 40000]
     truth = 1.05 + 2 * levels["n_spheres_mean"] ** (-1 / 3)
-    assert ((levels["network_factor_ci95_low"] < truth + 0.02) & (truth - 0.02 < levels["network_factor_ci95_high"])).all()
+    assert (
+        (levels["network_factor_ci95_low"] < truth + 0.02) & (truth - 0.02 < levels["network_factor_ci95_high"])
+    ).all()
     f = fits.iloc[0]
     assert abs(f["nf_inf"] - 1.05) < 2 * f["nf_inf_se"] + 1e-3 and f["c"] == pytest.approx(2.0, rel=0.1)
     with pytest.raises(InputError):

@@ -28,17 +28,27 @@ BARY_CLI = ["--bond-kinematics", "barycentre", "--head-rotation", "clamped"]
 def column(tmp_path):
     """One sphere (r = 1 mm, 0.1 g) bonded to both plates, 4 mm below the head plate."""
     path = tmp_path / "col.h5"
-    write_sample(path, sample_from_bonds([[0, 0, 6e-3]], [1e-3], [1e-4], [[0, 0, 0], [0, 0, 0.01]], [0, 0],
-                 [-1, -2], plate_mass=(np.inf, 0.235)))
+    write_sample(
+        path,
+        sample_from_bonds(
+            [[0, 0, 6e-3]], [1e-3], [1e-4], [[0, 0, 0], [0, 0, 0.01]], [0, 0], [-1, -2], plate_mass=(np.inf, 0.235)
+        ),
+    )
     return path
 
 
 @pytest.fixture
 def params_csv(tmp_path):
     path = tmp_path / "params.csv"
-    pd.DataFrame({"temperature_C": [20.0, 30.0], "Em_MPa": [20.2, 13.0],
-                  "eta_m_MPa_s": [1.79, 0.345], "Ek_MPa": [27.2, 9.31],
-                  "eta_k_MPa_s": [0.461, 0.131]}).to_csv(path, index=False)
+    pd.DataFrame(
+        {
+            "temperature_C": [20.0, 30.0],
+            "Em_MPa": [20.2, 13.0],
+            "eta_m_MPa_s": [1.79, 0.345],
+            "Ek_MPa": [27.2, 9.31],
+            "eta_k_MPa_s": [0.461, 0.131],
+        }
+    ).to_csv(path, index=False)
     return path
 
 
@@ -68,8 +78,7 @@ def test_geometry_from_sample_attributes(tmp_path, column):
     assert specimen_geometry_mm(read_sample(column))["h_mm"] == pytest.approx(175.0)
 
 
-@pytest.mark.parametrize("options", [BARY, {"bond_kinematics": "contact",
-                                             "head_rotation": "free"}])
+@pytest.mark.parametrize("options", [BARY, {"bond_kinematics": "contact", "head_rotation": "free"}])
 @pytest.mark.parametrize("f", [10.0, 40.0])
 def test_time_domain_converges_to_the_harmonic_solution(tmp_path, f, options):
     path = tmp_path / "lattice.h5"
@@ -79,41 +88,139 @@ def test_time_domain_converges_to_the_harmonic_solution(tmp_path, f, options):
     errors = []
     for dt in (2e-4, 1e-4):
         td = time_domain_row(path, LAW_30, f, GEOMETRY, dt, **options)
-        errors.append((abs(td["E_norm_MPa"] / ref["E_norm_MPa"] - 1),
-                       abs(td["phase_deg"] - ref["phase_deg"])))
+        errors.append((abs(td["E_norm_MPa"] / ref["E_norm_MPa"] - 1), abs(td["phase_deg"] - ref["phase_deg"])))
     assert errors[-1][0] < 5e-3 and errors[-1][1] < 0.1  # the issue's tolerances
     assert errors[-1][0] < errors[0][0]  # and the difference shrinks with dt
 
 
 def test_harmonic_cli_rows_and_errors(tmp_path, column, params_csv, capsys):
     out = tmp_path / "h.csv"
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
-                 "--frequency", "3", "40", "--mode", "paper", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "harmonic",
+                "--sample",
+                str(column),
+                "--parameters",
+                str(params_csv),
+                *BARY_CLI,
+                "--frequency",
+                "3",
+                "40",
+                "--mode",
+                "paper",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     frame = pd.read_csv(out)
     assert len(frame) == 4 and set(frame["mode"]) == {"paper"} and set(frame["sample"]) == {"col"}
-    for col in ("temperature_C", "frequency_Hz", "F0_N", "z0_m", "psi_deg", "gamma_per_mm",
-                "mu_g", "E1_MPa", "E2_MPa", "E_norm_MPa", "phase_deg", "network_factor"):
+    for col in (
+        "temperature_C",
+        "frequency_Hz",
+        "F0_N",
+        "z0_m",
+        "psi_deg",
+        "gamma_per_mm",
+        "mu_g",
+        "E1_MPa",
+        "E2_MPa",
+        "E_norm_MPa",
+        "phase_deg",
+        "network_factor",
+    ):
         assert frame[col].notna().all(), col
     summary = tmp_path / "summary.csv"
-    pd.DataFrame({"temperature_C": [30.0, 30.0, 5.0], "frequency_Hz": [1.0, 25.0, 1.0]}).to_csv(
-        summary, index=False)
+    pd.DataFrame({"temperature_C": [30.0, 30.0, 5.0], "frequency_Hz": [1.0, 25.0, 1.0]}).to_csv(summary, index=False)
     out2 = tmp_path / "m.csv"
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
-                 "--frequencies-from", str(summary), "-o", str(out2)]) == 0
+    assert (
+        main(
+            [
+                "harmonic",
+                "--sample",
+                str(column),
+                "--parameters",
+                str(params_csv),
+                *BARY_CLI,
+                "--frequencies-from",
+                str(summary),
+                "-o",
+                str(out2),
+            ]
+        )
+        == 0
+    )
     frame2 = pd.read_csv(out2)
     assert list(frame2["frequency_Hz"]) == [1.0, 25.0] and set(frame2["temperature_C"]) == {30.0}
     # a temperature the table lacks, and two frequency sources
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
-                 "--temperature", "15", "--frequency", "3", "-o", str(out2)]) == 2
+    assert (
+        main(
+            [
+                "harmonic",
+                "--sample",
+                str(column),
+                "--parameters",
+                str(params_csv),
+                *BARY_CLI,
+                "--temperature",
+                "15",
+                "--frequency",
+                "3",
+                "-o",
+                str(out2),
+            ]
+        )
+        == 2
+    )
     assert "temperature_C = 15" in capsys.readouterr().err
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
-                 "--frequency", "3", "--sweep", "1", "10", "3", "-o", str(out2)]) == 2
+    assert (
+        main(
+            [
+                "harmonic",
+                "--sample",
+                str(column),
+                "--parameters",
+                str(params_csv),
+                *BARY_CLI,
+                "--frequency",
+                "3",
+                "--sweep",
+                "1",
+                "10",
+                "3",
+                "-o",
+                str(out2),
+            ]
+        )
+        == 2
+    )
 
 
 def test_network_factor_plot_and_sensitivity_cli(tmp_path, column, params_csv):
     sweep = tmp_path / "sweep.csv"
-    assert main(["harmonic", "--sample", str(column), "--parameters", str(params_csv), *BARY_CLI,
-                 "--sweep", "0.1", "100", "7", "--mode", "paper", "-o", str(sweep)]) == 0
+    assert (
+        main(
+            [
+                "harmonic",
+                "--sample",
+                str(column),
+                "--parameters",
+                str(params_csv),
+                *BARY_CLI,
+                "--sweep",
+                "0.1",
+                "100",
+                "7",
+                "--mode",
+                "paper",
+                "-o",
+                str(sweep),
+            ]
+        )
+        == 0
+    )
     nf, nfs = tmp_path / "nf.csv", tmp_path / "nfs.csv"
     assert main(["harmonic-network-factor", str(sweep), "-o", str(nf), "--summary", str(nfs)]) == 0
     assert len(pd.read_csv(nf)) == 14 and (pd.read_csv(nfs)["n_samples"] == 1).all()
@@ -124,10 +231,32 @@ def test_network_factor_plot_and_sensitivity_cli(tmp_path, column, params_csv):
     assert main(args) == 0
     assert all(p.stat().st_size > 0 for p in figs.values())
     sens = tmp_path / "sens.csv"
-    assert main(["harmonic-sensitivity", "--sample", str(column), "--parameters", str(params_csv),
-                 *BARY_CLI,
-                 "--temperature", "20", "--frequency", "10", "--levels", "10", "50",
-                 "--inertia", "none", "-o", str(sens), "--figure", str(tmp_path / "s.png")]) == 0
+    assert (
+        main(
+            [
+                "harmonic-sensitivity",
+                "--sample",
+                str(column),
+                "--parameters",
+                str(params_csv),
+                *BARY_CLI,
+                "--temperature",
+                "20",
+                "--frequency",
+                "10",
+                "--levels",
+                "10",
+                "50",
+                "--inertia",
+                "none",
+                "-o",
+                str(sens),
+                "--figure",
+                str(tmp_path / "s.png"),
+            ]
+        )
+        == 0
+    )
     frame = pd.read_csv(sens)
     assert len(frame) == 1 + 4 * 4
     # quasi-static: the sample's relative change equals the macro law's

@@ -25,8 +25,10 @@ def make(tmp_path, position, radius, i, j, mass=None, top_z=0.01, plate_mass=0.2
     radius = np.broadcast_to(np.asarray(radius, float), (len(position),))
     mass = np.full(len(position), 1e-4) if mass is None else np.asarray(mass, float)
     path = tmp_path / f"{name}.h5"
-    write_sample(path, sample_from_bonds(position, radius, mass, [[0, 0, 0], [0, 0, top_z]], i, j,
-                 plate_mass=(np.inf, plate_mass)))
+    write_sample(
+        path,
+        sample_from_bonds(position, radius, mass, [[0, 0, 0], [0, 0, top_z]], i, j, plate_mass=(np.inf, plate_mass)),
+    )
     return path, HarmonicSystem(network_from_sample(read_sample(path)), **BARY)
 
 
@@ -51,7 +53,7 @@ def test_single_bond_with_mass_closed_form(tmp_path, f):
     sol0 = system.solve_law(LAW, f, inertia="none")
     assert abs(sol0.reaction[0]) < 1e-12 * abs(kt * A)
     assert sol0.mu_kg == pytest.approx(0.135 * m + 0.235)
-    assert sol0.force[0] == pytest.approx(-w**2 * sol0.mu_kg * A, rel=1e-9)
+    assert sol0.force[0] == pytest.approx(-(w**2) * sol0.mu_kg * A, rel=1e-9)
 
 
 def test_vertical_chain_in_series_tangential(tmp_path):

@@ -21,10 +21,12 @@ from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
 #: a solid law with a fast Kelvin-Voigt unit (Pa, Pa s): steady state within a cycle at 1 Hz
 SOLID = GeneralizedBurgers(Em=3e7, eta_m=np.inf, Ek=(5e7,), eta_k=(5e5,), E_inf=1e6)
-LAWS = (unit_elastic_law(),
-        GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5),
-        GeneralizedBurgers(Em=2.0e9, eta_m=5e8, Ek=(4e9, 1e9), eta_k=(5e7, 1e9), E_inf=1e6),
-        SOLID)
+LAWS = (
+    unit_elastic_law(),
+    GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5),
+    GeneralizedBurgers(Em=2.0e9, eta_m=5e8, Ek=(4e9, 1e9), eta_k=(5e7, 1e9), E_inf=1e6),
+    SOLID,
+)
 
 
 @pytest.fixture(scope="module")
@@ -64,38 +66,51 @@ def test_network_factor_is_real_and_independent_of_law_and_frequency(sample, kin
 def test_network_factor_depends_on_the_kinematics(sample):
     """The factor is a property of the discrete model: the barycentre kinematics stiffens bending."""
     geometry = specimen_geometry_mm(read_sample(sample))
-    nf = {k: network_factor(HarmonicSystem(network_from_sample(read_sample(sample)), bond_kinematics=k, head_rotation=h), geometry).real
-          for k, h in (("contact", "free"), ("barycentre", "clamped"))}
+    nf = {
+        k: network_factor(
+            HarmonicSystem(network_from_sample(read_sample(sample)), bond_kinematics=k, head_rotation=h), geometry
+        ).real
+        for k, h in (("contact", "free"), ("barycentre", "clamped"))
+    }
     assert nf["barycentre"] > 1.5 * nf["contact"]
 
 
 def test_cli_writes_the_transfer_json(sample, transfer):
     obj = json.loads(transfer.read_text())
     system = HarmonicSystem(network_from_sample(read_sample(sample)))
-    assert obj["network_factor"] == pytest.approx(network_factor(system, specimen_geometry_mm(read_sample(sample))).real, rel=1e-12)
+    assert obj["network_factor"] == pytest.approx(
+        network_factor(system, specimen_geometry_mm(read_sample(sample))).real, rel=1e-12
+    )
     assert obj["sample"] == "s1" and obj["bond_kinematics"] == "contact" and obj["head_rotation"] == "free"
     assert obj["nu"] == 0.35 and obj["inertia"] == "none" and "network_factor" in obj["units"]
     assert abs(obj["imag_relative"]) < 1e-12 and obj["residual"] < 1e-10
-    assert read_transfer_json(transfer, sample="s1", bond_kinematics="contact", head_rotation="free",
-                              nu=0.35)["network_factor"] == obj["network_factor"]
+    assert (
+        read_transfer_json(transfer, sample="s1", bond_kinematics="contact", head_rotation="free", nu=0.35)[
+            "network_factor"
+        ]
+        == obj["network_factor"]
+    )
 
 
 def _edit(obj, **kw):
     return {**obj, **kw}
 
 
-@pytest.mark.parametrize("edit, message", [
-    (lambda o: "{oops", "not valid JSON"),
-    (lambda o: [1, 2], "expected a JSON object"),
-    (lambda o: {k: v for k, v in o.items() if k != "network_factor"}, r"missing key\(s\) \['network_factor'\]"),
-    (lambda o: _edit(o, network_factor=0.0), "key 'network_factor': expected a positive finite number"),
-    (lambda o: _edit(o, network_factor=-1.2), "key 'network_factor'"),
-    (lambda o: _edit(o, network_factor="1.1"), "key 'network_factor'"),
-    (lambda o: _edit(o, network_factor=True), "key 'network_factor'"),
-    (lambda o: _edit(o, bond_kinematics="glue"), "key 'bond_kinematics': expected one of"),
-    (lambda o: _edit(o, head_rotation="spinning"), "key 'head_rotation'"),
-    (lambda o: _edit(o, nu="0.35"), "key 'nu': expected a number"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda o: "{oops", "not valid JSON"),
+        (lambda o: [1, 2], "expected a JSON object"),
+        (lambda o: {k: v for k, v in o.items() if k != "network_factor"}, r"missing key\(s\) \['network_factor'\]"),
+        (lambda o: _edit(o, network_factor=0.0), "key 'network_factor': expected a positive finite number"),
+        (lambda o: _edit(o, network_factor=-1.2), "key 'network_factor'"),
+        (lambda o: _edit(o, network_factor="1.1"), "key 'network_factor'"),
+        (lambda o: _edit(o, network_factor=True), "key 'network_factor'"),
+        (lambda o: _edit(o, bond_kinematics="glue"), "key 'bond_kinematics': expected one of"),
+        (lambda o: _edit(o, head_rotation="spinning"), "key 'head_rotation'"),
+        (lambda o: _edit(o, nu="0.35"), "key 'nu': expected a number"),
+    ],
+)
 def test_bad_transfer_json_raises_input_error(tmp_path, transfer, edit, message):
     bad = tmp_path / "bad.json"
     out = edit(json.loads(transfer.read_text()))
@@ -106,13 +121,16 @@ def test_bad_transfer_json_raises_input_error(tmp_path, transfer, edit, message)
 
 
 def test_transfer_json_must_match_the_run(transfer, tmp_path):
-    for kw, key in (({"sample": "s2"}, "sample"), ({"bond_kinematics": "barycentre"}, "bond_kinematics"),
-                    ({"head_rotation": "clamped"}, "head_rotation"), ({"nu": 0.3}, "nu")):
+    for kw, key in (
+        ({"sample": "s2"}, "sample"),
+        ({"bond_kinematics": "barycentre"}, "bond_kinematics"),
+        ({"head_rotation": "clamped"}, "head_rotation"),
+        ({"nu": 0.3}, "nu"),
+    ):
         with pytest.raises(InputError, match=f"key '{key}': the factor was computed for"):
             read_transfer_json(transfer, **kw)
     with pytest.raises(InputError, match="nope.json: cannot read"):
         read_transfer_json(tmp_path / "nope.json")
-
 
 
 def test_corrected_law_divides_the_complex_modulus_by_the_network_factor(transfer):
@@ -125,14 +143,44 @@ def test_corrected_law_divides_the_complex_modulus_by_the_network_factor(transfe
         corrected_law(LAWS[1], transfer, sample="s2")
 
 
-SETTINGS = json.dumps({"n_cycles": 2, "dt_policy": "steps_per_cycle", "steps_per_cycle": 40, "dt_max_s": 1.0,
-                       "checkpoint_every": 0, "profile_instants": 4})
+SETTINGS = json.dumps(
+    {
+        "n_cycles": 2,
+        "dt_policy": "steps_per_cycle",
+        "steps_per_cycle": 40,
+        "dt_max_s": 1.0,
+        "checkpoint_every": 0,
+        "profile_instants": 4,
+    }
+)
 
 
 def _run(sample, tmp_path, name, extra, settings=SETTINGS):
-    return main(["run-2pb", "--sample", str(sample), "--sample-name", "s1", "--law-json", str(tmp_path / "laws.json"),
-                 *extra, "--temperature", "20", "--frequency", "1", "--settings-json", settings, "--no-progress",
-                 "--mode", "extended", "-o", str(tmp_path / f"{name}.h5"), "--row", str(tmp_path / f"{name}.csv")])
+    return main(
+        [
+            "run-2pb",
+            "--sample",
+            str(sample),
+            "--sample-name",
+            "s1",
+            "--law-json",
+            str(tmp_path / "laws.json"),
+            *extra,
+            "--temperature",
+            "20",
+            "--frequency",
+            "1",
+            "--settings-json",
+            settings,
+            "--no-progress",
+            "--mode",
+            "extended",
+            "-o",
+            str(tmp_path / f"{name}.h5"),
+            "--row",
+            str(tmp_path / f"{name}.csv"),
+        ]
+    )
 
 
 def test_corrected_time_domain_run_matches_the_law(sample, transfer, tmp_path):

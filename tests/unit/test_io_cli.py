@@ -41,8 +41,17 @@ def test_collect_report_copies_and_indexes(tmp_path, monkeypatch):
     table = tmp_path / "results" / "calibration" / "t.csv"
     table.parent.mkdir(parents=True)
     table.write_text("a,b\n1,2\n")
-    status = cli.main(["collect-report", "results/lab/fig.png", "results/calibration/t.csv",
-                       "--out-dir", "results/report", "-o", "results/report/index.md"])
+    status = cli.main(
+        [
+            "collect-report",
+            "results/lab/fig.png",
+            "results/calibration/t.csv",
+            "--out-dir",
+            "results/report",
+            "-o",
+            "results/report/index.md",
+        ]
+    )
     assert status == 0
     index = (tmp_path / "results/report/index.md").read_text()
     assert "![lab/fig.png](lab/fig.png)" in index and "[calibration/t.csv](calibration/t.csv)" in index
@@ -129,9 +138,18 @@ def test_publish_table_puts_a_complete_run_in_place_and_keeps_it_when_the_next_f
     law.write_text(json.dumps({"source": {"measured_sha256": io.content_sha256(measured)}}))
     # a test JSON whose "source" says where its values come from (a text, not a stamp)
     (tmp_path / "results" / "lab" / "measured.test.json").write_text(json.dumps({"source": "the lab's report"}))
-    args = ["publish-table", "results/lab/measured.csv", "results/diagnosis/law.json", "results/lab/measured.test.json",
-            "--table", "mix.csv",
-            "--measured", "results/lab/measured.csv", "-o", "results/tables/mix"]
+    args = [
+        "publish-table",
+        "results/lab/measured.csv",
+        "results/diagnosis/law.json",
+        "results/lab/measured.test.json",
+        "--table",
+        "mix.csv",
+        "--measured",
+        "results/lab/measured.csv",
+        "-o",
+        "results/tables/mix",
+    ]
     assert _run(tmp_path, monkeypatch, *args) == 0
     out = tmp_path / "results" / "tables" / "mix"
     manifest = json.loads((out / "manifest.json").read_text())

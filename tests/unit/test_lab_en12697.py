@@ -148,9 +148,15 @@ def test_cli_reduce_writes_one_row(tmp_path):
     assert row["temperature_C"].iloc[0] == 20.0
 
 
-@pytest.mark.parametrize("update, key", [({"h_mm": None}, "h_mm"), ({"M_kg": -1}, "M_kg"),
-                                         ({"frequency_Hz": "ten"}, "frequency_Hz"),
-                                         ({"temperature_C": None}, "temperature_C")])
+@pytest.mark.parametrize(
+    "update, key",
+    [
+        ({"h_mm": None}, "h_mm"),
+        ({"M_kg": -1}, "M_kg"),
+        ({"frequency_Hz": "ten"}, "frequency_Hz"),
+        ({"temperature_C": None}, "temperature_C"),
+    ],
+)
 def test_bad_sidecar_names_file_and_key(tmp_path, update, key):
     csv, js = write_record(tmp_path, meta_update=update)
     out = tmp_path / "reduced.csv"

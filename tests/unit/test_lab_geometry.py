@@ -19,8 +19,9 @@ UIUC = REPO / "data/measured/uiuc_fdmix1_utm/complex_modulus.csv"
 
 
 def test_form_factors_of_the_declared_tests():
-    paper = from_dict({"test": "2pb_trapezoid", "B_mm": 56, "b_mm": 25, "e_mm": 25, "h_mm": 250, "M_kg": 0.6,
-                       "m_kg": 0.235}, "x.json")
+    paper = from_dict(
+        {"test": "2pb_trapezoid", "B_mm": 56, "b_mm": 25, "e_mm": 25, "h_mm": 250, "M_kg": 0.6, "m_kg": 0.235}, "x.json"
+    )
     assert paper.form_factor_per_mm == pytest.approx(Specimen2PB().gamma_per_mm, rel=1e-12)
     cyl = from_dict({"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150}, "x.json")
     # E = (F/A)(h/z): gamma = h / A
@@ -33,15 +34,18 @@ def test_form_factors_of_the_declared_tests():
     assert not ok and "diameter_mm" in reason and "s.json" in reason
 
 
-@pytest.mark.parametrize("obj,key", [
-    ({"test": "4pb_beam"}, "test"),
-    ({"test": "uniaxial_cylinder", "diameter_mm": 100}, "height_mm"),
-    ({"test": "uniaxial_cylinder", "diameter_mm": -1, "height_mm": 150}, "diameter_mm"),
-    ({"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150, "width_mm": 3}, "width_mm"),
-    ({"test": "2pb_trapezoid", "B_mm": 56, "b_mm": 60, "e_mm": 25, "h_mm": 250}, "b_mm"),
-    ({"test": "2pb_trapezoid", "B_mm": 56, "b_mm": 25, "e_mm": 25, "h_mm": 250, "diameter_mm": 100}, "diameter_mm"),
-    ({"diameter_mm": 100}, "test"),
-])
+@pytest.mark.parametrize(
+    "obj,key",
+    [
+        ({"test": "4pb_beam"}, "test"),
+        ({"test": "uniaxial_cylinder", "diameter_mm": 100}, "height_mm"),
+        ({"test": "uniaxial_cylinder", "diameter_mm": -1, "height_mm": 150}, "diameter_mm"),
+        ({"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150, "width_mm": 3}, "width_mm"),
+        ({"test": "2pb_trapezoid", "B_mm": 56, "b_mm": 60, "e_mm": 25, "h_mm": 250}, "b_mm"),
+        ({"test": "2pb_trapezoid", "B_mm": 56, "b_mm": 25, "e_mm": 25, "h_mm": 250, "diameter_mm": 100}, "diameter_mm"),
+        ({"diameter_mm": 100}, "test"),
+    ],
+)
 def test_bad_declarations_name_the_file_and_key(tmp_path, obj, key):
     path = tmp_path / "t.test.json"
     path.write_text(json.dumps(obj))
@@ -55,8 +59,9 @@ def test_sidecar_is_found_next_to_the_table_and_default_is_unknown(tmp_path):
     load_measured(UIUC).drop(columns="temperature_F").to_csv(table, index=False)  # the project's own columns
     assert sidecar_path(table) == tmp_path / "mix.test.json"
     assert load_measured(table).attrs["test"].test == "unknown"
-    (tmp_path / "mix.test.json").write_text(json.dumps({"test": "uniaxial_cylinder", "diameter_mm": 100,
-                                                        "height_mm": 150}))
+    (tmp_path / "mix.test.json").write_text(
+        json.dumps({"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150})
+    )
     assert load_measured(table).attrs["test"].test == "uniaxial_cylinder"
     explicit = tmp_path / "other.json"
     explicit.write_text(json.dumps({"test": "unknown"}))
@@ -72,14 +77,40 @@ def test_shipped_mix_declares_a_uniaxial_test_of_unstated_dimensions():
 
 def test_measured_cli_writes_a_valid_declaration(tmp_path):
     out = tmp_path / "measured.csv"
-    assert main(["measured", str(UIUC), "-o", str(out), "--summary", str(tmp_path / "s.csv"),
-                 "--test-output", str(tmp_path / "measured.test.json")]) == 0
+    assert (
+        main(
+            [
+                "measured",
+                str(UIUC),
+                "-o",
+                str(out),
+                "--summary",
+                str(tmp_path / "s.csv"),
+                "--test-output",
+                str(tmp_path / "measured.test.json"),
+            ]
+        )
+        == 0
+    )
     decl = load_test(tmp_path / "measured.test.json")
     assert decl.test == "uniaxial_cylinder" and "complex_modulus.test.json" in decl.source
     # the written declaration is found next to the tidy table
     assert load_measured(out).attrs["test"].test == "uniaxial_cylinder"
     bad = tmp_path / "bad.json"
     bad.write_text("{")
-    assert main(["measured", str(UIUC), "--test", str(bad), "-o", str(tmp_path / "m2.csv"),
-                 "--summary", str(tmp_path / "s2.csv")]) == 2
+    assert (
+        main(
+            [
+                "measured",
+                str(UIUC),
+                "--test",
+                str(bad),
+                "-o",
+                str(tmp_path / "m2.csv"),
+                "--summary",
+                str(tmp_path / "s2.csv"),
+            ]
+        )
+        == 2
+    )
     assert not (tmp_path / "m2.csv").exists()

@@ -36,8 +36,15 @@ def test_good_table_is_typed_sorted_and_carries_extra_columns(tmp_path):
 
 def test_summary_mean_and_sample_std(tmp_path):
     s = summarize(load_measured(write(tmp_path, GOOD)))
-    assert list(s.columns) == ["temperature_C", "frequency_Hz", "n", "E_norm_MPa_mean", "E_norm_MPa_std",
-                               "phase_deg_mean", "phase_deg_std"]
+    assert list(s.columns) == [
+        "temperature_C",
+        "frequency_Hz",
+        "n",
+        "E_norm_MPa_mean",
+        "E_norm_MPa_std",
+        "phase_deg_mean",
+        "phase_deg_std",
+    ]
     row = s[s["frequency_Hz"] == 3].iloc[0]
     assert row["n"] == 2
     assert row["E_norm_MPa_mean"] == pytest.approx(12500.0)
@@ -109,13 +116,14 @@ def test_read_summary_round_trip_and_errors(tmp_path):
     back = read_summary(path)
     assert back.equals(summary.astype({"n": int}))
     text = path.read_text()
-    for bad, message in ((text.replace("phase_deg_mean", "phase"), r"line 1.*'phase_deg_mean'"),
-                         (text.replace("12500", "12k5"), r"line 2, column 'E_norm_MPa_mean'.*non-numeric"),
-                         (text.replace(",900.0,", ",-900.0,"), r"line 4, column 'E_norm_MPa_mean'.*out of range"),
-                         (text.replace("20.0,3.0,1,", "20.0,3.0,0,"), r"line 4, column 'n'.*out of range"),
-                         (text.replace("20.0,3.0,", "10.0,3.0,"), r"lines 2, 4: repeated"),
-                         ("temperature_C,frequency_Hz,n,E_norm_MPa_mean,E_norm_MPa_std,phase_deg_mean,phase_deg_std\n",
-                          "no data rows")):
+    for bad, message in (
+        (text.replace("phase_deg_mean", "phase"), r"line 1.*'phase_deg_mean'"),
+        (text.replace("12500", "12k5"), r"line 2, column 'E_norm_MPa_mean'.*non-numeric"),
+        (text.replace(",900.0,", ",-900.0,"), r"line 4, column 'E_norm_MPa_mean'.*out of range"),
+        (text.replace("20.0,3.0,1,", "20.0,3.0,0,"), r"line 4, column 'n'.*out of range"),
+        (text.replace("20.0,3.0,", "10.0,3.0,"), r"lines 2, 4: repeated"),
+        ("temperature_C,frequency_Hz,n,E_norm_MPa_mean,E_norm_MPa_std,phase_deg_mean,phase_deg_std\n", "no data rows"),
+    ):
         bad_path = write(tmp_path, bad, "bad_summary.csv")
         with pytest.raises(InputError, match=message) as err:
             read_summary(bad_path)

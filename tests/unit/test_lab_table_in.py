@@ -18,53 +18,168 @@ from asphalt_nscd.rheology import export
 KSI = 6.894757293168361
 SEARCH = ["--alpha", "0.001", "--shift", "wlf", "--identifiability-null", "0.995", "--identifiability-rival", "0.95"]
 #: a small candidate grid with and without the vertical shift a card cannot carry
-GRID = ["--law-shifts", "wlf", "arrhenius", "--law-statics", "constant", "--law-verticals", "off", "on",
-        "--law-refines", "off", "--law-per-decades", "2"]
+GRID = [
+    "--law-shifts",
+    "wlf",
+    "arrhenius",
+    "--law-statics",
+    "constant",
+    "--law-verticals",
+    "off",
+    "on",
+    "--law-refines",
+    "off",
+    "--law-per-decades",
+    "2",
+]
 
 
-def lab_table(tmp_path, seed=3, vertical=0.0, unit="ksi", quality=None, outlier=None, name="lab",
-              header="|E*| (ksi)"):
+def lab_table(tmp_path, seed=3, vertical=0.0, unit="ksi", quality=None, outlier=None, name="lab", header="|E*| (ksi)"):
     """An AMPT-like table as a US lab writes it (degF, |E*| in ``unit`` with US headers) and its
     sidecar; ``quality``: data-quality columns added; ``outlier``: (T degC, f Hz, phase shift deg)
     applied to every specimen's cell."""
-    t, truth = synthetic.generate(seed, [], schedule="ampt_pp61", n_specimens=3, vertical_per_100K=vertical,
-                                  test_order=False)
+    t, truth = synthetic.generate(
+        seed, [], schedule="ampt_pp61", n_specimens=3, vertical_per_100K=vertical, test_order=False
+    )
     if outlier is not None:
         T, f, dphi = outlier
         hit = (t["temperature_C"] == T) & (t["frequency_Hz"] == f)
         t.loc[hit, "phase_deg"] += dphi
-    frame = pd.DataFrame({"Specimen ID": t["specimen"], "Temp (F)": t["temperature_C"] * 1.8 + 32,
-                          "Frequency (Hz)": t["frequency_Hz"], header: t["E_norm_MPa"] / KSI,
-                          "Phase Angle (deg)": t["phase_deg"]})
-    table = {"modulus_unit": unit, "temperature_unit": "F", "modulus_form": "norm_phase",
-             "columns": {"modulus": header}}
+    frame = pd.DataFrame(
+        {
+            "Specimen ID": t["specimen"],
+            "Temp (F)": t["temperature_C"] * 1.8 + 32,
+            "Frequency (Hz)": t["frequency_Hz"],
+            header: t["E_norm_MPa"] / KSI,
+            "Phase Angle (deg)": t["phase_deg"],
+        }
+    )
+    table = {
+        "modulus_unit": unit,
+        "temperature_unit": "F",
+        "modulus_form": "norm_phase",
+        "columns": {"modulus": header},
+    }
     if quality is not None:
         for col, values in quality.items():
             frame[col] = values
         table["quality"] = {"load_standard_error_pct": "Load SE (%)", "phase_uniformity_deg": "Phase Unif (deg)"}
     path = tmp_path / f"{name}.csv"
     frame.to_csv(path, index=False)
-    (tmp_path / f"{name}.test.json").write_text(json.dumps({"test": "uniaxial_cylinder", "diameter_mm": 100,
-                                                            "height_mm": 150, "table": table}))
+    (tmp_path / f"{name}.test.json").write_text(
+        json.dumps({"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150, "table": table})
+    )
     return path
 
 
 def chain(tmp_path, table):
     """measured -> calibrate-search -> master-curve -> extend-law -> export-law, as the workflow."""
-    d = {k: tmp_path / k for k in ("m.csv", "ms.csv", "m.test.json", "cal.json", "mc.json", "corr.csv", "law.json",
-                                   "card.json", "wf.json", "cards")}
-    assert main(["measured", str(table), "-o", str(d["m.csv"]), "--summary", str(d["ms.csv"]),
-                 "--test-output", str(d["m.test.json"])]) == 0
+    d = {
+        k: tmp_path / k
+        for k in (
+            "m.csv",
+            "ms.csv",
+            "m.test.json",
+            "cal.json",
+            "mc.json",
+            "corr.csv",
+            "law.json",
+            "card.json",
+            "wf.json",
+            "cards",
+        )
+    }
+    assert (
+        main(
+            [
+                "measured",
+                str(table),
+                "-o",
+                str(d["m.csv"]),
+                "--summary",
+                str(d["ms.csv"]),
+                "--test-output",
+                str(d["m.test.json"]),
+            ]
+        )
+        == 0
+    )
     m = ["--measured", str(d["m.csv"])]
-    assert main(["calibrate-search", *m, "--test", str(d["m.test.json"]), *SEARCH, "--tables", "20",
-                 "-o", str(d["cal.json"])]) == 0
-    assert main(["master-curve", *m, "--test", str(d["m.test.json"]), *SEARCH, "--calibration", str(d["cal.json"]),
-                 "-o", str(d["mc.json"]), "--corrected", str(d["corr.csv"])]) == 0
-    assert main(["extend-law", *m, *SEARCH, *GRID, "--calibration", str(d["cal.json"]), "--master-curve",
-                 str(d["mc.json"]), "--corrected-table", str(d["corr.csv"]), "-o", str(d["law.json"]),
-                 "--card-law", str(d["card.json"]), "--without-flagged", str(d["wf.json"])]) == 0
-    assert main(["export-law", "--law-json", str(d["card.json"]), "--selected-law-json", str(d["law.json"]),
-                 "--measured", str(d["ms.csv"]), "--test", str(d["m.test.json"]), "-o", str(d["cards"])]) == 0
+    assert (
+        main(
+            [
+                "calibrate-search",
+                *m,
+                "--test",
+                str(d["m.test.json"]),
+                *SEARCH,
+                "--tables",
+                "20",
+                "-o",
+                str(d["cal.json"]),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "master-curve",
+                *m,
+                "--test",
+                str(d["m.test.json"]),
+                *SEARCH,
+                "--calibration",
+                str(d["cal.json"]),
+                "-o",
+                str(d["mc.json"]),
+                "--corrected",
+                str(d["corr.csv"]),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "extend-law",
+                *m,
+                *SEARCH,
+                *GRID,
+                "--calibration",
+                str(d["cal.json"]),
+                "--master-curve",
+                str(d["mc.json"]),
+                "--corrected-table",
+                str(d["corr.csv"]),
+                "-o",
+                str(d["law.json"]),
+                "--card-law",
+                str(d["card.json"]),
+                "--without-flagged",
+                str(d["wf.json"]),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "export-law",
+                "--law-json",
+                str(d["card.json"]),
+                "--selected-law-json",
+                str(d["law.json"]),
+                "--measured",
+                str(d["ms.csv"]),
+                "--test",
+                str(d["m.test.json"]),
+                "-o",
+                str(d["cards"]),
+            ]
+        )
+        == 0
+    )
     return d
 
 
@@ -146,8 +261,7 @@ def test_quality_flags_and_an_outlying_cell_are_reported_not_dropped(tmp_path):
     load_se[[2, 40]] = [14.0, 21.0]
     phase_u = rng.uniform(0.2, 2.0, n)
     phase_u[7] = 4.5
-    path = lab_table(tmp_path, quality={"Load SE (%)": load_se, "Phase Unif (deg)": phase_u},
-                     outlier=(4.0, 25.0, 4.0))
+    path = lab_table(tmp_path, quality={"Load SE (%)": load_se, "Phase Unif (deg)": phase_u}, outlier=(4.0, 25.0, 4.0))
     d = chain(tmp_path, path)
     mc = json.loads(d["mc.json"].read_text())
     ind = mc["quality"]["indicators"]
@@ -170,15 +284,62 @@ def test_the_page_speaks_the_labs_units_and_names_what_ran(tmp_path):
     it has no fold."""
     d = chain(tmp_path, lab_table(tmp_path))
     for scheme in ("lofo", "loto"):
-        assert main(["crossval", "--measured", str(d["m.csv"]), *SEARCH, *GRID[:8], "--law-refines", "off",
-                     "--law-per-decades", "2", "--calibration", str(d["cal.json"]), "--scheme", scheme,
-                     "-o", str(tmp_path / f"{scheme}.csv"), "--figure", str(tmp_path / f"{scheme}.png")]) == 0
+        assert (
+            main(
+                [
+                    "crossval",
+                    "--measured",
+                    str(d["m.csv"]),
+                    *SEARCH,
+                    *GRID[:8],
+                    "--law-refines",
+                    "off",
+                    "--law-per-decades",
+                    "2",
+                    "--calibration",
+                    str(d["cal.json"]),
+                    "--scheme",
+                    scheme,
+                    "-o",
+                    str(tmp_path / f"{scheme}.csv"),
+                    "--figure",
+                    str(tmp_path / f"{scheme}.png"),
+                ]
+            )
+            == 0
+        )
     page = tmp_path / "page.md"
-    assert main(["diagnose", "--measured", str(d["m.csv"]), "--test", str(d["m.test.json"]), "--master-curve",
-                 str(d["mc.json"]), "--corrected-table", str(d["corr.csv"]), "--law-json", str(d["law.json"]),
-                 "--card", str(d["cards"] / "prony.json"), "--law-without-flagged", str(d["wf.json"]),
-                 "--crossval", str(tmp_path / "lofo.csv"), str(tmp_path / "loto.csv"), "-o", str(tmp_path / "r.json"),
-                 "--page", str(page), "--figure", str(tmp_path / "b.png")]) == 0
+    assert (
+        main(
+            [
+                "diagnose",
+                "--measured",
+                str(d["m.csv"]),
+                "--test",
+                str(d["m.test.json"]),
+                "--master-curve",
+                str(d["mc.json"]),
+                "--corrected-table",
+                str(d["corr.csv"]),
+                "--law-json",
+                str(d["law.json"]),
+                "--card",
+                str(d["cards"] / "prony.json"),
+                "--law-without-flagged",
+                str(d["wf.json"]),
+                "--crossval",
+                str(tmp_path / "lofo.csv"),
+                str(tmp_path / "loto.csv"),
+                "-o",
+                str(tmp_path / "r.json"),
+                "--page",
+                str(page),
+                "--figure",
+                str(tmp_path / "b.png"),
+            ]
+        )
+        == 0
+    )
     text = page.read_text()
     assert "no simulation ran" in text and "39.2 (4)" in text and "T (degF (degC))" in text
     assert text.count("Targets:") == 1 and "loto*: no fold could be computed" in text
@@ -197,9 +358,15 @@ def test_an_implausible_selected_or_card_law_is_warned_about(caplog):
     is named on the console with its findings; a plausible one is not."""
     from asphalt_nscd.diagnosis.cli import _warn_implausible
 
-    curve = pd.DataFrame({"settings": ["a", "b", "c"], "plausible": [True, False, False],
-                          "findings": ["", "beta = 1e+09 at the high bound", "E0 outside"],
-                          "chosen": [True, False, False], "chosen_card": [False, True, False]})
+    curve = pd.DataFrame(
+        {
+            "settings": ["a", "b", "c"],
+            "plausible": [True, False, False],
+            "findings": ["", "beta = 1e+09 at the high bound", "E0 outside"],
+            "chosen": [True, False, False],
+            "chosen_card": [False, True, False],
+        }
+    )
     caplog.set_level(logging.WARNING, logger="asphalt_nscd")
     _warn_implausible(curve, card=False)
     assert not caplog.records
@@ -225,8 +392,13 @@ def test_results_from_another_table_are_refused_by_the_page(tmp_path):
     ha = content_sha256(a)
     assert same_table(a, [("law.json", {"source": {"measured_sha256": ha}}), ("old.json", {"source": {}})]) == ha
     with pytest.raises(InputError, match=r"law\.json: computed from another measured table"):
-        same_table(b, [("mc.json", {"source": {"measured_sha256": content_sha256(b)}}),
-                       ("law.json", {"source": {"measured_sha256": ha}})])
+        same_table(
+            b,
+            [
+                ("mc.json", {"source": {"measured_sha256": content_sha256(b)}}),
+                ("law.json", {"source": {"measured_sha256": ha}}),
+            ],
+        )
 
 
 def test_the_chain_stamps_its_results_with_the_table(tmp_path):

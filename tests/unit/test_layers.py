@@ -67,8 +67,7 @@ def imports(module: str, path: Path, modules: dict[str, Path]) -> list[tuple[int
                 base_name = ".".join(base + ([node.module] if node.module else []))
             else:
                 base_name = node.module or ""
-            names = [f"{base_name}.{a.name}" if f"{base_name}.{a.name}" in modules else base_name
-                     for a in node.names]
+            names = [f"{base_name}.{a.name}" if f"{base_name}.{a.name}" in modules else base_name for a in node.names]
         else:
             continue
         for name in dict.fromkeys(names):
@@ -87,8 +86,12 @@ def import_graph(root: Path = ROOT) -> dict[str, list[tuple[int, str]]]:
 
 def upward_imports(graph) -> list[str]:
     """One message per import of a higher layer: 'module:line imports target (layer a < b)'."""
-    return [f"{m}:{line} imports {t} (layer {_name(layer(m))} below {_name(layer(t))})"
-            for m, edges in sorted(graph.items()) for line, t in edges if layer(t) > layer(m)]
+    return [
+        f"{m}:{line} imports {t} (layer {_name(layer(m))} below {_name(layer(t))})"
+        for m, edges in sorted(graph.items())
+        for line, t in edges
+        if layer(t) > layer(m)
+    ]
 
 
 def _name(index: int) -> str:
@@ -150,11 +153,16 @@ def test_no_import_cycle():
     assert not cycles, "\n".join(cycles)
 
 
-@pytest.mark.parametrize("source, expected", [
-    ("from ..campaign import periodic\n", "asphalt_nscd.nscd.bench:1 imports asphalt_nscd.campaign.periodic"),
-    ("def f():\n    from asphalt_nscd.figures.cli import main\n",
-     "asphalt_nscd.nscd.bench:2 imports asphalt_nscd.figures.cli"),
-])
+@pytest.mark.parametrize(
+    "source, expected",
+    [
+        ("from ..campaign import periodic\n", "asphalt_nscd.nscd.bench:1 imports asphalt_nscd.campaign.periodic"),
+        (
+            "def f():\n    from asphalt_nscd.figures.cli import main\n",
+            "asphalt_nscd.nscd.bench:2 imports asphalt_nscd.figures.cli",
+        ),
+    ],
+)
 def test_the_walk_sees_relative_and_function_level_imports(tmp_path, source, expected):
     """The checks themselves: an upward import inside a function or through ``from .. import``
     is reported with its module and line; two modules importing each other form a cycle."""

@@ -6,8 +6,16 @@ import h5py
 import numpy as np
 import pytest
 
-from asphalt_nscd.nscd import (Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres,
-                               read_checkpoint, write_checkpoint)
+from asphalt_nscd.nscd import (
+    Bonds,
+    NSCDParameters,
+    Plate,
+    Plates,
+    Simulation,
+    Spheres,
+    read_checkpoint,
+    write_checkpoint,
+)
 from asphalt_nscd.nscd import detection
 from asphalt_nscd.nscd.verify import LAW_15C
 
@@ -35,8 +43,7 @@ def test_detection_skips_excluded_pairs_only():
     assert kept == every - set(drop)
     assert len(kept) < len(every)
     # an excluded pair given as (j, i) is excluded too (the CSR holds both directions)
-    ex_rev = detection.bonded_exclusions(len(rad), 2, [p[1] for p in sph[::3]],
-                                         [p[0] for p in sph[::3]])
+    ex_rev = detection.bonded_exclusions(len(rad), 2, [p[1] for p in sph[::3]], [p[0] for p in sph[::3]])
     ci3, cj3, _, _ = detection.detect_contacts(pos, rad, pts, nrm, 1e-3, ex_rev)
     assert set(zip(ci3.tolist(), cj3.tolist())) == every - set(sph[::3])
     # the Verlet list follows a new exclusion set at once
@@ -79,8 +86,7 @@ def test_bonded_sphere_cut_by_plate_is_not_a_contact(kinematics):
     assert s.position[0, 2] < 0.75 * R  # the bond alone carries the weight: it sinks
     # the former behaviour: the overlapping pair is a closed contact, every step NLGS
     s, plates, b = _sphere_on_plate()
-    sim = Simulation(s, plates, b, NSCDParameters(dt=5e-5, bond_kinematics=kinematics,
-                                                  bonded_contact="always"))
+    sim = Simulation(s, plates, b, NSCDParameters(dt=5e-5, bond_kinematics=kinematics, bonded_contact="always"))
     df = sim.run(20)
     assert (df.n_active_contacts == 1).all()
     assert (df.solver == "nlgs").all()
@@ -97,22 +103,31 @@ def test_contact_appears_when_the_bond_breaks_and_signorini_holds():
     def push(t):
         return np.array([[0.0, 0.0, -m * 9.81 * t / t1]])
 
-    sim = Simulation(s, plates, b, NSCDParameters(dt=h, theta=th, tolerance=1e-12),
-                     external_force=push)
+    sim = Simulation(s, plates, b, NSCDParameters(dt=h, theta=th, tolerance=1e-12), external_force=push)
     rows = []
     for _ in range(300):
         st = sim.step()
-        rows.append((st.n_broken_total, st.n_contacts, st.n_active_contacts, st.solver,
-                     s.position[0, 2], s.velocity[0, 2], sim.contact_impulse.copy(), sim.time))
+        rows.append(
+            (
+                st.n_broken_total,
+                st.n_contacts,
+                st.n_active_contacts,
+                st.solver,
+                s.position[0, 2],
+                s.velocity[0, 2],
+                sim.contact_impulse.copy(),
+                sim.time,
+            )
+        )
     broken = np.array([r[0] for r in rows])
     k_break = int(np.argmax(broken > 0))
     assert broken[-1] == 1 and 10 < k_break < 250  # broke after some steps of loading
     assert all(r[1] == 0 and r[3] == "linear" for r in rows[:k_break])  # no contact while intact
-    assert all(r[1] == 1 and r[2] == 1 and r[3] == "nlgs" for r in rows[k_break + 1:])
+    assert all(r[1] == 1 and r[2] == 1 and r[3] == "nlgs" for r in rows[k_break + 1 :])
     # from the second contact step on the sphere is at rest on the plate (U_n = 0, no
     # further penetration) and the impulse balances weight and push over the step
-    z = np.array([r[4] for r in rows[k_break + 2:]])
-    vz = np.array([r[5] for r in rows[k_break + 2:]])
+    z = np.array([r[4] for r in rows[k_break + 2 :]])
+    vz = np.array([r[5] for r in rows[k_break + 2 :]])
     np.testing.assert_allclose(vz, 0.0, atol=1e-12)
     np.testing.assert_allclose(z, z[0], rtol=0, atol=1e-15)
     t = rows[-1][7]
@@ -129,8 +144,7 @@ def test_sphere_pair_contact_after_break():
     b = Bonds.create(s, Plates([]), [1], [0], LAW_15C.scaled(1e-3))
     b.r_crit[:] = np.inf
     push = np.array([[0, 0, 0], [-5e-2, 0, 0]])
-    sim = Simulation(s, None, b, NSCDParameters(dt=5e-5, gravity=(0, 0, 0), tolerance=1e-12),
-                     external_force=push)
+    sim = Simulation(s, None, b, NSCDParameters(dt=5e-5, gravity=(0, 0, 0), tolerance=1e-12), external_force=push)
     df = sim.run(300)
     gap = np.linalg.norm(s.position[1] - s.position[0]) - 2 * R
     assert gap < 0 and (df.n_contacts == 0).all() and (df.solver == "linear").all()

@@ -11,13 +11,20 @@ from asphalt_nscd.nscd.verify import pressed_sphere_network, random_bonded_netwo
 MU = 0.7
 
 
-def _sim(push, fast, solver="direct", kinematics="contact", max_contacts=16,
-         tolerance=1e-12):
+def _sim(push, fast, solver="direct", kinematics="contact", max_contacts=16, tolerance=1e-12):
     s, plates, bonds, force = pressed_sphere_network(push)
-    params = NSCDParameters(dt=5e-5, friction=MU, tolerance=tolerance, max_iterations=100000,
-                            gravity=(0, 0, -9.81), fast_path=fast, linear_solver=solver,
-                            linear_tolerance=1e-13, bond_kinematics=kinematics,
-                            fast_path_contacts=max_contacts)
+    params = NSCDParameters(
+        dt=5e-5,
+        friction=MU,
+        tolerance=tolerance,
+        max_iterations=100000,
+        gravity=(0, 0, -9.81),
+        fast_path=fast,
+        linear_solver=solver,
+        linear_tolerance=1e-13,
+        bond_kinematics=kinematics,
+        fast_path_contacts=max_contacts,
+    )
     return Simulation(s, plates, bonds, params, external_force=force)
 
 
@@ -39,18 +46,19 @@ def test_condensed_contacts_match_nlgs(push, solver, kinematics):
         assert st_f.n_active_contacts == st_r.n_active_contacts
         n_closed += st_r.n_active_contacts > 0
         v_scale = np.abs(ref.spheres.velocity).max()
-        np.testing.assert_allclose(fast.spheres.velocity, ref.spheres.velocity,
-                                   atol=1e-8 * v_scale)
-        np.testing.assert_allclose(fast.spheres.angular_velocity,
-                                   ref.spheres.angular_velocity,
-                                   atol=1e-8 * np.abs(ref.spheres.angular_velocity).max())
-        np.testing.assert_allclose(fast.bond_impulse, ref.bond_impulse,
-                                   atol=1e-8 * np.abs(ref.bond_impulse).max())
+        np.testing.assert_allclose(fast.spheres.velocity, ref.spheres.velocity, atol=1e-8 * v_scale)
+        np.testing.assert_allclose(
+            fast.spheres.angular_velocity,
+            ref.spheres.angular_velocity,
+            atol=1e-8 * np.abs(ref.spheres.angular_velocity).max(),
+        )
+        np.testing.assert_allclose(fast.bond_impulse, ref.bond_impulse, atol=1e-8 * np.abs(ref.bond_impulse).max())
         if st_r.n_active_contacts:
             np.testing.assert_array_equal(fast.contact_i, ref.contact_i)
             np.testing.assert_array_equal(fast.contact_j, ref.contact_j)
-            np.testing.assert_allclose(fast.contact_impulse, ref.contact_impulse,
-                                       atol=1e-5 * np.abs(ref.contact_impulse).max())
+            np.testing.assert_allclose(
+                fast.contact_impulse, ref.contact_impulse, atol=1e-5 * np.abs(ref.contact_impulse).max()
+            )
     assert n_closed >= 10  # pressed: the contact is closed most of the time
 
 
@@ -70,9 +78,15 @@ def test_condensed_contact_obeys_coulomb():
         P = sim.contact_impulse[a]
         pt = np.hypot(P[1], P[2])
         u = np.empty((len(sim.contact_i), 3))
-        sim._contact_velocities(sim.contact_i, sim.contact_j, sim.contact_frame,
-                                sim.spheres.velocity, sim.spheres.angular_velocity,
-                                sim.plates.velocity, u)
+        sim._contact_velocities(
+            sim.contact_i,
+            sim.contact_j,
+            sim.contact_frame,
+            sim.spheres.velocity,
+            sim.spheres.angular_velocity,
+            sim.plates.velocity,
+            u,
+        )
         ut = u[a, 1:]
         assert pt <= MU * P[0] * (1 + 1e-9)
         if np.linalg.norm(ut) > 1e-9 * np.abs(sim.spheres.velocity).max():
@@ -101,23 +115,34 @@ def test_response_columns_solve_the_linear_system(kinematics):
     cg = rng.uniform(1.0, 2.0, (bonds.n, 1)) * np.array([[3.0, 1.0, 1.0]])
     rotation = None
     if kinematics == "contact":
-        rotation = dict(arm_i=bonds.arm_i, arm_j=bonds.arm_j, inv_inertia=s.inv_inertia,
-                        inv_inertia_plate=plates.inv_inertia)
-    solvers = {m: LinearBondSolver(s.inv_mass, plates.inv_mass, bonds.i, bonds.j, bonds.frame,
-                                   cg * 10 * s.mass.mean(), bonds.broken, method=m,
-                                   tolerance=1e-13, rotation=rotation)
-               for m in ("direct", "cg", "cg_ssor")}
+        rotation = dict(
+            arm_i=bonds.arm_i, arm_j=bonds.arm_j, inv_inertia=s.inv_inertia, inv_inertia_plate=plates.inv_inertia
+        )
+    solvers = {
+        m: LinearBondSolver(
+            s.inv_mass,
+            plates.inv_mass,
+            bonds.i,
+            bonds.j,
+            bonds.frame,
+            cg * 10 * s.mass.mean(),
+            bonds.broken,
+            method=m,
+            tolerance=1e-13,
+            rotation=rotation,
+        )
+        for m in ("direct", "cg", "cg_ssor")
+    }
     ref = solvers["direct"]
     nblk = ref.ndof // 3
     for block in (0, nblk // 2, nblk - 1):
         col = ref.response(block)
         e = np.zeros((ref.ndof, 3))
-        e[3 * block:3 * block + 3] = np.eye(3)
+        e[3 * block : 3 * block + 3] = np.eye(3)
         np.testing.assert_allclose(ref.lu.solve(e), col, rtol=0, atol=1e-12 * np.abs(col).max())
         assert ref.response(block) is col  # cached
         for m in ("cg", "cg_ssor"):
-            np.testing.assert_allclose(solvers[m].response(block), col, rtol=0,
-                                       atol=1e-9 * np.abs(col).max())
+            np.testing.assert_allclose(solvers[m].response(block), col, rtol=0, atol=1e-9 * np.abs(col).max())
     with pytest.raises(IndexError, match="unknown block"):
         ref.response(nblk)
 

@@ -3,8 +3,16 @@
 import numpy as np
 import pytest
 
-from asphalt_nscd.nscd import (Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres,
-                               read_checkpoint, write_checkpoint)
+from asphalt_nscd.nscd import (
+    Bonds,
+    NSCDParameters,
+    Plate,
+    Plates,
+    Simulation,
+    Spheres,
+    read_checkpoint,
+    write_checkpoint,
+)
 from asphalt_nscd.nscd.delassus import contact_blocks
 from asphalt_nscd.nscd.detection import detect_contacts
 from asphalt_nscd.nscd.verify import LAW_15C, random_bonded_network
@@ -13,8 +21,9 @@ from asphalt_nscd.nscd.verify import LAW_15C, random_bonded_network
 pytestmark = pytest.mark.kernels
 
 
-def dense_delassus(n_spheres, ci, cj, frames, radius, inv_mass, inv_inertia,
-                   inv_mass_plate, rotation=True) -> np.ndarray:
+def dense_delassus(
+    n_spheres, ci, cj, frames, radius, inv_mass, inv_inertia, inv_mass_plate, rotation=True
+) -> np.ndarray:
     """Dense global Delassus operator W = H^T M^-1 H (3C, 3C): the reference the kernel's
     diagonal blocks are checked against (small problems).
 
@@ -28,23 +37,25 @@ def dense_delassus(n_spheres, ci, cj, frames, radius, inv_mass, inv_inertia,
     H = np.zeros((ndof, 3 * c))
     minv = np.zeros(ndof)
     for s in range(n_spheres):
-        minv[6 * s:6 * s + 3] = inv_mass[s]
-        minv[6 * s + 3:6 * s + 6] = inv_inertia[s]
+        minv[6 * s : 6 * s + 3] = inv_mass[s]
+        minv[6 * s + 3 : 6 * s + 6] = inv_inertia[s]
     for k in range(len(inv_mass_plate)):
-        minv[6 * n_spheres + 3 * k:6 * n_spheres + 3 * k + 3] = inv_mass_plate[k]
+        minv[6 * n_spheres + 3 * k : 6 * n_spheres + 3 * k + 3] = inv_mass_plate[k]
     for a in range(c):
         F = frames[a]
         n = F[0]
-        for sign, body, arm in ((1.0, ci[a], -radius[ci[a]] * n),
-                                (-1.0, cj[a], radius[cj[a]] * n if cj[a] >= 0 else None)):
+        for sign, body, arm in (
+            (1.0, ci[a], -radius[ci[a]] * n),
+            (-1.0, cj[a], radius[cj[a]] * n if cj[a] >= 0 else None),
+        ):
             if body >= 0:
-                H[6 * body:6 * body + 3, 3 * a:3 * a + 3] = sign * F.T
+                H[6 * body : 6 * body + 3, 3 * a : 3 * a + 3] = sign * F.T
                 if rotation:
                     # torque of a unit impulse along each local axis: arm x e
-                    H[6 * body + 3:6 * body + 6, 3 * a:3 * a + 3] = sign * np.cross(arm, F).T
+                    H[6 * body + 3 : 6 * body + 6, 3 * a : 3 * a + 3] = sign * np.cross(arm, F).T
             else:
                 k = -1 - body
-                H[6 * n_spheres + 3 * k:6 * n_spheres + 3 * k + 3, 3 * a:3 * a + 3] = sign * F.T
+                H[6 * n_spheres + 3 * k : 6 * n_spheres + 3 * k + 3, 3 * a : 3 * a + 3] = sign * F.T
     return H.T @ (minv[:, None] * H)
 
 
@@ -56,21 +67,18 @@ def test_contact_blocks_equal_dense_delassus_diagonal():
     plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="free", mass=0.3)])
     ci, cj, gap, frame = detect_contacts(s.position, s.radius, plates.point, plates.normal, 0.005)
     assert len(ci) >= 4
-    W = dense_delassus(s.n, ci, cj, frame, s.radius, s.inv_mass, s.inv_inertia,
-                       plates.inv_mass)
+    W = dense_delassus(s.n, ci, cj, frame, s.radius, s.inv_mass, s.inv_inertia, plates.inv_mass)
     wn, wt = np.empty(len(ci)), np.empty(len(ci))
     contact_blocks(ci, cj, s.inv_mass, s.inv_inertia, s.radius, plates.inv_mass, wn, wt)
     for a in range(len(ci)):
-        blk = W[3 * a:3 * a + 3, 3 * a:3 * a + 3]
-        np.testing.assert_allclose(blk, np.diag([wn[a], wt[a], wt[a]]), rtol=1e-12,
-                                   atol=1e-12 * wt[a])
+        blk = W[3 * a : 3 * a + 3, 3 * a : 3 * a + 3]
+        np.testing.assert_allclose(blk, np.diag([wn[a], wt[a], wt[a]]), rtol=1e-12, atol=1e-12 * wt[a])
     assert rng is not None
 
 
 def test_step_reports_iterations_and_residual():
     s = Spheres.from_density([[0, 0, 0.01], [0, 0, 0.03]], [0.01, 0.01], 2600.0)
-    sim = Simulation(s, Plates([Plate([0, 0, 0], [0, 0, 1])]), None,
-                     NSCDParameters(dt=1e-4, tolerance=1e-9))
+    sim = Simulation(s, Plates([Plate([0, 0, 0], [0, 0, 1])]), None, NSCDParameters(dt=1e-4, tolerance=1e-9))
     df = sim.run(20)
     assert (df.iterations >= 1).all() and df.converged.all()
     assert (df.residual_quad <= 1e-9).all() and (df.residual_max <= 1e-9).all()
@@ -81,21 +89,38 @@ def test_driver_force_includes_plate_inertia():
     """Free sphere-less driven plate: the driver force is m a (minus gravity)."""
     s = Spheres.from_density([[0, 0, 1.0]], [0.01], 2600.0)  # far away
     amp, w, m = 1e-3, 2 * np.pi * 5, 0.235
-    plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=m,
-                           displacement=lambda t: np.array([amp * np.sin(w * t), 0, 0]))])
+    plates = Plates(
+        [
+            Plate(
+                [0, 0, 0],
+                [0, 0, 1],
+                mode="driven",
+                mass=m,
+                displacement=lambda t: np.array([amp * np.sin(w * t), 0, 0]),
+            )
+        ]
+    )
     sim = Simulation(s, plates, None, NSCDParameters(dt=1e-4, gravity=(0, 0, 0)))
     df = sim.run(400)
     t = df.time.to_numpy()
     # theta-average (theta = 0.5) of the exact acceleration over the step [t - dt, t]
     expected = -m * amp * w**2 * 0.5 * (np.sin(w * t) + np.sin(w * (t - 1e-4)))
-    np.testing.assert_allclose(df.plate0_driver_Fx_N.to_numpy()[1:], expected[1:],
-                               atol=1e-5 * m * amp * w**2)
+    np.testing.assert_allclose(df.plate0_driver_Fx_N.to_numpy()[1:], expected[1:], atol=1e-5 * m * amp * w**2)
 
 
 def _plate_bonded_to_fixed_sphere(mass, law, amp, omega, dt):
     s = Spheres(position=[[0, 0, 0.003]], radius=[0.0025], mass=[np.inf], inertia=[np.inf])
-    plates = Plates([Plate([0, 0, 0.006], [0, 0, -1], mode="driven", mass=mass,
-                           displacement=lambda t: np.array([amp * np.sin(omega * t), 0, 0]))])
+    plates = Plates(
+        [
+            Plate(
+                [0, 0, 0.006],
+                [0, 0, -1],
+                mode="driven",
+                mass=mass,
+                displacement=lambda t: np.array([amp * np.sin(omega * t), 0, 0]),
+            )
+        ]
+    )
     bonds = Bonds.create(s, plates, [0], [-1], law)
     return Simulation(s, plates, bonds, NSCDParameters(dt=dt, gravity=(0, 0, 0)))
 
@@ -154,8 +179,7 @@ def test_checkpoint_restart_is_exact(tmp_path):
 
 
 def test_bonds_create_micro_parameters():
-    s = Spheres(position=[[0, 0, 0], [0.005, 0, 0]], radius=[0.002, 0.0015], mass=[1, 1],
-                inertia=[1, 1])
+    s = Spheres(position=[[0, 0, 0], [0.005, 0, 0]], radius=[0.002, 0.0015], mass=[1, 1], inertia=[1, 1])
 
     b = Bonds.create(s, Plates([]), [1], [0], LAW_15C)
     a = np.pi * 0.0015**2 / 0.005

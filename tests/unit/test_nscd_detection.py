@@ -31,8 +31,7 @@ def test_sphere_pairs_match_brute_force():
 def test_plate_pairs_and_frames():
     pos = np.array([[0.0, 0.0, 0.011], [0.0, 0.0, 0.05]])
     rad = np.array([0.01, 0.01])
-    ci, cj, gap, frame = detection.detect_contacts(pos, rad, np.zeros((1, 3)),
-                                                   np.array([[0, 0, 1.0]]), 0.002)
+    ci, cj, gap, frame = detection.detect_contacts(pos, rad, np.zeros((1, 3)), np.array([[0, 0, 1.0]]), 0.002)
     assert ci.tolist() == [0] and cj.tolist() == [-1]
     np.testing.assert_allclose(gap, [0.001])
     f = frame[0]

@@ -18,9 +18,24 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _pytest(*args, env):
-    return subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-m", "kernels", *args,
-                           str(REPO / "tests" / "unit")], cwd=REPO, env=env, capture_output=True, text=True,
-                          timeout=1800)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-p",
+            "no:cacheprovider",
+            "-m",
+            "kernels",
+            *args,
+            str(REPO / "tests" / "unit"),
+        ],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
 
 
 @pytest.mark.slow

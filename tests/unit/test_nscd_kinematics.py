@@ -9,10 +9,17 @@ from asphalt_nscd.sample.store import read_sample, write_sample
 from asphalt_nscd.harmonic.response import harmonic_rows
 from asphalt_nscd.harmonic.solver import HarmonicSystem
 from asphalt_nscd.harmonic.timedomain import time_domain_row
-from asphalt_nscd.nscd import (Bonds, NSCDParameters, Plate, Plates, Simulation, Spheres,
-                               read_checkpoint, write_checkpoint)
-from asphalt_nscd.nscd.verify import (LAW_15C, case_creep, random_bonded_network,
-                                      rigid_rotation_force)
+from asphalt_nscd.nscd import (
+    Bonds,
+    NSCDParameters,
+    Plate,
+    Plates,
+    Simulation,
+    Spheres,
+    read_checkpoint,
+    write_checkpoint,
+)
+from asphalt_nscd.nscd.verify import LAW_15C, case_creep, random_bonded_network, rigid_rotation_force
 from asphalt_nscd.rheology.laws import GeneralizedBurgers
 
 GEOMETRY = {"b_mm": 25.0, "B_mm": 56.0, "e_mm": 25.0, "h_mm": 250.0}
@@ -30,16 +37,14 @@ def test_rigid_rotation_strains_no_bond_with_contact_kinematics(with_plate):
 
 @pytest.mark.kernels
 def test_contact_point_and_lever_arms():
-    s = Spheres(position=[[0, 0, 0], [0.005, 0, 0.004]], radius=[0.002, 0.001], mass=[1, 1],
-                inertia=[1, 1])
+    s = Spheres(position=[[0, 0, 0], [0.005, 0, 0.004]], radius=[0.002, 0.001], mass=[1, 1], inertia=[1, 1])
     plates = Plates([Plate([0, 0, -0.003], [0, 0, 1])])
     b = Bonds.create(s, plates, [1, 0], [0, -1], LAW_15C)
     # sphere-sphere: c on the line of centres, r_i + delta0/2 from x_i
     l0 = np.hypot(0.005, 0.004)
     e = -np.array([0.005, 0, 0.004]) / l0
     np.testing.assert_allclose(b.arm_i[0], (0.001 + (l0 - 0.003) / 2) * e, atol=1e-15)
-    np.testing.assert_allclose(b.arm_i[0] - b.arm_j[0], -np.array([0.005, 0, 0.004]),
-                               atol=1e-15)
+    np.testing.assert_allclose(b.arm_i[0] - b.arm_j[0], -np.array([0.005, 0, 0.004]), atol=1e-15)
     # sphere-plate: c at mid-gap below the sphere; arm_j from the plate's reference point
     np.testing.assert_allclose(b.arm_i[1], [0, 0, -0.0025], atol=1e-15)
     np.testing.assert_allclose(b.arm_j[1], [0, 0, 0.0005], atol=1e-15)
@@ -61,14 +66,13 @@ def test_bond_torque_rotates_a_free_sphere():
     step holds, I dw = h (a_i x F_bond) (impulse form); 'barycentre': no rotation."""
     for kinematics in ("contact", "barycentre"):
         pos = np.array([[0.0, 0, 0], [4.5e-3, 0, 0]])
-        s = Spheres(position=pos, radius=[2e-3, 2e-3], mass=[np.inf, 1e-4],
-                    inertia=[np.inf, 1.6e-10])
+        s = Spheres(position=pos, radius=[2e-3, 2e-3], mass=[np.inf, 1e-4], inertia=[np.inf, 1.6e-10])
         b = Bonds.create(s, Plates([]), [1], [0], LAW_15C)
         f = np.zeros((2, 3))
         f[1, 1] = 1.0
-        sim = Simulation(s, None, b, NSCDParameters(dt=1e-5, gravity=(0, 0, 0),
-                                                    bond_kinematics=kinematics),
-                         external_force=f)
+        sim = Simulation(
+            s, None, b, NSCDParameters(dt=1e-5, gravity=(0, 0, 0), bond_kinematics=kinematics), external_force=f
+        )
         sim.step()
         g = b.frame[0].T @ sim.bond_impulse[0]  # global impulse on sphere 1, N s
         if kinematics == "barycentre":
@@ -87,8 +91,7 @@ def test_bonded_cantilever_matches_the_harmonic_solver(tmp_path, head_rotation):
     write_sample(path, lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
     options = {"bond_kinematics": "contact", "head_rotation": head_rotation}
     system = HarmonicSystem(network_from_sample(read_sample(path)), **options)
-    ref = harmonic_rows(system, LAW_30, 30.0, [3.0], GEOMETRY, inertia="full",
-                        solver="direct")[0]
+    ref = harmonic_rows(system, LAW_30, 30.0, [3.0], GEOMETRY, inertia="full", solver="direct")[0]
     td = time_domain_row(path, LAW_30, 3.0, GEOMETRY, 1e-4, **options)
     assert td["n_nlgs_steps"] == 0  # no contact closes: every step on the linear path
     assert td["E_norm_MPa"] == pytest.approx(ref["E_norm_MPa"], rel=5e-3)
@@ -100,8 +103,9 @@ def test_free_head_is_softer_than_clamped_and_barycentre(tmp_path):
     write_sample(path, lattice_sample(12, seed=2, radius_range=(1.0e-3, 1.5e-3)))
     e = {}
     for kin, head in (("contact", "free"), ("contact", "clamped"), ("barycentre", "clamped")):
-        e[kin, head] = time_domain_row(path, LAW_30, 10.0, GEOMETRY, 2e-4, bond_kinematics=kin,
-                                       head_rotation=head)["E_norm_MPa"]
+        e[kin, head] = time_domain_row(path, LAW_30, 10.0, GEOMETRY, 2e-4, bond_kinematics=kin, head_rotation=head)[
+            "E_norm_MPa"
+        ]
     assert e["contact", "free"] < e["contact", "clamped"] < e["barycentre", "clamped"]
 
 
@@ -124,15 +128,22 @@ def test_rotating_head_angular_momentum_balance(fast_path):
     s, plates, bonds = random_bonded_network(n=27)
     plates.rotates[1] = True
     plates.inertia[1] = [2e-5, 3e-5, 4e-5]
-    sim = Simulation(s, plates, bonds, NSCDParameters(dt=5e-5, gravity=(0, 0, 0),
-                                                      fast_path=fast_path, tolerance=1e-12,
-                                                      max_iterations=100000))
+    sim = Simulation(
+        s,
+        plates,
+        bonds,
+        NSCDParameters(dt=5e-5, gravity=(0, 0, 0), fast_path=fast_path, tolerance=1e-12, max_iterations=100000),
+    )
     for _ in range(30):
         w0 = sim.plates.angular_velocity[1].copy()
         sim.step()
         dw = sim.plates.angular_velocity[1] - w0
-        np.testing.assert_allclose(dw * plates.inertia[1], 5e-5 * sim.plate_torque[1],
-                                   rtol=1e-6, atol=1e-9 * np.abs(5e-5 * sim.plate_torque[1]).max())
+        np.testing.assert_allclose(
+            dw * plates.inertia[1],
+            5e-5 * sim.plate_torque[1],
+            rtol=1e-6,
+            atol=1e-9 * np.abs(5e-5 * sim.plate_torque[1]).max(),
+        )
 
 
 @pytest.mark.kernels

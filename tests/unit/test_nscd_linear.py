@@ -7,17 +7,34 @@ from asphalt_nscd.nscd import NSCDParameters, Simulation
 from asphalt_nscd.nscd.verify import LAW_15C, random_bonded_network
 
 
-def _run(fast, solver="cg", n_steps=30, contacts=False, gravity=(0, 0, 0), n=40, kick=0.0,
-         kinematics="contact", bonded_contact="after_break"):
+def _run(
+    fast,
+    solver="cg",
+    n_steps=30,
+    contacts=False,
+    gravity=(0, 0, 0),
+    n=40,
+    kick=0.0,
+    kinematics="contact",
+    bonded_contact="after_break",
+):
     law = LAW_15C.scaled(1e-3) if kick else LAW_15C  # soft bonds: the thrown sphere hits
     s, plates, bonds = random_bonded_network(n=n, contacts=contacts, law=law)
     s.velocity[1, 0] = -kick  # sphere 1 thrown at its neighbour 0 (lattice along x)
     if kick:
         bonds.r_crit[:] = np.inf
-    params = NSCDParameters(dt=5e-5, friction=0.7, tolerance=1e-11, max_iterations=50000,
-                            gravity=gravity, fast_path=fast, linear_solver=solver,
-                            linear_tolerance=1e-13, bond_kinematics=kinematics,
-                            bonded_contact=bonded_contact)
+    params = NSCDParameters(
+        dt=5e-5,
+        friction=0.7,
+        tolerance=1e-11,
+        max_iterations=50000,
+        gravity=gravity,
+        fast_path=fast,
+        linear_solver=solver,
+        linear_tolerance=1e-13,
+        bond_kinematics=kinematics,
+        bonded_contact=bonded_contact,
+    )
     sim = Simulation(s, plates, bonds, params)
     df = sim.run(n_steps)
     return sim, df
@@ -34,13 +51,11 @@ def test_fast_path_matches_nlgs(solver, kinematics):
     scale = np.abs(sim_g.bonds.force).max()
     assert scale > 0
     np.testing.assert_allclose(sim_f.bonds.force, sim_g.bonds.force, atol=1e-8 * scale)
-    np.testing.assert_allclose(df_f.plate1_Fx_N, df_g.plate1_Fx_N,
-                               atol=1e-8 * np.abs(df_g.plate1_Fx_N).max())
+    np.testing.assert_allclose(df_f.plate1_Fx_N, df_g.plate1_Fx_N, atol=1e-8 * np.abs(df_g.plate1_Fx_N).max())
     if kinematics == "contact":  # the rotations are unknowns of the linear path too
         w_scale = np.abs(sim_g.spheres.angular_velocity).max()
         assert w_scale > 0
-        np.testing.assert_allclose(sim_f.spheres.angular_velocity,
-                                   sim_g.spheres.angular_velocity, atol=1e-7 * w_scale)
+        np.testing.assert_allclose(sim_f.spheres.angular_velocity, sim_g.spheres.angular_velocity, atol=1e-7 * w_scale)
 
 
 @pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
@@ -52,8 +67,13 @@ def test_direct_cholesky_equals_superlu(kinematics):
     for fact in ("cholesky", "superlu"):
         s, plates, bonds = random_bonded_network(n=64)
         s.velocity[:] = np.random.default_rng(5).normal(0, 1e-3, s.velocity.shape)
-        params = NSCDParameters(dt=5e-5, gravity=(0, 0, -9.81), linear_solver="direct", bond_kinematics=kinematics,
-                                direct_factorisation=fact)
+        params = NSCDParameters(
+            dt=5e-5,
+            gravity=(0, 0, -9.81),
+            linear_solver="direct",
+            bond_kinematics=kinematics,
+            direct_factorisation=fact,
+        )
         sim = Simulation(s, plates, bonds, params)
         df = sim.run(20)
         assert (df.solver == "linear").all()
@@ -71,8 +91,7 @@ def test_fast_path_falls_back_when_contacts_close(bonded_contact):
     intact bonded pairs enabled: the contact activates, those steps are solved by NLGS (the
     others by the linear path) and agree with a pure NLGS run."""
     sim_f, df_f = _run(True, contacts=True, n_steps=60, kick=5.0, bonded_contact=bonded_contact)
-    sim_g, df_g = _run(False, contacts=True, n_steps=60, kick=5.0,
-                       bonded_contact=bonded_contact)
+    sim_g, df_g = _run(False, contacts=True, n_steps=60, kick=5.0, bonded_contact=bonded_contact)
     assert (df_f.n_active_contacts > 0).any()
     assert set(df_f.solver[df_f.n_active_contacts > 0]) == {"nlgs"}
     assert (df_f.solver == "linear").any()
@@ -106,9 +125,14 @@ def _phase_deg(linear_solver, linear_tolerance, n=1000, f=40.0, dt=5e-5):
 
     law = GeneralizedBurgers.burgers(Em=3.98e7, eta_m=6.28e7, Ek=9.56e8, eta_k=1.49e7)
     s, plates, bonds = bonded_sample(n, law=law)
-    sim = Simulation(s, plates, bonds, NSCDParameters(dt=dt, linear_solver=linear_solver,
-                                                      linear_tolerance=linear_tolerance,
-                                                      bond_kinematics="barycentre"))
+    sim = Simulation(
+        s,
+        plates,
+        bonds,
+        NSCDParameters(
+            dt=dt, linear_solver=linear_solver, linear_tolerance=linear_tolerance, bond_kinematics="barycentre"
+        ),
+    )
     df = sim.run(int(round(2 / f / dt)))
     assert (df.solver == "linear").all()
     t = df.time.to_numpy() - dt / 2
@@ -141,21 +165,36 @@ def test_ssor_cg_matches_direct_solve(kinematics, top):
         s, plates, bonds = random_bonded_network(n=64)
         z_top = float(plates.point[1, 2])
         if top == "free":
-            plates = Plates([Plate([0, 0, 0], [0, 0, 1]),
-                             Plate([0, 0, z_top], [0, 0, -1], mode="free", mass=0.235)])
+            plates = Plates([Plate([0, 0, 0], [0, 0, 1]), Plate([0, 0, z_top], [0, 0, -1], mode="free", mass=0.235)])
         elif top == "rotating":
-            plates = Plates([Plate([0, 0, 0], [0, 0, 1]),
-                             Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
-                                   rotation=True, inertia=1e-4,
-                                   displacement=lambda t: np.array([63e-6 * np.sin(250 * t), 0, 0]))])
+            plates = Plates(
+                [
+                    Plate([0, 0, 0], [0, 0, 1]),
+                    Plate(
+                        [0, 0, z_top],
+                        [0, 0, -1],
+                        mode="driven",
+                        mass=0.235,
+                        rotation=True,
+                        inertia=1e-4,
+                        displacement=lambda t: np.array([63e-6 * np.sin(250 * t), 0, 0]),
+                    ),
+                ]
+            )
         s.velocity[:] = np.random.default_rng(3).normal(0, 1e-3, s.velocity.shape)
-        params = NSCDParameters(dt=5e-5, gravity=(0, 0, -9.81), linear_solver=solver,
-                                linear_tolerance=1e-10, bond_kinematics=kinematics)
+        params = NSCDParameters(
+            dt=5e-5, gravity=(0, 0, -9.81), linear_solver=solver, linear_tolerance=1e-10, bond_kinematics=kinematics
+        )
         sim = Simulation(s, plates, bonds, params)
         iters = [sim.step().iterations for _ in range(5)]
         assert sim.step().solver == "linear"
-        results[solver] = (bonds.force.copy(), s.velocity.copy(), plates.velocity.copy(),
-                           plates.angular_velocity.copy(), np.mean(iters))
+        results[solver] = (
+            bonds.force.copy(),
+            s.velocity.copy(),
+            plates.velocity.copy(),
+            plates.angular_velocity.copy(),
+            np.mean(iters),
+        )
     ref = results["direct"]
     for solver in ("cg", "cg_ssor"):
         got = results[solver]
@@ -180,13 +219,24 @@ def test_ssor_structure_reproduces_the_matrix(kinematics, omega):
     bonds.arm_i[:6] += 0.05 * np.abs(bonds.arm_i[:6]).max() * bonds.frame[:6, 1]
     rot = None
     if kinematics == "contact":
-        rot = dict(arm_i=bonds.arm_i, arm_j=bonds.arm_j, inv_inertia=s.inv_inertia,
-                   inv_inertia_plate=plates.inv_inertia)
-    direct = linear.LinearBondSolver(s.inv_mass, plates.inv_mass, bonds.i, bonds.j, bonds.frame,
-                                     cg, bonds.broken, method="direct", rotation=rot)
-    ssor = linear.LinearBondSolver(s.inv_mass, plates.inv_mass, bonds.i, bonds.j, bonds.frame,
-                                   cg, bonds.broken, method="cg_ssor", rotation=rot,
-                                   ssor_omega=omega)
+        rot = dict(
+            arm_i=bonds.arm_i, arm_j=bonds.arm_j, inv_inertia=s.inv_inertia, inv_inertia_plate=plates.inv_inertia
+        )
+    direct = linear.LinearBondSolver(
+        s.inv_mass, plates.inv_mass, bonds.i, bonds.j, bonds.frame, cg, bonds.broken, method="direct", rotation=rot
+    )
+    ssor = linear.LinearBondSolver(
+        s.inv_mass,
+        plates.inv_mass,
+        bonds.i,
+        bonds.j,
+        bonds.frame,
+        cg,
+        bonds.broken,
+        method="cg_ssor",
+        rotation=rot,
+        ssor_omega=omega,
+    )
     ss = dict(zip(linear._SSOR_KEYS, ssor._ssor))
     # compact entries; with rotations also general ones (the bonds with off-normal arms)
     assert len(ss["lcidx"]) > 0 and len(ss["ucidx"]) > 0
@@ -217,8 +267,7 @@ def test_ssor_structure_reproduces_the_matrix(kinematics, omega):
     np.testing.assert_allclose(d, Dw @ y, rtol=1e-9, atol=1e-9 * np.abs(d).max())
     linear._upper_solve(bfirst, bcount, ss["Dinv"], *up, x, y, d, 2.0 - omega)
     np.testing.assert_allclose(DU @ y, x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
-    np.testing.assert_allclose(d, x - (2.0 - omega) * Dw @ y, rtol=1e-9,
-                               atol=1e-9 * np.abs(x).max())
+    np.testing.assert_allclose(d, x - (2.0 - omega) * Dw @ y, rtol=1e-9, atol=1e-9 * np.abs(x).max())
 
 
 def _matvec_dense(solver, p):
@@ -226,8 +275,19 @@ def _matvec_dense(solver, p):
 
     n = solver.ndof
     q = np.zeros(n)
-    linear._matvec(solver.mass_dof, solver.bdat_c, solver.blk_c, solver.bdat_g, solver.blk_g,
-                   p.copy(), 0.0, np.zeros(n), q, 0.0, np.zeros(n))
+    linear._matvec(
+        solver.mass_dof,
+        solver.bdat_c,
+        solver.blk_c,
+        solver.bdat_g,
+        solver.blk_g,
+        p.copy(),
+        0.0,
+        np.zeros(n),
+        q,
+        0.0,
+        np.zeros(n),
+    )
     return q
 
 
@@ -240,8 +300,9 @@ def test_ssor_galerkin_start_reuses_the_products_of_the_last_solutions():
     steps whose Galerkin start holds it."""
 
     s, plates, bonds = random_bonded_network(n=40)
-    params = NSCDParameters(dt=5e-5, friction=0.7, gravity=(0, 0, -9.81), fast_path=True,
-                            linear_solver="cg_ssor", linear_tolerance=1e-10)
+    params = NSCDParameters(
+        dt=5e-5, friction=0.7, gravity=(0, 0, -9.81), fast_path=True, linear_solver="cg_ssor", linear_tolerance=1e-10
+    )
     sim = Simulation(s, plates, bonds, params)
     reused = []
     for _ in range(6):
@@ -268,11 +329,12 @@ def test_ssor_galerkin_start_cuts_iterations_in_a_smooth_motion():
     runs = {}
     for solver in ("cg", "cg_ssor"):
         s, plates, bonds = random_bonded_network(n=40)
-        params = NSCDParameters(dt=5e-5, friction=0.7, gravity=(0, 0, 0), fast_path=True,
-                                linear_solver=solver, linear_tolerance=1e-10)
-        sim = Simulation(s, plates, bonds, params,
-                         external_force=lambda t: np.tile([0.0, 0.0, 1e-3 * np.sin(50 * t)],
-                                                          (40, 1)))
+        params = NSCDParameters(
+            dt=5e-5, friction=0.7, gravity=(0, 0, 0), fast_path=True, linear_solver=solver, linear_tolerance=1e-10
+        )
+        sim = Simulation(
+            s, plates, bonds, params, external_force=lambda t: np.tile([0.0, 0.0, 1e-3 * np.sin(50 * t)], (40, 1))
+        )
         its = [sim.step().iterations for _ in range(40)]
         runs[solver] = (np.array(its), sim.bonds.force.copy())
     scale = np.abs(runs["cg"][1]).max()

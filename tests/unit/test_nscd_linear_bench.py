@@ -9,8 +9,9 @@ from asphalt_nscd.nscd.bench import run_bench
 
 def test_bonded_bench_periodic_start_records_both_kernels():
     rest = run_bench("bonded", 80, steps=4, baseline_steps=1, linear_solver="cg_ssor")
-    per = run_bench("bonded", 80, steps=4, baseline_steps=1, linear_solver="cg_ssor",
-                    start="periodic", starter=bench_starter)
+    per = run_bench(
+        "bonded", 80, steps=4, baseline_steps=1, linear_solver="cg_ssor", start="periodic", starter=bench_starter
+    )
     assert rest["start"] == "rest" and "periodic_solve_s" not in rest
     assert per["start"] == "periodic" and per["periodic_solve_s"] > 0
     assert 0 < per["periodic_force_ratio"] < 1

@@ -8,8 +8,7 @@ from asphalt_nscd.nscd import NSCDParameters, Simulation
 from asphalt_nscd.nscd.bench import bonded_sample
 from asphalt_nscd.nscd.linear import _partition
 
-needs_two = pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2,
-                               reason="numba thread pool has a single thread")
+needs_two = pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="numba thread pool has a single thread")
 
 
 @needs_two
@@ -18,9 +17,12 @@ def test_threaded_fast_path_matches_sequential(kinematics):
     runs = []
     for threads in (1, 2):
         s, plates, bonds = bonded_sample(300, seed=3)
-        sim = Simulation(s, plates, bonds, NSCDParameters(
-            dt=5e-5, friction=0.7, linear_tolerance=1e-12, bond_kinematics=kinematics,
-            threads=threads))
+        sim = Simulation(
+            s,
+            plates,
+            bonds,
+            NSCDParameters(dt=5e-5, friction=0.7, linear_tolerance=1e-12, bond_kinematics=kinematics, threads=threads),
+        )
         df = sim.run(8)
         assert (df.solver == "linear").all()
         runs.append((sim, df))
@@ -30,10 +32,10 @@ def test_threaded_fast_path_matches_sequential(kinematics):
     scale = np.abs(a.bonds.force).max()
     assert scale > 0
     np.testing.assert_allclose(b.bonds.force, a.bonds.force, rtol=0, atol=1e-9 * scale)
-    np.testing.assert_allclose(db.plate1_Fx_N, da.plate1_Fx_N, rtol=0,
-                               atol=1e-9 * np.abs(da.plate1_Fx_N).max())
-    np.testing.assert_allclose(b.spheres.velocity, a.spheres.velocity, rtol=0,
-                               atol=1e-9 * np.abs(a.spheres.velocity).max())
+    np.testing.assert_allclose(db.plate1_Fx_N, da.plate1_Fx_N, rtol=0, atol=1e-9 * np.abs(da.plate1_Fx_N).max())
+    np.testing.assert_allclose(
+        b.spheres.velocity, a.spheres.velocity, rtol=0, atol=1e-9 * np.abs(a.spheres.velocity).max()
+    )
 
 
 def test_partition_separates_the_threads():
@@ -45,12 +47,12 @@ def test_partition_separates_the_threads():
     order, pc, pg = _partition(blk, compact, nblk, 3)
     assert np.array_equal(np.sort(order), np.arange(1000))
     b, c = blk[order], compact[order]
-    assert c[:c.sum()].all() and not c[c.sum():].any()  # compact bonds first
+    assert c[: c.sum()].all() and not c[c.sum() :].any()  # compact bonds first
     for sub, part in ((b[c], pc), (b[~c], pg)):
         assert part[0] == 0 and part[-1] == len(sub)
         owners = []
         for t in range(3):
-            used = sub[part[t]:part[t + 1]]
+            used = sub[part[t] : part[t + 1]]
             used = used[used >= 0]
             owners.append(set(used.tolist()))
         for t in range(3):  # no block is written by two threads

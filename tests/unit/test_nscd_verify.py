@@ -13,10 +13,26 @@ from asphalt_nscd.nscd import verify
 @pytest.fixture(scope="module")
 def verify_rows(tmp_path_factory):
     out = tmp_path_factory.mktemp("nscd_verify")
-    status = main(["verify", "-o", str(out / "verify.json"), "--csv", str(out / "verify.csv"),
-                   "--phase-table", str(out / "phase.csv"), "--figure", str(out / "phase.png"),
-                   "--phase-frequencies", "40", "--phase-dts", "2e-5,1e-4",
-                   "--phase-thetas", "0.5,1.0", "--strict"])
+    status = main(
+        [
+            "verify",
+            "-o",
+            str(out / "verify.json"),
+            "--csv",
+            str(out / "verify.csv"),
+            "--phase-table",
+            str(out / "phase.csv"),
+            "--figure",
+            str(out / "phase.png"),
+            "--phase-frequencies",
+            "40",
+            "--phase-dts",
+            "2e-5,1e-4",
+            "--phase-thetas",
+            "0.5,1.0",
+            "--strict",
+        ]
+    )
     rows = json.loads((out / "verify.json").read_text())
     return status, rows, out
 
@@ -30,12 +46,27 @@ def test_verify_cli_writes_all_outputs(verify_rows):
     assert cols <= set(rows[0])
 
 
-@pytest.mark.parametrize("case", ["creep_normal", "creep_tangential", "relaxation", "sinusoid",
-                                  "phase_table", "rest", "incline_block", "incline_rolling",
-                                  "column", "impact", "breakage_normal",
-                                  "breakage_tangential", "dissipation", "fast_path",
-                                  "fast_path_contacts",
-                                  "solver_tolerance"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "creep_normal",
+        "creep_tangential",
+        "relaxation",
+        "sinusoid",
+        "phase_table",
+        "rest",
+        "incline_block",
+        "incline_rolling",
+        "column",
+        "impact",
+        "breakage_normal",
+        "breakage_tangential",
+        "dissipation",
+        "fast_path",
+        "fast_path_contacts",
+        "solver_tolerance",
+    ],
+)
 def test_verification_case_passes(verify_rows, case):
     _, rows, _ = verify_rows
     sel = [r for r in rows if r["case"] == case]

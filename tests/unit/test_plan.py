@@ -65,12 +65,34 @@ def job_rows(cfg: dict) -> set:
 
 
 JOBS_PER_MODE = {
-    "smoke": {"dt_study": 2, "extended": 1, "measured": 1, "paper": 2, "sensitivity": 8, "units_kPa": 1,
-              "units_kPa_nobreak": 1},
-    "config": {"dt_study": 4, "extended": 30, "measured": 60, "paper": 60, "sensitivity": 24, "units_kPa": 3,
-               "units_kPa_nobreak": 3},
-    "paper": {"dt_study": 16, "extended": 120, "measured": 120, "paper": 120, "paper_kPa": 120, "sensitivity": 160,
-              "units_kPa": 20, "units_kPa_nobreak": 20},
+    "smoke": {
+        "dt_study": 2,
+        "extended": 1,
+        "measured": 1,
+        "paper": 2,
+        "sensitivity": 8,
+        "units_kPa": 1,
+        "units_kPa_nobreak": 1,
+    },
+    "config": {
+        "dt_study": 4,
+        "extended": 30,
+        "measured": 60,
+        "paper": 60,
+        "sensitivity": 24,
+        "units_kPa": 3,
+        "units_kPa_nobreak": 3,
+    },
+    "paper": {
+        "dt_study": 16,
+        "extended": 120,
+        "measured": 120,
+        "paper": 120,
+        "paper_kPa": 120,
+        "sensitivity": 160,
+        "units_kPa": 20,
+        "units_kPa_nobreak": 20,
+    },
 }
 
 
@@ -105,8 +127,12 @@ def test_case_options_of_known_cases():
     cfg["campaign"]["verification"] = None
     assert plan.case_options(cfg, "measured", "s1", "21C_10Hz") == "--temperature 21 --frequency 10"
     paper = load_config("paper")
-    ends = [(T, f) for T in paper["campaign"]["paper"]["temperatures_C"] for f in paper["campaign"]["paper"]["frequencies_Hz"]
-            if plan.is_verification(paper, "paper_kPa", T, f)]
+    ends = [
+        (T, f)
+        for T in paper["campaign"]["paper"]["temperatures_C"]
+        for f in paper["campaign"]["paper"]["frequencies_Hz"]
+        if plan.is_verification(paper, "paper_kPa", T, f)
+    ]
     assert ends == [(-10, 3), (-10, 40), (30, 3), (30, 40)]
     assert not plan.is_verification(paper, "sensitivity", -10, 3)
     assert plan.case_options(cfg, "sensitivity", "s1", "20C_40Hz_eta_kx0.5") == (
@@ -150,8 +176,9 @@ def test_mode_laws_and_options():
     kpa = json.loads(plan.mode_settings_json(both, "paper_kPa"))
     pa = json.loads(plan.mode_settings_json(both, "paper"))
     assert kpa["yield_stress_Pa"] is None and kpa["linear_solver"] == "direct"
-    assert {k: v for k, v in kpa.items() if k not in ("yield_stress_Pa", "linear_solver")} == \
-        {k: v for k, v in pa.items() if k not in ("yield_stress_Pa", "linear_solver")}
+    assert {k: v for k, v in kpa.items() if k not in ("yield_stress_Pa", "linear_solver")} == {
+        k: v for k, v in pa.items() if k not in ("yield_stress_Pa", "linear_solver")
+    }
     assert plan.isotherms_title(cfg, "extended") == "NSCD vs measured (extended mode)"
     # dt-policy check: upper median temperature and the schedule's frequencies
     assert plan.policy_temperature(cfg, "paper") == 15 and plan.policy_temperature(cfg, "measured") == 21
@@ -234,8 +261,12 @@ def test_crossval_time_domain_cell(tmp_path):
     assert plan.from_wildcards(plan.crossval_time_domain_input, cfg)(SimpleNamespace(scheme="loto")) == []
     assert plan.crossval_sample(cfg) == "s1"
     table = tmp_path / "t.csv"
-    table.write_text("specimen,temperature_C,frequency_Hz,E_norm_MPa,phase_deg\n" + "".join(
-        f"S1,{T},{f},1000,20\n" for T, f in ((-5, 1), (-5, 30), (10, 3), (10, 20), (30, 8), (30, 15), (40, 1))))
+    table.write_text(
+        "specimen,temperature_C,frequency_Hz,E_norm_MPa,phase_deg\n"
+        + "".join(
+            f"S1,{T},{f},1000,20\n" for T, f in ((-5, 1), (-5, 30), (10, 3), (10, 20), (30, 8), (30, 15), (40, 1))
+        )
+    )
     other = copy.deepcopy(cfg)
     other["measured"]["table"] = str(table)
     assert plan.crossval_time_domain_cell(other) == {"temperature_C": 10.0, "frequency_Hz": 20.0}
@@ -272,7 +303,9 @@ def test_lab_inputs(tmp_path):
     cfg = load_config("smoke")
     table = cfg["measured"]["table"]
     assert plan.measured_test(cfg) == str(Path(table).with_name(Path(table).stem + ".test.json"))
-    assert plan.measured_test_input(cfg) == ([plan.measured_test(cfg)] if Path(plan.measured_test(cfg)).is_file() else [])
+    assert plan.measured_test_input(cfg) == (
+        [plan.measured_test(cfg)] if Path(plan.measured_test(cfg)).is_file() else []
+    )
     other = copy.deepcopy(cfg)
     other["measured"]["table"] = str(tmp_path / "m.csv")
     other["measured"]["test"] = None
@@ -301,7 +334,9 @@ def test_settings_and_options_of_other_rules():
     assert plan.nscd_bench_files(cfg) == [f"results/bench/nscd_bonded_n{n}.json" for n in bench["bonded_n"]] + [
         f"results/bench/nscd_granular_n{n}.json" for n in bench["granular_n"]
     ]
-    assert plan.from_wildcards(plan.bench_tolerance, cfg)(SimpleNamespace(case="granular")) == bench["granular_tolerance"]
+    assert (
+        plan.from_wildcards(plan.bench_tolerance, cfg)(SimpleNamespace(case="granular")) == bench["granular_tolerance"]
+    )
     assert plan.bench_tolerance(cfg, "bonded") == bench["tolerance"]
     assert plan.spaced([3, 6.5]) == "3 6.5" and plan.comma_list([1e-4, 2]) == "0.0001,2"
     assert plan.number(40.0) == "40" and plan.number("1e-05") == "1e-05"
@@ -311,7 +346,10 @@ def test_settings_and_options_of_other_rules():
     assert fn(SimpleNamespace(mode="measured"), SimpleNamespace(summary="s.csv")) == "--frequencies-from s.csv"
     assert plan.harmonic_solver_options(cfg).startswith("--inertia full --solver ")
     assert plan.harmonic_solver_options(cfg).endswith(plan.harmonic_kinematics_options(cfg))
-    assert plan.from_wildcards(plan.harmonic_parameters, cfg)(SimpleNamespace(mode="measured")) == plan.HARMONIC_PARAMETERS["measured"]
+    assert (
+        plan.from_wildcards(plan.harmonic_parameters, cfg)(SimpleNamespace(mode="measured"))
+        == plan.HARMONIC_PARAMETERS["measured"]
+    )
     sweep = cfg["harmonic"]["sweep"]
     assert plan.harmonic_sweep(cfg) == f"{sweep['fmin_Hz']} {sweep['fmax_Hz']} {sweep['points']}"
     assert plan.head_rotation(cfg) in ("free", "clamped") and 0 < plan.twopb_poisson_ratio(cfg) < 0.5
@@ -330,8 +368,11 @@ def test_environment_and_schemas(tmp_path):
 
 
 def test_every_public_function_is_documented():
-    functions = [f for name, f in inspect.getmembers(plan, inspect.isfunction)
-                 if not name.startswith("_") and f.__module__ == plan.__name__]
+    functions = [
+        f
+        for name, f in inspect.getmembers(plan, inspect.isfunction)
+        if not name.startswith("_") and f.__module__ == plan.__name__
+    ]
     assert len(functions) > 50
     undocumented = [f.__name__ for f in functions if not inspect.getdoc(f)]
     assert not undocumented
@@ -389,7 +430,8 @@ def test_shared_result_files_are_named_once():
     assert plan.mode_parameters(cfg, "measured") == plan.BURGERS_PARAMETERS == plan.HARMONIC_PARAMETERS["measured"]
     assert plan.diagnosis_auto_input(cfg, "harmonic")[0] == plan.harmonic_job_file("s1", "measured")
     assert plan.crossval_files(cfg, "_summary.csv") == [
-        plan.crossval_file(s, "_summary.csv") for s in cfg["diagnosis"]["crossval"]["schemes"]]
+        plan.crossval_file(s, "_summary.csv") for s in cfg["diagnosis"]["crossval"]["schemes"]
+    ]
     assert set(plan.MATERIAL_CARDS.values()) <= set(plan.report_files(cfg))
 
 
@@ -397,8 +439,10 @@ def test_own_table_folder_is_named_by_the_tables_folder_and_file(tmp_path, monke
     monkeypatch.chdir(tmp_path)
     cfg = {"measured": {"table": "data/measured/uiuc_fdmix1_utm/complex_modulus.csv"}}
     assert plan.own_table_dir(cfg) == "results/tables/uiuc_fdmix1_utm-complex_modulus"
-    assert plan.own_table_dir({"measured": {"table": "my lab \u00ef/m\u00efx (ksi).csv"}}) == \
-        "results/tables/my lab \u00ef-m\u00efx (ksi)"
+    assert (
+        plan.own_table_dir({"measured": {"table": "my lab \u00ef/m\u00efx (ksi).csv"}})
+        == "results/tables/my lab \u00ef-m\u00efx (ksi)"
+    )
     assert plan.own_table_dir({"measured": {"table": "mix.csv"}}) == "results/tables/mix"
 
 
@@ -416,12 +460,16 @@ def test_console_messages_of_this_run_once_each_and_both_kinds_printed_on_error(
     os.utime(old, (time.time() - 100, time.time() - 100))
     new = tmp_path / "diagnosis" / "extend_law.log"
     new.parent.mkdir()
-    new.write_text("2026 asphalt_nscd WARNING: the phases look like radians\n"
-                   "2026 asphalt_nscd WARNING: the phases look like radians\n"
-                   "error: t.csv: line 3, column 'phase_deg': value nan\nTraceback ignored\n")
+    new.write_text(
+        "2026 asphalt_nscd WARNING: the phases look like radians\n"
+        "2026 asphalt_nscd WARNING: the phases look like radians\n"
+        "error: t.csv: line 3, column 'phase_deg': value nan\nTraceback ignored\n"
+    )
     start = time.time() - 10
     assert plan.console_messages(start, "warning", str(tmp_path)) == [f"{new}: the phases look like radians"]
-    assert plan.console_messages(start, "error", str(tmp_path)) == [f"{new}: error: t.csv: line 3, column 'phase_deg': value nan"]
+    assert plan.console_messages(start, "error", str(tmp_path)) == [
+        f"{new}: error: t.csv: line 3, column 'phase_deg': value nan"
+    ]
     snakefile = (Path(__file__).resolve().parents[2] / "Snakefile").read_text()
     onerror = re.search(r"^onerror:\n((?:    .*\n)+)", snakefile, re.M).group(1)
     assert '"warning"' in onerror and '"error"' in onerror

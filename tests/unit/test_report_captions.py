@@ -16,8 +16,11 @@ CAPTIONS = sorted((Path(__file__).resolve().parents[2] / "workflow" / "report").
 def test_caption_renders_without_docutils_messages(path):
     stream = io.StringIO()
     try:
-        publish_parts(path.read_text(), writer_name="html",
-                      settings_overrides={"halt_level": 2, "report_level": 2, "warning_stream": stream})
+        publish_parts(
+            path.read_text(),
+            writer_name="html",
+            settings_overrides={"halt_level": 2, "report_level": 2, "warning_stream": stream},
+        )
     except SystemMessage as exc:
         pytest.fail(f"{path.name}: {exc}")
     assert not stream.getvalue(), f"{path.name}: {stream.getvalue()}"

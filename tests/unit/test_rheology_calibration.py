@@ -91,8 +91,14 @@ def test_fit_table_of_measured_mix_reports_errors_per_temperature():
 
     table = fit_table(load_measured(UIUC))
     assert table["temperature_C"].tolist() == [-10.0, 4.0, 21.0, 37.0, 54.0]
-    for c in (*PARAM_COLUMNS, *(f"{c}_se" for c in PARAM_COLUMNS), "rmse_log_E", "rmse_phase_deg",
-              "mre_E_pct", "mre_phase_pct"):
+    for c in (
+        *PARAM_COLUMNS,
+        *(f"{c}_se" for c in PARAM_COLUMNS),
+        "rmse_log_E",
+        "rmse_phase_deg",
+        "mre_E_pct",
+        "mre_phase_pct",
+    ):
         assert c in table.columns and np.all(np.isfinite(table[c]))
     # the modulus decreases with temperature; Em is the upper plateau >= measured max
     assert np.all(np.diff(table["Em_MPa"]) < 0)
@@ -136,8 +142,25 @@ def test_cli_fit_table3_curves_micro(tmp_path):
     micro = tmp_path / "micro.csv"
     assert main(["micro", "--parameters", str(t3), "--r-min-mm", "1", "2", "--l0-mm", "2", "-o", str(micro)]) == 0
     assert len(pd.read_csv(micro)) == 12
-    assert main(["micro", "--parameters", str(t3), "--r-min-mm", "1", "2", "--l0-mm", "2", "3", "4",
-                 "-o", str(tmp_path / "bad.csv")]) == 2
+    assert (
+        main(
+            [
+                "micro",
+                "--parameters",
+                str(t3),
+                "--r-min-mm",
+                "1",
+                "2",
+                "--l0-mm",
+                "2",
+                "3",
+                "4",
+                "-o",
+                str(tmp_path / "bad.csv"),
+            ]
+        )
+        == 2
+    )
     assert not (tmp_path / "bad.csv").exists()
 
 

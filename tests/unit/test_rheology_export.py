@@ -15,8 +15,17 @@ from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis import synthetic
 from asphalt_nscd.rheology import export, law_file
 
-LAW = ["--law-shifts", "wlf", "--law-statics", "constant", "--law-refines", "off", "--law-per-decades", "2",
-       "--no-artifacts"]
+LAW = [
+    "--law-shifts",
+    "wlf",
+    "--law-statics",
+    "constant",
+    "--law-refines",
+    "off",
+    "--law-per-decades",
+    "2",
+    "--no-artifacts",
+]
 
 
 def _law(tmp_path, extra=("--law-verticals", "off")):
@@ -25,8 +34,10 @@ def _law(tmp_path, extra=("--law-verticals", "off")):
     table.drop(columns="test_order").to_csv(tmp_path / "m.csv", index=False)
     out = tmp_path / "law.json"
     assert main(["extend-law", "--measured", str(tmp_path / "m.csv"), *LAW, *extra, "-o", str(out)]) == 0
-    assert main(["measured", str(tmp_path / "m.csv"), "-o", str(tmp_path / "t.csv"),
-                 "--summary", str(tmp_path / "s.csv")]) == 0
+    assert (
+        main(["measured", str(tmp_path / "m.csv"), "-o", str(tmp_path / "t.csv"), "--summary", str(tmp_path / "s.csv")])
+        == 0
+    )
     return out, tmp_path / "s.csv"
 
 
@@ -36,7 +47,7 @@ def _abaqus(text):
     E0 = float(lines[k + 1].split(",")[0])
     j = lines.index("*VISCOELASTIC, TIME=PRONY")
     terms = []
-    for ln in lines[j + 1:]:
+    for ln in lines[j + 1 :]:
         if ln.startswith("*"):
             break
         g, kk, tau = (float(v) for v in ln.split(","))
@@ -49,9 +60,9 @@ def _abaqus(text):
 
 def _lsdyna(text):
     rows = [ln for ln in text.splitlines() if not ln.startswith(("$", "*"))]
-    fixed = [float(rows[0][10 * i:10 * i + 10]) for i in range(8)]
+    fixed = [float(rows[0][10 * i : 10 * i + 10]) for i in range(8)]
     T_ref, C1, C2 = fixed[5], fixed[6], fixed[7]
-    terms = [[float(r[10 * i:10 * i + 10]) for i in range(4)] for r in rows[2:]]
+    terms = [[float(r[10 * i : 10 * i + 10]) for i in range(4)] for r in rows[2:]]
     return terms, (T_ref, C1, C2)
 
 
@@ -81,8 +92,15 @@ def test_exported_cards_round_trip(tmp_path):
 
     card = json.loads((cards / "prony.json").read_text())
     assert card["exact"] and card["check"]["max_E_norm_difference_pct"] <= card["check"]["tolerances"]["E_norm_pct"]
-    check(prony(card["E_0_MPa"], card["g_inf"], [(t["g"], t["tau_s"]) for t in card["terms"]],
-                (card["shift"]["T_ref_C"], card["shift"]["C1"], card["shift"]["C2_K"]), wr_of))
+    check(
+        prony(
+            card["E_0_MPa"],
+            card["g_inf"],
+            [(t["g"], t["tau_s"]) for t in card["terms"]],
+            (card["shift"]["T_ref_C"], card["shift"]["C1"], card["shift"]["C2_K"]),
+            wr_of,
+        )
+    )
     E0, terms, shift = _abaqus((cards / "abaqus.inp").read_text())
     g_inf = 1 - sum(g for g, _ in terms)  # Abaqus: the long-term part is what the g_i leave
     check(prony(E0, g_inf, terms, shift, wr_of))
@@ -180,8 +198,19 @@ def test_creep_compliance_is_the_exact_interconversion_of_the_card(tmp_path):
     assert f"{len(card['terms'])} Prony terms: the fewest within 1" in header
     # the card's figures: isochrones against the measured means, E(t) and D(t), the error against N
     figs = [str(tmp_path / "iso.png"), str(tmp_path / "rc.png"), str(tmp_path / "n.png")]
-    base = ["card-figures", "--card", str(cards / "prony.json"), "--functions", str(cards / "relaxation_creep.csv"),
-            "--isochrones", figs[0], "--relaxation-creep", figs[1], "--terms-curve", figs[2]]
+    base = [
+        "card-figures",
+        "--card",
+        str(cards / "prony.json"),
+        "--functions",
+        str(cards / "relaxation_creep.csv"),
+        "--isochrones",
+        figs[0],
+        "--relaxation-creep",
+        figs[1],
+        "--terms-curve",
+        figs[2],
+    ]
     assert main([*base, "--errors", str(cards / "card_errors.csv")]) == 0
     assert all(Path(p).stat().st_size > 20_000 for p in figs)
     pd.read_csv(cards / "card_errors.csv").drop(columns="phase_deg_measured").to_csv(tmp_path / "e.csv", index=False)
@@ -203,12 +232,12 @@ def test_joint_refinement_lowers_the_largest_difference_in_tolerance_units():
         return max(100 * np.abs(r.real).max() / tol[0], np.degrees(np.abs(r.imag).max()) / tol[1])
 
     u = np.log10(np.logspace(-3.5, 1.5, 3))
-    x, Ef = export._nnls_weights(omega, E, 10.0 ** u)
+    x, Ef = export._nnls_weights(omega, E, 10.0**u)
     r = np.log(Ef / E)
     x2, u2, r2 = export._joint_minimax(omega, E, x, u, r, tol, (-6.0, 4.0), scaled)
     assert scaled(r2) < scaled(r)
     assert (x2 >= 0).all() and len(u2) == 3
-    E2 = generalized_maxwell_modulus(omega, x2[0], x2[1:], 10.0 ** u2)
+    E2 = generalized_maxwell_modulus(omega, x2[0], x2[1:], 10.0**u2)
     np.testing.assert_allclose(np.log(E2 / E), r2, atol=1e-12)
 
 
@@ -221,40 +250,96 @@ def test_a_correction_is_stated_per_temperature_and_the_card_judged_against_both
     s = pd.read_csv(summary)
     T_hot = float(s["temperature_C"].max())
     rows = s.rename(columns={"E_norm_MPa_mean": "E_norm_MPa", "phase_deg_mean": "phase_deg"})
-    corrected = rows.assign(E_norm_MPa=np.where(np.isclose(rows["temperature_C"], T_hot), 1.1, 1.0) * rows["E_norm_MPa"])
+    corrected = rows.assign(
+        E_norm_MPa=np.where(np.isclose(rows["temperature_C"], T_hot), 1.1, 1.0) * rows["E_norm_MPa"]
+    )
     corrected.to_csv(tmp_path / "corrected.csv", index=False)
     cards = tmp_path / "cards"
-    assert main(["export-law", "--law-json", str(law_path), "--measured", str(summary), "--corrected",
-                 str(tmp_path / "corrected.csv"), "-o", str(cards)]) == 0
+    assert (
+        main(
+            [
+                "export-law",
+                "--law-json",
+                str(law_path),
+                "--measured",
+                str(summary),
+                "--corrected",
+                str(tmp_path / "corrected.csv"),
+                "-o",
+                str(cards),
+            ]
+        )
+        == 0
+    )
     card = json.loads((cards / "prony.json").read_text())
     per_T = {r["temperature_C"]: r for r in card["loss"]}
     assert per_T[T_hot]["corrected_vs_measured_logE_pct_mean"] == pytest.approx(100 * np.log(1.1), rel=1e-4)
     assert all(r["corrected_vs_measured_logE_pct_max"] < 1e-3 for T, r in per_T.items() if T not in (T_hot, "all"))
     errors = pd.read_csv(cards / "card_errors.csv")
-    np.testing.assert_allclose(errors["card_vs_corrected_logE_pct"] + errors["corrected_vs_measured_logE_pct"],
-                               errors["card_vs_measured_logE_pct"], atol=1e-9)
+    np.testing.assert_allclose(
+        errors["card_vs_corrected_logE_pct"] + errors["corrected_vs_measured_logE_pct"],
+        errors["card_vs_measured_logE_pct"],
+        atol=1e-9,
+    )
     header = (cards / "abaqus.inp").read_text()
     assert "the correction changes the replicate means" in header and "card vs corrected" in header
     rows.to_csv(tmp_path / "same.csv", index=False)
-    assert main(["export-law", "--law-json", str(law_path), "--measured", str(summary), "--corrected",
-                 str(tmp_path / "same.csv"), "-o", str(tmp_path / "cards2")]) == 0
+    assert (
+        main(
+            [
+                "export-law",
+                "--law-json",
+                str(law_path),
+                "--measured",
+                str(summary),
+                "--corrected",
+                str(tmp_path / "same.csv"),
+                "-o",
+                str(tmp_path / "cards2"),
+            ]
+        )
+        == 0
+    )
     header = (tmp_path / "cards2" / "abaqus.inp").read_text()
     assert "card vs corrected" not in header and "the correction changes" not in header
     rows.drop(columns="phase_deg").to_csv(tmp_path / "bad.csv", index=False)
-    assert main(["export-law", "--law-json", str(law_path), "--measured", str(summary), "--corrected",
-                 str(tmp_path / "bad.csv"), "-o", str(tmp_path / "cards3")]) == 2
+    assert (
+        main(
+            [
+                "export-law",
+                "--law-json",
+                str(law_path),
+                "--measured",
+                str(summary),
+                "--corrected",
+                str(tmp_path / "bad.csv"),
+                "-o",
+                str(tmp_path / "cards3"),
+            ]
+        )
+        == 2
+    )
 
 
 def test_worse_than_selected_names_the_figures_beyond_the_tolerance():
     """The card is flagged against the selected law only in the overall figures where it is worse
     by more than the card's tolerance (|E*| % and Phi deg)."""
-    row = {"temperature_C": "all", "card_vs_measured_logE_pct_mean": 2.0, "law_vs_measured_logE_pct_mean": 3.0,
-           "card_vs_measured_logE_pct_max": 18.0, "law_vs_measured_logE_pct_max": 28.0,
-           "card_vs_measured_phase_deg_mean": 1.1, "law_vs_measured_phase_deg_mean": 0.8,
-           "card_vs_measured_phase_deg_max": 4.6, "law_vs_measured_phase_deg_max": 3.0}
+    row = {
+        "temperature_C": "all",
+        "card_vs_measured_logE_pct_mean": 2.0,
+        "law_vs_measured_logE_pct_mean": 3.0,
+        "card_vs_measured_logE_pct_max": 18.0,
+        "law_vs_measured_logE_pct_max": 28.0,
+        "card_vs_measured_phase_deg_mean": 1.1,
+        "law_vs_measured_phase_deg_mean": 0.8,
+        "card_vs_measured_phase_deg_max": 4.6,
+        "law_vs_measured_phase_deg_max": 3.0,
+    }
     card = {"loss": [row], "terms_selection": {"tolerance": {"E_norm_pct": 1.0, "phase_deg": 0.2}}}
-    assert export.worse_than_selected(card) == ["mean Phi error 1.10 deg vs 0.80 deg",
-                                                "max Phi error 4.60 deg vs 3.00 deg"]
+    assert export.worse_than_selected(card) == [
+        "mean Phi error 1.10 deg vs 0.80 deg",
+        "max Phi error 4.60 deg vs 3.00 deg",
+    ]
     row["card_vs_measured_phase_deg_mean"] = 0.95
     assert export.worse_than_selected(card) == ["max Phi error 4.60 deg vs 3.00 deg"]
     assert export.worse_than_selected({"loss": []}) == []
@@ -277,23 +362,91 @@ def test_the_shipped_tables_card_is_no_worse_than_pyvisco(tmp_path):
     root = Path(__file__).resolve().parents[2]
     cfg = config_files.load([], default=root / "config" / "config.yaml")
     table = root / "data" / "measured" / "uiuc_fdmix1_utm" / "complex_modulus.csv"
-    p = {k: tmp_path / k for k in ("m.csv", "s.csv", "t.json", "cal.json", "mc.json", "corr.csv", "law.json",
-                                   "card.json", "cards")}
+    p = {
+        k: tmp_path / k
+        for k in ("m.csv", "s.csv", "t.json", "cal.json", "mc.json", "corr.csv", "law.json", "card.json", "cards")
+    }
     search = shlex.split(plan.artifact_search_options(cfg))
-    assert main(["measured", str(table), "-o", str(p["m.csv"]), "--summary", str(p["s.csv"]),
-                 "--test-output", str(p["t.json"])]) == 0
+    assert (
+        main(
+            [
+                "measured",
+                str(table),
+                "-o",
+                str(p["m.csv"]),
+                "--summary",
+                str(p["s.csv"]),
+                "--test-output",
+                str(p["t.json"]),
+            ]
+        )
+        == 0
+    )
     m = ["--measured", str(p["m.csv"]), "--test", str(p["t.json"])]
-    assert main(["calibrate-search", *m, *search, *shlex.split(plan.calibration_options(cfg)),
-                 "-o", str(p["cal.json"])]) == 0
-    assert main(["master-curve", *m, *search, "--calibration", str(p["cal.json"]), "-o", str(p["mc.json"]),
-                 "--corrected", str(p["corr.csv"])]) == 0
-    assert main(["extend-law", "--measured", str(p["m.csv"]), *shlex.split(plan.diagnosis_fit_options(cfg)),
-                 "--master-curve", str(p["mc.json"]), "--corrected-table", str(p["corr.csv"]), "--calibration",
-                 str(p["cal.json"]), "-o", str(p["law.json"]), "--card-law", str(p["card.json"])]) == 0
+    assert (
+        main(["calibrate-search", *m, *search, *shlex.split(plan.calibration_options(cfg)), "-o", str(p["cal.json"])])
+        == 0
+    )
+    assert (
+        main(
+            [
+                "master-curve",
+                *m,
+                *search,
+                "--calibration",
+                str(p["cal.json"]),
+                "-o",
+                str(p["mc.json"]),
+                "--corrected",
+                str(p["corr.csv"]),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "extend-law",
+                "--measured",
+                str(p["m.csv"]),
+                *shlex.split(plan.diagnosis_fit_options(cfg)),
+                "--master-curve",
+                str(p["mc.json"]),
+                "--corrected-table",
+                str(p["corr.csv"]),
+                "--calibration",
+                str(p["cal.json"]),
+                "-o",
+                str(p["law.json"]),
+                "--card-law",
+                str(p["card.json"]),
+            ]
+        )
+        == 0
+    )
     tol = cfg["diagnosis"]["material_card"]["tolerance"]
-    assert main(["export-law", "--law-json", str(p["card.json"]), "--selected-law-json", str(p["law.json"]),
-                 "--measured", str(p["s.csv"]), "--corrected", str(p["corr.csv"]), "--test", str(p["t.json"]),
-                 "--tolerance", *map(str, tol), "-o", str(p["cards"])]) == 0
+    assert (
+        main(
+            [
+                "export-law",
+                "--law-json",
+                str(p["card.json"]),
+                "--selected-law-json",
+                str(p["law.json"]),
+                "--measured",
+                str(p["s.csv"]),
+                "--corrected",
+                str(p["corr.csv"]),
+                "--test",
+                str(p["t.json"]),
+                "--tolerance",
+                *map(str, tol),
+                "-o",
+                str(p["cards"]),
+            ]
+        )
+        == 0
+    )
     card = json.loads((p["cards"] / "prony.json").read_text())
     pyvisco = pd.read_csv(root / "reference" / "cards" / "pyvisco.csv").iloc[0]
     assert pyvisco["table_sha256"] == content_sha256(table)[:16]  # pyvisco's row is of this table

@@ -18,22 +18,40 @@ from asphalt_nscd.rheology.shift import wlf_log_shift
 F = np.array([25.0, 10.0, 5.0, 1.0, 0.5, 0.1])
 TEMPS = np.array([-10.0, 4.0, 21.0, 37.0, 54.0])
 #: a thermorheologically simple truth: 2S2P1D at 21 degC, WLF
-TRUTH = {"E00": 120.0, "E0": 36e3, "delta": 2.2, "k": 0.19, "h": 0.58, "beta": 400.0, "tau": 0.05,
-         "C1": 28.0, "C2": 200.0, "T_ref": 21.0}
+TRUTH = {
+    "E00": 120.0,
+    "E0": 36e3,
+    "delta": 2.2,
+    "k": 0.19,
+    "h": 0.58,
+    "beta": 400.0,
+    "tau": 0.05,
+    "C1": 28.0,
+    "C2": 200.0,
+    "T_ref": 21.0,
+}
 
 
 def truth_modulus(f, T):
     t = TRUTH
     tau = t["tau"] * 10.0 ** wlf_log_shift(T, t["T_ref"], t["C1"], t["C2"])
-    return two_s2p1d_modulus(2 * np.pi * np.asarray(f, float), t["E00"], t["E0"], t["delta"], t["k"], t["h"],
-                             t["beta"], tau)
+    return two_s2p1d_modulus(
+        2 * np.pi * np.asarray(f, float), t["E00"], t["E0"], t["delta"], t["k"], t["h"], t["beta"], tau
+    )
 
 
 def truth_cells(temps=TEMPS, freqs=F):
     T, f = np.meshgrid(temps, freqs, indexing="ij")
     E = truth_modulus(f.ravel(), T.ravel())
-    return pd.DataFrame({"temperature_C": T.ravel(), "frequency_Hz": f.ravel(), "n": 1,
-                         "E_norm_MPa": np.abs(E), "phase_deg": np.degrees(np.angle(E))})
+    return pd.DataFrame(
+        {
+            "temperature_C": T.ravel(),
+            "frequency_Hz": f.ravel(),
+            "n": 1,
+            "E_norm_MPa": np.abs(E),
+            "phase_deg": np.degrees(np.angle(E)),
+        }
+    )
 
 
 @pytest.fixture(scope="module")
@@ -69,8 +87,9 @@ def test_law_at_shifts_the_prony_chain_and_keeps_it_causal(law):
     aT = 10 ** law.backbone.log_shift(T)
     full = law.law_at(T, reduce=False)
     p = law.prony
-    np.testing.assert_allclose(np.array(full.eta_k) / np.array(full.Ek), np.array(p.eta_k) / np.array(p.Ek) * aT,
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        np.array(full.eta_k) / np.array(full.Ek), np.array(p.eta_k) / np.array(p.Ek) * aT, rtol=1e-12
+    )
     c = full.Em / p.Em
     np.testing.assert_allclose(full.Ek, np.array(p.Ek) * c, rtol=1e-12)
     for T in (-10.0, 21.0, 54.0):
@@ -129,15 +148,45 @@ def test_extend_law_writes_the_json_at_requested_temperatures(tmp_path):
     rows = []
     for s in ("a", "b"):
         noise = np.exp(rng.normal(0, 0.01, len(cells)))
-        rows.append(cells.assign(specimen=s, E_norm_MPa=cells["E_norm_MPa"] * noise,
-                                 phase_deg=cells["phase_deg"] + rng.normal(0, 0.1, len(cells))))
+        rows.append(
+            cells.assign(
+                specimen=s,
+                E_norm_MPa=cells["E_norm_MPa"] * noise,
+                phase_deg=cells["phase_deg"] + rng.normal(0, 0.1, len(cells)),
+            )
+        )
     table = pd.concat(rows).drop(columns="n")
     m = tmp_path / "M.csv"
     table.to_csv(m, index=False)
     out = tmp_path / "law.json"
-    assert main(["extend-law", "--measured", str(m), "--law-shifts", "wlf", "--law-statics", "constant",
-                 "--law-verticals", "off", "--law-refines", "off", "--law-per-decades", "2",
-                 "--temperatures", "12.5", "30", "60", "-o", str(out), "--cv-curve", str(tmp_path / "c.csv")]) == 0
+    assert (
+        main(
+            [
+                "extend-law",
+                "--measured",
+                str(m),
+                "--law-shifts",
+                "wlf",
+                "--law-statics",
+                "constant",
+                "--law-verticals",
+                "off",
+                "--law-refines",
+                "off",
+                "--law-per-decades",
+                "2",
+                "--temperatures",
+                "12.5",
+                "30",
+                "60",
+                "-o",
+                str(out),
+                "--cv-curve",
+                str(tmp_path / "c.csv"),
+            ]
+        )
+        == 0
+    )
     obj = json.loads(out.read_text())
     assert set(obj["temperatures"]) == {"12.5", "30", "60"}
     assert obj["temperatures"]["60"]["extrapolation"] is True and obj["temperatures"]["30"]["extrapolation"] is False
@@ -199,9 +248,13 @@ def test_an_unresolved_static_trend_stays_near_zero():
     trends = []
     for seed in range(6):
         rng = np.random.default_rng(seed)
-        cells = truth_cells(temps=np.array([-10.0, 0.0, 10.0, 15.0, 20.0]), freqs=np.array([40., 25., 10., 6., 3.]))
-        cells = cells.assign(E_norm_MPa=cells["E_norm_MPa"] * np.exp(rng.normal(0, 0.01, len(cells))),
-                             phase_deg=cells["phase_deg"] + rng.normal(0, 0.2, len(cells)))
+        cells = truth_cells(
+            temps=np.array([-10.0, 0.0, 10.0, 15.0, 20.0]), freqs=np.array([40.0, 25.0, 10.0, 6.0, 3.0])
+        )
+        cells = cells.assign(
+            E_norm_MPa=cells["E_norm_MPa"] * np.exp(rng.normal(0, 0.01, len(cells))),
+            phase_deg=cells["phase_deg"] + rng.normal(0, 0.2, len(cells)),
+        )
         law = extended.fit_law(cells, LawSettings(static="trend"))
         trends.append(law.backbone.value("static_trend_per_100K"))
     assert np.max(np.abs(trends)) < 0.5

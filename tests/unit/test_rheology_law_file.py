@@ -58,9 +58,15 @@ def test_metrics_mre_matching_and_cell_means():
     assert metrics.same_temperature(21.0, 21.0 + 0.9e-6) and not metrics.same_temperature(21.0, 21.0 + 1.1e-6)
     assert metrics.same_frequency(1e3, 1e3 * (1 + 1e-13)) and not metrics.same_frequency(1e-3, 1e-3 + 1e-12)
     assert metrics.temperature_key([4.0, 21.0], 21.0000001) == 21.0 and metrics.temperature_key([4.0], 5.0) is None
-    rows = pd.DataFrame({"specimen": ["a", "b", "a"], "temperature_C": [21.0, 21.0, 4.0],
-                         "frequency_Hz": [1.0, 1.0, 1.0], "E_norm_MPa": [100.0, 400.0, 50.0],
-                         "phase_deg": [20.0, 30.0, 10.0]})
+    rows = pd.DataFrame(
+        {
+            "specimen": ["a", "b", "a"],
+            "temperature_C": [21.0, 21.0, 4.0],
+            "frequency_Hz": [1.0, 1.0, 1.0],
+            "E_norm_MPa": [100.0, 400.0, 50.0],
+            "phase_deg": [20.0, 30.0, 10.0],
+        }
+    )
     cm = metrics.cell_means(rows)
     assert cm["temperature_C"].tolist() == [4.0, 21.0] and cm["n"].tolist() == [1, 2]
     assert cm["E_norm_MPa"].tolist() == [50.0, 250.0] and cm["phase_deg"].tolist() == [10.0, 25.0]

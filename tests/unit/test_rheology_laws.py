@@ -13,10 +13,10 @@ def test_burgers_matches_eqs_28_29():
     law = GeneralizedBurgers.burgers(**T15)
     w = 2 * np.pi * np.array([3.0, 6.0, 10.0, 25.0, 40.0])
     Em, eta_m, Ek, eta_k = T15.values()
-    d1 = 1 / Em + Ek / (Ek**2 + w**2 * eta_k**2)            # Eq. 28
+    d1 = 1 / Em + Ek / (Ek**2 + w**2 * eta_k**2)  # Eq. 28
     d2 = 1 / (w * eta_m) + w * eta_k / (Ek**2 + w**2 * eta_k**2)  # Eq. 29
     norm, phase = law.norm_and_phase(w)
-    np.testing.assert_allclose(norm, 1 / np.hypot(d1, d2), rtol=1e-12)   # Eq. 27
+    np.testing.assert_allclose(norm, 1 / np.hypot(d1, d2), rtol=1e-12)  # Eq. 27
     np.testing.assert_allclose(phase, np.degrees(np.arctan(d2 / d1)), rtol=1e-12)
 
 
@@ -50,15 +50,18 @@ def test_micro_scaling_eqs_30_33_and_8_11():
     a = bond_scale(r_min, l0)
     assert a == pytest.approx(np.pi * 1e-6 / 3e-3)
     micro = GeneralizedBurgers.burgers(**T15).scaled(a)
-    assert micro.Em == pytest.approx(np.pi * r_min**2 * T15["Em"] / l0)      # Eq. 30
+    assert micro.Em == pytest.approx(np.pi * r_min**2 * T15["Em"] / l0)  # Eq. 30
     assert micro.eta_k[0] == pytest.approx(np.pi * r_min**2 * T15["eta_k"] / l0)  # Eq. 33
-    assert tangential_ratio(0.35) == pytest.approx(1 / 2.7)                # Eqs. 8-11
+    assert tangential_ratio(0.35) == pytest.approx(1 / 2.7)  # Eqs. 8-11
 
 
 @pytest.mark.parametrize(
     "kwargs",
-    [dict(Em=-1, eta_m=1, Ek=1, eta_k=1), dict(Em=1, eta_m=1, Ek=(1, 2), eta_k=(1,)),
-     dict(Em=1, eta_m=1, Ek=1, eta_k=1, E_inf=-2)],
+    [
+        dict(Em=-1, eta_m=1, Ek=1, eta_k=1),
+        dict(Em=1, eta_m=1, Ek=(1, 2), eta_k=(1,)),
+        dict(Em=1, eta_m=1, Ek=1, eta_k=1, E_inf=-2),
+    ],
 )
 def test_invalid_parameters_raise(kwargs):
     with pytest.raises(ValueError):

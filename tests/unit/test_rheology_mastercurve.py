@@ -50,7 +50,8 @@ def test_2s2p1d_limits_and_single_parabolic_element():
     # parabolic elements, E00 + (E0 - E00) / (1 + delta (i w tau)^-k + (i w tau)^-h)
     iwt = 1j * 3.0 * 0.1
     assert two_s2p1d_modulus(np.array([3.0]), 1.0, 10.0, 2.0, 0.2, 0.6, np.inf, 0.1)[0] == pytest.approx(
-        1.0 + 9.0 / (1.0 + 2.0 * iwt ** -0.2 + iwt ** -0.6))
+        1.0 + 9.0 / (1.0 + 2.0 * iwt**-0.2 + iwt**-0.6)
+    )
     # the dashpot of 2S2P1D is a liquid: phase -> 90 deg at low frequency when E00 = 0
     low = two_s2p1d_modulus(np.array([1e-9]), 0.0, 1.0, 2.0, 0.2, 0.6, 10.0, 1.0)[0]
     assert np.degrees(np.angle(low)) > 85
@@ -92,8 +93,14 @@ def test_booij_thoone_exact_for_power_law_and_kk_time_lag():
     rows = []
     for T, n in ((0.0, 0.1), (20.0, 0.25), (40.0, 0.4)):
         for fr in (1.0, 3.0, 10.0, 25.0, 40.0):
-            rows.append({"temperature_C": T, "frequency_Hz": fr, "E_norm_MPa": 1e3 * fr**n,
-                         "phase_deg": 90 * n + 360 * fr * 0.5e-3})
+            rows.append(
+                {
+                    "temperature_C": T,
+                    "frequency_Hz": fr,
+                    "E_norm_MPa": 1e3 * fr**n,
+                    "phase_deg": 90 * n + 360 * fr * 0.5e-3,
+                }
+            )
     lag = kk_time_lag(pd.DataFrame(rows))
     assert lag["time_lag_ms"] == pytest.approx(0.5, rel=1e-6)
 
@@ -107,9 +114,15 @@ def _table(rng, n_spec=3, sE=0.01, sP=0.2):
             for f in (1.0, 3.0, 10.0, 25.0):
                 tau = p["tau"] * 10 ** wlf_log_shift(T, 10.0, p["C1"], p["C2"])
                 E = two_s2p1d_modulus(2 * np.pi * f, p["E00"], p["E0"], p["delta"], p["k"], p["h"], p["beta"], tau)
-                rows.append({"specimen": f"s{s}", "temperature_C": T, "frequency_Hz": f,
-                             "E_norm_MPa": abs(E) * np.exp(c + rng.normal(0, sE)),
-                             "phase_deg": np.degrees(np.angle(E)) + rng.normal(0, sP)})
+                rows.append(
+                    {
+                        "specimen": f"s{s}",
+                        "temperature_C": T,
+                        "frequency_Hz": f,
+                        "E_norm_MPa": abs(E) * np.exp(c + rng.normal(0, sE)),
+                        "phase_deg": np.degrees(np.angle(E)) + rng.normal(0, sP),
+                    }
+                )
     return pd.DataFrame(rows), p
 
 

@@ -81,15 +81,31 @@ def test_prepare_sample_cli(tmp_path):
     cfg = tmp_path / "sample.json"
     cfg.write_text(json.dumps(TINY))
     out = tmp_path / "s5.h5"
-    argv = ["prepare-sample", "--config", str(cfg), "--seed", "5", "-o", str(out),
-            "--vtk-dir", str(tmp_path / "vtk"), "--figure", str(tmp_path / "stages.png"),
-            "--summary", str(tmp_path / "summary.json")]
+    argv = [
+        "prepare-sample",
+        "--config",
+        str(cfg),
+        "--seed",
+        "5",
+        "-o",
+        str(out),
+        "--vtk-dir",
+        str(tmp_path / "vtk"),
+        "--figure",
+        str(tmp_path / "stages.png"),
+        "--summary",
+        str(tmp_path / "summary.json"),
+    ]
     assert main(argv) == 0
     s = read_sample(out)
     assert s.attrs["seed"] == 5 and s.attrs["stage"] == "final" and s.attrs["config"]["scale"] == 0.4
     assert s.attrs["h_m"] == pytest.approx(0.1)
     assert sorted(p.name for p in (tmp_path / "vtk").iterdir()) == [
-        "bonds.vtu", "stage_a_deposit.vtu", "stage_b_vibrated.vtu", "stage_c_sample.vtu"]
+        "bonds.vtu",
+        "stage_a_deposit.vtu",
+        "stage_b_vibrated.vtu",
+        "stage_c_sample.vtu",
+    ]
     assert (tmp_path / "stages.png").stat().st_size > 1000
     assert json.loads((tmp_path / "summary.json").read_text())["n_spheres"] == s.radius.size
 
@@ -117,16 +133,19 @@ def test_prepare_bench_cli(tmp_path):
     cfg = tmp_path / "sample.json"
     cfg.write_text(json.dumps(TINY))
     out = tmp_path / "bench.json"
-    assert main(["prepare-bench", "--config", str(cfg), "--seed", "5", "-o", str(out),
-                 "--sample", str(tmp_path / "s5.h5")]) == 0
+    assert (
+        main(
+            ["prepare-bench", "--config", str(cfg), "--seed", "5", "-o", str(out), "--sample", str(tmp_path / "s5.h5")]
+        )
+        == 0
+    )
     rec = json.loads(out.read_text())
     s = read_sample(tmp_path / "s5.h5")
     assert rec["case"] == "prepare" and rec["seed"] == 5
     assert rec["sample"]["n_spheres"] == s.radius.size
     assert rec["sample"]["n_bonds"] == s.bonds["i"].size
     assert rec["sample"]["density_paper_kg_m3"] == 3415.0
-    phases = ["lattice", "deposition", "vibration", "cut_flip", "plates_shrink", "bonds",
-              "stabilisation"]
+    phases = ["lattice", "deposition", "vibration", "cut_flip", "plates_shrink", "bonds", "stabilisation"]
     for key in ("cpu_s", "wall_s"):
         parts = sum(rec["phases"][p][key] for p in phases)
         assert parts == pytest.approx(rec["phases"]["total"][key], rel=1e-9)
@@ -137,4 +156,5 @@ def test_prepare_bench_cli(tmp_path):
     rows = {row["diameter_mm"]: row for row in rec["table2"]}
     assert rows[2.0]["n_paper"] == 11798 and rows[8.0]["n_layer"] > 0
     assert rec["table2_max_abs_pct"] == pytest.approx(
-        max(abs(r["rel_diff_pct"]) for r in rec["table2"] if r["rel_diff_pct"] is not None))
+        max(abs(r["rel_diff_pct"]) for r in rec["table2"] if r["rel_diff_pct"] is not None)
+    )

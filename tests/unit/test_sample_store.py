@@ -11,8 +11,14 @@ from asphalt_nscd.cli import main
 from asphalt_nscd.io import InputError
 from asphalt_nscd.harmonic.network import network_from_sample
 from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
-from asphalt_nscd.sample.store import (SampleData, read_sample, specimen_geometry_mm, write_bonds_vtu,
-                                       write_sample, write_vtu)
+from asphalt_nscd.sample.store import (
+    SampleData,
+    read_sample,
+    specimen_geometry_mm,
+    write_bonds_vtu,
+    write_sample,
+    write_vtu,
+)
 
 
 def _sample():
@@ -32,8 +38,15 @@ def _sample():
             "l0": np.array([3e-3, 2e-3, 1.5e-3]),
             "r_min": np.array([1e-3, 1.2e-3, 1.1e-3]),
         },
-        attrs={"seed": 7, "scale": 0.5, "density_kg_m3": 3415.0, "friction": 0.7, "d_min_m": 2e-3,
-               "config": {"scale": 0.5}, "stage": "final"},
+        attrs={
+            "seed": 7,
+            "scale": 0.5,
+            "density_kg_m3": 3415.0,
+            "friction": 0.7,
+            "d_min_m": 2e-3,
+            "config": {"scale": 0.5},
+            "stage": "final",
+        },
     )
 
 
@@ -87,8 +100,9 @@ def test_sample_table_cli(tmp_path):
 
 def test_bond_geometry_of_a_built_sample():
     # sphere 0 at z = 5 mm (r = 1 mm), sphere 1 at 3 mm distance (r = 1.2 mm); plates z = 0, 10 mm
-    s = sample_from_bonds([[0, 0, 5e-3], [3e-3, 0, 5e-3]], [1e-3, 1.2e-3], [1e-4, 2e-4],
-                          [[0, 0, 0], [0, 0, 0.01]], [0, 0, 1], [1, -1, -2])
+    s = sample_from_bonds(
+        [[0, 0, 5e-3], [3e-3, 0, 5e-3]], [1e-3, 1.2e-3], [1e-4, 2e-4], [[0, 0, 0], [0, 0, 0.01]], [0, 0, 1], [1, -1, -2]
+    )
     np.testing.assert_allclose(s.bonds["l0"], [3e-3, 5e-3, 5e-3])
     np.testing.assert_allclose(s.bonds["r_min"], [1e-3, 1e-3, 1.2e-3])
     np.testing.assert_allclose(s.bonds["delta0"], [0.8e-3, 4e-3, 3.8e-3])
@@ -115,17 +129,24 @@ def test_one_store_for_the_core_and_the_harmonic_solver(tmp_path):
     assert network_from_sample(s).plate_inertia[0] == pytest.approx(1e-3 * (0.01**2 + t**2) / 12 + 1e-3 * t**2 / 4)
 
 
-@pytest.mark.parametrize("edit, message", [
-    (lambda f: f.__delitem__("spheres/inertia"), "dataset 'spheres/inertia' missing"),
-    (lambda f: (f.__delitem__("bonds/r_min"), f.create_dataset("bonds/r_min", data=np.ones(2))),
-     "dataset 'bonds/r_min' has 2 rows, expected 3"),
-    (lambda f: (f.__delitem__("plates/point"), f.create_dataset("plates/point", data=np.zeros((2, 2)))),
-     r"dataset 'plates/point' has shape \(2, 2\)"),
-    (lambda f: f["bonds/i"].__setitem__(0, 9), "dataset 'bonds/i' must lie in"),
-    (lambda f: f["bonds/j"].__setitem__(0, 0), "dataset 'bonds/j' must lie in"),
-    (lambda f: f["bonds/l0"].__setitem__(1, 0.0), "dataset 'bonds/l0' must be positive"),
-    (lambda f: f["spheres/mass"].__setitem__(1, np.nan), "dataset 'spheres/mass' must be positive"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda f: f.__delitem__("spheres/inertia"), "dataset 'spheres/inertia' missing"),
+        (
+            lambda f: (f.__delitem__("bonds/r_min"), f.create_dataset("bonds/r_min", data=np.ones(2))),
+            "dataset 'bonds/r_min' has 2 rows, expected 3",
+        ),
+        (
+            lambda f: (f.__delitem__("plates/point"), f.create_dataset("plates/point", data=np.zeros((2, 2)))),
+            r"dataset 'plates/point' has shape \(2, 2\)",
+        ),
+        (lambda f: f["bonds/i"].__setitem__(0, 9), "dataset 'bonds/i' must lie in"),
+        (lambda f: f["bonds/j"].__setitem__(0, 0), "dataset 'bonds/j' must lie in"),
+        (lambda f: f["bonds/l0"].__setitem__(1, 0.0), "dataset 'bonds/l0' must be positive"),
+        (lambda f: f["spheres/mass"].__setitem__(1, np.nan), "dataset 'spheres/mass' must be positive"),
+    ],
+)
 def test_bad_sample_file_names_the_dataset(tmp_path, edit, message):
     path = tmp_path / "s7.h5"
     write_sample(path, _sample())

@@ -7,14 +7,26 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 #: user-facing paths (README, docs, the package, the workflow, configs, data and reference tables)
-USER_FACING = ["README.md", "docs", "src", "workflow", "config", "data", "reference", "profiles", "Snakefile",
-               "pyproject.toml", "Makefile"]
+USER_FACING = [
+    "README.md",
+    "docs",
+    "src",
+    "workflow",
+    "config",
+    "data",
+    "reference",
+    "profiles",
+    "Snakefile",
+    "pyproject.toml",
+    "Makefile",
+]
 LEAK = re.compile(r"/work/|\.\./shared|\b[Ii]ssues? #?\d+|VALIDATION\.md")
 
 
 def test_no_path_outside_the_repository_and_no_issue_numbers():
-    files = subprocess.run(["git", "ls-files", "--", *USER_FACING], cwd=REPO, capture_output=True, text=True,
-                           check=True).stdout.split()
+    files = subprocess.run(
+        ["git", "ls-files", "--", *USER_FACING], cwd=REPO, capture_output=True, text=True, check=True
+    ).stdout.split()
     hits = []
     for name in files:
         path = REPO / name
@@ -32,6 +44,11 @@ def test_no_path_outside_the_repository_and_no_issue_numbers():
 
 def test_the_held_out_protocol_is_in_docs():
     text = (REPO / "docs" / "validation.md").read_text()
-    for needed in ("leave one frequency out", "leave one temperature out", "bootstrap", "noise floor",
-                   "What must not leak"):
+    for needed in (
+        "leave one frequency out",
+        "leave one temperature out",
+        "bootstrap",
+        "noise floor",
+        "What must not leak",
+    ):
         assert needed in text

@@ -15,7 +15,10 @@ BIN = Path(sys.executable).parent
 def test_snakemake_lint_reports_nothing():
     proc = subprocess.run(
         [str(BIN / "snakemake"), "--lint", "--configfile", "config/smoke.yaml"],
-        cwd=REPO, capture_output=True, text=True, timeout=600,
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     out = proc.stdout + proc.stderr
     # snakemake 9 exits 1 when it finds lints; older versions exit 0, so the text is checked too:
@@ -29,7 +32,10 @@ def test_snakemake_lint_reports_nothing():
 def test_rule_files_are_snakefmt_formatted():
     proc = subprocess.run(
         [str(BIN / "snakefmt"), "--check", "workflow/", "Snakefile"],
-        cwd=REPO, capture_output=True, text=True, timeout=300,
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, f"snakefmt --check workflow/ Snakefile (run snakefmt to fix):\n{proc.stderr[-4000:]}"
 
@@ -83,9 +89,23 @@ def _dry_run(tmp_path: Path, config: str) -> subprocess.CompletedProcess:
     env = dict(os.environ)
     env["PATH"] = f"{BIN}{os.pathsep}{env.get('PATH', '')}"
     return subprocess.run(
-        [str(BIN / "snakemake"), "-s", str(REPO / "Snakefile"), "--directory", str(tmp_path),
-         "-n", "-p", "-F", "--configfile", config],
-        cwd=tmp_path, capture_output=True, text=True, env=env, timeout=600,
+        [
+            str(BIN / "snakemake"),
+            "-s",
+            str(REPO / "Snakefile"),
+            "--directory",
+            str(tmp_path),
+            "-n",
+            "-p",
+            "-F",
+            "--configfile",
+            config,
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
     )
 
 
@@ -96,7 +116,7 @@ def test_default_profile_reaches_the_jobs_from_any_directory(tmp_path):
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-6000:]
     assert f"workflow specific profile {REPO / 'profiles' / 'default'}" in out
-    block = out[out.index("rule nscd_bench:"):]
+    block = out[out.index("rule nscd_bench:") :]
     block = block[: block.index("\n\n")]
     assert "runtime=60" in block and "mem_mb=3000" in block
     assert "NUMBA_NUM_THREADS=1 asphalt-nscd bench" in block and " --threads 1 " in block
@@ -119,6 +139,24 @@ def test_python_sources_pass_ruff():
     tests (rules of pyproject.toml [tool.ruff.lint])."""
     proc = subprocess.run(
         [str(BIN / "ruff"), "check", "--no-cache", "src", "tests"],
-        cwd=REPO, capture_output=True, text=True, timeout=300,
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, f"ruff check src tests (ruff check --fix to repair):\n{proc.stdout[-4000:]}"
+
+
+def test_python_sources_are_formatted():
+    """The package, its tests and the reference scripts in ruff's format (pyproject.toml
+    [tool.ruff]: 120 columns); ``ruff format src tests reference`` repairs."""
+    proc = subprocess.run(
+        [str(BIN / "ruff"), "format", "--check", "--no-cache", "src", "tests", "reference"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, (
+        f"ruff format --check (ruff format src tests reference repairs):\n{proc.stdout[-4000:]}"
+    )

@@ -20,8 +20,14 @@ from asphalt_nscd.sample.lattice import lattice_sample
 from asphalt_nscd.sample.store import write_sample
 
 REPO = Path(__file__).resolve().parents[2]
-SETTINGS = {"n_cycles": 40, "dt_policy": "steps_per_cycle", "steps_per_cycle": 400, "dt_max_s": 0.02,
-            "checkpoint_every": 400, "profile_instants": 4}
+SETTINGS = {
+    "n_cycles": 40,
+    "dt_policy": "steps_per_cycle",
+    "steps_per_cycle": 400,
+    "dt_max_s": 0.02,
+    "checkpoint_every": 400,
+    "profile_instants": 4,
+}
 
 
 @pytest.fixture(scope="module")
@@ -33,9 +39,27 @@ def sample(tmp_path_factory) -> Path:
 
 def command(sample: Path, out: Path) -> list[str]:
     cli = Path(sys.executable).parent / "asphalt-nscd"
-    return [str(cli), "run-2pb", "--sample", str(sample), "--parameters", str(REPO / "data/paper/table3_burgers.csv"),
-            "--table3-units", "Pa", "--temperature", "15", "--frequency", "10", "--no-progress",
-            "--settings-json", json.dumps(SETTINGS), "-o", str(out), "--row", str(out.with_suffix(".csv"))]
+    return [
+        str(cli),
+        "run-2pb",
+        "--sample",
+        str(sample),
+        "--parameters",
+        str(REPO / "data/paper/table3_burgers.csv"),
+        "--table3-units",
+        "Pa",
+        "--temperature",
+        "15",
+        "--frequency",
+        "10",
+        "--no-progress",
+        "--settings-json",
+        json.dumps(SETTINGS),
+        "-o",
+        str(out),
+        "--row",
+        str(out.with_suffix(".csv")),
+    ]
 
 
 def checkpoint_step(out: Path) -> int:

@@ -26,8 +26,15 @@ def test_measured_mode_on_the_ampt_like_table(tmp_path):
     cfg["measured"]["test"] = None
     config = tmp_path / "ampt.yaml"
     config.write_text(yaml.safe_dump(cfg))
-    _snakemake(workdir, "--configfile", str(config), "--cores", "2",
-               "results/diagnosis/report.json", "results/campaign/measured/table4_measured.csv")
+    _snakemake(
+        workdir,
+        "--configfile",
+        str(config),
+        "--cores",
+        "2",
+        "results/diagnosis/report.json",
+        "results/campaign/measured/table4_measured.csv",
+    )
     report = json.loads((workdir / "results" / "diagnosis" / "report.json").read_text())
     assert report["measured"]["temperatures_C"] == [4.0, 21.0, 37.0]
     assert report["measured"]["test"]["test"] == "uniaxial_cylinder"

@@ -58,6 +58,7 @@ NOT_IDENTICAL = {
         "seconds_per_table_wall": "measured wall time per table of the detection benchmark",
         "cpu_seconds_main_process": "measured CPU time of the detection benchmark",
         "cpu_seconds": "measured CPU time of the artifact search's calibration and of a benchmark table",
+        "cert_seconds": "measured wall time of a job's linearity certificate",
     },
 }
 
@@ -72,11 +73,11 @@ def readme_commands() -> list[str]:
 
 def newcomer_env() -> dict:
     """The environment of a plain shell: no virtual environment, no .venv/bin on the PATH."""
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("VIRTUAL_ENV", "PYTHONPATH", "CONDA_PREFIX", "PYTHONHOME")}
+    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH", "CONDA_PREFIX", "PYTHONHOME")}
     ours = str(Path(sys.executable).parent)
     env["PATH"] = os.pathsep.join(
-        p for p in env.get("PATH", "").split(os.pathsep)
+        p
+        for p in env.get("PATH", "").split(os.pathsep)
         if p and p != ours and ".venv" not in Path(p).parts and "venv" not in Path(p).name
     )
     return env
@@ -93,17 +94,30 @@ def make_args(env: dict) -> list[str]:
 def run(cmd: list[str], cwd: Path, env: dict, timeout: float = 3600) -> subprocess.CompletedProcess:
     proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
     if proc.returncode != 0:
-        logs = "\n".join(f"--- {p}\n{p.read_text()[-2000:]}" for p in sorted((cwd / "logs").rglob("*.log"))
-                         if "rror" in p.read_text()) if (cwd / "logs").exists() else ""
-        pytest.fail(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n"
-                    f"{proc.stderr[-5000:]}\n{logs}")
+        logs = (
+            "\n".join(
+                f"--- {p}\n{p.read_text()[-2000:]}"
+                for p in sorted((cwd / "logs").rglob("*.log"))
+                if "rror" in p.read_text()
+            )
+            if (cwd / "logs").exists()
+            else ""
+        )
+        pytest.fail(
+            f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}\n{logs}"
+        )
     return proc
 
 
 def fresh_copy(dest: Path) -> Path:
     """Copy the files a clone of the working tree holds (tracked and not-ignored ones) to ``dest``."""
-    files = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
-                           cwd=REPO, capture_output=True, text=True, check=True).stdout.split("\0")
+    files = subprocess.run(
+        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split("\0")
     for name in filter(None, files):
         src = REPO / name
         if src.is_file():
@@ -145,8 +159,10 @@ def test_make_run_from_a_plain_shell_builds_the_report_index(smoke_run):
     assert not list((smoke_run / "results").rglob("*.ckpt.h5")), "a finished run left a checkpoint"
     # the measured and extended modes start from the periodic steady state (1 cycle), the paper
     # mode from rest (campaign.*.start of config/smoke.yaml)
-    starts = {mode: pd.read_csv(next((smoke_run / "results" / "sim" / mode).rglob("*.csv"))).iloc[0]
-              for mode in ("paper", "measured", "extended")}
+    starts = {
+        mode: pd.read_csv(next((smoke_run / "results" / "sim" / mode).rglob("*.csv"))).iloc[0]
+        for mode in ("paper", "measured", "extended")
+    }
     assert starts["paper"]["start"] == "rest" and starts["paper"]["n_cycles_simulated"] == 2
     for mode in ("measured", "extended"):
         assert starts[mode]["start"] == "periodic" and starts[mode]["n_cycles_simulated"] == 1
@@ -172,8 +188,10 @@ def test_html_report_renders_in_headless_chromium(smoke_run):
 
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
-        pytest.skip("Chromium is not installed (Debian: apt-get install chromium; .ci/run installs it "
-                    "where it can): the HTML report was built without docutils messages but not opened")
+        pytest.skip(
+            "Chromium is not installed (Debian: apt-get install chromium; .ci/run installs it "
+            "where it can): the HTML report was built without docutils messages but not opened"
+        )
     check_report_in_browser(report, chromium, smoke_run / "results" / "report_screens")
 
 
@@ -183,8 +201,15 @@ def check_report_in_browser(report: Path, chromium: str, screens: Path) -> None:
     from PIL import Image
     from playwright.sync_api import sync_playwright
 
-    args = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-sync",
-            "--disable-background-networking", "--disable-component-update"]
+    args = [
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-sync",
+        "--disable-background-networking",
+        "--disable-component-update",
+    ]
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=chromium, args=args)
         page = browser.new_page(viewport={"width": 1400, "height": 900})
@@ -229,11 +254,13 @@ def _check_items(page, path: list[str], shown: dict, screens: Path) -> None:
     assert names, f"no files under {path}"
     for name in names:
         page.locator("tr:has([role=group])").filter(has_text=name).first.locator(
-            "[iconname=information-circle]").click()
+            "[iconname=information-circle]"
+        ).click()
         page.wait_for_selector("text=DESCRIPTION")
         body = page.inner_text("body")
-        assert page.locator(".system-message").count() == 0 and "System Message" not in body, \
+        assert page.locator(".system-message").count() == 0 and "System Message" not in body, (
             f"error box under the caption of {name}"
+        )
         shown["captions"] += 1
         _open(page, path)
         if shown["figure"] is None and name.endswith(".png"):
@@ -336,8 +363,9 @@ def test_faults_in_the_workflows_own_files_end_in_the_reference_results(smoke_ru
     proc = subprocess.run(make, cwd=smoke_run, env=env, capture_output=True, text=True, timeout=3600)
     assert proc.returncode != 0, proc.stdout[-3000:]
     rel = cut.relative_to(smoke_run).as_posix()
-    assert f"{rel}: no data rows after the header" in proc.stderr and "delete it and rerun" in proc.stderr, \
-        proc.stderr[-5000:]
+    assert f"{rel}: no data rows after the header" in proc.stderr and "delete it and rerun" in proc.stderr, proc.stderr[
+        -5000:
+    ]
     assert "the checkpoint cannot be read" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr[-5000:]
     assert record.with_name(record.name + ".ckpt.h5.unreadable").exists() and restarted.exists()
     cut.unlink()  # as the error says
@@ -381,17 +409,29 @@ def test_own_table_in_ksi_and_degF_through_the_readme_command(smoke_run):
     from asphalt_nscd.lab.table_format import MODULUS_UNITS
 
     table, _ = synthetic.generate(21, schedule="aashto_t342", n_specimens=3)
-    lab = pd.DataFrame({"Specimen ID": table["specimen"], "Temp (F)": table["temperature_C"] * 1.8 + 32,
-                        "Frequency (Hz)": table["frequency_Hz"],
-                        "|E*| (ksi)": table["E_norm_MPa"] / MODULUS_UNITS["ksi"],
-                        "Phase Angle (deg)": table["phase_deg"]})
+    lab = pd.DataFrame(
+        {
+            "Specimen ID": table["specimen"],
+            "Temp (F)": table["temperature_C"] * 1.8 + 32,
+            "Frequency (Hz)": table["frequency_Hz"],
+            "|E*| (ksi)": table["E_norm_MPa"] / MODULUS_UNITS["ksi"],
+            "Phase Angle (deg)": table["phase_deg"],
+        }
+    )
     # a path with a space, a quote and non-ASCII characters, as labs name folders
     folder = smoke_run / "my lab's d\u00e9p\u00f4t"
     folder.mkdir(exist_ok=True)
     lab.to_csv(folder / "m\u00efx.csv", index=False)
-    (folder / "m\u00efx.test.json").write_text(json.dumps({
-        "test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150,
-        "table": {"modulus_unit": "ksi", "temperature_unit": "F", "modulus_form": "norm_phase"}}))
+    (folder / "m\u00efx.test.json").write_text(
+        json.dumps(
+            {
+                "test": "uniaxial_cylinder",
+                "diameter_mm": 100,
+                "height_mm": 150,
+                "table": {"modulus_unit": "ksi", "temperature_unit": "F", "modulus_form": "norm_phase"},
+            }
+        )
+    )
     # the README's command with its placeholder path replaced by this table's
     table_arg = f"TABLE={folder.name}/m\u00efx.csv"
     command = [table_arg if c.startswith("TABLE=") else c for c in readme_own_table_command().split()]
@@ -416,14 +456,25 @@ def test_own_table_in_ksi_and_degF_through_the_readme_command(smoke_run):
     published = results / "tables" / f"{folder.name}-m\u00efx"
     manifest = json.loads((published / "manifest.json").read_text())
     assert manifest["table_sha256"] == content_sha256(folder / "m\u00efx.csv")
-    assert {"lab/measured.csv", "diagnosis/generalized_burgers.json", "diagnosis/material_cards/abaqus.inp",
-            "diagnosis/what_the_simulation_gets_wrong.md", "diagnosis/figures/master_curve.png"} <= set(manifest["files"])
+    assert {
+        "lab/measured.csv",
+        "diagnosis/generalized_burgers.json",
+        "diagnosis/material_cards/abaqus.inp",
+        "diagnosis/what_the_simulation_gets_wrong.md",
+        "diagnosis/figures/master_curve.png",
+    } <= set(manifest["files"])
     assert {rel: content_sha256(published / rel) for rel in manifest["files"]} == manifest["files"]
     first = {p.relative_to(published): p.read_bytes() for p in published.rglob("*") if p.is_file()}
     lab.assign(**{"|E*| (ksi)": lab["|E*| (ksi)"] * 1.25}).to_csv(folder / "m\u00efx.csv", index=False)
     lab_step = content_sha256(results / "lab" / "measured.csv")
-    proc = subprocess.Popen(command + make_args(env), cwd=smoke_run, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
+    proc = subprocess.Popen(
+        command + make_args(env),
+        cwd=smoke_run,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     try:
         deadline = time.monotonic() + 600
         while _sha_or_none(results / "lab" / "measured.csv") in (lab_step, None):  # Snakemake removes it first

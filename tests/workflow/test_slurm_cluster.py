@@ -76,9 +76,13 @@ SMOKE = "config/smoke.yaml"
 #: extra configuration file of both runs, written into each copy
 CHECKPOINTS = "config/test_checkpoints.yaml"
 CHECKPOINT_EVERY = 100
-TARGETS = ["results/campaign/paper/sensitivity.csv", "results/campaign/paper/dt_study.csv",
-           "results/campaign/paper/table4_paper.csv", "results/sim/units_kPa/s1/15C_40Hz.csv",
-           "results/sim/units_kPa_nobreak/s1/15C_40Hz.csv"]
+TARGETS = [
+    "results/campaign/paper/sensitivity.csv",
+    "results/campaign/paper/dt_study.csv",
+    "results/campaign/paper/table4_paper.csv",
+    "results/sim/units_kPa/s1/15C_40Hz.csv",
+    "results/sim/units_kPa_nobreak/s1/15C_40Hz.csv",
+]
 SLURM_ARGS = ["--workflow-profile", "profiles/slurm", "--slurm-init-seconds-before-status-checks", "5"]
 DAEMONS = ("munged", "slurmctld", "slurmd")
 CLIENTS = ("sbatch", "squeue", "sinfo", "scancel", "scontrol", "srun")
@@ -88,6 +92,7 @@ WORKFLOW_TIMEOUT_S = 2400
 
 
 # --- the cluster -------------------------------------------------------------------------------
+
 
 @dataclass
 class Cluster:
@@ -110,8 +115,11 @@ class Cluster:
 
     def log_tail(self, name: str, lines: int = 15) -> str:
         """The last lines of a daemon's log file and of its output (stdout and stderr)."""
-        tails = [f"--- {p.name}:\n" + "\n".join(p.read_text(errors="replace").splitlines()[-lines:])
-                 for p in (self.root / "log" / f"{name}.log", self.root / "log" / f"{name}.out") if p.exists()]
+        tails = [
+            f"--- {p.name}:\n" + "\n".join(p.read_text(errors="replace").splitlines()[-lines:])
+            for p in (self.root / "log" / f"{name}.log", self.root / "log" / f"{name}.out")
+            if p.exists()
+        ]
         return "\n".join(tails) or f"--- {name}: no output"
 
 
@@ -144,27 +152,51 @@ def slurm_conf(root: Path, munge_socket: Path) -> str:
     whichever is more), one default partition, no accounting, state and spool in ``root``."""
     ctld_port, node_port = free_ports(2)
     host, mem = hostname(), memory_mb()
-    return "\n".join([
-        "ClusterName=asphalttest", f"SlurmctldHost={host}", f"SlurmctldPort={ctld_port}",
-        f"SlurmdPort={node_port}", "SlurmUser=root", "SlurmdUser=root",
-        "AuthType=auth/munge", "CredType=cred/munge", f"AuthInfo=socket={munge_socket}",
-        f"StateSaveLocation={root / 'state'}", f"SlurmdSpoolDir={root / 'spool'}",
-        f"SlurmctldPidFile={root / 'slurmctld.pid'}", f"SlurmdPidFile={root / 'slurmd.pid'}",
-        f"SlurmctldLogFile={root / 'log' / 'slurmctld.log'}", f"SlurmdLogFile={root / 'log' / 'slurmd.log'}",
-        "SchedulerType=sched/backfill", "SelectType=select/cons_tres", "SelectTypeParameters=CR_Core_Memory",
-        "ProctrackType=proctrack/linuxproc", "TaskPlugin=task/none", "MpiDefault=none", "SwitchType=switch/none",
-        "AccountingStorageType=accounting_storage/none", "JobAcctGatherType=jobacct_gather/none",
-        "JobCompType=jobcomp/none", "MailProg=/bin/true", "ReturnToService=2", "MinJobAge=14400",
-        f"NodeName={host} NodeAddr=127.0.0.1 CPUs={len(os.sched_getaffinity(0))} RealMemory={mem - max(1024, mem // 10)} "
-        "State=UNKNOWN",
-        f"PartitionName=test Nodes={host} Default=YES MaxTime=INFINITE State=UP",
-    ]) + "\n"
+    return (
+        "\n".join(
+            [
+                "ClusterName=asphalttest",
+                f"SlurmctldHost={host}",
+                f"SlurmctldPort={ctld_port}",
+                f"SlurmdPort={node_port}",
+                "SlurmUser=root",
+                "SlurmdUser=root",
+                "AuthType=auth/munge",
+                "CredType=cred/munge",
+                f"AuthInfo=socket={munge_socket}",
+                f"StateSaveLocation={root / 'state'}",
+                f"SlurmdSpoolDir={root / 'spool'}",
+                f"SlurmctldPidFile={root / 'slurmctld.pid'}",
+                f"SlurmdPidFile={root / 'slurmd.pid'}",
+                f"SlurmctldLogFile={root / 'log' / 'slurmctld.log'}",
+                f"SlurmdLogFile={root / 'log' / 'slurmd.log'}",
+                "SchedulerType=sched/backfill",
+                "SelectType=select/cons_tres",
+                "SelectTypeParameters=CR_Core_Memory",
+                "ProctrackType=proctrack/linuxproc",
+                "TaskPlugin=task/none",
+                "MpiDefault=none",
+                "SwitchType=switch/none",
+                "AccountingStorageType=accounting_storage/none",
+                "JobAcctGatherType=jobacct_gather/none",
+                "JobCompType=jobcomp/none",
+                "MailProg=/bin/true",
+                "ReturnToService=2",
+                "MinJobAge=14400",
+                f"NodeName={host} NodeAddr=127.0.0.1 CPUs={len(os.sched_getaffinity(0))} RealMemory={mem - max(1024, mem // 10)} "
+                "State=UNKNOWN",
+                f"PartitionName=test Nodes={host} Default=YES MaxTime=INFINITE State=UP",
+            ]
+        )
+        + "\n"
+    )
 
 
 def start(cluster: Cluster, name: str, cmd: list[str]) -> None:
     with (cluster.root / "log" / f"{name}.out").open("w") as log:
-        cluster.daemons[name] = subprocess.Popen(cmd, env=cluster.env, stdout=log, stderr=subprocess.STDOUT,
-                                                 stdin=subprocess.DEVNULL, start_new_session=True)
+        cluster.daemons[name] = subprocess.Popen(
+            cmd, env=cluster.env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True
+        )
 
 
 def wait_for(cluster: Cluster, what: str, ready, timeout: float = 60) -> None:
@@ -187,10 +219,20 @@ def start_munged(cluster: Cluster) -> Path:
     key.write_bytes(os.urandom(1024))
     key.chmod(0o600)
     sock = munge / "munge.socket"
-    start(cluster, "munged", [shutil.which("munged", path=SBIN_PATH), "--foreground", "--force",
-                              f"--socket={sock}", f"--key-file={key}", f"--pid-file={munge / 'munged.pid'}",
-                              f"--seed-file={munge / 'munged.seed'}",
-                              f"--log-file={cluster.root / 'log' / 'munged.log'}"])
+    start(
+        cluster,
+        "munged",
+        [
+            shutil.which("munged", path=SBIN_PATH),
+            "--foreground",
+            "--force",
+            f"--socket={sock}",
+            f"--key-file={key}",
+            f"--pid-file={munge / 'munged.pid'}",
+            f"--seed-file={munge / 'munged.seed'}",
+            f"--log-file={cluster.root / 'log' / 'munged.log'}",
+        ],
+    )
     wait_for(cluster, "munge socket", sock.exists, timeout=30)
     return sock
 
@@ -230,8 +272,10 @@ def cluster(tmp_path_factory):
         pytest.skip("the SLURM cluster test runs as root only (it starts munged, slurmctld and slurmd)")
     missing = [n for n in DAEMONS + CLIENTS if shutil.which(n, path=SBIN_PATH) is None]
     if missing:
-        pytest.skip(f"SLURM cluster test: {', '.join(missing)} not installed (Debian: apt-get install "
-                    "slurm-wlm munge; .ci/run installs them where it can)")
+        pytest.skip(
+            f"SLURM cluster test: {', '.join(missing)} not installed (Debian: apt-get install "
+            "slurm-wlm munge; .ci/run installs them where it can)"
+        )
     root = tmp_path_factory.mktemp("slurm")
     for sub in ("state", "spool", "log", "bin"):
         (root / sub).mkdir()
@@ -239,8 +283,11 @@ def cluster(tmp_path_factory):
     shim = root / "bin" / "srun"
     shim.write_text(f'#!/bin/sh\nSLURM_CONF={conf} exec {shutil.which("srun", path=SBIN_PATH)} "$@"\n')
     shim.chmod(0o755)
-    env = dict(os.environ, SLURM_CONF=str(conf),
-               PATH=os.pathsep.join([str(shim.parent), str(Path(sys.executable).parent), SBIN_PATH]))
+    env = dict(
+        os.environ,
+        SLURM_CONF=str(conf),
+        PATH=os.pathsep.join([str(shim.parent), str(Path(sys.executable).parent), SBIN_PATH]),
+    )
     cluster = Cluster(root, env)
     try:
         conf.write_text(slurm_conf(root, start_munged(cluster)))
@@ -253,6 +300,7 @@ def cluster(tmp_path_factory):
 
 
 # --- Snakemake runs and their logs ------------------------------------------------------------
+
 
 @dataclass
 class SnakemakeLog:
@@ -306,8 +354,15 @@ def snakemake(workdir: Path, args: list[str], env: dict, log: Path) -> subproces
     jobs running the copy's code (``PYTHONPATH``, ahead of the venv's editable install)."""
     cmd = [str(Path(sys.executable).parent / "snakemake"), *TARGETS, *args, "--configfile", SMOKE, CHECKPOINTS]
     with log.open("w") as out:
-        return subprocess.Popen(cmd, cwd=workdir, env=dict(env, PYTHONPATH=str(workdir / "src")), stdout=out,
-                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True)
+        return subprocess.Popen(
+            cmd,
+            cwd=workdir,
+            env=dict(env, PYTHONPATH=str(workdir / "src")),
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            start_new_session=True,
+        )
 
 
 def finish(proc: subprocess.Popen, log: Path, timeout: float = WORKFLOW_TIMEOUT_S) -> None:
@@ -351,6 +406,7 @@ def local_run(tmp_path_factory) -> Path:
 
 # --- the SLURM run with its two faults ---------------------------------------------------------
 
+
 @dataclass
 class Cancelled:
     """The run_2pb job cancelled part-way: Snakemake job id, record, SLURM job id, and the
@@ -374,6 +430,7 @@ class SlurmRun:
 def kill_when_busy(cluster: Cluster, work: Path, proc: subprocess.Popen, log: Path) -> dict[str, int]:
     """SIGKILL Snakemake once 3 run_2pb jobs have finished while others are queued or running;
     return the outputs of its finished jobs with their modification times (ns)."""
+
     def busy():
         state = SnakemakeLog.read(log)
         done = [j for j in state.finished if state.jobs[j][0] == "run_2pb"]
@@ -396,8 +453,7 @@ def cancel_orphans(cluster: Cluster, run_id: str) -> None:
         time.sleep(1)
 
 
-def cancel_part_way(cluster: Cluster, work: Path, proc: subprocess.Popen, log: Path,
-                    skip: set[str]) -> Cancelled:
+def cancel_part_way(cluster: Cluster, work: Path, proc: subprocess.Popen, log: Path, skip: set[str]) -> Cancelled:
     """``scancel`` a running run_2pb job (its record not in ``skip``) once its first checkpoint
     exists; if the job finished before the cancel landed, try the next one."""
     tried: set[str] = set()  # Snakemake job ids: a retried job (a new SLURM id) is not picked again
@@ -440,8 +496,10 @@ def slurm_run(cluster, tmp_path_factory) -> SlurmRun:
         if list((work / ".snakemake" / "locks").glob("*")):
             unlock = work / "snakemake_unlock.log"
             finish(snakemake(work, [*SLURM_ARGS, "--unlock"], cluster.env, unlock), unlock, timeout=300)
-        checkpointed = {str(p.relative_to(work)).removesuffix(".partial.npz")
-                        for p in (work / "results" / "sim").rglob("*.partial.npz")}
+        checkpointed = {
+            str(p.relative_to(work)).removesuffix(".partial.npz")
+            for p in (work / "results" / "sim").rglob("*.partial.npz")
+        }
         second = work / "snakemake_rerun.log"
         proc = snakemake(work, [*SLURM_ARGS, "--rerun-incomplete"], cluster.env, second)
         cancelled = cancel_part_way(cluster, work, proc, second, skip=checkpointed)
@@ -454,6 +512,7 @@ def slurm_run(cluster, tmp_path_factory) -> SlurmRun:
 
 
 # --- the checks --------------------------------------------------------------------------------
+
 
 def test_every_job_went_through_sbatch(slurm_run, cluster):
     states = cluster.states()
@@ -468,16 +527,25 @@ def test_every_job_went_through_sbatch(slurm_run, cluster):
     # reaches it: the Snakemake inside the job marks its outputs complete (written to a
     # temporary file, then renamed), so the rerun does not schedule it again; SLURM records it
     # COMPLETED, or CANCELLED when the cancel hit the batch step while that Snakemake exited.
-    # Every such job is counted here or fails the test by name: the count below is exact.
+    # The kill can also land between ``sbatch`` and Snakemake's line naming the SLURM job id:
+    # such a job ran through SLURM under the killed run's name with no id in the log. Every
+    # such job is counted here or fails the test by name: the count below is exact.
     killed = slurm_run.killed
     rerun_outputs = {tuple(o) for _, o in slurm_run.rerun.jobs.values()}
-    for jobid, ids in killed.submitted.items():
-        outputs = tuple(killed.jobs[jobid][1])
-        if jobid not in killed.finished and outputs not in done:
-            assert outputs not in rerun_outputs, (outputs, "scheduled again but not finished by the rerun")
-            assert states[ids[-1]][0] in ("COMPLETED", "CANCELLED"), (outputs, states[ids[-1]])
-            assert all((slurm_run.work / o).exists() for o in outputs), outputs
-            done[outputs] = ids[-1]
+    logged_ids = {i for log in (killed, slurm_run.rerun) for ids in log.submitted.values() for i in ids}
+    unlogged = sorted(i for i, (state, name) in states.items() if name == killed.run_id and i not in logged_ids)
+    for jobid, (rule, out) in killed.jobs.items():
+        outputs = tuple(out)
+        if jobid in killed.finished or outputs in done:
+            continue
+        assert outputs not in rerun_outputs, (outputs, "scheduled again but not finished by the rerun")
+        assert all((slurm_run.work / o).exists() for o in outputs), (outputs, "neither finished nor rerun")
+        ids = killed.submitted.get(jobid)
+        if ids is None:  # submitted as the kill landed: an unlogged SLURM job of the killed run
+            assert unlogged, (outputs, "finished with no SLURM job of the killed run left to account for it")
+            ids = [unlogged.pop(0)]
+        assert states[ids[-1]][0] in ("COMPLETED", "CANCELLED"), (outputs, states[ids[-1]])
+        done[outputs] = ids[-1]
     assert len(done) == killed.counts["total"], sorted(done)
     n_sbatch = sum(len(ids) for log in (slurm_run.killed, slurm_run.rerun) for ids in log.submitted.values())
     print(f"{len(done)} jobs finished through SLURM, {n_sbatch} sbatch submissions")
@@ -500,8 +568,10 @@ def test_rerun_after_killed_snakemake_runs_no_finished_job(slurm_run):
     assert not again, f"the rerun ran jobs that had finished before the kill: {again}"
     changed = [o for o, mtime in before.items() if (slurm_run.work / o).stat().st_mtime_ns != mtime]
     assert not changed, f"outputs rewritten after the kill: {changed}"
-    print(f"{len(slurm_run.killed.finished)} jobs finished before the kill, "
-          f"{len(set(slurm_run.rerun.finished))} run by the rerun")
+    print(
+        f"{len(slurm_run.killed.finished)} jobs finished before the kill, "
+        f"{len(set(slurm_run.rerun.finished))} run by the rerun"
+    )
 
 
 def test_cancelled_job_resumes_from_its_checkpoint(slurm_run, local_run):
@@ -518,5 +588,7 @@ def test_cancelled_job_resumes_from_its_checkpoint(slurm_run, local_run):
     cols = [c for c in a.select_dtypes("number").columns if c not in NOT_IDENTICAL["columns"]]
     rel = np.nanmax(np.abs(b[cols].to_numpy() - a[cols].to_numpy()) / np.maximum(np.abs(a[cols].to_numpy()), 1e-300))
     assert rel <= 1e-12, f"{row}: relative difference {rel:.3g} from the uninterrupted local run"
-    print(f"{job.record}: cancelled at step {job.step}, resumed at step {resumed.group(1)} of "
-          f"{resumed.group(2)}, relative difference {rel:.3g}")
+    print(
+        f"{job.record}: cancelled at step {job.step}, resumed at step {resumed.group(1)} of "
+        f"{resumed.group(2)}, relative difference {rel:.3g}"
+    )

@@ -39,20 +39,32 @@ def test_dry_run_with_slurm_profile_builds_dag(tmp_path, config):
             (tools / name).symlink_to(found)
     env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), str(tools)])
     assert shutil.which("sbatch", path=env["PATH"]) is None
-    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(tmp_path),
-           "-n", "--workflow-profile", str(PROFILE), "--configfile", config]
+    cmd = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(tmp_path),
+        "-n",
+        "--workflow-profile",
+        str(PROFILE),
+        "--configfile",
+        config,
+    ]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-6000:]
     for rule in ("measured_table", "fit_burgers", "rheology_figures", "report_index"):
         assert rule in out
     # the profile's per-rule resources reach the jobs
-    block = out[out.index("rule fit_burgers:"):]
+    block = out[out.index("rule fit_burgers:") :]
     block = block[: block.index("\n\n")] if "\n\n" in block else block
     assert "runtime=20" in block and "mem_mb=2000" in block
     # the SLURM workflow profile replaces profiles/default; a 2PB job's limit is the paper-scale
     # expression 240 * attempt, evaluated at the first attempt
     assert f"workflow specific profile {PROFILE}" in out and "profiles/default" not in out
-    block = out[out.index("rule run_2pb:"):]
+    block = out[out.index("rule run_2pb:") :]
     block = block[: block.index("\n\n")] if "\n\n" in block else block
     assert "runtime=240" in block and "mem_mb=2000" in block

@@ -38,8 +38,15 @@ from .twopb import TwoPBSettings, build_simulation, n_steps_of, time_step
 LAW_15C_PA = GeneralizedBurgers.burgers(Em=2.43e7, eta_m=3.71e6, Ek=4.84e7, eta_k=7.73e5)
 
 
-def measure_step_cost(sample_path=None, n_spheres: int = 2000, n_steps: int = 200, warmup: int = 5,
-                      frequency_Hz: float = 3.0, settings: TwoPBSettings | None = None, seed: int = 0) -> dict:
+def measure_step_cost(
+    sample_path=None,
+    n_spheres: int = 2000,
+    n_steps: int = 200,
+    warmup: int = 5,
+    frequency_Hz: float = 3.0,
+    settings: TwoPBSettings | None = None,
+    seed: int = 0,
+) -> dict:
     """Wall time per step (s) of the 2PB test on a sample file or a lattice sample.
 
     Returns dict: n_spheres, n_bonds, n_steps, s_per_step and s_per_sphere_step (process CPU
@@ -69,14 +76,21 @@ def measure_step_cost(sample_path=None, n_spheres: int = 2000, n_steps: int = 20
     wall = time.perf_counter() - tic
     cpu = time.process_time() - cpu_tic
     n = sample.position.shape[0]
-    return {"n_spheres": int(n), "n_bonds": int(len(sample.bonds["i"])), "n_steps": int(n_steps),
-            "s_per_step": cpu / n_steps, "s_per_sphere_step": cpu / (n_steps * n),
-            "wall_s_per_step": wall / n_steps,
-            "linear_fraction": linear / n_steps, "dt_s": dt}
+    return {
+        "n_spheres": int(n),
+        "n_bonds": int(len(sample.bonds["i"])),
+        "n_steps": int(n_steps),
+        "s_per_step": cpu / n_steps,
+        "s_per_sphere_step": cpu / (n_steps * n),
+        "wall_s_per_step": wall / n_steps,
+        "linear_fraction": linear / n_steps,
+        "dt_s": dt,
+    }
 
 
-def campaign_jobs(campaign: dict, n_samples_total: int, bond_kinematics: str = "contact",
-                  start: str | None = None) -> list[dict]:
+def campaign_jobs(
+    campaign: dict, n_samples_total: int, bond_kinematics: str = "contact", start: str | None = None
+) -> list[dict]:
     """Every test job of a ``campaign`` config section: mode, n_samples, T, f, dt, start,
     n_steps.
 
@@ -105,8 +119,17 @@ def campaign_jobs(campaign: dict, n_samples_total: int, bond_kinematics: str = "
     def add(mode, n, T, f, dt=None):
         s = settings_for(mode)
         step = dt if dt is not None else time_step(f, s)
-        jobs.append({"mode": mode, "n_samples": n, "temperature_C": T, "frequency_Hz": f, "dt_s": step,
-                     "start": s.start, "n_steps": n_steps_of(f, step, s)})
+        jobs.append(
+            {
+                "mode": mode,
+                "n_samples": n,
+                "temperature_C": T,
+                "frequency_Hz": f,
+                "dt_s": step,
+                "start": s.start,
+                "n_steps": n_steps_of(f, step, s),
+            }
+        )
 
     for mode in campaign["modes"]:
         sched = campaign["measured" if mode == "measured" else "paper"]
@@ -127,8 +150,11 @@ def campaign_jobs(campaign: dict, n_samples_total: int, bond_kinematics: str = "
     # paper-mode jobs other rules need even when the paper schedule does not hold them (or the
     # paper mode is off): the x1 baseline of the sensitivity study and the last-cycle figure
     paper = campaign["paper"]
-    scheduled = {(T, f) for T in paper["temperatures_C"] for f in paper["frequencies_Hz"]} \
-        if "paper" in campaign["modes"] else set()
+    scheduled = (
+        {(T, f) for T in paper["temperatures_C"] for f in paper["frequencies_Hz"]}
+        if "paper" in campaign["modes"]
+        else set()
+    )
     extra = {(d["temperature_C"], f): ns(d["n_samples"]) for f in d["frequencies_Hz"]}
     last = campaign["last_cycle"]
     key = (last["temperature_C"], last["frequency_Hz"])
@@ -149,10 +175,20 @@ def job_class(job: dict) -> tuple:
     return (job["mode"], float(job["temperature_C"]), float(job["frequency_Hz"]), float(job["dt_s"]))
 
 
-def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_steps: int = 10,
-                      warmup: int = 2, bond_kinematics: str = "contact",
-                      starts=("rest", "periodic"), linear_solver: str = "cg", linear_tolerance: float | None = None,
-                      baseline: dict | None = None, chunk: int = 5) -> dict:
+def measure_job_costs(
+    sample_path,
+    campaign: dict,
+    jobs: list[dict],
+    laws,
+    n_steps: int = 10,
+    warmup: int = 2,
+    bond_kinematics: str = "contact",
+    starts=("rest", "periodic"),
+    linear_solver: str = "cg",
+    linear_tolerance: float | None = None,
+    baseline: dict | None = None,
+    chunk: int = 5,
+) -> dict:
     """CPU time per step of every job class of ``jobs`` on a sample file, with the job's law.
 
     Parameters
@@ -179,8 +215,7 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
     """
     unknown = set(baseline or {}) - set(TwoPBSettings.__dataclass_fields__)
     if unknown:
-        raise ValueError(f"baseline settings: unknown keys {sorted(unknown)}; expected keys of "
-                         f"TwoPBSettings")
+        raise ValueError(f"baseline settings: unknown keys {sorted(unknown)}; expected keys of TwoPBSettings")
     import dataclasses
 
     from ..sample.store import read_sample
@@ -191,9 +226,13 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
     periodic_classes = {job_class(j) for j in jobs if j["start"] == "periodic"}
     for cls in dict.fromkeys(job_class(j) for j in jobs):
         mode, T, f, dt = cls
-        base = TwoPBSettings(**{k: v for k, v in mode_settings(campaign, mode, bond_kinematics, linear_solver,
-                                                                linear_tolerance).items()
-                                if k in TwoPBSettings.__dataclass_fields__})
+        base = TwoPBSettings(
+            **{
+                k: v
+                for k, v in mode_settings(campaign, mode, bond_kinematics, linear_solver, linear_tolerance).items()
+                if k in TwoPBSettings.__dataclass_fields__
+            }
+        )
         law = laws.law(mode, T)
         out[cls] = {}
         for start in starts:
@@ -222,19 +261,35 @@ def measure_job_costs(sample_path, campaign: dict, jobs: list[dict], laws, n_ste
                         if m == 0:
                             its.append(st.iterations)
                     cpu[m] += time.process_time() - tic
-            row = {"s_per_step": cpu[0] / n_steps, "iterations_mean": float(np.mean(its)),
-                   "linear_fraction": lin[0] / n_steps, "solve_s": solve, "start_used": info["start"]}
+            row = {
+                "s_per_step": cpu[0] / n_steps,
+                "iterations_mean": float(np.mean(its)),
+                "linear_fraction": lin[0] / n_steps,
+                "solve_s": solve,
+                "start_used": info["start"],
+            }
             if baseline:
-                row.update(s_per_step_baseline=cpu[1] / n_steps, linear_fraction_baseline=lin[1] / n_steps,
-                           speedup=cpu[1] / cpu[0])
+                row.update(
+                    s_per_step_baseline=cpu[1] / n_steps,
+                    linear_fraction_baseline=lin[1] / n_steps,
+                    speedup=cpu[1] / cpu[0],
+                )
             out[cls][start] = row
     return out
 
 
-def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_s: float = 3.0,
-                     cores=(1, 2, 100), bond_kinematics: str = "contact", start: str | None = None,
-                     periodic_solve_s=0.0, prepare_s_per_sample: float = 0.0,
-                     modes=None) -> dict:
+def project_campaign(
+    campaign: dict,
+    n_samples_total: int,
+    s_per_step,
+    overhead_s: float = 3.0,
+    cores=(1, 2, 100),
+    bond_kinematics: str = "contact",
+    start: str | None = None,
+    periodic_solve_s=0.0,
+    prepare_s_per_sample: float = 0.0,
+    modes=None,
+) -> dict:
     """Projected time of every test job of a campaign (core-hours and wall hours per core count).
 
     ``s_per_step``: CPU time of one step, s — a number, or a callable ``job -> s`` (e.g. from
@@ -270,16 +325,23 @@ def project_campaign(campaign: dict, n_samples_total: int, s_per_step, overhead_
     n_jobs: dict[str, int] = {}
     for j in jobs:
         n_jobs[j["mode"]] = n_jobs.get(j["mode"], 0) + j["n_samples"]
-    return {"n_jobs": len(per_job), "total_core_h": total / 3600, "jobs_core_h": total_jobs / 3600,
-            "prepare_core_h": prepare / 3600, "longest_job_h": float(np.max(per_job)) / 3600,
-            "core_h_by_mode": {k: v / 3600 for k, v in by_mode.items()},
-            "n_jobs_by_mode": n_jobs, "n_steps_by_mode": steps_by_mode,
-            "steps_per_job_by_mode": {k: steps_by_mode[k] / n_jobs[k] for k in n_jobs},
-            "start_by_mode": {j["mode"]: j["start"] for j in jobs},
-            "wall_h": {str(p): max(total / p, longest) / 3600 for p in cores},
-            "s_per_step": s_per_step if not callable(s_per_step) else "per job class",
-            "overhead_s": overhead_s, "prepare_s_per_sample": prepare_s_per_sample,
-            "n_steps_total": int(sum(j["n_steps"] * j["n_samples"] for j in jobs))}
+    return {
+        "n_jobs": len(per_job),
+        "total_core_h": total / 3600,
+        "jobs_core_h": total_jobs / 3600,
+        "prepare_core_h": prepare / 3600,
+        "longest_job_h": float(np.max(per_job)) / 3600,
+        "core_h_by_mode": {k: v / 3600 for k, v in by_mode.items()},
+        "n_jobs_by_mode": n_jobs,
+        "n_steps_by_mode": steps_by_mode,
+        "steps_per_job_by_mode": {k: steps_by_mode[k] / n_jobs[k] for k in n_jobs},
+        "start_by_mode": {j["mode"]: j["start"] for j in jobs},
+        "wall_h": {str(p): max(total / p, longest) / 3600 for p in cores},
+        "s_per_step": s_per_step if not callable(s_per_step) else "per job class",
+        "overhead_s": overhead_s,
+        "prepare_s_per_sample": prepare_s_per_sample,
+        "n_steps_total": int(sum(j["n_steps"] * j["n_samples"] for j in jobs)),
+    }
 
 
 def read_prepare_seconds(path, key: str) -> float:
@@ -326,8 +388,7 @@ def bench_starter(start: str, rec: dict):
         sim = Simulation(s, plates, bonds, params)
         if "state" not in cache:
             c = time.process_time()
-            cache["state"] = periodic_state(sim, LAW_15C, DRIVE_HZ, HEAD_AMPLITUDE_M,
-                                            head_rotation="clamped")
+            cache["state"] = periodic_state(sim, LAW_15C, DRIVE_HZ, HEAD_AMPLITUDE_M, head_rotation="clamped")
             rec["periodic_solve_s"] = time.process_time() - c
             rec["periodic_force_ratio"] = float(cache["state"].force_ratio)
         apply_periodic_state(sim, cache["state"])

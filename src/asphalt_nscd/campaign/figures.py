@@ -42,8 +42,12 @@ def dt_study_figure(records: list[dict], rows: pd.DataFrame, reference: tuple[fl
     axes[0].set_xlabel("time in the last cycle (ms)")
     axes[0].set_ylabel("head force (N)")
     axes[0].legend(fontsize=8)
-    g = rows.groupby("dt_s").agg(E=("E_norm_MPa", "mean"), Es=("E_norm_MPa", "std"),
-                                 P=("phase_deg", "mean"), Ps=("phase_deg", "std")).reset_index().fillna(0.0)
+    g = (
+        rows.groupby("dt_s")
+        .agg(E=("E_norm_MPa", "mean"), Es=("E_norm_MPa", "std"), P=("phase_deg", "mean"), Ps=("phase_deg", "std"))
+        .reset_index()
+        .fillna(0.0)
+    )
     axes[1].errorbar(g["dt_s"], g["E"], yerr=g["Es"], marker="o", capsize=3, label="NSCD")
     axes[2].errorbar(g["dt_s"], g["P"], yerr=g["Ps"], marker="o", capsize=3, label="NSCD")
     if reference is not None:
@@ -75,8 +79,11 @@ def last_cycle_figure(rec: dict):
     ax2.plot(t * 1e3, F, color="tab:red", label="force")
     ax2.set_ylabel("head force (N)", color="tab:red")
     a = rec["attrs"]
-    ax.set_title(f"{a.get('sample', '')} {a.get('temperature_C', float('nan')):g} °C, "
-                 f"{a['frequency_Hz']:g} Hz, dt = {a['dt_s']:.2g} s", fontsize=10)
+    ax.set_title(
+        f"{a.get('sample', '')} {a.get('temperature_C', float('nan')):g} °C, "
+        f"{a['frequency_Hz']:g} Hz, dt = {a['dt_s']:.2g} s",
+        fontsize=10,
+    )
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
     return fig
@@ -96,8 +103,14 @@ def velocity_profile_figure(rec: dict):
     n = len(p["time_s"])
     for k in range(n):
         phase = 360.0 * ((p["time_s"][k] - t0) * a["frequency_Hz"])
-        ax.plot(p["vx_m_s"][k] / vmax, z * 1e3, marker="o", ms=3, color=cmap(k / max(n - 1, 1)),
-                label=f"{phase:.0f}° of the cycle")
+        ax.plot(
+            p["vx_m_s"][k] / vmax,
+            z * 1e3,
+            marker="o",
+            ms=3,
+            color=cmap(k / max(n - 1, 1)),
+            label=f"{phase:.0f}° of the cycle",
+        )
     ax.axvline(0, color="k", lw=0.5)
     ax.set_xlabel("mean particle velocity v_x / (A ω)")
     ax.set_ylabel("height z (mm)")
@@ -108,23 +121,43 @@ def velocity_profile_figure(rec: dict):
     return fig
 
 
-def isotherm_figures(isotherms: pd.DataFrame, curves: pd.DataFrame | None, reference_label: str,
-                     reference_points: pd.DataFrame | None = None, title: str = "",
-                     curve_label: str = "Burger's model"):
+def isotherm_figures(
+    isotherms: pd.DataFrame,
+    curves: pd.DataFrame | None,
+    reference_label: str,
+    reference_points: pd.DataFrame | None = None,
+    title: str = "",
+    curve_label: str = "Burger's model",
+):
     """Figs. 9-10 analogues: |E*| and Phi isotherms, NSCD sample means (± sd over samples)
     against reference curves (legend ``curve_label``, e.g. "generalized Burger's law") and/or
     points (legend ``reference_label``). Returns (fig_modulus, fig_phase)."""
     from ..rheology.plots import CurveSet, rheology_figure
 
-    sets = [CurveSet("NSCD (mean ± sd over samples)", isotherms[[
-        "temperature_C", "frequency_Hz", "E_norm_MPa_mean", "E_norm_MPa_std", "phase_deg_mean", "phase_deg_std"]],
-        kind="points")]
+    sets = [
+        CurveSet(
+            "NSCD (mean ± sd over samples)",
+            isotherms[
+                [
+                    "temperature_C",
+                    "frequency_Hz",
+                    "E_norm_MPa_mean",
+                    "E_norm_MPa_std",
+                    "phase_deg_mean",
+                    "phase_deg_std",
+                ]
+            ],
+            kind="points",
+        )
+    ]
     if reference_points is not None:
         sets.append(CurveSet(reference_label, reference_points, kind="points", marker="x"))
     if curves is not None:
         sets.append(CurveSet(curve_label, curves, kind="line"))
-    return (rheology_figure(sets, "isotherms-modulus", title=title),
-            rheology_figure(sets, "isotherms-phase", title=title))
+    return (
+        rheology_figure(sets, "isotherms-modulus", title=title),
+        rheology_figure(sets, "isotherms-phase", title=title),
+    )
 
 
 def sensitivity_figure(table: pd.DataFrame, parameter: str, curves: dict | None = None, temperature_C=20.0):
@@ -140,10 +173,26 @@ def sensitivity_figure(table: pd.DataFrame, parameter: str, curves: dict | None 
         c = cmap(0.85 * n / max(len(factors) - 1, 1))
         g = sub[sub["factor"] == fac]
         lab = f"{parameter} × {fac:g}"
-        axes[0].errorbar(g["frequency_Hz"], g["E_norm_MPa_mean"], yerr=g["E_norm_MPa_std"], marker="o",
-                         ls="none", color=c, capsize=3, label=f"NSCD {lab}")
-        axes[1].errorbar(g["frequency_Hz"], g["phase_deg_mean"], yerr=g["phase_deg_std"], marker="o",
-                         ls="none", color=c, capsize=3, label=f"NSCD {lab}")
+        axes[0].errorbar(
+            g["frequency_Hz"],
+            g["E_norm_MPa_mean"],
+            yerr=g["E_norm_MPa_std"],
+            marker="o",
+            ls="none",
+            color=c,
+            capsize=3,
+            label=f"NSCD {lab}",
+        )
+        axes[1].errorbar(
+            g["frequency_Hz"],
+            g["phase_deg_mean"],
+            yerr=g["phase_deg_std"],
+            marker="o",
+            ls="none",
+            color=c,
+            capsize=3,
+            label=f"NSCD {lab}",
+        )
         if curves and fac in curves:
             cv = curves[fac]
             axes[0].plot(cv["frequency_Hz"], cv["E_norm_MPa"], color=c, ls="--", label=f"Burger's {lab}")

@@ -24,9 +24,17 @@ def _close(e, phase, e_ref, phase_ref) -> bool:
     return bool(abs(e / e_ref - 1.0) <= TOLERANCE_E_REL and abs(phase - phase_ref) <= TOLERANCE_PHASE_DEG)
 
 
-def check_case(sample_path, law, frequency_Hz: float, settings, long_cycles: int = 20,
-               rest_cycles: float | None = None, continuous: bool = False, workdir=None,
-               meta: dict | None = None) -> tuple[dict, list[dict]]:
+def check_case(
+    sample_path,
+    law,
+    frequency_Hz: float,
+    settings,
+    long_cycles: int = 20,
+    rest_cycles: float | None = None,
+    continuous: bool = False,
+    workdir=None,
+    meta: dict | None = None,
+) -> tuple[dict, list[dict]]:
     """Compare the periodic start with the from-rest protocol on one (sample, law, f).
 
     Runs (records in ``workdir``, a temporary directory by default): from rest for
@@ -68,14 +76,24 @@ def check_case(sample_path, law, frequency_Hz: float, settings, long_cycles: int
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         tmp = Path(tmp)
         long_set = dataclasses.replace(base, start="rest", n_cycles=float(long_cycles))
-        rec = twopb.run_test(sample_path, law, frequency_Hz, long_set, tmp / "rest.h5", meta=meta,
-                             progress=False)
+        rec = twopb.run_test(sample_path, law, frequency_Hz, long_set, tmp / "rest.h5", meta=meta, progress=False)
         per_set = dataclasses.replace(base, start="periodic")
-        runs = {"periodic": twopb.run_test(sample_path, law, frequency_Hz, per_set, tmp / "periodic.h5",
-                                           meta=meta, progress=False)}
+        runs = {
+            "periodic": twopb.run_test(
+                sample_path, law, frequency_Hz, per_set, tmp / "periodic.h5", meta=meta, progress=False
+            )
+        }
         if continuous:
-            runs["continuous"] = twopb.run_test(sample_path, law, frequency_Hz, per_set, tmp / "cont.h5",
-                                                meta=meta, progress=False, continuous_start=True)
+            runs["continuous"] = twopb.run_test(
+                sample_path,
+                law,
+                frequency_Hz,
+                per_set,
+                tmp / "cont.h5",
+                meta=meta,
+                progress=False,
+                continuous_start=True,
+            )
     dt = float(rec["attrs"]["dt_s"])
     per_period = 1.0 / (frequency_Hz * dt)
     red = {k: twopb.reduce_test(r, w) for k, r in runs.items()}
@@ -98,49 +116,73 @@ def check_case(sample_path, law, frequency_Hz: float, settings, long_cycles: int
             first = k
         elif not ok:
             first = -1
-        cycles.append({**meta, "temperature_C": meta.get("temperature_C"), "frequency_Hz": frequency_Hz,
-                       "cycle": k, "E_norm_MPa": r["E_norm_MPa"], "phase_deg": r["phase_deg"],
-                       "dE_to_periodic_pct": 100.0 * (r["E_norm_MPa"] / e_per - 1.0),
-                       "dphase_to_periodic_deg": r["phase_deg"] - ph_per,
-                       "iterations_mean": cycle_mean(k)})
+        cycles.append(
+            {
+                **meta,
+                "temperature_C": meta.get("temperature_C"),
+                "frequency_Hz": frequency_Hz,
+                "cycle": k,
+                "E_norm_MPa": r["E_norm_MPa"],
+                "phase_deg": r["phase_deg"],
+                "dE_to_periodic_pct": 100.0 * (r["E_norm_MPa"] / e_per - 1.0),
+                "dphase_to_periodic_deg": r["phase_deg"] - ph_per,
+                "iterations_mean": cycle_mean(k),
+            }
+        )
     e_l, ph_l = long_row["E_norm_MPa"], long_row["phase_deg"]
     info = json.loads(runs["periodic"]["attrs"]["start_info"])
-    row = {**meta, "frequency_Hz": frequency_Hz, "dt_s": dt, "steps_per_period": per_period,
-           "rest_cycles": rest_cycles, "long_cycles": long_cycles,
-           "periodic_cycles": base.periodic_cycles, "window_cycles": w,
-           "E_rest_MPa": rest_row["E_norm_MPa"], "phase_rest_deg": rest_row["phase_deg"],
-           "E_long_MPa": e_l, "phase_long_deg": ph_l,
-           "E_periodic_MPa": e_per, "phase_periodic_deg": ph_per,
-           "dE_rest_pct": 100.0 * (rest_row["E_norm_MPa"] / e_l - 1.0),
-           "dphase_rest_deg": rest_row["phase_deg"] - ph_l,
-           "dE_periodic_pct": 100.0 * (e_per / e_l - 1.0), "dphase_periodic_deg": ph_per - ph_l,
-           "dE_long_pct": 100.0 * (e_l / prev["E_norm_MPa"] - 1.0),
-           "dphase_long_deg": ph_l - prev["phase_deg"],
-           "dE_rest_to_periodic_pct": 100.0 * (rest_row["E_norm_MPa"] / e_per - 1.0),
-           "dphase_rest_to_periodic_deg": rest_row["phase_deg"] - ph_per,
-           "rest_converged": _close(rest_row["E_norm_MPa"], rest_row["phase_deg"], e_l, ph_l),
-           "periodic_equal": _close(e_per, ph_per, e_l, ph_l),
-           "rest_equal_periodic": _close(rest_row["E_norm_MPa"], rest_row["phase_deg"], e_per, ph_per),
-           "first_cycle_to_periodic": first,
-           "steps_rest": twopb.n_steps_of(frequency_Hz, dt, dataclasses.replace(base, n_cycles=rest_cycles), "rest"),
-           "steps_periodic": int(runs["periodic"]["attrs"]["n_steps"]),
-           "iterations_rest_first_cycle": cycle_mean(1),
-           f"iterations_rest_cycle_{int(rest_cycles)}": cycle_mean(int(rest_cycles)),
-           "iterations_rest_last_cycle": cycle_mean(long_cycles),
-           "iterations_periodic": float(np.mean(runs["periodic"]["stats"]["iterations"])),
-           "n_nlgs_steps_rest": int(long_row["n_nlgs_steps"]),
-           "n_nlgs_steps_periodic": int(red["periodic"]["n_nlgs_steps"]),
-           "n_broken_rest": int(long_row["n_broken_total"]),
-           "start_periodic_run": runs["periodic"]["attrs"]["start"],
-           "periodic_solve_s": info.get("solve_s", float("nan")),
-           "periodic_force_ratio": info.get("force_ratio", float("nan")),
-           "cpu_rest_s_per_cycle": float(rec["attrs"]["cpu_time_s"]) / long_cycles,
-           "cpu_periodic_s": float(runs["periodic"]["attrs"]["cpu_time_s"])}
+    row = {
+        **meta,
+        "frequency_Hz": frequency_Hz,
+        "dt_s": dt,
+        "steps_per_period": per_period,
+        "rest_cycles": rest_cycles,
+        "long_cycles": long_cycles,
+        "periodic_cycles": base.periodic_cycles,
+        "window_cycles": w,
+        "E_rest_MPa": rest_row["E_norm_MPa"],
+        "phase_rest_deg": rest_row["phase_deg"],
+        "E_long_MPa": e_l,
+        "phase_long_deg": ph_l,
+        "E_periodic_MPa": e_per,
+        "phase_periodic_deg": ph_per,
+        "dE_rest_pct": 100.0 * (rest_row["E_norm_MPa"] / e_l - 1.0),
+        "dphase_rest_deg": rest_row["phase_deg"] - ph_l,
+        "dE_periodic_pct": 100.0 * (e_per / e_l - 1.0),
+        "dphase_periodic_deg": ph_per - ph_l,
+        "dE_long_pct": 100.0 * (e_l / prev["E_norm_MPa"] - 1.0),
+        "dphase_long_deg": ph_l - prev["phase_deg"],
+        "dE_rest_to_periodic_pct": 100.0 * (rest_row["E_norm_MPa"] / e_per - 1.0),
+        "dphase_rest_to_periodic_deg": rest_row["phase_deg"] - ph_per,
+        "rest_converged": _close(rest_row["E_norm_MPa"], rest_row["phase_deg"], e_l, ph_l),
+        "periodic_equal": _close(e_per, ph_per, e_l, ph_l),
+        "rest_equal_periodic": _close(rest_row["E_norm_MPa"], rest_row["phase_deg"], e_per, ph_per),
+        "first_cycle_to_periodic": first,
+        "steps_rest": twopb.n_steps_of(frequency_Hz, dt, dataclasses.replace(base, n_cycles=rest_cycles), "rest"),
+        "steps_periodic": int(runs["periodic"]["attrs"]["n_steps"]),
+        "iterations_rest_first_cycle": cycle_mean(1),
+        f"iterations_rest_cycle_{int(rest_cycles)}": cycle_mean(int(rest_cycles)),
+        "iterations_rest_last_cycle": cycle_mean(long_cycles),
+        "iterations_periodic": float(np.mean(runs["periodic"]["stats"]["iterations"])),
+        "n_nlgs_steps_rest": int(long_row["n_nlgs_steps"]),
+        "n_nlgs_steps_periodic": int(red["periodic"]["n_nlgs_steps"]),
+        "n_broken_rest": int(long_row["n_broken_total"]),
+        "start_periodic_run": runs["periodic"]["attrs"]["start"],
+        "periodic_solve_s": info.get("solve_s", float("nan")),
+        "periodic_force_ratio": info.get("force_ratio", float("nan")),
+        "cpu_rest_s_per_cycle": float(rec["attrs"]["cpu_time_s"]) / long_cycles,
+        "cpu_periodic_s": float(runs["periodic"]["attrs"]["cpu_time_s"]),
+    }
     if continuous:
         c = red["continuous"]
-        row.update({"E_continuous_MPa": c["E_norm_MPa"], "phase_continuous_deg": c["phase_deg"],
-                    "dE_continuous_pct": 100.0 * (c["E_norm_MPa"] / e_l - 1.0),
-                    "dphase_continuous_deg": c["phase_deg"] - ph_l,
-                    "dE_continuous_to_periodic_pct": 100.0 * (c["E_norm_MPa"] / e_per - 1.0),
-                    "dphase_continuous_to_periodic_deg": c["phase_deg"] - ph_per})
+        row.update(
+            {
+                "E_continuous_MPa": c["E_norm_MPa"],
+                "phase_continuous_deg": c["phase_deg"],
+                "dE_continuous_pct": 100.0 * (c["E_norm_MPa"] / e_l - 1.0),
+                "dphase_continuous_deg": c["phase_deg"] - ph_l,
+                "dE_continuous_to_periodic_pct": 100.0 * (c["E_norm_MPa"] / e_per - 1.0),
+                "dphase_continuous_to_periodic_deg": c["phase_deg"] - ph_per,
+            }
+        )
     return row, cycles

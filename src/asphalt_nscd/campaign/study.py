@@ -56,8 +56,10 @@ def parameters_at(table: pd.DataFrame, temperature_C: float, factors: dict | Non
     """
     hit = at_temperature(table, temperature_C)
     if hit.empty:
-        raise InputError(f"{where}: no Burger's parameters at {temperature_C} degC; "
-                         f"available: {sorted(table['temperature_C'].astype(float))}")
+        raise InputError(
+            f"{where}: no Burger's parameters at {temperature_C} degC; "
+            f"available: {sorted(table['temperature_C'].astype(float))}"
+        )
     row = {c: float(hit.iloc[0][c]) for c in SENSITIVITY_PARAMETERS.values()}
     for name, factor in (factors or {}).items():
         if name not in SENSITIVITY_PARAMETERS:
@@ -69,8 +71,12 @@ def parameters_at(table: pd.DataFrame, temperature_C: float, factors: dict | Non
 def law_summary(law) -> dict:
     """Scalar description of a generalized Burger's law (Pa, Pa s) for a reduced row, in MPa:
     ``n_kelvin, Em_MPa, eta_m_MPa_s`` (inf: no dashpot), ``E_inf_MPa``."""
-    return {"n_kelvin": int(law.n_kelvin), "Em_MPa": law.Em * 1e-6, "eta_m_MPa_s": law.eta_m * 1e-6,
-            "E_inf_MPa": law.E_inf * 1e-6}
+    return {
+        "n_kelvin": int(law.n_kelvin),
+        "Em_MPa": law.Em * 1e-6,
+        "eta_m_MPa_s": law.eta_m * 1e-6,
+        "E_inf_MPa": law.E_inf * 1e-6,
+    }
 
 
 def law_curves(laws: dict, temperatures_C, frequency_Hz, where="law JSON") -> pd.DataFrame:
@@ -84,8 +90,18 @@ def law_curves(laws: dict, temperatures_C, frequency_Hz, where="law JSON") -> pd
     frames = []
     for T in sorted({float(t) for t in np.atleast_1d(temperatures_C)}):
         e = law_file.law_at(laws, T, where).complex_modulus(2.0 * np.pi * f) * 1e-6
-        frames.append(pd.DataFrame({"temperature_C": T, "frequency_Hz": f, "E_norm_MPa": np.abs(e),
-                                    "phase_deg": np.degrees(np.angle(e)), "E1_MPa": e.real, "E2_MPa": e.imag}))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "temperature_C": T,
+                    "frequency_Hz": f,
+                    "E_norm_MPa": np.abs(e),
+                    "phase_deg": np.degrees(np.angle(e)),
+                    "E1_MPa": e.real,
+                    "E2_MPa": e.imag,
+                }
+            )
+        )
     return pd.concat(frames, ignore_index=True)
 
 
@@ -94,8 +110,14 @@ def law_reference(laws: dict, temperature_C, frequency_Hz, where="law JSON") -> 
     rows = []
     for T, f in zip(np.atleast_1d(temperature_C), np.atleast_1d(frequency_Hz)):
         e = complex(law_file.law_at(laws, T, where).complex_modulus(2.0 * np.pi * float(f))) * 1e-6
-        rows.append({"temperature_C": float(T), "frequency_Hz": float(f),
-                     "E_norm_MPa_ref": abs(e), "phase_deg_ref": float(np.degrees(np.angle(e)))})
+        rows.append(
+            {
+                "temperature_C": float(T),
+                "frequency_Hz": float(f),
+                "E_norm_MPa_ref": abs(e),
+                "phase_deg_ref": float(np.degrees(np.angle(e))),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -113,8 +135,15 @@ class JobLaws:
         naming the missing option when a mode's file was not given, or from the readers.
     """
 
-    def __init__(self, table3=None, table3_units: str = "Pa", parameters=None, law_json=None,
-                 network_factor_json=None, sample_name: str | None = None):
+    def __init__(
+        self,
+        table3=None,
+        table3_units: str = "Pa",
+        parameters=None,
+        law_json=None,
+        network_factor_json=None,
+        sample_name: str | None = None,
+    ):
         self.table3, self.table3_units = table3, table3_units
         self.parameters, self.law_json = parameters, law_json
         self.network_factor_json, self.sample_name = network_factor_json, sample_name
@@ -131,8 +160,9 @@ class JobLaws:
         if mode == "extended":
             if not self.law_json:
                 raise InputError("an extended-mode job needs the law JSON (--law-json)")
-            law = law_file.law_at(self._read("json", lambda: law_file.read(self.law_json)), temperature_C,
-                         where=self.law_json)
+            law = law_file.law_at(
+                self._read("json", lambda: law_file.read(self.law_json)), temperature_C, where=self.law_json
+            )
             if self.network_factor_json:
                 from ..harmonic.transfer import corrected_law
 
@@ -157,8 +187,9 @@ def burgers_reference(table: pd.DataFrame, temperature_C, frequency_Hz) -> pd.Da
     rows = []
     for T, f in zip(np.atleast_1d(temperature_C), np.atleast_1d(frequency_Hz)):
         e, p = burgers_isotherm(parameters_at(table, T, where="reference"), float(f))
-        rows.append({"temperature_C": float(T), "frequency_Hz": float(f),
-                     "E_norm_MPa_ref": float(e), "phase_deg_ref": float(p)})
+        rows.append(
+            {"temperature_C": float(T), "frequency_Hz": float(f), "E_norm_MPa_ref": float(e), "phase_deg_ref": float(p)}
+        )
     return pd.DataFrame(rows)
 
 
@@ -169,7 +200,8 @@ def measured_reference(summary: pd.DataFrame) -> pd.DataFrame:
 
     require_columns(summary, need, "measured summary")
     return summary.rename(columns={"E_norm_MPa_mean": "E_norm_MPa_ref", "phase_deg_mean": "phase_deg_ref"})[
-        ["temperature_C", "frequency_Hz", "E_norm_MPa_ref", "phase_deg_ref"]]
+        ["temperature_C", "frequency_Hz", "E_norm_MPa_ref", "phase_deg_ref"]
+    ]
 
 
 def numerical_isotherms(rows: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFrame:
@@ -196,10 +228,16 @@ def numerical_isotherms(rows: pd.DataFrame, reference: pd.DataFrame) -> pd.DataF
     else:
         rows["broken_fraction"] = np.nan
     g = rows.groupby(["temperature_C", "frequency_Hz"])
-    out = g.agg(max_broken_bond_fraction=("broken_fraction", "max"), n_samples=("E_norm_MPa", "size"), E_norm_MPa_mean=("E_norm_MPa", "mean"),
-                E_norm_MPa_std=("E_norm_MPa", "std"), phase_deg_mean=("phase_deg", "mean"),
-                phase_deg_std=("phase_deg", "std"), E1_MPa=("E1_MPa", "mean"),
-                E2_MPa=("E2_MPa", "mean")).reset_index()
+    out = g.agg(
+        max_broken_bond_fraction=("broken_fraction", "max"),
+        n_samples=("E_norm_MPa", "size"),
+        E_norm_MPa_mean=("E_norm_MPa", "mean"),
+        E_norm_MPa_std=("E_norm_MPa", "std"),
+        phase_deg_mean=("phase_deg", "mean"),
+        phase_deg_std=("phase_deg", "std"),
+        E1_MPa=("E1_MPa", "mean"),
+        E2_MPa=("E2_MPa", "mean"),
+    ).reset_index()
     out[["E_norm_MPa_std", "phase_deg_std"]] = out[["E_norm_MPa_std", "phase_deg_std"]].fillna(0.0)
     ref = reference.copy()
     for c in ("temperature_C", "frequency_Hz"):
@@ -217,16 +255,25 @@ def numerical_isotherms(rows: pd.DataFrame, reference: pd.DataFrame) -> pd.DataF
 def table4(isotherms: pd.DataFrame, paper_table4: pd.DataFrame | None = None) -> pd.DataFrame:
     """Mean relative error per temperature (Table 4 analogue), %, from :func:`numerical_isotherms`;
     with the paper's Table 4 (``mre_E_norm_pct, mre_phase_pct``) beside when given."""
-    out = isotherms.assign(a=isotherms["rel_error_E_norm_pct"].abs(), b=isotherms["rel_error_phase_pct"].abs()) \
-        .groupby("temperature_C").agg(n_frequencies=("a", "size"), mre_E_norm_pct=("a", "mean"),
-                                      mre_phase_pct=("b", "mean"),
-                                      max_broken_bond_fraction=("max_broken_bond_fraction", "max")).reset_index()
+    out = (
+        isotherms.assign(a=isotherms["rel_error_E_norm_pct"].abs(), b=isotherms["rel_error_phase_pct"].abs())
+        .groupby("temperature_C")
+        .agg(
+            n_frequencies=("a", "size"),
+            mre_E_norm_pct=("a", "mean"),
+            mre_phase_pct=("b", "mean"),
+            max_broken_bond_fraction=("max_broken_bond_fraction", "max"),
+        )
+        .reset_index()
+    )
     ratio = (isotherms["E_norm_MPa_mean"] / isotherms["E_norm_MPa_ref"]).groupby(isotherms["temperature_C"]).mean()
     out["mean_ratio_E_norm"] = out["temperature_C"].map(ratio)
     dphi = (isotherms["phase_deg_mean"] - isotherms["phase_deg_ref"]).groupby(isotherms["temperature_C"]).mean()
     out["mean_phase_difference_deg"] = out["temperature_C"].map(dphi)
     if paper_table4 is not None:
-        p = paper_table4.rename(columns={"mre_E_norm_pct": "paper_mre_E_norm_pct", "mre_phase_pct": "paper_mre_phase_pct"})
+        p = paper_table4.rename(
+            columns={"mre_E_norm_pct": "paper_mre_E_norm_pct", "mre_phase_pct": "paper_mre_phase_pct"}
+        )
         p["temperature_C"] = p["temperature_C"].astype(float)
         out = out.merge(p, on="temperature_C", how="left")
     return out
@@ -241,10 +288,18 @@ def sensitivity_table(rows: pd.DataFrame, baseline: pd.DataFrame) -> pd.DataFram
     for p in SENSITIVITY_PARAMETERS:
         parts.append(baseline.assign(parameter=p, factor=1.0))
     allr = pd.concat(parts, ignore_index=True)
-    out = allr.groupby(["parameter", "factor", "frequency_Hz"]).agg(
-        n_samples=("E_norm_MPa", "size"), E_norm_MPa_mean=("E_norm_MPa", "mean"),
-        E_norm_MPa_std=("E_norm_MPa", "std"), phase_deg_mean=("phase_deg", "mean"),
-        phase_deg_std=("phase_deg", "std")).reset_index().fillna({"E_norm_MPa_std": 0.0, "phase_deg_std": 0.0})
+    out = (
+        allr.groupby(["parameter", "factor", "frequency_Hz"])
+        .agg(
+            n_samples=("E_norm_MPa", "size"),
+            E_norm_MPa_mean=("E_norm_MPa", "mean"),
+            E_norm_MPa_std=("E_norm_MPa", "std"),
+            phase_deg_mean=("phase_deg", "mean"),
+            phase_deg_std=("phase_deg", "std"),
+        )
+        .reset_index()
+        .fillna({"E_norm_MPa_std": 0.0, "phase_deg_std": 0.0})
+    )
     out = out.merge(base, on="frequency_Hz", how="left")
     out["change_E_norm_pct"] = 100 * (out["E_norm_MPa_mean"] / out["E0"] - 1)
     out["change_phase_deg"] = out["phase_deg_mean"] - out["P0"]
@@ -258,8 +313,9 @@ def first_resonance_Hz(stiffness_N_m: float, specimen) -> float:
     return math.sqrt(stiffness_N_m / (specimen.mu_g * 1e-3)) / (2 * math.pi)
 
 
-def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: float,
-                   micro: dict, reference_frequency_Hz: float = 10.0) -> pd.DataFrame:
+def units_question(
+    table3_path, rows_by_reading: dict, sample, temperature_C: float, micro: dict, reference_frequency_Hz: float = 10.0
+) -> pd.DataFrame:
     """One row per Table 3 reading ('Pa', 'kPa'): stiffness, time scales, resonance, agreement.
 
     Parameters
@@ -306,31 +362,48 @@ def units_question(table3_path, rows_by_reading: dict, sample, temperature_C: fl
         k_sim = float(r.iloc[0]["F0_N"] / r.iloc[0]["z0_m"]) if len(r) else math.nan
         ref = burgers_reference(table, r["temperature_C"], r["frequency_Hz"])
         rel_e = (r["E_norm_MPa"].to_numpy() - ref["E_norm_MPa_ref"].to_numpy()) / ref["E_norm_MPa_ref"].to_numpy()
-        out.append({
-            "table3_units": label, "temperature_C": temperature_C, "Em_MPa": p["Em_MPa"],
-            "Burgers_E_norm_MPa": float(e_ref), "reference_frequency_Hz": reference_frequency_Hz,
-            "gamma_per_mm": gamma, "mu_g": spec.mu_g,
-            "head_stiffness_Em_N_m": k_em, "head_stiffness_sim_N_m": k_sim,
-            "dt_e_paper_s": math.sqrt(micro["grain_mass_kg"] / km_paper),
-            "dt_e_sample_s": math.sqrt(m_med / km_sample),
-            "first_resonance_Em_Hz": first_resonance_Hz(k_em, spec),
-            "first_resonance_sim_Hz": first_resonance_Hz(k_sim, spec) if k_sim > 0 else math.nan,
-            "dt_s": ";".join(f"{v:.3g}" for v in sorted(set(r["dt_s"]))),
-            "frequencies_Hz": ";".join(f"{v:g}" for v in r["frequency_Hz"]),
-            "n_runs": len(r),
-            "mre_E_norm_pct": mre_pct(r["E_norm_MPa"], ref["E_norm_MPa_ref"]),
-            "mre_phase_pct": mre_pct(r["phase_deg"], ref["phase_deg_ref"]),
-            "mean_ratio_E_norm": float(np.mean(1 + rel_e)) if len(r) else math.nan,
-            "max_broken_bond_fraction": float((r["n_broken_total"] / r["n_bonds"]).max())
-            if {"n_broken_total", "n_bonds"} <= set(r.columns) and len(r) else math.nan,
-        })
+        out.append(
+            {
+                "table3_units": label,
+                "temperature_C": temperature_C,
+                "Em_MPa": p["Em_MPa"],
+                "Burgers_E_norm_MPa": float(e_ref),
+                "reference_frequency_Hz": reference_frequency_Hz,
+                "gamma_per_mm": gamma,
+                "mu_g": spec.mu_g,
+                "head_stiffness_Em_N_m": k_em,
+                "head_stiffness_sim_N_m": k_sim,
+                "dt_e_paper_s": math.sqrt(micro["grain_mass_kg"] / km_paper),
+                "dt_e_sample_s": math.sqrt(m_med / km_sample),
+                "first_resonance_Em_Hz": first_resonance_Hz(k_em, spec),
+                "first_resonance_sim_Hz": first_resonance_Hz(k_sim, spec) if k_sim > 0 else math.nan,
+                "dt_s": ";".join(f"{v:.3g}" for v in sorted(set(r["dt_s"]))),
+                "frequencies_Hz": ";".join(f"{v:g}" for v in r["frequency_Hz"]),
+                "n_runs": len(r),
+                "mre_E_norm_pct": mre_pct(r["E_norm_MPa"], ref["E_norm_MPa_ref"]),
+                "mre_phase_pct": mre_pct(r["phase_deg"], ref["phase_deg_ref"]),
+                "mean_ratio_E_norm": float(np.mean(1 + rel_e)) if len(r) else math.nan,
+                "max_broken_bond_fraction": float((r["n_broken_total"] / r["n_bonds"]).max())
+                if {"n_broken_total", "n_bonds"} <= set(r.columns) and len(r)
+                else math.nan,
+            }
+        )
     return pd.DataFrame(out)
 
 
 #: the paper's internal evidence on the units of Table 3 (Sections 2, 3.2): the values it states
 PAPER_EVIDENCE: dict[str, Any] = {
-    "dt_e_s": 2e-5, "dt_g_s": 2e-3, "p_Pa": 2.79e3, "d_g_m": 2.52e-3, "m_g_kg": 2.86e-5, "density_kg_m3": 3415.0,
-    "yield_stress_Pa": 2.7e6, "amplitude_m": 63e-6, "strain_max": 50e-6, "band_Hz": (3.0, 40.0)}
+    "dt_e_s": 2e-5,
+    "dt_g_s": 2e-3,
+    "p_Pa": 2.79e3,
+    "d_g_m": 2.52e-3,
+    "m_g_kg": 2.86e-5,
+    "density_kg_m3": 3415.0,
+    "yield_stress_Pa": 2.7e6,
+    "amplitude_m": 63e-6,
+    "strain_max": 50e-6,
+    "band_Hz": (3.0, 40.0),
+}
 
 
 def max_bending_strain(amplitude_m: float, specimen) -> float:
@@ -381,38 +454,84 @@ def reading_evidence(units: pd.DataFrame, mix_E_MPa: float | None = None, specim
 
     def add(evidence, paper, v_pa, v_kpa, ok_pa, ok_kpa, rule):
         supports = "both" if ok_pa and ok_kpa else "Pa" if ok_pa else "kPa" if ok_kpa else "neither"
-        out.append({"evidence": evidence, "paper": paper, "Pa": v_pa, "kPa": v_kpa, "supports": supports,
-                    "rule": rule})
+        out.append({"evidence": evidence, "paper": paper, "Pa": v_pa, "kPa": v_kpa, "supports": supports, "rule": rule})
 
     def near(x, y, factor):
         return bool(np.isfinite(x) and x > 0 and abs(math.log(x / y)) <= math.log(factor))
 
-    add("time scale dt_e = sqrt(m_g / K_m) at 15 degC, s", ev["dt_e_s"], pa["dt_e_paper_s"], kpa["dt_e_paper_s"],
-        near(pa["dt_e_paper_s"], ev["dt_e_s"], 2), near(kpa["dt_e_paper_s"], ev["dt_e_s"], 2),
-        "within a factor 2 of the paper's value")
+    add(
+        "time scale dt_e = sqrt(m_g / K_m) at 15 degC, s",
+        ev["dt_e_s"],
+        pa["dt_e_paper_s"],
+        kpa["dt_e_paper_s"],
+        near(pa["dt_e_paper_s"], ev["dt_e_s"], 2),
+        near(kpa["dt_e_paper_s"], ev["dt_e_s"], 2),
+        "within a factor 2 of the paper's value",
+    )
     dt_g = math.sqrt(ev["m_g_kg"] / (ev["p_Pa"] * ev["d_g_m"]))
-    add("time scale dt_g = sqrt(m_g / (p d_g)), s (Table 3 does not enter)", ev["dt_g_s"], dt_g, dt_g,
-        near(dt_g, ev["dt_g_s"], 2), near(dt_g, ev["dt_g_s"], 2), "within a factor 2 of the paper's value")
+    add(
+        "time scale dt_g = sqrt(m_g / (p d_g)), s (Table 3 does not enter)",
+        ev["dt_g_s"],
+        dt_g,
+        dt_g,
+        near(dt_g, ev["dt_g_s"], 2),
+        near(dt_g, ev["dt_g_s"], 2),
+        "within a factor 2 of the paper's value",
+    )
     m_g = 4.0 / 3.0 * math.pi * (ev["d_g_m"] / 2) ** 3 * ev["density_kg_m3"]
-    add("grain mass m_g of a d_g sphere at 3415 kg/m^3, kg (Table 3 does not enter)", ev["m_g_kg"], m_g, m_g,
-        near(m_g, ev["m_g_kg"], 1.1), near(m_g, ev["m_g_kg"], 1.1), "within 10 % of the paper's value")
+    add(
+        "grain mass m_g of a d_g sphere at 3415 kg/m^3, kg (Table 3 does not enter)",
+        ev["m_g_kg"],
+        m_g,
+        m_g,
+        near(m_g, ev["m_g_kg"], 1.1),
+        near(m_g, ev["m_g_kg"], 1.1),
+        "within 10 % of the paper's value",
+    )
     b_pa, b_kpa = pa["max_broken_bond_fraction"], kpa["max_broken_bond_fraction"]
-    add("bonds intact at the paper's yield stress 2.7e6 Pa in the 63 um test (broken fraction)", 0.0,
-        b_pa, b_kpa, b_pa == 0, b_kpa == 0, "no bond breaks (the paper: no damage at small amplitude)")
+    add(
+        "bonds intact at the paper's yield stress 2.7e6 Pa in the 63 um test (broken fraction)",
+        0.0,
+        b_pa,
+        b_kpa,
+        b_pa == 0,
+        b_kpa == 0,
+        "no bond breaks (the paper: no damage at small amplitude)",
+    )
     eps = max_bending_strain(ev["amplitude_m"], spec)
-    add("largest bending strain at A = 63 um (Table 3 does not enter)", ev["strain_max"], eps, eps,
-        eps < ev["strain_max"], eps < ev["strain_max"], "below the paper's 50e-6")
+    add(
+        "largest bending strain at A = 63 um (Table 3 does not enter)",
+        ev["strain_max"],
+        eps,
+        eps,
+        eps < ev["strain_max"],
+        eps < ev["strain_max"],
+        "below the paper's 50e-6",
+    )
     ref = mix_E_MPa if mix_E_MPa is not None else math.sqrt(5e3 * 30e3)
     factor = 3.0 if mix_E_MPa is not None else math.sqrt(30e3 / 5e3)
-    what = (f"the measured mix: {mix_E_MPa:.4g} MPa" if mix_E_MPa is not None else "dense mixes: 5-30 GPa")
-    add(f"|E*| at {pa['temperature_C']:g} degC, {pa['reference_frequency_Hz']:g} Hz of the Burger's model, MPa "
-        f"(a mix: {what})", ref, pa["Burgers_E_norm_MPa"], kpa["Burgers_E_norm_MPa"],
-        near(pa["Burgers_E_norm_MPa"], ref, factor), near(kpa["Burgers_E_norm_MPa"], ref, factor),
-        f"within a factor {factor:.3g} of the mix's")
+    what = f"the measured mix: {mix_E_MPa:.4g} MPa" if mix_E_MPa is not None else "dense mixes: 5-30 GPa"
+    add(
+        f"|E*| at {pa['temperature_C']:g} degC, {pa['reference_frequency_Hz']:g} Hz of the Burger's model, MPa "
+        f"(a mix: {what})",
+        ref,
+        pa["Burgers_E_norm_MPa"],
+        kpa["Burgers_E_norm_MPa"],
+        near(pa["Burgers_E_norm_MPa"], ref, factor),
+        near(kpa["Burgers_E_norm_MPa"], ref, factor),
+        f"within a factor {factor:.3g} of the mix's",
+    )
     lo, hi = ev["band_Hz"]
     r_pa, r_kpa = pa["first_resonance_sim_Hz"], kpa["first_resonance_sim_Hz"]
-    add("first resonance of sample + head (simulated head stiffness), Hz", f"none in {lo:g}-{hi:g} Hz", r_pa, r_kpa,
-        bool(r_pa > 2 * hi), bool(r_kpa > 2 * hi), f"above twice the band's top ({2 * hi:g} Hz)")
+    add(
+        "first resonance of sample + head (simulated head stiffness), Hz",
+        f"none in {lo:g}-{hi:g} Hz",
+        r_pa,
+        r_kpa,
+        bool(r_pa > 2 * hi),
+        bool(r_kpa > 2 * hi),
+        f"above twice the band's top ({2 * hi:g} Hz)",
+    )
     return pd.DataFrame(out)
 
 
@@ -442,8 +561,9 @@ def mix_modulus_at(summary: pd.DataFrame, temperature_C: float, frequency_Hz: fl
     return float(np.exp((1 - w) * values[0] + w * values[1]))
 
 
-def dt_policy_phase_table(table: pd.DataFrame, temperature_C: float, frequencies_Hz, settings,
-                          theta: float | None = None) -> pd.DataFrame:
+def dt_policy_phase_table(
+    table: pd.DataFrame, temperature_C: float, frequencies_Hz, settings, theta: float | None = None
+) -> pd.DataFrame:
     """Phase and amplitude error of the time-discrete bond law at the policy's dt for each
     frequency (:func:`asphalt_nscd.nscd.verify.phase_error_table`), beside the paper's fixed
     5e-5 s where that costs under 2e5 steps."""

@@ -53,8 +53,18 @@ METHODS = ("auto", "time_domain", "orbit")
 DT_POLICIES = ("fixed", "steps_per_cycle")
 FORCE_READINGS = ("bonds", "driver")
 #: per-step statistics stored under ``stats/``
-STAT_KEYS = ("iterations", "residual_quad", "residual_max", "converged", "n_contacts",
-             "n_active_contacts", "n_bonds", "n_broken_total", "dissipated", "linear")
+STAT_KEYS = (
+    "iterations",
+    "residual_quad",
+    "residual_max",
+    "converged",
+    "n_contacts",
+    "n_active_contacts",
+    "n_bonds",
+    "n_broken_total",
+    "dissipated",
+    "linear",
+)
 
 
 @dataclass
@@ -126,7 +136,9 @@ class TwoPBSettings:
 
     def __post_init__(self):
         if self.time_domain_steps_per_cycle is not None and not self.time_domain_steps_per_cycle >= 8:
-            raise ValueError(f"time_domain_steps_per_cycle must be >= 8 or None, got {self.time_domain_steps_per_cycle!r}")
+            raise ValueError(
+                f"time_domain_steps_per_cycle must be >= 8 or None, got {self.time_domain_steps_per_cycle!r}"
+            )
         if self.mechanisms not in periodic.MECHANISMS:
             raise ValueError(f"mechanisms must be one of {periodic.MECHANISMS}, got {self.mechanisms!r}")
         if self.method not in METHODS:
@@ -134,14 +146,14 @@ class TwoPBSettings:
         if self.start not in START_MODES:
             raise ValueError(f"start must be one of {START_MODES}, got {self.start!r}")
         if self.start == "periodic" and not (0 < self.window_cycles <= self.periodic_cycles):
-            raise ValueError(f"window_cycles must lie in (0, periodic_cycles={self.periodic_cycles}] "
-                             f"with start 'periodic', got {self.window_cycles}")
+            raise ValueError(
+                f"window_cycles must lie in (0, periodic_cycles={self.periodic_cycles}] "
+                f"with start 'periodic', got {self.window_cycles}"
+            )
         if self.head_rotation not in HEAD_ROTATIONS:
-            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
-                             f"got {self.head_rotation!r}")
+            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {self.head_rotation!r}")
         if self.bond_kinematics not in BOND_KINEMATICS:
-            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
-                             f"got {self.bond_kinematics!r}")
+            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, got {self.bond_kinematics!r}")
         if self.dt_policy not in DT_POLICIES:
             raise ValueError(f"dt_policy must be one of {DT_POLICIES}, got {self.dt_policy!r}")
         if self.force_reading not in FORCE_READINGS:
@@ -156,8 +168,13 @@ class TwoPBSettings:
 MODE_OVERRIDES = ("dt_policy", "yield_stress_Pa", "start", "linear_solver", "time_domain_steps_per_cycle")
 
 
-def mode_settings(campaign: dict, mode: str, bond_kinematics: str = "contact", linear_solver: str = "cg",
-                  linear_tolerance: float | None = None) -> dict:
+def mode_settings(
+    campaign: dict,
+    mode: str,
+    bond_kinematics: str = "contact",
+    linear_solver: str = "cg",
+    linear_tolerance: float | None = None,
+) -> dict:
     """The test settings (keys of :class:`TwoPBSettings`, JSON-serialisable) of the jobs of
     one mode of a ``campaign`` config section, as workflow/rules/campaign.smk runs them.
 
@@ -267,8 +284,7 @@ def specimen_of(sample) -> Specimen2PB:
     from ..lab.en12697 import Specimen2PB
     from ..sample.store import specimen_geometry_mm
 
-    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]),
-                       **specimen_geometry_mm(sample))
+    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **specimen_geometry_mm(sample))
 
 
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
@@ -289,26 +305,34 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
     strength = np.inf if settings.yield_stress_Pa is None else float(settings.yield_stress_Pa)
     gravity = (0.0, 0.0, -9.81) if settings.gravity else (0.0, 0.0, 0.0)
-    params = NSCDParameters(dt=dt, theta=settings.theta, gravity=gravity, friction=settings.friction,
-                            tolerance=settings.tolerance, max_iterations=settings.max_iterations,
-                            bond_kinematics=settings.bond_kinematics, linear_solver=settings.linear_solver,
-                            linear_tolerance=settings.linear_tolerance,
-                            fast_path_contacts=settings.fast_path_contacts)
-    sim = test_simulation(sample, law, motion, params, head_rotation=settings.head_rotation,
-                          nu=settings.nu, yield_stress=strength)
+    params = NSCDParameters(
+        dt=dt,
+        theta=settings.theta,
+        gravity=gravity,
+        friction=settings.friction,
+        tolerance=settings.tolerance,
+        max_iterations=settings.max_iterations,
+        bond_kinematics=settings.bond_kinematics,
+        linear_solver=settings.linear_solver,
+        linear_tolerance=settings.linear_tolerance,
+        fast_path_contacts=settings.fast_path_contacts,
+    )
+    sim = test_simulation(
+        sample, law, motion, params, head_rotation=settings.head_rotation, nu=settings.nu, yield_stress=strength
+    )
     return sim, motion
 
 
-def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings,
-               continuous: bool = False) -> dict:
+def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings, continuous: bool = False) -> dict:
     """Put a freshly built simulation in its initial state: at rest, or, with ``settings.start
     == 'periodic'``, in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`) unless that state would
     break a bond (then at rest, with a message on stderr). The ``info`` of :func:`periodic_start`."""
     return periodic_start(sim, law, frequency_Hz, settings, continuous)[0]
 
 
-def periodic_start(sim, law, frequency_Hz: float, settings: TwoPBSettings,
-                   continuous: bool = False) -> tuple[dict, "periodic.PeriodicState | None"]:
+def periodic_start(
+    sim, law, frequency_Hz: float, settings: TwoPBSettings, continuous: bool = False
+) -> tuple[dict, "periodic.PeriodicState | None"]:
     """:func:`start_test` with the periodic state it computed: (info, state; None without a
     periodic request).
 
@@ -330,21 +354,36 @@ def periodic_start(sim, law, frequency_Hz: float, settings: TwoPBSettings,
             sim.external_force = periodic.support_force(sim, settings.head_rotation, settings.nu)
         return info, None
     cpu = time.process_time()
-    state = periodic.periodic_state(sim, law, frequency_Hz, settings.amplitude_m,
-                                    head_rotation=settings.head_rotation, nu=settings.nu,
-                                    continuous=continuous, mechanisms=settings.mechanisms)
-    info.update({"solve_s": state.solve_s, "solve_cpu_s": time.process_time() - cpu,
-                 "force_ratio": state.force_ratio,
-                 "gmres_iterations": state.gmres_iterations, "laplace_real": state.laplace.real,
-                 "laplace_imag": state.laplace.imag})
+    state = periodic.periodic_state(
+        sim,
+        law,
+        frequency_Hz,
+        settings.amplitude_m,
+        head_rotation=settings.head_rotation,
+        nu=settings.nu,
+        continuous=continuous,
+        mechanisms=settings.mechanisms,
+    )
+    info.update(
+        {
+            "solve_s": state.solve_s,
+            "solve_cpu_s": time.process_time() - cpu,
+            "force_ratio": state.force_ratio,
+            "gmres_iterations": state.gmres_iterations,
+            "laplace_real": state.laplace.real,
+            "laplace_imag": state.laplace.imag,
+        }
+    )
     if state.gravity is not None:
         info["gravity"] = state.gravity.info()
         if settings.mechanisms == "supported":
             assert state.gravity.support_force is not None  # computed for supported mechanisms
             sim.external_force = state.gravity.support_force.copy()
     if state.breaks:
-        info["fallback"] = (f"the steady state would break bonds (force / strength up to "
-                            f"{state.force_ratio:.3g}): the test is not linear, started from rest")
+        info["fallback"] = (
+            f"the steady state would break bonds (force / strength up to "
+            f"{state.force_ratio:.3g}): the test is not linear, started from rest"
+        )
         print(f"periodic start: {info['fallback']}", file=sys.stderr, flush=True)
         return info, state
     periodic.apply_periodic_state(sim, state)
@@ -393,12 +432,14 @@ def choose_path(settings: TwoPBSettings, start_info: dict, certificate, verify: 
     if settings.method == "orbit":
         if not started or not certificate.holds:
             why = certificate.reason if started else f"the job starts {start_info['start']}, not periodic"
-            raise InputError(f"method orbit: the job is not certified linear ({why}); run it with method auto or "
-                             "time_domain")
+            raise InputError(
+                f"method orbit: the job is not certified linear ({why}); run it with method auto or time_domain"
+            )
         return "orbit", "method orbit, certificate holds"
     if not started:
-        return "time_domain", (f"starts {start_info['start']}"
-                               + (f" ({start_info['fallback']})" if start_info.get("fallback") else ""))
+        return "time_domain", (
+            f"starts {start_info['start']}" + (f" ({start_info['fallback']})" if start_info.get("fallback") else "")
+        )
     if not certificate.holds:
         return "time_domain", f"certificate fails: {certificate.reason}"
     return "orbit", "certificate holds: the exact periodic orbit, no time steps"
@@ -419,8 +460,12 @@ def _orbit_arrays(sim, state, rest_z: np.ndarray, n_steps: int, prof_steps, edge
     z = np.exp(1j * 2.0 * math.pi * ph["frequency_Hz"] * dt)
     vhat = state.laplace * ph["displacement"]
     bins = len(edges) - 1
-    out = {"t": sig["time_s"], "plate_fx": sig["plate_fx"], "driver_fx": sig["driver_fx"],
-           "profile_vx": np.zeros((len(prof_steps), bins))}
+    out = {
+        "t": sig["time_s"],
+        "plate_fx": sig["plate_fx"],
+        "driver_fx": sig["driver_fx"],
+        "profile_vx": np.zeros((len(prof_steps), bins)),
+    }
     for n, k in enumerate(prof_steps):  # the state after step k: y_{k+1}
         zk = z ** (k + 1)
         vx = np.real(vhat[:, 0] * zk) + (g.velocity[:, 0] if g is not None else 0.0)
@@ -429,9 +474,18 @@ def _orbit_arrays(sim, state, rest_z: np.ndarray, n_steps: int, prof_steps, edge
             hz = hz + g.displacement[:, 2] + g.velocity[:, 2] * (k + 1) * dt
         pos = np.clip(np.digitize(hz, edges) - 1, 0, bins - 1)
         out["profile_vx"][n] = np.bincount(pos, weights=vx, minlength=bins) / np.maximum(counts, 1)
-    stats = {"iterations": 0.0, "residual_quad": 0.0, "residual_max": 0.0, "converged": 1.0, "n_contacts": np.nan,
-             "n_active_contacts": 0.0, "n_bonds": float(sim.bonds.n), "n_broken_total": 0.0, "dissipated": np.nan,
-             "linear": 1.0}
+    stats = {
+        "iterations": 0.0,
+        "residual_quad": 0.0,
+        "residual_max": 0.0,
+        "converged": 1.0,
+        "n_contacts": np.nan,
+        "n_active_contacts": 0.0,
+        "n_bonds": float(sim.bonds.n),
+        "n_broken_total": 0.0,
+        "dissipated": np.nan,
+        "linear": 1.0,
+    }
     for k in STAT_KEYS:
         out[k] = np.full(n_steps, stats[k])
     return out
@@ -440,13 +494,23 @@ def _orbit_arrays(sim, state, rest_z: np.ndarray, n_steps: int, prof_steps, edge
 def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
     """Indices (0-based) of ``k`` steps evenly spread over the last period."""
     start = n_steps - steps_per_period
-    return np.unique(np.clip(np.round(start + (np.arange(k) + 1) * steps_per_period / k).astype(int) - 1,
-                             0, n_steps - 1))
+    return np.unique(
+        np.clip(np.round(start + (np.arange(k) + 1) * steps_per_period / k).astype(int) - 1, 0, n_steps - 1)
+    )
 
 
-def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, output,
-             meta: dict | None = None, progress: bool = True, stop_after: int | None = None,
-             continuous_start: bool = False, verify: bool = False):
+def run_test(
+    sample_path,
+    law,
+    frequency_Hz: float,
+    settings: TwoPBSettings,
+    output,
+    meta: dict | None = None,
+    progress: bool = True,
+    stop_after: int | None = None,
+    continuous_start: bool = False,
+    verify: bool = False,
+):
     """Run (or resume) the numerical 2PB test and write its record (HDF5) atomically.
 
     Parameters
@@ -485,10 +549,18 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     partial = output.with_name(output.name + ".partial.npz")
     for stale in (output, ckpt, partial):  # left by a writer killed outright
         remove_stale_temporaries(stale)
-    key = json.dumps({"sample": str(sample_path), "law": law.as_dict(), "f": frequency_Hz, "dt": dt,
-                      "settings": asdict(settings), "continuous_start": bool(continuous_start),
-                      "verify": bool(verify)},
-                     sort_keys=True)
+    key = json.dumps(
+        {
+            "sample": str(sample_path),
+            "law": law.as_dict(),
+            "f": frequency_Hz,
+            "dt": dt,
+            "settings": asdict(settings),
+            "continuous_start": bool(continuous_start),
+            "verify": bool(verify),
+        },
+        sort_keys=True,
+    )
     per_period = 1.0 / (frequency_Hz * dt)
     z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
     edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
@@ -502,8 +574,9 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                 motion = HeadMotion(settings.amplitude_m, frequency_Hz)
                 sim = read_checkpoint(ckpt, drivers=[None, motion])
                 start_info = json.loads(str(arrays["start_info"]))
-                print(f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True,
-                      file=sys.stderr)
+                print(
+                    f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True, file=sys.stderr
+                )
         except (InputError, OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
             # a checkpoint that cannot be read (corrupt, truncated): set aside, the job restarts
             for unreadable in (ckpt, partial):
@@ -511,53 +584,101 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
                     unreadable.replace(unreadable.with_name(unreadable.name + ".unreadable"))
             logging.getLogger("asphalt_nscd").warning(
                 "%s: the checkpoint cannot be read (%s); moved aside as *.unreadable, the job restarts from its "
-                "beginning", ckpt, str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+                "beginning",
+                ckpt,
+                str(exc).splitlines()[0] if str(exc) else type(exc).__name__,
+            )
             sim = None
     if sim is None:
-        sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(sample, law, frequency_Hz, dt, settings,
-                                                                       continuous_start)
+        sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
+            sample, law, frequency_Hz, dt, settings, continuous_start
+        )
         path, why = choose_path(settings, start_info, cert, verify)
         dt_td = time_domain_step(frequency_Hz, settings)
         if path == "time_domain" and dt_td is not None and dt_td != dt:  # stepped at its own converged dt
-            decided, spent = start_info.get("certificate"), (start_info.get("solve_s", 0.0),
-                                                             start_info.get("solve_cpu_s", 0.0))
+            decided, spent = (
+                start_info.get("certificate"),
+                (start_info.get("solve_s", 0.0), start_info.get("solve_cpu_s", 0.0)),
+            )
             dt = dt_td
-            sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(sample, law, frequency_Hz, dt, settings,
-                                                                           continuous_start)
+            sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
+                sample, law, frequency_Hz, dt, settings, continuous_start
+            )
             start_info["solve_s"] = start_info.get("solve_s", 0.0) + spent[0]  # both set-ups count
             start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + spent[1]
             if decided is not None:
                 start_info["certificate_at_policy_dt"] = decided
-            why += (f"; stepped at {settings.time_domain_steps_per_cycle} steps per cycle (dt = {dt:.4g} s, "
-                    "time_domain_steps_per_cycle)")
+            why += (
+                f"; stepped at {settings.time_domain_steps_per_cycle} steps per cycle (dt = {dt:.4g} s, "
+                "time_domain_steps_per_cycle)"
+            )
         per_period = 1.0 / (frequency_Hz * dt)
         start_info.update({"path": path, "path_reason": why})
         if path == "orbit" or (verify and cert is not None and start_info["start"] == "periodic"):
             cpu = time.process_time()
             prof = _profile_steps(n_steps, per_period, settings.profile_instants)
             zbin0 = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
-            orbit_arrays = _orbit_arrays(sim, state, rest_z, n_steps, prof, edges,
-                                         np.bincount(zbin0, minlength=settings.profile_bins))
+            orbit_arrays = _orbit_arrays(
+                sim, state, rest_z, n_steps, prof, edges, np.bincount(zbin0, minlength=settings.profile_bins)
+            )
             start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
             if verify:
-                rec = _record(orbit_arrays, motion, sample, specimen, settings, dt, n_steps, sim, law, sample_path,
-                              meta, {**start_info, "path": "orbit"}, 0.0, 0.0, frequency_Hz)
+                rec = _record(
+                    orbit_arrays,
+                    motion,
+                    sample,
+                    specimen,
+                    settings,
+                    dt,
+                    n_steps,
+                    sim,
+                    law,
+                    sample_path,
+                    meta,
+                    {**start_info, "path": "orbit"},
+                    0.0,
+                    0.0,
+                    frequency_Hz,
+                )
                 red = reduce_test(rec, settings.window_cycles)
                 assert cert is not None  # a verification job comes here only with a certificate
-                start_info["orbit"] = {"E_norm_MPa": red["E_norm_MPa"], "phase_deg": red["phase_deg"],
-                                       "certified": bool(cert.holds)}
+                start_info["orbit"] = {
+                    "E_norm_MPa": red["E_norm_MPa"],
+                    "phase_deg": red["phase_deg"],
+                    "certified": bool(cert.holds),
+                }
         if path == "orbit":
             wall = start_info.get("solve_s", 0.0) + (cert.seconds if cert else 0.0)
-            record = _record(orbit_arrays, motion, sample, specimen, settings, dt, n_steps, sim, law, sample_path,
-                             meta, start_info, wall, start_info.get("solve_cpu_s", 0.0), frequency_Hz)
+            record = _record(
+                orbit_arrays,
+                motion,
+                sample,
+                specimen,
+                settings,
+                dt,
+                n_steps,
+                sim,
+                law,
+                sample_path,
+                meta,
+                start_info,
+                wall,
+                start_info.get("solve_cpu_s", 0.0),
+                frequency_Hz,
+            )
             write_record(record, output)
             return record
-        arrays = {"t": np.zeros(n_steps), "plate_fx": np.zeros(n_steps), "driver_fx": np.zeros(n_steps),
-                  "profile_vx": np.zeros((len(_profile_steps(n_steps, per_period, settings.profile_instants)),
-                                          settings.profile_bins)),
-                  "wall": np.array([start_info.get("solve_s", 0.0)]),
-                  "cpu": np.array([start_info.get("solve_cpu_s", 0.0)]),
-                  "start_info": np.array(json.dumps(start_info))}
+        arrays = {
+            "t": np.zeros(n_steps),
+            "plate_fx": np.zeros(n_steps),
+            "driver_fx": np.zeros(n_steps),
+            "profile_vx": np.zeros(
+                (len(_profile_steps(n_steps, per_period, settings.profile_instants)), settings.profile_bins)
+            ),
+            "wall": np.array([start_info.get("solve_s", 0.0)]),
+            "cpu": np.array([start_info.get("solve_cpu_s", 0.0)]),
+            "start_info": np.array(json.dumps(start_info)),
+        }
         for name in STAT_KEYS:
             arrays[name] = np.zeros(n_steps)
     n_steps = len(arrays["t"])
@@ -570,8 +691,14 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
 
     from tqdm import tqdm
 
-    bar = tqdm(total=n_steps, initial=sim.step_index, disable=not progress, mininterval=5.0,
-               desc=f"2PB f={frequency_Hz:g} Hz dt={dt:.3g} s", unit="step")
+    bar = tqdm(
+        total=n_steps,
+        initial=sim.step_index,
+        disable=not progress,
+        mininterval=5.0,
+        desc=f"2PB f={frequency_Hz:g} Hz dt={dt:.3g} s",
+        unit="step",
+    )
     tic, cpu_tic = time.perf_counter(), time.process_time()
     wall0, cpu0 = float(arrays["wall"][0]), float(arrays["cpu"][0])
     start = sim.step_index
@@ -603,16 +730,46 @@ def run_test(sample_path, law, frequency_Hz: float, settings: TwoPBSettings, out
     bar.close()
     wall = wall0 + time.perf_counter() - tic
     cpu = cpu0 + time.process_time() - cpu_tic
-    record = _record(arrays, motion, sample, specimen, settings, dt, n_steps, sim, law, sample_path, meta,
-                     start_info, wall, cpu, frequency_Hz)
+    record = _record(
+        arrays,
+        motion,
+        sample,
+        specimen,
+        settings,
+        dt,
+        n_steps,
+        sim,
+        law,
+        sample_path,
+        meta,
+        start_info,
+        wall,
+        cpu,
+        frequency_Hz,
+    )
     write_record(record, output)
     ckpt.unlink(missing_ok=True)
     partial.unlink(missing_ok=True)
     return record
 
 
-def _record(arrays: dict, motion, sample, specimen, settings: TwoPBSettings, dt: float, n_steps: int, sim, law,
-            sample_path, meta, start_info: dict, wall: float, cpu: float, frequency_Hz: float) -> dict:
+def _record(
+    arrays: dict,
+    motion,
+    sample,
+    specimen,
+    settings: TwoPBSettings,
+    dt: float,
+    n_steps: int,
+    sim,
+    law,
+    sample_path,
+    meta,
+    start_info: dict,
+    wall: float,
+    cpu: float,
+    frequency_Hz: float,
+) -> dict:
     """The record of :func:`run_test` from its per-step ``arrays`` (``t, plate_fx, driver_fx,
     profile_vx`` and :data:`STAT_KEYS`), stepped in time or sampled on the orbit."""
     t = arrays["t"]
@@ -625,23 +782,41 @@ def _record(arrays: dict, motion, sample, specimen, settings: TwoPBSettings, dt:
     counts = np.bincount(zbin, minlength=settings.profile_bins)
     prof_steps = _profile_steps(n_steps, 1.0 / (frequency_Hz * dt), settings.profile_instants)
     record = {
-        "time_s": t, "displacement_m": x, "force_bonds_N": force_bonds,
+        "time_s": t,
+        "displacement_m": x,
+        "force_bonds_N": force_bonds,
         "force_driver_N": np.asarray(arrays["driver_fx"]).copy(),
         "stats": {k: arrays[k] for k in STAT_KEYS},
-        "profile": {"time_s": t[prof_steps], "z_m": 0.5 * (edges[1:] + edges[:-1]),
-                    "vx_m_s": arrays["profile_vx"], "count": counts},
-        "attrs": {**(meta or {}), "frequency_Hz": float(frequency_Hz), "dt_s": dt,
-                  "n_steps": n_steps, "n_spheres": int(sim.spheres.n), "n_bonds": int(len(sim.bonds.i)),
-                  "n_mechanisms_dropped": int(sample.radius.size - sim.spheres.n),
-                  "wall_time_s": wall, "cpu_time_s": cpu,
-                  "cpu_per_sphere_step_s": cpu / (n_steps * sim.spheres.n),
-                  "law": json.dumps(law.as_dict()), "settings": json.dumps(asdict(settings)),
-                  "specimen": json.dumps(specimen.as_dict()), "sample_file": str(sample_path),
-                  "head_mass_kg": m_head, "amplitude_m": settings.amplitude_m,
-                  "start": start_info["start"], "start_requested": settings.start,
-                  "n_cycles_simulated": cycles_of(settings, start_info["start"]),
-                  "path": start_info.get("path", "time_domain"), "path_reason": start_info.get("path_reason", ""),
-                  "start_info": json.dumps(start_info)},
+        "profile": {
+            "time_s": t[prof_steps],
+            "z_m": 0.5 * (edges[1:] + edges[:-1]),
+            "vx_m_s": arrays["profile_vx"],
+            "count": counts,
+        },
+        "attrs": {
+            **(meta or {}),
+            "frequency_Hz": float(frequency_Hz),
+            "dt_s": dt,
+            "n_steps": n_steps,
+            "n_spheres": int(sim.spheres.n),
+            "n_bonds": int(len(sim.bonds.i)),
+            "n_mechanisms_dropped": int(sample.radius.size - sim.spheres.n),
+            "wall_time_s": wall,
+            "cpu_time_s": cpu,
+            "cpu_per_sphere_step_s": cpu / (n_steps * sim.spheres.n),
+            "law": json.dumps(law.as_dict()),
+            "settings": json.dumps(asdict(settings)),
+            "specimen": json.dumps(specimen.as_dict()),
+            "sample_file": str(sample_path),
+            "head_mass_kg": m_head,
+            "amplitude_m": settings.amplitude_m,
+            "start": start_info["start"],
+            "start_requested": settings.start,
+            "n_cycles_simulated": cycles_of(settings, start_info["start"]),
+            "path": start_info.get("path", "time_domain"),
+            "path_reason": start_info.get("path_reason", ""),
+            "start_info": json.dumps(start_info),
+        },
     }
     record["force_N"] = record[f"force_{settings.force_reading}_N"]
     return record
@@ -696,8 +871,9 @@ def truncate_record(record: dict, end_cycle: float) -> dict:
     n = int(math.ceil(end_cycle / (float(a["frequency_Hz"]) * float(a["dt_s"])) - 1e-9))
     if n > len(record["time_s"]):
         raise ValueError(f"record of {len(record['time_s'])} steps is shorter than {end_cycle} cycles ({n} steps)")
-    out: dict[str, Any] = {k: np.asarray(record[k])[:n]
-                           for k in ("time_s", "displacement_m", "force_N", "force_bonds_N", "force_driver_N")}
+    out: dict[str, Any] = {
+        k: np.asarray(record[k])[:n] for k in ("time_s", "displacement_m", "force_N", "force_bonds_N", "force_driver_N")
+    }
     out["stats"] = {k: np.asarray(v)[:n] for k, v in record["stats"].items()}
     out["profile"] = record["profile"]
     out["attrs"] = {**a, "n_steps": n}
@@ -725,31 +901,46 @@ def reduce_test(record: dict, window_cycles: float, force_reading: str | None = 
     spec = Specimen2PB(**json.loads(a["specimen"]))
     f = float(a["frequency_Hz"])
     args: dict[str, Any] = dict(specimen=spec, frequency_Hz=f, window_cycles=window_cycles)
-    row = {k: a[k] for k in ("mode", "sample", "temperature_C", "variant", "parameter", "factor",
-                             "table3_units") if k in a}
+    row = {
+        k: a[k] for k in ("mode", "sample", "temperature_C", "variant", "parameter", "factor", "table3_units") if k in a
+    }
     row.update(reduce_record(record["time_s"], record["displacement_m"], record[f"force_{reading}_N"], **args))
     alt = reduce_record(record["time_s"], record["displacement_m"], record[f"force_{other}_N"], **args)
     s = record["stats"]
-    row.update({"start": a.get("start", "rest"),
-                "n_cycles_simulated": float(a.get("n_cycles_simulated", settings["n_cycles"])),
-                "iterations_mean": float(np.mean(record["stats"]["iterations"])),
-                "force_reading": reading, "E_norm_MPa_other_reading": alt["E_norm_MPa"],
-                "phase_deg_other_reading": alt["phase_deg"], "dt_s": float(a["dt_s"]),
-                "n_steps": int(a["n_steps"]), "n_spheres": int(a["n_spheres"]), "n_bonds": int(a["n_bonds"]),
-                "wall_time_s": float(a["wall_time_s"]), "cpu_time_s": float(a["cpu_time_s"]),
-                "cpu_per_sphere_step_s": float(a["cpu_per_sphere_step_s"]),
-                "n_nlgs_steps": int((s["linear"] == 0).sum()),
-                "n_contact_steps": int((np.nan_to_num(s["n_active_contacts"]) > 0).sum()),
-                "n_not_converged": int((s["converged"] == 0).sum()),
-                "max_iterations_used": int(s["iterations"].max()),
-                "n_broken_total": int(s["n_broken_total"][-1])})
+    row.update(
+        {
+            "start": a.get("start", "rest"),
+            "n_cycles_simulated": float(a.get("n_cycles_simulated", settings["n_cycles"])),
+            "iterations_mean": float(np.mean(record["stats"]["iterations"])),
+            "force_reading": reading,
+            "E_norm_MPa_other_reading": alt["E_norm_MPa"],
+            "phase_deg_other_reading": alt["phase_deg"],
+            "dt_s": float(a["dt_s"]),
+            "n_steps": int(a["n_steps"]),
+            "n_spheres": int(a["n_spheres"]),
+            "n_bonds": int(a["n_bonds"]),
+            "wall_time_s": float(a["wall_time_s"]),
+            "cpu_time_s": float(a["cpu_time_s"]),
+            "cpu_per_sphere_step_s": float(a["cpu_per_sphere_step_s"]),
+            "n_nlgs_steps": int((s["linear"] == 0).sum()),
+            "n_contact_steps": int((np.nan_to_num(s["n_active_contacts"]) > 0).sum()),
+            "n_not_converged": int((s["converged"] == 0).sum()),
+            "max_iterations_used": int(s["iterations"].max()),
+            "n_broken_total": int(s["n_broken_total"][-1]),
+        }
+    )
     info = json.loads(a.get("start_info", "{}") or "{}")
     row.update({"path": a.get("path", "time_domain"), "path_reason": a.get("path_reason", "")})
     row.update(info.get("certificate") or {})
     orbit = info.get("orbit")
     row["verification"] = orbit is not None
     if orbit is not None:
-        row.update({"E_norm_MPa_orbit": orbit["E_norm_MPa"], "phase_deg_orbit": orbit["phase_deg"],
-                    "orbit_vs_time_domain_E_pct": 100.0 * (orbit["E_norm_MPa"] / row["E_norm_MPa"] - 1.0),
-                    "orbit_vs_time_domain_phase_deg": orbit["phase_deg"] - row["phase_deg"]})
+        row.update(
+            {
+                "E_norm_MPa_orbit": orbit["E_norm_MPa"],
+                "phase_deg_orbit": orbit["phase_deg"],
+                "orbit_vs_time_domain_E_pct": 100.0 * (orbit["E_norm_MPa"] / row["E_norm_MPa"] - 1.0),
+                "orbit_vs_time_domain_phase_deg": orbit["phase_deg"] - row["phase_deg"],
+            }
+        )
     return row

@@ -74,24 +74,39 @@ EFFECT_SIZES = {
     "temperature_drift": {"drift_C_per_test": 1.0},
 }
 #: schedules on which an artifact is planted (default: every schedule)
-PLANTED_SCHEDULES = {"inertia_uncorrected": ("paper_2pb",),
-                     "temperature_offset": ("paper_2pb", "aashto_t342"),
-                     "temperature_drift": ("paper_2pb", "aashto_t342")}
+PLANTED_SCHEDULES = {
+    "inertia_uncorrected": ("paper_2pb",),
+    "temperature_offset": ("paper_2pb", "aashto_t342"),
+    "temperature_drift": ("paper_2pb", "aashto_t342"),
+}
 GOALS = {"detection_rate": 0.95, "false_alarm_rate": 0.05}
 KINDS = ("clean",) + ARTIFACTS
 #: designs of the benchmark tables (module docstring); None: drawn per table
 CONFIGURATIONS: dict[str, dict[str, Any] | None] = {
     "random": None,
-    "shipped": {"schedule": "aashto_t342", "n_specimens": 3, "test_order": False, "order": "standard",
-                "strain": False, "test": {"test": "uniaxial_cylinder", "diameter_mm": None, "height_mm": None}},
-    "paper": {"schedule": "paper_2pb", "n_specimens": 4, "test_order": True, "order": "repeat", "strain": True,
-              "test": None},
+    "shipped": {
+        "schedule": "aashto_t342",
+        "n_specimens": 3,
+        "test_order": False,
+        "order": "standard",
+        "strain": False,
+        "test": {"test": "uniaxial_cylinder", "diameter_mm": None, "height_mm": None},
+    },
+    "paper": {
+        "schedule": "paper_2pb",
+        "n_specimens": 4,
+        "test_order": True,
+        "order": "repeat",
+        "strain": True,
+        "test": None,
+    },
 }
 #: sizes of the power curves (key of the planted magnitude: values)
 POWER_SIZES: dict[str, tuple[str, tuple[float, ...]]] = {
     "temperature_offset": ("offset_C", (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)),
     "time_lag": ("time_lag_ms", (0.05, 0.1, 0.2, 0.3, 0.5)),
-    "inertia_uncorrected": ("E_deficit_pct", (1.0, 2.0, 3.0, 5.0, 8.0))}
+    "inertia_uncorrected": ("E_deficit_pct", (1.0, 2.0, 3.0, 5.0, 8.0)),
+}
 
 
 def plantable(kind: str, configuration: dict | None) -> bool:
@@ -102,7 +117,9 @@ def plantable(kind: str, configuration: dict | None) -> bool:
         return False
     if kind == "strain_nonlinearity" and not configuration["strain"]:
         return False
-    if kind == "inertia_uncorrected" and (configuration["test"] is not None or configuration["schedule"] != "paper_2pb"):
+    if kind == "inertia_uncorrected" and (
+        configuration["test"] is not None or configuration["schedule"] != "paper_2pb"
+    ):
         return False
     if kind == "temperature_offset" and len(synthetic.SCHEDULES[configuration["schedule"]][0]) < 4:
         return False
@@ -127,8 +144,15 @@ def planted_magnitude(kind: str, rng: np.random.Generator, schedule: str, scale:
     return out
 
 
-def plan(base_seed: int, families, n_clean: int, n_planted: int, scale: float = 1.0,
-         configuration: str = "random", power: int = 0) -> list:
+def plan(
+    base_seed: int,
+    families,
+    n_clean: int,
+    n_planted: int,
+    scale: float = 1.0,
+    configuration: str = "random",
+    power: int = 0,
+) -> list:
     """Cases of a benchmark run: dicts ``family, kind, index, seed, schedule, effects,
     magnitudes, test_order, configuration`` (and ``power_size`` for a power-curve case, kind
     ``power:<artifact>``).
@@ -140,12 +164,27 @@ def plan(base_seed: int, families, n_clean: int, n_planted: int, scale: float = 
     cases = []
 
     def case(fam, kind, i, seed, rng, effects, mags):
-        schedule = conf["schedule"] if conf else str(rng.choice(PLANTED_SCHEDULES.get(
-            effects[0] if effects else "clean", tuple(sorted(synthetic.SCHEDULES)))))
+        schedule = (
+            conf["schedule"]
+            if conf
+            else str(
+                rng.choice(
+                    PLANTED_SCHEDULES.get(effects[0] if effects else "clean", tuple(sorted(synthetic.SCHEDULES)))
+                )
+            )
+        )
         mags = {k: (v(schedule) if callable(v) else v) for k, v in mags.items()}
-        return {"family": fam, "kind": kind, "index": i, "seed": seed, "schedule": schedule, "effects": effects,
-                "magnitudes": mags, "test_order": conf["test_order"] if conf else True,
-                "configuration": configuration}
+        return {
+            "family": fam,
+            "kind": kind,
+            "index": i,
+            "seed": seed,
+            "schedule": schedule,
+            "effects": effects,
+            "magnitudes": mags,
+            "test_order": conf["test_order"] if conf else True,
+            "configuration": configuration,
+        }
 
     for fam in families:
         for kind in KINDS:
@@ -156,8 +195,9 @@ def plan(base_seed: int, families, n_clean: int, n_planted: int, scale: float = 
                 seed = case_seed(base_seed, fam, kind, i)
                 rng = np.random.default_rng([seed, 2])
                 effects = [] if kind == "clean" else [kind]
-                mags = {} if kind == "clean" else {
-                    kind: (lambda sch, k=kind, r=rng: planted_magnitude(k, r, sch, scale))}
+                mags = (
+                    {} if kind == "clean" else {kind: (lambda sch, k=kind, r=rng: planted_magnitude(k, r, sch, scale))}
+                )
                 cases.append(case(fam, kind, i, seed, rng, effects, mags))
     for name, (key, sizes) in POWER_SIZES.items():
         if power <= 0 or not plantable(name, conf) or (conf is None and name == "inertia_uncorrected"):
@@ -190,7 +230,10 @@ def estimate_ok(name: str, entry: dict, truth: dict, tolerance: float, n_se: flo
     est = entry["estimate"].get(key)
     if est is None:
         return False
-    if name == "temperature_offset" and entry["estimate"].get("temperature_C") != truth["effects"][name]["temperature_C"]:
+    if (
+        name == "temperature_offset"
+        and entry["estimate"].get("temperature_C") != truth["effects"][name]["temperature_C"]
+    ):
         return False
     se = entry["estimate"].get(key + "_se") or 0.0
     return abs(est - true) <= max(tolerance * abs(true), n_se * se)
@@ -203,11 +246,16 @@ def case_table(case: dict) -> tuple:
     from ..lab.geometry import from_dict
 
     conf = CONFIGURATIONS.get(case.get("configuration", "random"))
-    table, truth = synthetic.generate(case["seed"], case["effects"], schedule=case["schedule"],
-                                      magnitudes=case["magnitudes"], family=case["family"],
-                                      test_order=case.get("test_order", True),
-                                      n_specimens=None if conf is None else conf["n_specimens"],
-                                      order="random" if conf is None else conf["order"])
+    table, truth = synthetic.generate(
+        case["seed"],
+        case["effects"],
+        schedule=case["schedule"],
+        magnitudes=case["magnitudes"],
+        family=case["family"],
+        test_order=case.get("test_order", True),
+        n_specimens=None if conf is None else conf["n_specimens"],
+        order="random" if conf is None else conf["order"],
+    )
     if conf is not None and not conf["strain"]:
         table = table.drop(columns="strain_microstrain")
     test = truth["test"] if conf is None or conf["test"] is None else conf["test"]
@@ -225,16 +273,28 @@ def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
         search.consistent_correction(result)  # the report's consistency check of an offset
     entries = {e["name"]: e for e in effect_entries(search, result)}
     out = {k: case[k] for k in ("family", "kind", "index", "seed", "schedule")}
-    out.update({"configuration": case.get("configuration", "random"), "power_size": case.get("power_size"),
-                "min_p": float(result["min_p"]), "level": float(result["level"]),
-                "not_identifiable": [n for n, v in result["identified"].items() if not v.get("identifiable", True)]})
-    out.update({"n_specimens": truth["n_specimens"], "planted": list(case["effects"]),
-                "detected": [n for n in ARTIFACTS if entries[n]["detected"]],
-                "testable": [n for n in ARTIFACTS if entries[n]["testable"] and entries[n]["identifiable"]],
-                "cpu_seconds": time.process_time() - t0,
-                "p_values": {n: entries[n]["p_value"] for n in ARTIFACTS},
-                "sizes": {n: entries[n]["estimate"].get("size") for n in ARTIFACTS},
-                "screening_chi2_per_dof": search.chi2_per_dof(result["base"]), "estimate_ok": {}})
+    out.update(
+        {
+            "configuration": case.get("configuration", "random"),
+            "power_size": case.get("power_size"),
+            "min_p": float(result["min_p"]),
+            "level": float(result["level"]),
+            "not_identifiable": [n for n, v in result["identified"].items() if not v.get("identifiable", True)],
+        }
+    )
+    out.update(
+        {
+            "n_specimens": truth["n_specimens"],
+            "planted": list(case["effects"]),
+            "detected": [n for n in ARTIFACTS if entries[n]["detected"]],
+            "testable": [n for n in ARTIFACTS if entries[n]["testable"] and entries[n]["identifiable"]],
+            "cpu_seconds": time.process_time() - t0,
+            "p_values": {n: entries[n]["p_value"] for n in ARTIFACTS},
+            "sizes": {n: entries[n]["estimate"].get("size") for n in ARTIFACTS},
+            "screening_chi2_per_dof": search.chi2_per_dof(result["base"]),
+            "estimate_ok": {},
+        }
+    )
     for name in case["effects"]:
         e = entries[name]
         out["estimate_ok"][name] = bool(e["detected"] and estimate_ok(name, e, truth, tolerance))
@@ -263,10 +323,15 @@ def family_wise(runs: list, families) -> dict:
             cal = _rate(sum(bool(r["detected_calibrated"]) for r in clean), len(clean))
             cal["ok"] = cal["ci95"][1] <= GOALS["false_alarm_rate"]
             out[fam]["false_alarm_any_calibrated"] = cal
-        out[fam].update({
-                    "screening_chi2_per_dof": {"median": float(np.median(chi)) if chi.size else None,
-                                               "p99": float(np.percentile(chi, 99)) if chi.size else None,
-                                               "max": float(chi.max()) if chi.size else None}})
+        out[fam].update(
+            {
+                "screening_chi2_per_dof": {
+                    "median": float(np.median(chi)) if chi.size else None,
+                    "p99": float(np.percentile(chi, 99)) if chi.size else None,
+                    "max": float(chi.max()) if chi.size else None,
+                }
+            }
+        )
     return out
 
 
@@ -277,8 +342,11 @@ def _calibrated_level(args) -> dict:
     table, _, test = case_table(case)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         cal = calibrate(table, alpha=alpha, test=test, n_tables=n_tables, seed=case["seed"])
-    return {"level": cal["artifacts"]["level"], "calibrated_level": cal["artifacts"]["calibrated_level"],
-            "cpu_seconds": cal["cpu_seconds"]}
+    return {
+        "level": cal["artifacts"]["level"],
+        "calibrated_level": cal["artifacts"]["calibrated_level"],
+        "cpu_seconds": cal["cpu_seconds"],
+    }
 
 
 def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
@@ -294,9 +362,18 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
 
     Raises ValueError when a run's table cannot be regenerated from the result's plan."""
     runs = result["runs"]
-    cases = {(c["family"], c["kind"], c["index"]): c
-             for c in plan(result["base_seed"], result["families"], result["n_clean_per_family"], 0,
-                           result["effect_scale"], result["configuration"], 0)}
+    cases = {
+        (c["family"], c["kind"], c["index"]): c
+        for c in plan(
+            result["base_seed"],
+            result["families"],
+            result["n_clean_per_family"],
+            0,
+            result["effect_scale"],
+            result["configuration"],
+            0,
+        )
+    }
     todo = []
     for r in runs:
         if r["kind"] != "clean":
@@ -305,8 +382,10 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
         if r["detected"]:
             case = cases.get((r["family"], r["kind"], r["index"]))
             if case is None or case["seed"] != r["seed"]:
-                raise ValueError(f"clean table {r['family']} #{r['index']}: not in the result's plan (base seed "
-                                 f"{result['base_seed']}); was the result produced by another version?")
+                raise ValueError(
+                    f"clean table {r['family']} #{r['index']}: not in the result's plan (base seed "
+                    f"{result['base_seed']}); was the result produced by another version?"
+                )
             todo.append((r, case))
     outs = _map_cases(_calibrated_level, [(c, result["alpha"], int(n_tables)) for _, c in todo], jobs)
     for (r, _), out in zip(todo, outs):
@@ -362,10 +441,14 @@ def power_curves(runs: list) -> dict:
         rows: list[dict[str, Any]] = []
         for size in sizes:
             at = [r for r in rs if r["power_size"] == size]
-            rows.append({"size": size, "size_key": key,
-                         "detection": _rate(sum(name in r["detected"] for r in at), len(at)),
-                         "estimate_within_tolerance": _rate(sum(r["estimate_ok"].get(name, False) for r in at),
-                                                            len(at))})
+            rows.append(
+                {
+                    "size": size,
+                    "size_key": key,
+                    "detection": _rate(sum(name in r["detected"] for r in at), len(at)),
+                    "estimate_within_tolerance": _rate(sum(r["estimate_ok"].get(name, False) for r in at), len(at)),
+                }
+            )
         ok = [r["size"] for r in rows if r["detection"]["rate"] is not None and r["detection"]["rate"] >= 0.95]
         out[name] = {"size_key": key, "curve": rows, "size_95": min(ok) if ok else None}
     return out
@@ -388,8 +471,9 @@ def summarize(runs: list, families) -> dict:
                 "false_alarm": _rate(sum(name in r["detected"] for r in clean), len(clean)),
                 "cross_talk": _rate(sum(name in r["detected"] for r in other), len(other)),
                 "detection": _rate(sum(name in r["detected"] for r in planted), len(planted)),
-                "estimate_within_tolerance": _rate(sum(r["estimate_ok"].get(name, False) for r in planted),
-                                                   len(planted)),
+                "estimate_within_tolerance": _rate(
+                    sum(r["estimate_ok"].get(name, False) for r in planted), len(planted)
+                ),
             }
     return out
 
@@ -403,17 +487,29 @@ def goals_met(summary: dict) -> dict:
         fa = [per[f]["false_alarm"]["rate"] for f in fams if per[f]["false_alarm"]["n"]]
         hi = [per[f]["false_alarm"]["ci95"][1] for f in fams if per[f]["false_alarm"]["n"]]
         det = per["all"]["detection"]["rate"]
-        out[name] = {"false_alarm_max_over_families": max(fa) if fa else None,
-                     "false_alarm_upper_max_over_families": max(hi) if hi else None,
-                     "false_alarm_ok": bool(hi) and max(hi) <= GOALS["false_alarm_rate"],
-                     "detection_pooled": det,
-                     "detection_ok": det is not None and det >= GOALS["detection_rate"]}
+        out[name] = {
+            "false_alarm_max_over_families": max(fa) if fa else None,
+            "false_alarm_upper_max_over_families": max(hi) if hi else None,
+            "false_alarm_ok": bool(hi) and max(hi) <= GOALS["false_alarm_rate"],
+            "detection_pooled": det,
+            "detection_ok": det is not None and det >= GOALS["detection_rate"],
+        }
     return out
 
 
-def run_bench(n_clean: int, n_planted: int, base_seed: int | None = None, families=synthetic.FAMILIES,
-              alpha: float = 1e-3, effect_scale: float = 1.0, tolerance: float = 0.25, jobs: int = 1,
-              configuration: str = "random", power: int = 0, calibration_tables: int = 0) -> dict:
+def run_bench(
+    n_clean: int,
+    n_planted: int,
+    base_seed: int | None = None,
+    families=synthetic.FAMILIES,
+    alpha: float = 1e-3,
+    effect_scale: float = 1.0,
+    tolerance: float = 0.25,
+    jobs: int = 1,
+    configuration: str = "random",
+    power: int = 0,
+    calibration_tables: int = 0,
+) -> dict:
     """Run the benchmark (module docstring) and return its JSON-ready summary.
 
     Parameters
@@ -466,18 +562,32 @@ def run_bench(n_clean: int, n_planted: int, base_seed: int | None = None, famili
         runs = [run_case(c, alpha, tolerance) for c in cases]
     summary = summarize(runs, families)
     fw = family_wise(runs, families)
-    result = {"base_seed": base_seed, "configuration": configuration,
-            "design": CONFIGURATIONS[configuration], "family_wise": fw,
-            "family_wise_ok": {f: bool(v["false_alarm_any"]["ok"]) for f, v in fw.items()},
-            "level_for_goal": level_for_goal(runs, families), "power_curves": power_curves(runs),
-            "power_tables_per_size": power, "families": families, "n_clean_per_family": n_clean,
-            "n_planted_per_family_and_artifact": n_planted, "alpha": alpha,
-            "effect_sizes": {k: {kk: vv * effect_scale for kk, vv in v.items()} for k, v in EFFECT_SIZES.items()},
-            "effect_scale": effect_scale, "planted_schedules": PLANTED_SCHEDULES,
-            "schedules": sorted(synthetic.SCHEDULES), "tolerance": tolerance, "goals": GOALS,
-            "summary": summary, "goals_met": goals_met(summary),
-            "seconds_per_table_wall": (time.perf_counter() - t0) / len(cases),
-            "cpu_seconds_main_process": time.process_time() - c0, "n_tables": len(cases), "runs": runs}
+    result = {
+        "base_seed": base_seed,
+        "configuration": configuration,
+        "design": CONFIGURATIONS[configuration],
+        "family_wise": fw,
+        "family_wise_ok": {f: bool(v["false_alarm_any"]["ok"]) for f, v in fw.items()},
+        "level_for_goal": level_for_goal(runs, families),
+        "power_curves": power_curves(runs),
+        "power_tables_per_size": power,
+        "families": families,
+        "n_clean_per_family": n_clean,
+        "n_planted_per_family_and_artifact": n_planted,
+        "alpha": alpha,
+        "effect_sizes": {k: {kk: vv * effect_scale for kk, vv in v.items()} for k, v in EFFECT_SIZES.items()},
+        "effect_scale": effect_scale,
+        "planted_schedules": PLANTED_SCHEDULES,
+        "schedules": sorted(synthetic.SCHEDULES),
+        "tolerance": tolerance,
+        "goals": GOALS,
+        "summary": summary,
+        "goals_met": goals_met(summary),
+        "seconds_per_table_wall": (time.perf_counter() - t0) / len(cases),
+        "cpu_seconds_main_process": time.process_time() - c0,
+        "n_tables": len(cases),
+        "runs": runs,
+    }
     if calibration_tables:
         calibrate_alarms(result, calibration_tables, jobs)
     return result
@@ -492,27 +602,61 @@ def bench_table(result: dict) -> pd.DataFrame:
     conf = result.get("configuration", "random")
     for fam, v in result["family_wise"].items():
         fa = v["false_alarm_any"]
-        rows.append({"configuration": conf, "artifact": "any", "family": fam, "effect_size": "",
-                     "n_clean": fa["n"], "false_alarms": fa["k"], "false_alarm_rate": fa["rate"],
-                     "false_alarm_ci_low": fa["ci95"][0], "false_alarm_ci_high": fa["ci95"][1]})
+        rows.append(
+            {
+                "configuration": conf,
+                "artifact": "any",
+                "family": fam,
+                "effect_size": "",
+                "n_clean": fa["n"],
+                "false_alarms": fa["k"],
+                "false_alarm_rate": fa["rate"],
+                "false_alarm_ci_low": fa["ci95"][0],
+                "false_alarm_ci_high": fa["ci95"][1],
+            }
+        )
         if "false_alarm_any_calibrated" in v:
             fa = v["false_alarm_any_calibrated"]
-            rows.append({"configuration": conf, "artifact": "any, calibrated on the table",
-                         "family": fam, "effect_size": "", "n_clean": fa["n"], "false_alarms": fa["k"],
-                         "false_alarm_rate": fa["rate"], "false_alarm_ci_low": fa["ci95"][0],
-                         "false_alarm_ci_high": fa["ci95"][1]})
+            rows.append(
+                {
+                    "configuration": conf,
+                    "artifact": "any, calibrated on the table",
+                    "family": fam,
+                    "effect_size": "",
+                    "n_clean": fa["n"],
+                    "false_alarms": fa["k"],
+                    "false_alarm_rate": fa["rate"],
+                    "false_alarm_ci_low": fa["ci95"][0],
+                    "false_alarm_ci_high": fa["ci95"][1],
+                }
+            )
     for name, per in result["summary"].items():
         size = "; ".join(f"{k} = {v:g}" for k, v in result["effect_sizes"][name].items())
         for fam, r in per.items():
             d, fa, x = r["detection"], r["false_alarm"], r["cross_talk"]
             if d["n"] == 0 and fa["n"] == 0:
                 continue  # not testable in this configuration
-            rows.append({"configuration": conf, "artifact": name, "family": fam, "effect_size": size,
-                         "n_planted": d["n"], "detected": d["k"], "detection_rate": d["rate"],
-                         "detection_ci_low": d["ci95"][0], "detection_ci_high": d["ci95"][1],
-                         "n_clean": fa["n"], "false_alarms": fa["k"], "false_alarm_rate": fa["rate"],
-                         "false_alarm_ci_low": fa["ci95"][0], "false_alarm_ci_high": fa["ci95"][1],
-                         "n_other_planted": x["n"], "cross_talk": x["k"], "cross_talk_rate": x["rate"]})
+            rows.append(
+                {
+                    "configuration": conf,
+                    "artifact": name,
+                    "family": fam,
+                    "effect_size": size,
+                    "n_planted": d["n"],
+                    "detected": d["k"],
+                    "detection_rate": d["rate"],
+                    "detection_ci_low": d["ci95"][0],
+                    "detection_ci_high": d["ci95"][1],
+                    "n_clean": fa["n"],
+                    "false_alarms": fa["k"],
+                    "false_alarm_rate": fa["rate"],
+                    "false_alarm_ci_low": fa["ci95"][0],
+                    "false_alarm_ci_high": fa["ci95"][1],
+                    "n_other_planted": x["n"],
+                    "cross_talk": x["k"],
+                    "cross_talk_rate": x["rate"],
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -523,9 +667,19 @@ def power_table(result: dict) -> pd.DataFrame:
     for name, pc in result.get("power_curves", {}).items():
         for r in pc["curve"]:
             d, e = r["detection"], r["estimate_within_tolerance"]
-            rows.append({"configuration": result.get("configuration", "random"), "artifact": name,
-                         "size_key": r["size_key"], "size": r["size"], "n": d["n"], "detected": d["k"],
-                         "detection_rate": d["rate"], "detection_ci_low": d["ci95"][0],
-                         "detection_ci_high": d["ci95"][1], "estimate_ok": e["k"],
-                         "size_95": pc["size_95"]})
+            rows.append(
+                {
+                    "configuration": result.get("configuration", "random"),
+                    "artifact": name,
+                    "size_key": r["size_key"],
+                    "size": r["size"],
+                    "n": d["n"],
+                    "detected": d["k"],
+                    "detection_rate": d["rate"],
+                    "detection_ci_low": d["ci95"][0],
+                    "detection_ci_high": d["ci95"][1],
+                    "estimate_ok": e["k"],
+                    "size_95": pc["size_95"],
+                }
+            )
     return pd.DataFrame(rows)

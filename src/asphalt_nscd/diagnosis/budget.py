@@ -58,16 +58,27 @@ def compare(model: pd.DataFrame, data: pd.DataFrame) -> pd.DataFrame:
     rP = pd.Series(signed_relative_errors(m["phase_deg_m"], m["phase_deg_d"]), index=m.index)
     m = m.assign(aE=100 * rE.abs(), aP=100 * rP.abs(), bE=100 * rE, bP=100 * rP)
     g = m.groupby("temperature_C")
-    return pd.DataFrame({"mre_E_norm_pct": g["aE"].mean(), "mre_phase_pct": g["aP"].mean(),
-                         "bias_E_norm_pct": g["bE"].mean(), "bias_phase_pct": g["bP"].mean(),
-                         "n": g.size()})
+    return pd.DataFrame(
+        {
+            "mre_E_norm_pct": g["aE"].mean(),
+            "mre_phase_pct": g["aP"].mean(),
+            "bias_E_norm_pct": g["bE"].mean(),
+            "bias_phase_pct": g["bP"].mean(),
+            "n": g.size(),
+        }
+    )
 
 
 def cells_from_complex(cells: pd.DataFrame, E) -> pd.DataFrame:
     E = np.asarray(E)
-    return pd.DataFrame({"temperature_C": cells["temperature_C"].to_numpy(float),
-                         "frequency_Hz": cells["frequency_Hz"].to_numpy(float),
-                         "E_norm_MPa": np.abs(E), "phase_deg": np.degrees(np.angle(E))})
+    return pd.DataFrame(
+        {
+            "temperature_C": cells["temperature_C"].to_numpy(float),
+            "frequency_Hz": cells["frequency_Hz"].to_numpy(float),
+            "E_norm_MPa": np.abs(E),
+            "phase_deg": np.degrees(np.angle(E)),
+        }
+    )
 
 
 def simulation_cells(df: pd.DataFrame | None) -> pd.DataFrame | None:
@@ -98,8 +109,9 @@ def derived_time_integration(sim: pd.DataFrame | None, harmonic: pd.DataFrame | 
     m = s.merge(h, on=["temperature_C", "frequency_Hz"], suffixes=("", "_h"))
     if len(m) < 2:
         return None
-    return pd.DataFrame({"frequency_Hz": m["frequency_Hz"], "dt_s": m["dt_s"],
-                         "phase_error_deg": m["phase_deg"] - m["phase_deg_h"]})
+    return pd.DataFrame(
+        {"frequency_Hz": m["frequency_Hz"], "dt_s": m["dt_s"], "phase_error_deg": m["phase_deg"] - m["phase_deg_h"]}
+    )
 
 
 def gain_rows(before: pd.DataFrame, after: pd.DataFrame, after_measured: pd.DataFrame, temps) -> dict:
@@ -108,10 +120,14 @@ def gain_rows(before: pd.DataFrame, after: pd.DataFrame, after_measured: pd.Data
     for T in temps:
         if T not in after.index or T not in before.index:
             continue
-        out[T_key(T)] = {q: {"before": float(before.loc[T, col]), "after": float(after.loc[T, col]),
-                            "after_vs_measured": float(after_measured.loc[T, col])
-                            if T in after_measured.index else None}
-                        for q, col in (("E_norm", "mre_E_norm_pct"), ("phase", "mre_phase_pct"))}
+        out[T_key(T)] = {
+            q: {
+                "before": float(before.loc[T, col]),
+                "after": float(after.loc[T, col]),
+                "after_vs_measured": float(after_measured.loc[T, col]) if T in after_measured.index else None,
+            }
+            for q, col in (("E_norm", "mre_E_norm_pct"), ("phase", "mre_phase_pct"))
+        }
     return out
 
 
@@ -213,13 +229,24 @@ class Gains:
     law_only_model: str | None  #: the ``law_only`` model, described
 
 
-def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataFrame, laws: dict | None,
-             simulated: pd.DataFrame | None = None, harmonic: pd.DataFrame | None = None,
-             time_errors: pd.DataFrame | None = None, simulated_extended: pd.DataFrame | None = None,
-             macro_params: pd.DataFrame | None = None, transfer: dict | None = None,
-             crossval: pd.DataFrame | None = None, law_info: dict | None = None, law_failure: str | None = None,
-             cause_tolerances: dict | None = None, card: dict | None = None,
-             without_flagged: dict | None = None) -> tuple[dict, dict]:
+def diagnose(
+    measured: pd.DataFrame,
+    search: ArtifactRecord,
+    corrected: pd.DataFrame,
+    laws: dict | None,
+    simulated: pd.DataFrame | None = None,
+    harmonic: pd.DataFrame | None = None,
+    time_errors: pd.DataFrame | None = None,
+    simulated_extended: pd.DataFrame | None = None,
+    macro_params: pd.DataFrame | None = None,
+    transfer: dict | None = None,
+    crossval: pd.DataFrame | None = None,
+    law_info: dict | None = None,
+    law_failure: str | None = None,
+    cause_tolerances: dict | None = None,
+    card: dict | None = None,
+    without_flagged: dict | None = None,
+) -> tuple[dict, dict]:
     """Diagnose a measured table from what the earlier steps wrote (and optional simulation
     results); nothing upstream is refitted here.
 
@@ -291,11 +318,24 @@ def diagnose(measured: pd.DataFrame, search: ArtifactRecord, corrected: pd.DataF
         if ``laws`` lacks a measured temperature, or if an extended row ran with a network
         factor that differs from ``transfer``'s.
     """
-    inputs = DiagnosisInputs(measured, search, corrected, laws, simulated=simulated, harmonic=harmonic,
-                             time_errors=time_errors, simulated_extended=simulated_extended,
-                             macro_params=macro_params, transfer=transfer, crossval=crossval,
-                             law_info=law_info, law_failure=law_failure, cause_tolerances=cause_tolerances,
-                             card=card, without_flagged=without_flagged)
+    inputs = DiagnosisInputs(
+        measured,
+        search,
+        corrected,
+        laws,
+        simulated=simulated,
+        harmonic=harmonic,
+        time_errors=time_errors,
+        simulated_extended=simulated_extended,
+        macro_params=macro_params,
+        transfer=transfer,
+        crossval=crossval,
+        law_info=law_info,
+        law_failure=law_failure,
+        cause_tolerances=cause_tolerances,
+        card=card,
+        without_flagged=without_flagged,
+    )
     cells = cells_stage(inputs)
     found = causes_stage(inputs, cells)
     budget = budget_stage(cells)
@@ -323,18 +363,31 @@ def cells_stage(inputs: DiagnosisInputs) -> Cells:
     corr_cells = cell_means(inputs.corrected)
     burgers_measured = fit_table(table)
     burgers = inputs.macro_params if inputs.macro_params is not None else burgers_measured
-    burgers_cells = cells_from_complex(meas_cells, causes.burgers_predict(
-        burgers, meas_cells["temperature_C"], meas_cells["frequency_Hz"]))
+    burgers_cells = cells_from_complex(
+        meas_cells, causes.burgers_predict(burgers, meas_cells["temperature_C"], meas_cells["frequency_Hz"])
+    )
     sim_cells, harm_cells = simulation_cells(simulated), simulation_cells(harmonic)
 
     if sim_cells is not None:
         baseline_model, baseline_cells = "NSCD simulation (time domain, Burger's bond law)", sim_cells
     else:
         baseline_model, baseline_cells = "macro Burger's model (Eqs. 27-29) fitted per temperature", burgers_cells
-    return Cells(table=table, simulated=simulated, harmonic=harmonic, time_errors=time_errors,
-                 measured=meas_cells, corrected=corr_cells, burgers_measured=burgers_measured, burgers=burgers,
-                 burgers_cells=burgers_cells, sim=sim_cells, harm=harm_cells, baseline_model=baseline_model,
-                 base=compare(baseline_cells, meas_cells), temps=sorted(meas_cells["temperature_C"].unique()))
+    return Cells(
+        table=table,
+        simulated=simulated,
+        harmonic=harmonic,
+        time_errors=time_errors,
+        measured=meas_cells,
+        corrected=corr_cells,
+        burgers_measured=burgers_measured,
+        burgers=burgers,
+        burgers_cells=burgers_cells,
+        sim=sim_cells,
+        harm=harm_cells,
+        baseline_model=baseline_model,
+        base=compare(baseline_cells, meas_cells),
+        temps=sorted(meas_cells["temperature_C"].unique()),
+    )
 
 
 def causes_stage(inputs: DiagnosisInputs, cells: Cells) -> Causes:
@@ -348,9 +401,14 @@ def causes_stage(inputs: DiagnosisInputs, cells: Cells) -> Causes:
     entries.append(causes.broad_spectrum(cells.table, search.master, cells.burgers_measured, inputs.corrected))
     entries.append(causes.static_modulus(inputs.corrected, search.master, search.alpha, search.calibration))
     transfer_src = cells.harmonic if cells.harmonic is not None else cells.simulated
-    entries.append(causes.network_factor(transfer_src, cells.burgers,
-                                         "harmonic" if cells.harmonic is not None else "simulated",
-                                         tolerance=tol["network_factor"]))
+    entries.append(
+        causes.network_factor(
+            transfer_src,
+            cells.burgers,
+            "harmonic" if cells.harmonic is not None else "simulated",
+            tolerance=tol["network_factor"],
+        )
+    )
     entries.append(causes.time_integration(cells.time_errors, tolerance_deg=tol["time_integration_deg"]))
     named = sorted([e for e in entries if e["detected"]], key=lambda e: -e["score"])
     return Causes(entries=entries, named=named)
@@ -361,13 +419,18 @@ def budget_stage(cells: Cells) -> Budget:
     form (macro Burger's vs corrected), micro-macro transfer (harmonic response vs its macro
     Burger's law), numerics (time domain vs harmonic) and the total (baseline vs measured);
     a component without its inputs is None."""
-    comps = {"data_artifacts": compare(cells.measured, cells.corrected),
-             "model_form": compare(cells.burgers_cells, cells.corrected),
-             "micro_macro_transfer": None, "numerics": None, "total": cells.base}
+    comps = {
+        "data_artifacts": compare(cells.measured, cells.corrected),
+        "model_form": compare(cells.burgers_cells, cells.corrected),
+        "micro_macro_transfer": None,
+        "numerics": None,
+        "total": cells.base,
+    }
     harm = cells.harm
     if harm is not None:
-        hb = cells_from_complex(harm, causes.burgers_predict(cells.burgers, harm["temperature_C"],
-                                                             harm["frequency_Hz"]))
+        hb = cells_from_complex(
+            harm, causes.burgers_predict(cells.burgers, harm["temperature_C"], harm["frequency_Hz"])
+        )
         comps["micro_macro_transfer"] = compare(harm, hb.dropna())
         if cells.sim is not None:
             comps["numerics"] = compare(cells.sim, harm)
@@ -399,15 +462,18 @@ def law_stage(inputs: DiagnosisInputs, cells: Cells) -> Law:
         law_failure = None
         missing = [float(T) for T in cells.temps if temperature_key(laws, T) is None]
         if missing:
-            raise InputError(f"extended laws: no law at {missing} degC (the measured temperatures); "
-                             f"given: {sorted(laws)}")
+            raise InputError(
+                f"extended laws: no law at {missing} degC (the measured temperatures); given: {sorted(laws)}"
+            )
         laws = {float(T): laws[temperature_key(laws, T)] for T in cells.temps}
     corr = cells.corrected
     E_law = law_file.complex_modulus(laws, corr["temperature_C"], corr["frequency_Hz"])
     selected = ((inputs.law_info or {}).get("selection") or {}).get("chosen_label")
-    law_model = ("generalized Burger's law (Maxwell + N Kelvin-Voigt + static spring) per temperature from the "
-                 "selected temperature-aware law of the corrected data"
-                 + (f" (2S2P1D backbone, selected settings: {selected})" if selected else ""))
+    law_model = (
+        "generalized Burger's law (Maxwell + N Kelvin-Voigt + static spring) per temperature from the "
+        "selected temperature-aware law of the corrected data"
+        + (f" (2S2P1D backbone, selected settings: {selected})" if selected else "")
+    )
     if law_failure is not None:
         law_model = f"{law_failure}; the macro Burger's law per temperature stands in for it (no gain)"
     return Law(laws=laws, model=law_model, cells=cells_from_complex(corr, E_law))
@@ -423,15 +489,23 @@ def extended_stage(inputs: DiagnosisInputs, cells: Cells, law: Law) -> Extended:
     tr = transfer_summary(inputs.simulated_extended, inputs.transfer)
     nscd_after = "NSCD simulation (time domain, generalized Burger's bond law" + (
         f", transfer correction E*/NF_s, NF_s = {nf_text(tr['network_factor_applied'])})"
-        if tr["applied"] else ", no transfer correction)")
+        if tr["applied"]
+        else ", no transfer correction)"
+    )
     if ext_sim_cells is not None:
         ext_cells, ext_model = ext_sim_cells, nscd_after
     else:
         ext_cells, ext_model = law.cells, law.model
-    return Extended(simulated_cells=ext_sim_cells, transfer=tr, nscd_after=nscd_after, model=ext_model,
-                    vs_corrected=compare(ext_cells, cells.corrected), vs_measured=compare(ext_cells, cells.measured),
-                    law_vs_corrected=compare(law.cells, cells.corrected),
-                    law_vs_measured=compare(law.cells, cells.measured))
+    return Extended(
+        simulated_cells=ext_sim_cells,
+        transfer=tr,
+        nscd_after=nscd_after,
+        model=ext_model,
+        vs_corrected=compare(ext_cells, cells.corrected),
+        vs_measured=compare(ext_cells, cells.measured),
+        law_vs_corrected=compare(law.cells, cells.corrected),
+        law_vs_measured=compare(law.cells, cells.measured),
+    )
 
 
 def gains_stage(cells: Cells, law: Law, extended: Extended) -> Gains:
@@ -440,13 +514,21 @@ def gains_stage(cells: Cells, law: Law, extended: Extended) -> Gains:
     factors, ``law_only`` (baseline -> NF_s E*_law, :func:`law_only_gain`)."""
     macro_before = compare(cells.burgers_cells, cells.measured)
     gain = gain_rows(cells.base, extended.vs_corrected, extended.vs_measured, cells.temps)
-    sources = {"before": "nscd" if cells.sim is not None else "macro",
-               "after": "nscd" if extended.simulated_cells is not None else "macro"}
+    sources = {
+        "before": "nscd" if cells.sim is not None else "macro",
+        "after": "nscd" if extended.simulated_cells is not None else "macro",
+    }
     gain_macro = gain_rows(macro_before, extended.law_vs_corrected, extended.law_vs_measured, cells.temps)
     gain_nscd = gain if sources == {"before": "nscd", "after": "nscd"} else None
     gain_law_only, law_only_model = law_only_gain(cells, law, extended)
-    return Gains(gain=gain, sources=sources, macro=gain_macro, nscd=gain_nscd, law_only=gain_law_only,
-                 law_only_model=law_only_model)
+    return Gains(
+        gain=gain,
+        sources=sources,
+        macro=gain_macro,
+        nscd=gain_nscd,
+        law_only=gain_law_only,
+        law_only_model=law_only_model,
+    )
 
 
 def law_only_gain(cells: Cells, law: Law, extended: Extended) -> tuple[dict | None, str | None]:
@@ -463,61 +545,82 @@ def law_only_gain(cells: Cells, law: Law, extended: Extended) -> tuple[dict | No
     E_lo = nf * law_file.complex_modulus(law.laws, on["temperature_C"], on["frequency_Hz"])
     lo_cells = cells_from_complex(on, E_lo)
     gain = gain_rows(cells.base, compare(lo_cells, cells.corrected), compare(lo_cells, cells.measured), cells.temps)
-    model = ("harmonic response without inertia, generalized Burger's bond law, no transfer "
-             f"correction: NF_s x E*_law, NF_s = {nf_text(tr['network_factor_harmonic'])}")
+    model = (
+        "harmonic response without inertia, generalized Burger's bond law, no transfer "
+        f"correction: NF_s x E*_law, NF_s = {nf_text(tr['network_factor_harmonic'])}"
+    )
     return gain, model
 
 
-def report_stage(inputs: DiagnosisInputs, cells: Cells, found: Causes, budget: Budget, law: Law,
-                 extended: Extended, gains: Gains) -> dict:
+def report_stage(
+    inputs: DiagnosisInputs, cells: Cells, found: Causes, budget: Budget, law: Law, extended: Extended, gains: Gains
+) -> dict:
     """The JSON report of ``asphalt-nscd diagnose`` (:func:`asphalt_nscd.io.json_safe`) from the
     stages before."""
     measured, search, temps, base = inputs.measured, inputs.search, cells.temps, cells.base
     order = {"data": 0, "model_form": 1, "simulation": 2}
     report = {
-        "measured": {"n_rows": int(len(measured)), "n_specimens": int(measured["specimen"].nunique()),
-                     "temperatures_C": [float(T) for T in temps],
-                     "frequencies_Hz": sorted(float(f) for f in measured["frequency_Hz"].unique())},
-        "noise": {"sigma_lnE": search.sigma[0], "sigma_phase_deg": search.sigma[1],
-                  "from_replicates": search.noise_from_replicates},
+        "measured": {
+            "n_rows": int(len(measured)),
+            "n_specimens": int(measured["specimen"].nunique()),
+            "temperatures_C": [float(T) for T in temps],
+            "frequencies_Hz": sorted(float(f) for f in measured["frequency_Hz"].unique()),
+        },
+        "noise": {
+            "sigma_lnE": search.sigma[0],
+            "sigma_phase_deg": search.sigma[1],
+            "from_replicates": search.noise_from_replicates,
+        },
         "artifact_screening": search.screening,
         "master_curve": master_curve_block(search, temps),
         **kramers_kronig_blocks(cells.table),
-        "baseline": {"model": cells.baseline_model, "reference": "measured replicate means",
-                     "mre_E_norm_pct": _by_T(base, "mre_E_norm_pct"), "mre_phase_pct": _by_T(base, "mre_phase_pct"),
-                     "bias_E_norm_pct": _by_T(base, "bias_E_norm_pct"),
-                     "bias_phase_pct": _by_T(base, "bias_phase_pct")},
+        "baseline": {
+            "model": cells.baseline_model,
+            "reference": "measured replicate means",
+            "mre_E_norm_pct": _by_T(base, "mre_E_norm_pct"),
+            "mre_phase_pct": _by_T(base, "mre_phase_pct"),
+            "bias_E_norm_pct": _by_T(base, "bias_E_norm_pct"),
+            "bias_phase_pct": _by_T(base, "bias_phase_pct"),
+        },
         "error_budget": budget.by_temperature,
         "effects": sorted(found.entries, key=lambda e: order[e["category"]]),
         "causes": [e["name"] for e in found.named],
         "extended": extended_block(inputs.law_info, law, extended),
         "gain": gains.gain,
-        "gain_sources": {**gains.sources,
-                         "models": {"nscd": {"before": "NSCD simulation (time domain, Burger's bond law)",
-                                             "after": extended.nscd_after},
-                                    "macro": {"before": "macro Burger's model (Eqs. 27-29) per temperature",
-                                              "after": law.model},
-                                    "law_only": {"before": cells.baseline_model, "after": gains.law_only_model}},
-                         "reference": {"before": "measured replicate means",
-                                       "after": "artifact-corrected measured replicate means"}},
+        "gain_sources": {
+            **gains.sources,
+            "models": {
+                "nscd": {"before": "NSCD simulation (time domain, Burger's bond law)", "after": extended.nscd_after},
+                "macro": {"before": "macro Burger's model (Eqs. 27-29) per temperature", "after": law.model},
+                "law_only": {"before": cells.baseline_model, "after": gains.law_only_model},
+            },
+            "reference": {"before": "measured replicate means", "after": "artifact-corrected measured replicate means"},
+        },
         "gain_nscd": gains.nscd,
         "gain_macro": gains.macro,
         "gain_law_only": gains.law_only,
         "transfer": extended.transfer,
         "heldout": heldout_report(inputs.crossval, measured) if inputs.crossval is not None else None,
-        "targets": {**TARGETS, "applies_to": "held-out errors pooled over the interpolated cells of a scheme, "
-                                             "judged with their 95 % intervals"},
+        "targets": {
+            **TARGETS,
+            "applies_to": "held-out errors pooled over the interpolated cells of a scheme, "
+            "judged with their 95 % intervals",
+        },
         "selection": search.selection,
         "units": dict(search.units) or {"modulus": "MPa", "temperature": "C"},
         "calibration": calibration_summary(search.calibration),
-        "findings": {"artifact search master curve (2S2P1D of the corrected table)": search.findings,
-                     "selected law": ((inputs.law_info or {}).get("model") or {}).get("findings") or [],
-                     "law of the material card": [] if not inputs.card or inputs.card.get("is_selected_law", True)
-                     else inputs.card.get("findings") or []},
+        "findings": {
+            "artifact search master curve (2S2P1D of the corrected table)": search.findings,
+            "selected law": ((inputs.law_info or {}).get("model") or {}).get("findings") or [],
+            "law of the material card": []
+            if not inputs.card or inputs.card.get("is_selected_law", True)
+            else inputs.card.get("findings") or [],
+        },
         "material_card": card_block(inputs.card),
         "data_quality": search.quality,
         "law_without_flagged": without_flagged_text(inputs.without_flagged, law.laws, measured)
-        if inputs.laws is not None else None,
+        if inputs.laws is not None
+        else None,
     }
     return json_safe(report)
 
@@ -526,10 +629,14 @@ def master_curve_block(search: ArtifactRecord, temps) -> dict:
     """The ``master_curve`` block: 2S2P1D parameters, shift law and log10 a_T per temperature,
     chi2 per degree of freedom."""
     master = search.master
-    return {"model": "2S2P1D", "shift": search.shift, "T_ref_C": master.T_ref_C,
-            "parameters": {k: float(v) for k, v in master.core().items()},
-            "log10_aT": {T_key(T): float(master.log_shift(T)) for T in temps},
-            "chi2_per_dof": master.rss / max(master.n_residuals - master.n_params, 1)}
+    return {
+        "model": "2S2P1D",
+        "shift": search.shift,
+        "T_ref_C": master.T_ref_C,
+        "parameters": {k: float(v) for k, v in master.core().items()},
+        "log10_aT": {T_key(T): float(master.log_shift(T)) for T in temps},
+        "chi2_per_dof": master.rss / max(master.n_residuals - master.n_params, 1),
+    }
 
 
 def kramers_kronig_blocks(table: pd.DataFrame) -> dict:
@@ -541,10 +648,14 @@ def kramers_kronig_blocks(table: pd.DataFrame) -> dict:
     return {
         "kramers_kronig_mean_abs_residual_deg": {T_key(T): float(v) for T, v in kk_T.items()},
         "kramers_kronig_percentile": {T_key(T): float(100.0 * np.mean(kk_ref <= v)) for T, v in kk_T.items()},
-        "kramers_kronig_reference": {"n_isotherms": int(kk_ref.size), "median_deg": float(np.median(kk_ref)),
-                                     "p99_deg": float(np.percentile(kk_ref, 99)), "max_deg": float(kk_ref.max()),
-                                     "source": "clean synthetic tables of every truth family (causal laws) at the "
-                                               "table's frequencies and replicate count"},
+        "kramers_kronig_reference": {
+            "n_isotherms": int(kk_ref.size),
+            "median_deg": float(np.median(kk_ref)),
+            "p99_deg": float(np.percentile(kk_ref, 99)),
+            "max_deg": float(kk_ref.max()),
+            "source": "clean synthetic tables of every truth family (causal laws) at the "
+            "table's frequencies and replicate count",
+        },
     }
 
 
@@ -552,17 +663,21 @@ def extended_block(law_info: dict | None, law: Law, extended: Extended) -> dict:
     """The ``extended`` block: the "after" model and the law, their in-sample MRE per
     temperature (%), the law's parameters (Pa, Pa s) and its selected settings."""
     ext, ext_meas = extended.vs_corrected, extended.vs_measured
-    return {"model": extended.model, "law": law.model,
-            "reference": "artifact-corrected measured replicate means",
-            "parameters": law_file.to_json(law.laws)["temperatures"],
-            "parameter_units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
-            "mre_E_norm_pct": _by_T(ext, "mre_E_norm_pct"), "mre_phase_pct": _by_T(ext, "mre_phase_pct"),
-            "mre_E_norm_pct_vs_measured": _by_T(ext_meas, "mre_E_norm_pct"),
-            "mre_phase_pct_vs_measured": _by_T(ext_meas, "mre_phase_pct"),
-            "law_mre_E_norm_pct": _by_T(extended.law_vs_corrected, "mre_E_norm_pct"),
-            "law_mre_phase_pct": _by_T(extended.law_vs_corrected, "mre_phase_pct"),
-            "selection": (law_info or {}).get("selection"),
-            "T_ref_C": ((law_info or {}).get("model") or {}).get("T_ref_C")}
+    return {
+        "model": extended.model,
+        "law": law.model,
+        "reference": "artifact-corrected measured replicate means",
+        "parameters": law_file.to_json(law.laws)["temperatures"],
+        "parameter_units": {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"},
+        "mre_E_norm_pct": _by_T(ext, "mre_E_norm_pct"),
+        "mre_phase_pct": _by_T(ext, "mre_phase_pct"),
+        "mre_E_norm_pct_vs_measured": _by_T(ext_meas, "mre_E_norm_pct"),
+        "mre_phase_pct_vs_measured": _by_T(ext_meas, "mre_phase_pct"),
+        "law_mre_E_norm_pct": _by_T(extended.law_vs_corrected, "mre_E_norm_pct"),
+        "law_mre_phase_pct": _by_T(extended.law_vs_corrected, "mre_phase_pct"),
+        "selection": (law_info or {}).get("selection"),
+        "T_ref_C": ((law_info or {}).get("model") or {}).get("T_ref_C"),
+    }
 
 
 def target_verdict(value: float, low: float, high: float, target: float) -> str:
@@ -598,20 +713,37 @@ def without_flagged_text(obj: dict | None, laws: dict, measured: pd.DataFrame) -
         dP = np.abs(np.degrees(np.angle(a) - np.angle(b)))
         parts.append(f"{T:g} degC {dE.mean():.2f} / {dE.max():.2f} % and {dP.mean():.2f} / {dP.max():.2f} deg")
     src = obj.get("source", {})
-    return (f"Fitted without the {src.get('n_flagged', '?')} flagged rows (of {src.get('n_rows', '?')}; settings "
-            f"{(obj.get('selection') or {}).get('chosen_label', '?')}), the law differs from the selected one by "
-            "(mean / largest |ln ratio| of |E*|, |difference| of Phi, over the measured cells): " + "; ".join(parts)
-            + ".")
+    return (
+        f"Fitted without the {src.get('n_flagged', '?')} flagged rows (of {src.get('n_rows', '?')}; settings "
+        f"{(obj.get('selection') or {}).get('chosen_label', '?')}), the law differs from the selected one by "
+        "(mean / largest |ln ratio| of |E*|, |difference| of Phi, over the measured cells): " + "; ".join(parts) + "."
+    )
 
 
 def card_block(card: dict | None) -> dict | None:
     """What the page says of the material card (``export-law``'s JSON), or None."""
     if card is None:
         return None
-    keys = ("carries", "selected_law", "is_selected_law", "fit", "selected_fit", "selected_carriable", "corrections",
-            "loss", "check",
-            "T_ref_C", "E_0_MPa", "shift", "display", "findings", "terms_selection", "nu", "nu_source",
-            "interconversion")
+    keys = (
+        "carries",
+        "selected_law",
+        "is_selected_law",
+        "fit",
+        "selected_fit",
+        "selected_carriable",
+        "corrections",
+        "loss",
+        "check",
+        "T_ref_C",
+        "E_0_MPa",
+        "shift",
+        "display",
+        "findings",
+        "terms_selection",
+        "nu",
+        "nu_source",
+        "interconversion",
+    )
     return {k: card.get(k) for k in keys} | {"n_terms": len(card.get("terms", []))}
 
 
@@ -620,17 +752,23 @@ def calibration_summary(calibration: dict | None) -> dict | None:
     if calibration is None:
         return None
     a = calibration["artifacts"]
-    return {"n_tables": calibration["n_tables"], "seed": calibration["seed"],
-            "familywise_rate": calibration["familywise_rate"], "groups": calibration["groups"],
-            "clean_model": calibration["clean_model"],
-            "artifacts": {k: v for k, v in a.items() if k != "null_min_p"},
-            "static": {"level": calibration["static"]["level"], "model": calibration["static"]["model"]}}
+    return {
+        "n_tables": calibration["n_tables"],
+        "seed": calibration["seed"],
+        "familywise_rate": calibration["familywise_rate"],
+        "groups": calibration["groups"],
+        "clean_model": calibration["clean_model"],
+        "artifacts": {k: v for k, v in a.items() if k != "null_min_p"},
+        "static": {"level": calibration["static"]["level"], "model": calibration["static"]["model"]},
+    }
 
 
 #: schemes of the held-out validation and what they leave out
-SCHEME_TEXT = {"lofo": "one frequency left out at every temperature (the lowest and highest are extrapolations)",
-               "loto": "one isotherm left out (the coldest and hottest are extrapolations)",
-               "loso": "one specimen left out, scored against that specimen (a new specimen)"}
+SCHEME_TEXT = {
+    "lofo": "one frequency left out at every temperature (the lowest and highest are extrapolations)",
+    "loto": "one isotherm left out (the coldest and hottest are extrapolations)",
+    "loso": "one specimen left out, scored against that specimen (a new specimen)",
+}
 
 
 def heldout_report(rows: pd.DataFrame, measured: pd.DataFrame | None = None) -> dict:
@@ -653,10 +791,18 @@ def heldout_report(rows: pd.DataFrame, measured: pd.DataFrame | None = None) -> 
         d = h.to_dict()
         if d["kind"] == "held_out":
             d["targets"] = dict(TARGETS)
-            d["verdict_E_norm"] = target_verdict(d["interp_abs_logE_pct"], d["interp_abs_logE_ci95_low"],
-                                                 d["interp_abs_logE_ci95_high"], TARGETS["abs_logE_pct"])
-            d["verdict_phase"] = target_verdict(d["interp_abs_phase_deg"], d["interp_abs_phase_ci95_low"],
-                                                d["interp_abs_phase_ci95_high"], TARGETS["abs_phase_deg"])
+            d["verdict_E_norm"] = target_verdict(
+                d["interp_abs_logE_pct"],
+                d["interp_abs_logE_ci95_low"],
+                d["interp_abs_logE_ci95_high"],
+                TARGETS["abs_logE_pct"],
+            )
+            d["verdict_phase"] = target_verdict(
+                d["interp_abs_phase_deg"],
+                d["interp_abs_phase_ci95_low"],
+                d["interp_abs_phase_ci95_high"],
+                TARGETS["abs_phase_deg"],
+            )
         heads.append(d)
     not_computable = {}
     for scheme, g in rows[rows["kind"] == "held_out"].groupby("scheme"):
@@ -665,23 +811,38 @@ def heldout_report(rows: pd.DataFrame, measured: pd.DataFrame | None = None) -> 
     td = []
     held = rows[(rows["kind"] == "held_out") & rows["computable"]]
     keys = ["scheme", "fold", "temperature_C", "frequency_Hz"]
-    both = held[held["model"] == "nscd_time_domain"].merge(held[held["model"] == "nscd_sample"], on=keys,
-                                                           suffixes=("_td", "_h"))
+    both = held[held["model"] == "nscd_time_domain"].merge(
+        held[held["model"] == "nscd_sample"], on=keys, suffixes=("_td", "_h")
+    )
     for _, r in both.iterrows():
-        td.append({"scheme": r["scheme"], "fold": str(r["fold"]), "temperature_C": r["temperature_C"],
-                   "frequency_Hz": r["frequency_Hz"], "E_norm_MPa_time_domain": r["E_norm_MPa_predicted_td"],
-                   "E_norm_MPa_harmonic": r["E_norm_MPa_predicted_h"],
-                   "phase_deg_time_domain": r["phase_deg_predicted_td"], "phase_deg_harmonic": r["phase_deg_predicted_h"],
-                   "E_norm_relative_difference": r["E_norm_MPa_predicted_td"] / r["E_norm_MPa_predicted_h"] - 1.0,
-                   "phase_difference_deg": r["phase_deg_predicted_td"] - r["phase_deg_predicted_h"]})
-    return json_safe({"scores": summ.to_dict(orient="records"), "headline": heads,
-                      "not_computable": not_computable, "time_domain_check": td,
-                      "schemes": {k: v for k, v in SCHEME_TEXT.items() if k in set(rows["scheme"])},
-                      "reference": "the specimens' ln|E*| and Phi (their mean per cell; loso: the held-out specimen)",
-                      "protocol": "every fold refits the whole procedure (artifact correction at the table's "
-                                  "calibrated level, nested selection of the settings, law) without its held-out "
-                                  "rows; extrapolated cells (the ends of the tested frequencies or temperatures) "
-                                  "reported apart"})
+        td.append(
+            {
+                "scheme": r["scheme"],
+                "fold": str(r["fold"]),
+                "temperature_C": r["temperature_C"],
+                "frequency_Hz": r["frequency_Hz"],
+                "E_norm_MPa_time_domain": r["E_norm_MPa_predicted_td"],
+                "E_norm_MPa_harmonic": r["E_norm_MPa_predicted_h"],
+                "phase_deg_time_domain": r["phase_deg_predicted_td"],
+                "phase_deg_harmonic": r["phase_deg_predicted_h"],
+                "E_norm_relative_difference": r["E_norm_MPa_predicted_td"] / r["E_norm_MPa_predicted_h"] - 1.0,
+                "phase_difference_deg": r["phase_deg_predicted_td"] - r["phase_deg_predicted_h"],
+            }
+        )
+    return json_safe(
+        {
+            "scores": summ.to_dict(orient="records"),
+            "headline": heads,
+            "not_computable": not_computable,
+            "time_domain_check": td,
+            "schemes": {k: v for k, v in SCHEME_TEXT.items() if k in set(rows["scheme"])},
+            "reference": "the specimens' ln|E*| and Phi (their mean per cell; loso: the held-out specimen)",
+            "protocol": "every fold refits the whole procedure (artifact correction at the table's "
+            "calibrated level, nested selection of the settings, law) without its held-out "
+            "rows; extrapolated cells (the ends of the tested frequencies or temperatures) "
+            "reported apart",
+        }
+    )
 
 
 def nf_text(nf: dict | None) -> str:
@@ -714,22 +875,31 @@ def transfer_summary(simulated_extended: pd.DataFrame | None, transfer: dict | N
             nf = pd.to_numeric(ext["transfer_network_factor"], errors="coerce")
             samples = ext["sample"].astype(str) if "sample" in ext.columns else pd.Series("all", index=ext.index)
             if not np.isfinite(nf.to_numpy(float)).all():
-                raise InputError("extended NSCD rows: column 'transfer_network_factor' is empty or not a number "
-                                 "on some rows (rows with and without the transfer correction are mixed)")
+                raise InputError(
+                    "extended NSCD rows: column 'transfer_network_factor' is empty or not a number "
+                    "on some rows (rows with and without the transfer correction are mixed)"
+                )
             for name, values in nf.groupby(samples):
                 if not np.allclose(values, values.iloc[0], rtol=1e-12, atol=0):
-                    raise InputError(f"extended NSCD rows: sample {name!r} ran with several network factors "
-                                     f"{sorted(set(values.round(12)))}")
+                    raise InputError(
+                        f"extended NSCD rows: sample {name!r} ran with several network factors "
+                        f"{sorted(set(values.round(12)))}"
+                    )
                 per_sample[str(name)] = float(values.iloc[0])
     given = {str(k): float(v) for k, v in (transfer or {}).items()}
     for name, v in per_sample.items():
         if name in given and not np.isclose(v, given[name], rtol=1e-9, atol=0):
-            raise InputError(f"extended NSCD rows: sample {name!r} ran with network factor {v:.10g} but the "
-                             f"transfer JSON gives {given[name]:.10g} (stale simulation or JSON)")
+            raise InputError(
+                f"extended NSCD rows: sample {name!r} ran with network factor {v:.10g} but the "
+                f"transfer JSON gives {given[name]:.10g} (stale simulation or JSON)"
+            )
     harmonic = given or dict(per_sample)
-    return {"applied": applied, "network_factor_applied": per_sample or None,
-            "network_factor_applied_mean": float(np.mean(list(per_sample.values()))) if per_sample else None,
-            "network_factor_harmonic": harmonic or None,
-            "law_only_network_factor": float(np.mean(list(harmonic.values()))) if harmonic else None,
-            "definition": "NF_s = sample |E*| / macro |E*| without inertia (harmonic solver, real, law "
-                          "independent); transfer correction: bonds calibrated with E*(w) / NF_s"}
+    return {
+        "applied": applied,
+        "network_factor_applied": per_sample or None,
+        "network_factor_applied_mean": float(np.mean(list(per_sample.values()))) if per_sample else None,
+        "network_factor_harmonic": harmonic or None,
+        "law_only_network_factor": float(np.mean(list(harmonic.values()))) if harmonic else None,
+        "definition": "NF_s = sample |E*| / macro |E*| without inertia (harmonic solver, real, law "
+        "independent); transfer correction: bonds calibrated with E*(w) / NF_s",
+    }

@@ -77,8 +77,9 @@ def cell_misfit(rows: pd.DataFrame, residual_lnE, residual_phase, sigma_point, n
     less the point scatter's share sigma^2 / n_cell, floored at 0. Residuals unweighted,
     shapes (n,)."""
     key = rows["temperature_C"].round(6).astype(str) + "|" + rows["frequency_Hz"].astype(str)
-    frame = pd.DataFrame({"k": key.to_numpy(), "e": np.asarray(residual_lnE, float),
-                          "p": np.asarray(residual_phase, float)})
+    frame = pd.DataFrame(
+        {"k": key.to_numpy(), "e": np.asarray(residual_lnE, float), "p": np.asarray(residual_phase, float)}
+    )
     g = frame.groupby("k")
     n = g.size().to_numpy(float)
     dof = max(n.size - int(n_params), 1)
@@ -107,8 +108,13 @@ def clean_model(search: ArtifactSearch, base) -> CleanModel:
     fitted = prob.measured_modulus(base.x)
     d = search.data
     n_spec = len(d["specimens"])
-    cell = cell_misfit(search.df, np.log(np.abs(fitted)) - d["lnE"], np.degrees(np.angle(fitted)) - d["phase"],
-                       point, base.n_params - 2 * (n_spec - 1))
+    cell = cell_misfit(
+        search.df,
+        np.log(np.abs(fitted)) - d["lnE"],
+        np.degrees(np.angle(fitted)) - d["phase"],
+        point,
+        base.n_params - 2 * (n_spec - 1),
+    )
     keep = [c for c in search.df.columns if c not in ("E_norm_MPa", "phase_deg")]
     return CleanModel(E=E, sigma_point=point, sigma_cell=cell, x0=x, rows=search.df[keep].copy())
 
@@ -164,8 +170,17 @@ def _map(fn, tasks, jobs: int):
     return [fn(t) for t in tasks]
 
 
-def calibrate(table: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf", test=None, limits=None,
-              n_tables: int = N_TABLES, seed: int = 0, rate: float = FAMILYWISE_RATE, jobs: int = 1) -> dict:
+def calibrate(
+    table: pd.DataFrame,
+    alpha: float = 1e-3,
+    shift: str = "wlf",
+    test=None,
+    limits=None,
+    n_tables: int = N_TABLES,
+    seed: int = 0,
+    rate: float = FAMILYWISE_RATE,
+    jobs: int = 1,
+) -> dict:
     """Calibrate the artifact procedure and the static-modulus test on ``table`` (module
     docstring).
 
@@ -217,8 +232,10 @@ def calibrate(table: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf", test
     # out of sample: each half's level judged on the other half
     half = m.size // 2
     a, b = m[:half], m[half:]
-    alarms = int(np.sum(b < min(critical_level(a, group_rate), nominal))
-                 + np.sum(a < min(critical_level(b, group_rate), nominal)))
+    alarms = int(
+        np.sum(b < min(critical_level(a, group_rate), nominal))
+        + np.sum(a < min(critical_level(b, group_rate), nominal))
+    )
     lo, hi = binomial_ci(alarms, m.size)
     # the static modulus: tables of the liquid master curve
     T_ref = search.T_screen
@@ -226,28 +243,50 @@ def calibrate(table: pd.DataFrame, alpha: float = 1e-3, shift: str = "wlf", test
     liquid = fit_master_curve(search.df, shift=shift, T_ref_C=T_ref, static_modulus=False, sigma=search.sigma)
     assert liquid.fitted is not None  # set by every fit
     E_liq = liquid.fitted["E_norm_MPa_model"].to_numpy(float) * np.exp(
-        1j * np.radians(liquid.fitted["phase_deg_model"].to_numpy(float)))
+        1j * np.radians(liquid.fitted["phase_deg_model"].to_numpy(float))
+    )
     rng_s = np.random.default_rng([int(seed), 2])
     sims_s = [simulate(model, rng_s, E=E_liq) for _ in range(int(n_tables))]
     F = _map(_static_stat, [(t, shift, T_ref, full.x, liquid.x) for t in sims_s], jobs)
-    return {"n_tables": int(n_tables), "seed": int(seed), "familywise_rate": float(rate), "groups": GROUPS,
-            "alpha": float(alpha), "shift": shift, "limits": dict(search.limits),
-            "clean_model": {"sigma_point_lnE": float(model.sigma_point[0]),
-                            "sigma_point_phase_deg": float(model.sigma_point[1]),
-                            "sigma_cell_lnE": float(model.sigma_cell[0]),
-                            "sigma_cell_phase_deg": float(model.sigma_cell[1]),
-                            "screening_chi2_per_dof": float(search.chi2_per_dof(base)),
-                            "shifts": f"smooth {shift.upper()} law through the free shifts"},
-            "artifacts": {"family_size": int(observed["family_size"]), "nominal_level": nominal,
-                          "calibrated_level": c, "level": min(c, nominal),
-                          "binding": "calibrated" if c < nominal else "nominal",
-                          "observed_min_p": float(observed["min_p"]),
-                          "null_min_p": [float(v) for v in m],
-                          "rate": {"k": alarms, "n": int(m.size), "rate": alarms / m.size, "ci95": [lo, hi],
-                                   "method": "cross-fitted halves: each half's level judged on the other half"}},
-            "static": {"level": float(group_rate), "null_F": [float(v) for v in F],
-                       "model": f"liquid 2S2P1D master curve (E00 = 0), {shift.upper()} shifts"},
-            "cpu_seconds": _cpu() - c0}
+    return {
+        "n_tables": int(n_tables),
+        "seed": int(seed),
+        "familywise_rate": float(rate),
+        "groups": GROUPS,
+        "alpha": float(alpha),
+        "shift": shift,
+        "limits": dict(search.limits),
+        "clean_model": {
+            "sigma_point_lnE": float(model.sigma_point[0]),
+            "sigma_point_phase_deg": float(model.sigma_point[1]),
+            "sigma_cell_lnE": float(model.sigma_cell[0]),
+            "sigma_cell_phase_deg": float(model.sigma_cell[1]),
+            "screening_chi2_per_dof": float(search.chi2_per_dof(base)),
+            "shifts": f"smooth {shift.upper()} law through the free shifts",
+        },
+        "artifacts": {
+            "family_size": int(observed["family_size"]),
+            "nominal_level": nominal,
+            "calibrated_level": c,
+            "level": min(c, nominal),
+            "binding": "calibrated" if c < nominal else "nominal",
+            "observed_min_p": float(observed["min_p"]),
+            "null_min_p": [float(v) for v in m],
+            "rate": {
+                "k": alarms,
+                "n": int(m.size),
+                "rate": alarms / m.size,
+                "ci95": [lo, hi],
+                "method": "cross-fitted halves: each half's level judged on the other half",
+            },
+        },
+        "static": {
+            "level": float(group_rate),
+            "null_F": [float(v) for v in F],
+            "model": f"liquid 2S2P1D master curve (E00 = 0), {shift.upper()} shifts",
+        },
+        "cpu_seconds": _cpu() - c0,
+    }
 
 
 def _cpu() -> float:

@@ -56,21 +56,40 @@ if TYPE_CHECKING:
 SCHEMES = ("lofo", "loto", "loso")
 #: shift law of the law a material card carries: the card's own (WLF) or the chosen law's
 CARD_SHIFTS = ("wlf", "law")
-ROW_COLUMNS = ("scheme", "fold", "kind", "model", "temperature_C", "frequency_Hz", "n_replicates",
-               "E_norm_MPa_measured", "phase_deg_measured", "E_norm_MPa_predicted", "phase_deg_predicted",
-               "rel_err_E_norm", "rel_err_phase", "extrapolation", "settings", "computable", "reason")
+ROW_COLUMNS = (
+    "scheme",
+    "fold",
+    "kind",
+    "model",
+    "temperature_C",
+    "frequency_Hz",
+    "n_replicates",
+    "E_norm_MPa_measured",
+    "phase_deg_measured",
+    "E_norm_MPa_predicted",
+    "phase_deg_predicted",
+    "rel_err_E_norm",
+    "rel_err_phase",
+    "extrapolation",
+    "settings",
+    "computable",
+    "reason",
+)
 #: fit failures that make a fold or a setting "not computable" (reported, not raised)
 FIT_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
 
 
-def candidate_grid(shifts=("wlf",), statics=("constant",), verticals=(False,), refines=(None,),
-                   per_decades=(2.0,)) -> list[LawSettings]:
+def candidate_grid(
+    shifts=("wlf",), statics=("constant",), verticals=(False,), refines=(None,), per_decades=(2.0,)
+) -> list[LawSettings]:
     """Every combination of the given options, simplest first (see ``LawSettings.complexity``).
 
     Raises ValueError on an invalid option (``LawSettings``) or an empty grid.
     """
-    grid = [LawSettings(shift=s, static=st, vertical=v, refine=r, per_decade=p)
-            for s, st, v, r, p in itertools.product(shifts, statics, verticals, refines, per_decades)]
+    grid = [
+        LawSettings(shift=s, static=st, vertical=v, refine=r, per_decade=p)
+        for s, st, v, r, p in itertools.product(shifts, statics, verticals, refines, per_decades)
+    ]
     if not grid:
         raise ValueError("empty candidate grid")
     return sorted(set(grid), key=lambda c: c.complexity())
@@ -172,17 +191,27 @@ class MeasurementModel:
         if not any(t.name != VERTICAL for t in fit.terms):
             return np.ones(len(rows), complex)
         d = data_arrays(rows)
-        d["spec"] = rows["specimen"].astype(str).map({s: i for i, s in enumerate(fit.specimens)}).fillna(0)\
-            .to_numpy(int)
+        d["spec"] = (
+            rows["specimen"].astype(str).map({s: i for i, s in enumerate(fit.specimens)}).fillna(0).to_numpy(int)
+        )
         d["specimens"], d["temperatures"] = list(fit.specimens), fit.temperatures
-        prob = MasterCurveProblem(d, shift=fit.shift, T_ref_C=fit.T_ref_C, static_modulus=fit.static_modulus,
-                                  terms=fit.terms, sigma_lnE=fit.sigma_lnE, sigma_phase_deg=fit.sigma_phase_deg)
+        prob = MasterCurveProblem(
+            d,
+            shift=fit.shift,
+            T_ref_C=fit.T_ref_C,
+            static_modulus=fit.static_modulus,
+            terms=fit.terms,
+            sigma_lnE=fit.sigma_lnE,
+            sigma_phase_deg=fit.sigma_phase_deg,
+        )
         if list(prob.names) != list(fit.names):
             raise ValueError("the rows do not match the parameter layout of the artifact fit")
         return artifact_ratio(prob, fit, self.strain_ref)
 
 
-def correct_artifacts(table: pd.DataFrame, options: Options, given=None) -> tuple[pd.DataFrame, list, list, MeasurementModel | None]:
+def correct_artifacts(
+    table: pd.DataFrame, options: Options, given=None
+) -> tuple[pd.DataFrame, list, list, MeasurementModel | None]:
     """Artifact-corrected copy of ``table`` (step 1 of the module docstring).
 
     ``given``: (corrected table, :class:`~asphalt_nscd.diagnosis.artifacts.ArtifactRecord`)
@@ -200,15 +229,24 @@ def correct_artifacts(table: pd.DataFrame, options: Options, given=None) -> tupl
     if given is not None:
         corrected, rec = given
         if len(corrected) != len(table):
-            raise InputError(f"corrected table: {len(corrected)} rows, the measured table {len(table)}: not the "
-                             "artifact search of this table")
+            raise InputError(
+                f"corrected table: {len(corrected)} rows, the measured table {len(table)}: not the "
+                "artifact search of this table"
+            )
         return corrected, list(rec.artifacts), list(rec.notes), None
     from .artifacts import analyse
 
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # trial points of the fits
-            a = analyse(table, alpha=options.alpha, shift=options.artifact_shift, T_ref_C=options.T_ref_C,
-                        limits=options.limits, level=options.level, outliers=False)
+            a = analyse(
+                table,
+                alpha=options.alpha,
+                shift=options.artifact_shift,
+                T_ref_C=options.T_ref_C,
+                limits=options.limits,
+                level=options.level,
+                outliers=False,
+            )
     except FIT_ERRORS as exc:
         return table, [], [f"artifact search failed ({exc}); law fitted to the table as given"], None
     names = [c.name for c in a["result"]["selected"]]
@@ -226,8 +264,9 @@ def exclude_rows(table: pd.DataFrame, frequencies=(), temperatures=(), where="me
     """
     keep = np.ones(len(table), bool)
     for col, values, opt, same in (
-            ("frequency_Hz", frequencies, "--exclude-frequency", same_frequency),
-            ("temperature_C", temperatures, "--exclude-temperature", same_temperature)):
+        ("frequency_Hz", frequencies, "--exclude-frequency", same_frequency),
+        ("temperature_C", temperatures, "--exclude-temperature", same_temperature),
+    ):
         for v in values:
             hit = same(table[col].to_numpy(float), v)
             if not hit.any():
@@ -265,8 +304,9 @@ def fit_structures(cells: pd.DataFrame, structures, T_ref_C: float, tolerances) 
         start = None
         if not base:
             names = set(extended.backbone_names(settings, np.unique(cells["temperature_C"])))
-            fitted = [bb for s2, bb in out.items() if not isinstance(bb, str) and s2[0] == st[0]
-                      and set(bb.names) <= names]
+            fitted = [
+                bb for s2, bb in out.items() if not isinstance(bb, str) and s2[0] == st[0] and set(bb.names) <= names
+            ]
             if fitted:
                 ref = max(fitted, key=lambda bb: len(bb.names))
                 start = dict(zip(ref.names, ref.x))
@@ -288,8 +328,10 @@ def fold_split(cells: pd.DataFrame, scheme: str, value: float):
     train = ~same(cells[key].to_numpy(float), value)
     temps = np.unique(cells["temperature_C"].to_numpy(float)[train])
     if scheme == "loto" and temps.size < 3:
-        return train, (f"leaves {temps.size} temperature(s): the shift law (2 constants) needs >= 3 "
-                       "training temperatures to carry the law to another temperature")
+        return train, (
+            f"leaves {temps.size} temperature(s): the shift law (2 constants) needs >= 3 "
+            "training temperatures to carry the law to another temperature"
+        )
     if temps.size < 2:
         return train, f"leaves {temps.size} temperature(s): the temperature-aware law needs >= 2"
     if not train.any():
@@ -373,15 +415,25 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
         ok = s.size > 0 and np.all(np.isfinite(s))
         reason = rows[c]["reason"]
         if not folds:
-            reason = ("single candidate: no selection" if len(cands) == 1
-                      else "no computable inner fold: first candidate kept")
+            reason = (
+                "single candidate: no selection"
+                if len(cands) == 1
+                else "no computable inner fold: first candidate kept"
+            )
         elif not ok and not reason:
             reason = "a prediction was not finite"
-        curve.append({"settings": c.label(), **c.as_dict(), "n_params": c.n_params(n_T),
-                      "cv_score": float(s.mean()) if ok else np.nan,
-                      "cv_score_se": float(s.std(ddof=1) * np.sqrt(1.0 / s.size + overlap))
-                      if ok and s.size > 1 else np.nan,
-                      "n_folds": int(s.size), "chosen": False, "reason": "" if ok else reason})
+        curve.append(
+            {
+                "settings": c.label(),
+                **c.as_dict(),
+                "n_params": c.n_params(n_T),
+                "cv_score": float(s.mean()) if ok else np.nan,
+                "cv_score_se": float(s.std(ddof=1) * np.sqrt(1.0 / s.size + overlap)) if ok and s.size > 1 else np.nan,
+                "n_folds": int(s.size),
+                "chosen": False,
+                "reason": "" if ok else reason,
+            }
+        )
     curve = pd.DataFrame(curve)
     findings = [[] if isinstance(fitted[c.structure], str) else fitted[c.structure].findings() for c in cands]
     curve["plausible"] = [not f for f in findings]
@@ -397,8 +449,9 @@ def select_settings(cells: pd.DataFrame, options: Options) -> tuple[LawSettings 
     if card is not None:
         curve.loc[card, "chosen_card"] = True
         if card != chosen and card_note:
-            curve.loc[card, "note"] = "material card (a law without vertical shift, static trend or refinement): " \
-                + card_note
+            curve.loc[card, "note"] = (
+                "material card (a law without vertical shift, static trend or refinement): " + card_note
+            )
     return cands[chosen], curve, fitted
 
 
@@ -443,9 +496,11 @@ def _choose(curve: pd.DataFrame, scores: dict, overlap: float, one_se: bool, mas
     d = scores[bp] - scores[bi]
     gain = float(np.mean(d))
     se = float(np.std(d, ddof=1) * np.sqrt(1.0 / d.size + overlap)) if d.size > 1 else np.inf
-    text = (f"held-out gain of the best implausible candidate ({curve.loc[bi, 'settings']}: "
-            f"{curve.loc[bi, 'findings']}) over the best plausible one ({curve.loc[bp, 'settings']}): "
-            f"{gain:.3g} +- {se:.3g} in score")
+    text = (
+        f"held-out gain of the best implausible candidate ({curve.loc[bi, 'settings']}: "
+        f"{curve.loc[bi, 'findings']}) over the best plausible one ({curve.loc[bp, 'settings']}): "
+        f"{gain:.3g} +- {se:.3g} in score"
+    )
     if gain - GAIN_Z * se > 0:
         return pick, text + f", more than {GAIN_Z:g} standard errors: the implausible law is kept"
     return _one_se_pick(curve, plaus, one_se), text + f", within {GAIN_Z:g} standard errors: a plausible law is chosen"
@@ -463,31 +518,52 @@ def fit_extended(table: pd.DataFrame, options: Options, artifacts=None) -> FitRe
     cells = cell_means(corrected)
     n_T = cells["temperature_C"].nunique()
     if n_T < 2:
-        return FitResult(None, None, pd.DataFrame(), corrected, artifacts, notes,
-                         f"{n_T} temperature(s): the temperature-aware law needs >= 2", measurement)
+        return FitResult(
+            None,
+            None,
+            pd.DataFrame(),
+            corrected,
+            artifacts,
+            notes,
+            f"{n_T} temperature(s): the temperature-aware law needs >= 2",
+            measurement,
+        )
     settings, curve, backbones = select_settings(cells, options)
     T_ref = _t_ref(cells, options)
-    law, chosen, last = _fit_first(cells, [settings] + [c for c in options.candidates if c != settings],
-                                   backbones, T_ref, options, notes)
+    law, chosen, last = _fit_first(
+        cells, [settings] + [c for c in options.candidates if c != settings], backbones, T_ref, options, notes
+    )
     if law is None:
-        return FitResult(None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})",
-                         measurement)
+        return FitResult(
+            None, None, curve, corrected, artifacts, notes, f"no setting could be fitted ({last})", measurement
+        )
     if chosen != settings:
         curve["chosen"] = curve["settings"] == chosen.label()
     law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
     card_law, card = _fit_card_law(cells, law, chosen, curve, backbones, T_ref, options, notes)
     if card_law is not None and card_law is not law:
         card_law.info = {"artifacts_corrected": artifacts, "notes": list(notes)}
-    return FitResult(law, chosen, curve, corrected, artifacts, notes, measurement=measurement,
-                     card_law=card_law, card_settings=card if card_law is not None else None)
+    return FitResult(
+        law,
+        chosen,
+        curve,
+        corrected,
+        artifacts,
+        notes,
+        measurement=measurement,
+        card_law=card_law,
+        card_settings=card if card_law is not None else None,
+    )
 
 
 def card_law_settings(chosen: LawSettings, options: Options) -> LawSettings:
     """The settings of the law a material card carries (module docstring): ``chosen`` without a
     vertical shift or refinement, a static trend made constant, the shift of ``options.card_shift``."""
-    return LawSettings(shift="wlf" if options.card_shift == "wlf" else chosen.shift,
-                       static="constant" if chosen.static == "trend" else chosen.static,
-                       per_decade=chosen.per_decade)
+    return LawSettings(
+        shift="wlf" if options.card_shift == "wlf" else chosen.shift,
+        static="constant" if chosen.static == "trend" else chosen.static,
+        per_decade=chosen.per_decade,
+    )
 
 
 def _fit_card_law(cells, law: ThermoLaw, chosen: LawSettings, curve, backbones, T_ref, options: Options, notes):
@@ -500,17 +576,23 @@ def _fit_card_law(cells, law: ThermoLaw, chosen: LawSettings, curve, backbones, 
         return law, chosen
     try:
         start = _card_start(law, settings, cells)
-        card_law = extended.fit_law(cells, settings, T_ref, options.tolerances, options.margin_decades,
-                                    loss=options.card_fit, starts=[start])
+        card_law = extended.fit_law(
+            cells, settings, T_ref, options.tolerances, options.margin_decades, loss=options.card_fit, starts=[start]
+        )
         return card_law, settings
     except FIT_ERRORS as exc:
-        notes.append(f"material card law {settings.label()} ({options.card_fit}) not computable ({exc}); the card "
-                     "carries the first carriable candidate instead")
+        notes.append(
+            f"material card law {settings.label()} ({options.card_fit}) not computable ({exc}); the card "
+            "carries the first carriable candidate instead"
+        )
     if chosen.carriable:
         return law, chosen
     picked = [c for c, on in zip(options.candidates, curve["chosen_card"]) if on] if len(curve) else []
-    fallback = LawSettings(shift=chosen.shift, static="constant" if chosen.static == "trend" else chosen.static,
-                           per_decade=chosen.per_decade)
+    fallback = LawSettings(
+        shift=chosen.shift,
+        static="constant" if chosen.static == "trend" else chosen.static,
+        per_decade=chosen.per_decade,
+    )
     order = picked + [c for c in options.candidates if c.carriable and c not in picked] + [fallback]
     card_law, card, _ = _fit_first(cells, order, backbones, T_ref, options, notes)
     return card_law, card
@@ -525,8 +607,9 @@ def _card_start(law: ThermoLaw, settings: LawSettings, cells) -> dict:
         from ..rheology.export import card_wlf
 
         T = cells["temperature_C"].to_numpy(float)
-        C1, C2, _, _ = card_wlf({"law": "Arrhenius", "Ea_kJ_mol": bb.value("Ea_kJ_mol")}, bb.T_ref_C,
-                                 float(T.min()), float(T.max()))
+        C1, C2, _, _ = card_wlf(
+            {"law": "Arrhenius", "Ea_kJ_mol": bb.value("Ea_kJ_mol")}, bb.T_ref_C, float(T.min()), float(T.max())
+        )
         start.update({"C1": C1, "C2_K": C2})
     return start
 
@@ -547,8 +630,9 @@ def _fit_first(cells, order, backbones, T_ref, options, notes):
     return None, None, last
 
 
-def law_file_object(fit: FitResult, measured: pd.DataFrame, temperatures, options: Options, source: dict,
-                    card: bool = False) -> dict:
+def law_file_object(
+    fit: FitResult, measured: pd.DataFrame, temperatures, options: Options, source: dict, card: bool = False
+) -> dict:
     """The law file of ``extend-law`` (:mod:`asphalt_nscd.rheology.law_file`): the law of
     ``fit`` (``card``: the law a material card carries, ``fit.card_law``) at ``temperatures``
     (degC) with its in-sample MREs against the corrected and (``_vs_measured``) the measured
@@ -563,23 +647,36 @@ def law_file_object(fit: FitResult, measured: pd.DataFrame, temperatures, option
     obj = law.to_json(temperatures, {"": cell_means(fit.corrected), "_vs_measured": cell_means(measured)})
     notes = [n for n in fit.curve.get("note", pd.Series(dtype=str)).astype(str) if n] if len(fit.curve) else []
     assert fit.settings is not None  # chosen with every fitted law
-    obj["selection"] = {"chosen": fit.settings.as_dict(), "chosen_label": fit.settings.label(),
-                        "rule": ("simplest candidate within one standard error of the best inner-CV score "
-                                 "(fewest fitted parameters, then coarsest Prony series) among the candidates "
-                                 "with plausible parameters, unless an implausible one gains more than "
-                                 f"{GAIN_Z:g} standard errors") if options.one_se else "best inner-CV score",
-                        "notes": notes, "curve": fit.curve.to_dict(orient="records")}
+    obj["selection"] = {
+        "chosen": fit.settings.as_dict(),
+        "chosen_label": fit.settings.label(),
+        "rule": (
+            "simplest candidate within one standard error of the best inner-CV score "
+            "(fewest fitted parameters, then coarsest Prony series) among the candidates "
+            "with plausible parameters, unless an implausible one gains more than "
+            f"{GAIN_Z:g} standard errors"
+        )
+        if options.one_se
+        else "best inner-CV score",
+        "notes": notes,
+        "curve": fit.curve.to_dict(orient="records"),
+    }
     card_fit = None if fit.card_law is None else fit.card_law.backbone.loss
-    obj["card"] = {"settings": None if fit.card_settings is None else fit.card_settings.label(),
-                   "fit": card_fit, "selected_fit": fit.law.backbone.loss if fit.law is not None else None,
-                   "is_selected_law": fit.card_law is not None and fit.card_law is fit.law,
-                   "this_file": "card law" if card else "selected law"}
-    obj["source"] = {**source,
-                     "artifact_search": {"master_curve": "2S2P1D", "shift": options.artifact_shift,
-                                         "alpha": options.alpha},
-                     "artifacts_corrected": fit.artifacts, "notes": fit.notes,
-                     "mre_reference": "in-sample: the artifact-corrected replicate means the law was fitted on "
-                                      "(and, _vs_measured, the measured ones); held-out errors: asphalt-nscd crossval"}
+    obj["card"] = {
+        "settings": None if fit.card_settings is None else fit.card_settings.label(),
+        "fit": card_fit,
+        "selected_fit": fit.law.backbone.loss if fit.law is not None else None,
+        "is_selected_law": fit.card_law is not None and fit.card_law is fit.law,
+        "this_file": "card law" if card else "selected law",
+    }
+    obj["source"] = {
+        **source,
+        "artifact_search": {"master_curve": "2S2P1D", "shift": options.artifact_shift, "alpha": options.alpha},
+        "artifacts_corrected": fit.artifacts,
+        "notes": fit.notes,
+        "mre_reference": "in-sample: the artifact-corrected replicate means the law was fitted on "
+        "(and, _vs_measured, the measured ones); held-out errors: asphalt-nscd crossval",
+    }
     return obj
 
 
@@ -611,12 +708,14 @@ class SampleModel:
         sample = read_sample(sample_path)
         network = network_from_sample(sample)
         if str(tr["sample"]) != str(network.name):
-            raise InputError(f"{transfer_path}: key 'sample': the factor is of sample {tr['sample']!r}, "
-                             f"the sample file {sample_path} is {network.name!r}")
-        system = HarmonicSystem(network, nu=float(tr["nu"]), bond_kinematics=tr["bond_kinematics"],
-                                head_rotation=tr["head_rotation"])
-        return cls(system, specimen_geometry_mm(sample), float(tr["network_factor"]), str(network.name),
-                   inertia)
+            raise InputError(
+                f"{transfer_path}: key 'sample': the factor is of sample {tr['sample']!r}, "
+                f"the sample file {sample_path} is {network.name!r}"
+            )
+        system = HarmonicSystem(
+            network, nu=float(tr["nu"]), bond_kinematics=tr["bond_kinematics"], head_rotation=tr["head_rotation"]
+        )
+        return cls(system, specimen_geometry_mm(sample), float(tr["network_factor"]), str(network.name), inertia)
 
     def predict(self, law, temperature_C: float, frequencies_Hz) -> np.ndarray:
         """Sample |E*| (MPa) and Phi (deg) with bonds following ``law`` (MPa) / NF_s:
@@ -624,8 +723,15 @@ class SampleModel:
         from ..harmonic.response import harmonic_rows
 
         bond_law = law.scaled(1e6 / self.network_factor)
-        rows = harmonic_rows(self.system, bond_law, temperature_C, frequencies_Hz, self.geometry_mm,
-                             amplitude=self.amplitude_m, inertia=self.inertia)
+        rows = harmonic_rows(
+            self.system,
+            bond_law,
+            temperature_C,
+            frequencies_Hz,
+            self.geometry_mm,
+            amplitude=self.amplitude_m,
+            inertia=self.inertia,
+        )
         return np.array([[r["E_norm_MPa"], r["phase_deg"]] for r in rows], float)
 
 
@@ -633,18 +739,30 @@ def _row(scheme, fold, kind, model, cell, pred=None, extrapolation=False, settin
     E_m, P_m = float(cell["E_norm_MPa"]), float(cell["phase_deg"])
     ok = pred is not None and np.all(np.isfinite(pred))
     E_p, P_p = (float(pred[0]), float(pred[1])) if ok else (np.nan, np.nan)
-    return {"scheme": scheme, "fold": fold, "kind": kind, "model": model,
-            "temperature_C": float(cell["temperature_C"]), "frequency_Hz": float(cell["frequency_Hz"]),
-            "n_replicates": int(cell["n"]), "E_norm_MPa_measured": E_m, "phase_deg_measured": P_m,
-            "E_norm_MPa_predicted": E_p, "phase_deg_predicted": P_p,
-            "rel_err_E_norm": float(relative_errors(E_p, E_m)) if ok else np.nan,
-            "rel_err_phase": float(relative_errors(P_p, P_m)) if ok and P_m > 0 else np.nan,
-            "extrapolation": bool(extrapolation), "settings": settings, "computable": bool(ok),
-            "reason": "" if ok else (reason or "prediction not finite")}
+    return {
+        "scheme": scheme,
+        "fold": fold,
+        "kind": kind,
+        "model": model,
+        "temperature_C": float(cell["temperature_C"]),
+        "frequency_Hz": float(cell["frequency_Hz"]),
+        "n_replicates": int(cell["n"]),
+        "E_norm_MPa_measured": E_m,
+        "phase_deg_measured": P_m,
+        "E_norm_MPa_predicted": E_p,
+        "phase_deg_predicted": P_p,
+        "rel_err_E_norm": float(relative_errors(E_p, E_m)) if ok else np.nan,
+        "rel_err_phase": float(relative_errors(P_p, P_m)) if ok and P_m > 0 else np.nan,
+        "extrapolation": bool(extrapolation),
+        "settings": settings,
+        "computable": bool(ok),
+        "reason": "" if ok else (reason or "prediction not finite"),
+    }
 
 
-def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFrame, extrapolation,
-                  n_starts: int = 8) -> list:
+def _burgers_rows(
+    scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFrame, extrapolation, n_starts: int = 8
+) -> list:
     from ..rheology.calibration import fit_burgers
     from ..rheology.laws import GeneralizedBurgers
 
@@ -665,13 +783,15 @@ def _burgers_rows(scheme, fold, kind, train_rows: pd.DataFrame, test: pd.DataFra
             if law is not None:
                 E = law.complex_modulus(2 * np.pi * cell["frequency_Hz"])
                 pred = (abs(E), np.degrees(np.angle(E)))
-            out.append(_row(scheme, fold, kind, "burgers", cell, pred, extrapolation(cell),
-                            "Burger's per isotherm", reason))
+            out.append(
+                _row(scheme, fold, kind, "burgers", cell, pred, extrapolation(cell), "Burger's per isotherm", reason)
+            )
     return out
 
 
-def _as_measured(E_cells: np.ndarray | float, cells: pd.DataFrame, rows: pd.DataFrame | None,
-                 fit: FitResult | None) -> np.ndarray:
+def _as_measured(
+    E_cells: np.ndarray | float, cells: pd.DataFrame, rows: pd.DataFrame | None, fit: FitResult | None
+) -> np.ndarray:
     """Predicted replicate means (|E*| MPa, Phi deg; array (n_cells, 2)) of the measured
     table from the material's E* per cell: each held-out row's prediction is E* / R (R of the
     fold's artifact fit at that row, :class:`MeasurementModel`), averaged per cell like the
@@ -691,14 +811,25 @@ def _as_measured(E_cells: np.ndarray | float, cells: pd.DataFrame, rows: pd.Data
     return out
 
 
-def _law_rows(scheme, fold, kind, fit: FitResult | None, test: pd.DataFrame, sample, extrapolation, reason="",
-              rows: pd.DataFrame | None = None) -> list:
+def _law_rows(
+    scheme,
+    fold,
+    kind,
+    fit: FitResult | None,
+    test: pd.DataFrame,
+    sample,
+    extrapolation,
+    reason="",
+    rows: pd.DataFrame | None = None,
+) -> list:
     """Rows of the extended law, of the law a material card carries (``card_law``) and of the
     sample at the cells ``test``; ``rows``: the measured rows of those cells (with
     ``test_step``), for the fold's measurement model."""
     out = []
-    models = [("extended_law", None if fit is None else fit.law, None if fit is None else fit.settings),
-              ("card_law", None if fit is None else fit.card_law, None if fit is None else fit.card_settings)]
+    models = [
+        ("extended_law", None if fit is None else fit.law, None if fit is None else fit.settings),
+        ("card_law", None if fit is None else fit.card_law, None if fit is None else fit.card_settings),
+    ]
     for T, g in test.groupby("temperature_C"):
         f = g["frequency_Hz"].to_numpy(float)
         g_rows = None if rows is None else at_temperature(rows, T)
@@ -734,9 +865,19 @@ def _law_rows(scheme, fold, kind, fit: FitResult | None, test: pd.DataFrame, sam
                 _, pred, w, lab = preds[name]
                 out.append(_row(scheme, fold, kind, name, cell, None if pred is None else pred[i], x, lab, w))
             if sample is not None:
-                out.append(_row(scheme, fold, kind, "nscd_sample", cell,
-                                None if pred_nscd is None else pred_nscd[i], x, label,
-                                why or why_s))
+                out.append(
+                    _row(
+                        scheme,
+                        fold,
+                        kind,
+                        "nscd_sample",
+                        cell,
+                        None if pred_nscd is None else pred_nscd[i],
+                        x,
+                        label,
+                        why or why_s,
+                    )
+                )
     return out
 
 
@@ -758,8 +899,14 @@ def fold_label(scheme: str, value) -> str:
     return str(value) if scheme == "loso" else f"{float(value):g}"
 
 
-def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleModel | None = None,
-             time_domain: pd.DataFrame | None = None, full: FitResult | None = None) -> CrossvalResult:
+def crossval(
+    table: pd.DataFrame,
+    scheme: str,
+    options: Options,
+    sample: SampleModel | None = None,
+    time_domain: pd.DataFrame | None = None,
+    full: FitResult | None = None,
+) -> CrossvalResult:
     """Held-out and in-sample predictions of every model for one scheme (module docstring).
 
     Parameters
@@ -807,8 +954,11 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
             held = (prepared["specimen"] == value).to_numpy()
             train_rows, held_rows = prepared[~held], prepared[held]
             test = cell_means(held_rows)
-            reason = ("" if train_rows["temperature_C"].nunique() >= 2 else
-                      "the other specimens leave fewer than 2 temperatures (a single specimen: none to fit on)")
+            reason = (
+                ""
+                if train_rows["temperature_C"].nunique() >= 2
+                else "the other specimens leave fewer than 2 temperatures (a single specimen: none to fit on)"
+            )
             extrapolation = lambda c: False  # noqa: E731
         else:
             train_cells, reason = fold_split(cells, scheme, value)
@@ -821,8 +971,11 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
                 extrapolation = lambda c, e=edge: e  # noqa: E731
             else:
                 f_tr = train_rows["frequency_Hz"].to_numpy(float)
-                extrapolation = lambda c, f=f_tr: bool(f.size == 0 or c["frequency_Hz"] < f.min()  # noqa: E731
-                                                       or c["frequency_Hz"] > f.max())
+                extrapolation = lambda c, f=f_tr: bool(
+                    f.size == 0
+                    or c["frequency_Hz"] < f.min()  # noqa: E731
+                    or c["frequency_Hz"] > f.max()
+                )
         fit = None
         if not reason:
             fit = fit_extended(train_rows, options)
@@ -843,18 +996,29 @@ def crossval(table: pd.DataFrame, scheme: str, options: Options, sample: SampleM
 def _time_domain_rows(scheme, cells, td: pd.DataFrame, fits) -> list:
     rows = []
     for _, r in td.iterrows():
-        sel = (same_temperature(cells["temperature_C"], r["temperature_C"])
-               & same_frequency(cells["frequency_Hz"], r["frequency_Hz"]))
+        sel = same_temperature(cells["temperature_C"], r["temperature_C"]) & same_frequency(
+            cells["frequency_Hz"], r["frequency_Hz"]
+        )
         if not sel.any():
-            raise InputError(f"time-domain row at {r['temperature_C']:g} degC, {r['frequency_Hz']:g} Hz: not a "
-                             "measured cell")
+            raise InputError(
+                f"time-domain row at {r['temperature_C']:g} degC, {r['frequency_Hz']:g} Hz: not a measured cell"
+            )
         cell = cells[sel].iloc[0]
         label = fold_label(scheme, r["frequency_Hz"] if scheme == "lofo" else r["temperature_C"])
         fit = fits.get(label)
-        rows.append(_row(scheme, label, "held_out", "nscd_time_domain", cell,
-                         (float(r["E_norm_MPa"]), float(r["phase_deg"])), False,
-                         fit.settings.label() if fit is not None and fit.settings else "",
-                         ""))
+        rows.append(
+            _row(
+                scheme,
+                label,
+                "held_out",
+                "nscd_time_domain",
+                cell,
+                (float(r["E_norm_MPa"]), float(r["phase_deg"])),
+                False,
+                fit.settings.label() if fit is not None and fit.settings else "",
+                "",
+            )
+        )
     return rows
 
 
@@ -874,8 +1038,9 @@ def figure(rows: pd.DataFrame, law: ThermoLaw | None, path, model: str = "extend
         why = "; ".join(sorted(set(sub.loc[sub["kind"] == "held_out", "reason"].astype(str)))) or "no held-out cell"
         fig, ax = plt.subplots(figsize=(7, 2.5))
         ax.axis("off")
-        ax.text(0.02, 0.5, f"{sub['scheme'].iloc[0]}: no fold could be computed\n{why}", wrap=True, va="center",
-                fontsize=9)
+        ax.text(
+            0.02, 0.5, f"{sub['scheme'].iloc[0]}: no fold could be computed\n{why}", wrap=True, va="center", fontsize=9
+        )
         savefig(fig, path)
         plt.close(fig)
         return
@@ -884,8 +1049,9 @@ def figure(rows: pd.DataFrame, law: ThermoLaw | None, path, model: str = "extend
     fig, axes = plt.subplots(2, 1, figsize=(7, 8), sharex=True)
     colors = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(temps), 1)))
     f_all = meas["frequency_Hz"].to_numpy(float)
-    fg: np.ndarray | list = (np.logspace(np.log10(f_all.min()) - 0.2, np.log10(f_all.max()) + 0.2, 80)
-                             if f_all.size else [])
+    fg: np.ndarray | list = (
+        np.logspace(np.log10(f_all.min()) - 0.2, np.log10(f_all.max()) + 0.2, 80) if f_all.size else []
+    )
     scheme = sub["scheme"].iloc[0] if len(sub) else ""
     for T, color in zip(temps, colors):
         m = meas[meas["temperature_C"] == T].sort_values("frequency_Hz")

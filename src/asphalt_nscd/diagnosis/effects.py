@@ -71,11 +71,14 @@ OFFSET_MODEL_ERROR_C = 0.6
 #: screening fit is worse lies outside the range where those rates were measured.
 BENCH_SCREENING_CHI2 = {"q99": 1.74, "max": 2.76}
 #: unit of the practical size of each artifact (``practical_size``)
-SIZE_UNITS = {"time_lag": "deg of phase at the highest frequency",
-              "inertia_uncorrected": "% of |E*| (largest E1 deficit)",
-              "temperature_offset": "degC", "strain_nonlinearity": "% of |E*| over the tested strain range",
-              "self_heating": "% of |E*| over an isotherm",
-              "temperature_drift": "degC across an isotherm (largest)"}
+SIZE_UNITS = {
+    "time_lag": "deg of phase at the highest frequency",
+    "inertia_uncorrected": "% of |E*| (largest E1 deficit)",
+    "temperature_offset": "degC",
+    "strain_nonlinearity": "% of |E*| over the tested strain range",
+    "self_heating": "% of |E*| over an isotherm",
+    "temperature_drift": "degC across an isotherm (largest)",
+}
 #: Limits of identifiability (config ``diagnosis.identifiability``): a candidate whose
 #: signature has a cosine of at least ``null`` with the screening model's span (variance
 #: inflation 1 / (1 - 0.995^2) = 100), or a largest canonical correlation of at least ``rival``
@@ -83,17 +86,23 @@ SIZE_UNITS = {"time_lag": "deg of phase at the highest frequency",
 #: table (docs/choices.md, Diagnosis: what a table can identify).
 IDENTIFIABILITY_LIMITS = {"null": 0.995, "rival": 0.95}
 #: what each candidate's rival is (the explanation that is not that artifact)
-RIVALS = {"time_lag": None, "inertia_uncorrected": None,
-          "strain_nonlinearity": "the same |E*| change along the frequency (the strain's shadow on log f within "
-                                 "each specimen's isotherm)",
-          "self_heating": "the same changes along the frequency (the test step's shadow on log f within each "
-                          "specimen's isotherm): a frequency response of the measurement chain",
-          "temperature_drift": "a change of slope of each isotherm along the frequency (the test step's shadow on "
-                               "log f): a failure of time-temperature superposition",
-          "temperature_offset": "one more degree of the smooth shift law (a shift law that bends there)"}
+RIVALS = {
+    "time_lag": None,
+    "inertia_uncorrected": None,
+    "strain_nonlinearity": "the same |E*| change along the frequency (the strain's shadow on log f within "
+    "each specimen's isotherm)",
+    "self_heating": "the same changes along the frequency (the test step's shadow on log f within each "
+    "specimen's isotherm): a frequency response of the measurement chain",
+    "temperature_drift": "a change of slope of each isotherm along the frequency (the test step's shadow on "
+    "log f): a failure of time-temperature superposition",
+    "temperature_offset": "one more degree of the smooth shift law (a shift law that bends there)",
+}
 #: the row covariate of each candidate whose frequency shadow is its rival
-RIVAL_COVARIATE = {"strain_nonlinearity": "strain_microstrain", "self_heating": "test_step",
-                   "temperature_drift": "test_step"}
+RIVAL_COVARIATE = {
+    "strain_nonlinearity": "strain_microstrain",
+    "self_heating": "test_step",
+    "temperature_drift": "test_step",
+}
 #: artifacts screened by forward selection (the temperature offset has its own test)
 SCREENED = ("time_lag", "inertia_uncorrected", "strain_nonlinearity", "self_heating", "temperature_drift")
 #: Practical size below which a significant artifact is not named (units SIZE_UNITS): time
@@ -105,8 +114,14 @@ SCREENED = ("time_lag", "inertia_uncorrected", "strain_nonlinearity", "self_heat
 #: and inertia (3 %) floors are above every false alarm of the calibration run (base seed
 #: 11, 80 clean tables per family: time lag 0.27-0.72 deg, inertia 0.9-2.6 %, all on
 #: tables from misspecified truths); docs/choices.md, Diagnosis.
-PRACTICAL_MINIMUM = {"time_lag": 1.0, "inertia_uncorrected": 3.0, "temperature_offset": 0.5,
-                     "strain_nonlinearity": 0.5, "self_heating": 1.0, "temperature_drift": 1.0}
+PRACTICAL_MINIMUM = {
+    "time_lag": 1.0,
+    "inertia_uncorrected": 3.0,
+    "temperature_offset": 0.5,
+    "strain_nonlinearity": 0.5,
+    "self_heating": 1.0,
+    "temperature_drift": 1.0,
+}
 
 #: form factor of the paper's 2PB specimen (1/mm), the scale of the inertia parameter
 PAPER_GAMMA_PER_MM = 25.09577742360453
@@ -114,8 +129,14 @@ PAPER_GAMMA_PER_MM = 25.09577742360453
 INERTIA_PARAMETER = "mass_2pb_equivalent_g"
 #: name of the nuisance term of the screening model (vertical shift per isotherm)
 VERTICAL = "vertical_shift"
-ARTIFACTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
-             "self_heating", "temperature_drift")
+ARTIFACTS = (
+    "time_lag",
+    "inertia_uncorrected",
+    "temperature_offset",
+    "strain_nonlinearity",
+    "self_heating",
+    "temperature_drift",
+)
 
 
 def prepare_table(df: pd.DataFrame) -> pd.DataFrame:
@@ -149,9 +170,13 @@ def testability(df: pd.DataFrame, test=None) -> dict:
     if ok:
         out["inertia_uncorrected"] = test.inertia_testability()
     ok = n_T >= 4 and n_f >= 2
-    out["temperature_offset"] = (ok, "" if ok else
-                                 "needs >= 4 isotherms (an inner isotherm against the shift law, 3 "
-                                 "parameters with its offset, of at least 3 others)")
+    out["temperature_offset"] = (
+        ok,
+        ""
+        if ok
+        else "needs >= 4 isotherms (an inner isotherm against the shift law, 3 "
+        "parameters with its offset, of at least 3 others)",
+    )
     if "strain_microstrain" not in df.columns:
         out["strain_nonlinearity"] = (False, "the table has no strain_microstrain column")
     else:
@@ -159,8 +184,10 @@ def testability(df: pd.DataFrame, test=None) -> dict:
         within = ls - df.groupby("specimen")["strain_microstrain"].transform(lambda s: np.log(s).mean()).to_numpy()
         ok = float(np.std(within)) > 0.05
         out["strain_nonlinearity"] = (ok, "" if ok else "strain amplitude does not vary within specimens")
-    no_order = ("the table gives no test order (a test_order column, or the test sequence declared in its "
-                "sidecar): an effect along the tests cannot be told from one along the frequency")
+    no_order = (
+        "the table gives no test order (a test_order column, or the test sequence declared in its "
+        "sidecar): an effect along the tests cannot be told from one along the frequency"
+    )
     if "test_step" not in df.columns:
         out["self_heating"] = (False, no_order)
         out["temperature_drift"] = (False, no_order)
@@ -172,8 +199,9 @@ def testability(df: pd.DataFrame, test=None) -> dict:
     return out
 
 
-def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: float | None = None,
-              temperatures=()) -> Term:
+def make_term(
+    name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: float | None = None, temperatures=()
+) -> Term:
     """Measurement-model term of a screened artifact (see the module table; the temperature
     offset is tested on the free shifts, :meth:`ArtifactSearch.offset_test`).
 
@@ -186,26 +214,54 @@ def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: floa
     read between the channels).
     """
     if name == "time_lag":
-        return Term(name, ["time_lag_ms"], [0.0], [-5.0], [5.0],
-                    apply=lambda x, E, d: E * np.exp(1j * 2 * np.pi * d["f"] * x[0] * 1e-3), order=3)
+        return Term(
+            name,
+            ["time_lag_ms"],
+            [0.0],
+            [-5.0],
+            [5.0],
+            apply=lambda x, E, d: E * np.exp(1j * 2 * np.pi * d["f"] * x[0] * 1e-3),
+            order=3,
+        )
     if name == "inertia_uncorrected":
         # parameter: the mass (g) that would give the same E1 deficit on the paper's 2PB
         # specimen, so that its scale does not depend on the test (gamma differs by 1e3
         # between a 2PB trapezoid and a uniaxial cylinder); mass = x PAPER_GAMMA / gamma
-        return Term(name, [INERTIA_PARAMETER], [0.0], [-5000.0], [5000.0],
-                    apply=lambda x, E, d: E - PAPER_GAMMA_PER_MM * 1e-6 * x[0] * (2 * np.pi * d["f"]) ** 2,
-                    order=2)
+        return Term(
+            name,
+            [INERTIA_PARAMETER],
+            [0.0],
+            [-5000.0],
+            [5000.0],
+            apply=lambda x, E, d: E - PAPER_GAMMA_PER_MM * 1e-6 * x[0] * (2 * np.pi * d["f"]) ** 2,
+            order=2,
+        )
     if name == "strain_nonlinearity":
-        return Term(name, ["modulus_drop_per_100_microstrain"], [0.0], [-0.5], [0.5],
-                    apply=lambda x, E, d: E * np.exp(-x[0] * (d["strain_microstrain"] - strain_ref_microstrain)
-                                                     / 100.0), order=1)
+        return Term(
+            name,
+            ["modulus_drop_per_100_microstrain"],
+            [0.0],
+            [-0.5],
+            [0.5],
+            apply=lambda x, E, d: E * np.exp(-x[0] * (d["strain_microstrain"] - strain_ref_microstrain) / 100.0),
+            order=1,
+        )
     if name == "self_heating":
+
         def heat(x, E, d):
             n = d["test_step"]
             return np.abs(E) * np.exp(-x[1] / 100 * n + 1j * np.angle(E) * (1 + x[2] / 100 * n))
-        return Term(name, ["heating_C_per_test", "extra_drop_pct_per_test", "extra_phase_pct_per_test"],
-                    [0.0, 0.0, 0.0], [-5.0, -30.0, -30.0], [5.0, 30.0, 30.0],
-                    delta_T=lambda x, d: x[0] * d["test_step"], apply=heat, order=0)
+
+        return Term(
+            name,
+            ["heating_C_per_test", "extra_drop_pct_per_test", "extra_phase_pct_per_test"],
+            [0.0, 0.0, 0.0],
+            [-5.0, -30.0, -30.0],
+            [5.0, 30.0, 30.0],
+            delta_T=lambda x, d: x[0] * d["test_step"],
+            apply=heat,
+            order=0,
+        )
     if name == "temperature_drift":
         temps = [float(T) for T in temperatures]
 
@@ -221,8 +277,16 @@ def make_term(name: str, strain_ref_microstrain: float = 0.0, gamma_per_mm: floa
                 if sel.any():
                     out[sel] = x[i] * n[sel]
             return out
-        return Term(name, [f"drift_C_per_test_{T:g}" for T in temps], [0.0] * len(temps), [-5.0] * len(temps),
-                    [5.0] * len(temps), delta_T=drift, order=0)
+
+        return Term(
+            name,
+            [f"drift_C_per_test_{T:g}" for T in temps],
+            [0.0] * len(temps),
+            [-5.0] * len(temps),
+            [5.0] * len(temps),
+            delta_T=drift,
+            order=0,
+        )
     raise ValueError(f"unknown artifact '{name}'")
 
 
@@ -262,8 +326,15 @@ def vertical_term(data: dict, T_ref_C: float) -> Term:
         v[sel] = np.asarray(x)[col[sel]]
         return E * np.exp(v)
 
-    return Term(VERTICAL, [f"ln_vertical_{T:g}" for T in others], [0.0] * len(others),
-                [-1.0] * len(others), [1.0] * len(others), apply=apply, order=-1)
+    return Term(
+        VERTICAL,
+        [f"ln_vertical_{T:g}" for T in others],
+        [0.0] * len(others),
+        [-1.0] * len(others),
+        [1.0] * len(others),
+        apply=apply,
+        order=-1,
+    )
 
 
 def _shift_law(law: str):
@@ -272,10 +343,18 @@ def _shift_law(law: str):
     from ..rheology.shift import arrhenius_log_shift
 
     if law == "arrhenius":
-        return (lambda T, th, Tr: th[0] + arrhenius_log_shift(T, Tr, th[1] * 1e3),
-                [0.0, 200.0], [-50.0, 10.0], [50.0, 1000.0])
-    return (lambda T, th, Tr: th[0] - th[1] * (T - Tr) / (th[2] + T - Tr),
-            [0.0, 25.0, 170.0], [-50.0, 0.1, 1.0], [50.0, 500.0, 1e5])
+        return (
+            lambda T, th, Tr: th[0] + arrhenius_log_shift(T, Tr, th[1] * 1e3),
+            [0.0, 200.0],
+            [-50.0, 10.0],
+            [50.0, 1000.0],
+        )
+    return (
+        lambda T, th, Tr: th[0] - th[1] * (T - Tr) / (th[2] + T - Tr),
+        [0.0, 25.0, 170.0],
+        [-50.0, 0.1, 1.0],
+        [50.0, 500.0, 1e5],
+    )
 
 
 #: floor of the free shifts' standard deviation in the offset test, decades (keeps the
@@ -352,8 +431,15 @@ class ArtifactSearch:
         (inertia not testable).
     """
 
-    def __init__(self, df: pd.DataFrame, alpha: float = 1e-3, T_ref_C=None, shift: str = "wlf", test=None,
-                 limits: dict | None = None):
+    def __init__(
+        self,
+        df: pd.DataFrame,
+        alpha: float = 1e-3,
+        T_ref_C=None,
+        shift: str = "wlf",
+        test=None,
+        limits: dict | None = None,
+    ):
         from ..lab.geometry import DeclaredTest
 
         self.df = prepare_table(df)
@@ -386,9 +472,14 @@ class ArtifactSearch:
         return float(fit.rss / max(fit.n_residuals - fit.n_params, 1))
 
     def problem(self, terms, data: dict | None = None) -> MasterCurveProblem:
-        return MasterCurveProblem(self.data if data is None else data, shift="free", T_ref_C=self.T_screen,
-                                  terms=self.nuisance + list(terms), sigma_lnE=self.sigma[0],
-                                  sigma_phase_deg=self.sigma[1])
+        return MasterCurveProblem(
+            self.data if data is None else data,
+            shift="free",
+            T_ref_C=self.T_screen,
+            terms=self.nuisance + list(terms),
+            sigma_lnE=self.sigma[0],
+            sigma_phase_deg=self.sigma[1],
+        )
 
     def fit(self, terms, x0=None, fixed=()) -> MasterCurveFit:
         """Screening fit with artifact ``terms`` (the nuisance terms are added in front)."""
@@ -413,8 +504,7 @@ class ArtifactSearch:
     def candidates(self) -> list:
         """The testable candidates the table identifies (:meth:`identify`; all of them before
         it ran)."""
-        return [c for c in self.all_candidates()
-                if self.identified.get(c.name, {}).get("identifiable", True)]
+        return [c for c in self.all_candidates() if self.identified.get(c.name, {}).get("identifiable", True)]
 
     # -------------------------------------------------------------- identifiability
     def identify(self, base: MasterCurveFit) -> dict:
@@ -450,14 +540,22 @@ class ArtifactSearch:
 
     def _verdict(self, entry: dict) -> dict:
         if entry["null_correlation"] >= self.limits["null"]:
-            return {"identifiable": False,
-                    "reason": (f"its signature lies in the screening model's own freedom (cosine "
-                               f"{entry['null_correlation']:.3f} >= {self.limits['null']:g})")}
+            return {
+                "identifiable": False,
+                "reason": (
+                    f"its signature lies in the screening model's own freedom (cosine "
+                    f"{entry['null_correlation']:.3f} >= {self.limits['null']:g})"
+                ),
+            }
         rho = entry["rival_correlation"]
         if rho is not None and rho >= self.limits["rival"]:
-            return {"identifiable": False,
-                    "reason": (f"the table cannot tell it from {entry['rival']} (canonical correlation "
-                               f"{rho:.3f} >= {self.limits['rival']:g})")}
+            return {
+                "identifiable": False,
+                "reason": (
+                    f"the table cannot tell it from {entry['rival']} (canonical correlation "
+                    f"{rho:.3f} >= {self.limits['rival']:g})"
+                ),
+            }
         return {"identifiable": True, "reason": ""}
 
     def _try(self, base: MasterCurveFit, terms, cand: Candidate):
@@ -497,8 +595,9 @@ class ArtifactSearch:
         if name == "temperature_drift":
             return float(np.max(np.abs(values)) * d["test_step"].max())
         if name == "inertia_uncorrected":
-            return float(100 * np.max(PAPER_GAMMA_PER_MM * 1e-6 * abs(value) * (2 * np.pi * d["f"]) ** 2
-                                      / np.exp(d["lnE"])))
+            return float(
+                100 * np.max(PAPER_GAMMA_PER_MM * 1e-6 * abs(value) * (2 * np.pi * d["f"]) ** 2 / np.exp(d["lnE"]))
+            )
         if name == "strain_nonlinearity":
             eps = d["strain_microstrain"]
             return 100 * value * (eps.max() - eps.min()) / 100.0
@@ -554,8 +653,11 @@ class ArtifactSearch:
                 anchor = None
             if anchor is not None:
                 continue
-            ok = [(p, F, c, fit) for p, F, c, fit in results
-                  if np.isfinite(p) and self._sign_ok(c.name, fit.x[fit.x.size - len(c.term.names):], fit)]
+            ok = [
+                (p, F, c, fit)
+                for p, F, c, fit in results
+                if np.isfinite(p) and self._sign_ok(c.name, fit.x[fit.x.size - len(c.term.names) :], fit)
+            ]
             if first_round is None:
                 first_round = ([p for p, *_ in ok], current)
             ok = [r for r in ok if r[0] < step_level]
@@ -584,8 +686,14 @@ class ArtifactSearch:
         for p, F, c, fit in results:
             if c.name not in tests:
                 k = len(c.term.names)
-                tests[c.name] = {"detected": False, "p": p, "F": F, "cand": c, "fit": fit,
-                                 "index": list(range(fit.x.size - k, fit.x.size))}
+                tests[c.name] = {
+                    "detected": False,
+                    "p": p,
+                    "F": F,
+                    "cand": c,
+                    "fit": fit,
+                    "index": list(range(fit.x.size - k, fit.x.size)),
+                }
         offset = None
         p_first = list(first_round[0]) if first_round is not None else []
         if offset_on:
@@ -597,9 +705,18 @@ class ArtifactSearch:
             at_first = offset if not selected else self.offset_test(first_round[1], offset_id["isotherms"])
             if abs(at_first["offset_C"]) >= PRACTICAL_MINIMUM["temperature_offset"]:
                 p_first.append(at_first["p"])
-        return {"base": base, "final": final, "selected": selected, "tests": tests, "offset": offset,
-                "identified": dict(self.identified), "family_size": m, "nominal_level": nominal,
-                "level": first, "min_p": float(min(p_first)) if p_first else 1.0}
+        return {
+            "base": base,
+            "final": final,
+            "selected": selected,
+            "tests": tests,
+            "offset": offset,
+            "identified": dict(self.identified),
+            "family_size": m,
+            "nominal_level": nominal,
+            "level": first,
+            "min_p": float(min(p_first)) if p_first else 1.0,
+        }
 
     # -------------------------------------------------------------- temperature offset
     def free_shifts(self, fit: MasterCurveFit) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -650,7 +767,7 @@ class ArtifactSearch:
         p = th.size
         slope = (g(temps + 0.05, th, Tr) - g(temps - 0.05, th, Tr)) / 0.1
         sd = np.sqrt(np.diag(cov) + OFFSET_FLOOR_DECADES**2 + (OFFSET_MODEL_ERROR_C * slope) ** 2)
-        G = res.jac / w[:, None] / sd[:, None]            # d g / d theta, whitened
+        G = res.jac / w[:, None] / sd[:, None]  # d g / d theta, whitened
         t = (temps - 0.5 * (temps.max() + temps.min())) / max(0.5 * (temps.max() - temps.min()), 1e-9)
         r = t**p / sd
         Q = _orthonormal(G)
@@ -661,21 +778,32 @@ class ArtifactSearch:
             e[k] = 1.0 / sd[k]
             e_p = e - Q @ (Q.T @ e)
             den = np.linalg.norm(e_p) * np.linalg.norm(r_p)
-            rho = 1.0 if den <= 1e-12 * max(float(np.linalg.norm(e)), 1e-300) * max(float(np.linalg.norm(r)), 1e-300) \
+            rho = (
+                1.0
+                if den <= 1e-12 * max(float(np.linalg.norm(e)), 1e-300) * max(float(np.linalg.norm(r)), 1e-300)
                 else float(abs(e_p @ r_p) / den)
+            )
             if temps.size - p < 2:
                 rho = 1.0  # one residual direction at most: it is the rival's
             per[f"{temps[k]:g}"] = rho
             if rho < self.limits["rival"]:
                 keep.append(k)
-        entry = {"null_correlation": None, "rival": RIVALS["temperature_offset"],
-                 "rival_correlation": min(per.values()) if per else None, "per_isotherm": per,
-                 "isotherms": keep, "identifiable": bool(keep), "reason": ""}
+        entry = {
+            "null_correlation": None,
+            "rival": RIVALS["temperature_offset"],
+            "rival_correlation": min(per.values()) if per else None,
+            "per_isotherm": per,
+            "isotherms": keep,
+            "identifiable": bool(keep),
+            "reason": "",
+        }
         if not keep:
-            entry["reason"] = (f"with {temps.size} isotherms and a {self.shift.upper()} law of {p} constants no inner "
-                               f"isotherm's offset can be told from {RIVALS['temperature_offset']} (cosines "
-                               + ", ".join(f"{T} degC {v:.3f}" for T, v in per.items())
-                               + f" >= {self.limits['rival']:g})")
+            entry["reason"] = (
+                f"with {temps.size} isotherms and a {self.shift.upper()} law of {p} constants no inner "
+                f"isotherm's offset can be told from {RIVALS['temperature_offset']} (cosines "
+                + ", ".join(f"{T} degC {v:.3f}" for T, v in per.items())
+                + f" >= {self.limits['rival']:g})"
+            )
         return entry
 
     def offset_test(self, fit: MasterCurveFit, isotherms=None) -> dict:
@@ -707,26 +835,39 @@ class ArtifactSearch:
             res, g, w = self._smooth_law(temps, a, cov, o)
             th = res.x
             s_o = (g(temps[o] + 0.05, th, Tr) - g(temps[o] - 0.05, th, Tr)) / 0.1
-            others_chi2 = float(np.sum((g(temps[o], th, Tr) - a[o]) ** 2
-                                       / (np.diag(cov)[o] + OFFSET_FLOOR_DECADES**2 + (OFFSET_MODEL_ERROR_C * s_o) ** 2)))
-            G = res.jac / w[:, None]                     # d g(T_o) / d theta
+            others_chi2 = float(
+                np.sum(
+                    (g(temps[o], th, Tr) - a[o]) ** 2
+                    / (np.diag(cov)[o] + OFFSET_FLOOR_DECADES**2 + (OFFSET_MODEL_ERROR_C * s_o) ** 2)
+                )
+            )
+            G = res.jac / w[:, None]  # d g(T_o) / d theta
             eps = 1e-6 * np.maximum(np.abs(th), 1e-3)
-            gk = np.array([(g(temps[k], th + e, Tr) - g(temps[k], th - e, Tr)) / (2 * e[j])
-                           for j, e in enumerate(np.diag(eps))])
+            gk = np.array(
+                [(g(temps[k], th + e, Tr) - g(temps[k], th - e, Tr)) / (2 * e[j]) for j, e in enumerate(np.diag(eps))]
+            )
             A = np.linalg.pinv((G * w[:, None] ** 2).T @ G) @ (G * w[:, None] ** 2).T  # d theta / d a_o
             c = np.zeros(temps.size)
             c[k] = 1.0
-            c[o] -= gk @ A                                # d = c . a
+            c[o] -= gk @ A  # d = c . a
             dev = float(a[k] - g(temps[k], th, Tr))
             slope = float((g(temps[k] + 0.05, th, Tr) - g(temps[k] - 0.05, th, Tr)) / 0.1)
             var = float(c @ cov @ c) + (OFFSET_MODEL_ERROR_C * slope) ** 2
             z = dev / np.sqrt(var) if var > 0 else np.inf * np.sign(dev)
             p = float(min(1.0, 2 * stats.norm.sf(abs(z)) * len(inner)))
             off = dev / slope if slope != 0 else np.nan
-            rows.append({"temperature_C": float(temps[k]), "offset_C": float(off),
-                         "offset_C_se": float(np.sqrt(max(var, 0.0)) / abs(slope)) if slope != 0 else np.nan,
-                         "z": float(z), "p": p, "deviation_decades": dev, "index": k,
-                         "others_chi2": others_chi2})
+            rows.append(
+                {
+                    "temperature_C": float(temps[k]),
+                    "offset_C": float(off),
+                    "offset_C_se": float(np.sqrt(max(var, 0.0)) / abs(slope)) if slope != 0 else np.nan,
+                    "z": float(z),
+                    "p": p,
+                    "deviation_decades": dev,
+                    "index": k,
+                    "others_chi2": others_chi2,
+                }
+            )
         chi2 = [r["others_chi2"] for r in rows]
         if max(chi2) - min(chi2) < 1e-6:  # no residual degree of freedom (e.g. 4 isotherms, WLF)
             best = max(rows, key=lambda r: abs(r["z"]) if np.isfinite(r["z"]) else np.inf)
@@ -812,8 +953,9 @@ class ArtifactSearch:
         out["phase_deg"] = np.degrees(np.angle(Ec))
         return out
 
-    def consistent_correction(self, result: dict, shift: str | None = None,
-                              T_ref_C: float | None = None) -> tuple[pd.DataFrame, MasterCurveFit]:
+    def consistent_correction(
+        self, result: dict, shift: str | None = None, T_ref_C: float | None = None
+    ) -> tuple[pd.DataFrame, MasterCurveFit]:
         """Corrected table of a :meth:`run` result and its master curve (2S2P1D, ``shift``,
         default the search's; ``T_ref_C``, default the screening isotherm), with the
         consistency check of a detected temperature offset.
@@ -848,8 +990,9 @@ class ArtifactSearch:
         return self.corrected(result["final"], off if off is not None and off.get("detected") else None)
 
 
-def artifact_ratio(prob: MasterCurveProblem, fit: MasterCurveFit, strain_ref: float,
-                   x_start: np.ndarray | None = None) -> np.ndarray:
+def artifact_ratio(
+    prob: MasterCurveProblem, fit: MasterCurveFit, strain_ref: float, x_start: np.ndarray | None = None
+) -> np.ndarray:
     """Complex factor R per row of ``prob`` that removes the artifacts of ``fit``
     (corrected = measured x R): the model with the artifact parameters set to zero over the
     model as fitted. The nuisance terms (vertical shifts, placed before the artifacts in the
@@ -890,44 +1033,59 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
     stat = f"F = {F:.3g}, {p_phrase(p)}"
     if name == "time_lag":
         kk = kk_time_lag(search.df)
-        return (f"phase residual of the master curve linear in f (Phi + 360 f dt): dt = "
-                f"{est['time_lag_ms']:.3f} +- {est['time_lag_ms_se']:.3f} ms ({stat}); the "
-                f"Kramers-Kronig (Booij-Thoone) phase residual gives dt = {kk['time_lag_ms']:.3f} "
-                f"+- {kk['time_lag_se_ms']:.3f} ms")
+        return (
+            f"phase residual of the master curve linear in f (Phi + 360 f dt): dt = "
+            f"{est['time_lag_ms']:.3f} +- {est['time_lag_ms_se']:.3f} ms ({stat}); the "
+            f"Kramers-Kronig (Booij-Thoone) phase residual gives dt = {kk['time_lag_ms']:.3f} "
+            f"+- {kk['time_lag_se_ms']:.3f} ms"
+        )
     if name == "inertia_uncorrected":
         assert search.gamma is not None  # inertia is testable only with a form factor
         f_max = float(search.df["frequency_Hz"].max())
         dE1 = search.gamma * 1e-6 * est["mass_factor_g"] * (2 * np.pi * f_max) ** 2
-        return (f"in-phase modulus deficit proportional to w^2 (mass term gamma m w^2 of the declared "
-                f"{search.test.label}, gamma = {search.gamma:.4g} 1/mm): mass "
-                f"{est['mass_factor_g']:.0f} +- {est['mass_factor_g_se']:.0f} g, "
-                f"i.e. E1 lowered by {dE1:.3g} MPa at {f_max:g} Hz ({stat})")
+        return (
+            f"in-phase modulus deficit proportional to w^2 (mass term gamma m w^2 of the declared "
+            f"{search.test.label}, gamma = {search.gamma:.4g} 1/mm): mass "
+            f"{est['mass_factor_g']:.0f} +- {est['mass_factor_g_se']:.0f} g, "
+            f"i.e. E1 lowered by {dE1:.3g} MPa at {f_max:g} Hz ({stat})"
+        )
     if name == "temperature_offset":
-        return (f"the isotherm labelled {est['temperature_C']:g} degC (the inner one whose removal leaves the "
-                f"others most consistent with the law) has "
-                f"the shift of {est['temperature_C'] + est['offset_C']:.1f} degC on the {search.shift.upper()} "
-                f"law through the other isotherms' free shifts (offset {est['offset_C']:+.2f} +- "
-                f"{est['offset_C_se']:.2f} degC, z = {est['z']:.3g}, {p_phrase(p)}, Bonferroni over "
-                f"{est['n_tested']} inner isotherms; the coldest and hottest are not tested)")
+        return (
+            f"the isotherm labelled {est['temperature_C']:g} degC (the inner one whose removal leaves the "
+            f"others most consistent with the law) has "
+            f"the shift of {est['temperature_C'] + est['offset_C']:.1f} degC on the {search.shift.upper()} "
+            f"law through the other isotherms' free shifts (offset {est['offset_C']:+.2f} +- "
+            f"{est['offset_C_se']:.2f} degC, z = {est['z']:.3g}, {p_phrase(p)}, Bonferroni over "
+            f"{est['n_tested']} inner isotherms; the coldest and hottest are not tested)"
+        )
     if name == "strain_nonlinearity":
-        return (f"|E*| falls with strain amplitude: {100 * est['modulus_drop_per_100_microstrain']:.2f} "
-                f"+- {100 * est['modulus_drop_per_100_microstrain_se']:.2f} % per 100 microstrain ({stat})")
+        return (
+            f"|E*| falls with strain amplitude: {100 * est['modulus_drop_per_100_microstrain']:.2f} "
+            f"+- {100 * est['modulus_drop_per_100_microstrain_se']:.2f} % per 100 microstrain ({stat})"
+        )
     if name == "temperature_drift":
-        rates = {n.removeprefix("drift_C_per_test_"): (est[n], est[n + "_se"]) for n in est
-                 if n.startswith("drift_C_per_test_") and not n.endswith("_se")}
+        rates = {
+            n.removeprefix("drift_C_per_test_"): (est[n], est[n + "_se"])
+            for n in est
+            if n.startswith("drift_C_per_test_") and not n.endswith("_se")
+        }
         worst = max(rates, key=lambda T: abs(rates[T][0]))
-        return ("along the table's test order the isotherms read as if "
-                "the specimen's temperature moved by, per test: "
-                + ", ".join(f"{T} degC {v:+.2f} +- {se:.2f}" for T, (v, se) in rates.items())
-                + f" degC; largest at {worst} degC, {est['size']:.1f} degC across the isotherm ({stat}, "
-                f"{len(rates)} degrees of freedom): a specimen not at the test temperature when the isotherm "
-                "began, or a drift of the temperature control")
+        return (
+            "along the table's test order the isotherms read as if "
+            "the specimen's temperature moved by, per test: "
+            + ", ".join(f"{T} degC {v:+.2f} +- {se:.2f}" for T, (v, se) in rates.items())
+            + f" degC; largest at {worst} degC, {est['size']:.1f} degC across the isotherm ({stat}, "
+            f"{len(rates)} degrees of freedom): a specimen not at the test temperature when the isotherm "
+            "began, or a drift of the temperature control"
+        )
     if name == "self_heating":
-        return (f"|E*| changes by {-est['modulus_drop_pct_per_test']:+.2f} +- "
-                f"{est['modulus_drop_pct_per_test_se']:.2f} % and Phi by "
-                f"{est['phase_rise_pct_per_test']:+.2f} +- {est['phase_rise_pct_per_test_se']:.2f} % per "
-                f"earlier test of the same isotherm and specimen (temperature rise "
-                f"{est['heating_C_per_test']:.2f} degC per test plus direct terms; {stat}, 3 degrees of freedom)")
+        return (
+            f"|E*| changes by {-est['modulus_drop_pct_per_test']:+.2f} +- "
+            f"{est['modulus_drop_pct_per_test_se']:.2f} % and Phi by "
+            f"{est['phase_rise_pct_per_test']:+.2f} +- {est['phase_rise_pct_per_test_se']:.2f} % per "
+            f"earlier test of the same isotherm and specimen (temperature rise "
+            f"{est['heating_C_per_test']:.2f} degC per test plus direct terms; {stat}, 3 degrees of freedom)"
+        )
     return stat
 
 
@@ -951,22 +1109,46 @@ def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> lis
     for name in ARTIFACTS:
         testable, reason = search.testable[name]
         if not testable:
-            entries.append({"name": name, "category": "data", "detected": False, "testable": False,
-                            "identifiable": None, "identifiability": {}, "score": 0.0, "p_value": None,
-                            "p_calibrated": None, "estimate": {}, "evidence": f"not testable: {reason}"})
+            entries.append(
+                {
+                    "name": name,
+                    "category": "data",
+                    "detected": False,
+                    "testable": False,
+                    "identifiable": None,
+                    "identifiability": {},
+                    "score": 0.0,
+                    "p_value": None,
+                    "p_calibrated": None,
+                    "estimate": {},
+                    "evidence": f"not testable: {reason}",
+                }
+            )
             continue
         ident = {k: v for k, v in identified.get(name, {}).items() if k != "isotherms"}
         if not ident.get("identifiable", True):
-            entries.append({"name": name, "category": "data", "detected": False, "testable": True,
-                            "identifiable": False, "identifiability": ident, "score": 0.0, "p_value": None,
-                            "p_calibrated": None, "estimate": {},
-                            "evidence": f"not identifiable from this table: {ident['reason']}; never named nor "
-                                        "used to correct the data"})
+            entries.append(
+                {
+                    "name": name,
+                    "category": "data",
+                    "detected": False,
+                    "testable": True,
+                    "identifiable": False,
+                    "identifiability": ident,
+                    "score": 0.0,
+                    "p_value": None,
+                    "p_calibrated": None,
+                    "estimate": {},
+                    "evidence": f"not identifiable from this table: {ident['reason']}; never named nor "
+                    "used to correct the data",
+                }
+            )
             continue
         if name == "temperature_offset":
             off = result["offset"]
-            est = {k: off[k] for k in ("temperature_C", "offset_C", "offset_C_se", "z", "deviation_decades",
-                                       "n_tested")}
+            est = {
+                k: off[k] for k in ("temperature_C", "offset_C", "offset_C_se", "z", "deviation_decades", "n_tested")
+            }
             est["size"] = abs(off["offset_C"])
             est["size_unit"] = SIZE_UNITS[name]
             dphi, dE = search.offset_impact(result["final"], off)
@@ -976,20 +1158,35 @@ def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> lis
             if "correction_applied" in off:  # set by diagnosis.artifacts.analyse
                 rss = off["master_curve_rss"]
                 est["correction_applied"] = off["correction_applied"]
-                evidence += ("; corrected in the table (the corrected table fits the master curve better: RSS "
-                             if off["correction_applied"] else
-                             "; NOT corrected in the table (moving the isotherm onto the shift law of the others "
-                             "makes the whole table fit the master curve worse: RSS ")
+                evidence += (
+                    "; corrected in the table (the corrected table fits the master curve better: RSS "
+                    if off["correction_applied"]
+                    else "; NOT corrected in the table (moving the isotherm onto the shift law of the others "
+                    "makes the whole table fit the master curve worse: RSS "
+                )
                 evidence += f"{rss['offset_corrected']:.4g} corrected vs {rss['not_corrected']:.4g} as measured)"
                 if not off["correction_applied"]:
-                    evidence += ("; not named: the isotherm departs from the shift law, but no temperature offset "
-                                 "explains the table (a shift law or model-form departure)")
+                    evidence += (
+                        "; not named: the isotherm departs from the shift law, but no temperature offset "
+                        "explains the table (a shift law or model-form departure)"
+                    )
             detected = bool(off["detected"] and off.get("correction_applied", True))
-            entries.append({"name": name, "category": "data", "detected": detected,
-                            "testable": True, "identifiable": True, "identifiability": ident,
-                            "score": dphi + dE, "p_value": float(off["p"]),
-                            "p_calibrated": adjusted_p(off["p"], null_min_p), "level": off["level"],
-                            "estimate": est, "evidence": evidence})
+            entries.append(
+                {
+                    "name": name,
+                    "category": "data",
+                    "detected": detected,
+                    "testable": True,
+                    "identifiable": True,
+                    "identifiability": ident,
+                    "score": dphi + dE,
+                    "p_value": float(off["p"]),
+                    "p_calibrated": adjusted_p(off["p"], null_min_p),
+                    "level": off["level"],
+                    "estimate": est,
+                    "evidence": evidence,
+                }
+            )
             continue
         t = result["tests"][name]
         fit, idx = t["fit"], t["index"]
@@ -1006,8 +1203,13 @@ def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> lis
         est["size_unit"] = SIZE_UNITS[name]
         if name == "temperature_drift":  # the rate at the hottest isotherm, where it is largest
             hot = f"drift_C_per_test_{float(search.data['temperatures'].max()):g}"
-            est.update({"drift_C_per_test": est[hot], "drift_C_per_test_se": est[hot + "_se"],
-                        "temperature_C": float(search.data["temperatures"].max())})
+            est.update(
+                {
+                    "drift_C_per_test": est[hot],
+                    "drift_C_per_test_se": est[hot + "_se"],
+                    "temperature_C": float(search.data["temperatures"].max()),
+                }
+            )
         if name == "self_heating":
             vals = fit.x[idx]
             g0 = np.array(search.heating_effect(fit, vals))
@@ -1017,8 +1219,14 @@ def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> lis
                 step[j] = 1e-4 * max(1.0, abs(vals[j]))
                 J[:, j] = (np.array(search.heating_effect(fit, vals + step)) - g0) / step[j]
             se = np.sqrt(np.clip(np.diag(J @ fit.cov[np.ix_(idx, idx)] @ J.T), 0, None))
-            est.update({"modulus_drop_pct_per_test": float(g0[0]), "modulus_drop_pct_per_test_se": float(se[0]),
-                        "phase_rise_pct_per_test": float(g0[1]), "phase_rise_pct_per_test_se": float(se[1])})
+            est.update(
+                {
+                    "modulus_drop_pct_per_test": float(g0[0]),
+                    "modulus_drop_pct_per_test_se": float(se[0]),
+                    "phase_rise_pct_per_test": float(g0[1]),
+                    "phase_rise_pct_per_test_se": float(se[1]),
+                }
+            )
         dphi, dE = search.impact(fit, idx)
         est["phase_change_pct"] = dphi
         est["E_norm_change_pct"] = dE
@@ -1026,8 +1234,20 @@ def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> lis
         evidence = _evidence(name, est, t["F"], t["p"], search, fit)
         if t.get("robustness"):
             evidence += f"; {t['robustness']}"
-        entries.append({"name": name, "category": "data", "detected": bool(t["detected"]),
-                        "testable": True, "identifiable": True, "identifiability": ident, "score": dphi + dE,
-                        "p_value": p, "p_calibrated": adjusted_p(p, null_min_p), "level": result.get("level"),
-                        "estimate": est, "evidence": evidence})
+        entries.append(
+            {
+                "name": name,
+                "category": "data",
+                "detected": bool(t["detected"]),
+                "testable": True,
+                "identifiable": True,
+                "identifiability": ident,
+                "score": dphi + dE,
+                "p_value": p,
+                "p_calibrated": adjusted_p(p, null_min_p),
+                "level": result.get("level"),
+                "estimate": est,
+                "evidence": evidence,
+            }
+        )
     return entries

@@ -26,7 +26,8 @@ def read_simulated(path) -> pd.DataFrame:
     df = read_csv(path)
     if "E_norm_MPa" not in df.columns and {"E_norm_MPa_mean", "phase_deg_mean"} <= set(df.columns):
         df = df.drop(columns=[c for c in ("phase_deg",) if c in df.columns]).rename(
-            columns={"E_norm_MPa_mean": "E_norm_MPa", "phase_deg_mean": "phase_deg"})
+            columns={"E_norm_MPa_mean": "E_norm_MPa", "phase_deg_mean": "phase_deg"}
+        )
     return checked(df, path, SIM_COLUMNS, positive=("E_norm_MPa", "frequency_Hz"))
 
 

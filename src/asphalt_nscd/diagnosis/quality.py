@@ -72,11 +72,18 @@ def deleted_residuals(search, fit, without=()) -> pd.DataFrame:
                 g[1, j] = np.mean(np.degrees(np.angle(Ep) - np.angle(E))) / h
             C = sub.cov[np.ix_(free, free)]
             rows = df[cell]
-            out.append({"key": k, "T": float(rows["temperature_C"].iloc[0]), "f": float(rows["frequency_Hz"].iloc[0]),
-                        "n": int(cell.sum()),
-                        "rE": float(np.mean(np.log(rows["E_norm_MPa"].to_numpy(float)) - np.log(np.abs(E)))),
-                        "rP": float(np.mean(rows["phase_deg"].to_numpy(float) - np.degrees(np.angle(E)))),
-                        "vE": float(g[0] @ C @ g[0]), "vP": float(g[1] @ C @ g[1])})
+            out.append(
+                {
+                    "key": k,
+                    "T": float(rows["temperature_C"].iloc[0]),
+                    "f": float(rows["frequency_Hz"].iloc[0]),
+                    "n": int(cell.sum()),
+                    "rE": float(np.mean(np.log(rows["E_norm_MPa"].to_numpy(float)) - np.log(np.abs(E)))),
+                    "rP": float(np.mean(rows["phase_deg"].to_numpy(float) - np.degrees(np.angle(E)))),
+                    "vE": float(g[0] @ C @ g[0]),
+                    "vP": float(g[1] @ C @ g[1]),
+                }
+            )
     return pd.DataFrame(out, columns=["key", "T", "f", "n", "rE", "rP", "vE", "vP"])
 
 
@@ -107,10 +114,20 @@ def cell_outliers(search, fit, alpha: float = OUTLIER_ALPHA, max_cells: int = 5)
             z = r / np.sqrt(s**2 / n + v + s_cell**2)
             p = np.minimum(1.0, 2 * stats.norm.sf(np.abs(z)) * 2 * m)  # Bonferroni: cells x both quantities
             for k in np.flatnonzero(p < alpha):
-                found.append({"key": cells["key"].iloc[k], "temperature_C": float(cells["T"].iloc[k]),
-                              "frequency_Hz": float(cells["f"].iloc[k]), "quantity": q, "size": float(scale * r[k]),
-                              "size_unit": "%" if q == "E_norm" else "deg", "z": float(z[k]), "p": float(p[k]),
-                              "n": int(n[k]), "cell_misfit_sd": scale * s_cell})
+                found.append(
+                    {
+                        "key": cells["key"].iloc[k],
+                        "temperature_C": float(cells["T"].iloc[k]),
+                        "frequency_Hz": float(cells["f"].iloc[k]),
+                        "quantity": q,
+                        "size": float(scale * r[k]),
+                        "size_unit": "%" if q == "E_norm" else "deg",
+                        "z": float(z[k]),
+                        "p": float(p[k]),
+                        "n": int(n[k]),
+                        "cell_misfit_sd": scale * s_cell,
+                    }
+                )
         if not found:
             break
         top = max(found, key=lambda o: abs(o["z"]))

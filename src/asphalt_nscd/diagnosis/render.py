@@ -19,18 +19,25 @@ def _units(report: dict) -> DisplayUnits:
     """The units the lab wrote its table in (SI without a declaration)."""
     return DisplayUnits(**(report.get("units") or {}))
 
+
 #: crossval model of the held-out "after" (and "before") of each gain source
-HELDOUT_MODELS = {"macro": ("burgers", "extended_law"), "nscd": (None, "nscd_sample"),
-                  "law_only": (None, None)}
+HELDOUT_MODELS = {"macro": ("burgers", "extended_law"), "nscd": (None, "nscd_sample"), "law_only": (None, None)}
 
 
 def _heldout_row(report: dict, scheme: str, model: str | None, T: str) -> dict | None:
     """The held-out score row of (scheme, model) at temperature ``T`` (its interpolated cells,
     else its extrapolated ones), or None."""
     h = report.get("heldout") or {}
-    rows = [r for r in h.get("scores", []) if r["scheme"] == scheme and r["kind"] == "held_out"
-            and r["model"] == model and r.get("temperature_C") is not None and T_key(r["temperature_C"]) == T
-            and r["n_cells"]]
+    rows = [
+        r
+        for r in h.get("scores", [])
+        if r["scheme"] == scheme
+        and r["kind"] == "held_out"
+        and r["model"] == model
+        and r.get("temperature_C") is not None
+        and T_key(r["temperature_C"]) == T
+        and r["n_cells"]
+    ]
     rows.sort(key=lambda r: r["extrapolation"])
     return rows[0] if rows else None
 
@@ -59,22 +66,29 @@ def gain_table(report: dict) -> pd.DataFrame:
     src = report["gain_sources"]
     models = src["models"]
     blocks = []
-    primary = "nscd" if src["before"] == src["after"] == "nscd" else (
-        "macro" if src["before"] == src["after"] == "macro" else f"{src['before']}_before_{src['after']}_after")
+    primary = (
+        "nscd"
+        if src["before"] == src["after"] == "nscd"
+        else ("macro" if src["before"] == src["after"] == "macro" else f"{src['before']}_before_{src['after']}_after")
+    )
     blocks.append((primary, report["gain"], models[src["before"]]["before"], models[src["after"]]["after"]))
     if primary != "macro":
         blocks.append(("macro", report["gain_macro"], models["macro"]["before"], models["macro"]["after"]))
     if report.get("gain_law_only") is not None:
-        blocks.append(("law_only", report["gain_law_only"], models["law_only"]["before"],
-                       models["law_only"]["after"]))
+        blocks.append(("law_only", report["gain_law_only"], models["law_only"]["before"], models["law_only"]["after"]))
     tr = report.get("transfer") or {}
     applied = bool(tr.get("applied"))
     rows = []
     for source, gain, before_model, after_model in blocks:
         nscd_after = source == "nscd" or source.endswith("_nscd_after")
         corrected = nscd_after and applied
-        nf = (tr.get("network_factor_applied_mean") if corrected else
-              tr.get("law_only_network_factor") if source == "law_only" else None)
+        nf = (
+            tr.get("network_factor_applied_mean")
+            if corrected
+            else tr.get("law_only_network_factor")
+            if source == "law_only"
+            else None
+        )
         base = source.split("_before_")[-1].replace("_after", "") if "_before_" in source else source
         hb, ha = HELDOUT_MODELS.get(base, (None, None))
         if "_before_" in source:
@@ -92,13 +106,23 @@ def gain_table(report: dict) -> pd.DataFrame:
                         held[f"abs_phase_deg_{when}_heldout_{scheme}"] = np.nan if r is None else r["abs_phase_deg"]
                         ext = ext if r is None else r["extrapolation"]
                     held[f"heldout_extrapolation_{scheme}"] = ext
-            rows.append({"temperature_C": float(T), "source": source, "before_model": before_model,
-                         "after_model": after_model, "transfer_correction": corrected,
-                         "network_factor": np.nan if nf is None else float(nf),
-                         "E_norm_mre_before_pct": g["E_norm"]["before"], "E_norm_mre_after_pct": g["E_norm"]["after"],
-                         "phase_mre_before_pct": g["phase"]["before"], "phase_mre_after_pct": g["phase"]["after"],
-                         "E_norm_mre_after_vs_measured_pct": g["E_norm"]["after_vs_measured"],
-                         "phase_mre_after_vs_measured_pct": g["phase"]["after_vs_measured"], **held})
+            rows.append(
+                {
+                    "temperature_C": float(T),
+                    "source": source,
+                    "before_model": before_model,
+                    "after_model": after_model,
+                    "transfer_correction": corrected,
+                    "network_factor": np.nan if nf is None else float(nf),
+                    "E_norm_mre_before_pct": g["E_norm"]["before"],
+                    "E_norm_mre_after_pct": g["E_norm"]["after"],
+                    "phase_mre_before_pct": g["phase"]["before"],
+                    "phase_mre_after_pct": g["phase"]["after"],
+                    "E_norm_mre_after_vs_measured_pct": g["E_norm"]["after_vs_measured"],
+                    "phase_mre_after_vs_measured_pct": g["phase"]["after_vs_measured"],
+                    **held,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -127,14 +151,23 @@ def budget_figure(budget: pd.DataFrame, path, baseline: str = "") -> None:
             bottom += vals
         tot = budget[budget["component"] == "total"].set_index("temperature_C")
         if len(tot):
-            ax.plot(x, [tot[col].get(T, np.nan) for T in temps], "k_", markersize=30, mew=2,
-                    label="total (" + ("NSCD simulation" if simulated else "macro Burger's law") + " vs measured)")
+            ax.plot(
+                x,
+                [tot[col].get(T, np.nan) for T in temps],
+                "k_",
+                markersize=30,
+                mew=2,
+                label="total (" + ("NSCD simulation" if simulated else "macro Burger's law") + " vs measured)",
+            )
         ax.set_ylabel(label)
     axes[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[1].set_xticks(x, [f"{T:g}" for T in temps])
     axes[1].set_xlabel("temperature (degC)")
-    fig.suptitle("Error budget of the NSCD simulation per temperature" if simulated else
-                 "Error budget of the macro Burger's law per temperature (no simulation ran)")
+    fig.suptitle(
+        "Error budget of the NSCD simulation per temperature"
+        if simulated
+        else "Error budget of the macro Burger's law per temperature (no simulation ran)"
+    )
     savefig(fig, path)
     plt.close(fig)
 
@@ -144,10 +177,13 @@ def _bracket(v) -> str:
     return "" if v is None or v != v else f" ({v:.2f})"
 
 
-HELDOUT_LABELS = {"burgers": "Burger's per isotherm (paper)", "extended_law": "extended law (selected)",
-                  "card_law": "law of the material card",
-                  "nscd_sample": "NSCD sample (harmonic, law / NF_s)",
-                  "nscd_time_domain": "NSCD sample (time domain, one fold)"}
+HELDOUT_LABELS = {
+    "burgers": "Burger's per isotherm (paper)",
+    "extended_law": "extended law (selected)",
+    "card_law": "law of the material card",
+    "nscd_sample": "NSCD sample (harmonic, law / NF_s)",
+    "nscd_time_domain": "NSCD sample (time domain, one fold)",
+}
 
 
 def _num(v, fmt: str = ".2f") -> str:
@@ -177,50 +213,73 @@ def heldout_lines(report: dict) -> list:
     # the material card's law is the selected one: its rows repeat the selected law's (kept in the CSV)
     same_card = bool((report.get("material_card") or {}).get("is_selected_law"))
     skip = {"nscd_time_domain"} | ({"card_law"} if same_card else set())
-    lines = ["## Held-out errors", "",
-             "Each fold refits the whole procedure (artifact correction at the table's calibrated level, nested "
-             "choice of the law's settings, law) without its held-out rows: "
-             + "; ".join(f"*{k}*: {v}" for k, v in h.get("schemes", {}).items()) + ". "
-             "|E*| errors are log ratios (%), ln(predicted / the specimens' mean); Phi errors are in degrees. "
-             "*signed*: the mean error with its t(n-1) interval over the specimens; *absolute*: the mean absolute "
-             "error against the population of specimens (median and 95 % interval of a random-effect model of "
-             "the specimens; in brackets after *vs means*: against these specimens' means). loso scores each "
-             "specimen against itself, with t(n-1) intervals over the held-out specimens. "
-             f"Targets: absolute |E*| error <= {t['abs_logE_pct']:g} % and absolute Phi error <= "
-             f"{t['abs_phase_deg']:g} deg ({t['applies_to']}): *met* when the interval lies below, *missed* when "
-             "above, *undecided* when it straddles the target.", ""]
+    lines = [
+        "## Held-out errors",
+        "",
+        "Each fold refits the whole procedure (artifact correction at the table's calibrated level, nested "
+        "choice of the law's settings, law) without its held-out rows: "
+        + "; ".join(f"*{k}*: {v}" for k, v in h.get("schemes", {}).items())
+        + ". "
+        "|E*| errors are log ratios (%), ln(predicted / the specimens' mean); Phi errors are in degrees. "
+        "*signed*: the mean error with its t(n-1) interval over the specimens; *absolute*: the mean absolute "
+        "error against the population of specimens (median and 95 % interval of a random-effect model of "
+        "the specimens; in brackets after *vs means*: against these specimens' means). loso scores each "
+        "specimen against itself, with t(n-1) intervals over the held-out specimens. "
+        f"Targets: absolute |E*| error <= {t['abs_logE_pct']:g} % and absolute Phi error <= "
+        f"{t['abs_phase_deg']:g} deg ({t['applies_to']}): *met* when the interval lies below, *missed* when "
+        "above, *undecided* when it straddles the target.",
+        "",
+    ]
     heads = [x for x in h["headline"] if x["kind"] == "held_out" and x["model"] not in skip]
     if heads:
-        lines += ["| scheme | model | cells | |E*| signed % | |E*| absolute % (vs means) | Phi signed deg | "
-                  "Phi absolute deg (vs means) | verdict |E*| / Phi |", "|---|---|---|---|---|---|---|---|"]
+        lines += [
+            "| scheme | model | cells | |E*| signed % | |E*| absolute % (vs means) | Phi signed deg | "
+            "Phi absolute deg (vs means) | verdict |E*| / Phi |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
         for x in heads:
             if not (x.get("interp_n_cells") or 0):
                 continue
-            lines.append(f"| {x['scheme']} | {HELDOUT_LABELS.get(x['model'], x['model'])} | "
-                         f"{int(x['interp_n_cells'])} | {_with_ci(x, 'interp_bias_logE_pct')} | "
-                         f"{_with_ci(x, 'interp_abs_logE_pct')} ({_num(x.get('interp_abs_logE_vs_means_pct'))}) | "
-                         f"{_with_ci(x, 'interp_bias_phase_deg')} | {_with_ci(x, 'interp_abs_phase_deg')} "
-                         f"({_num(x.get('interp_abs_phase_vs_means_deg'))}) | "
-                         f"{x.get('verdict_E_norm', 'n/a')} / {x.get('verdict_phase', 'n/a')} |")
+            lines.append(
+                f"| {x['scheme']} | {HELDOUT_LABELS.get(x['model'], x['model'])} | "
+                f"{int(x['interp_n_cells'])} | {_with_ci(x, 'interp_bias_logE_pct')} | "
+                f"{_with_ci(x, 'interp_abs_logE_pct')} ({_num(x.get('interp_abs_logE_vs_means_pct'))}) | "
+                f"{_with_ci(x, 'interp_bias_phase_deg')} | {_with_ci(x, 'interp_abs_phase_deg')} "
+                f"({_num(x.get('interp_abs_phase_vs_means_deg'))}) | "
+                f"{x.get('verdict_E_norm', 'n/a')} / {x.get('verdict_phase', 'n/a')} |"
+            )
         extrap = [x for x in heads if (x.get("extrap_n_cells") or 0) > 0]
         if extrap:
-            lines += ["", "Extrapolated cells (outside the fold's tested frequencies or temperatures), apart:", "",
-                      "| scheme | model | cells | |E*| absolute % | Phi absolute deg |", "|---|---|---|---|---|"]
+            lines += [
+                "",
+                "Extrapolated cells (outside the fold's tested frequencies or temperatures), apart:",
+                "",
+                "| scheme | model | cells | |E*| absolute % | Phi absolute deg |",
+                "|---|---|---|---|---|",
+            ]
             for x in extrap:
-                lines.append(f"| {x['scheme']} | {HELDOUT_LABELS.get(x['model'], x['model'])} | "
-                             f"{int(x['extrap_n_cells'])} | {_with_ci(x, 'extrap_abs_logE_pct')} | "
-                             f"{_with_ci(x, 'extrap_abs_phase_deg')} |")
+                lines.append(
+                    f"| {x['scheme']} | {HELDOUT_LABELS.get(x['model'], x['model'])} | "
+                    f"{int(x['extrap_n_cells'])} | {_with_ci(x, 'extrap_abs_logE_pct')} | "
+                    f"{_with_ci(x, 'extrap_abs_phase_deg')} |"
+                )
         lines.append("")
     for scheme, why in (h.get("not_computable") or {}).items():
         lines += [f"*{scheme}*: no fold could be computed ({why}); nothing is drawn for it.", ""]
     for td in h.get("time_domain_check") or []:
-        lines += [f"Time domain vs harmonic solution of the NSCD sample with the law of the {td['scheme']} fold "
-                  f"{td['fold']} at {td['temperature_C']:g} degC, {td['frequency_Hz']:g} Hz (held out): norm of E* "
-                  f"{td['E_norm_MPa_time_domain']:.5g} vs {td['E_norm_MPa_harmonic']:.5g} MPa "
-                  f"({100 * td['E_norm_relative_difference']:+.3f} %), Phi {td['phase_deg_time_domain']:.3f} vs "
-                  f"{td['phase_deg_harmonic']:.3f} deg ({td['phase_difference_deg']:+.3f} deg).", ""]
-    per_T = [r for r in h["scores"] if r.get("temperature_C") is not None and r["kind"] == "held_out"
-             and r["model"] not in skip and r["n_cells"]]
+        lines += [
+            f"Time domain vs harmonic solution of the NSCD sample with the law of the {td['scheme']} fold "
+            f"{td['fold']} at {td['temperature_C']:g} degC, {td['frequency_Hz']:g} Hz (held out): norm of E* "
+            f"{td['E_norm_MPa_time_domain']:.5g} vs {td['E_norm_MPa_harmonic']:.5g} MPa "
+            f"({100 * td['E_norm_relative_difference']:+.3f} %), Phi {td['phase_deg_time_domain']:.3f} vs "
+            f"{td['phase_deg_harmonic']:.3f} deg ({td['phase_difference_deg']:+.3f} deg).",
+            "",
+        ]
+    per_T = [
+        r
+        for r in h["scores"]
+        if r.get("temperature_C") is not None and r["kind"] == "held_out" and r["model"] not in skip and r["n_cells"]
+    ]
     if per_T:
         worst: dict[tuple, float] = {}
         for r in per_T:
@@ -228,17 +287,27 @@ def heldout_lines(report: dict) -> list:
                 k = (r["scheme"], r["model"])
                 if k not in worst or r["abs_logE_pct"] > worst[k]:
                     worst[k] = r["abs_logE_pct"]
-        lines += ["Per temperature (held out; * the largest absolute |E*| error of that scheme and model among "
-                  "its interpolated temperatures; MRE: the paper's Table 4 measure against the replicate means, %):",
-                  "", f"| {u.temperature_header()} | scheme | model | cells | |E*| absolute % | Phi absolute deg | "
-                  "MRE |E*| / Phi % |", "|---|---|---|---|---|---|---|"]
+        lines += [
+            "Per temperature (held out; * the largest absolute |E*| error of that scheme and model among "
+            "its interpolated temperatures; MRE: the paper's Table 4 measure against the replicate means, %):",
+            "",
+            f"| {u.temperature_header()} | scheme | model | cells | |E*| absolute % | Phi absolute deg | "
+            "MRE |E*| / Phi % |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in sorted(per_T, key=lambda r: (r["temperature_C"], r["scheme"], r["model"], r["extrapolation"])):
-            mark = " *" if (not r["extrapolation"] and worst.get((r["scheme"], r["model"])) == r.get("abs_logE_pct")) else ""
+            mark = (
+                " *"
+                if (not r["extrapolation"] and worst.get((r["scheme"], r["model"])) == r.get("abs_logE_pct"))
+                else ""
+            )
             ex = " (extrap.)" if r["extrapolation"] else ""
-            lines.append(f"| {u.temperature_cell(r['temperature_C'])}{ex} | {r['scheme']} | "
-                         f"{HELDOUT_LABELS.get(r['model'], r['model'])} "
-                         f"| {r['n_cells']} | {_with_ci(r, 'abs_logE_pct')}{mark} | {_with_ci(r, 'abs_phase_deg')} | "
-                         f"{_num(r.get('mre_E_norm_pct'))} / {_num(r.get('mre_phase_pct'))} |")
+            lines.append(
+                f"| {u.temperature_cell(r['temperature_C'])}{ex} | {r['scheme']} | "
+                f"{HELDOUT_LABELS.get(r['model'], r['model'])} "
+                f"| {r['n_cells']} | {_with_ci(r, 'abs_logE_pct')}{mark} | {_with_ci(r, 'abs_phase_deg')} | "
+                f"{_num(r.get('mre_E_norm_pct'))} / {_num(r.get('mre_phase_pct'))} |"
+            )
     return lines + [""]
 
 
@@ -255,49 +324,78 @@ def card_lines(report: dict) -> list:
     u = _units(report)
     sel = card.get("terms_selection") or {}
     tol, band = sel.get("tolerance") or {}, sel.get("band_rad_s")
-    lines = ["## Material card", "",
-             f"Relaxation Prony series of **{card['n_terms']} terms** at T_ref = {u.temperature_text(card['T_ref_C'])}, "
-             f"E_0 = {u.modulus_text(card['E_0_MPa'])}, with a {card['shift']['law']} shift "
-             f"({card['shift'].get('from', '')}): the fewest terms within "
-             f"{tol.get('E_norm_pct', '?')} % |E*| and {tol.get('phase_deg', '?')} deg of the law it carries"
-             + (f" over the reduced band {band[0]:.3g}-{band[1]:.3g} rad/s at T_ref (the measured band widened by "
-                f"{sel.get('margin_decades', '?')} decade at each end) and at the measured cells" if band else "")
-             + f"; achieved {card['check']['max_E_norm_difference_pct']:.3g} % |E*| and "
-             f"{card['check']['max_phase_difference_deg']:.3g} deg at the measured cells "
-             "(error against the number of terms: material_cards/prony.json, terms_selection.curve).", "",
-             carried_text(card)[0].upper() + carried_text(card)[1:] + "."]
+    lines = [
+        "## Material card",
+        "",
+        f"Relaxation Prony series of **{card['n_terms']} terms** at T_ref = {u.temperature_text(card['T_ref_C'])}, "
+        f"E_0 = {u.modulus_text(card['E_0_MPa'])}, with a {card['shift']['law']} shift "
+        f"({card['shift'].get('from', '')}): the fewest terms within "
+        f"{tol.get('E_norm_pct', '?')} % |E*| and {tol.get('phase_deg', '?')} deg of the law it carries"
+        + (
+            f" over the reduced band {band[0]:.3g}-{band[1]:.3g} rad/s at T_ref (the measured band widened by "
+            f"{sel.get('margin_decades', '?')} decade at each end) and at the measured cells"
+            if band
+            else ""
+        )
+        + f"; achieved {card['check']['max_E_norm_difference_pct']:.3g} % |E*| and "
+        f"{card['check']['max_phase_difference_deg']:.3g} deg at the measured cells "
+        "(error against the number of terms: material_cards/prony.json, terms_selection.curve).",
+        "",
+        carried_text(card)[0].upper() + carried_text(card)[1:] + ".",
+    ]
     if not card["is_selected_law"]:
         lines[-1] += " Its held-out errors are the *law of the material card* rows above."
     worse = worse_than_selected(card)
     if worse:
-        lines += ["", "**Against the lab's means the card is worse than the selected law in " + "; ".join(worse) + ".**"]
+        lines += [
+            "",
+            "**Against the lab's means the card is worse than the selected law in " + "; ".join(worse) + ".**",
+        ]
     if card.get("nu") is not None:
-        lines += ["", f"Poisson's ratio {card['nu']:g}, {card.get('nu_source') or 'given'}; the shear relaxation "
-                  "G(t) = E(t) / (2 (1 + nu)) is in material_cards/relaxation_creep.csv and the LS-DYNA card."]
+        lines += [
+            "",
+            f"Poisson's ratio {card['nu']:g}, {card.get('nu_source') or 'given'}; the shear relaxation "
+            "G(t) = E(t) / (2 (1 + nu)) is in material_cards/relaxation_creep.csv and the LS-DYNA card.",
+        ]
     ic = card.get("interconversion")
     if ic:
-        lines += ["", f"Creep compliance D(t) interconverted exactly from the relaxation series: largest residual of "
-                  f"the convolution identity {100 * ic['max_abs_residual']:.2g} % over every temperature and time "
-                  f"(check {'met' if ic['met'] else '**missed**'} at {100 * ic['tolerance']:g} %)."]
+        lines += [
+            "",
+            f"Creep compliance D(t) interconverted exactly from the relaxation series: largest residual of "
+            f"the convolution identity {100 * ic['max_abs_residual']:.2g} % over every temperature and time "
+            f"(check {'met' if ic['met'] else '**missed**'} at {100 * ic['tolerance']:g} %).",
+        ]
     corrected = any("card_vs_corrected_logE_pct_mean" in r for r in card.get("loss") or [])
-    lines += ["", f"| {u.temperature_header()} | cells | card vs measured: \\|E*\\| mean / max % | Phi mean / max deg | "
-              "selected law vs measured: \\|E*\\| % | Phi deg | card vs selected law: \\|E*\\| % | Phi deg |"
-              + (" card vs corrected: \\|E*\\| % | Phi deg | correction: \\|E*\\| % | Phi deg |" if corrected else ""),
-              "|---|---|---|---|---|---|---|---|" + ("---|---|---|---|" if corrected else "")]
+    lines += [
+        "",
+        f"| {u.temperature_header()} | cells | card vs measured: \\|E*\\| mean / max % | Phi mean / max deg | "
+        "selected law vs measured: \\|E*\\| % | Phi deg | card vs selected law: \\|E*\\| % | Phi deg |"
+        + (" card vs corrected: \\|E*\\| % | Phi deg | correction: \\|E*\\| % | Phi deg |" if corrected else ""),
+        "|---|---|---|---|---|---|---|---|" + ("---|---|---|---|" if corrected else ""),
+    ]
     for r in card.get("loss") or []:
         T = "all" if r["temperature_C"] == "all" else u.temperature_cell(r["temperature_C"])
         pairs = ["card_vs_measured", "law_vs_measured", "card_vs_law"]
         if corrected:
             pairs += ["card_vs_corrected", "corrected_vs_measured"]
-        cells = [f"{r[f'{p}_logE_pct_mean']:.2f} / {r[f'{p}_logE_pct_max']:.2f} | "
-                 f"{r[f'{p}_phase_deg_mean']:.2f} / {r[f'{p}_phase_deg_max']:.2f}" for p in pairs]
+        cells = [
+            f"{r[f'{p}_logE_pct_mean']:.2f} / {r[f'{p}_logE_pct_max']:.2f} | "
+            f"{r[f'{p}_phase_deg_mean']:.2f} / {r[f'{p}_phase_deg_max']:.2f}"
+            for p in pairs
+        ]
         lines.append(f"| {T} | {r['n_cells']} | " + " | ".join(cells) + " |")
-    lines += ["", "In-sample: against the measured replicate means the law was fitted on (every cell: "
-              "material_cards/card_errors.csv)."]
+    lines += [
+        "",
+        "In-sample: against the measured replicate means the law was fitted on (every cell: "
+        "material_cards/card_errors.csv).",
+    ]
     if corrected:
         named = ", ".join(card.get("corrections") or []) or "the artifacts the diagnosis named"
-        lines += ["", f"The laws were fitted to the table corrected for {named}, which the diagnosis names as "
-                  "identifiable from this table; *correction* is what it changes in the replicate means."]
+        lines += [
+            "",
+            f"The laws were fitted to the table corrected for {named}, which the diagnosis names as "
+            "identifiable from this table; *correction* is what it changes in the replicate means.",
+        ]
     return lines + [""]
 
 
@@ -328,30 +426,42 @@ def quality_lines(report: dict) -> list:
         lines += [f"- {w}" for w in warned] + [""]
     if ind.get("columns"):
         lim = ", ".join(f"{k} <= {v:g}" for k, v in (ind.get("limits") or {}).items() if v is not None)
-        lines.append(f"Quality indicators of the lab ({lim}): {ind['n_flagged']} of {ind['n_rows']} rows beyond a limit"
-                     + (":" if ind["n_flagged"] else "."))
+        lines.append(
+            f"Quality indicators of the lab ({lim}): {ind['n_flagged']} of {ind['n_rows']} rows beyond a limit"
+            + (":" if ind["n_flagged"] else ".")
+        )
         for r in ind["flagged"][:20]:
-            lines.append(f"- {r['specimen']}, {u.temperature_text(r['temperature_C'])}, {r['frequency_Hz']:g} Hz: "
-                         f"{r['reason']}")
+            lines.append(
+                f"- {r['specimen']}, {u.temperature_text(r['temperature_C'])}, {r['frequency_Hz']:g} Hz: {r['reason']}"
+            )
         if ind["n_flagged"] > 20:
             lines.append(f"- ... and {ind['n_flagged'] - 20} more")
         wf = report.get("law_without_flagged")
         if wf:
             lines += ["", wf]
     else:
-        lines.append("The table carries no data-quality indicators (AASHTO T 378: load and deformation standard "
-                     "errors, deformation and phase uniformity; declare them in the sidecar's table.quality).")
+        lines.append(
+            "The table carries no data-quality indicators (AASHTO T 378: load and deformation standard "
+            "errors, deformation and phase uniformity; declare them in the sidecar's table.quality)."
+        )
     lines.append("")
     if out:
-        lines.append("Outlying cells (replicate mean against the isotherm's smooth course in the screening model, "
-                     "beyond the replicate scatter and the table's typical cell misfit; Bonferroni over the cells at "
-                     "1 %; reported, not dropped):")
+        lines.append(
+            "Outlying cells (replicate mean against the isotherm's smooth course in the screening model, "
+            "beyond the replicate scatter and the table's typical cell misfit; Bonferroni over the cells at "
+            "1 %; reported, not dropped):"
+        )
         for o in out:
-            misfit = (f"{o['cell_misfit_sd']:.2f} {o['size_unit']}" if o["cell_misfit_sd"] >= 0.005
-                      else "none beyond the replicate scatter")
-            lines.append(f"- {u.temperature_text(o['temperature_C'])}, {o['frequency_Hz']:g} Hz: {o['quantity']} "
-                         f"{o['size']:+.2f} {o['size_unit']} from the model (z = {o['z']:.2f}, p = {o['p']:.2g}, "
-                         f"{o['n']} replicates; typical cell misfit {misfit})")
+            misfit = (
+                f"{o['cell_misfit_sd']:.2f} {o['size_unit']}"
+                if o["cell_misfit_sd"] >= 0.005
+                else "none beyond the replicate scatter"
+            )
+            lines.append(
+                f"- {u.temperature_text(o['temperature_C'])}, {o['frequency_Hz']:g} Hz: {o['quantity']} "
+                f"{o['size']:+.2f} {o['size_unit']} from the model (z = {o['z']:.2f}, p = {o['p']:.2g}, "
+                f"{o['n']} replicates; typical cell misfit {misfit})"
+            )
     else:
         lines.append("No outlying cell (replicate means against the isotherms' smooth course, Bonferroni at 1 %).")
     return lines + [""]
@@ -365,24 +475,34 @@ def selection_lines(report: dict) -> list:
         return []
     curve = pd.DataFrame(sel.get("curve") or [])
     rule = sel.get("rule") or "simplest candidate within one standard error of the best inner-CV score"
-    lines = ["## Settings of the extended law, chosen by cross-validation", "",
-             f"Selected: **{sel.get('chosen_label', '')}** ({rule}). Score: mean over the inner folds (every "
-             "frequency, every interior temperature left out) of max(MRE norm of E* / tol_E, MRE Phi / "
-             "tol_Phi); lower is better.", ""]
+    lines = [
+        "## Settings of the extended law, chosen by cross-validation",
+        "",
+        f"Selected: **{sel.get('chosen_label', '')}** ({rule}). Score: mean over the inner folds (every "
+        "frequency, every interior temperature left out) of max(MRE norm of E* / tol_E, MRE Phi / "
+        "tol_Phi); lower is better.",
+        "",
+    ]
     lines += [f"- {n}" for n in sel.get("notes") or []] + ([""] if sel.get("notes") else [])
     if len(curve) and "cv_score" in curve:
-        lines += ["| setting | fitted parameters | CV score | s.e. | plausible | card carries it | selected |",
-                  "|---|---|---|---|---|---|---|"]
+        lines += [
+            "| setting | fitted parameters | CV score | s.e. | plausible | card carries it | selected |",
+            "|---|---|---|---|---|---|---|",
+        ]
         shown = curve.sort_values("cv_score").head(6)
-        chosen = curve["chosen"].astype(bool) | curve.get("chosen_card", pd.Series(False, index=curve.index)).astype(bool)
+        chosen = curve["chosen"].astype(bool) | curve.get("chosen_card", pd.Series(False, index=curve.index)).astype(
+            bool
+        )
         shown = pd.concat([shown, curve[chosen & ~curve.index.isin(shown.index)]])
         for _, r in shown.iterrows():
             sc = "n/a" if pd.isna(r["cv_score"]) else f"{r['cv_score']:.3f}"
             se = "n/a" if pd.isna(r.get("cv_score_se")) else f"{r['cv_score_se']:.3f}"
             plaus = "yes" if r.get("plausible", True) else f"no ({r.get('findings', '')})"
             sel_ = "**selected**" if r["chosen"] else ("card" if r.get("chosen_card") else "")
-            lines.append(f"| {r['settings']} | {int(r['n_params'])} | {sc} | {se} | {plaus} | "
-                         f"{'yes' if r.get('carriable', True) else 'no'} | {sel_} |")
+            lines.append(
+                f"| {r['settings']} | {int(r['n_params'])} | {sc} | {se} | {plaus} | "
+                f"{'yes' if r.get('carriable', True) else 'no'} | {sel_} |"
+            )
         lines += ["", f"{len(curve)} candidates in all (the whole curve: extended_law_cv_curve.csv)."]
     return lines + [""]
 
@@ -397,15 +517,25 @@ def markdown_page(report: dict, figure: str | None = None) -> str:
     held-out errors, selected settings, gain, causes, Kramers-Kronig consistency, error budget and
     the budget figure's link (``figure``, a file name)."""
     simulated = report["baseline"]["model"].startswith("NSCD")
-    title = ("What the simulation gets wrong" if simulated else
-             "What the paper's Burger's law gets wrong on this table (no simulation ran)")
+    title = (
+        "What the simulation gets wrong"
+        if simulated
+        else "What the paper's Burger's law gets wrong on this table (no simulation ran)"
+    )
     table = report.get("measured") or {}
     lines = [f"# {title}", ""]
     if table.get("path"):
-        lines += [f"Measured table: {table['path']}" + (f" (sha256 {table['sha256'][:16]})" if table.get("sha256")
-                                                         else "") + ": the master curve, the law and the material card were checked to come from it.", ""]
-    lines += [f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
-             f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.", ""]
+        lines += [
+            f"Measured table: {table['path']}"
+            + (f" (sha256 {table['sha256'][:16]})" if table.get("sha256") else "")
+            + ": the master curve, the law and the material card were checked to come from it.",
+            "",
+        ]
+    lines += [
+        f"Baseline: {report['baseline']['model']}, against the {report['baseline']['reference']}.",
+        f"Extension: {report['extended']['model']}, against the {report['extended']['reference']}.",
+        "",
+    ]
     lines += heldout_lines(report)
     lines += card_lines(report)
     lines += selection_lines(report)
@@ -430,29 +560,37 @@ def gain_lines(report: dict) -> list[str]:
         rows = gain_table(report)
         tr = report.get("transfer") or {}
         if tr.get("applied"):
-            note = (" The NSCD rows after the extension include the transfer correction: every bond is "
-                    "calibrated with E*(w) / NF_s, NF_s the sample's network factor (sample |E*| / macro "
-                    "|E*| without inertia, harmonic solver; Eqs. 30-33 assume NF_s = 1), NF_s = "
-                    f"{nf_text(tr['network_factor_applied'])}. The NSCD rows before it (the paper's "
-                    "method) are not corrected.")
+            note = (
+                " The NSCD rows after the extension include the transfer correction: every bond is "
+                "calibrated with E*(w) / NF_s, NF_s the sample's network factor (sample |E*| / macro "
+                "|E*| without inertia, harmonic solver; Eqs. 30-33 assume NF_s = 1), NF_s = "
+                f"{nf_text(tr['network_factor_applied'])}. The NSCD rows before it (the paper's "
+                "method) are not corrected."
+            )
         elif tr.get("applied") is False:
             note = " The NSCD rows after the extension carry no transfer correction (Eqs. 30-33 as printed)."
         else:
             note = ""
         if report.get("gain_law_only") is not None:
-            note += (" *Extended law, no correction* rows: the inertia-free harmonic response of the samples "
-                     "with the generalized Burger's bond law as Eqs. 30-33 transfer it, NF_s x E*_law, "
-                     f"NF_s = {nf_text(tr.get('network_factor_harmonic'))}; before -> these rows is the "
-                     "gain of the law, these rows -> the NSCD rows after is the gain of the correction "
-                     "(and of the remaining inertia and time integration).")
-        lines += ["## Gain of the extended law per temperature (MRE %, before -> after, in-sample)", "",
-                  "Source: *NSCD simulation* rows compare the time-domain NSCD runs (Burger's bond law "
-                  "before, generalized Burger's bond law after); *macro law* rows compare the macro laws "
-                  "themselves (Burger's before, generalized Burger's after), no simulation. "
-                  f"Before: against the {src['reference']['before']}; after: against the "
-                  f"{src['reference']['after']} (in brackets: against the measured means)." + note, "",
-                  f"| {_units(report).temperature_header()} | source | MRE \\|E*\\| before | after | MRE Phi before | after |",
-                  "|---|---|---|---|---|---|"]
+            note += (
+                " *Extended law, no correction* rows: the inertia-free harmonic response of the samples "
+                "with the generalized Burger's bond law as Eqs. 30-33 transfer it, NF_s x E*_law, "
+                f"NF_s = {nf_text(tr.get('network_factor_harmonic'))}; before -> these rows is the "
+                "gain of the law, these rows -> the NSCD rows after is the gain of the correction "
+                "(and of the remaining inertia and time integration)."
+            )
+        lines += [
+            "## Gain of the extended law per temperature (MRE %, before -> after, in-sample)",
+            "",
+            "Source: *NSCD simulation* rows compare the time-domain NSCD runs (Burger's bond law "
+            "before, generalized Burger's bond law after); *macro law* rows compare the macro laws "
+            "themselves (Burger's before, generalized Burger's after), no simulation. "
+            f"Before: against the {src['reference']['before']}; after: against the "
+            f"{src['reference']['after']} (in brackets: against the measured means)." + note,
+            "",
+            f"| {_units(report).temperature_header()} | source | MRE \\|E*\\| before | after | MRE Phi before | after |",
+            "|---|---|---|---|---|---|",
+        ]
         order = {"law_only": 1, "macro": 2}
         rows = rows.assign(_o=rows["source"].map(lambda x: order.get(x, 0)))
         for _, r in rows.sort_values(["temperature_C", "_o"]).iterrows():
@@ -463,18 +601,27 @@ def gain_lines(report: dict) -> list[str]:
                 label = f"{labels[b]} -> {labels[a.replace('_after', '')]}"
             if r["transfer_correction"]:
                 label += f" (+ transfer correction, NF_s = {r['network_factor']:.4g})"
-            lines.append(f"| {_units(report).temperature_cell(r['temperature_C'])} | {label} | {r['E_norm_mre_before_pct']:.2f} | "
-                         f"{r['E_norm_mre_after_pct']:.2f}{_bracket(r['E_norm_mre_after_vs_measured_pct'])} | "
-                         f"{r['phase_mre_before_pct']:.2f} | {r['phase_mre_after_pct']:.2f}"
-                         f"{_bracket(r['phase_mre_after_vs_measured_pct'])} |")
+            lines.append(
+                f"| {_units(report).temperature_cell(r['temperature_C'])} | {label} | {r['E_norm_mre_before_pct']:.2f} | "
+                f"{r['E_norm_mre_after_pct']:.2f}{_bracket(r['E_norm_mre_after_vs_measured_pct'])} | "
+                f"{r['phase_mre_before_pct']:.2f} | {r['phase_mre_after_pct']:.2f}"
+                f"{_bracket(r['phase_mre_after_vs_measured_pct'])} |"
+            )
     else:
-        lines += [f"| {_units(report).temperature_header()} | MRE \\|E*\\| before (%) | after (%) | MRE Phi before (%) | after (%) |",
-                  "|---|---|---|---|---|"]
+        lines += [
+            f"| {_units(report).temperature_header()} | MRE \\|E*\\| before (%) | after (%) | MRE Phi before (%) | after (%) |",
+            "|---|---|---|---|---|",
+        ]
         for T, g in report["gain"].items():
-            lines.append(f"| {_units(report).temperature_cell(float(T))} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
-                         f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} |")
-    lines += ["", "In-sample: the law was fitted on every cell; no target applies (the targets are on the held-out "
-              "errors above)."]
+            lines.append(
+                f"| {_units(report).temperature_cell(float(T))} | {g['E_norm']['before']:.2f} | {g['E_norm']['after']:.2f} | "
+                f"{g['phase']['before']:.2f} | {g['phase']['after']:.2f} |"
+            )
+    lines += [
+        "",
+        "In-sample: the law was fitted on every cell; no target applies (the targets are on the held-out "
+        "errors above).",
+    ]
     return lines
 
 
@@ -488,29 +635,38 @@ def artifact_lines(report: dict) -> list[str]:
     the table itself, and each candidate's nominal and calibrated p-values."""
     sel = report.get("selection") or {}
     cal = report.get("calibration")
-    lines = ["", "## Data artifacts: what this table can identify, at a controlled error rate", "",
-             "A candidate is tested only if the table's design tells its signature from the screening model's own "
-             "freedom (cosine with the model's span, limit in brackets) and from its rival, the explanation that is "
-             "not an artifact (largest canonical correlation beyond the model). The tested candidates are selected "
-             "forward under Holm's step-down; the first step's level is the smaller of the nominal alpha / m and the "
-             "level calibrated on this table."]
+    lines = [
+        "",
+        "## Data artifacts: what this table can identify, at a controlled error rate",
+        "",
+        "A candidate is tested only if the table's design tells its signature from the screening model's own "
+        "freedom (cosine with the model's span, limit in brackets) and from its rival, the explanation that is "
+        "not an artifact (largest canonical correlation beyond the model). The tested candidates are selected "
+        "forward under Holm's step-down; the first step's level is the smaller of the nominal alpha / m and the "
+        "level calibrated on this table.",
+    ]
     if cal is not None:
         a, cm = cal["artifacts"], cal["clean_model"]
         rate = a["rate"]
-        lines[-1] += (f" Calibration: the whole procedure rerun on {cal['n_tables']} tables simulated from this "
-                      f"table's fitted clean model (its screening fit with {cm['shifts']}, its specimen factors, point "
-                      f"scatter {100 * cm['sigma_point_lnE']:.1f} % / {cm['sigma_point_phase_deg']:.2f} deg and cell "
-                      f"misfit {100 * cm['sigma_cell_lnE']:.1f} % / {cm['sigma_cell_phase_deg']:.2f} deg, its design; seed "
-                      f"{cal['seed']}): the level holding the family-wise false-alarm rate at "
-                      f"{cal['familywise_rate'] / cal['groups']:g} (the artifacts' share of {cal['familywise_rate']:g}) is "
-                      f"{a['calibrated_level']:.3g}; nominal {a['nominal_level']:.3g}; used {a['level']:.3g} "
-                      f"({a['binding']}). Out of sample (cross-fitted halves) the procedure at that level named an "
-                      f"artifact on {rate['k']} of {rate['n']} clean tables ({100 * rate['rate']:.1f} %, 95 % interval "
-                      f"{100 * rate['ci95'][0]:.1f}-{100 * rate['ci95'][1]:.1f} %).")
+        lines[-1] += (
+            f" Calibration: the whole procedure rerun on {cal['n_tables']} tables simulated from this "
+            f"table's fitted clean model (its screening fit with {cm['shifts']}, its specimen factors, point "
+            f"scatter {100 * cm['sigma_point_lnE']:.1f} % / {cm['sigma_point_phase_deg']:.2f} deg and cell "
+            f"misfit {100 * cm['sigma_cell_lnE']:.1f} % / {cm['sigma_cell_phase_deg']:.2f} deg, its design; seed "
+            f"{cal['seed']}): the level holding the family-wise false-alarm rate at "
+            f"{cal['familywise_rate'] / cal['groups']:g} (the artifacts' share of {cal['familywise_rate']:g}) is "
+            f"{a['calibrated_level']:.3g}; nominal {a['nominal_level']:.3g}; used {a['level']:.3g} "
+            f"({a['binding']}). Out of sample (cross-fitted halves) the procedure at that level named an "
+            f"artifact on {rate['k']} of {rate['n']} clean tables ({100 * rate['rate']:.1f} %, 95 % interval "
+            f"{100 * rate['ci95'][0]:.1f}-{100 * rate['ci95'][1]:.1f} %)."
+        )
     elif sel:
         lines[-1] += f" No calibration was given: the nominal level {sel.get('level', float('nan')):.3g} is used."
-    lines += ["", "| candidate | testable | identifiable (null cosine; rival correlation) | p nominal | p calibrated "
-              "| named |", "|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "| candidate | testable | identifiable (null cosine; rival correlation) | p nominal | p calibrated | named |",
+        "|---|---|---|---|---|---|",
+    ]
     for e in report["effects"]:
         if e["category"] != "data":
             continue
@@ -519,10 +675,13 @@ def artifact_lines(report: dict) -> list[str]:
             ident = "n/a"
         else:
             nc, rc = idf.get("null_correlation"), idf.get("rival_correlation")
-            ident = (("yes" if e.get("identifiable") else "**no**")
-                     + f" ({_num(nc, '.3f') if nc is not None else '-'}; {_num(rc, '.3f') if rc is not None else '-'})")
-        lines.append(f"| {e['name']} | {'yes' if e['testable'] else 'no'} | {ident} | {_p_cell(e.get('p_value'))} | "
-                     f"{_p_cell(e.get('p_calibrated'))} | {'**yes**' if e['detected'] else 'no'} |")
+            ident = (
+                "yes" if e.get("identifiable") else "**no**"
+            ) + f" ({_num(nc, '.3f') if nc is not None else '-'}; {_num(rc, '.3f') if rc is not None else '-'})"
+        lines.append(
+            f"| {e['name']} | {'yes' if e['testable'] else 'no'} | {ident} | {_p_cell(e.get('p_value'))} | "
+            f"{_p_cell(e.get('p_calibrated'))} | {'**yes**' if e['detected'] else 'no'} |"
+        )
     return lines
 
 
@@ -536,17 +695,21 @@ def cause_lines(report: dict) -> list[str]:
     for name in report["causes"]:
         e = by[name]
         p = "" if e.get("p_calibrated") is None else f", calibrated p = {effects.format_p(e['p_calibrated'])}"
-        lines.append(f"- **{name}** ({e['category']}, {_p_text(e['p_value'])}{p}, score {e['score']:.2f}): "
-                     f"{e['evidence']}")
+        lines.append(
+            f"- **{name}** ({e['category']}, {_p_text(e['p_value'])}{p}, score {e['score']:.2f}): {e['evidence']}"
+        )
     lines += artifact_lines(report)
     lines += ["", "## Candidates not named", ""]
     for e in report["effects"]:
         if not e["detected"]:
             p = "" if e["p_value"] is None else f" ({_p_text(e['p_value'])})"
             lines.append(f"- {e['name']}{p}: {e['evidence']}")
-    lines += ["", "broad_spectrum: held-out (leave one frequency out) errors, no p-value; network_factor and "
-              "time_integration: deterministic effects with their numerical uncertainty against a tolerance, no "
-              "p-value."]
+    lines += [
+        "",
+        "broad_spectrum: held-out (leave one frequency out) errors, no p-value; network_factor and "
+        "time_integration: deterministic effects with their numerical uncertainty against a tolerance, no "
+        "p-value.",
+    ]
     return lines
 
 
@@ -558,23 +721,35 @@ def kramers_kronig_lines(report: dict) -> list[str]:
     if kk:
         pct = report.get("kramers_kronig_percentile") or {}
         ref = report.get("kramers_kronig_reference") or {}
-        ref_text = (f" Among {ref['n_isotherms']} isotherms of clean synthetic tables of causal laws at the same "
-                    f"frequencies and replicate count the statistic has median {ref['median_deg']:.2f} deg and 99th "
-                    f"percentile {ref['p99_deg']:.2f} deg; the percentile of each measured isotherm is given in "
-                    "brackets. It places an isotherm, it does not decide causality: a high percentile says that its "
-                    "|E*| and Phi agree less than a causal law's usually do at this noise." if ref else "")
-        lines += ["", "Kramers-Kronig consistency of the measured isotherms (mean |Phi - Phi_Booij-Thoone|, deg): "
-                  + ", ".join(f"{T} degC: {v:.2f}" + (f" ({pct[T]:.1f} %)" if T in pct else "")
-                              for T, v in kk.items()) + "." + ref_text]
+        ref_text = (
+            f" Among {ref['n_isotherms']} isotherms of clean synthetic tables of causal laws at the same "
+            f"frequencies and replicate count the statistic has median {ref['median_deg']:.2f} deg and 99th "
+            f"percentile {ref['p99_deg']:.2f} deg; the percentile of each measured isotherm is given in "
+            "brackets. It places an isotherm, it does not decide causality: a high percentile says that its "
+            "|E*| and Phi agree less than a causal law's usually do at this noise."
+            if ref
+            else ""
+        )
+        lines += [
+            "",
+            "Kramers-Kronig consistency of the measured isotherms (mean |Phi - Phi_Booij-Thoone|, deg): "
+            + ", ".join(f"{T} degC: {v:.2f}" + (f" ({pct[T]:.1f} %)" if T in pct else "") for T, v in kk.items())
+            + "."
+            + ref_text,
+        ]
     return lines
 
 
 def budget_lines(report: dict) -> list[str]:
     """Page section: the error budget table (MRE %, |E*| / Phi, per temperature and component)
     and what each component compares."""
-    lines = ["", "## Error budget (MRE %, \\|E*\\| / Phi)", "",
-             f"| {_units(report).temperature_header()} | data artifacts | model form | micro-macro transfer | numerics | total |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        "",
+        "## Error budget (MRE %, \\|E*\\| / Phi)",
+        "",
+        f"| {_units(report).temperature_header()} | data artifacts | model form | micro-macro transfer | numerics | total |",
+        "|---|---|---|---|---|---|",
+    ]
     for T, comp in report["error_budget"].items():
         cells = []
         for c in ("data_artifacts", "model_form", "micro_macro_transfer", "numerics", "total"):
@@ -582,11 +757,14 @@ def budget_lines(report: dict) -> list[str]:
             cells.append("n/a" if v is None else f"{v['mre_E_norm_pct']:.2f} / {v['mre_phase_pct']:.2f}")
         lines.append(f"| {_units(report).temperature_cell(float(T))} | " + " | ".join(cells) + " |")
     total = "the NSCD simulation" if report["baseline"]["model"].startswith("NSCD") else "the macro Burger's law"
-    lines += ["", "Components: data artifacts = measured vs artifact-corrected means; model form = macro "
-              "Burger's law vs corrected means; micro-macro transfer = harmonic response of the NSCD "
-              "sample vs its macro Burger's law (n/a without harmonic results); numerics = NSCD "
-              "simulation vs harmonic response (n/a without both); total = "
-              f"{total} vs the measured means."]
+    lines += [
+        "",
+        "Components: data artifacts = measured vs artifact-corrected means; model form = macro "
+        "Burger's law vs corrected means; micro-macro transfer = harmonic response of the NSCD "
+        "sample vs its macro Burger's law (n/a without harmonic results); numerics = NSCD "
+        "simulation vs harmonic response (n/a without both); total = "
+        f"{total} vs the measured means.",
+    ]
     return lines
 
 
@@ -594,9 +772,19 @@ def effects_table(report: dict) -> pd.DataFrame:
     """The cause table of a diagnose report: one row per candidate effect, ``name, category,
     detected, testable, score, p_value, estimate`` (``key=value`` pairs, floats with 4
     significant digits) and ``evidence``."""
-    rows = [{"name": e["name"], "category": e["category"], "detected": e["detected"],
-             "testable": e["testable"], "score": e["score"], "p_value": e["p_value"],
-             "estimate": "; ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                                   for k, v in e["estimate"].items()),
-             "evidence": e["evidence"]} for e in report["effects"]]
+    rows = [
+        {
+            "name": e["name"],
+            "category": e["category"],
+            "detected": e["detected"],
+            "testable": e["testable"],
+            "score": e["score"],
+            "p_value": e["p_value"],
+            "estimate": "; ".join(
+                f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in e["estimate"].items()
+            ),
+            "evidence": e["evidence"],
+        }
+        for e in report["effects"]
+    ]
     return pd.DataFrame(rows)

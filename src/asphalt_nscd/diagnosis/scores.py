@@ -46,16 +46,40 @@ from scipy import stats
 #: random-effect draws of an absolute error's interval
 N_SIMULATIONS = 4000
 #: columns of :func:`summarize`
-SUMMARY_COLUMNS = ["scheme", "kind", "model", "temperature_C", "extrapolation", "n_cells", "n_not_computable",
-                   "bias_logE_pct", "bias_logE_ci95_low", "bias_logE_ci95_high",
-                   "abs_logE_pct", "abs_logE_ci95_low", "abs_logE_ci95_high", "abs_logE_vs_means_pct",
-                   "bias_phase_deg", "bias_phase_ci95_low", "bias_phase_ci95_high",
-                   "abs_phase_deg", "abs_phase_ci95_low", "abs_phase_ci95_high", "abs_phase_vs_means_deg",
-                   "mre_E_norm_pct", "mre_phase_pct", "n_specimens", "interval",
-                   "noise_floor_E_norm_pct", "noise_floor_phase_pct"]
+SUMMARY_COLUMNS = [
+    "scheme",
+    "kind",
+    "model",
+    "temperature_C",
+    "extrapolation",
+    "n_cells",
+    "n_not_computable",
+    "bias_logE_pct",
+    "bias_logE_ci95_low",
+    "bias_logE_ci95_high",
+    "abs_logE_pct",
+    "abs_logE_ci95_low",
+    "abs_logE_ci95_high",
+    "abs_logE_vs_means_pct",
+    "bias_phase_deg",
+    "bias_phase_ci95_low",
+    "bias_phase_ci95_high",
+    "abs_phase_deg",
+    "abs_phase_ci95_low",
+    "abs_phase_ci95_high",
+    "abs_phase_vs_means_deg",
+    "mre_E_norm_pct",
+    "mre_phase_pct",
+    "n_specimens",
+    "interval",
+    "noise_floor_E_norm_pct",
+    "noise_floor_phase_pct",
+]
 #: what the intervals are, per scheme kind
-INTERVALS = {"specimens": "signed: t(n-1) over the specimens; absolute: random-effect model of the specimens",
-             "loso": "t(n-1) over the held-out specimens"}
+INTERVALS = {
+    "specimens": "signed: t(n-1) over the specimens; absolute: random-effect model of the specimens",
+    "loso": "t(n-1) over the held-out specimens",
+}
 _KEYS = ["scheme", "kind", "model", "temperature_C", "extrapolation"]
 
 
@@ -67,10 +91,15 @@ def specimen_values(table: pd.DataFrame) -> pd.DataFrame:
     """Per (specimen, temperature, frequency): the mean ln|E*| and Phi (deg) of that
     specimen's tests of the cell (a repeated test averaged). Index (specimen, T rounded to
     1e-6 degC, f); columns ``lnE, phase``."""
-    t = pd.DataFrame({"specimen": table["specimen"].astype(str).to_numpy(),
-                      "T": _round_T(table["temperature_C"]), "f": table["frequency_Hz"].to_numpy(float),
-                      "lnE": np.log(table["E_norm_MPa"].to_numpy(float)),
-                      "phase": table["phase_deg"].to_numpy(float)})
+    t = pd.DataFrame(
+        {
+            "specimen": table["specimen"].astype(str).to_numpy(),
+            "T": _round_T(table["temperature_C"]),
+            "f": table["frequency_Hz"].to_numpy(float),
+            "lnE": np.log(table["E_norm_MPa"].to_numpy(float)),
+            "phase": table["phase_deg"].to_numpy(float),
+        }
+    )
     return t.groupby(["specimen", "T", "f"])[["lnE", "phase"]].mean()
 
 
@@ -113,8 +142,9 @@ def variance_components(Y: np.ndarray) -> tuple[float, float, int]:
     return tau2, sigma2, n
 
 
-def abs_interval(d: np.ndarray, Y: np.ndarray, n_sim: int = N_SIMULATIONS, seed: int = 0,
-                 level: float = 0.95) -> tuple[float, float, float]:
+def abs_interval(
+    d: np.ndarray, Y: np.ndarray, n_sim: int = N_SIMULATIONS, seed: int = 0, level: float = 0.95
+) -> tuple[float, float, float]:
     """(median, low, high) of the mean absolute error against the population means, from the
     random-effect model of the reference (module docstring). ``d``: errors against the sample
     means (n_cells,); ``Y``: the specimen-by-cell table (n_specimens, n_cells). NaNs with fewer
@@ -133,9 +163,14 @@ def abs_interval(d: np.ndarray, Y: np.ndarray, n_sim: int = N_SIMULATIONS, seed:
 
 def _specimen_scores(g: pd.DataFrame, spec: pd.DataFrame) -> dict:
     """Scores of rows ``g`` (one group, computable rows) against the specimens' values."""
-    cells = pd.DataFrame({"T": _round_T(g["cell_temperature_C"]), "f": g["frequency_Hz"].to_numpy(float),
-                          "pE": np.log(g["E_norm_MPa_predicted"].to_numpy(float)),
-                          "pP": g["phase_deg_predicted"].to_numpy(float)})
+    cells = pd.DataFrame(
+        {
+            "T": _round_T(g["cell_temperature_C"]),
+            "f": g["frequency_Hz"].to_numpy(float),
+            "pE": np.log(g["E_norm_MPa_predicted"].to_numpy(float)),
+            "pP": g["phase_deg_predicted"].to_numpy(float),
+        }
+    )
     specimens = sorted(spec.index.get_level_values(0).unique())
     YE = np.full((len(specimens), len(cells)), np.nan)
     YP = np.full_like(YE, np.nan)
@@ -156,11 +191,17 @@ def _specimen_scores(g: pd.DataFrame, spec: pd.DataFrame) -> dict:
         lo, hi = t_interval(b_s)
         a_mid, a_lo, a_hi = abs_interval(d, Y)
         observed = float(np.mean(np.abs(d)))
-        out.update({f"bias_{q}_{unit}": scale * float(np.mean(d)),
-                    f"abs_{q}_{unit}": scale * (a_mid if np.isfinite(a_mid) else observed),
-                    f"abs_{q}_vs_means_{unit}": scale * observed,
-                    f"bias_{q}_ci95_low": scale * lo, f"bias_{q}_ci95_high": scale * hi,
-                    f"abs_{q}_ci95_low": scale * a_lo, f"abs_{q}_ci95_high": scale * a_hi})
+        out.update(
+            {
+                f"bias_{q}_{unit}": scale * float(np.mean(d)),
+                f"abs_{q}_{unit}": scale * (a_mid if np.isfinite(a_mid) else observed),
+                f"abs_{q}_vs_means_{unit}": scale * observed,
+                f"bias_{q}_ci95_low": scale * lo,
+                f"bias_{q}_ci95_high": scale * hi,
+                f"abs_{q}_ci95_low": scale * a_lo,
+                f"abs_{q}_ci95_high": scale * a_hi,
+            }
+        )
     return out
 
 
@@ -175,10 +216,17 @@ def _loso_scores(g: pd.DataFrame) -> dict:
         lo, hi = t_interval(per["e"])
         a_lo, a_hi = t_interval(per["a"])
         a_lo = max(a_lo, 0.0) if np.isfinite(a_lo) else a_lo  # an absolute error is >= 0
-        out.update({f"bias_{q}_{unit}": scale * float(e.mean()), f"abs_{q}_{unit}": scale * float(np.abs(e).mean()),
-                    f"abs_{q}_vs_means_{unit}": scale * float(np.abs(e).mean()),
-                    f"bias_{q}_ci95_low": scale * lo, f"bias_{q}_ci95_high": scale * hi,
-                    f"abs_{q}_ci95_low": scale * a_lo, f"abs_{q}_ci95_high": scale * a_hi})
+        out.update(
+            {
+                f"bias_{q}_{unit}": scale * float(e.mean()),
+                f"abs_{q}_{unit}": scale * float(np.abs(e).mean()),
+                f"abs_{q}_vs_means_{unit}": scale * float(np.abs(e).mean()),
+                f"bias_{q}_ci95_low": scale * lo,
+                f"bias_{q}_ci95_high": scale * hi,
+                f"abs_{q}_ci95_low": scale * a_lo,
+                f"abs_{q}_ci95_high": scale * a_hi,
+            }
+        )
     return out
 
 
@@ -191,12 +239,19 @@ def noise_floor(table: pd.DataFrame) -> pd.DataFrame:
     nan where a cell has a single replicate (no scatter to measure).
     """
     g = table.groupby(["temperature_C", "frequency_Hz"])
-    cells = pd.DataFrame({"n": g["E_norm_MPa"].size(),
-                          "se_E": g["E_norm_MPa"].std(ddof=1) / np.sqrt(g["E_norm_MPa"].size()) / g["E_norm_MPa"].mean(),
-                          "se_P": g["phase_deg"].std(ddof=1) / np.sqrt(g["phase_deg"].size()) / g["phase_deg"].mean()})
+    cells = pd.DataFrame(
+        {
+            "n": g["E_norm_MPa"].size(),
+            "se_E": g["E_norm_MPa"].std(ddof=1) / np.sqrt(g["E_norm_MPa"].size()) / g["E_norm_MPa"].mean(),
+            "se_P": g["phase_deg"].std(ddof=1) / np.sqrt(g["phase_deg"].size()) / g["phase_deg"].mean(),
+        }
+    )
     cells = cells.reset_index()
-    out = cells.groupby("temperature_C").agg(noise_floor_E_norm_pct=("se_E", "mean"),
-                                             noise_floor_phase_pct=("se_P", "mean")).reset_index()
+    out = (
+        cells.groupby("temperature_C")
+        .agg(noise_floor_E_norm_pct=("se_E", "mean"), noise_floor_phase_pct=("se_P", "mean"))
+        .reset_index()
+    )
     out[["noise_floor_E_norm_pct", "noise_floor_phase_pct"]] *= 100.0
     spec = table.groupby("temperature_C")["specimen"].nunique().rename("n_specimens").reset_index()
     return out.merge(spec, on="temperature_C")
@@ -216,17 +271,25 @@ def summarize(rows: pd.DataFrame, table: pd.DataFrame | None = None) -> pd.DataF
         for key, g in frame.groupby(_KEYS, sort=True, dropna=False):
             ok = g[g["computable"]]
             r = dict(zip(_KEYS, key))
-            r.update({"n_cells": int(len(ok)), "n_not_computable": int(len(g) - len(ok)),
-                      "mre_E_norm_pct": 100 * float(ok["rel_err_E_norm"].mean()) if len(ok) else np.nan,
-                      "mre_phase_pct": 100 * float(ok["rel_err_phase"].mean()) if len(ok) else np.nan})
+            r.update(
+                {
+                    "n_cells": int(len(ok)),
+                    "n_not_computable": int(len(g) - len(ok)),
+                    "mre_E_norm_pct": 100 * float(ok["rel_err_E_norm"].mean()) if len(ok) else np.nan,
+                    "mre_phase_pct": 100 * float(ok["rel_err_phase"].mean()) if len(ok) else np.nan,
+                }
+            )
             if len(ok):
                 if key[0] == "loso" and key[1] == "held_out":
                     r.update(_loso_scores(ok))
                 elif spec is not None:
                     r.update(_specimen_scores(ok, spec))
             if floor is not None:
-                f = floor if np.isnan(r["temperature_C"]) else \
-                    floor[np.isclose(floor["temperature_C"], r["temperature_C"], atol=1e-6, rtol=0)]
+                f = (
+                    floor
+                    if np.isnan(r["temperature_C"])
+                    else floor[np.isclose(floor["temperature_C"], r["temperature_C"], atol=1e-6, rtol=0)]
+                )
                 r["noise_floor_E_norm_pct"] = float(f["noise_floor_E_norm_pct"].mean()) if len(f) else np.nan
                 r["noise_floor_phase_pct"] = float(f["noise_floor_phase_pct"].mean()) if len(f) else np.nan
             out.append(r)

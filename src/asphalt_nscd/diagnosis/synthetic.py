@@ -41,18 +41,32 @@ SCHEDULES = {
 }
 #: Test of each schedule: the paper's 2PB trapezoid, or a uniaxial cylinder of 100 mm x
 #: 150 mm (AASHTO T 342 / PP 61 specimen).
-SCHEDULE_TESTS = {"paper_2pb": "2pb_trapezoid", "aashto_t342": "uniaxial_cylinder",
-                  "ampt_pp61": "uniaxial_cylinder"}
+SCHEDULE_TESTS = {"paper_2pb": "2pb_trapezoid", "aashto_t342": "uniaxial_cylinder", "ampt_pp61": "uniaxial_cylinder"}
 #: Truth families: the detector's own model (wlf) and mild departures from it (see
 #: :func:`random_family`).
-FAMILIES = ("wlf", "glassy_drift", "arrhenius", "static_drift", "poly_shift", "mixed", "huet_sayegh", "gmaxwell",
-            "sigmoidal")
+FAMILIES = (
+    "wlf",
+    "glassy_drift",
+    "arrhenius",
+    "static_drift",
+    "poly_shift",
+    "mixed",
+    "huet_sayegh",
+    "gmaxwell",
+    "sigmoidal",
+)
 #: families whose truth is not a 2S2P1D master curve and which carry the measurement
 #: structure of real tables (:func:`random_family`)
 HARD_FAMILIES = ("huet_sayegh", "gmaxwell", "sigmoidal")
 #: Names of the effects the generator can plant.
-EFFECTS = ("time_lag", "inertia_uncorrected", "temperature_offset", "strain_nonlinearity",
-           "self_heating", "temperature_drift")
+EFFECTS = (
+    "time_lag",
+    "inertia_uncorrected",
+    "temperature_offset",
+    "strain_nonlinearity",
+    "self_heating",
+    "temperature_drift",
+)
 T_REF_TRUTH_C = 15.0
 #: largest planted change of E1 by the inertia term, relative to the true E1
 INERTIA_MAX_FRACTION = 0.3
@@ -178,7 +192,7 @@ def truth_modulus(truth: dict, frequency_Hz, temperature_C) -> np.ndarray:
         e = np.exp(b - g * x)
         log_E = d + a / (1.0 + e)
         dlog = a * g * e / (1.0 + e) ** 2  # d log10|E*| / d log10 w = d ln|E*| / d ln w
-        return 10.0 ** log_E * np.exp(1j * 0.5 * np.pi * dlog)
+        return 10.0**log_E * np.exp(1j * 0.5 * np.pi * dlog)
     beta = np.inf if model == "huet_sayegh" else truth["beta"]
     return two_s2p1d_modulus(omega, E00, E0, truth["delta"], truth["k"], truth["h"], beta, tau)
 
@@ -194,22 +208,34 @@ def random_effect(name: str, rng: np.random.Generator, temperatures, test: str =
         return {"mass_factor_g": float(sign * rng.uniform(lo, hi))}
     if name == "temperature_offset":  # an inner isotherm (the detector does not test the ends)
         inner = list(temperatures)[1:-1] or list(temperatures)
-        return {"temperature_C": float(rng.choice(inner)),
-                "offset_C": float(rng.choice([-1.0, 1.0]) * rng.uniform(3.0, 5.0))}
+        return {
+            "temperature_C": float(rng.choice(inner)),
+            "offset_C": float(rng.choice([-1.0, 1.0]) * rng.uniform(3.0, 5.0)),
+        }
     if name == "strain_nonlinearity":
         return {"modulus_drop_per_100_microstrain": float(rng.uniform(0.02, 0.06))}
     if name == "self_heating":
-        return {"modulus_drop_pct_per_test": float(rng.uniform(0.5, 2.0)),
-                "phase_rise_pct_per_test": float(rng.uniform(0.5, 2.0))}
+        return {
+            "modulus_drop_pct_per_test": float(rng.uniform(0.5, 2.0)),
+            "phase_rise_pct_per_test": float(rng.uniform(0.5, 2.0)),
+        }
     if name == "temperature_drift":  # rate at the hottest isotherm, scaled down to 0 at the coldest
         return {"drift_C_per_test": float(rng.uniform(0.5, 1.5)), "temperature_C": float(max(temperatures))}
     raise ValueError(f"unknown effect '{name}'; expected one of {', '.join(EFFECTS)}")
 
 
-def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: int | None = None,
-             magnitudes: dict | None = None, family: str = "wlf",
-             frequencies_Hz=None, test_order: bool = True, order: str = "random",
-             vertical_per_100K: float = 0.0) -> tuple[pd.DataFrame, dict]:
+def generate(
+    seed: int,
+    effects=(),
+    schedule: str | None = None,
+    n_specimens: int | None = None,
+    magnitudes: dict | None = None,
+    family: str = "wlf",
+    frequencies_Hz=None,
+    test_order: bool = True,
+    order: str = "random",
+    vertical_per_100K: float = 0.0,
+) -> tuple[pd.DataFrame, dict]:
     """Generate a synthetic measured table and its truth.
 
     Parameters
@@ -279,10 +305,12 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
     truth.update(random_family(family, np.random.default_rng([seed, 1])))
     if vertical_per_100K:
         truth["vertical_per_100K"] = float(vertical_per_100K)
-    noise = {"specimen_lnE_sigma": float(rng.uniform(0.02, 0.05)),
-             "specimen_phase_sigma_deg": 0.15,
-             "point_lnE_sigma": float(rng.uniform(0.005, 0.02)),
-             "point_phase_sigma_deg": float(rng.uniform(0.1, 0.4))}
+    noise = {
+        "specimen_lnE_sigma": float(rng.uniform(0.02, 0.05)),
+        "specimen_phase_sigma_deg": 0.15,
+        "point_lnE_sigma": float(rng.uniform(0.005, 0.02)),
+        "point_phase_sigma_deg": float(rng.uniform(0.1, 0.4)),
+    }
     planted = {e: random_effect(e, rng, temps, test.test) for e in effects}
     for e, values in (magnitudes or {}).items():
         if e in planted:
@@ -294,8 +322,9 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
         per_g = gamma * 1e-6 * (2 * np.pi * FF) ** 2  # E1 deficit per g of mass, MPa
         inertia = planted["inertia_uncorrected"]
         if "E_deficit_pct" in inertia:  # size given: the largest E1 deficit, % of |E*|
-            inertia["mass_factor_g"] = float(np.sign(inertia.get("mass_factor_g", 1.0))
-                                             * inertia["E_deficit_pct"] / 100 * np.min(np.abs(E) / per_g))
+            inertia["mass_factor_g"] = float(
+                np.sign(inertia.get("mass_factor_g", 1.0)) * inertia["E_deficit_pct"] / 100 * np.min(np.abs(E) / per_g)
+            )
         # a lab would not report E1 changed by more than INERTIA_MAX_FRACTION (phase near 90 deg)
         dmu_max = INERTIA_MAX_FRACTION * np.min(E.real / per_g)
         if abs(inertia["mass_factor_g"]) > dmu_max:
@@ -307,9 +336,14 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
     hard = np.random.default_rng([seed, 3])
     slope = hard.normal(0.0, truth.get("specimen_T_slope_sigma", 0.0), n_specimens)
     ratio = truth.get("cell_misfit_ratio", 0.0)
-    cell_err = {(T, f): (hard.normal(0.0, ratio * noise["point_lnE_sigma"]),
-                         hard.normal(0.0, ratio * noise["point_phase_sigma_deg"]))
-                for T in temps for f in freqs}
+    cell_err = {
+        (T, f): (
+            hard.normal(0.0, ratio * noise["point_lnE_sigma"]),
+            hard.normal(0.0, ratio * noise["point_phase_sigma_deg"]),
+        )
+        for T in temps
+        for f in freqs
+    }
     if order not in ("random", "standard", "repeat"):
         raise ValueError(f"unknown order '{order}'; expected random, standard or repeat")
     repeat = order == "repeat"
@@ -326,13 +360,17 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
             T_eff += rate * (n - 0.5 * n_max)
         strain = draw.uniform(30.0, 150.0)
         ce, cp = cell_err[(T, f)]
-        E = complex(truth_modulus(truth, f, T_eff)) * np.exp(
-            c + slope[s] * (T - truth["T_ref_C"]) + ce + 1j * np.radians(p0 + cp)) \
+        E = (
+            complex(truth_modulus(truth, f, T_eff))
+            * np.exp(c + slope[s] * (T - truth["T_ref_C"]) + ce + 1j * np.radians(p0 + cp))
             * 10.0 ** (vertical_per_100K * (T_eff - truth["T_ref_C"]) / 100.0)
+        )
         if "self_heating" in planted:
             sh = planted["self_heating"]
-            E = abs(E) * np.exp(-sh["modulus_drop_pct_per_test"] / 100 * n
-                                + 1j * np.angle(E) * (1 + sh["phase_rise_pct_per_test"] / 100 * n))
+            E = abs(E) * np.exp(
+                -sh["modulus_drop_pct_per_test"] / 100 * n
+                + 1j * np.angle(E) * (1 + sh["phase_rise_pct_per_test"] / 100 * n)
+            )
         if "strain_nonlinearity" in planted:
             E *= np.exp(-planted["strain_nonlinearity"]["modulus_drop_per_100_microstrain"] * strain / 100.0)
         if "inertia_uncorrected" in planted:
@@ -341,9 +379,14 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
             E *= np.exp(1j * 2 * np.pi * f * planted["time_lag"]["time_lag_ms"] * 1e-3)
         lnE = np.log(abs(E)) + draw.normal(0.0, noise["point_lnE_sigma"])
         phase = np.degrees(np.angle(E)) + draw.normal(0.0, noise["point_phase_sigma_deg"])
-        return {"specimen": f"S{s + 1}", "temperature_C": T, "frequency_Hz": f,
-                "E_norm_MPa": float(np.exp(lnE)), "phase_deg": float(np.clip(phase, 0.01, 89.9)),
-                "strain_microstrain": round(float(strain), 2)}
+        return {
+            "specimen": f"S{s + 1}",
+            "temperature_C": T,
+            "frequency_Hz": f,
+            "E_norm_MPa": float(np.exp(lnE)),
+            "phase_deg": float(np.clip(phase, 0.01, 89.9)),
+            "strain_microstrain": round(float(strain), 2),
+        }
 
     rows = []
     for s in range(n_specimens):
@@ -358,18 +401,31 @@ def generate(seed: int, effects=(), schedule: str | None = None, n_specimens: in
             if repeat:
                 done += 1
                 rows.append({**point(rng_repeat, s, c, p0, T, freqs[0], len(freqs)), "test_order": done})
-    table = pd.DataFrame(rows).sort_values(["temperature_C", "frequency_Hz", "specimen", "test_order"])\
+    table = (
+        pd.DataFrame(rows)
+        .sort_values(["temperature_C", "frequency_Hz", "specimen", "test_order"])
         .reset_index(drop=True)
+    )
     if not test_order:
         table = table.drop(columns="test_order")
-    info = {"seed": int(seed), "schedule": schedule, "family": family, "test": test.to_json(),
-            "test_order": bool(test_order), "order": order,
-            "n_specimens": n_specimens, "parameters": truth, "noise": noise, "effects": planted}
+    info = {
+        "seed": int(seed),
+        "schedule": schedule,
+        "family": family,
+        "test": test.to_json(),
+        "test_order": bool(test_order),
+        "order": order,
+        "n_specimens": n_specimens,
+        "parameters": truth,
+        "noise": noise,
+        "effects": planted,
+    }
     return table, info
 
 
-def kk_reference(frequencies_Hz, n_specimens: int, n_tables: int = 200, seed: int = 20261122,
-                 families=FAMILIES) -> np.ndarray:
+def kk_reference(
+    frequencies_Hz, n_specimens: int, n_tables: int = 200, seed: int = 20261122, families=FAMILIES
+) -> np.ndarray:
     """Kramers-Kronig statistic (mean |Phi - Phi_Booij-Thoone| per isotherm, deg,
     :func:`asphalt_nscd.rheology.kramers_kronig.isotherm_residuals`) of causal synthetic
     isotherms: ``n_tables`` clean tables (families taken in turn; every truth is a causal
@@ -383,8 +439,13 @@ def kk_reference(frequencies_Hz, n_specimens: int, n_tables: int = 200, seed: in
     out = []
     for i in range(int(n_tables)):
         fam = families[i % len(families)]
-        t, _ = generate(int(np.random.SeedSequence([seed, i]).generate_state(1)[0]), schedule="aashto_t342",
-                        n_specimens=int(min(max(n_specimens, 1), 5)), family=fam, frequencies_Hz=freqs,
-                        test_order=False)
+        t, _ = generate(
+            int(np.random.SeedSequence([seed, i]).generate_state(1)[0]),
+            schedule="aashto_t342",
+            n_specimens=int(min(max(n_specimens, 1), 5)),
+            family=fam,
+            frequencies_Hz=freqs,
+            test_order=False,
+        )
         out.extend(isotherm_residuals(t).to_numpy(float))
     return np.asarray(out)

@@ -68,8 +68,7 @@ def relaxation_creep_figure(functions: pd.DataFrame, units: DisplayUnits = Displ
         colour = cmap(k / max(len(temps) - 1, 1))
         label = units.temperature_text(float(T))
         ax_E.loglog(rows["time_s"], units.modulus_value(rows["E_MPa"].to_numpy(float)), color=colour, label=label)
-        ax_D.loglog(rows["time_s"], 1.0 / units.modulus_value(1.0 / rows["D_per_MPa"].to_numpy(float)),
-                    color=colour)
+        ax_D.loglog(rows["time_s"], 1.0 / units.modulus_value(1.0 / rows["D_per_MPa"].to_numpy(float)), color=colour)
     ax_E.set_xlabel("time t (s)")
     ax_E.set_ylabel(f"relaxation modulus E(t) ({units.modulus})")
     ax_D.set_xlabel("time t (s)")
@@ -90,14 +89,18 @@ def terms_curve_figure(card: dict):
     curve = pd.DataFrame(sel["curve"])
     tol = sel["tolerance"]
     fig, (ax_E, ax_P) = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
-    for ax, col, t, label in ((ax_E, "max_E_pct", tol["E_norm_pct"], "largest |E*| difference (%)"),
-                              (ax_P, "max_phase_deg", tol["phase_deg"], "largest phase difference (deg)")):
+    for ax, col, t, label in (
+        (ax_E, "max_E_pct", tol["E_norm_pct"], "largest |E*| difference (%)"),
+        (ax_P, "max_phase_deg", tol["phase_deg"], "largest phase difference (deg)"),
+    ):
         ax.semilogy(curve["n"], curve[col], "o-", ms=4, color="tab:blue")
         ax.axhline(t, ls="--", color="tab:red", lw=1, label=f"tolerance {t:g}")
         ax.axvline(sel["n_terms"], ls=":", color="0.3", lw=1, label=f"chosen N = {sel['n_terms']}")
         ax.set_xlabel("number of Prony terms N")
         ax.set_ylabel(label)
         ax.legend(fontsize=7)
-    fig.suptitle("The card against the law it carries, by number of Prony terms (band widened by "
-                 f"{sel.get('margin_decades', 1):g} decade and the measured cells)")
+    fig.suptitle(
+        "The card against the law it carries, by number of Prony terms (band widened by "
+        f"{sel.get('margin_decades', 1):g} decade and the measured cells)"
+    )
     return fig

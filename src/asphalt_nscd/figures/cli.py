@@ -25,10 +25,20 @@ def register(subparsers) -> None:
         "plot-rheology",
         help="isotherms of |E*| and phase, Black diagram, Cole-Cole plane of named curve sets",
     )
-    p.add_argument("--points", action="append", default=[], metavar="LABEL=CSV",
-                   help="a curve set drawn as markers (error bars from *_std columns); repeatable")
-    p.add_argument("--lines", action="append", default=[], metavar="LABEL=CSV",
-                   help="a curve set drawn as lines (e.g. model curves); repeatable")
+    p.add_argument(
+        "--points",
+        action="append",
+        default=[],
+        metavar="LABEL=CSV",
+        help="a curve set drawn as markers (error bars from *_std columns); repeatable",
+    )
+    p.add_argument(
+        "--lines",
+        action="append",
+        default=[],
+        metavar="LABEL=CSV",
+        help="a curve set drawn as lines (e.g. model curves); repeatable",
+    )
     p.add_argument("--title", default=None, help="figure title")
     for plot in ("isotherms-modulus", "isotherms-phase", "black", "cole-cole"):
         p.add_argument(f"--{plot}", type=Path, default=None, metavar="PNG", help=f"write the {plot} figure here")
@@ -38,9 +48,10 @@ def register(subparsers) -> None:
         "master-curve-figures",
         help="master curve, shift factors, per-cell residuals and the sigmoidal (MEPDG) master curve",
         description="The figures of a measured table (asphalt_nscd.figures.master_curves): the master curve with "
-                    "the measured points coloured by temperature (2S2P1D, the extended law, the sigmoid), the shift "
-                    "factors, the extended law's per-cell residuals, and the sigmoidal MEPDG / AASHTO R 84 master "
-                    "curve fitted beside 2S2P1D with its parameters in a table.")
+        "the measured points coloured by temperature (2S2P1D, the extended law, the sigmoid), the shift "
+        "factors, the extended law's per-cell residuals, and the sigmoidal MEPDG / AASHTO R 84 master "
+        "curve fitted beside 2S2P1D with its parameters in a table.",
+    )
     p.add_argument("--master-curve", type=Path, required=True, help="master-curve JSON (asphalt-nscd master-curve)")
     p.add_argument("--corrected-table", type=Path, required=True, help="artifact-corrected table of master-curve")
     p.add_argument("--law-json", type=Path, default=None, help="law JSON of extend-law (adds its curves)")
@@ -55,17 +66,23 @@ def register(subparsers) -> None:
         "card-figures",
         help="isochrones of a material card against the measured means; its E(t) and D(t); error against N",
         description="The figures of a material card (asphalt_nscd.figures.cards): |E*| and Phi against temperature "
-                    "at each tested frequency, the measured replicate means and the card; the card's relaxation "
-                    "modulus E(t) and creep compliance D(t) at each tested temperature; its largest difference to the "
-                    "law it carries against the number of Prony terms. In the lab's units.")
+        "at each tested frequency, the measured replicate means and the card; the card's relaxation "
+        "modulus E(t) and creep compliance D(t) at each tested temperature; its largest difference to the "
+        "law it carries against the number of Prony terms. In the lab's units.",
+    )
     p.add_argument("--card", type=Path, required=True, help="card JSON (export-law: prony.json)")
     p.add_argument("--errors", type=Path, required=True, help="the card's cells (export-law: card_errors.csv)")
-    p.add_argument("--functions", type=Path, required=True,
-                   help="E(t), D(t) of the card (export-law: relaxation_creep.csv)")
+    p.add_argument(
+        "--functions", type=Path, required=True, help="E(t), D(t) of the card (export-law: relaxation_creep.csv)"
+    )
     p.add_argument("--isochrones", type=Path, required=True, help="isochrones figure (png)")
     p.add_argument("--relaxation-creep", type=Path, required=True, help="E(t) and D(t) figure (png)")
-    p.add_argument("--terms-curve", type=Path, required=True,
-                   help="the card's largest difference to its law against the number of Prony terms (png)")
+    p.add_argument(
+        "--terms-curve",
+        type=Path,
+        required=True,
+        help="the card's largest difference to its law against the number of Prony terms (png)",
+    )
     p.set_defaults(func=_card_figures)
 
 
@@ -88,16 +105,20 @@ def _card_figures(args) -> int:
         raise InputError(f"{args.card}: key 'display': unknown units {display}")
     errors = read_csv(args.errors)
     functions = read_csv(args.functions)
-    for frame, path, need in ((errors, args.errors, ("temperature_C", "frequency_Hz", "E_norm_MPa_measured",
-                                                     "phase_deg_measured")),
-                              (functions, args.functions, ("temperature_C", "time_s", "E_MPa", "D_per_MPa"))):
+    for frame, path, need in (
+        (errors, args.errors, ("temperature_C", "frequency_Hz", "E_norm_MPa_measured", "phase_deg_measured")),
+        (functions, args.functions, ("temperature_C", "time_s", "E_MPa", "D_per_MPa")),
+    ):
         require_columns(frame, need, path)
     if not isinstance(card.get("terms_selection"), dict) or "curve" not in card["terms_selection"]:
-        raise InputError(f"{args.card}: key 'terms_selection' with its 'curve' expected (a card of asphalt-nscd "
-                         "export-law)")
-    for fig, path in ((cards.isochrones_figure(card, errors, units), args.isochrones),
-                      (cards.relaxation_creep_figure(functions, units), args.relaxation_creep),
-                      (cards.terms_curve_figure(card), args.terms_curve)):
+        raise InputError(
+            f"{args.card}: key 'terms_selection' with its 'curve' expected (a card of asphalt-nscd export-law)"
+        )
+    for fig, path in (
+        (cards.isochrones_figure(card, errors, units), args.isochrones),
+        (cards.relaxation_creep_figure(functions, units), args.relaxation_creep),
+        (cards.terms_curve_figure(card), args.terms_curve),
+    ):
         savefig(fig, path)
         plt.close(fig)
     return 0
@@ -123,18 +144,39 @@ def _master_curve_figures(args) -> int:
     units = DisplayUnits(**rec.units) if rec.units else DisplayUnits()
     law = read_json(args.law_json, "law JSON") if args.law_json else None
     sig = fit_sigmoid(corrected, master.T_ref_C)
-    two = {"model": "2S2P1D", "shift": master.shift, "T_ref_C": master.T_ref_C,
-           "rmse_log10": float(np.sqrt(np.mean((np.log10(np.abs(master.modulus(corrected["frequency_Hz"],
-                                                                                 corrected["temperature_C"])))
-                                                 - np.log10(corrected["E_norm_MPa"])) ** 2)))}
-    rows = [{"model": "sigmoid (MEPDG, AASHTO R 84)", "shift": "quadratic", **sig},
-            {**two, **{f"2S2P1D_{k}": v for k, v in dict(zip(master.names, master.x)).items()
-                       if not k.startswith(("ln_spec", "phase_spec"))}}]
+    two = {
+        "model": "2S2P1D",
+        "shift": master.shift,
+        "T_ref_C": master.T_ref_C,
+        "rmse_log10": float(
+            np.sqrt(
+                np.mean(
+                    (
+                        np.log10(np.abs(master.modulus(corrected["frequency_Hz"], corrected["temperature_C"])))
+                        - np.log10(corrected["E_norm_MPa"])
+                    )
+                    ** 2
+                )
+            )
+        ),
+    }
+    rows = [
+        {"model": "sigmoid (MEPDG, AASHTO R 84)", "shift": "quadratic", **sig},
+        {
+            **two,
+            **{
+                f"2S2P1D_{k}": v
+                for k, v in dict(zip(master.names, master.x)).items()
+                if not k.startswith(("ln_spec", "phase_spec"))
+            },
+        },
+    ]
     write_csv(pd.DataFrame(rows), args.sigmoid)
     free = {float(T): float(v) for T, v in rec.free_shifts.items()} if rec.free_shifts else None
-    for fig, path in ((mc.master_curve_figure(master, corrected, law, sig, units), args.master_figure),
-                      (mc.shift_factor_figure(master, law, sig, corrected["temperature_C"].unique(), free, units),
-                       args.shift_figure)):
+    for fig, path in (
+        (mc.master_curve_figure(master, corrected, law, sig, units), args.master_figure),
+        (mc.shift_factor_figure(master, law, sig, corrected["temperature_C"].unique(), free, units), args.shift_figure),
+    ):
         savefig(fig, path)
         plt.close(fig)
     if law is not None and (args.residual_figure or args.residual_table):
@@ -199,10 +241,14 @@ def _plot_rheology(args) -> int:
     sets = [_parse_set(s, "points") for s in args.points] + [_parse_set(s, "line") for s in args.lines]
     if not sets:
         raise InputError("plot-rheology: give at least one --points or --lines curve set")
-    outputs = {plot: getattr(args, plot.replace("-", "_")) for plot in
-               ("isotherms-modulus", "isotherms-phase", "black", "cole-cole")}
+    outputs = {
+        plot: getattr(args, plot.replace("-", "_"))
+        for plot in ("isotherms-modulus", "isotherms-phase", "black", "cole-cole")
+    }
     if not any(outputs.values()):
-        raise InputError("plot-rheology: give at least one output (--isotherms-modulus, --isotherms-phase, --black, --cole-cole)")
+        raise InputError(
+            "plot-rheology: give at least one output (--isotherms-modulus, --isotherms-phase, --black, --cole-cole)"
+        )
     for plot, path in outputs.items():
         if path is None:
             continue

@@ -54,8 +54,9 @@ def _secondary_modulus_axis(ax, units: DisplayUnits) -> None:
     sec.set_ylabel("|E*| (MPa)")
 
 
-def master_curve_figure(master, corrected: pd.DataFrame, law: dict | None, sigmoid: dict | None,
-                        units: DisplayUnits = DisplayUnits()):
+def master_curve_figure(
+    master, corrected: pd.DataFrame, law: dict | None, sigmoid: dict | None, units: DisplayUnits = DisplayUnits()
+):
     """The master-curve figure (module docstring); ``master``: MasterCurveFit (MPa),
     ``corrected``: the artifact-corrected table, ``law``: the selected law's JSON (or None:
     the 2S2P1D master curve's shift is used), ``sigmoid``:
@@ -79,8 +80,14 @@ def master_curve_figure(master, corrected: pd.DataFrame, law: dict | None, sigmo
         T = float(T)
         aT = 10.0 ** float(shift(T))
         c = colours[T]
-        axE.loglog(g["frequency_Hz"] * aT, units.modulus_value(g["E_norm_MPa"].to_numpy(float)), "o", ms=3.5,
-                   color=c, label=units.temperature_text(T))
+        axE.loglog(
+            g["frequency_Hz"] * aT,
+            units.modulus_value(g["E_norm_MPa"].to_numpy(float)),
+            "o",
+            ms=3.5,
+            color=c,
+            label=units.temperature_text(T),
+        )
         axP.semilogx(g["frequency_Hz"] * aT, g["phase_deg"], "o", ms=3.5, color=c)
         f = np.logspace(np.log10(g["frequency_Hz"].min() / 2), np.log10(g["frequency_Hz"].max() * 2), 40)
         curves = [("2S2P1D", master.modulus(f, T), dict(color="0.45", lw=0.8))]
@@ -104,14 +111,18 @@ def master_curve_figure(master, corrected: pd.DataFrame, law: dict | None, sigmo
     _secondary_modulus_axis(axE, units)
     axP.set_ylabel("phase angle (deg)")
     axE.legend(fontsize=7, ncol=2)
-    fig.suptitle("Master curve: measured (artifact-corrected) points and, per isotherm, the selected law, 2S2P1D "
-                 "and the sigmoid", fontsize=10)
+    fig.suptitle(
+        "Master curve: measured (artifact-corrected) points and, per isotherm, the selected law, 2S2P1D "
+        "and the sigmoid",
+        fontsize=10,
+    )
     fig.tight_layout()
     return fig
 
 
-def shift_factor_figure(master, law: dict | None, sigmoid: dict | None, temperatures, free_shifts=None,
-                        units: DisplayUnits = DisplayUnits()):
+def shift_factor_figure(
+    master, law: dict | None, sigmoid: dict | None, temperatures, free_shifts=None, units: DisplayUnits = DisplayUnits()
+):
     """log10 aT against temperature, all relative to the selected law's reference temperature
     (module docstring); ``free_shifts``: {T degC: log10 aT} of the artifact search (drawn as
     points), ``units``: the lab's."""
@@ -131,8 +142,7 @@ def shift_factor_figure(master, law: dict | None, sigmoid: dict | None, temperat
         ax.plot(units.temperature_value(ts), vals - ref, "ko", mfc="none", label="free shifts of the artifact search")
     if law and law.get("model"):
         sh = _law_shift(law["model"])
-        ax.plot(x, sh(T) - sh(T_ref), "C2-", lw=2.0,
-                label=f"selected law ({law['model']['shift']['law']})")
+        ax.plot(x, sh(T) - sh(T_ref), "C2-", lw=2.0, label=f"selected law ({law['model']['shift']['law']})")
         ax.plot(units.temperature_value(temps), sh(temps) - sh(T_ref), "C2s")
     if sigmoid is not None:
         d = T - sigmoid["T_ref_C"]
@@ -141,8 +151,9 @@ def shift_factor_figure(master, law: dict | None, sigmoid: dict | None, temperat
         ax.plot(x, poly - (sigmoid["a1_per_C"] * d0 + sigmoid["a2_per_C2"] * d0**2), "C1:", label="sigmoid (quadratic)")
     ax.set_xlabel(units.temperature_label())
     if units.temperature == "F":
-        sec = ax.secondary_xaxis("top", functions=(lambda v: (np.asanyarray(v) - 32.0) / 1.8,
-                                                   lambda v: np.asanyarray(v) * 1.8 + 32.0))
+        sec = ax.secondary_xaxis(
+            "top", functions=(lambda v: (np.asanyarray(v) - 32.0) / 1.8, lambda v: np.asanyarray(v) * 1.8 + 32.0)
+        )
         sec.set_xlabel("temperature (°C)")
     ax.set_ylabel(f"log10 aT (relative to {units.temperature_text(T_ref)})")
     ax.grid(True, lw=0.3)
@@ -177,8 +188,13 @@ def residual_figure(residuals: pd.DataFrame, units: DisplayUnits = DisplayUnits(
     fig, (axE, axP) = plt.subplots(1, 2, figsize=(10, 3.8))
     for T, g in residuals.groupby("temperature_C"):
         g = g.sort_values("frequency_Hz")
-        axE.semilogx(g["frequency_Hz"], g["error_E_norm_pct"], "o-", color=colours[float(T)],
-                     label=units.temperature_text(float(T)))
+        axE.semilogx(
+            g["frequency_Hz"],
+            g["error_E_norm_pct"],
+            "o-",
+            color=colours[float(T)],
+            label=units.temperature_text(float(T)),
+        )
         axP.semilogx(g["frequency_Hz"], g["error_phase_deg"], "o-", color=colours[float(T)])
     for ax, lab in ((axE, "law - measured |E*| (%)"), (axP, "law - measured phase (deg)")):
         ax.axhline(0, color="k", lw=0.8)

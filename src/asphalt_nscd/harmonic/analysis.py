@@ -31,8 +31,9 @@ from .response import PARAM_COLUMNS, harmonic_rows
 NETWORK_FACTOR_KEYS = ("sample", "mode", "temperature_C", "frequency_Hz")
 
 
-def sensitivity_table(system, row: pd.Series, frequencies_Hz, levels_percent, geometry_mm,
-                      **solve_kwargs) -> pd.DataFrame:
+def sensitivity_table(
+    system, row: pd.Series, frequencies_Hz, levels_percent, geometry_mm, **solve_kwargs
+) -> pd.DataFrame:
     """Harmonic |E*|, Phi with each Burger's parameter scaled by (1 +- p/100).
 
     Parameters
@@ -59,8 +60,9 @@ def sensitivity_table(system, row: pd.Series, frequencies_Hz, levels_percent, ge
         r = row.copy()
         if name != "reference":
             r[name] = float(r[name]) * (1.0 + change / 100.0)
-        rows = harmonic_rows(system, burgers_model(r), float(row["temperature_C"]), frequencies_Hz,
-                             geometry_mm, **solve_kwargs)
+        rows = harmonic_rows(
+            system, burgers_model(r), float(row["temperature_C"]), frequencies_Hz, geometry_mm, **solve_kwargs
+        )
         frame = pd.DataFrame(rows)
         frame.insert(0, "change_percent", change)
         frame.insert(0, "parameter", name)
@@ -68,18 +70,18 @@ def sensitivity_table(system, row: pd.Series, frequencies_Hz, levels_percent, ge
     out = pd.concat(frames, ignore_index=True)
     ref = out[out["parameter"] == "reference"].set_index("frequency_Hz")
     f = out["frequency_Hz"]
-    out["dE_norm_percent"] = 100 * (out["E_norm_MPa"].to_numpy()
-                                    / ref.loc[f, "E_norm_MPa"].to_numpy() - 1)
+    out["dE_norm_percent"] = 100 * (out["E_norm_MPa"].to_numpy() / ref.loc[f, "E_norm_MPa"].to_numpy() - 1)
     out["dphase_deg"] = out["phase_deg"].to_numpy() - ref.loc[f, "phase_deg"].to_numpy()
-    out["macro_dE_norm_percent"] = 100 * (out["macro_E_norm_MPa"].to_numpy()
-                                          / ref.loc[f, "macro_E_norm_MPa"].to_numpy() - 1)
-    out["macro_dphase_deg"] = (out["macro_phase_deg"].to_numpy()
-                               - ref.loc[f, "macro_phase_deg"].to_numpy())
+    out["macro_dE_norm_percent"] = 100 * (
+        out["macro_E_norm_MPa"].to_numpy() / ref.loc[f, "macro_E_norm_MPa"].to_numpy() - 1
+    )
+    out["macro_dphase_deg"] = out["macro_phase_deg"].to_numpy() - ref.loc[f, "macro_phase_deg"].to_numpy()
     return out
 
 
-def compare_time_domain(sample_path, system, params: pd.DataFrame, frequencies_Hz, dts,
-                        rtols, geometry_mm, **td_kwargs) -> pd.DataFrame:
+def compare_time_domain(
+    sample_path, system, params: pd.DataFrame, frequencies_Hz, dts, rtols, geometry_mm, **td_kwargs
+) -> pd.DataFrame:
     """Harmonic vs time-domain |E*| and Phi per (T, f, dt) and per harmonic rtol.
 
     Both use inertia (the time-domain test has it). Rows with ``kind = "time-domain"``
@@ -100,34 +102,51 @@ def compare_time_domain(sample_path, system, params: pd.DataFrame, frequencies_H
         law = burgers_model(prow)
         T = float(prow["temperature_C"])
         for f in frequencies_Hz:
-            ref = harmonic_rows(system, law, T, [f], geometry_mm, inertia="full",
-                                solver="direct")[0]
-            base = {"temperature_C": T, "frequency_Hz": float(f),
-                    "reference_E_norm_MPa": ref["E_norm_MPa"],
-                    "reference_phase_deg": ref["phase_deg"]}
+            ref = harmonic_rows(system, law, T, [f], geometry_mm, inertia="full", solver="direct")[0]
+            base = {
+                "temperature_C": T,
+                "frequency_Hz": float(f),
+                "reference_E_norm_MPa": ref["E_norm_MPa"],
+                "reference_phase_deg": ref["phase_deg"],
+            }
             for rtol in rtols:
-                h = harmonic_rows(system, law, T, [f], geometry_mm, inertia="full",
-                                  solver="reuse", rtol=rtol)[0]
-                out.append({"kind": "harmonic-rtol", **base, "dt_s": np.nan, "rtol": rtol,
-                            "E_norm_MPa": h["E_norm_MPa"], "phase_deg": h["phase_deg"],
-                            "wall_time_s": h["solve_time_s"]})
+                h = harmonic_rows(system, law, T, [f], geometry_mm, inertia="full", solver="reuse", rtol=rtol)[0]
+                out.append(
+                    {
+                        "kind": "harmonic-rtol",
+                        **base,
+                        "dt_s": np.nan,
+                        "rtol": rtol,
+                        "E_norm_MPa": h["E_norm_MPa"],
+                        "phase_deg": h["phase_deg"],
+                        "wall_time_s": h["solve_time_s"],
+                    }
+                )
             for dt in dts:
-                td = time_domain_row(sample_path, law, float(f), geometry_mm, float(dt),
-                                     **td_kwargs)
-                out.append({"kind": "time-domain", **base, "dt_s": float(dt), "rtol": np.nan,
-                            "E_norm_MPa": td["E_norm_MPa"], "phase_deg": td["phase_deg"],
-                            "n_steps": td["n_steps"], "wall_time_s": td["wall_time_s"],
-                            "cpu_per_sphere_step_s": td["cpu_per_sphere_step_s"],
-                            "E_norm_MPa_other_reading": td["E_norm_MPa_other_reading"],
-                            "phase_deg_other_reading": td["phase_deg_other_reading"]})
+                td = time_domain_row(sample_path, law, float(f), geometry_mm, float(dt), **td_kwargs)
+                out.append(
+                    {
+                        "kind": "time-domain",
+                        **base,
+                        "dt_s": float(dt),
+                        "rtol": np.nan,
+                        "E_norm_MPa": td["E_norm_MPa"],
+                        "phase_deg": td["phase_deg"],
+                        "n_steps": td["n_steps"],
+                        "wall_time_s": td["wall_time_s"],
+                        "cpu_per_sphere_step_s": td["cpu_per_sphere_step_s"],
+                        "E_norm_MPa_other_reading": td["E_norm_MPa_other_reading"],
+                        "phase_deg_other_reading": td["phase_deg_other_reading"],
+                    }
+                )
     frame = pd.DataFrame(out)
     frame["dE_norm_percent"] = 100 * (frame["E_norm_MPa"] / frame["reference_E_norm_MPa"] - 1)
     frame["dphase_deg"] = frame["phase_deg"] - frame["reference_phase_deg"]
     if "E_norm_MPa_other_reading" in frame.columns:
         frame["dE_norm_percent_other_reading"] = 100 * (
-            frame["E_norm_MPa_other_reading"] / frame["reference_E_norm_MPa"] - 1)
-        frame["dphase_deg_other_reading"] = (frame["phase_deg_other_reading"]
-                                             - frame["reference_phase_deg"])
+            frame["E_norm_MPa_other_reading"] / frame["reference_E_norm_MPa"] - 1
+        )
+        frame["dphase_deg_other_reading"] = frame["phase_deg_other_reading"] - frame["reference_phase_deg"]
     return frame
 
 
@@ -145,22 +164,38 @@ def network_factor_table(frames: list[pd.DataFrame]) -> tuple[pd.DataFrame, pd.D
     summary per (mode, T, f): ``n_samples, network_factor_mean, network_factor_std,
     phase_difference_deg_mean, phase_difference_deg_std``.
     """
-    cols = [*NETWORK_FACTOR_KEYS, "inertia", "E_norm_MPa", "phase_deg", "macro_E_norm_MPa",
-            "macro_phase_deg", "network_factor", "phase_difference_deg"]
+    cols = [
+        *NETWORK_FACTOR_KEYS,
+        "inertia",
+        "E_norm_MPa",
+        "phase_deg",
+        "macro_E_norm_MPa",
+        "macro_phase_deg",
+        "network_factor",
+        "phase_difference_deg",
+    ]
     table = pd.concat([f[cols] for f in frames], ignore_index=True)
     table = table.sort_values(list(NETWORK_FACTOR_KEYS)).reset_index(drop=True)
     g = table.groupby(["mode", "inertia", "temperature_C", "frequency_Hz"])
-    summary = g.agg(n_samples=("sample", "nunique"),
-                    network_factor_mean=("network_factor", "mean"),
-                    network_factor_std=("network_factor", "std"),
-                    phase_difference_deg_mean=("phase_difference_deg", "mean"),
-                    phase_difference_deg_std=("phase_difference_deg", "std")).reset_index()
+    summary = g.agg(
+        n_samples=("sample", "nunique"),
+        network_factor_mean=("network_factor", "mean"),
+        network_factor_std=("network_factor", "std"),
+        phase_difference_deg_mean=("phase_difference_deg", "mean"),
+        phase_difference_deg_std=("phase_difference_deg", "std"),
+    ).reset_index()
     return table, summary
 
 
-def kinematics_study(network, params: pd.DataFrame, frequencies_Hz, geometry_mm,
-                     nu: float = POISSON_RATIO, inertia_modes=("none", "full"),
-                     **solve_kwargs) -> pd.DataFrame:
+def kinematics_study(
+    network,
+    params: pd.DataFrame,
+    frequencies_Hz,
+    geometry_mm,
+    nu: float = POISSON_RATIO,
+    inertia_modes=("none", "full"),
+    **solve_kwargs,
+) -> pd.DataFrame:
     """Network factor and phase difference per (bond_kinematics, head_rotation, inertia, T, f).
 
     With ``inertia="none"`` the network factor is the real geometric factor of K = E* G
@@ -191,12 +226,17 @@ def kinematics_study(network, params: pd.DataFrame, frequencies_Hz, geometry_mm,
     frames = []
     for kinematics in BOND_KINEMATICS:
         for head in HEAD_ROTATIONS:
-            system = HarmonicSystem(network, nu=nu, bond_kinematics=kinematics,
-                                    head_rotation=head)
+            system = HarmonicSystem(network, nu=nu, bond_kinematics=kinematics, head_rotation=head)
             for inertia, (_, prow) in itertools.product(inertia_modes, params.iterrows()):
-                rows = harmonic_rows(system, burgers_model(prow), float(prow["temperature_C"]),
-                                     frequencies_Hz, geometry_mm, inertia=inertia,
-                                     **solve_kwargs)
+                rows = harmonic_rows(
+                    system,
+                    burgers_model(prow),
+                    float(prow["temperature_C"]),
+                    frequencies_Hz,
+                    geometry_mm,
+                    inertia=inertia,
+                    **solve_kwargs,
+                )
                 frame = pd.DataFrame(rows)
                 frame.insert(0, "head_rotation", head)
                 frame.insert(0, "bond_kinematics", kinematics)
@@ -210,10 +250,20 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
-              td_dt: float = 5e-5, td_cycles: int = 5, bond_kinematics: str = "contact",
-              head_rotation: str = "free", direct: bool = True,
-              orderings=("metis", "mmd", "colamd"), baseline: bool = True) -> dict:
+def benchmark(
+    sample_path,
+    law,
+    frequencies_Hz,
+    geometry_mm,
+    td_steps: int = 20,
+    td_dt: float = 5e-5,
+    td_cycles: int = 5,
+    bond_kinematics: str = "contact",
+    head_rotation: str = "free",
+    direct: bool = True,
+    orderings=("metis", "mmd", "colamd"),
+    baseline: bool = True,
+) -> dict:
     """Time the harmonic (T, f) solves on a sample, and the matching time-domain job.
 
     Harmonic, in this order: reading + preparation (``setup_s``); per frequency the
@@ -245,8 +295,7 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     t0 = time.perf_counter()
     sample = read_sample(sample_path)
     network = network_from_sample(sample)
-    system = HarmonicSystem(network, bond_kinematics=bond_kinematics,
-                            head_rotation=head_rotation)
+    system = HarmonicSystem(network, bond_kinematics=bond_kinematics, head_rotation=head_rotation)
     t_setup = time.perf_counter() - t0
     per_f = _bench_inertia_solves(system, law, frequencies_Hz, geometry_mm)
     peak_solver = peak_rss_mb()
@@ -255,30 +304,39 @@ def benchmark(sample_path, law, frequencies_Hz, geometry_mm, td_steps: int = 20,
     system._shifted.clear()
     ref.pop("lu", None)
     cmp = _bench_orderings(system, g, orderings)
-    base = (_bench_previous_inertia_path(system, ref, law, float(frequencies_Hz[0]), per_f[0]["reuse_full_s"])
-            if baseline and system.n_free else {})
+    base = (
+        _bench_previous_inertia_path(system, ref, law, float(frequencies_Hz[0]), per_f[0]["reuse_full_s"])
+        if baseline and system.n_free
+        else {}
+    )
     direct_s = float("nan")
     if direct:
         t0 = time.perf_counter()
-        harmonic_rows(system, law, 0.0, [frequencies_Hz[0]], geometry_mm, inertia="full",
-                      solver="direct")
+        harmonic_rows(system, law, 0.0, [frequencies_Hz[0]], geometry_mm, inertia="full", solver="direct")
         direct_s = time.perf_counter() - t0
-    td = (_time_domain_step_time(sample, law, float(frequencies_Hz[0]), td_dt, td_steps)
-          if td_steps > 0 else float("nan"))
+    td = (
+        _time_domain_step_time(sample, law, float(frequencies_Hz[0]), td_dt, td_steps) if td_steps > 0 else float("nan")
+    )
     n_td = int(round(td_cycles / (float(frequencies_Hz[0]) * td_dt)))
     first = per_f[0]
     return {
-        "n_spheres": network.n_spheres, "n_bonds": network.n_bonds,
-        "bond_kinematics": bond_kinematics, "head_rotation": head_rotation,
-        "n_free_dof": system.n_free, "n_load_free": system.n_load_free,
-        "ordering": system.ordering, "setup_s": t_setup,
+        "n_spheres": network.n_spheres,
+        "n_bonds": network.n_bonds,
+        "bond_kinematics": bond_kinematics,
+        "head_rotation": head_rotation,
+        "n_free_dof": system.n_free,
+        "n_load_free": system.n_load_free,
+        "ordering": system.ordering,
+        "setup_s": t_setup,
         "per_frequency": per_f,
         "first_TF_total_s": t_setup + first["reuse_full_s"],
         "subsequent_TF_s": [e["reuse_full_s"] for e in per_f[1:]],
         "reference_factorisation_s": t_factor,
-        "orderings": cmp, "baseline": base,
+        "orderings": cmp,
+        "baseline": base,
         "direct_first_TF_s": direct_s,
-        "time_domain_step_s": td, "time_domain_steps": n_td,
+        "time_domain_step_s": td,
+        "time_domain_steps": n_td,
         "time_domain_job_s": td * n_td,
         "time_domain_job": f"{td_cycles} cycles at {frequencies_Hz[0]} Hz, dt = {td_dt} s",
         "peak_rss_mb_solver": peak_solver,
@@ -294,12 +352,14 @@ def _bench_inertia_solves(system, law, frequencies_Hz, geometry_mm) -> list[dict
     for f in frequencies_Hz:
         n_factors = len(system.factor_log)
         t0 = time.perf_counter()
-        row = harmonic_rows(system, law, 0.0, [f], geometry_mm, inertia="full",
-                            solver="reuse")[0]
-        entry = {"frequency_Hz": float(f), "reuse_full_s": time.perf_counter() - t0,
-                 "reuse_full_E_norm_MPa": row["E_norm_MPa"],
-                 "gmres_iterations": int(system.last_gmres_iterations),
-                 "new_factorisations": [dict(r) for r in system.factor_log[n_factors:]]}
+        row = harmonic_rows(system, law, 0.0, [f], geometry_mm, inertia="full", solver="reuse")[0]
+        entry = {
+            "frequency_Hz": float(f),
+            "reuse_full_s": time.perf_counter() - t0,
+            "reuse_full_E_norm_MPa": row["E_norm_MPa"],
+            "gmres_iterations": int(system.last_gmres_iterations),
+            "new_factorisations": [dict(r) for r in system.factor_log[n_factors:]],
+        }
         per_f.append(entry)
     return per_f
 
@@ -313,8 +373,7 @@ def _bench_inertia_free_solves(system, law, per_f: list[dict], geometry_mm) -> t
     t_factor = time.perf_counter() - t0
     for entry in per_f:
         t0 = time.perf_counter()
-        row = harmonic_rows(system, law, 0.0, [entry["frequency_Hz"]], geometry_mm,
-                            inertia="none", solver="reuse")[0]
+        row = harmonic_rows(system, law, 0.0, [entry["frequency_Hz"]], geometry_mm, inertia="none", solver="reuse")[0]
         entry["reuse_none_s"] = time.perf_counter() - t0
         entry["reuse_none_E_norm_MPa"] = row["E_norm_MPa"]
     return ref, t_factor
@@ -344,17 +403,20 @@ def _bench_orderings(system, g, orderings) -> dict:
             lu = splu_symmetric(g)
         else:
             t_order = 0.0
-            lu = splu(g.tocsc(), permc_spec=name.upper(), diag_pivot_thresh=0.0,
-                      options={"SymmetricMode": True})
+            lu = splu(g.tocsc(), permc_spec=name.upper(), diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         t_fac = time.perf_counter() - t0
         t0 = time.perf_counter()
-        x = (lu.solve(b) if name == "metis" else
-             lu.solve(np.ascontiguousarray(np.column_stack([b.real, b.imag]))))
+        x = lu.solve(b) if name == "metis" else lu.solve(np.ascontiguousarray(np.column_stack([b.real, b.imag])))
         t_sol = time.perf_counter() - t0
         x = x if name == "metis" else x[:, 0] + 1j * x[:, 1]
-        cmp[name] = {"ordering_s": t_order, "factor_s": t_fac, "solve_s": t_sol,
-                     "fill": _fill(lu), "stored_entries": int(lu.nnz),
-                     "relative_residual": float(np.linalg.norm(g @ x - b) / np.linalg.norm(b))}
+        cmp[name] = {
+            "ordering_s": t_order,
+            "factor_s": t_fac,
+            "solve_s": t_sol,
+            "fill": _fill(lu),
+            "stored_entries": int(lu.nnz),
+            "relative_residual": float(np.linalg.norm(g @ x - b) / np.linalg.norm(b)),
+        }
         del lu
     if "mmd" in cmp:
         for v in cmp.values():
@@ -384,11 +446,9 @@ def _bench_previous_inertia_path(system, ref: dict, law, f: float, new_s: float)
 
     def g_inv(v):
         v = np.asarray(v).ravel()
-        return lu.solve(np.ascontiguousarray(v.real)) + 1j * lu.solve(
-            np.ascontiguousarray(v.imag))
+        return lu.solve(np.ascontiguousarray(v.real)) + 1j * lu.solve(np.ascontiguousarray(v.imag))
 
-    op = spla.LinearOperator(g.shape, dtype=complex,
-                             matvec=lambda v: g @ v - s * (m * v.ravel()))
+    op = spla.LinearOperator(g.shape, dtype=complex, matvec=lambda v: g @ v - s * (m * v.ravel()))
     prec = spla.LinearOperator(g.shape, dtype=complex, matvec=g_inv)
     count = [0]
 
@@ -396,14 +456,30 @@ def _bench_previous_inertia_path(system, ref: dict, law, f: float, new_s: float)
         count[0] += 1
 
     t0 = time.perf_counter()
-    u, info = spla.gmres(op, rhs, x0=g_inv(rhs), rtol=1e-12, atol=0.0, M=prec, restart=50,
-                         maxiter=200, callback=tick, callback_type="pr_norm")
+    u, info = spla.gmres(
+        op,
+        rhs,
+        x0=g_inv(rhs),
+        rtol=1e-12,
+        atol=0.0,
+        M=prec,
+        restart=50,
+        maxiter=200,
+        callback=tick,
+        callback_type="pr_norm",
+    )
     t_gm = time.perf_counter() - t0
-    return {"method": "MMD(A^T+A) factor of G, GMRES preconditioned by G^-1 (previous)",
-            "frequency_Hz": f, "factor_s": t_fac, "gmres_s": t_gm,
-            "gmres_iterations": count[0], "converged": bool(info == 0),
-            "total_s": t_fac + t_gm, "new_total_s": new_s,
-            "speedup": (t_fac + t_gm) / new_s}
+    return {
+        "method": "MMD(A^T+A) factor of G, GMRES preconditioned by G^-1 (previous)",
+        "frequency_Hz": f,
+        "factor_s": t_fac,
+        "gmres_s": t_gm,
+        "gmres_iterations": count[0],
+        "converged": bool(info == 0),
+        "total_s": t_fac + t_gm,
+        "new_total_s": new_s,
+        "speedup": (t_fac + t_gm) / new_s,
+    }
 
 
 def _time_domain_step_time(sample, law, frequency_Hz, dt, n_steps) -> float:
@@ -411,8 +487,12 @@ def _time_domain_step_time(sample, law, frequency_Hz, dt, n_steps) -> float:
     from .timedomain import build_simulation
 
     w = 2 * np.pi * frequency_Hz
-    sim = build_simulation(sample, law, lambda t: (HEAD_AMPLITUDE_M * np.sin(w * t), 0.0, 0.0),
-                           NSCDParameters(dt=dt, gravity=(0.0, 0.0, 0.0)))
+    sim = build_simulation(
+        sample,
+        law,
+        lambda t: (HEAD_AMPLITUDE_M * np.sin(w * t), 0.0, 0.0),
+        NSCDParameters(dt=dt, gravity=(0.0, 0.0, 0.0)),
+    )
     sim.step()  # JIT compilation and first factorisation excluded
     t0 = time.perf_counter()
     for _ in range(n_steps):
@@ -435,19 +515,15 @@ def plot_compare(frame: pd.DataFrame):
     for (T, f), g in td.groupby(["temperature_C", "frequency_Hz"]):
         g = g.sort_values("dt_s")
         label = f"{T:g} °C, {f:g} Hz"
-        line, = axes[0, 0].loglog(g["dt_s"], g["dE_norm_percent"].abs().clip(lower=1e-8), "o-",
-                                  label=label)
+        (line,) = axes[0, 0].loglog(g["dt_s"], g["dE_norm_percent"].abs().clip(lower=1e-8), "o-", label=label)
         axes[1, 0].loglog(g["dt_s"], g["dphase_deg"].abs().clip(lower=1e-8), "o-", label=label)
         if "dE_norm_percent_other_reading" in g.columns:  # the core's driver_force reading
-            for ax, col in ((axes[0, 0], "dE_norm_percent_other_reading"),
-                            (axes[1, 0], "dphase_deg_other_reading")):
-                ax.loglog(g["dt_s"], g[col].abs().clip(lower=1e-8), "x--",
-                          color=line.get_color(), alpha=0.6)
+            for ax, col in ((axes[0, 0], "dE_norm_percent_other_reading"), (axes[1, 0], "dphase_deg_other_reading")):
+                ax.loglog(g["dt_s"], g[col].abs().clip(lower=1e-8), "x--", color=line.get_color(), alpha=0.6)
     for (T, f), g in hr.groupby(["temperature_C", "frequency_Hz"]):
         g = g.sort_values("rtol")
         axes[0, 1].loglog(g["rtol"], g["dE_norm_percent"].abs().clip(lower=1e-14), "s-")
-        axes[1, 1].loglog(g["rtol"], g["dphase_deg"].abs().clip(lower=1e-14), "s-",
-                          label=f"{T:g} °C, {f:g} Hz")
+        axes[1, 1].loglog(g["rtol"], g["dphase_deg"].abs().clip(lower=1e-14), "s-", label=f"{T:g} °C, {f:g} Hz")
     for ax in axes[0]:
         ax.axhline(0.5, color="k", ls=":", lw=0.8)
     for ax in axes[1]:
@@ -473,10 +549,8 @@ def plot_sensitivity(frame: pd.DataFrame, frequency_Hz: float):
         g = pd.concat([sub[sub["parameter"] == name], sub[sub["parameter"] == "reference"]])
         g = g.sort_values("change_percent")
         color = f"C{k}"
-        axes[0].plot(g["change_percent"], g["dE_norm_percent"], "o-", color=color,
-                     label=f"{name} (sample)")
-        axes[0].plot(g["change_percent"], g["macro_dE_norm_percent"], "--", color=color,
-                     label=f"{name} (macro)")
+        axes[0].plot(g["change_percent"], g["dE_norm_percent"], "o-", color=color, label=f"{name} (sample)")
+        axes[0].plot(g["change_percent"], g["macro_dE_norm_percent"], "--", color=color, label=f"{name} (macro)")
         axes[1].plot(g["change_percent"], g["dphase_deg"], "o-", color=color)
         axes[1].plot(g["change_percent"], g["macro_dphase_deg"], "--", color=color)
     axes[0].set_ylabel("change of |E*| (%)")

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..rheology.laws import bond_scale
+
 #: Steel density of the head plate (rotational inertia, module docstring), kg/m^3.
 PLATE_DENSITY_KG_M3 = 7850.0
 
@@ -140,8 +141,7 @@ def contact_points(position, radius, plate_normal, i, j, l0) -> np.ndarray:
     return position[i] + arm[:, None] * d
 
 
-def head_inertia(mass: float, b_m: float, e_m: float,
-                 density_kg_m3: float = PLATE_DENSITY_KG_M3) -> np.ndarray:
+def head_inertia(mass: float, b_m: float, e_m: float, density_kg_m3: float = PLATE_DENSITY_KG_M3) -> np.ndarray:
     """Moments of inertia (3,) kg m^2 of the head about its face centre (module docstring).
 
     A steel cuboid of mass ``mass`` (kg), footprint ``b_m`` (along x) x ``e_m`` (along y), m.
@@ -149,14 +149,30 @@ def head_inertia(mass: float, b_m: float, e_m: float,
     if not (mass > 0 and np.isfinite(mass)) or b_m <= 0 or e_m <= 0:
         return np.zeros(3)
     t = mass / (density_kg_m3 * b_m * e_m)
-    return np.array([mass * (e_m**2 + t**2) / 12 + mass * t**2 / 4,
-                     mass * (b_m**2 + t**2) / 12 + mass * t**2 / 4,
-                     mass * (b_m**2 + e_m**2) / 12])
+    return np.array(
+        [
+            mass * (e_m**2 + t**2) / 12 + mass * t**2 / 4,
+            mass * (b_m**2 + t**2) / 12 + mass * t**2 / 4,
+            mass * (b_m**2 + e_m**2) / 12,
+        ]
+    )
 
 
-def network_from_arrays(position, mass, plate_normal, plate_mass, i, j, l0, r_min,
-                        name: str = "sample", radius=None, rotational_inertia=None,
-                        plate_point=None, head_size_m=None) -> BondNetwork:
+def network_from_arrays(
+    position,
+    mass,
+    plate_normal,
+    plate_mass,
+    i,
+    j,
+    l0,
+    r_min,
+    name: str = "sample",
+    radius=None,
+    rotational_inertia=None,
+    plate_point=None,
+    head_size_m=None,
+) -> BondNetwork:
     """Build a :class:`BondNetwork` from the arrays of the sample file (shapes as there).
 
     ``radius`` (N,) m: without it there are no contact points and only the barycentre
@@ -173,14 +189,14 @@ def network_from_arrays(position, mass, plate_normal, plate_mass, i, j, l0, r_mi
     plate_normal = np.asarray(plate_normal, float).reshape(2, 3)
     plate_normal = plate_normal / np.linalg.norm(plate_normal, axis=1, keepdims=True)
     plate_mass = np.asarray(plate_mass, float).ravel()
-    plate_point = (np.zeros((2, 3)) if plate_point is None
-                   else np.asarray(plate_point, float).reshape(2, 3))
+    plate_point = np.zeros((2, 3)) if plate_point is None else np.asarray(plate_point, float).reshape(2, 3)
     contact = inertia = None
     if radius is not None:
         radius = np.asarray(radius, float).ravel()
         contact = contact_points(position, radius, plate_normal, i, j, l0)
-        inertia = (0.4 * mass * radius**2 if rotational_inertia is None
-                   else np.asarray(rotational_inertia, float).ravel())
+        inertia = (
+            0.4 * mass * radius**2 if rotational_inertia is None else np.asarray(rotational_inertia, float).ravel()
+        )
     if head_size_m is None:
         top = contact[j == -2] if contact is not None else position[i[j == -2]]
         head_size_m = np.ptp(top[:, :2], axis=0) if len(top) else (0.0, 0.0)
@@ -210,7 +226,17 @@ def network_from_sample(sample) -> BondNetwork:
     if "b_m" in sample.attrs and "e_m" in sample.attrs:
         head = (float(sample.attrs["b_m"]), float(sample.attrs["e_m"]))
     return network_from_arrays(
-        sample.position, sample.mass, sample.plate_normal, sample.plate_mass, sample.bonds["i"],
-        sample.bonds["j"], sample.bonds["l0"], sample.bonds["r_min"], name=sample.name,
-        radius=sample.radius, rotational_inertia=sample.inertia, plate_point=sample.plate_point,
-        head_size_m=head)
+        sample.position,
+        sample.mass,
+        sample.plate_normal,
+        sample.plate_mass,
+        sample.bonds["i"],
+        sample.bonds["j"],
+        sample.bonds["l0"],
+        sample.bonds["r_min"],
+        name=sample.name,
+        radius=sample.radius,
+        rotational_inertia=sample.inertia,
+        plate_point=sample.plate_point,
+        head_size_m=head,
+    )

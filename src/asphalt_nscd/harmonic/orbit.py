@@ -145,11 +145,14 @@ def certify(sim, state, duration_s: float) -> Certificate:
     x0 = state.position - np.real(X)  # the gravity state (rest + sag) at t = 0, the state's own reference
     V = g.velocity if g is not None else np.zeros_like(x0)
     mask = sim.excluded_bonds()
-    exclude = (bonded_exclusions(sph.n, pls.n, b.i[mask], b.j[mask]) if mask.any() else None)
+    exclude = bonded_exclusions(sph.n, pls.n, b.i[mask], b.j[mask]) if mask.any() else None
     # weakly held spheres left free under gravity fall along their zero modes: 1/2 a T^2 (mechanisms 'free')
-    fall = (0.5 * T ** 2 * np.sqrt((g.mechanism_acceleration ** 2).sum(axis=1))
-            if g is not None and g.mechanism_acceleration is not None else np.zeros(len(x0)))
-    amp = ellipse_semi_major(X) + np.sqrt((V ** 2).sum(axis=1)) * T
+    fall = (
+        0.5 * T**2 * np.sqrt((g.mechanism_acceleration**2).sum(axis=1))
+        if g is not None and g.mechanism_acceleration is not None
+        else np.zeros(len(x0))
+    )
+    amp = ellipse_semi_major(X) + np.sqrt((V**2).sum(axis=1)) * T
     head = ph["head_translation"]
     reach = 2.0 * float(amp.max() if amp.size else 0.0) + ellipse_semi_major(head[None, :])[0] + 1e-12
     # a falling sphere is checked against its neighbourhood (a diameter around it): farther it cannot go unmet
@@ -164,11 +167,11 @@ def certify(sim, state, duration_s: float) -> Certificate:
     Vr = V[i] - V[j]
     rsum = sph.radius[i] + sph.radius[j]
     eD = ellipse_semi_major(D)
-    low = np.sqrt((d ** 2).sum(axis=1)) - rsum - eD - np.sqrt((Vr ** 2).sum(axis=1)) * T - fall[i] - fall[j]
+    low = np.sqrt((d**2).sum(axis=1)) - rsum - eD - np.sqrt((Vr**2).sum(axis=1)) * T - fall[i] - fall[j]
     falling = (fall[i] > 0) | (fall[j] > 0)
     for mp in np.flatnonzero((low <= 0.0) & ~falling):  # exact at every step
         path = d[mp, :, None] + np.real(D[mp, :, None] * z[None, :]) + Vr[mp, :, None] * t[None, :]
-        low[mp] = float(np.sqrt((path ** 2).sum(axis=0)).min()) - rsum[mp] - between * eD[mp]
+        low[mp] = float(np.sqrt((path**2).sum(axis=0)).min()) - rsum[mp] - between * eD[mp]
     pi, pk, pgap0 = plate_pairs(x0, sph.radius, pls.point, pls.normal, reach, exclude)
     moving = np.array([head if q == 1 else np.zeros(3, complex) for q in range(pls.n)]) if pls.n else np.zeros((0, 3))
     n = pls.normal[pk]
@@ -189,32 +192,56 @@ def certify(sim, state, duration_s: float) -> Certificate:
     reasons = []
     if g is not None and g.failed:
         reasons.append(f"the steady state under gravity is not used ({g.failed}): the job does not start on its orbit")
-    unbalanced = (g.residual * g.load_N / max(abs(state.head_force), 1e-300)
-                  if g is not None and not g.failed and np.isfinite(g.residual) else 0.0)
+    unbalanced = (
+        g.residual * g.load_N / max(abs(state.head_force), 1e-300)
+        if g is not None and not g.failed and np.isfinite(g.residual)
+        else 0.0
+    )
     if unbalanced > GRAVITY_UNBALANCED_MAX:
-        reasons.append(f"the steady state under gravity leaves {unbalanced:.3g} of the head force unbalanced "
-                       f"(above {GRAVITY_UNBALANCED_MAX:g})")
+        reasons.append(
+            f"the steady state under gravity leaves {unbalanced:.3g} of the head force unbalanced "
+            f"(above {GRAVITY_UNBALANCED_MAX:g})"
+        )
     falls = np.concatenate([falling, fall[pi] > 0]) if gaps.size else np.zeros(0, bool)
     if near and fall.max() > near:
         k = int(np.argmax(fall))
-        reasons.append(f"a weakly held sphere ({k}) falls {fall[k]:.3g} m along its zero mode over the job "
-                       "(mechanisms 'free'), beyond its neighbourhood")
+        reasons.append(
+            f"a weakly held sphere ({k}) falls {fall[k]:.3g} m along its zero mode over the job "
+            "(mechanisms 'free'), beyond its neighbourhood"
+        )
     if bond_ratio >= 1.0:
         reasons.append(f"a bond's force reaches {bond_ratio:.3g} x its strength R_crit (bond {bond_at})")
     if closed:
-        reasons.append(f"{closed} unbonded pair(s) touch in the gravity state (a closed contact carries a force "
-                       "the bonded orbit does not)")
+        reasons.append(
+            f"{closed} unbonded pair(s) touch in the gravity state (a closed contact carries a force "
+            "the bonded orbit does not)"
+        )
     elif min_gap <= 0.0:
-        why = (" as a weakly held sphere falls along its zero mode (mechanisms 'free')"
-               if falls.size and falls[int(np.argmin(gaps))] else "")
-        reasons.append(f"an unbonded pair closes{why}: smallest gap {min_gap:.3g} m over the job (pair {gap_at}, "
-                       f"{gap_start:.3g} m in the gravity state)")
-    return Certificate(holds=not reasons, reason="; ".join(reasons), bond_force_ratio=bond_ratio, bond_at=bond_at,
-                       min_gap_m=min_gap, gap_at=gap_at, gap_start_m=gap_start, n_pairs=int(gaps.size),
-                       n_closed_at_start=closed,
-                       creep_m=float(np.sqrt((V ** 2).sum(axis=1)).max() * T) if len(V) else 0.0,
-                       amplitude_m=float(ellipse_semi_major(X).max()) if len(X) else 0.0,
-                       gravity_unbalanced_ratio=float(unbalanced), duration_s=T, seconds=time.perf_counter() - tic)
+        why = (
+            " as a weakly held sphere falls along its zero mode (mechanisms 'free')"
+            if falls.size and falls[int(np.argmin(gaps))]
+            else ""
+        )
+        reasons.append(
+            f"an unbonded pair closes{why}: smallest gap {min_gap:.3g} m over the job (pair {gap_at}, "
+            f"{gap_start:.3g} m in the gravity state)"
+        )
+    return Certificate(
+        holds=not reasons,
+        reason="; ".join(reasons),
+        bond_force_ratio=bond_ratio,
+        bond_at=bond_at,
+        min_gap_m=min_gap,
+        gap_at=gap_at,
+        gap_start_m=gap_start,
+        n_pairs=int(gaps.size),
+        n_closed_at_start=closed,
+        creep_m=float(np.sqrt((V**2).sum(axis=1)).max() * T) if len(V) else 0.0,
+        amplitude_m=float(ellipse_semi_major(X).max()) if len(X) else 0.0,
+        gravity_unbalanced_ratio=float(unbalanced),
+        duration_s=T,
+        seconds=time.perf_counter() - tic,
+    )
 
 
 def orbit_record(sim, state, n_steps: int) -> dict:
@@ -242,6 +269,6 @@ def orbit_record(sim, state, n_steps: int) -> dict:
     R = Rg + np.real(Rhat * np.exp(1j * w * dt * n))
     plate_fx = th * R[1:] + (1.0 - th) * R[:-1]
     t0, t1 = dt * n[:-1], dt * n[1:]
-    acc = th * (-A * w ** 2 * np.sin(w * t1)) + (1.0 - th) * (-A * w ** 2 * np.sin(w * t0))
+    acc = th * (-A * w**2 * np.sin(w * t1)) + (1.0 - th) * (-A * w**2 * np.sin(w * t0))
     driver = pls.mass[1] * (acc - p.gravity[0]) - plate_fx if np.isfinite(pls.mass[1]) else -plate_fx
     return {"time_s": t1 - 0.5 * dt, "plate_fx": plate_fx, "driver_fx": driver}

@@ -169,10 +169,16 @@ class GravityState:
     def info(self) -> dict:
         """JSON-ready summary (the record's ``start_info['gravity']``)."""
         sup = self.support_force if self.support_force is not None else np.zeros((0, 3))
-        return {"creep": self.creep, "residual": self.residual, "n_mechanisms": self.n_mechanisms,
-                "failed": self.failed, "sag_m": self.sag_m, "solve_s": self.solve_s,
-                "support_force_max_N": float(np.sqrt((sup ** 2).sum(axis=1)).max()) if len(sup) else 0.0,
-                "n_supported_spheres": int((np.abs(sup).sum(axis=1) > 0).sum()) if len(sup) else 0}
+        return {
+            "creep": self.creep,
+            "residual": self.residual,
+            "n_mechanisms": self.n_mechanisms,
+            "failed": self.failed,
+            "sag_m": self.sag_m,
+            "solve_s": self.solve_s,
+            "support_force_max_N": float(np.sqrt((sup**2).sum(axis=1)).max()) if len(sup) else 0.0,
+            "n_supported_spheres": int((np.abs(sup).sum(axis=1) > 0).sum()) if len(sup) else 0,
+        }
 
 
 def network_of(sim):
@@ -189,9 +195,20 @@ def network_of(sim):
     from .network import network_from_arrays
 
     sph, pls, b = sim.spheres, sim.plates, sim.bonds
-    net = network_from_arrays(sph.position, sph.mass, pls.normal[:2], [np.inf, pls.mass[1]], b.i, b.j,
-                              b.l0, b.r_min, radius=sph.radius, rotational_inertia=sph.inertia,
-                              plate_point=pls.point[:2], head_size_m=(1.0, 1.0))
+    net = network_from_arrays(
+        sph.position,
+        sph.mass,
+        pls.normal[:2],
+        [np.inf, pls.mass[1]],
+        b.i,
+        b.j,
+        b.l0,
+        b.r_min,
+        radius=sph.radius,
+        rotational_inertia=sph.inertia,
+        plate_point=pls.point[:2],
+        head_size_m=(1.0, 1.0),
+    )
     head = pls.inertia[1] if pls.rotates[1] else np.zeros(3)
     return dataclasses.replace(net, plate_inertia=np.array(head, float))
 
@@ -213,8 +230,7 @@ def _bond_displacement(bonds, X, TH, THp, up, contact: bool) -> np.ndarray:
 def _bond_laws(bonds):
     """Km, Cm, Kinf (B, 3) and Kk, Ck (B, NK, 3) of the bonds per local component."""
     comp = [0, 1, 1]  # normal, tangential, tangential
-    return (bonds.Km[:, comp], bonds.Cm[:, comp], bonds.Kinf[:, comp], bonds.Kk[:, :, comp],
-            bonds.Ck[:, :, comp])
+    return (bonds.Km[:, comp], bonds.Cm[:, comp], bonds.Kinf[:, comp], bonds.Kk[:, :, comp], bonds.Ck[:, :, comp])
 
 
 def mechanism_support(system, mass, gravity) -> tuple[np.ndarray, np.ndarray, int]:
@@ -236,8 +252,8 @@ def mechanism_support(system, mass, gravity) -> tuple[np.ndarray, np.ndarray, in
         n_modes += V.shape[1]
         k = len(spheres)
         trans = (np.arange(k)[:, None] * d + np.arange(3)).ravel()  # the clusters' translation rows in dofs
-        T = V[trans]                                                 # (3k, m)
-        fg = (mass[spheres][:, None] * g[None, :]).ravel()           # (3k,)
+        T = V[trans]  # (3k, m)
+        fg = (mass[spheres][:, None] * g[None, :]).ravel()  # (3k,)
         support[spheres] = (-T @ np.linalg.pinv(T.T @ T) @ (T.T @ fg)).reshape(k, 3)
         MV = system.mass_free[dofs, None] * V
         a = np.linalg.solve(V.T @ MV, T.T @ fg)
@@ -254,13 +270,15 @@ def support_force(sim, head_rotation: str = "free", nu: float = POISSON_RATIO) -
     g = np.asarray(p.gravity, float)
     if not np.any(g != 0.0) or p.bond_kinematics != "contact":
         return np.zeros((sim.spheres.n, 3))
-    system = HarmonicSystem(network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head_rotation,
-                            regularisation=0.0)
+    system = HarmonicSystem(
+        network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head_rotation, regularisation=0.0
+    )
     return mechanism_support(system, sim.spheres.mass, g)[0]
 
 
-def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None,
-                  mechanisms: str = "supported") -> GravityState:
+def gravity_state(
+    sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None, mechanisms: str = "supported"
+) -> GravityState:
     """Steady state of the 2PB simulation under its gravity with the head held (module
     docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
 
@@ -299,7 +317,7 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
     liquid = np.isfinite(law.eta_m) and law.E_inf == 0.0
     if liquid:  # steady creep: U_0 = c0 U_1 (springs), V = U_1 / eta_m (Maxwell dashpot)
         c0, c1 = 1.0 / law.Em + sum(1.0 / e for e in law.Ek), 1.0 / law.eta_m
-    else:       # static equilibrium at the static modulus E(0)
+    else:  # static equilibrium at the static modulus E(0)
         chain = 0.0 if np.isfinite(law.eta_m) else 1.0 / (1.0 / law.Em + sum(1.0 / e for e in law.Ek))
         c0, c1 = 1.0 / (law.E_inf + chain), 0.0
     if mechanisms not in MECHANISMS:
@@ -313,19 +331,20 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         import scipy.sparse as sp
 
         if system is None:
-            system = HarmonicSystem(network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head,
-                                    regularisation=0.0)
+            system = HarmonicSystem(
+                network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head, regularisation=0.0
+            )
         d = system.dof_per_sphere
         act = np.flatnonzero(system.active)
         rhs = np.zeros(system.n_free)
-        rhs[:d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
+        rhs[: d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
         g0 = system._reference_blocks()["ff"]
         # zero modes of weakly held spheres (mechanisms), cluster by cluster (:func:`mechanism_support`):
         # their weight along the zero modes is cancelled by the support force (supported) or left out
         # of the load, the spheres' free fall (free); G is stiffened along them
         support, accel, n_mech = mechanism_support(system, sph.mass, g)
         if mechanisms == "supported":
-            rhs[:d * act.size].reshape(-1, d)[:, :3] += support[act]
+            rhs[: d * act.size].reshape(-1, d)[:, :3] += support[act]
         extra_r, extra_c, extra_v = [], [], []
         for dofs, V, scale, _ in system.mechanism_modes():
             if mechanisms == "free":
@@ -336,8 +355,12 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
             extra_v.append(scale * (V @ V.T).ravel())
         a = g0
         if extra_v:
-            a = (g0 + sp.csc_matrix((np.concatenate(extra_v), (np.concatenate(extra_r), np.concatenate(extra_c))),
-                                    shape=g0.shape)).tocsc()
+            a = (
+                g0
+                + sp.csc_matrix(
+                    (np.concatenate(extra_v), (np.concatenate(extra_r), np.concatenate(extra_c))), shape=g0.shape
+                )
+            ).tocsc()
         u = np.zeros_like(rhs)
         try:
             lu = system.factorise(a, "G + mechanisms (gravity)")
@@ -355,15 +378,17 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         except RuntimeError as exc:
             residual, failed = float("inf"), f"factorisation failed ({exc})"
         if not residual <= GRAVITY_RESIDUAL_MAX:
-            failed = failed or (f"residual {residual:.3g} > {GRAVITY_RESIDUAL_MAX:g} (a mechanism of several "
-                                "spheres?): gravity starts from rest")
+            failed = failed or (
+                f"residual {residual:.3g} > {GRAVITY_RESIDUAL_MAX:g} (a mechanism of several "
+                "spheres?): gravity starts from rest"
+            )
             u = np.zeros_like(rhs)
-        q = u[:d * act.size].reshape(-1, d)
+        q = u[: d * act.size].reshape(-1, d)
         X1[act] = q[:, :3]
         if contact:
             TH1[act] = q[:, 3:]
         if head == "free":
-            THp1 = u[d * act.size:d * act.size + 3].copy()
+            THp1 = u[d * act.size : d * act.size + 3].copy()
     X0, TH0, THp0 = c0 * X1, c0 * TH1, c0 * THp1
     delta = _bond_displacement(b, X0, TH0, THp0, np.zeros(3), contact)
     Km, Cm, Kinf, Kk, Ck = _bond_laws(b)
@@ -377,19 +402,38 @@ def gravity_state(sim, law, head_rotation: str = "free", nu: float = POISSON_RAT
         d_c = np.where(dashpot, delta, 0.0)
     d_k = -r_ch[:, None, :] / Kk
     return GravityState(
-        displacement=X0, velocity=c1 * X1, angular_velocity=c1 * TH1,
-        head_rotation=THp0, head_angular_velocity=c1 * THp1, bond_displacement=delta,
-        bond_force=r_ch - Kinf * delta, delta_c=d_c, delta_k=np.ascontiguousarray(d_k), creep=bool(liquid),
-        residual=residual, n_mechanisms=n_mech, failed=failed, sag_m=float(np.abs(X0).max()) if n else 0.0,
+        displacement=X0,
+        velocity=c1 * X1,
+        angular_velocity=c1 * TH1,
+        head_rotation=THp0,
+        head_angular_velocity=c1 * THp1,
+        bond_displacement=delta,
+        bond_force=r_ch - Kinf * delta,
+        delta_c=d_c,
+        delta_k=np.ascontiguousarray(d_k),
+        creep=bool(liquid),
+        residual=residual,
+        n_mechanisms=n_mech,
+        failed=failed,
+        sag_m=float(np.abs(X0).max()) if n else 0.0,
         solve_s=time.perf_counter() - tic,
         support_force=support if mechanisms == "supported" else np.zeros((n, 3)),
         mechanism_acceleration=accel if mechanisms == "free" else np.zeros((n, 3)),
-        load_N=float(np.linalg.norm(sph.mass * np.linalg.norm(g))) if n else 0.0)
+        load_N=float(np.linalg.norm(sph.mass * np.linalg.norm(g))) if n else 0.0,
+    )
 
 
-def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
-                   head_rotation: str = "free", nu: float = POISSON_RATIO,
-                   continuous: bool = False, system=None, mechanisms: str = "supported") -> PeriodicState:
+def periodic_state(
+    sim,
+    law,
+    frequency_Hz: float,
+    amplitude_m: float,
+    head_rotation: str = "free",
+    nu: float = POISSON_RATIO,
+    continuous: bool = False,
+    system=None,
+    mechanisms: str = "supported",
+) -> PeriodicState:
     """Periodic steady state of the 2PB test built by :func:`asphalt_nscd.campaign.twopb.build_simulation` (module
     docstring), before its first step.
 
@@ -419,12 +463,11 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
     contact = p.bond_kinematics == "contact"
     head = head_rotation if contact else "clamped"
     if system is None:
-        system = HarmonicSystem(network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics,
-                                head_rotation=head, regularisation=0.0)
-    s = (1j * 2.0 * math.pi * frequency_Hz if continuous
-         else theta_laplace(frequency_Hz, p.dt, p.theta))
-    sol = system.solve_law(law, frequency_Hz, amplitude=amplitude_m, inertia="full",
-                           solver="reuse", laplace=s)
+        system = HarmonicSystem(
+            network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head, regularisation=0.0
+        )
+    s = 1j * 2.0 * math.pi * frequency_Hz if continuous else theta_laplace(frequency_Hz, p.dt, p.theta)
+    sol = system.solve_law(law, frequency_Hz, amplitude=amplitude_m, inertia="full", solver="reuse", laplace=s)
     rot = -1j  # phasor of A sin(w t) from that of A cos(w t)
     X = rot * sol.displacement
     TH = rot * (sol.rotation if sol.rotation is not None else np.zeros_like(sol.displacement))
@@ -443,28 +486,46 @@ def periodic_state(sim, law, frequency_Hz: float, amplitude_m: float,
     force = r_ch - Kinf * delta
     d_c = -r_ch * inv_c
     d_k = -r_ch[:, None, :] / (Kk + s * Ck)
-    g = gravity_state(sim, law, head_rotation=head_rotation, nu=nu, system=system,
-                      mechanisms=mechanisms)  # zero without gravity
+    g = gravity_state(
+        sim, law, head_rotation=head_rotation, nu=nu, system=system, mechanisms=mechanisms
+    )  # zero without gravity
     # peak force per bond: the steady (gravity) force plus the periodic amplitude
     amp_n = np.abs(g.bond_force[:, 0]) + np.abs(force[:, 0])
-    amp_t = (np.sqrt(g.bond_force[:, 1] ** 2 + g.bond_force[:, 2] ** 2)
-             + np.sqrt(np.abs(force[:, 1]) ** 2 + np.abs(force[:, 2]) ** 2))
+    amp_t = np.sqrt(g.bond_force[:, 1] ** 2 + g.bond_force[:, 2] ** 2) + np.sqrt(
+        np.abs(force[:, 1]) ** 2 + np.abs(force[:, 2]) ** 2
+    )
     with np.errstate(divide="ignore", invalid="ignore"):
         ratios = np.where(np.isfinite(b.r_crit), np.maximum(amp_n, amp_t) / b.r_crit, 0.0)
     ratio = float(ratios.max()) if len(ratios) else 0.0
     return PeriodicState(
         position=sim.spheres.position + g.displacement + np.real(X),
-        velocity=g.velocity + np.real(s * X), angular_velocity=g.angular_velocity + np.real(s * TH),
+        velocity=g.velocity + np.real(s * X),
+        angular_velocity=g.angular_velocity + np.real(s * TH),
         head_rotation=g.head_rotation + np.real(THp),
         head_angular_velocity=g.head_angular_velocity + np.real(s * THp),
-        bond_displacement=g.bond_displacement + np.real(delta), bond_force=g.bond_force + np.real(force),
-        delta_c=g.delta_c + np.real(d_c), delta_k=np.ascontiguousarray(g.delta_k + np.real(d_k)),
-        laplace=complex(s), force_ratio=ratio, breaks=ratio >= 1.0, solve_s=time.perf_counter() - tic,
+        bond_displacement=g.bond_displacement + np.real(delta),
+        bond_force=g.bond_force + np.real(force),
+        delta_c=g.delta_c + np.real(d_c),
+        delta_k=np.ascontiguousarray(g.delta_k + np.real(d_k)),
+        laplace=complex(s),
+        force_ratio=ratio,
+        breaks=ratio >= 1.0,
+        solve_s=time.perf_counter() - tic,
         gmres_iterations=int(getattr(system, "last_gmres_iterations", 0)),
-        head_force=complex(rot * sol.force[0]), gravity=g if np.any(p.gravity) else None,
-        phasors={"displacement": X, "rotation": TH, "head_rotation": THp, "head_translation": up,
-                 "bond_force": force, "bond_displacement": delta, "frequency_Hz": float(frequency_Hz),
-                 "amplitude_m": float(amplitude_m), "gravity_state": g})
+        head_force=complex(rot * sol.force[0]),
+        gravity=g if np.any(p.gravity) else None,
+        phasors={
+            "displacement": X,
+            "rotation": TH,
+            "head_rotation": THp,
+            "head_translation": up,
+            "bond_force": force,
+            "bond_displacement": delta,
+            "frequency_Hz": float(frequency_Hz),
+            "amplitude_m": float(amplitude_m),
+            "gravity_state": g,
+        },
+    )
 
 
 def apply_periodic_state(sim, state: PeriodicState) -> None:
@@ -480,8 +541,11 @@ def apply_periodic_state(sim, state: PeriodicState) -> None:
     if sim.step_index != 0:
         raise ValueError("a periodic start applies to a simulation at step 0")
     sph, b, pls = sim.spheres, sim.bonds, sim.plates
-    if state.position.shape != sph.position.shape or state.bond_force.shape != b.force.shape \
-            or state.delta_k.shape != b.delta_k.shape:
+    if (
+        state.position.shape != sph.position.shape
+        or state.bond_force.shape != b.force.shape
+        or state.delta_k.shape != b.delta_k.shape
+    ):
         raise ValueError("periodic state and simulation differ in shape")
     sph.position[:] = state.position
     sph.velocity[:] = state.velocity

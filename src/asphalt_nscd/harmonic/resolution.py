@@ -37,8 +37,9 @@ def level_name(scale: float, cut_mm: float) -> str:
     return f"x{float(scale):g}_cut{float(cut_mm):g}"
 
 
-def resolution_rows(samples, kinematics=("contact", "barycentre"), head_rotation: str = "free",
-                    nu: float = POISSON_RATIO) -> pd.DataFrame:
+def resolution_rows(
+    samples, kinematics=("contact", "barycentre"), head_rotation: str = "free", nu: float = POISSON_RATIO
+) -> pd.DataFrame:
     """Network factor of every sample under every bond kinematics.
 
     Parameters
@@ -67,12 +68,21 @@ def resolution_rows(samples, kinematics=("contact", "barycentre"), head_rotation
         cfg = attrs.get("config", {})
         for kin in kinematics:
             t = transfer_json(path, nu=nu, bond_kinematics=kin, head_rotation=head_rotation)
-            rows.append({"level": level, "scale": float(attrs.get("scale", math.nan)),
-                         "cut_mm": float(cfg.get("psd", {}).get("cut_mm", math.nan)),
-                         "sample": str(path), "seed": int(attrs.get("seed", -1)),
-                         "n_spheres": int(sample.radius.size), "n_bonds": int(sample.bonds["i"].size),
-                         "bond_kinematics": kin, "head_rotation": head_rotation,
-                         "network_factor": t["network_factor"], "n_load_free": t["n_load_free"]})
+            rows.append(
+                {
+                    "level": level,
+                    "scale": float(attrs.get("scale", math.nan)),
+                    "cut_mm": float(cfg.get("psd", {}).get("cut_mm", math.nan)),
+                    "sample": str(path),
+                    "seed": int(attrs.get("seed", -1)),
+                    "n_spheres": int(sample.radius.size),
+                    "n_bonds": int(sample.bonds["i"].size),
+                    "bond_kinematics": kin,
+                    "head_rotation": head_rotation,
+                    "network_factor": t["network_factor"],
+                    "n_load_free": t["n_load_free"],
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -102,17 +112,32 @@ def resolution_summary(rows: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
         n = nf.size
         sd = float(nf.std(ddof=1)) if n > 1 else math.nan
         half = float(stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n)) if n > 1 else math.nan
-        out.append({"bond_kinematics": kin, "level": level, "n_samples": n,
-                    "n_spheres_mean": float(g["n_spheres"].mean()), "network_factor_mean": float(nf.mean()),
-                    "network_factor_sd": sd, "network_factor_ci95_low": float(nf.mean()) - half,
-                    "network_factor_ci95_high": float(nf.mean()) + half,
-                    "departure_from_1_pct": 100.0 * (float(nf.mean()) - 1.0)})
+        out.append(
+            {
+                "bond_kinematics": kin,
+                "level": level,
+                "n_samples": n,
+                "n_spheres_mean": float(g["n_spheres"].mean()),
+                "network_factor_mean": float(nf.mean()),
+                "network_factor_sd": sd,
+                "network_factor_ci95_low": float(nf.mean()) - half,
+                "network_factor_ci95_high": float(nf.mean()) + half,
+                "departure_from_1_pct": 100.0 * (float(nf.mean()) - 1.0),
+            }
+        )
     levels = pd.DataFrame(out).sort_values(["bond_kinematics", "n_spheres_mean"]).reset_index(drop=True)
     fits = []
     for kin, g in levels.groupby("bond_kinematics", sort=False):
-        fit = {"bond_kinematics": kin, "n_levels": len(g), "exponent": -1.0 / 3.0, "nf_inf": math.nan,
-               "nf_inf_se": math.nan, "c": math.nan, "n_spheres_finest": float(g["n_spheres_mean"].max()),
-               "nf_finest_fit": math.nan}
+        fit = {
+            "bond_kinematics": kin,
+            "n_levels": len(g),
+            "exponent": -1.0 / 3.0,
+            "nf_inf": math.nan,
+            "nf_inf_se": math.nan,
+            "c": math.nan,
+            "n_spheres_finest": float(g["n_spheres_mean"].max()),
+            "nf_finest_fit": math.nan,
+        }
         if len(g) >= 3:
             x = g["n_spheres_mean"].to_numpy(float) ** (-1.0 / 3.0)
             y = g["network_factor_mean"].to_numpy(float)
@@ -123,8 +148,14 @@ def resolution_summary(rows: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
             dof = len(g) - 2
             s2 = float(res[0] / dof) if len(res) and dof > 0 else 0.0
             cov = np.linalg.inv(A.T @ A) * max(s2, 1.0)  # never below the seeds' own scatter
-            fit.update({"nf_inf": float(coef[0]), "nf_inf_se": float(math.sqrt(cov[0, 0])), "c": float(coef[1]),
-                        "nf_finest_fit": float(coef[0] + coef[1] * x.min())})
+            fit.update(
+                {
+                    "nf_inf": float(coef[0]),
+                    "nf_inf_se": float(math.sqrt(cov[0, 0])),
+                    "c": float(coef[1]),
+                    "nf_finest_fit": float(coef[0] + coef[1] * x.min()),
+                }
+            )
         fits.append(fit)
     return levels, pd.DataFrame(fits)
 
@@ -140,15 +171,29 @@ def plot_resolution(rows: pd.DataFrame, levels: pd.DataFrame, fits: pd.DataFrame
         r = rows[rows["bond_kinematics"] == kin]
         lv = levels[levels["bond_kinematics"] == kin]
         ax.plot(r["n_spheres"], r["network_factor"], "o", color="0.6", ms=4, label="samples")
-        err = [lv["network_factor_mean"] - lv["network_factor_ci95_low"],
-               lv["network_factor_ci95_high"] - lv["network_factor_mean"]]
-        ax.errorbar(lv["n_spheres_mean"], lv["network_factor_mean"], yerr=np.nan_to_num(np.array(err, float)),
-                    fmt="s-", color="C0", capsize=3, label="level mean (95 % CI)")
+        err = [
+            lv["network_factor_mean"] - lv["network_factor_ci95_low"],
+            lv["network_factor_ci95_high"] - lv["network_factor_mean"],
+        ]
+        ax.errorbar(
+            lv["n_spheres_mean"],
+            lv["network_factor_mean"],
+            yerr=np.nan_to_num(np.array(err, float)),
+            fmt="s-",
+            color="C0",
+            capsize=3,
+            label="level mean (95 % CI)",
+        )
         f = fits[fits["bond_kinematics"] == kin].iloc[0]
         if np.isfinite(f["nf_inf"]):
             n = np.logspace(np.log10(lv["n_spheres_mean"].min()), 6, 50)
-            ax.plot(n, f["nf_inf"] + f["c"] * n ** (-1 / 3), "--", color="C1",
-                    label=f"NF_inf = {f['nf_inf']:.3g} ± {f['nf_inf_se']:.2g}")
+            ax.plot(
+                n,
+                f["nf_inf"] + f["c"] * n ** (-1 / 3),
+                "--",
+                color="C1",
+                label=f"NF_inf = {f['nf_inf']:.3g} ± {f['nf_inf_se']:.2g}",
+            )
         ax.axhline(1.0, color="k", lw=0.8)
         ax.set_xscale("log")
         ax.set_xlabel("spheres in the sample")

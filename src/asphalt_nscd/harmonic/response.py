@@ -38,13 +38,20 @@ def specimen_for(system: HarmonicSystem, geometry_mm: dict):
     """EN 12697-26 specimen (gamma, mu) of a sample: geometry + M = sphere mass, m = top plate."""
     from ..lab.en12697 import Specimen2PB
 
-    return Specimen2PB(M_kg=system.network.sample_mass,
-                       m_kg=float(system.network.plate_mass[1]), **geometry_mm)
+    return Specimen2PB(M_kg=system.network.sample_mass, m_kg=float(system.network.plate_mass[1]), **geometry_mm)
 
 
-def harmonic_rows(system: HarmonicSystem, law, temperature_C: float, frequencies_Hz,
-                  geometry_mm: dict, amplitude: float = HEAD_AMPLITUDE_M, inertia: str = "full",
-                  solver: str = "reuse", rtol: float = 1e-12) -> list[dict]:
+def harmonic_rows(
+    system: HarmonicSystem,
+    law,
+    temperature_C: float,
+    frequencies_Hz,
+    geometry_mm: dict,
+    amplitude: float = HEAD_AMPLITUDE_M,
+    inertia: str = "full",
+    solver: str = "reuse",
+    rtol: float = 1e-12,
+) -> list[dict]:
     """Reduced complex-modulus rows of the sample at one temperature.
 
     Parameters
@@ -76,29 +83,52 @@ def harmonic_rows(system: HarmonicSystem, law, temperature_C: float, frequencies
     specimen = specimen_for(system, geometry_mm)
     rows = []
     for f in np.atleast_1d(np.asarray(frequencies_Hz, float)):
-        sol = system.solve_law(law, f, amplitude=amplitude, inertia=inertia, solver=solver,
-                               rtol=rtol)
+        sol = system.solve_law(law, f, amplitude=amplitude, inertia=inertia, solver=solver, rtol=rtol)
         reduced = complex_modulus(sol.F0_N, amplitude, sol.psi_deg, f, specimen)
         macro_norm, macro_phase = law.norm_and_phase(2 * np.pi * f)
-        row = {"temperature_C": float(temperature_C), "frequency_Hz": float(f),
-               "F0_N": sol.F0_N, "z0_m": amplitude, "psi_deg": sol.psi_deg, **reduced,
-               "macro_E_norm_MPa": float(macro_norm) * 1e-6,
-               "macro_phase_deg": float(macro_phase)}
+        row = {
+            "temperature_C": float(temperature_C),
+            "frequency_Hz": float(f),
+            "F0_N": sol.F0_N,
+            "z0_m": amplitude,
+            "psi_deg": sol.psi_deg,
+            **reduced,
+            "macro_E_norm_MPa": float(macro_norm) * 1e-6,
+            "macro_phase_deg": float(macro_phase),
+        }
         row["network_factor"] = row["E_norm_MPa"] / row["macro_E_norm_MPa"]
         row["phase_difference_deg"] = row["phase_deg"] - row["macro_phase_deg"]
-        row.update({"Fx_re_N": float(sol.force[0].real), "Fx_im_N": float(sol.force[0].imag),
-                    "Fy_abs_N": float(abs(sol.force[1])), "Fz_abs_N": float(abs(sol.force[2])),
-                    "inertia": inertia, "solver": sol.solver, "n_free_dof": sol.n_free_dof,
-                    "n_load_free": sol.n_load_free, "residual": sol.residual,
-                    "solve_time_s": sol.solve_time_s})
+        row.update(
+            {
+                "Fx_re_N": float(sol.force[0].real),
+                "Fx_im_N": float(sol.force[0].imag),
+                "Fy_abs_N": float(abs(sol.force[1])),
+                "Fz_abs_N": float(abs(sol.force[2])),
+                "inertia": inertia,
+                "solver": sol.solver,
+                "n_free_dof": sol.n_free_dof,
+                "n_load_free": sol.n_load_free,
+                "residual": sol.residual,
+                "solve_time_s": sol.solve_time_s,
+            }
+        )
         rows.append(row)
     return rows
 
 
 #: Columns of the rows of :func:`harmonic_rows` that the readers of ``asphalt-nscd harmonic``
 #: outputs need (:func:`read_harmonic_rows`).
-ROW_COLUMNS = ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg", "macro_E_norm_MPa",
-               "macro_phase_deg", "network_factor", "phase_difference_deg", "inertia")
+ROW_COLUMNS = (
+    "temperature_C",
+    "frequency_Hz",
+    "E_norm_MPa",
+    "phase_deg",
+    "macro_E_norm_MPa",
+    "macro_phase_deg",
+    "network_factor",
+    "phase_difference_deg",
+    "inertia",
+)
 
 
 def read_harmonic_rows(path, extra=("sample", "mode")) -> pd.DataFrame:
@@ -132,14 +162,16 @@ def select_temperatures(params: pd.DataFrame, temperatures, path="parameters") -
     for t in temperatures:
         hit = np.flatnonzero(same_temperature(params["temperature_C"].to_numpy(float), t))
         if hit.size == 0:
-            raise InputError(f"{path}: no row with temperature_C = {t} (have "
-                             f"{sorted(params['temperature_C'].tolist())})")
+            raise InputError(
+                f"{path}: no row with temperature_C = {t} (have {sorted(params['temperature_C'].tolist())})"
+            )
         keep.append(hit[0])
     return params.iloc[keep]
 
 
-def frequency_plan(params: pd.DataFrame, frequencies=None, frequencies_from=None,
-                   sweep=None) -> list[tuple[pd.Series, np.ndarray]]:
+def frequency_plan(
+    params: pd.DataFrame, frequencies=None, frequencies_from=None, sweep=None
+) -> list[tuple[pd.Series, np.ndarray]]:
     """(parameter row, frequencies in Hz) per temperature.
 
     Exactly one source: ``frequencies`` (the same list at every temperature), ``sweep``
@@ -152,8 +184,10 @@ def frequency_plan(params: pd.DataFrame, frequencies=None, frequencies_from=None
     InputError
         if no source or more than one is given, or the table lacks the columns.
     """
-    given = [x is not None and (len(x) if not isinstance(x, (str, Path)) else 1)
-             for x in (frequencies, frequencies_from, sweep)]
+    given = [
+        x is not None and (len(x) if not isinstance(x, (str, Path)) else 1)
+        for x in (frequencies, frequencies_from, sweep)
+    ]
     if sum(bool(g) for g in given) != 1:
         raise InputError("give exactly one of --frequency, --frequencies-from, --sweep")
     plan = []

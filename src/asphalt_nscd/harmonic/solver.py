@@ -146,15 +146,19 @@ class HarmonicSystem:
         on an unknown option, negative ``regularisation``, or ``contact`` without radii.
     """
 
-    def __init__(self, network: BondNetwork, nu: float = POISSON_RATIO,
-                 bond_kinematics: str = "contact", head_rotation: str = "free",
-                 regularisation: float = ROTATIONAL_REGULARISATION, ordering: str = "metis"):
+    def __init__(
+        self,
+        network: BondNetwork,
+        nu: float = POISSON_RATIO,
+        bond_kinematics: str = "contact",
+        head_rotation: str = "free",
+        regularisation: float = ROTATIONAL_REGULARISATION,
+        ordering: str = "metis",
+    ):
         if bond_kinematics not in BOND_KINEMATICS:
-            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
-                             f"got {bond_kinematics!r}")
+            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, got {bond_kinematics!r}")
         if head_rotation not in HEAD_ROTATIONS:
-            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, "
-                             f"got {head_rotation!r}")
+            raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {head_rotation!r}")
         if ordering not in ORDERINGS:
             raise ValueError(f"ordering must be one of {ORDERINGS}, got {ordering!r}")
         if bond_kinematics == "contact" and network.contact_point is None:
@@ -210,8 +214,9 @@ class HarmonicSystem:
             point = network.contact_point[self.keep]
         else:
             point = network.position[a_body]
-        centre = np.vstack([network.position, network.plate_point if network.plate_point
-                            is not None else np.zeros((2, 3))])
+        centre = np.vstack(
+            [network.position, network.plate_point if network.plate_point is not None else np.zeros((2, 3))]
+        )
         # L (B, 6, 6) per side: (relative displacement at the point, relative rotation)
         # = L_c q_c - L_a q_a with L = [[I, -skew(point - centre)], [0, I]].
         arm_a = point - centre[a_body]
@@ -232,8 +237,7 @@ class HarmonicSystem:
         sa, sc = slot[a_body], slot[c_body]
         lat, lct = lever_a.transpose(0, 2, 1), lever_c.transpose(0, 2, 1)
         blocks_n, blocks_t = [], []
-        for left, right, sign in ((lat, lever_a, 1.0), (lct, lever_c, 1.0),
-                                  (lat, lever_c, -1.0), (lct, lever_a, -1.0)):
+        for left, right, sign in ((lat, lever_a, 1.0), (lct, lever_c, 1.0), (lat, lever_c, -1.0), (lct, lever_a, -1.0)):
             blocks_n.append(sign * (left @ unit_n @ right))
             blocks_t.append(sign * (left @ unit_t @ right))
         self._unit_n = np.concatenate(blocks_n)  # (4B, 6, 6)
@@ -245,23 +249,24 @@ class HarmonicSystem:
         key = pair_r * n_slot + pair_c
         self._order = np.argsort(key, kind="stable")
         sorted_key = key[self._order]
-        first = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]]) if nb else \
-            np.zeros(0, np.int64)
+        first = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]]) if nb else np.zeros(0, np.int64)
         self._starts = first
         ukey = sorted_key[first]
         rows = gdof[ukey // n_slot][:, :, None]  # (U, 6, 1)
         cols = gdof[ukey % n_slot][:, None, :]  # (U, 1, 6)
-        nonzero = (self._reduce(np.abs(self._unit_n) + np.abs(self._unit_t)) != 0)
+        nonzero = self._reduce(np.abs(self._unit_n) + np.abs(self._unit_t)) != 0
         valid = (rows >= 0) & (cols >= 0) & nonzero
         rows = np.broadcast_to(rows, valid.shape)[valid]
         cols = np.broadcast_to(cols, valid.shape)[valid]
         self._valid = np.flatnonzero(valid.ravel())
         # Split the entries into the blocks ff, fp (rows free) and pf, pp (rows top).
         self._blocks = {}
-        for name, rsel, csel in (("ff", rows < self.n_free, cols < self.n_free),
-                                 ("fp", rows < self.n_free, cols >= self.n_free),
-                                 ("pf", rows >= self.n_free, cols < self.n_free),
-                                 ("pp", rows >= self.n_free, cols >= self.n_free)):
+        for name, rsel, csel in (
+            ("ff", rows < self.n_free, cols < self.n_free),
+            ("fp", rows < self.n_free, cols >= self.n_free),
+            ("pf", rows >= self.n_free, cols < self.n_free),
+            ("pp", rows >= self.n_free, cols >= self.n_free),
+        ):
             sel = np.flatnonzero(rsel & csel)
             r0 = 0 if name[0] == "f" else self.n_free
             c0 = 0 if name[1] == "f" else self.n_free
@@ -271,15 +276,15 @@ class HarmonicSystem:
         # nested-dissection ordering: node k holds unknowns node_start[k]:node_start[k+1].
         n_node = n_act + (1 if n_head_rot else 0)
         edge = (sa < n_node) & (sc < n_node)
-        self._graph = (n_node, sa[edge], sc[edge],
-                       np.r_[d * np.arange(n_act + 1), [self.n_free] if n_head_rot else []])
+        self._graph = (n_node, sa[edge], sc[edge], np.r_[d * np.arange(n_act + 1), [self.n_free] if n_head_rot else []])
         mass = np.zeros((n_act, d))
         mass[:, :3] = network.mass[act, None]
         if contact:
             assert network.rotational_inertia is not None  # given with the contact points
             mass[:, 3:] = network.rotational_inertia[act, None]
-        head = np.asarray(network.plate_inertia if network.plate_inertia is not None
-                          else np.zeros(3), float)[:n_head_rot]
+        head = np.asarray(network.plate_inertia if network.plate_inertia is not None else np.zeros(3), float)[
+            :n_head_rot
+        ]
         self.mass_free = np.concatenate([mass.ravel(), head])
 
     def mechanism_modes(self, max_bonds: int = 3):
@@ -310,8 +315,9 @@ class HarmonicSystem:
         graph = sp.coo_matrix((np.ones(both.sum()), (net.i[both], net.j[both])), shape=(n, n))
         _, label = connected_components(graph, directed=False)
         if self.regularisation:
-            raise ValueError("mechanism_modes: the zero modes of the bonds alone need a system built with "
-                             "regularisation=0")
+            raise ValueError(
+                "mechanism_modes: the zero modes of the bonds alone need a system built with regularisation=0"
+            )
         g = self._reference_blocks()["ff"].tocsr()
         for lab in np.unique(label[weak]):
             spheres = np.flatnonzero(weak & (label == lab))
@@ -368,9 +374,17 @@ class HarmonicSystem:
         lu = splu_symmetric(a, perm)
         if perm is None:  # same solve interface (complex right-hand sides of a real factor)
             lu = PermutedLU(lu, np.arange(a.shape[0]), a.dtype)
-        self.factor_log.append({"kind": kind, "shift": float(shift), "ordering": self.ordering,
-                                "ordering_s": t1 - t0, "factor_s": time.perf_counter() - t1,
-                                "stored_entries": int(lu.nnz), "n": int(a.shape[0])})
+        self.factor_log.append(
+            {
+                "kind": kind,
+                "shift": float(shift),
+                "ordering": self.ordering,
+                "ordering_s": t1 - t0,
+                "factor_s": time.perf_counter() - t1,
+                "stored_entries": int(lu.nnz),
+                "n": int(a.shape[0]),
+            }
+        )
         return lu
 
     def _reference(self) -> dict:
@@ -429,8 +443,15 @@ class HarmonicSystem:
         self._shifted[sigma] = lu
         return lu, sigma, False
 
-    def solve(self, kn, kt, omega: float, amplitude: float = HEAD_AMPLITUDE_M,
-              inertia: str = "full", omega2: complex | None = None) -> HarmonicSolution:
+    def solve(
+        self,
+        kn,
+        kt,
+        omega: float,
+        amplitude: float = HEAD_AMPLITUDE_M,
+        inertia: str = "full",
+        omega2: complex | None = None,
+    ) -> HarmonicSolution:
         """Steady state for per-bond stiffnesses kn, kt (B,) complex N/m at w (rad/s).
 
         One complex sparse LU (SuperLU, symmetric mode, the system's ordering) per call: the
@@ -458,19 +479,23 @@ class HarmonicSystem:
         omega2 = omega**2 if omega2 is None else omega2
         a_ff = blk["ff"]
         if inertia != "none":
-            a_ff = (a_ff - omega2 * sp.diags(self.mass_free.astype(complex),
-                                             format="csc")).tocsc()
+            a_ff = (a_ff - omega2 * sp.diags(self.mass_free.astype(complex), format="csc")).tocsc()
         rhs = -(blk["fp"] @ up)
-        uf = (self.factorise(a_ff, "complex K - w^2 M").solve(rhs) if self.n_free
-              else np.zeros(0, complex))
+        uf = self.factorise(a_ff, "complex K - w^2 M").solve(rhs) if self.n_free else np.zeros(0, complex)
         residual = _relative_residual(a_ff, uf, rhs)
         reaction = blk["pf"] @ uf + blk["pp"] @ up
-        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct",
-                              omega2=omega2)
+        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct", omega2=omega2)
 
-    def solve_law(self, law, frequency_Hz: float, amplitude: float = HEAD_AMPLITUDE_M,
-                  inertia: str = "full", solver: str = "reuse",
-                  rtol: float = 1e-12, laplace: complex | None = None) -> HarmonicSolution:
+    def solve_law(
+        self,
+        law,
+        frequency_Hz: float,
+        amplitude: float = HEAD_AMPLITUDE_M,
+        inertia: str = "full",
+        solver: str = "reuse",
+        rtol: float = 1e-12,
+        laplace: complex | None = None,
+    ) -> HarmonicSolution:
         """Steady state with every bond following ``law`` scaled by a_b (Eqs. 30-33, 8-11).
 
         Parameters
@@ -514,11 +539,10 @@ class HarmonicSystem:
             omega2 = omega**2
         else:
             e = laplace_modulus(law, laplace)
-            omega2 = -complex(laplace) ** 2
+            omega2 = -(complex(laplace) ** 2)
         if solver == "direct":
             kn = self.network.scale * e
-            return self.solve(kn, kn * self.t_ratio, omega, amplitude=amplitude, inertia=inertia,
-                              omega2=omega2)
+            return self.solve(kn, kn * self.t_ratio, omega, amplitude=amplitude, inertia=inertia, omega2=omega2)
         t0 = time.perf_counter()
         up = np.array([amplitude, 0.0, 0.0], complex)
         uf = np.zeros(self.n_free, complex)
@@ -537,12 +561,16 @@ class HarmonicSystem:
                 s = complex(omega2 / e)
                 uf, residual = self._gmres_shifted(ref["ff"], s, rhs, rtol)
                 if uf is None:
-                    return self.solve(e * self.network.scale,
-                                      e * self.network.scale * self.t_ratio, omega,
-                                      amplitude=amplitude, inertia=inertia, omega2=omega2)
+                    return self.solve(
+                        e * self.network.scale,
+                        e * self.network.scale * self.t_ratio,
+                        omega,
+                        amplitude=amplitude,
+                        inertia=inertia,
+                        omega2=omega2,
+                    )
         reaction = e * (ref["pf"] @ uf + ref["pp"] @ up)
-        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "reuse",
-                              omega2=omega2)
+        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "reuse", omega2=omega2)
 
     def _gmres_shifted(self, g, s, rhs, rtol):
         """Solve (G - s M) u = rhs by GMRES preconditioned with a real factor of G - sigma M.
@@ -554,14 +582,14 @@ class HarmonicSystem:
         Returns (u, relative residual), or (None, nan) if GMRES did not converge.
         """
         m = self.mass_free
-        op = spla.LinearOperator((self.n_free,) * 2, dtype=complex,
-                                 matvec=lambda v: g @ v - s * (m * v.ravel()))
+        op = spla.LinearOperator((self.n_free,) * 2, dtype=complex, matvec=lambda v: g @ v - s * (m * v.ravel()))
         rhs = rhs.astype(complex)
         x0 = None
         for attempt in range(2):
             lu, sigma, reused = self.shifted_factor(s.real, reuse=attempt == 0)
-            prec = spla.LinearOperator((self.n_free,) * 2, dtype=complex,
-                                       matvec=lambda v, lu=lu: lu.solve(np.asarray(v).ravel()))
+            prec = spla.LinearOperator(
+                (self.n_free,) * 2, dtype=complex, matvec=lambda v, lu=lu: lu.solve(np.asarray(v).ravel())
+            )
             if x0 is None:
                 x0 = prec @ rhs
             count = [0]
@@ -574,9 +602,18 @@ class HarmonicSystem:
             # and checks the true one only at the restart; without a restart a solution whose
             # true residual is just above rtol was rejected after 10 iterations and the call
             # fell back to the (slow) complex LU (theta-method steady states, campaign.periodic)
-            uf, info = spla.gmres(op, rhs, x0=x0, rtol=rtol, atol=0.0, M=prec, restart=restart,
-                                  maxiter=max(2, -(-GMRES_MAX_ITERATIONS // restart)),
-                                  callback=tick, callback_type="pr_norm")
+            uf, info = spla.gmres(
+                op,
+                rhs,
+                x0=x0,
+                rtol=rtol,
+                atol=0.0,
+                M=prec,
+                restart=restart,
+                maxiter=max(2, -(-GMRES_MAX_ITERATIONS // restart)),
+                callback=tick,
+                callback_type="pr_norm",
+            )
             self.last_gmres_iterations += count[0]
             if info == 0:
                 return uf, float(np.linalg.norm(op @ uf - rhs) / np.linalg.norm(rhs))
@@ -585,8 +622,7 @@ class HarmonicSystem:
                 break
         return None, float("nan")
 
-    def _solution(self, omega, uf, reaction, amplitude, inertia, residual, t0, solver,
-                  omega2=None):
+    def _solution(self, omega, uf, reaction, amplitude, inertia, residual, t0, solver, omega2=None):
         up = np.array([amplitude, 0.0, 0.0], complex)
         m_top = float(self.network.plate_mass[1])
         sample_mass = self.network.sample_mass
@@ -595,7 +631,7 @@ class HarmonicSystem:
         force = reaction - omega2 * (m_top if inertia == "full" else mu) * up
         d = self.dof_per_sphere
         n_act = int(self.active.sum())
-        q = np.asarray(uf)[:d * n_act].reshape(-1, d)
+        q = np.asarray(uf)[: d * n_act].reshape(-1, d)
         disp = np.zeros((self.network.n_spheres, 3), complex)
         rot = np.zeros((self.network.n_spheres, 3), complex)
         disp[self.active] = q[:, :3]
@@ -603,13 +639,25 @@ class HarmonicSystem:
             rot[self.active] = q[:, 3:]
         head = np.zeros(3, complex)
         if self.head_rotation == "free":
-            head = np.asarray(uf)[d * n_act:d * n_act + 3]
+            head = np.asarray(uf)[d * n_act : d * n_act + 3]
         return HarmonicSolution(
-            frequency_Hz=omega / (2 * np.pi), force=force, reaction=reaction,
-            displacement=disp, amplitude_m=amplitude,
-            mu_kg=mu, sample_mass_kg=sample_mass, plate_mass_kg=m_top, inertia=inertia, n_free_dof=self.n_free,
-            n_load_free=self.n_load_free, solve_time_s=time.perf_counter() - t0,
-            residual=residual, solver=solver, rotation=rot, head_rotation=head)
+            frequency_Hz=omega / (2 * np.pi),
+            force=force,
+            reaction=reaction,
+            displacement=disp,
+            amplitude_m=amplitude,
+            mu_kg=mu,
+            sample_mass_kg=sample_mass,
+            plate_mass_kg=m_top,
+            inertia=inertia,
+            n_free_dof=self.n_free,
+            n_load_free=self.n_load_free,
+            solve_time_s=time.perf_counter() - t0,
+            residual=residual,
+            solver=solver,
+            rotation=rot,
+            head_rotation=head,
+        )
 
 
 def laplace_modulus(law, s: complex) -> complex:
@@ -629,8 +677,10 @@ def laplace_modulus(law, s: complex) -> complex:
     if s.real == 0.0 and s.imag > 0.0:
         return complex(law.complex_modulus(s.imag))
     if not all(hasattr(law, k) for k in ("Em", "eta_m", "Ek", "eta_k", "E_inf")):
-        raise ValueError(f"laplace_modulus: s = {s} is off the imaginary axis and the law "
-                         f"{type(law).__name__} is not a generalized Burger's model")
+        raise ValueError(
+            f"laplace_modulus: s = {s} is off the imaginary axis and the law "
+            f"{type(law).__name__} is not a generalized Burger's model"
+        )
     d = 1.0 / law.Em + (0.0 if np.isinf(law.eta_m) else 1.0 / (s * law.eta_m))
     for ek, ck in zip(law.Ek, law.eta_k):
         d += 1.0 / (ek + s * ck)

@@ -47,12 +47,24 @@ def relaxation_bound_s(law) -> float:
     return float(max(taus)) if taus else 0.0
 
 
-def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_mm: dict,
-                    dt: float, amplitude: float = HEAD_AMPLITUDE_M, n_cycles: int = 5,
-                    settle_factor: float = 6.0, window_cycles: int = 1, theta: float = 0.5,
-                    tolerance: float = 1e-8, nu: float = POISSON_RATIO, max_steps: int = 2_000_000,
-                    force_reading: str = "bonds", bond_kinematics: str = "contact",
-                    head_rotation: str = "free") -> dict:
+def time_domain_row(
+    sample_path: str | Path,
+    law,
+    frequency_Hz: float,
+    geometry_mm: dict,
+    dt: float,
+    amplitude: float = HEAD_AMPLITUDE_M,
+    n_cycles: int = 5,
+    settle_factor: float = 6.0,
+    window_cycles: int = 1,
+    theta: float = 0.5,
+    tolerance: float = 1e-8,
+    nu: float = POISSON_RATIO,
+    max_steps: int = 2_000_000,
+    force_reading: str = "bonds",
+    bond_kinematics: str = "contact",
+    head_rotation: str = "free",
+) -> dict:
     """Run the time-domain 2PB test of a sample at one (law, f, dt) and reduce it.
 
     Parameters
@@ -93,18 +105,21 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
     sample = read_sample(sample_path)
     plate_mass = sample.plate_mass
     omega = 2.0 * np.pi * frequency_Hz
-    params = NSCDParameters(dt=dt, theta=theta, gravity=(0.0, 0.0, 0.0), tolerance=tolerance,
-                            bond_kinematics=bond_kinematics)
-    sim = build_simulation(sample, law, lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0),
-                           params, head_rotation=head_rotation, nu=nu)
+    params = NSCDParameters(
+        dt=dt, theta=theta, gravity=(0.0, 0.0, 0.0), tolerance=tolerance, bond_kinematics=bond_kinematics
+    )
+    sim = build_simulation(
+        sample, law, lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0), params, head_rotation=head_rotation, nu=nu
+    )
     spheres = sim.spheres
     period = 1.0 / frequency_Hz
     duration = max(n_cycles * period, settle_factor * relaxation_bound_s(law))
     duration = np.ceil(duration / period - 1e-9) * period
     n_steps = int(round(duration / dt))
     if n_steps > max_steps:
-        raise InputError(f"time-domain run of {n_steps} steps (f={frequency_Hz} Hz, dt={dt} s) "
-                         f"exceeds max_steps={max_steps}")
+        raise InputError(
+            f"time-domain run of {n_steps} steps (f={frequency_Hz} Hz, dt={dt} s) exceeds max_steps={max_steps}"
+        )
     t = np.empty(n_steps)
     force = np.empty(n_steps)
     driver = np.empty(n_steps)
@@ -117,8 +132,7 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
         driver[k] = st.driver_force[1, 0]
         n_nlgs += st.solver != "linear"
     wall = time.perf_counter() - t0
-    specimen = Specimen2PB(M_kg=float(spheres.mass.sum()), m_kg=float(plate_mass[1]),
-                           **geometry_mm)
+    specimen = Specimen2PB(M_kg=float(spheres.mass.sum()), m_kg=float(plate_mass[1]), **geometry_mm)
     x = amplitude * np.sin(omega * t)
     force = force - float(plate_mass[1]) * omega**2 * x  # + m a, a = -w^2 x exactly
     raw = reduce_record(t, x, driver, specimen, frequency_Hz, window_cycles=window_cycles)
@@ -126,16 +140,23 @@ def time_domain_row(sample_path: str | Path, law, frequency_Hz: float, geometry_
     if force_reading == "driver":
         row, raw = raw, row
     row["force_reading"] = force_reading
-    row.update({f"{k}_other_reading": raw[k] for k in ("F0_N", "psi_deg", "E_norm_MPa",
-                                                        "phase_deg")})
-    row.update({"dt_s": dt, "n_steps": n_steps, "duration_s": float(duration),
-                "wall_time_s": wall, "cpu_per_sphere_step_s": wall / (n_steps * spheres.n),
-                "n_nlgs_steps": int(n_nlgs)})
+    row.update({f"{k}_other_reading": raw[k] for k in ("F0_N", "psi_deg", "E_norm_MPa", "phase_deg")})
+    row.update(
+        {
+            "dt_s": dt,
+            "n_steps": n_steps,
+            "duration_s": float(duration),
+            "wall_time_s": wall,
+            "cpu_per_sphere_step_s": wall / (n_steps * spheres.n),
+            "n_nlgs_steps": int(n_nlgs),
+        }
+    )
     return row
 
 
-def held_spheres(sample, bond_kinematics: str = "contact", head_rotation: str = "free",
-                 nu: float = POISSON_RATIO) -> np.ndarray:
+def held_spheres(
+    sample, bond_kinematics: str = "contact", head_rotation: str = "free", nu: float = POISSON_RATIO
+) -> np.ndarray:
     """Mask (N,) of the spheres the bond network holds: every sphere but (1) the spheres no
     chain of bonds ties to a plate (a sphere or a cluster floating inside the sample: it carries
     no load in the test and, under gravity, falls through the sample -- 3 mm in the 25 ms of a
@@ -157,8 +178,13 @@ def held_spheres(sample, bond_kinematics: str = "contact", head_rotation: str = 
     keep = np.ones(sample.radius.size, bool)
     while True:
         sub = subsample(sample, keep)
-        system = HarmonicSystem(network_from_sample(sub), nu=nu, bond_kinematics=bond_kinematics,
-                                head_rotation=head_rotation, regularisation=0.0)
+        system = HarmonicSystem(
+            network_from_sample(sub),
+            nu=nu,
+            bond_kinematics=bond_kinematics,
+            head_rotation=head_rotation,
+            regularisation=0.0,
+        )
         i, j = sub.bonds["i"], sub.bonds["j"]
         dropped = [np.flatnonzero(~system.active)]  # no chain of bonds to a plate
         if bond_kinematics != "contact":
@@ -176,8 +202,15 @@ def held_spheres(sample, bond_kinematics: str = "contact", head_rotation: str = 
         keep[np.flatnonzero(keep)[np.concatenate(dropped)]] = False
 
 
-def build_simulation(sample, law, displacement, params, head_rotation: str = "clamped",
-                     nu: float = POISSON_RATIO, yield_stress: float = YIELD_STRESS):
+def build_simulation(
+    sample,
+    law,
+    displacement,
+    params,
+    head_rotation: str = "clamped",
+    nu: float = POISSON_RATIO,
+    yield_stress: float = YIELD_STRESS,
+):
     """The NSCD simulation of the 2PB test on ``sample`` (SampleData): its spheres (a copy of
     the positions: the run moves them), the bottom plate fixed, the top plate (the head, its
     mass from the sample) driven by ``displacement(t) -> (x, y, z)`` (m) and, when
@@ -205,24 +238,34 @@ def build_simulation(sample, law, displacement, params, head_rotation: str = "cl
     n_dropped = int((~keep).sum())
     if n_dropped:
         sample = subsample(sample, keep)
-    spheres = Spheres(position=np.array(sample.position, dtype=float), radius=sample.radius,
-                      mass=sample.mass, inertia=sample.inertia)
+    spheres = Spheres(
+        position=np.array(sample.position, dtype=float), radius=sample.radius, mass=sample.mass, inertia=sample.inertia
+    )
     head: dict[str, Any] = {}
     if head_rotation == "free":
         inertia = network_from_sample(sample).plate_inertia
         assert inertia is not None  # the network of a sample has its head's inertia
         if not np.all((inertia > 0) & np.isfinite(inertia)):
-            raise InputError(f"head_rotation 'free': the head has no positive finite rotational "
-                             f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "
-                             f"{inertia} kg m²)")
+            raise InputError(
+                f"head_rotation 'free': the head has no positive finite rotational "
+                f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "
+                f"{inertia} kg m²)"
+            )
         head = {"rotation": True, "inertia": inertia}
-    plates = Plates([
-        Plate(sample.plate_point[0], sample.plate_normal[0], mode="fixed"),
-        Plate(sample.plate_point[1], sample.plate_normal[1], mode="driven",
-              mass=float(sample.plate_mass[1]), displacement=displacement, **head),
-    ])
-    bonds = Bonds.create(spheres, plates, sample.bonds["i"], sample.bonds["j"], law, nu=nu,
-                         yield_stress=yield_stress)
+    plates = Plates(
+        [
+            Plate(sample.plate_point[0], sample.plate_normal[0], mode="fixed"),
+            Plate(
+                sample.plate_point[1],
+                sample.plate_normal[1],
+                mode="driven",
+                mass=float(sample.plate_mass[1]),
+                displacement=displacement,
+                **head,
+            ),
+        ]
+    )
+    bonds = Bonds.create(spheres, plates, sample.bonds["i"], sample.bonds["j"], law, nu=nu, yield_stress=yield_stress)
     sim = Simulation(spheres, plates, bonds, params)
     sim.n_mechanisms_dropped = n_dropped
     return sim

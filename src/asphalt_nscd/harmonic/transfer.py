@@ -54,8 +54,14 @@ def unit_elastic_law():
     return GeneralizedBurgers(Em=1.0, eta_m=np.inf, Ek=(), eta_k=())
 
 
-def network_factor(system: HarmonicSystem, geometry_mm: dict, law=None, frequency_Hz: float = 1.0,
-                   amplitude: float = HEAD_AMPLITUDE_M, solver: str = "reuse") -> complex:
+def network_factor(
+    system: HarmonicSystem,
+    geometry_mm: dict,
+    law=None,
+    frequency_Hz: float = 1.0,
+    amplitude: float = HEAD_AMPLITUDE_M,
+    solver: str = "reuse",
+) -> complex:
     """Complex network factor E_sample(w) / E*(w) of the inertia-free sample (module docstring).
 
     Parameters
@@ -96,8 +102,9 @@ def network_factor(system: HarmonicSystem, geometry_mm: dict, law=None, frequenc
     return e_sample / complex(law.complex_modulus(2.0 * np.pi * frequency_Hz))
 
 
-def transfer_json(sample_path, nu: float = POISSON_RATIO, bond_kinematics: str = "contact",
-                  head_rotation: str = "free") -> dict:
+def transfer_json(
+    sample_path, nu: float = POISSON_RATIO, bond_kinematics: str = "contact", head_rotation: str = "free"
+) -> dict:
     """The network factor of a sample file as the transfer JSON (module docstring).
 
     Parameters
@@ -135,8 +142,9 @@ def transfer_json(sample_path, nu: float = POISSON_RATIO, bond_kinematics: str =
     sol = system.solve_law(law, f, inertia="none", solver="reuse")
     nf = network_factor(system, specimen_geometry_mm(sample), law=law, frequency_Hz=f)
     if not (np.isfinite(nf.real) and nf.real > 0):
-        raise InputError(f"{sample_path}: network factor {nf.real!r} is not a positive finite number "
-                         "(does any bond reach the head?)")
+        raise InputError(
+            f"{sample_path}: network factor {nf.real!r} is not a positive finite number (does any bond reach the head?)"
+        )
     return {
         "network_factor": float(nf.real),
         "imag_relative": float(nf.imag / nf.real),
@@ -151,16 +159,24 @@ def transfer_json(sample_path, nu: float = POISSON_RATIO, bond_kinematics: str =
         "n_free_dof": int(sol.n_free_dof),
         "n_load_free": int(sol.n_load_free),
         "residual": float(sol.residual),
-        "units": {"network_factor": "1 (sample |E*| / macro |E*|, EN 12697-26 Eqs. 1-5, no inertia)",
-                  "nu": "1", "frequency_Hz": "Hz"},
+        "units": {
+            "network_factor": "1 (sample |E*| / macro |E*|, EN 12697-26 Eqs. 1-5, no inertia)",
+            "nu": "1",
+            "frequency_Hz": "Hz",
+        },
         "definition": "NF_s = gamma R_x / (A E*(w)); the sample's inertia-free modulus is NF_s E*(w) for "
-                      "every law (K(w) = E*(w) G); correction: bonds calibrated with E*(w) / NF_s",
+        "every law (K(w) = E*(w) G); correction: bonds calibrated with E*(w) / NF_s",
         "source": "asphalt_nscd.harmonic.transfer (harmonic solver, one real factorisation of G)",
     }
 
 
-def read_transfer_json(path, sample: str | None = None, bond_kinematics: str | None = None,
-                       head_rotation: str | None = None, nu: float | None = None) -> dict:
+def read_transfer_json(
+    path,
+    sample: str | None = None,
+    bond_kinematics: str | None = None,
+    head_rotation: str | None = None,
+    nu: float | None = None,
+) -> dict:
     """Read and check a transfer JSON (output of ``asphalt-nscd harmonic-transfer``).
 
     The optional arguments are the settings of the run that applies the factor; each given
@@ -192,20 +208,27 @@ def read_transfer_json(path, sample: str | None = None, bond_kinematics: str | N
             raise InputError(f"{path}: key '{key}': expected one of {list(allowed)}, got {obj[key]!r}")
     if isinstance(obj["nu"], bool) or not isinstance(obj["nu"], (int, float)):
         raise InputError(f"{path}: key 'nu': expected a number, got {obj['nu']!r}")
-    checks = (("sample", sample, obj["sample"] == sample),
-              ("bond_kinematics", bond_kinematics, obj["bond_kinematics"] == bond_kinematics),
-              ("head_rotation", head_rotation, obj["head_rotation"] == head_rotation),
-              ("nu", nu, nu is not None and math.isclose(float(obj["nu"]), float(nu), rel_tol=1e-12)))
+    checks = (
+        ("sample", sample, obj["sample"] == sample),
+        ("bond_kinematics", bond_kinematics, obj["bond_kinematics"] == bond_kinematics),
+        ("head_rotation", head_rotation, obj["head_rotation"] == head_rotation),
+        ("nu", nu, nu is not None and math.isclose(float(obj["nu"]), float(nu), rel_tol=1e-12)),
+    )
     for key, want, ok in checks:
         if want is not None and not ok:
-            raise InputError(f"{path}: key '{key}': the factor was computed for {obj[key]!r}, "
-                             f"the run uses {want!r}")
+            raise InputError(f"{path}: key '{key}': the factor was computed for {obj[key]!r}, the run uses {want!r}")
     obj["network_factor"] = float(nf)
     return obj
 
 
-def corrected_law(law, transfer_path, sample: str | None = None, bond_kinematics: str | None = None,
-                  head_rotation: str | None = None, nu: float | None = None):
+def corrected_law(
+    law,
+    transfer_path,
+    sample: str | None = None,
+    bond_kinematics: str | None = None,
+    head_rotation: str | None = None,
+    nu: float | None = None,
+):
     """The transfer correction of a macro law for one sample (module docstring): the law
     divided by the sample's network factor NF_s read from ``transfer_path``
     (``law.scaled(1 / NF_s)``: every modulus and viscosity), so that the bonds are calibrated
@@ -227,8 +250,9 @@ def corrected_law(law, transfer_path, sample: str | None = None, bond_kinematics
     InputError
         from :func:`read_transfer_json`, naming the file and the key.
     """
-    nf = read_transfer_json(transfer_path, sample=sample, bond_kinematics=bond_kinematics,
-                            head_rotation=head_rotation, nu=nu)["network_factor"]
+    nf = read_transfer_json(
+        transfer_path, sample=sample, bond_kinematics=bond_kinematics, head_rotation=head_rotation, nu=nu
+    )["network_factor"]
     return law.scaled(1.0 / nf), nf
 
 

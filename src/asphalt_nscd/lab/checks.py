@@ -45,9 +45,11 @@ import pandas as pd
 from ..io import InputError
 
 #: (low, high, unit, what) of every refused range
-REFUSED = {"temperature_C": (-60.0, 100.0, "degC", "the temperature of a complex-modulus test"),
-           "frequency_Hz": (1e-4, 1e4, "Hz", "the frequency of a complex-modulus test"),
-           "E_norm_MPa": (0.1, 1e5, "MPa", "|E*| of a bituminous material")}
+REFUSED = {
+    "temperature_C": (-60.0, 100.0, "degC", "the temperature of a complex-modulus test"),
+    "frequency_Hz": (1e-4, 1e4, "Hz", "the frequency of a complex-modulus test"),
+    "E_norm_MPa": (0.1, 1e5, "MPa", "|E*| of a bituminous material"),
+}
 #: the stiffest cell at or below COLD_C should lie in this range, MPa
 COLD_C = 10.0
 COLD_RANGE_MPA = (5000.0, 60000.0)
@@ -73,25 +75,33 @@ def check_values(table: pd.DataFrame, path, units: str = "MPa", labels: dict | N
             if col == "E_norm_MPa":
                 hint = _unit_hint(table, float(table["E_norm_MPa"].max()), units)
             name = (labels or {}).get(col) or f"'{col}'"
-            raise InputError(f"{path}: line {_line(table.index[i])}, column {name}: value {v[i]:g} {unit} out of "
-                             f"range; expected {what} in {lo:g}-{hi:g} {unit}{hint}")
+            raise InputError(
+                f"{path}: line {_line(table.index[i])}, column {name}: value {v[i]:g} {unit} out of "
+                f"range; expected {what} in {lo:g}-{hi:g} {unit}{hint}"
+            )
     warnings = []
     cold = table[table["temperature_C"] <= COLD_C]
     if len(cold):
         top = float(cold["E_norm_MPa"].max())
         lo, hi = COLD_RANGE_MPA
         if not lo <= top <= hi:
-            warnings.append(f"{path}: the stiffest cell at or below {COLD_C:g} degC has |E*| = {top:,.0f} MPa (read as "
-                            f"{units}); an asphalt mix there is {lo:,.0f}-{hi:,.0f} MPa{_unit_hint(table, top, units)}")
+            warnings.append(
+                f"{path}: the stiffest cell at or below {COLD_C:g} degC has |E*| = {top:,.0f} MPa (read as "
+                f"{units}); an asphalt mix there is {lo:,.0f}-{hi:,.0f} MPa{_unit_hint(table, top, units)}"
+            )
     P = table["phase_deg"].to_numpy(float)
     lnE = np.log(table["E_norm_MPa"].to_numpy(float))
     if P.max() < 1.6 and np.ptp(lnE) > np.log(10) / 2:
-        warnings.append(f"{path}: every phase angle is below 1.6 (largest {P.max():.3g}) while |E*| spans "
-                        f"{np.ptp(lnE) / np.log(10):.2g} decades: the phases look like radians (x 57.3 for degrees)")
+        warnings.append(
+            f"{path}: every phase angle is below 1.6 (largest {P.max():.3g}) while |E*| spans "
+            f"{np.ptp(lnE) / np.log(10):.2g} decades: the phases look like radians (x 57.3 for degrees)"
+        )
     if P.max() > 60.0:
         i = int(np.argmax(P))
-        warnings.append(f"{path}: line {_line(table.index[i])}: phase angle {P[i]:.3g} deg above 60 deg (a mix's phase "
-                        "peaks at 30-45 deg): E1 and E2 swapped, or not a mix?")
+        warnings.append(
+            f"{path}: line {_line(table.index[i])}: phase angle {P[i]:.3g} deg above 60 deg (a mix's phase "
+            "peaks at 30-45 deg): E1 and E2 swapped, or not a mix?"
+        )
     warnings += _monotonic(table, path)
     return warnings
 
@@ -104,8 +114,9 @@ def _unit_hint(table: pd.DataFrame, value: float, units: str) -> str:
 
     lo, hi = COLD_RANGE_MPA
     f_d = MODULUS_UNITS.get(units, 1.0)
-    fits = [f"{u} (x {f_u / f_d:.4g})" for u, f_u in MODULUS_UNITS.items()
-            if u != units and lo <= value * f_u / f_d <= hi]
+    fits = [
+        f"{u} (x {f_u / f_d:.4g})" for u, f_u in MODULUS_UNITS.items() if u != units and lo <= value * f_u / f_d <= hi
+    ]
     return f"; the values fit a table in {' or '.join(fits)}" if fits else ""
 
 
@@ -120,16 +131,22 @@ def _monotonic(table: pd.DataFrame, path) -> list[str]:
         if k.size:
             j = int(k[0])
             T = e.index.to_numpy(float)
-            out.append(f"{path}: at {f:g} Hz the {T[j + 1]:g} degC isotherm is {r[j]:.3g} times stiffer than the "
-                       f"{T[j]:g} degC one (a mix softens as it warms): a mixed-up temperature column or unit?")
+            out.append(
+                f"{path}: at {f:g} Hz the {T[j + 1]:g} degC isotherm is {r[j]:.3g} times stiffer than the "
+                f"{T[j]:g} degC one (a mix softens as it warms): a mixed-up temperature column or unit?"
+            )
             break
     return out
 
 
 #: indicator -> (limit, unit): the AASHTO T 378 data-quality limits (module docstring), one per
 #: indicator of :data:`asphalt_nscd.lab.table_format.QUALITY_INDICATORS`
-LIMITS = {"load_standard_error_pct": (10.0, "%"), "deformation_standard_error_pct": (10.0, "%"),
-          "deformation_uniformity_pct": (30.0, "%"), "phase_uniformity_deg": (3.0, "deg")}
+LIMITS = {
+    "load_standard_error_pct": (10.0, "%"),
+    "deformation_standard_error_pct": (10.0, "%"),
+    "deformation_uniformity_pct": (30.0, "%"),
+    "phase_uniformity_deg": (3.0, "deg"),
+}
 
 
 def quality_columns(table: pd.DataFrame) -> list[str]:
@@ -152,8 +169,9 @@ def quality_flags(table: pd.DataFrame, limits: dict | None = None) -> pd.DataFra
         v = pd.to_numeric(table[col], errors="coerce").to_numpy(float)
         for i in np.flatnonzero(np.isfinite(v) & (np.abs(v) > lim[name])):
             reasons[i].append(f"{name} {v[i]:.3g} > {lim[name]:g}")
-    return pd.DataFrame({"flagged": [bool(r) for r in reasons], "reason": ["; ".join(r) for r in reasons]},
-                        index=table.index)
+    return pd.DataFrame(
+        {"flagged": [bool(r) for r in reasons], "reason": ["; ".join(r) for r in reasons]}, index=table.index
+    )
 
 
 def quality_report(table: pd.DataFrame, limits: dict | None = None) -> dict:
@@ -166,9 +184,18 @@ def quality_report(table: pd.DataFrame, limits: dict | None = None) -> dict:
     flags = quality_flags(table, limits)
     rows = table[flags["flagged"].to_numpy()]
     lim = {k: v[0] for k, v in LIMITS.items()} | dict(limits or {})
-    return {"columns": cols, "limits": {c.removeprefix("quality_"): lim.get(c.removeprefix("quality_"))
-                                        for c in cols},
-            "n_rows": int(len(table)), "n_flagged": int(flags["flagged"].sum()),
-            "flagged": [{"specimen": str(r["specimen"]), "temperature_C": float(r["temperature_C"]),
-                         "frequency_Hz": float(r["frequency_Hz"]), "reason": flags.loc[i, "reason"]}
-                        for i, r in rows.iterrows()]}
+    return {
+        "columns": cols,
+        "limits": {c.removeprefix("quality_"): lim.get(c.removeprefix("quality_")) for c in cols},
+        "n_rows": int(len(table)),
+        "n_flagged": int(flags["flagged"].sum()),
+        "flagged": [
+            {
+                "specimen": str(r["specimen"]),
+                "temperature_C": float(r["temperature_C"]),
+                "frequency_Hz": float(r["frequency_Hz"]),
+                "reason": flags.loc[i, "reason"],
+            }
+            for i, r in rows.iterrows()
+        ],
+    }

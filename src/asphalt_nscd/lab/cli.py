@@ -17,13 +17,22 @@ def register(subparsers) -> None:
         help="EN 12697-26 2PB reduction of a head displacement/force record to |E*|, phase (Eqs. 1-5)",
     )
     p.add_argument("record", type=Path, help="CSV with columns time_s, displacement_m, force_N")
-    p.add_argument("--meta", type=Path, required=True,
-                   help="JSON sidecar with b_mm, B_mm, e_mm, h_mm, M_kg, m_kg, temperature_C, frequency_Hz")
+    p.add_argument(
+        "--meta",
+        type=Path,
+        required=True,
+        help="JSON sidecar with b_mm, B_mm, e_mm, h_mm, M_kg, m_kg, temperature_C, frequency_Hz",
+    )
     window = p.add_mutually_exclusive_group()
-    window.add_argument("--window-s", type=float, default=None,
-                        help="analyse the last WINDOW_S seconds (lab: 10; default: whole record)")
-    window.add_argument("--window-cycles", type=float, default=None,
-                        help="analyse the last WINDOW_CYCLES cycles (simulation: 1)")
+    window.add_argument(
+        "--window-s",
+        type=float,
+        default=None,
+        help="analyse the last WINDOW_S seconds (lab: 10; default: whole record)",
+    )
+    window.add_argument(
+        "--window-cycles", type=float, default=None, help="analyse the last WINDOW_CYCLES cycles (simulation: 1)"
+    )
     p.add_argument("-o", "--output", type=Path, required=True, help="one-row CSV of the reduced results")
     p.set_defaults(func=_reduce)
 
@@ -31,16 +40,28 @@ def register(subparsers) -> None:
         "measured",
         help="validate a measured complex-modulus table; write the tidy table and the replicate summary",
     )
-    p.add_argument("table", type=Path,
-                   help="CSV: specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg [, strain_microstrain, test_order, ...]")
+    p.add_argument(
+        "table",
+        type=Path,
+        help="CSV: specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg [, strain_microstrain, test_order, ...]",
+    )
     p.add_argument("-o", "--output", type=Path, required=True, help="validated tidy table (CSV)")
-    p.add_argument("--summary", type=Path, required=True,
-                   help="replicate mean and std per (temperature_C, frequency_Hz) (CSV)")
-    p.add_argument("--test", type=Path, default=None,
-                   help="test-geometry JSON of the table (default: the sidecar <table stem>.test.json next to "
-                        "it, else an unknown test); see asphalt_nscd.lab.geometry")
-    p.add_argument("--test-output", type=Path, default=None,
-                   help="write the declared test (validated) as JSON, e.g. next to -o as <stem>.test.json")
+    p.add_argument(
+        "--summary", type=Path, required=True, help="replicate mean and std per (temperature_C, frequency_Hz) (CSV)"
+    )
+    p.add_argument(
+        "--test",
+        type=Path,
+        default=None,
+        help="test-geometry JSON of the table (default: the sidecar <table stem>.test.json next to "
+        "it, else an unknown test); see asphalt_nscd.lab.geometry",
+    )
+    p.add_argument(
+        "--test-output",
+        type=Path,
+        default=None,
+        help="write the declared test (validated) as JSON, e.g. next to -o as <stem>.test.json",
+    )
     p.set_defaults(func=_measured)
 
 
@@ -53,8 +74,13 @@ def _reduce(args) -> int:
     columns, specimen, conditions = read_record(args.record, args.meta)
     try:
         row = reduce_record(
-            columns["time_s"], columns["displacement_m"], columns["force_N"], specimen,
-            conditions["frequency_Hz"], window_s=args.window_s, window_cycles=args.window_cycles,
+            columns["time_s"],
+            columns["displacement_m"],
+            columns["force_N"],
+            specimen,
+            conditions["frequency_Hz"],
+            window_s=args.window_s,
+            window_cycles=args.window_cycles,
         )
     except ValueError as exc:
         raise InputError(f"{args.record}: {exc}") from None

@@ -334,7 +334,9 @@ def reduce_record(
     z = np.asarray(displacement_m, dtype=float)
     F = np.asarray(force_N, dtype=float)
     if not (t.shape == z.shape == F.shape) or t.ndim != 1:
-        raise ValueError(f"time, displacement and force must be 1-D of equal length, got {t.shape}, {z.shape}, {F.shape}")
+        raise ValueError(
+            f"time, displacement and force must be 1-D of equal length, got {t.shape}, {z.shape}, {F.shape}"
+        )
     if t.size < 5 or np.any(np.diff(t) <= 0):
         raise ValueError("time must be strictly increasing with at least 5 samples")
     mask = select_window(t, frequency_Hz, window_s=window_s, window_cycles=window_cycles)

@@ -56,36 +56,61 @@ SCHEMA: dict[str, Any] = {
         "M_kg": {**_POSITIVE_OR_NULL, "description": "2PB specimen mass, kg"},
         "m_kg": {**_POSITIVE_OR_NULL, "description": "2PB moving mass at the head, kg"},
         "diameter_mm": {**_POSITIVE_OR_NULL, "description": "cylinder diameter, mm"},
-        "height_mm": {**_POSITIVE_OR_NULL,
-                      "description": "length over which the axial displacement is measured, mm"},
+        "height_mm": {**_POSITIVE_OR_NULL, "description": "length over which the axial displacement is measured, mm"},
         "moving_mass_kg": {**_POSITIVE_OR_NULL, "description": "uniaxial moving mass, kg"},
-        "table": {"type": "object",
-                  "description": "how the lab wrote the table: units, form of the modulus, column names "
-                                 "(asphalt_nscd.lab.table_format)"},
-        "display": {"type": "object",
-                    "properties": {"modulus_unit": {"enum": ["MPa", "GPa", "kPa", "ksi", "psi"]},
-                                   "temperature_unit": {"enum": ["C", "F"]}},
-                    "required": ["modulus_unit", "temperature_unit"], "additionalProperties": False,
-                    "description": "the units the lab wrote a table in that is now in the project's columns "
-                                   "(figures and pages show them, SI beside)"},
-        "quality_limits": {"type": "object", "additionalProperties": {"type": "number", "exclusiveMinimum": 0},
-                           "description": "limits of the table's data-quality indicators (asphalt_nscd.lab.checks)"},
+        "table": {
+            "type": "object",
+            "description": "how the lab wrote the table: units, form of the modulus, column names "
+            "(asphalt_nscd.lab.table_format)",
+        },
+        "display": {
+            "type": "object",
+            "properties": {
+                "modulus_unit": {"enum": ["MPa", "GPa", "kPa", "ksi", "psi"]},
+                "temperature_unit": {"enum": ["C", "F"]},
+            },
+            "required": ["modulus_unit", "temperature_unit"],
+            "additionalProperties": False,
+            "description": "the units the lab wrote a table in that is now in the project's columns "
+            "(figures and pages show them, SI beside)",
+        },
+        "quality_limits": {
+            "type": "object",
+            "additionalProperties": {"type": "number", "exclusiveMinimum": 0},
+            "description": "limits of the table's data-quality indicators (asphalt_nscd.lab.checks)",
+        },
     },
     "required": ["test"],
     "additionalProperties": False,
     "allOf": [
-        {"if": {"properties": {"test": {"const": "2pb_trapezoid"}}},
-         "then": {"required": ["B_mm", "b_mm", "e_mm", "h_mm"],
-                  "not": {"anyOf": [{"required": ["diameter_mm"]}, {"required": ["height_mm"]},
-                                    {"required": ["moving_mass_kg"]}]}}},
-        {"if": {"properties": {"test": {"const": "uniaxial_cylinder"}}},
-         "then": {"required": ["diameter_mm", "height_mm"],
-                  "not": {"anyOf": [{"required": [k]} for k in ("B_mm", "b_mm", "e_mm", "h_mm", "M_kg", "m_kg")]}}},
+        {
+            "if": {"properties": {"test": {"const": "2pb_trapezoid"}}},
+            "then": {
+                "required": ["B_mm", "b_mm", "e_mm", "h_mm"],
+                "not": {
+                    "anyOf": [
+                        {"required": ["diameter_mm"]},
+                        {"required": ["height_mm"]},
+                        {"required": ["moving_mass_kg"]},
+                    ]
+                },
+            },
+        },
+        {
+            "if": {"properties": {"test": {"const": "uniaxial_cylinder"}}},
+            "then": {
+                "required": ["diameter_mm", "height_mm"],
+                "not": {"anyOf": [{"required": [k]} for k in ("B_mm", "b_mm", "e_mm", "h_mm", "M_kg", "m_kg")]},
+            },
+        },
     ],
 }
 #: keys whose value fixes the form factor, per test
-FORM_KEYS = {"2pb_trapezoid": ("B_mm", "b_mm", "e_mm", "h_mm"),
-             "uniaxial_cylinder": ("diameter_mm", "height_mm"), "unknown": ()}
+FORM_KEYS = {
+    "2pb_trapezoid": ("B_mm", "b_mm", "e_mm", "h_mm"),
+    "uniaxial_cylinder": ("diameter_mm", "height_mm"),
+    "unknown": (),
+}
 #: optional mass keys, per test
 MASS_KEYS = {"2pb_trapezoid": ("M_kg", "m_kg"), "uniaxial_cylinder": ("moving_mass_kg",), "unknown": ()}
 
@@ -134,8 +159,10 @@ class DeclaredTest:
     def inertia_testability(self) -> tuple[bool, str]:
         """(testable, reason): inertia needs the declared test's form factor."""
         if self.test == "unknown":
-            return False, (f"the test geometry is unknown ({self.origin}); declare it in a "
-                           "'<table stem>.test.json' sidecar or config measured.test")
+            return False, (
+                f"the test geometry is unknown ({self.origin}); declare it in a "
+                "'<table stem>.test.json' sidecar or config measured.test"
+            )
         if self.form_factor_per_mm is None:
             missing = [k for k in FORM_KEYS[self.test] if self.values.get(k) is None]
             return False, f"{self.test} with {', '.join(missing)} not stated ({self.origin}): no form factor"
@@ -195,12 +222,16 @@ def from_dict(obj, where: str) -> DeclaredTest:
             msg = e.message
         raise InputError(f"{where}: key '{key}': {msg}")
     test = obj["test"]
-    values = {k: (None if v is None else float(v)) for k, v in obj.items()
-              if k not in ("test", "description", "source", "table", "display", "quality_limits")}
+    values = {
+        k: (None if v is None else float(v))
+        for k, v in obj.items()
+        if k not in ("test", "description", "source", "table", "display", "quality_limits")
+    }
     b_mm, B_mm = values.get("b_mm"), values.get("B_mm")
     if test == "2pb_trapezoid" and b_mm is not None and B_mm is not None and b_mm >= B_mm:
-        raise InputError(f"{where}: key 'b_mm': head width {b_mm:g} mm must be smaller than the "
-                         f"base width B_mm = {B_mm:g} mm")
+        raise InputError(
+            f"{where}: key 'b_mm': head width {b_mm:g} mm must be smaller than the base width B_mm = {B_mm:g} mm"
+        )
     table = None
     display = dict(obj.get("display", {}))
     limits = dict(obj.get("quality_limits", {}))
@@ -212,9 +243,16 @@ def from_dict(obj, where: str) -> DeclaredTest:
         limits = {**limits, **table.quality_limits}
     if display == {"modulus_unit": "MPa", "temperature_unit": "C"}:
         display = {}
-    return DeclaredTest(test=test, values=values, origin=str(where), source=str(obj.get("source", "")),
-                        description=str(obj.get("description", "")), table=table, display=display,
-                        quality_limits=limits)
+    return DeclaredTest(
+        test=test,
+        values=values,
+        origin=str(where),
+        source=str(obj.get("source", "")),
+        description=str(obj.get("description", "")),
+        table=table,
+        display=display,
+        quality_limits=limits,
+    )
 
 
 def load_test(path) -> DeclaredTest:
@@ -253,7 +291,9 @@ def declared_test(table_path, explicit=None) -> DeclaredTest:
 
 #: The specimens of the synthetic schedules (:mod:`asphalt_nscd.diagnosis.synthetic`): the
 #: paper's 2PB trapezoid and the AASHTO T 342 / PP 61 cylinder (100 mm x 150 mm).
-PAPER_2PB = DeclaredTest("2pb_trapezoid", {"B_mm": 56.0, "b_mm": 25.0, "e_mm": 25.0, "h_mm": 250.0,
-                                           "M_kg": 0.6, "m_kg": 0.235}, "paper 2PB specimen")
-AASHTO_CYLINDER = DeclaredTest("uniaxial_cylinder", {"diameter_mm": 100.0, "height_mm": 150.0},
-                               "AASHTO T 342 specimen")
+PAPER_2PB = DeclaredTest(
+    "2pb_trapezoid",
+    {"B_mm": 56.0, "b_mm": 25.0, "e_mm": 25.0, "h_mm": 250.0, "M_kg": 0.6, "m_kg": 0.235},
+    "paper 2PB specimen",
+)
+AASHTO_CYLINDER = DeclaredTest("uniaxial_cylinder", {"diameter_mm": 100.0, "height_mm": 150.0}, "AASHTO T 342 specimen")

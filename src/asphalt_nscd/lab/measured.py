@@ -49,8 +49,13 @@ REQUIRED_COLUMNS = ("specimen", "temperature_C", "frequency_Hz", "E_norm_MPa", "
 OPTIONAL_COLUMNS = ("strain_microstrain", "test_order")
 KEY_COLUMNS = ("specimen", "temperature_C", "frequency_Hz")
 SUMMARY_COLUMNS = (
-    "temperature_C", "frequency_Hz", "n",
-    "E_norm_MPa_mean", "E_norm_MPa_std", "phase_deg_mean", "phase_deg_std",
+    "temperature_C",
+    "frequency_Hz",
+    "n",
+    "E_norm_MPa_mean",
+    "E_norm_MPa_std",
+    "phase_deg_mean",
+    "phase_deg_std",
 )
 
 #: column -> (check on finite float values, expectation in the error message)
@@ -81,8 +86,9 @@ def _line(index: int | np.integer) -> int:
     return int(index) + 2
 
 
-def _numeric_column(path, frame: pd.DataFrame, column: str, ranges: dict, allow_nan: bool = False,
-                    label: str | None = None) -> np.ndarray:
+def _numeric_column(
+    path, frame: pd.DataFrame, column: str, ranges: dict, allow_nan: bool = False, label: str | None = None
+) -> np.ndarray:
     """The values of ``frame[column]`` as floats, checked against ``ranges[column]``.
 
     Raises InputError naming the file, the line and the column on a non-numeric or missing
@@ -93,16 +99,21 @@ def _numeric_column(path, frame: pd.DataFrame, column: str, ranges: dict, allow_
     check, expected = ranges[column]
     name = label or column
     for i in range(len(values)):
-        if not np.isfinite(values[i]) and not (allow_nan and np.isnan(values[i])
-                                               and text.iloc[i].lower() in {"", "nan", "na", "null"}):
-            kind = "missing value (NaN)" if text.iloc[i] == "" or text.iloc[i].lower() in {"nan", "na", "null"} else "non-numeric value"
-            raise InputError(
-                f"{path}: line {_line(i)}, column '{name}': {kind} {raw.iloc[i]!r}; expected {expected}"
+        if not np.isfinite(values[i]) and not (
+            allow_nan and np.isnan(values[i]) and text.iloc[i].lower() in {"", "nan", "na", "null"}
+        ):
+            kind = (
+                "missing value (NaN)"
+                if text.iloc[i] == "" or text.iloc[i].lower() in {"nan", "na", "null"}
+                else "non-numeric value"
             )
+            raise InputError(f"{path}: line {_line(i)}, column '{name}': {kind} {raw.iloc[i]!r}; expected {expected}")
     bad = np.flatnonzero(~check(values))
     if bad.size:
         i = bad[0]
-        raise InputError(f"{path}: line {_line(i)}, column '{name}': value {values[i]:g} out of range; expected {expected}")
+        raise InputError(
+            f"{path}: line {_line(i)}, column '{name}': value {values[i]:g} out of range; expected {expected}"
+        )
     return values
 
 
@@ -164,7 +175,9 @@ def load_measured(path, test=None) -> pd.DataFrame:
     spec = frame["specimen"].str.strip()
     empty = np.flatnonzero((spec == "").to_numpy())
     if empty.size:
-        raise InputError(f"{path}: line {_line(empty[0])}, column 'specimen': empty value (NaN); expected a specimen name")
+        raise InputError(
+            f"{path}: line {_line(empty[0])}, column 'specimen': empty value (NaN); expected a specimen name"
+        )
     out["specimen"] = spec
     numeric = [c for c in (*REQUIRED_COLUMNS[1:], *OPTIONAL_COLUMNS) if c in frame.columns]
     for column in numeric:
@@ -227,12 +240,16 @@ def _read_text_table(path: Path) -> pd.DataFrame:
         raise InputError(f"{path}: line 1 (header): duplicated column(s) {dups}")
     for i, row in enumerate(csv.reader(io.StringIO(text), delimiter=sep)):
         if row and len(row) != len(header):
-            hint = (" (unquoted decimal commas in a comma-separated file? write 0.5, or separate the columns "
-                    "with ';')" if sep == "," and len(row) > len(header) and re.search(r"\d,\d", text) else "")
+            hint = (
+                " (unquoted decimal commas in a comma-separated file? write 0.5, or separate the columns with ';')"
+                if sep == "," and len(row) > len(header) and re.search(r"\d,\d", text)
+                else ""
+            )
             raise InputError(f"{path}: line {i + 1}: {len(row)} fields, the header has {len(header)}{hint}")
     try:
-        frame = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skip_blank_lines=False, sep=sep,
-                            index_col=False)
+        frame = pd.read_csv(
+            io.StringIO(text), dtype=str, keep_default_na=False, skip_blank_lines=False, sep=sep, index_col=False
+        )
     except pd.errors.ParserError as exc:
         raise InputError(f"{path}: not a readable CSV file ({exc})") from None
     if sep != ",":
@@ -313,8 +330,9 @@ def read_summary(path) -> pd.DataFrame:
     from ..io import read_csv, require_columns
 
     frame = read_csv(path)
-    require_columns(frame, SUMMARY_COLUMNS, path, f"{list(SUMMARY_COLUMNS)} (a measured summary of "
-                    "'asphalt-nscd measured')")
+    require_columns(
+        frame, SUMMARY_COLUMNS, path, f"{list(SUMMARY_COLUMNS)} (a measured summary of 'asphalt-nscd measured')"
+    )
     if len(frame) == 0:
         raise InputError(f"{path}: no data rows after the header")
     for column in SUMMARY_COLUMNS:
@@ -322,7 +340,9 @@ def read_summary(path) -> pd.DataFrame:
     dup = np.flatnonzero(frame.duplicated(subset=["temperature_C", "frequency_Hz"], keep=False).to_numpy())
     if dup.size:
         row = frame.iloc[dup[0]]
-        raise InputError(f"{path}: lines {', '.join(str(_line(i)) for i in dup)}: repeated (temperature_C, "
-                         f"frequency_Hz) = ({row['temperature_C']:g}, {row['frequency_Hz']:g}); expected one "
-                         "row per (temperature, frequency)")
+        raise InputError(
+            f"{path}: lines {', '.join(str(_line(i)) for i in dup)}: repeated (temperature_C, "
+            f"frequency_Hz) = ({row['temperature_C']:g}, {row['frequency_Hz']:g}); expected one "
+            "row per (temperature, frequency)"
+        )
     return frame

@@ -50,8 +50,12 @@ MODULUS_UNITS = {"MPa": 1.0, "GPa": 1e3, "kPa": 1e-3, "ksi": 6.894757293168361, 
 TEMPERATURE_UNITS = ("C", "F")
 MODULUS_FORMS = ("norm_phase", "storage_loss")
 #: the data-quality indicators a table may carry (AASHTO T 378; limits: asphalt_nscd.lab.checks.LIMITS)
-QUALITY_INDICATORS = ("load_standard_error_pct", "deformation_standard_error_pct", "deformation_uniformity_pct",
-                      "phase_uniformity_deg")
+QUALITY_INDICATORS = (
+    "load_standard_error_pct",
+    "deformation_standard_error_pct",
+    "deformation_uniformity_pct",
+    "phase_uniformity_deg",
+)
 #: the quantities a table maps to the project's columns
 QUANTITIES = ("specimen", "temperature", "frequency", "modulus", "phase", "storage", "loss", "strain", "test_order")
 #: common header names of each quantity in AASHTO, EN and lab tables (compared without case,
@@ -60,8 +64,17 @@ ALIASES = {
     "specimen": ["specimen", "specimenid", "sample", "sampleid", "replicate", "rep", "specimenno", "id"],
     "temperature": ["temperature", "temp", "testtemperature", "t", "temperaturec", "temperaturef", "tempc", "tempf"],
     "frequency": ["frequency", "freq", "frequencyhz", "f", "loadingfrequency"],
-    "modulus": ["enorm", "enormmpa", "e", "dynamicmodulus", "complexmodulus", "modulus", "estar",
-                "normofthecomplexmodulus", "absestar"],
+    "modulus": [
+        "enorm",
+        "enormmpa",
+        "e",
+        "dynamicmodulus",
+        "complexmodulus",
+        "modulus",
+        "estar",
+        "normofthecomplexmodulus",
+        "absestar",
+    ],
     "phase": ["phase", "phasedeg", "phaseangle", "phi", "delta", "phaseangledeg"],
     "storage": ["e1", "estorage", "storagemodulus", "eprime", "e1mpa"],
     "loss": ["e2", "eloss", "lossmodulus", "edoubleprime", "e2mpa"],
@@ -69,9 +82,15 @@ ALIASES = {
     "test_order": ["testorder", "order", "sequence", "testno"],
 }
 #: the project's own column of each quantity
-OWN_COLUMNS = {"specimen": "specimen", "temperature": "temperature_C", "frequency": "frequency_Hz",
-               "modulus": "E_norm_MPa", "phase": "phase_deg", "strain": "strain_microstrain",
-               "test_order": "test_order"}
+OWN_COLUMNS = {
+    "specimen": "specimen",
+    "temperature": "temperature_C",
+    "frequency": "frequency_Hz",
+    "modulus": "E_norm_MPa",
+    "phase": "phase_deg",
+    "strain": "strain_microstrain",
+    "test_order": "test_order",
+}
 
 
 def _key(name: str) -> str:
@@ -105,41 +124,58 @@ class TableFormat:
         form, or a column map that is not {quantity: header}.
         """
         if not isinstance(obj, dict):
-            raise InputError(f"{where}: key 'table': expected an object with modulus_unit, temperature_unit, "
-                             "modulus_form, columns")
+            raise InputError(
+                f"{where}: key 'table': expected an object with modulus_unit, temperature_unit, modulus_form, columns"
+            )
         allowed = {"modulus_unit", "temperature_unit", "modulus_form", "columns", "quality", "quality_limits"}
         extra = sorted(set(obj) - allowed)
         if extra:
             raise InputError(f"{where}: key 'table.{extra[0]}': unknown key; allowed: {sorted(allowed)}")
-        for key, choices in (("modulus_unit", list(MODULUS_UNITS)), ("temperature_unit", list(TEMPERATURE_UNITS)),
-                             ("modulus_form", list(MODULUS_FORMS))):
+        for key, choices in (
+            ("modulus_unit", list(MODULUS_UNITS)),
+            ("temperature_unit", list(TEMPERATURE_UNITS)),
+            ("modulus_form", list(MODULUS_FORMS)),
+        ):
             if key not in obj:
                 raise InputError(f"{where}: key 'table.{key}' missing; expected one of {choices}")
             if obj[key] not in choices:
                 raise InputError(f"{where}: key 'table.{key}': {obj[key]!r} is not one of {choices}")
         cols = obj.get("columns", {})
         if not isinstance(cols, dict) or not all(isinstance(v, str) for v in cols.values()):
-            raise InputError(f"{where}: key 'table.columns': expected {{quantity: header}} with quantities "
-                             f"{list(QUANTITIES)}")
+            raise InputError(
+                f"{where}: key 'table.columns': expected {{quantity: header}} with quantities {list(QUANTITIES)}"
+            )
         bad = sorted(set(cols) - set(QUANTITIES))
         if bad:
-            raise InputError(f"{where}: key 'table.columns.{bad[0]}': unknown quantity; expected one of "
-                             f"{list(QUANTITIES)}")
+            raise InputError(
+                f"{where}: key 'table.columns.{bad[0]}': unknown quantity; expected one of {list(QUANTITIES)}"
+            )
         quality = obj.get("quality", {})
         if not isinstance(quality, dict) or not all(isinstance(v, str) for v in quality.values()):
-            raise InputError(f"{where}: key 'table.quality': expected {{indicator: header}} with indicators "
-                             f"{list(QUALITY_INDICATORS)}")
+            raise InputError(
+                f"{where}: key 'table.quality': expected {{indicator: header}} with indicators "
+                f"{list(QUALITY_INDICATORS)}"
+            )
         limits = obj.get("quality_limits", {})
         for key, block in (("quality", quality), ("quality_limits", limits)):
             bad = sorted(set(block) - set(QUALITY_INDICATORS)) if isinstance(block, dict) else ["(not an object)"]
             if bad:
-                raise InputError(f"{where}: key 'table.{key}.{bad[0]}': unknown indicator; expected one of "
-                                 f"{list(QUALITY_INDICATORS)}")
+                raise InputError(
+                    f"{where}: key 'table.{key}.{bad[0]}': unknown indicator; expected one of "
+                    f"{list(QUALITY_INDICATORS)}"
+                )
         for k, v in limits.items():
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not (v > 0 and math.isfinite(v)):
                 raise InputError(f"{where}: key 'table.quality_limits.{k}': expected a positive number, got {v!r}")
-        return cls(obj["modulus_unit"], obj["temperature_unit"], obj["modulus_form"], dict(cols), where,
-                   dict(quality), {k: float(v) for k, v in limits.items()})
+        return cls(
+            obj["modulus_unit"],
+            obj["temperature_unit"],
+            obj["modulus_form"],
+            dict(cols),
+            where,
+            dict(quality),
+            {k: float(v) for k, v in limits.items()},
+        )
 
     def needed(self) -> tuple:
         """Quantities the table must give."""
@@ -155,8 +191,10 @@ class TableFormat:
         if quantity in self.columns:
             name = self.columns[quantity]
             if name not in header:
-                raise InputError(f"{self.where}: key 'table.columns.{quantity}': column {name!r} is not in the "
-                                 f"table's header {list(header)}")
+                raise InputError(
+                    f"{self.where}: key 'table.columns.{quantity}': column {name!r} is not in the "
+                    f"table's header {list(header)}"
+                )
             return name
         keys = {_key(h): h for h in reversed(list(header))}
         for alias in ALIASES[quantity]:
@@ -193,9 +231,11 @@ def to_own_columns(frame: pd.DataFrame, fmt: TableFormat, path) -> tuple[pd.Data
         col = fmt.find(frame.columns, q)
         if col is None:
             if q in fmt.needed():
-                raise InputError(f"{path}: no column for the {q} ({'|'.join(ALIASES[q][:4])}, ...) in the header "
-                                 f"{list(frame.columns)}; map it in {fmt.where or 'the sidecar'} key "
-                                 f"'table.columns.{q}'")
+                raise InputError(
+                    f"{path}: no column for the {q} ({'|'.join(ALIASES[q][:4])}, ...) in the header "
+                    f"{list(frame.columns)}; map it in {fmt.where or 'the sidecar'} key "
+                    f"'table.columns.{q}'"
+                )
             continue
         found[q] = col
     _check_columns(found, fmt, path)
@@ -205,8 +245,10 @@ def to_own_columns(frame: pd.DataFrame, fmt: TableFormat, path) -> tuple[pd.Data
         v = pd.to_numeric(frame[col].str.strip(), errors="coerce").to_numpy(float)
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
-            raise InputError(f"{path}: line {int(bad[0]) + 2}, column '{col}': value {frame[col].iloc[bad[0]]!r} is "
-                             f"not a number; expected the {q} in {_unit(fmt, q)}")
+            raise InputError(
+                f"{path}: line {int(bad[0]) + 2}, column '{col}': value {frame[col].iloc[bad[0]]!r} is "
+                f"not a number; expected the {q} in {_unit(fmt, q)}"
+            )
         return v
 
     T = number("temperature")
@@ -219,9 +261,12 @@ def to_own_columns(frame: pd.DataFrame, fmt: TableFormat, path) -> tuple[pd.Data
         E1, E2 = number("storage") * scale, number("loss") * scale
         E, P = np.hypot(E1, E2), np.degrees(np.arctan2(E2, E1))
     values = {"temperature_C": T, "E_norm_MPa": E, "phase_deg": P, "frequency_Hz": number("frequency")}
-    sources = {"temperature_C": "temperature", "frequency_Hz": "frequency",
-               "E_norm_MPa": "modulus" if fmt.modulus_form == "norm_phase" else "storage",
-               "phase_deg": "phase" if fmt.modulus_form == "norm_phase" else "loss"}
+    sources = {
+        "temperature_C": "temperature",
+        "frequency_Hz": "frequency",
+        "E_norm_MPa": "modulus" if fmt.modulus_form == "norm_phase" else "storage",
+        "phase_deg": "phase" if fmt.modulus_form == "norm_phase" else "loss",
+    }
     for own, v in values.items():
         src = found[sources[own]]
         if src == own:
@@ -234,13 +279,17 @@ def to_own_columns(frame: pd.DataFrame, fmt: TableFormat, path) -> tuple[pd.Data
             labels[OWN_COLUMNS[q]] = f"{OWN_COLUMNS[q]} (from '{found[q]}')"
     for indicator, col in fmt.quality.items():
         if col not in frame.columns:
-            raise InputError(f"{fmt.where or path}: key 'table.quality.{indicator}': column {col!r} is not in the "
-                             f"table's header {list(frame.columns)}")
+            raise InputError(
+                f"{fmt.where or path}: key 'table.quality.{indicator}': column {col!r} is not in the "
+                f"table's header {list(frame.columns)}"
+            )
         v = pd.to_numeric(frame[col].str.strip(), errors="coerce")
         bad = np.flatnonzero(v.isna().to_numpy() & (frame[col].str.strip() != "").to_numpy())
         if bad.size:
-            raise InputError(f"{path}: line {int(bad[0]) + 2}, column '{col}': value {frame[col].iloc[bad[0]]!r} is "
-                             f"not a number; expected the data-quality indicator {indicator}")
+            raise InputError(
+                f"{path}: line {int(bad[0]) + 2}, column '{col}': value {frame[col].iloc[bad[0]]!r} is "
+                f"not a number; expected the data-quality indicator {indicator}"
+            )
         out[f"quality_{indicator}"] = v.to_numpy(float)
     return out, labels
 
@@ -269,22 +318,37 @@ def _check_columns(found: dict, fmt: TableFormat, path) -> None:
     seen: dict[str, str] = {}
     for q, col in found.items():
         if col in seen:
-            raise InputError(f"{path}: column '{col}' is mapped to both the {seen[col]} and the {q} "
-                             f"({fmt.where or 'the sidecar'} key 'table.columns'); one column per quantity")
+            raise InputError(
+                f"{path}: column '{col}' is mapped to both the {seen[col]} and the {q} "
+                f"({fmt.where or 'the sidecar'} key 'table.columns'); one column per quantity"
+            )
         seen[col] = q
     for q, col in found.items():
-        declared = fmt.temperature_unit if q == "temperature" else fmt.modulus_unit if q in ("modulus", "storage",
-                                                                                             "loss") else None
+        declared = (
+            fmt.temperature_unit
+            if q == "temperature"
+            else fmt.modulus_unit
+            if q in ("modulus", "storage", "loss")
+            else None
+        )
         named = header_unit(col, q)
         if declared is not None and named is not None and named != declared:
             key = "temperature_unit" if q == "temperature" else "modulus_unit"
-            raise InputError(f"{path}: column '{col}' names the unit {named}, but {fmt.where or 'the sidecar'} key "
-                             f"'table.{key}' declares {declared}; declare the column's unit (or map another column)")
+            raise InputError(
+                f"{path}: column '{col}' names the unit {named}, but {fmt.where or 'the sidecar'} key "
+                f"'table.{key}' declares {declared}; declare the column's unit (or map another column)"
+            )
 
 
 def _unit(fmt: TableFormat, q: str) -> str:
-    return {"temperature": f"deg{fmt.temperature_unit}", "modulus": fmt.modulus_unit, "storage": fmt.modulus_unit,
-            "loss": fmt.modulus_unit, "phase": "degrees", "frequency": "Hz"}.get(q, "the table's unit")
+    return {
+        "temperature": f"deg{fmt.temperature_unit}",
+        "modulus": fmt.modulus_unit,
+        "storage": fmt.modulus_unit,
+        "loss": fmt.modulus_unit,
+        "phase": "degrees",
+        "frequency": "Hz",
+    }.get(q, "the table's unit")
 
 
 @dataclass(frozen=True)
@@ -312,8 +376,11 @@ class DisplayUnits:
 
     def modulus_value(self, E_MPa):
         """|E*| in the lab's unit from MPa (scalar or array)."""
-        return np.asarray(E_MPa, float) / MODULUS_UNITS[self.modulus] if np.ndim(E_MPa) else \
-            float(E_MPa) / MODULUS_UNITS[self.modulus]
+        return (
+            np.asarray(E_MPa, float) / MODULUS_UNITS[self.modulus]
+            if np.ndim(E_MPa)
+            else float(E_MPa) / MODULUS_UNITS[self.modulus]
+        )
 
     def temperature_value(self, T_C):
         """Temperature in the lab's unit from degC (scalar or array)."""

@@ -41,9 +41,33 @@ CLI: ``asphalt-nscd verify -o verify.json``, ``asphalt-nscd bench --case bonded|
 
 from .checkpoint import read_checkpoint, write_checkpoint
 from .moreau_jean import Simulation
-from .state import (DRIVEN, FIXED, FREE, YIELD_STRESS, Bonds, NSCDParameters, Plate, Plates,
-                    Spheres, StepStats, local_frames)
+from .state import (
+    DRIVEN,
+    FIXED,
+    FREE,
+    YIELD_STRESS,
+    Bonds,
+    NSCDParameters,
+    Plate,
+    Plates,
+    Spheres,
+    StepStats,
+    local_frames,
+)
 
-__all__ = ["Simulation", "Spheres", "Plate", "Plates", "Bonds", "NSCDParameters", "StepStats",
-           "local_frames", "read_checkpoint", "write_checkpoint", "FIXED", "FREE", "DRIVEN",
-           "YIELD_STRESS"]
+__all__ = [
+    "Simulation",
+    "Spheres",
+    "Plate",
+    "Plates",
+    "Bonds",
+    "NSCDParameters",
+    "StepStats",
+    "local_frames",
+    "read_checkpoint",
+    "write_checkpoint",
+    "FIXED",
+    "FREE",
+    "DRIVEN",
+    "YIELD_STRESS",
+]

@@ -33,6 +33,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 def _probe() -> bool:
     try:
+
         @njit(_nrt=False)  # type: ignore[call-overload]  # a private option that numba's typing does not declare
         def _f(a):
             return a[0]
@@ -52,6 +53,7 @@ _OPTS = {"_nrt": False} if NO_NRT else {}
 def kernel(fn=None, **kw):
     """``numba.njit(cache=True)`` without NRT (module docstring); extra njit options in kw
     (e.g. parallel=True)."""
+
     def deco(f):
         return njit(cache=True, **_OPTS, **kw)(f)
 

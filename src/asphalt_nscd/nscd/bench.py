@@ -43,8 +43,9 @@ BOX = (0.056, 0.025, 0.250)  # m: bounding box of the trapezoid (B, e, h)
 DRIVE_HZ = 40.0  # Hz: head motion of the bonded case (amplitude HEAD_AMPLITUDE_M)
 
 
-def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
-                  density: float = 3415.0) -> tuple[Spheres, Plates, Bonds]:
+def bonded_sample(
+    n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C, density: float = 3415.0
+) -> tuple[Spheres, Plates, Bonds]:
     """Spheres, plates and bonds of the bench's 2PB-like sample (see module docstring)."""
     rng = np.random.default_rng(seed)
     vol = BOX[0] * BOX[1] * BOX[2]
@@ -59,15 +60,21 @@ def bonded_sample(n: int, seed: int = 0, d_min: float = 2e-3, law=LAW_15C,
     # top plate just above the highest sphere (the last lattice layer may be partial)
     z_top = float((pos[:, 2] + rad).max()) + 0.1 * pitch
     omega, amp = 2 * np.pi * DRIVE_HZ, HEAD_AMPLITUDE_M
-    plates = Plates([
-        Plate([0, 0, 0], [0, 0, 1]),
-        Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
-              displacement=lambda t: np.array([amp * np.sin(omega * t), 0.0, 0.0])),
-    ])
+    plates = Plates(
+        [
+            Plate([0, 0, 0], [0, 0, 1]),
+            Plate(
+                [0, 0, z_top],
+                [0, 0, -1],
+                mode="driven",
+                mass=0.235,
+                displacement=lambda t: np.array([amp * np.sin(omega * t), 0.0, 0.0]),
+            ),
+        ]
+    )
     i, j, _ = sphere_pairs(s.position, s.radius, d_min)
     pi_, pk, _ = plate_pairs(s.position, s.radius, plates.point, plates.normal, d_min)
-    bonds = Bonds.create(s, plates, np.concatenate([i, pi_]), np.concatenate([j, -1 - pk]),
-                         law)
+    bonds = Bonds.create(s, plates, np.concatenate([i, pi_]), np.concatenate([j, -1 - pk]), law)
     return s, plates, bonds
 
 
@@ -84,9 +91,15 @@ def granular_sample(n: int, seed: int = 0, density: float = 2600.0):
     rad = rng.uniform(1e-3, r_max, n)
     s = Spheres.from_density(pos, rad, density)
     lx, ly = nx * pitch, ny * pitch
-    plates = Plates([Plate([0, 0, 0], [0, 0, 1]), Plate([0, 0, 0], [1, 0, 0]),
-                     Plate([lx, 0, 0], [-1, 0, 0]), Plate([0, 0, 0], [0, 1, 0]),
-                     Plate([0, ly, 0], [0, -1, 0])])
+    plates = Plates(
+        [
+            Plate([0, 0, 0], [0, 0, 1]),
+            Plate([0, 0, 0], [1, 0, 0]),
+            Plate([lx, 0, 0], [-1, 0, 0]),
+            Plate([0, 0, 0], [0, 1, 0]),
+            Plate([0, ly, 0], [0, -1, 0]),
+        ]
+    )
     return s, plates
 
 
@@ -154,12 +167,24 @@ def _timed_alternating(sims, steps, chunk=5):
     return cpu, [float(np.mean(x)) for x in its]
 
 
-def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
-              tolerance: float = 1e-7, settle_steps: int = 5000, seed: int = 0,
-              linear_tolerance: float = 1e-7, bond_kinematics: str = "contact",
-              threads: int = 1, settle_speed: float = 5e-3,
-              linear_solver: str = "cg", bonded_contact: str = "after_break",
-              start: str = "rest", ssor_omega: float | None = None, starter=None) -> dict:
+def run_bench(
+    case: str,
+    n: int,
+    steps: int = 20,
+    baseline_steps: int = 5,
+    tolerance: float = 1e-7,
+    settle_steps: int = 5000,
+    seed: int = 0,
+    linear_tolerance: float = 1e-7,
+    bond_kinematics: str = "contact",
+    threads: int = 1,
+    settle_speed: float = 5e-3,
+    linear_solver: str = "cg",
+    bonded_contact: str = "after_break",
+    start: str = "rest",
+    ssor_omega: float | None = None,
+    starter=None,
+) -> dict:
     """Run one benchmark and return its JSON-able record (see module docstring).
 
     ``linear_tolerance``: relative residual of the conjugate gradient of the bonded case
@@ -200,114 +225,193 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
         raise InputError(f"--n must be >= 2 and --steps >= 1 (got {n}, {steps})")
     max_threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set by numba at run time, undeclared
     if not 1 <= threads <= max_threads:
-        raise InputError(f"--threads must lie in [1, {max_threads}] "
-                         f"(NUMBA_NUM_THREADS), got {threads}")
+        raise InputError(f"--threads must lie in [1, {max_threads}] (NUMBA_NUM_THREADS), got {threads}")
     if not settle_speed > 0:
         raise InputError(f"--settle-speed must be > 0 m/s, got {settle_speed}")
     comp = compile_time()
     t0 = time.perf_counter()
-    rec: dict = {"case": case, "n_particles": int(n), "steps": int(steps),
-                 "tolerance": tolerance, "threads": int(threads),
-                 "numba_threads_available": int(max_threads),
-                 "compile_s": comp, "seed": seed, "bond_kinematics": bond_kinematics,
-                 "bonded_contact": bonded_contact, "start": start,
-                 "cpu": platform.processor() or platform.machine(),
-                 "python": platform.python_version(), "numba": numba.__version__}
+    rec: dict = {
+        "case": case,
+        "n_particles": int(n),
+        "steps": int(steps),
+        "tolerance": tolerance,
+        "threads": int(threads),
+        "numba_threads_available": int(max_threads),
+        "compile_s": comp,
+        "seed": seed,
+        "bond_kinematics": bond_kinematics,
+        "bonded_contact": bonded_contact,
+        "start": start,
+        "cpu": platform.processor() or platform.machine(),
+        "python": platform.python_version(),
+        "numba": numba.__version__,
+    }
     if case == "bonded":
         gravity = (0.0, 0.0, -9.81) if start == "rest" else (0.0, 0.0, 0.0)
         make_sim = (starter or _at_rest)(start, rec)
         s, plates, bonds = bonded_sample(n, seed=seed)
         ssor: dict[str, Any] = {} if ssor_omega is None else {"linear_ssor_omega": ssor_omega}
-        params = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
-                                max_iterations=5000, fast_path=True,
-                                linear_tolerance=linear_tolerance, linear_solver=linear_solver,
-                                bond_kinematics=bond_kinematics, threads=threads,
-                                bonded_contact=bonded_contact, gravity=gravity, **ssor)
+        params = NSCDParameters(
+            dt=5e-5,
+            theta=0.5,
+            friction=0.7,
+            tolerance=tolerance,
+            max_iterations=5000,
+            fast_path=True,
+            linear_tolerance=linear_tolerance,
+            linear_solver=linear_solver,
+            bond_kinematics=bond_kinematics,
+            threads=threads,
+            bonded_contact=bonded_contact,
+            gravity=gravity,
+            **ssor,
+        )
         sim = make_sim(s, plates, bonds, params)
         sim.step()  # first factorisation
         rec["setup_s"] = time.perf_counter() - t0
         nnz = sim._linear.nnz_factor if sim._linear else 0
         rec["factor_nnz"] = None if nnz is None else int(nnz)
         wall, wall_clock, df, br = _timed(sim, steps)
-        rec.update(n_bonds=int(bonds.n), solver=str(df.solver.mode()[0]),
-                   wall_s_per_particle_step=wall_clock / (steps * n),
-                   linear_solver=params.linear_solver,
-                   linear_tolerance=params.linear_tolerance,
-                   linear_ssor_omega=params.linear_ssor_omega,
-                   n_contacts=int(df.n_contacts.iloc[-1]),
-                   n_active_contacts=int(df.n_active_contacts.iloc[-1]),
-                   s_per_particle_step=wall / (steps * n),
-                   nlgs_iterations_mean=float(df.iterations.mean()), time_breakdown=br)
+        rec.update(
+            n_bonds=int(bonds.n),
+            solver=str(df.solver.mode()[0]),
+            wall_s_per_particle_step=wall_clock / (steps * n),
+            linear_solver=params.linear_solver,
+            linear_tolerance=params.linear_tolerance,
+            linear_ssor_omega=params.linear_ssor_omega,
+            n_contacts=int(df.n_contacts.iloc[-1]),
+            n_active_contacts=int(df.n_active_contacts.iloc[-1]),
+            s_per_particle_step=wall / (steps * n),
+            nlgs_iterations_mean=float(df.iterations.mean()),
+            time_breakdown=br,
+        )
         rec["peak_rss_mb_production"] = _peak_rss_mb()  # before the references below
         if linear_solver != "cg":  # the block-Jacobi kernel on a copy, alternating chunks
             s5, plates5, bonds5 = bonded_sample(n, seed=seed)
-            sim5 = make_sim(s5, plates5, bonds5, NSCDParameters(
-                dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
-                fast_path=True, linear_tolerance=linear_tolerance, linear_solver="cg",
-                bond_kinematics=bond_kinematics, threads=threads,
-                bonded_contact=bonded_contact, gravity=gravity))
+            sim5 = make_sim(
+                s5,
+                plates5,
+                bonds5,
+                NSCDParameters(
+                    dt=5e-5,
+                    theta=0.5,
+                    friction=0.7,
+                    tolerance=tolerance,
+                    max_iterations=5000,
+                    fast_path=True,
+                    linear_tolerance=linear_tolerance,
+                    linear_solver="cg",
+                    bond_kinematics=bond_kinematics,
+                    threads=threads,
+                    bonded_contact=bonded_contact,
+                    gravity=gravity,
+                ),
+            )
             sim5.step()
             s6, plates6, bonds6 = bonded_sample(n, seed=seed)
             sim6 = make_sim(s6, plates6, bonds6, params)
             sim6.step()
             cpu_pair, it_pair = _timed_alternating([sim6, sim5], steps)
-            rec.update(alternating_s_per_particle_step=cpu_pair[0] / (steps * n),
-                       cg_s_per_particle_step=cpu_pair[1] / (steps * n),
-                       cg_iterations_mean=it_pair[1], speedup_vs_cg=cpu_pair[1] / cpu_pair[0],
-                       cg_max_force_difference=float(
-                           np.abs(bonds6.force - bonds5.force).max()
-                           / (float(np.abs(bonds5.force).max()) or 1.0)))
+            rec.update(
+                alternating_s_per_particle_step=cpu_pair[0] / (steps * n),
+                cg_s_per_particle_step=cpu_pair[1] / (steps * n),
+                cg_iterations_mean=it_pair[1],
+                speedup_vs_cg=cpu_pair[1] / cpu_pair[0],
+                cg_max_force_difference=float(
+                    np.abs(bonds6.force - bonds5.force).max() / (float(np.abs(bonds5.force).max()) or 1.0)
+                ),
+            )
             del sim5, s5, plates5, bonds5, sim6, s6, plates6, bonds6
         if threads > 1:  # same steps on one thread, wall time compared
             s4, plates4, bonds4 = bonded_sample(n, seed=seed)
-            sim4 = make_sim(s4, plates4, bonds4, NSCDParameters(
-                dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance, max_iterations=5000,
-                fast_path=True, linear_tolerance=linear_tolerance,
-                bond_kinematics=bond_kinematics, threads=1, bonded_contact=bonded_contact,
-                gravity=gravity))
+            sim4 = make_sim(
+                s4,
+                plates4,
+                bonds4,
+                NSCDParameters(
+                    dt=5e-5,
+                    theta=0.5,
+                    friction=0.7,
+                    tolerance=tolerance,
+                    max_iterations=5000,
+                    fast_path=True,
+                    linear_tolerance=linear_tolerance,
+                    bond_kinematics=bond_kinematics,
+                    threads=1,
+                    bonded_contact=bonded_contact,
+                    gravity=gravity,
+                ),
+            )
             sim4.step()
             _, wall4, _, _ = _timed(sim4, steps)
-            rec.update(threads1_wall_s_per_particle_step=wall4 / (steps * n),
-                       thread_speedup=wall4 / wall_clock,
-                       threads_max_force_difference=float(
-                           np.abs(bonds.force - bonds4.force).max()
-                           / (float(np.abs(bonds4.force).max()) or 1.0)))
+            rec.update(
+                threads1_wall_s_per_particle_step=wall4 / (steps * n),
+                thread_speedup=wall4 / wall_clock,
+                threads_max_force_difference=float(
+                    np.abs(bonds.force - bonds4.force).max() / (float(np.abs(bonds4.force).max()) or 1.0)
+                ),
+            )
             del sim4, s4, plates4, bonds4
         # reference: direct (SuperLU) linear solver on the same sample, same steps
         s3, plates3, bonds3 = bonded_sample(n, seed=seed)
         t3 = time.perf_counter()
-        sim3 = make_sim(s3, plates3, bonds3, NSCDParameters(
-            dt=5e-5, theta=0.5, friction=0.7, fast_path=True, linear_solver="direct",
-            bond_kinematics=bond_kinematics, bonded_contact=bonded_contact, gravity=gravity))
+        sim3 = make_sim(
+            s3,
+            plates3,
+            bonds3,
+            NSCDParameters(
+                dt=5e-5,
+                theta=0.5,
+                friction=0.7,
+                fast_path=True,
+                linear_solver="direct",
+                bond_kinematics=bond_kinematics,
+                bonded_contact=bonded_contact,
+                gravity=gravity,
+            ),
+        )
         sim3.step()  # factorisation
         direct_setup = time.perf_counter() - t3
         cpu3, _, _, _ = _timed(sim3, steps)
         scale = float(np.abs(bonds3.force).max()) or 1.0
         nnz3 = sim3._linear.nnz_factor
-        rec.update(direct_setup_s=direct_setup, direct_factor_nnz=None if nnz3 is None else int(nnz3),
-                   direct_factorisation=sim3.params.direct_factorisation,
-                   direct_s_per_particle_step=cpu3 / (steps * n),
-                   direct_vs_cg_max_force_difference=float(
-                       np.abs(bonds.force - bonds3.force).max() / scale))
+        rec.update(
+            direct_setup_s=direct_setup,
+            direct_factor_nnz=None if nnz3 is None else int(nnz3),
+            direct_factorisation=sim3.params.direct_factorisation,
+            direct_s_per_particle_step=cpu3 / (steps * n),
+            direct_vs_cg_max_force_difference=float(np.abs(bonds.force - bonds3.force).max() / scale),
+        )
         del sim3, s3, plates3, bonds3
         # baseline: NLGS on the same sample, same state
         s2, plates2, bonds2 = bonded_sample(n, seed=seed)
-        params2 = NSCDParameters(dt=5e-5, theta=0.5, friction=0.7, tolerance=tolerance,
-                                 max_iterations=20000, fast_path=False,
-                                 bond_kinematics=bond_kinematics,
-                                 bonded_contact=bonded_contact, gravity=gravity)
+        params2 = NSCDParameters(
+            dt=5e-5,
+            theta=0.5,
+            friction=0.7,
+            tolerance=tolerance,
+            max_iterations=20000,
+            fast_path=False,
+            bond_kinematics=bond_kinematics,
+            bonded_contact=bonded_contact,
+            gravity=gravity,
+        )
         sim2 = make_sim(s2, plates2, bonds2, params2)
         wall2, _, df2, br2 = _timed(sim2, baseline_steps)
-        rec.update(baseline_solver="nlgs", baseline_steps=int(baseline_steps),
-                   baseline_s_per_particle_step=wall2 / (baseline_steps * n),
-                   baseline_nlgs_iterations_mean=float(df2.iterations.mean()),
-                   baseline_converged=bool(df2.converged.all()),
-                   baseline_time_breakdown=br2,
-                   speedup=(wall2 / (baseline_steps * n)) / (wall / (steps * n)))
+        rec.update(
+            baseline_solver="nlgs",
+            baseline_steps=int(baseline_steps),
+            baseline_s_per_particle_step=wall2 / (baseline_steps * n),
+            baseline_nlgs_iterations_mean=float(df2.iterations.mean()),
+            baseline_converged=bool(df2.converged.all()),
+            baseline_time_breakdown=br2,
+            speedup=(wall2 / (baseline_steps * n)) / (wall / (steps * n)),
+        )
     else:
         s, plates = granular_sample(n, seed=seed)
-        params = NSCDParameters(dt=2e-4, theta=0.5, friction=0.2, tolerance=tolerance,
-                                max_iterations=5000, threads=threads)
+        params = NSCDParameters(
+            dt=2e-4, theta=0.5, friction=0.2, tolerance=tolerance, max_iterations=5000, threads=threads
+        )
         sim = Simulation(s, plates, None, params)
         done, sweeps, speed = 0, [], np.inf
         c = time.process_time()
@@ -315,23 +419,32 @@ def run_bench(case: str, n: int, steps: int = 20, baseline_steps: int = 5,
             k = min(50, settle_steps - done)
             sweeps.extend(sim.run(k).iterations.tolist())
             done += k
-            speed = float(np.sqrt((s.velocity ** 2).sum(1)).max())
+            speed = float(np.sqrt((s.velocity**2).sum(1)).max())
             if speed < settle_speed:
                 break
         settle_cpu = time.process_time() - c
         rec["setup_s"] = time.perf_counter() - t0
-        rec.update(settle_steps=int(done), settle_speed=settle_speed,
-                   settled=bool(speed < settle_speed), settle_final_speed=speed,
-                   settle_s_per_particle_step=settle_cpu / max(done, 1) / n,
-                   settle_nlgs_iterations_mean=float(np.mean(sweeps)) if sweeps else 0.0,
-                   settle_nlgs_iterations_max=int(max(sweeps)) if sweeps else 0)
+        rec.update(
+            settle_steps=int(done),
+            settle_speed=settle_speed,
+            settled=bool(speed < settle_speed),
+            settle_final_speed=speed,
+            settle_s_per_particle_step=settle_cpu / max(done, 1) / n,
+            settle_nlgs_iterations_mean=float(np.mean(sweeps)) if sweeps else 0.0,
+            settle_nlgs_iterations_max=int(max(sweeps)) if sweeps else 0,
+        )
         wall, wall_clock, df, br = _timed(sim, steps)
-        rec.update(n_bonds=0, solver="nlgs", wall_s_per_particle_step=wall_clock / (steps * n),
-                   n_contacts=int(df.n_contacts.iloc[-1]),
-                   n_active_contacts=int(df.n_active_contacts.iloc[-1]),
-                   s_per_particle_step=wall / (steps * n),
-                   nlgs_iterations_mean=float(df.iterations.mean()),
-                   converged_fraction=float(df.converged.mean()), time_breakdown=br)
+        rec.update(
+            n_bonds=0,
+            solver="nlgs",
+            wall_s_per_particle_step=wall_clock / (steps * n),
+            n_contacts=int(df.n_contacts.iloc[-1]),
+            n_active_contacts=int(df.n_active_contacts.iloc[-1]),
+            s_per_particle_step=wall / (steps * n),
+            nlgs_iterations_mean=float(df.iterations.mean()),
+            converged_fraction=float(df.converged.mean()),
+            time_breakdown=br,
+        )
     rec["peak_rss_mb"] = _peak_rss_mb()
     rec["load_average_1min"] = float(os.getloadavg()[0])
     return rec

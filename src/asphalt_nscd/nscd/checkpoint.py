@@ -20,14 +20,47 @@ from ..io import InputError, atomic_path
 from .state import DRIVEN, Bonds, NSCDParameters, Plate, Plates, Spheres
 
 _SPHERE = ("position", "radius", "mass", "inertia", "velocity", "angular_velocity")
-_PLATE = ("point", "point0", "normal", "mass", "mode", "velocity", "rotates", "inertia",
-          "angular_velocity", "rotation")
-_BOND = ("i", "j", "delta0", "l0", "r_min", "frame", "rest", "Km", "Cm", "Kk", "Ck", "Kinf",
-         "r_crit", "arm_i", "arm_j", "displacement", "force", "delta_c", "delta_k", "broken")
-_PARAMS = ("dt", "theta", "gravity", "friction", "tolerance", "convergence", "max_iterations",
-           "relaxation",
-           "alert_distance", "fast_path", "linear_solver", "linear_tolerance", "bond_kinematics", "bonded_contact",
-           "fast_path_contacts", "direct_factorisation")
+_PLATE = ("point", "point0", "normal", "mass", "mode", "velocity", "rotates", "inertia", "angular_velocity", "rotation")
+_BOND = (
+    "i",
+    "j",
+    "delta0",
+    "l0",
+    "r_min",
+    "frame",
+    "rest",
+    "Km",
+    "Cm",
+    "Kk",
+    "Ck",
+    "Kinf",
+    "r_crit",
+    "arm_i",
+    "arm_j",
+    "displacement",
+    "force",
+    "delta_c",
+    "delta_k",
+    "broken",
+)
+_PARAMS = (
+    "dt",
+    "theta",
+    "gravity",
+    "friction",
+    "tolerance",
+    "convergence",
+    "max_iterations",
+    "relaxation",
+    "alert_distance",
+    "fast_path",
+    "linear_solver",
+    "linear_tolerance",
+    "bond_kinematics",
+    "bonded_contact",
+    "fast_path_contacts",
+    "direct_factorisation",
+)
 
 
 def write_checkpoint(sim, path) -> None:
@@ -108,10 +141,17 @@ def read_checkpoint(path, drivers=None, external_force=None):
                 else:
                     raise InputError(f"{path}: plate {k} is driven; pass its driver in drivers")
             name = {0: "fixed", 1: "free", 2: "driven"}[int(mode[k])]
-            plate_list.append(Plate(point=gp["point0"][k], normal=gp["normal"][k], mode=name,
-                                    mass=float(gp["mass"][k]), displacement=drv,
-                                    rotation=bool(gp["rotates"][k]),
-                                    inertia=gp["inertia"][k]))
+            plate_list.append(
+                Plate(
+                    point=gp["point0"][k],
+                    normal=gp["normal"][k],
+                    mode=name,
+                    mass=float(gp["mass"][k]),
+                    displacement=drv,
+                    rotation=bool(gp["rotates"][k]),
+                    inertia=gp["inertia"][k],
+                )
+            )
         plates = Plates(plate_list)
         plates.point[:] = gp["point"][()]
         plates.velocity[:] = gp["velocity"][()]
@@ -121,8 +161,11 @@ def read_checkpoint(path, drivers=None, external_force=None):
         bonds = Bonds(**{k: gb[k][()] for k in _BOND}, law=json.loads(gb.attrs["law"]))
         # checkpoints written before bonded_contact existed ran with the former behaviour
         # (and before fast_path_contacts existed, with every closing contact sent to NLGS)
-        pa = {k: f["params"].attrs[k] for k in _PARAMS
-              if k not in ("bonded_contact", "fast_path_contacts", "direct_factorisation")}
+        pa = {
+            k: f["params"].attrs[k]
+            for k in _PARAMS
+            if k not in ("bonded_contact", "fast_path_contacts", "direct_factorisation")
+        }
         pa["bonded_contact"] = str(f["params"].attrs.get("bonded_contact", "always"))
         pa["fast_path_contacts"] = int(f["params"].attrs.get("fast_path_contacts", 0))
         # (and before direct_factorisation existed, with SuperLU)
@@ -149,8 +192,11 @@ def read_checkpoint(path, drivers=None, external_force=None):
             sim._vp_before = f["solver/vp_before"][()]
             sim._w_before = f["solver/w_before"][()]
             sim._wp_before = f["solver/wp_before"][()]
-            sim._older = [tuple(f[f"solver/{name}_before{k}"][()] for name in ("v", "w", "vp", "wp"))
-                          for k in (2, 3) if f"solver/v_before{k}" in f]
+            sim._older = [
+                tuple(f[f"solver/{name}_before{k}"][()] for name in ("v", "w", "vp", "wp"))
+                for k in (2, 3)
+                if f"solver/v_before{k}" in f
+            ]
         gc = f["contacts"]
         sim.contact_i = gc["i"][()]
         sim.contact_j = gc["j"][()]

@@ -16,12 +16,17 @@ def register(subparsers) -> None:
     p.add_argument("--csv", help="the same rows as CSV")
     p.add_argument("--phase-table", help="CSV of the phase error vs omega dt and theta")
     p.add_argument("--figure", help="figure (PNG/PDF) of the phase error table")
-    p.add_argument("--phase-dts", default="1e-5,2e-5,5e-5,1e-4,2e-4",
-                   help="time steps (s) of the phase error table, comma-separated")
-    p.add_argument("--phase-thetas", default="0.5,0.55,1.0",
-                   help="theta values of the phase error table, comma-separated")
-    p.add_argument("--phase-frequencies", default="3,40",
-                   help="frequencies (Hz) of the phase error table, comma-separated")
+    p.add_argument(
+        "--phase-dts",
+        default="1e-5,2e-5,5e-5,1e-4,2e-4",
+        help="time steps (s) of the phase error table, comma-separated",
+    )
+    p.add_argument(
+        "--phase-thetas", default="0.5,0.55,1.0", help="theta values of the phase error table, comma-separated"
+    )
+    p.add_argument(
+        "--phase-frequencies", default="3,40", help="frequencies (Hz) of the phase error table, comma-separated"
+    )
     p.add_argument("--strict", action="store_true", help="exit 1 if a case fails")
     p.set_defaults(func=_verify)
 
@@ -63,8 +68,10 @@ def _verify(args) -> int:
         savefig(verify.plot_phase_table(table), args.figure)
     failed = [r for r in rows if not r["passed"]]
     for r in failed:
-        print(f"FAILED {r['case']}: {r['quantity']} numerical={r['numerical']:.6g} "
-              f"analytic={r['analytic']:.6g} rel={r['relative_error']:.3g}")
+        print(
+            f"FAILED {r['case']}: {r['quantity']} numerical={r['numerical']:.6g} "
+            f"analytic={r['analytic']:.6g} rel={r['relative_error']:.3g}"
+        )
     return 1 if (failed and args.strict) else 0
 
 

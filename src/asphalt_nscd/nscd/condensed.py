@@ -89,17 +89,13 @@ def local_solve_block(bn, bt, bs, gap, h, W, r, mu):
     a20 = W[r + 2, r]
     a21 = W[r + 2, r + 1]
     a22 = W[r + 2, r + 2]
-    det = (a00 * (a11 * a22 - a12 * a21) - a01 * (a10 * a22 - a12 * a20)
-           + a02 * (a10 * a21 - a11 * a20))
+    det = a00 * (a11 * a22 - a12 * a21) - a01 * (a10 * a22 - a12 * a20) + a02 * (a10 * a21 - a11 * a20)
     trial_t = -bt
     trial_s = -bs
     if det > 0.0:
-        pn = -((a11 * a22 - a12 * a21) * bn - (a01 * a22 - a02 * a21) * bt
-               + (a01 * a12 - a02 * a11) * bs) / det
-        pt = -(-(a10 * a22 - a12 * a20) * bn + (a00 * a22 - a02 * a20) * bt
-               - (a00 * a12 - a02 * a10) * bs) / det
-        ps = -((a10 * a21 - a11 * a20) * bn - (a00 * a21 - a01 * a20) * bt
-               + (a00 * a11 - a01 * a10) * bs) / det
+        pn = -((a11 * a22 - a12 * a21) * bn - (a01 * a22 - a02 * a21) * bt + (a01 * a12 - a02 * a11) * bs) / det
+        pt = -(-(a10 * a22 - a12 * a20) * bn + (a00 * a22 - a02 * a20) * bt - (a00 * a12 - a02 * a10) * bs) / det
+        ps = -((a10 * a21 - a11 * a20) * bn - (a00 * a21 - a01 * a20) * bt + (a00 * a11 - a01 * a10) * bs) / det
         if pn > 0.0 and math.sqrt(pt * pt + ps * ps) <= mu * pn:
             return pn, pt, ps, True
         trial_t = pt
@@ -229,12 +225,30 @@ def _jacobian(sel, ci, cj, cframe, radius, inv_inertia, solver):
                 add(("A", int(solver.pt[-1 - body])), k, -F)
     J = np.zeros((3 * len(sel), 3 * len(keys)))
     for k, c, coef in entries:
-        J[3 * k:3 * k + 3, 3 * c:3 * c + 3] += coef
+        J[3 * k : 3 * k + 3, 3 * c : 3 * c + 3] += coef
     return J, keys
 
 
-def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, wp, u_lin, h,
-                   mu, max_contacts, tol=1e-12, max_iter=10000, rounds=8):
+def solve_contacts(
+    solver,
+    ci,
+    cj,
+    cframe,
+    gap,
+    radius,
+    inv_inertia,
+    v,
+    w,
+    vp,
+    wp,
+    u_lin,
+    h,
+    mu,
+    max_contacts,
+    tol=1e-12,
+    max_iter=10000,
+    rounds=8,
+):
     """Contact impulses of a fast-path step whose linear solution closes contacts.
 
     Parameters
@@ -273,12 +287,20 @@ def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, w
                 cols[c] = solver.response(b)
                 for r, (kind_r, b_r) in enumerate(keys):
                     if kind_r == "A":
-                        R[3 * r:3 * r + 3, 3 * c:3 * c + 3] = cols[c][3 * b_r:3 * b_r + 3]
+                        R[3 * r : 3 * r + 3, 3 * c : 3 * c + 3] = cols[c][3 * b_r : 3 * b_r + 3]
             else:
-                R[3 * c:3 * c + 3, 3 * c:3 * c + 3] = inv_inertia[b] * np.eye(3)
+                R[3 * c : 3 * c + 3, 3 * c : 3 * c + 3] = inv_inertia[b] * np.eye(3)
         Pc = np.ascontiguousarray(P[sel].ravel())
-        _, ok = condensed_nlgs(J @ R @ J.T, np.ascontiguousarray(u_lin[sel].ravel()),
-                               np.ascontiguousarray(gap[sel]), h, mu, tol, max_iter, Pc)
+        _, ok = condensed_nlgs(
+            J @ R @ J.T,
+            np.ascontiguousarray(u_lin[sel].ravel()),
+            np.ascontiguousarray(gap[sel]),
+            h,
+            mu,
+            tol,
+            max_iter,
+            Pc,
+        )
         if not ok:
             return None
         q = J.T @ Pc  # impulses on the body blocks
@@ -286,9 +308,9 @@ def solve_contacts(solver, ci, cj, cframe, gap, radius, inv_inertia, v, w, vp, w
         v_n, w_n, vp_n, wp_n = v.copy(), w.copy(), vp.copy(), wp.copy()
         for c, (kind, b) in enumerate(keys):
             if kind == "A":
-                x += cols[c] @ q[3 * c:3 * c + 3]
+                x += cols[c] @ q[3 * c : 3 * c + 3]
             else:
-                w_n[b] += inv_inertia[b] * q[3 * c:3 * c + 3]
+                w_n[b] += inv_inertia[b] * q[3 * c : 3 * c + 3]
         solver.scatter(x, v_n, w_n, vp_n, wp_n)
         P[sel] = Pc.reshape(-1, 3)
         contact_velocities(ci, cj, cframe, radius, v_n, w_n, vp_n, u)

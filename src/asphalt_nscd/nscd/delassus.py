@@ -68,8 +68,9 @@ def _add_rot(W, a0, a1, a2, d0, d1, d2):
 
 
 @njit(cache=True)
-def bond_blocks_contact(bi, bj, frame, arm_i, arm_j, inv_mass, inv_inertia, inv_mass_plate,
-                        inv_inertia_plate, cg, W, A_inv):
+def bond_blocks_contact(
+    bi, bj, frame, arm_i, arm_j, inv_mass, inv_inertia, inv_mass_plate, inv_inertia_plate, cg, W, A_inv
+):
     """Full bond Delassus blocks of the 'contact' kinematics (module docstring).
 
     Parameters
@@ -97,8 +98,15 @@ def bond_blocks_contact(bi, bj, frame, arm_i, arm_j, inv_mass, inv_inertia, inv_
             _add_rot(Wg, arm_j[b, 0], arm_j[b, 1], arm_j[b, 2], d, d, d)
         else:
             k = -1 - j
-            _add_rot(Wg, arm_j[b, 0], arm_j[b, 1], arm_j[b, 2], inv_inertia_plate[k, 0],
-                     inv_inertia_plate[k, 1], inv_inertia_plate[k, 2])
+            _add_rot(
+                Wg,
+                arm_j[b, 0],
+                arm_j[b, 1],
+                arm_j[b, 2],
+                inv_inertia_plate[k, 0],
+                inv_inertia_plate[k, 1],
+                inv_inertia_plate[k, 2],
+            )
         for r in range(3):
             for c in range(3):
                 acc = 0.0
@@ -109,9 +117,11 @@ def bond_blocks_contact(bi, bj, frame, arm_i, arm_j, inv_mass, inv_inertia, inv_
         for r in range(3):
             for c in range(3):
                 A[r, c] = (1.0 if r == c else 0.0) + cg[b, r] * W[b, r, c]
-        det = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-               - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-               + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+        det = (
+            A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+            - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+            + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0])
+        )
         idet = 1.0 / det
         A_inv[b, 0, 0] = (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]) * idet
         A_inv[b, 0, 1] = (A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]) * idet

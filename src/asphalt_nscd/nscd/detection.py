@@ -48,8 +48,7 @@ class Exclusions:
 
     @classmethod
     def none(cls, n_spheres: int, n_plates: int) -> "Exclusions":
-        return cls(np.zeros(n_spheres + 1, np.int64), np.zeros(0, np.int64),
-                   np.zeros((n_spheres, n_plates), np.uint8))
+        return cls(np.zeros(n_spheres + 1, np.int64), np.zeros(0, np.int64), np.zeros((n_spheres, n_plates), np.uint8))
 
 
 def bonded_exclusions(n_spheres: int, n_plates: int, i, j) -> Exclusions:
@@ -64,8 +63,7 @@ def bonded_exclusions(n_spheres: int, n_plates: int, i, j) -> Exclusions:
     j = np.asarray(j, dtype=np.int64).reshape(-1)
     if len(i) != len(j):
         raise ValueError("i and j differ in length")
-    if len(i) and (i.min() < 0 or i.max() >= n_spheres or j.max() >= n_spheres
-                   or j.min() < -n_plates):
+    if len(i) and (i.min() < 0 or i.max() >= n_spheres or j.max() >= n_spheres or j.min() < -n_plates):
         raise ValueError("excluded pair index out of range")
     sph = j >= 0
     a = np.concatenate([i[sph], j[sph]])
@@ -177,8 +175,7 @@ def sphere_pairs(position, radius, max_gap, exclude: Exclusions | None = None):
         exclude = Exclusions.none(len(rad), 0)
     dummy_i = np.empty(0, np.int64)
     dummy_g = np.empty(0)
-    m = _pairs(pos, rad, float(max_gap), True, dummy_i, dummy_i, dummy_g, exclude.ptr,
-               exclude.nbr)
+    m = _pairs(pos, rad, float(max_gap), True, dummy_i, dummy_i, dummy_g, exclude.ptr, exclude.nbr)
     out_i = np.empty(m, np.int64)
     out_j = np.empty(m, np.int64)
     out_g = np.empty(m)
@@ -193,8 +190,11 @@ def _plate_pairs(pos, rad, pts, nrm, max_gap, count_only, out_i, out_k, out_gap,
         for k in range(pts.shape[0]):
             if ex_plate[a, k]:
                 continue
-            gap = ((pos[a, 0] - pts[k, 0]) * nrm[k, 0] + (pos[a, 1] - pts[k, 1]) * nrm[k, 1]
-                   + (pos[a, 2] - pts[k, 2]) * nrm[k, 2]) - rad[a]
+            gap = (
+                (pos[a, 0] - pts[k, 0]) * nrm[k, 0]
+                + (pos[a, 1] - pts[k, 1]) * nrm[k, 1]
+                + (pos[a, 2] - pts[k, 2]) * nrm[k, 2]
+            ) - rad[a]
             if gap < max_gap:
                 if not count_only:
                     out_i[m] = a
@@ -204,8 +204,7 @@ def _plate_pairs(pos, rad, pts, nrm, max_gap, count_only, out_i, out_k, out_gap,
     return m
 
 
-def plate_pairs(position, radius, plate_point, plate_normal, max_gap,
-                exclude: Exclusions | None = None):
+def plate_pairs(position, radius, plate_point, plate_normal, max_gap, exclude: Exclusions | None = None):
     """Sphere-plate pairs with gap (centre-to-plane distance - radius) < max_gap (m), except
     the pairs ``exclude`` lists.
 
@@ -218,8 +217,7 @@ def plate_pairs(position, radius, plate_point, plate_normal, max_gap,
     if exclude is None:
         exclude = Exclusions.none(len(rad), len(pts))
     if exclude.plate.shape != (len(rad), len(pts)):
-        raise ValueError(f"exclude.plate: expected shape {(len(rad), len(pts))}, got "
-                         f"{exclude.plate.shape}")
+        raise ValueError(f"exclude.plate: expected shape {(len(rad), len(pts))}, got {exclude.plate.shape}")
     e_i = np.empty(0, np.int64)
     e_g = np.empty(0)
     m = _plate_pairs(pos, rad, pts, nrm, float(max_gap), True, e_i, e_i, e_g, exclude.plate)
@@ -239,7 +237,7 @@ def _frames(ci, cj, pos, nrm_plate, frame):
             n0 = pos[i, 0] - pos[j, 0]
             n1 = pos[i, 1] - pos[j, 1]
             n2 = pos[i, 2] - pos[j, 2]
-            norm = np.sqrt(n0 ** 2 + n1 ** 2 + n2 ** 2)
+            norm = np.sqrt(n0**2 + n1**2 + n2**2)
             n0 /= norm
             n1 /= norm
             n2 /= norm
@@ -263,7 +261,7 @@ def _frames(ci, cj, pos, nrm_plate, frame):
         t0 = n1 * e2 - n2 * e1
         t1 = n2 * e0 - n0 * e2
         t2 = n0 * e1 - n1 * e0
-        tn = np.sqrt(t0 ** 2 + t1 ** 2 + t2 ** 2)
+        tn = np.sqrt(t0**2 + t1**2 + t2**2)
         t0 /= tn
         t1 /= tn
         t2 /= tn
@@ -278,8 +276,7 @@ def _frames(ci, cj, pos, nrm_plate, frame):
         frame[a, 2, 2] = n0 * t1 - n1 * t0
 
 
-def detect_contacts(position, radius, plate_point, plate_normal, alert_distance,
-                    exclude: Exclusions | None = None):
+def detect_contacts(position, radius, plate_point, plate_normal, alert_distance, exclude: Exclusions | None = None):
     """Contact candidates (gap < alert_distance) with their frames, except the pairs
     ``exclude`` lists.
 
@@ -289,14 +286,18 @@ def detect_contacts(position, radius, plate_point, plate_normal, alert_distance,
     gap : (C,) m; frame : (C, 3, 3) rows n, t, s.
     """
     si, sj, sg = sphere_pairs(position, radius, alert_distance, exclude)
-    pi_, pk, pg = plate_pairs(position, radius, plate_point, plate_normal, alert_distance,
-                              exclude)
+    pi_, pk, pg = plate_pairs(position, radius, plate_point, plate_normal, alert_distance, exclude)
     ci = np.concatenate([si, pi_])
     cj = np.concatenate([sj, -1 - pk])
     gap = np.concatenate([sg, pg])
     frame = np.empty((len(ci), 3, 3))
-    _frames(ci, cj, np.ascontiguousarray(position, dtype=float),
-            np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3), frame)
+    _frames(
+        ci,
+        cj,
+        np.ascontiguousarray(position, dtype=float),
+        np.ascontiguousarray(plate_normal, dtype=float).reshape(-1, 3),
+        frame,
+    )
     return ci, cj, gap, frame
 
 
@@ -312,8 +313,11 @@ def _narrow(ci, cj, pos, rad, pts, nrm, gap):
             gap[a] = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - rad[i] - rad[j]
         else:
             k = -1 - j
-            gap[a] = ((pos[i, 0] - pts[k, 0]) * nrm[k, 0] + (pos[i, 1] - pts[k, 1]) * nrm[k, 1]
-                      + (pos[i, 2] - pts[k, 2]) * nrm[k, 2]) - rad[i]
+            gap[a] = (
+                (pos[i, 0] - pts[k, 0]) * nrm[k, 0]
+                + (pos[i, 1] - pts[k, 1]) * nrm[k, 1]
+                + (pos[i, 2] - pts[k, 2]) * nrm[k, 2]
+            ) - rad[i]
 
 
 class CandidateList:
@@ -349,8 +353,7 @@ class CandidateList:
             dp = np.sqrt(((pts - self.p_ref) ** 2).sum(1)).max() if len(pts) else 0.0
             stale = 2.0 * dx + dp > self.skin
         if stale:
-            ci, cj, _, _ = detect_contacts(pos, radius, pts, nrm, self.alert + self.skin,
-                                           self.exclude)
+            ci, cj, _, _ = detect_contacts(pos, radius, pts, nrm, self.alert + self.skin, self.exclude)
             self.ci, self.cj = ci, cj
             self.x_ref = pos.copy()
             self.p_ref = pts.copy()

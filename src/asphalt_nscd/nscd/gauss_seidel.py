@@ -30,8 +30,7 @@ from .local_laws import bond_velocity, contact_local_solve
 
 
 @helper
-def _push_contact(a, dp0, dp1, dp2, ci, cj, frame, radius, v, w, vp, inv_mass, inv_inertia,
-                  inv_mass_plate):
+def _push_contact(a, dp0, dp1, dp2, ci, cj, frame, radius, v, w, vp, inv_mass, inv_inertia, inv_mass_plate):
     """Add the global effect of a change (dp0, dp1, dp2) of contact a's local impulse."""
     i = ci[a]
     j = cj[a]
@@ -96,9 +95,11 @@ def contact_velocity(a, ci, cj, frame, radius, v, w, vp):
         g0 -= vp[k, 0]
         g1 -= vp[k, 1]
         g2 -= vp[k, 2]
-    return (frame[a, 0, 0] * g0 + frame[a, 0, 1] * g1 + frame[a, 0, 2] * g2,
-            frame[a, 1, 0] * g0 + frame[a, 1, 1] * g1 + frame[a, 1, 2] * g2,
-            frame[a, 2, 0] * g0 + frame[a, 2, 1] * g1 + frame[a, 2, 2] * g2)
+    return (
+        frame[a, 0, 0] * g0 + frame[a, 0, 1] * g1 + frame[a, 0, 2] * g2,
+        frame[a, 1, 0] * g0 + frame[a, 1, 1] * g1 + frame[a, 1, 2] * g2,
+        frame[a, 2, 0] * g0 + frame[a, 2, 1] * g1 + frame[a, 2, 2] * g2,
+    )
 
 
 @kernel
@@ -109,8 +110,26 @@ def contact_velocities(ci, cj, frame, radius, v, w, vp, out):
 
 
 @helper
-def _push_bond(b, dp0, dp1, dp2, bi, bj, frame, v, vp, inv_mass, inv_mass_plate, arm_i, arm_j,
-               w, wp, inv_inertia, inv_inertia_plate, rot):
+def _push_bond(
+    b,
+    dp0,
+    dp1,
+    dp2,
+    bi,
+    bj,
+    frame,
+    v,
+    vp,
+    inv_mass,
+    inv_mass_plate,
+    arm_i,
+    arm_j,
+    w,
+    wp,
+    inv_inertia,
+    inv_inertia_plate,
+    rot,
+):
     """Add the global effect of a change (dp0, dp1, dp2) of bond b's local impulse: +g on
     i, -g on j (g = F^T dp) at the barycentres, plus the torques a x g at c when rot."""
     i = bi[b]
@@ -171,11 +190,30 @@ def apply_impulses(contacts, bonds, step, bodies, vel, rot):
     inv_mass_plate, inv_inertia_plate = bodies.inv_mass_plate, bodies.inv_inertia_plate
     v, w, vp, wp = vel.v, vel.w, vel.vp, vel.wp
     for a in range(len(ci)):
-        _push_contact(a, cP[a, 0], cP[a, 1], cP[a, 2], ci, cj, cframe, radius, v, w, vp,
-                      inv_mass, inv_inertia, inv_mass_plate)
+        _push_contact(
+            a, cP[a, 0], cP[a, 1], cP[a, 2], ci, cj, cframe, radius, v, w, vp, inv_mass, inv_inertia, inv_mass_plate
+        )
     for b in range(len(bi)):
-        _push_bond(b, bP[b, 0], bP[b, 1], bP[b, 2], bi, bj, bframe, v, vp, inv_mass,
-                   inv_mass_plate, barm_i, barm_j, w, wp, inv_inertia, inv_inertia_plate, rot)
+        _push_bond(
+            b,
+            bP[b, 0],
+            bP[b, 1],
+            bP[b, 2],
+            bi,
+            bj,
+            bframe,
+            v,
+            vp,
+            inv_mass,
+            inv_mass_plate,
+            barm_i,
+            barm_j,
+            w,
+            wp,
+            inv_inertia,
+            inv_inertia_plate,
+            rot,
+        )
 
 
 @kernel
@@ -230,12 +268,9 @@ def nlgs(contacts, bonds, step, bodies, vel, opts):
                 p0 = bP[b, 0]
                 p1 = bP[b, 1]
                 p2 = bP[b, 2]
-                r0 = bc0[b, 0] - bcg[b, 0] * (ul0 - (bW[b, 0, 0] * p0 + bW[b, 0, 1] * p1
-                                                     + bW[b, 0, 2] * p2))
-                r1 = bc0[b, 1] - bcg[b, 1] * (ul1 - (bW[b, 1, 0] * p0 + bW[b, 1, 1] * p1
-                                                     + bW[b, 1, 2] * p2))
-                r2 = bc0[b, 2] - bcg[b, 2] * (ul2 - (bW[b, 2, 0] * p0 + bW[b, 2, 1] * p1
-                                                     + bW[b, 2, 2] * p2))
+                r0 = bc0[b, 0] - bcg[b, 0] * (ul0 - (bW[b, 0, 0] * p0 + bW[b, 0, 1] * p1 + bW[b, 0, 2] * p2))
+                r1 = bc0[b, 1] - bcg[b, 1] * (ul1 - (bW[b, 1, 0] * p0 + bW[b, 1, 1] * p1 + bW[b, 1, 2] * p2))
+                r2 = bc0[b, 2] - bcg[b, 2] * (ul2 - (bW[b, 2, 0] * p0 + bW[b, 2, 1] * p1 + bW[b, 2, 2] * p2))
                 n0 = bA_inv[b, 0, 0] * r0 + bA_inv[b, 0, 1] * r1 + bA_inv[b, 0, 2] * r2
                 n1 = bA_inv[b, 1, 0] * r0 + bA_inv[b, 1, 1] * r1 + bA_inv[b, 1, 2] * r2
                 n2 = bA_inv[b, 2, 0] * r0 + bA_inv[b, 2, 1] * r1 + bA_inv[b, 2, 2] * r2
@@ -263,8 +298,26 @@ def nlgs(contacts, bonds, step, bodies, vel, opts):
                 pn = relax * pn + (1.0 - relax) * bP[b, 2]
                 dp2 = pn - bP[b, 2]
                 bP[b, 2] = pn
-            _push_bond(b, dp0, dp1, dp2, bi, bj, bframe, v, vp, inv_mass, inv_mass_plate,
-                       barm_i, barm_j, w, wp, inv_inertia, inv_inertia_plate, rot)
+            _push_bond(
+                b,
+                dp0,
+                dp1,
+                dp2,
+                bi,
+                bj,
+                bframe,
+                v,
+                vp,
+                inv_mass,
+                inv_mass_plate,
+                barm_i,
+                barm_j,
+                w,
+                wp,
+                inv_inertia,
+                inv_inertia_plate,
+                rot,
+            )
             d2 = dp0 * dp0 + dp1 * dp1 + dp2 * dp2
             sum_d2 += d2
             sum_p2 += bP[b, 0] ** 2 + bP[b, 1] ** 2 + bP[b, 2] ** 2
@@ -296,8 +349,7 @@ def nlgs(contacts, bonds, step, bodies, vel, opts):
             cP[a, 1] = pt
             cP[a, 2] = ps
             if d0 != 0.0 or d1 != 0.0 or d2_ != 0.0:
-                _push_contact(a, d0, d1, d2_, ci, cj, cframe, radius, v, w, vp, inv_mass,
-                              inv_inertia, inv_mass_plate)
+                _push_contact(a, d0, d1, d2_, ci, cj, cframe, radius, v, w, vp, inv_mass, inv_inertia, inv_mass_plate)
             dd = d0 * d0 + d1 * d1 + d2_ * d2_
             sum_d2 += dd
             sum_p2 += pn * pn + pt * pt + ps * ps
@@ -309,8 +361,7 @@ def nlgs(contacts, bonds, step, bodies, vel, opts):
             break
         quad = math.sqrt(sum_d2 / sum_p2)
         maxm = math.sqrt(max_d2) / math.sqrt(sum_p2 / n_int)
-        if ((norm == 0 and quad <= tol) or (norm == 1 and maxm <= tol)
-                or (norm == 2 and quad <= tol and maxm <= tol)):
+        if (norm == 0 and quad <= tol) or (norm == 1 and maxm <= tol) or (norm == 2 and quad <= tol and maxm <= tol):
             converged = True
             break
     return it, quad, maxm, converged

@@ -135,8 +135,7 @@ def bond_predict(bonds, law, x, xp, start, opts, step):
     Outputs in step (bundles.BondStep, filled): c0 (B,3) N s, cg (B,3) N s/m, delta_m (B,3)
     m = delta-, u_m (B,3) m/s = U-. Broken bonds get c0 = cg = 0.
     """
-    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i,
-                                           bonds.arm_j, bonds.broken)
+    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i, bonds.arm_j, bonds.broken)
     coef, i_den, Kk, Ck, Kinf = law.coef, law.i_den, law.Kk, law.Ck, law.Kinf
     force, delta_c, delta_k, rest, disp = law.force, law.delta_c, law.delta_k, law.rest, law.disp
     v, w, vp, wp = start.v, start.w, start.vp, start.wp
@@ -175,9 +174,9 @@ def bond_predict(bonds, law, x, xp, start, opts, step):
             r_ch = force[b, c] + Kinf[b, p] * dl
             A = delta_c[b, c] - h * (1.0 - theta) * r_ch * coef[b, 1, p]
             for k in range(nk):
-                A += (Ck[b, k, p] * delta_k[b, k, c]
-                      - h * (1.0 - theta) * (r_ch + Kk[b, k, p] * delta_k[b, k, c])) \
-                    * i_den[b, k, p]
+                A += (
+                    Ck[b, k, p] * delta_k[b, k, c] - h * (1.0 - theta) * (r_ch + Kk[b, k, p] * delta_k[b, k, c])
+                ) * i_den[b, k, p]
             k_eff = coef[b, 2, p] + Kinf[b, p]
             r_pred = A * coef[b, 2, p] - k_eff * (dl + h * (1.0 - theta) * ul)
             c0[b, c] = h * (theta * r_pred + (1.0 - theta) * force[b, c])
@@ -198,8 +197,7 @@ def bond_update(bonds, law, step, end, opts):
     (number newly broken, energy dissipated by the bonds in the step, J): -P . (delta+ -
     delta-)/h - (E+ - E-), with E the energy stored in the springs.
     """
-    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i,
-                                           bonds.arm_j, bonds.broken)
+    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i, bonds.arm_j, bonds.broken)
     coef, i_den, Kk, Ck, Kinf, r_crit = law.coef, law.i_den, law.Kk, law.Ck, law.Kinf, law.r_crit
     force, delta_c, delta_k, disp = law.force, law.delta_c, law.delta_k, law.disp
     delta_m, u_m, impulse = step.delta_m, step.u_m, step.impulse
@@ -222,15 +220,15 @@ def bond_update(bonds, law, step, end, opts):
             A = delta_c[b, c] - h * (1.0 - theta) * r_ch_m * coef[b, 1, p]
             for k in range(nk):
                 e_old += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
-                A += (Ck[b, k, p] * delta_k[b, k, c]
-                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) \
-                    * i_den[b, k, p]
+                A += (
+                    Ck[b, k, p] * delta_k[b, k, c] - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])
+                ) * i_den[b, k, p]
             r_ch_p = (A - dp) * coef[b, 2, p]
             e_new = 0.5 * r_ch_p * r_ch_p * coef[b, 0, p] + 0.5 * Kinf[b, p] * dp * dp
             for k in range(nk):  # a_k recomputed (same operations): no work array
-                ak = (Ck[b, k, p] * delta_k[b, k, c]
-                      - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])) \
-                    * i_den[b, k, p]
+                ak = (
+                    Ck[b, k, p] * delta_k[b, k, c] - h * (1.0 - theta) * (r_ch_m + Kk[b, k, p] * delta_k[b, k, c])
+                ) * i_den[b, k, p]
                 delta_k[b, k, c] = ak - h * theta * i_den[b, k, p] * r_ch_p
                 e_new += 0.5 * Kk[b, k, p] * delta_k[b, k, c] ** 2
             delta_c[b, c] -= h * (theta * r_ch_p + (1.0 - theta) * r_ch_m) * coef[b, 1, p]

@@ -47,12 +47,10 @@ import numba
 import numpy as np
 
 from . import condensed, detection, gauss_seidel, local_laws
-from .bundles import (Bodies, BondGeometry, BondState, BondStep, Contacts, NLGSOptions,
-                      StepOptions, Velocities)
+from .bundles import Bodies, BondGeometry, BondState, BondStep, Contacts, NLGSOptions, StepOptions, Velocities
 from .delassus import bond_blocks, bond_blocks_contact, contact_blocks
 from .linear import LinearBondSolver, bond_impulses
-from .state import (CONVERGENCE_NORMS, DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates,
-                    Spheres, StepStats)
+from .state import CONVERGENCE_NORMS, DRIVEN, FIXED, FREE, Bonds, NSCDParameters, Plates, Spheres, StepStats
 
 
 class _PlateMotion(NamedTuple):
@@ -87,9 +85,14 @@ class Simulation:
     #: :func:`asphalt_nscd.harmonic.timedomain.build_simulation`
     n_mechanisms_dropped: int
 
-    def __init__(self, spheres: Spheres, plates: Plates | None = None,
-                 bonds: Bonds | None = None, params: NSCDParameters | None = None,
-                 external_force: np.ndarray | Callable | None = None):
+    def __init__(
+        self,
+        spheres: Spheres,
+        plates: Plates | None = None,
+        bonds: Bonds | None = None,
+        params: NSCDParameters | None = None,
+        external_force: np.ndarray | Callable | None = None,
+    ):
         if params is None:
             raise ValueError("params (NSCDParameters) is required")
         self.spheres = spheres
@@ -163,8 +166,8 @@ class Simulation:
             return
         mask = self.excluded_bonds()
         self._candidates.set_exclusions(
-            detection.bonded_exclusions(self.spheres.n, self.plates.n, bnd.i[mask], bnd.j[mask])
-            if mask.any() else None)
+            detection.bonded_exclusions(self.spheres.n, self.plates.n, bnd.i[mask], bnd.j[mask]) if mask.any() else None
+        )
         self._exclusion_key = key
 
     # ------------------------------------------------------------------ one step
@@ -194,8 +197,7 @@ class Simulation:
         t_c = _time.perf_counter()
         self.timings["bonds"] += t_c - t_b
 
-        solver, it, quad, maxm, conv = self._solve_impulses(free, end, contacts, bonds,
-                                                            bond_step, bodies)
+        solver, it, quad, maxm, conv = self._solve_impulses(free, end, contacts, bonds, bond_step, bodies)
         t_d = _time.perf_counter()
         self.timings["solve"] += t_d - t_c
 
@@ -212,13 +214,22 @@ class Simulation:
         self.time = t1
         self.step_index += 1
         self.timings["other"] += _time.perf_counter() - t_e + (t_a - tic)
-        return StepStats(time=t1, solver=solver, iterations=int(it), residual_quad=float(quad),
-                         residual_max=float(maxm), converged=bool(conv),
-                         n_contacts=len(contacts.i),
-                         n_active_contacts=int((cP[:, 0] > 0).sum()),
-                         n_bonds=self.n_intact_bonds(), n_broken=int(n_new),
-                         n_broken_total=int(self.bonds.broken.sum()), plate_force=plate_force,
-                         driver_force=driver, dissipated=float(diss_b + diss_c))
+        return StepStats(
+            time=t1,
+            solver=solver,
+            iterations=int(it),
+            residual_quad=float(quad),
+            residual_max=float(maxm),
+            converged=bool(conv),
+            n_contacts=len(contacts.i),
+            n_active_contacts=int((cP[:, 0] > 0).sum()),
+            n_bonds=self.n_intact_bonds(),
+            n_broken=int(n_new),
+            n_broken_total=int(self.bonds.broken.sum()),
+            plate_force=plate_force,
+            driver_force=driver,
+            dissipated=float(diss_b + diss_c),
+        )
 
     # ------------------------------------------------------------------ phases of a step
     def _plate_motion(self, t0, t1) -> _PlateMotion:
@@ -257,8 +268,7 @@ class Simulation:
         wp = plate.angular.copy()
         free_p = pls.mode == FREE
         if free_p.any():
-            vp[free_p] += h * (p.gravity
-                               + self.plate_external_force[free_p] / pls.mass[free_p, None])
+            vp[free_p] += h * (p.gravity + self.plate_external_force[free_p] / pls.mass[free_p, None])
         v_m = sph.velocity.copy()
         w_m = sph.angular_velocity.copy()
         v = v_m.copy()
@@ -269,8 +279,7 @@ class Simulation:
         v[~finite] = 0.0
         w = w_m.copy()
         w[~finite] = 0.0
-        return (Velocities(v_m, w_m, plate.velocity, plate.angular),
-                Velocities(v, w, vp, wp))
+        return (Velocities(v_m, w_m, plate.velocity, plate.angular), Velocities(v, w, vp, wp))
 
     def _detect_contacts(self, free: Velocities, bodies: Bodies) -> Contacts:
         """Phase 3: contact candidates at the start-of-step configuration (cell lists, gap
@@ -289,17 +298,14 @@ class Simulation:
             self._candidates.x_ref = None
             self.alert_distance = self._candidates.alert
         self._update_exclusions()
-        ci, cj, gap, cframe = self._candidates.contacts(sph.position, sph.radius, pls.point,
-                                                        pls.normal)
+        ci, cj, gap, cframe = self._candidates.contacts(sph.position, sph.radius, pls.point, pls.normal)
         cP = self._warm_contacts(ci, cj, cframe)
         cwn = np.empty(len(ci))
         cwt = np.empty(len(ci))
-        contact_blocks(ci, cj, bodies.inv_mass, bodies.inv_inertia, bodies.radius,
-                       bodies.inv_mass_plate, cwn, cwt)
+        contact_blocks(ci, cj, bodies.inv_mass, bodies.inv_inertia, bodies.radius, bodies.inv_mass_plate, cwn, cwt)
         return Contacts(ci, cj, cframe, gap, cwn, cwt, cP)
 
-    def _predict_bonds(self, bonds: BondGeometry, law: BondState | None,
-                       start: Velocities) -> BondStep:
+    def _predict_bonds(self, bonds: BondGeometry, law: BondState | None, start: Velocities) -> BondStep:
         """The step's affine bond laws P = c0 - c_g U+ (Eq. 25, from the theta-method of the
         generalized Burger's law, Eqs. 15-24; local_laws.bond_predict) from the state and
         velocities at the start of the step; the impulses of broken bonds are zeroed. The
@@ -307,19 +313,34 @@ class Simulation:
         bnd = self.bonds
         nb = bnd.n
         if self._bond_work is None or self._bond_work.c0.shape[0] != nb:
-            self._bond_work = BondStep(np.zeros((nb, 3)), np.zeros((nb, 3)), np.zeros((nb, 3)), np.zeros((nb, 3)),
-                                       np.zeros(nb), np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3)),
-                                       self.bond_impulse)
+            self._bond_work = BondStep(
+                np.zeros((nb, 3)),
+                np.zeros((nb, 3)),
+                np.zeros((nb, 3)),
+                np.zeros((nb, 3)),
+                np.zeros(nb),
+                np.zeros((nb, 3, 3)),
+                np.zeros((nb, 3, 3)),
+                self.bond_impulse,
+            )
         if self._bond_work.impulse is not self.bond_impulse:
             self._bond_work = self._bond_work._replace(impulse=self.bond_impulse)
         if nb:
-            local_laws.bond_predict(bonds, law, self.spheres.position, self.plates.point, start,
-                                    self._step_options(), self._bond_work)
+            local_laws.bond_predict(
+                bonds, law, self.spheres.position, self.plates.point, start, self._step_options(), self._bond_work
+            )
         self.bond_impulse[bnd.broken] = 0.0
         return self._bond_work
 
-    def _solve_impulses(self, free: Velocities, end: Velocities, contacts: Contacts,
-                        bonds: BondGeometry, bond_step: BondStep, bodies: Bodies):
+    def _solve_impulses(
+        self,
+        free: Velocities,
+        end: Velocities,
+        contacts: Contacts,
+        bonds: BondGeometry,
+        bond_step: BondStep,
+        bodies: Bodies,
+    ):
         """Phase 4: the impulses of the step and the end-of-step velocities end (written in
         place; on entry a copy of free). The linear fast path (:mod:`.linear`) when allowed
         and valid (contacts it closes solved on their Delassus operator condensed over the
@@ -327,8 +348,7 @@ class Simulation:
         bond (Eq. 25) laws (:mod:`.gauss_seidel`). Returns (solver 'linear' or 'nlgs',
         iterations, quad, maxm, converged)."""
         p = self.params
-        if p.fast_path and self.bonds.n and self._fast_path(free, end, contacts, bonds,
-                                                            bond_step, bodies):
+        if p.fast_path and self.bonds.n and self._fast_path(free, end, contacts, bonds, bond_step, bodies):
             return "linear", self.linear_iterations, 0.0, 0.0, True
         for a, b in zip(end, free):
             a[:] = b
@@ -336,20 +356,30 @@ class Simulation:
         if self.bonds.n:  # Delassus blocks of the bonds: needed by NLGS only
             bnd = self.bonds
             if rot:
-                bond_blocks_contact(bnd.i, bnd.j, bnd.frame, bnd.arm_i, bnd.arm_j,
-                                    bodies.inv_mass, bodies.inv_inertia, bodies.inv_mass_plate,
-                                    bodies.inv_inertia_plate, bond_step.cg, bond_step.W,
-                                    bond_step.A_inv)
+                bond_blocks_contact(
+                    bnd.i,
+                    bnd.j,
+                    bnd.frame,
+                    bnd.arm_i,
+                    bnd.arm_j,
+                    bodies.inv_mass,
+                    bodies.inv_inertia,
+                    bodies.inv_mass_plate,
+                    bodies.inv_inertia_plate,
+                    bond_step.cg,
+                    bond_step.W,
+                    bond_step.A_inv,
+                )
             else:
                 bond_blocks(bnd.i, bnd.j, bodies.inv_mass, bodies.inv_mass_plate, bond_step.w)
         gauss_seidel.apply_impulses(contacts, bonds, bond_step, bodies, end, rot)
-        opts = NLGSOptions(p.dt, p.friction, p.tolerance, p.relaxation, p.max_iterations,
-                           CONVERGENCE_NORMS[p.convergence], rot)
+        opts = NLGSOptions(
+            p.dt, p.friction, p.tolerance, p.relaxation, p.max_iterations, CONVERGENCE_NORMS[p.convergence], rot
+        )
         it, quad, maxm, conv = gauss_seidel.nlgs(contacts, bonds, bond_step, bodies, end, opts)
         return "nlgs", it, quad, maxm, conv
 
-    def _update_bonds(self, bonds: BondGeometry, law: BondState | None, bond_step: BondStep,
-                      end: Velocities):
+    def _update_bonds(self, bonds: BondGeometry, law: BondState | None, bond_step: BondStep, end: Velocities):
         """Phase 5: the bonds' internal variables and forces at the end of the step (the
         theta-method of Eqs. 15-26) and breakage (Eqs. 12-13; local_laws.bond_update).
         Returns (number of bonds broken in the step, energy dissipated by the bonds, J)."""
@@ -357,8 +387,7 @@ class Simulation:
             return 0, 0.0
         return local_laws.bond_update(bonds, law, bond_step, end, self._step_options())
 
-    def _contact_dissipation(self, contacts: Contacts, start: Velocities,
-                             end: Velocities) -> float:
+    def _contact_dissipation(self, contacts: Contacts, start: Velocities, end: Velocities) -> float:
         """Energy (J) dissipated by the contacts (Eqs. 6-7) in the step:
         -P . (theta U+ + (1-theta) U-) with U+, U- their local velocities at the end and start
         of the step."""
@@ -369,10 +398,8 @@ class Simulation:
         n = len(contacts.i)
         u_plus = np.empty((n, 3))
         u_minus = np.empty((n, 3))
-        self._contact_velocities(contacts.i, contacts.j, contacts.frame, end.v, end.w, end.vp,
-                                 u_plus)
-        self._contact_velocities(contacts.i, contacts.j, contacts.frame, start.v, start.w,
-                                 start.vp, u_minus)
+        self._contact_velocities(contacts.i, contacts.j, contacts.frame, end.v, end.w, end.vp, u_plus)
+        self._contact_velocities(contacts.i, contacts.j, contacts.frame, start.v, start.w, start.vp, u_minus)
         return float(-(cP * (th * u_plus + (1 - th) * u_minus)).sum())
 
     def _plate_forces(self, contacts: Contacts, bP, t0, t1):
@@ -406,8 +433,7 @@ class Simulation:
             if pls.mode[k] == DRIVEN and np.isfinite(pls.mass[k]):
                 # theta-average of the exact imposed acceleration: consistent with the
                 # bond/contact impulses P = h (theta R+ + (1-theta) R-) in plate_force
-                acc = (th * self._imposed_acceleration(k, t1)
-                       + (1 - th) * self._imposed_acceleration(k, t0))
+                acc = th * self._imposed_acceleration(k, t1) + (1 - th) * self._imposed_acceleration(k, t0)
                 driver[k] = pls.mass[k] * (acc - p.gravity) - plate_force[k]
             elif pls.mode[k] in (DRIVEN, FIXED):  # infinite mass: inertia not counted
                 driver[k] = -plate_force[k]
@@ -425,8 +451,7 @@ class Simulation:
         v_m, w_m, vp_start, wp_start = start
         v, w, vp, wp = end
         if self._v_before is not None:
-            self._older = ([(self._v_before, self._w_before, self._vp_before,
-                             self._wp_before)] + self._older[:1])
+            self._older = [(self._v_before, self._w_before, self._vp_before, self._wp_before)] + self._older[:1]
         self._v_before, self._vp_before = v_m, vp_start
         self._w_before, self._wp_before = w_m, wp_start
         sph.position += h * (th * v + (1 - th) * v_m)
@@ -463,8 +488,7 @@ class Simulation:
         key = (p.dt, p.theta, bnd.n, bnd.Kk.shape[1], id(bnd.Km), id(bnd.Kk))
         if self._coef_key != key:
             self._coef = (np.empty((bnd.n, 3, 2)), np.empty((bnd.n, bnd.Kk.shape[1], 2)))
-            local_laws.bond_coefficients(bnd.Km, bnd.Cm, bnd.Kk, bnd.Ck, p.dt, p.theta,
-                                         *self._coef)
+            local_laws.bond_coefficients(bnd.Km, bnd.Cm, bnd.Kk, bnd.Ck, p.dt, p.theta, *self._coef)
             self._coef_key = key
         return self._coef
 
@@ -478,8 +502,7 @@ class Simulation:
         h = self.params.dt
         pls = self.plates
         u_m = pls.imposed_displacement(k, max(t - h, 0.0))
-        return (pls.imposed_displacement(k, t + h) - 2.0 * pls.imposed_displacement(k, t)
-                + u_m) / (h * h)
+        return (pls.imposed_displacement(k, t + h) - 2.0 * pls.imposed_displacement(k, t) + u_m) / (h * h)
 
     def _contact_velocities(self, ci, cj, cframe, v, w, vp, out):
         gauss_seidel.contact_velocities(ci, cj, cframe, self.spheres.radius, v, w, vp, out)
@@ -491,8 +514,9 @@ class Simulation:
         if len(self.contact_i) == 0 or len(ci) == 0 or not self.contact_impulse.any():
             return cP
         base = self.spheres.n + self.plates.n + 1
-        old_key = self.contact_i * base + np.where(self.contact_j >= 0, self.contact_j,
-                                                   self.spheres.n - 1 - self.contact_j)
+        old_key = self.contact_i * base + np.where(
+            self.contact_j >= 0, self.contact_j, self.spheres.n - 1 - self.contact_j
+        )
         new_key = ci * base + np.where(cj >= 0, cj, self.spheres.n - 1 - cj)
         order = np.argsort(old_key)
         sk = old_key[order]
@@ -527,8 +551,19 @@ class Simulation:
     def _bond_state(self) -> BondState:
         bnd = self.bonds
         coef, i_den = self._bond_coefficients()
-        return BondState(coef, i_den, bnd.Kk, bnd.Ck, bnd.Kinf, bnd.r_crit, bnd.force,
-                         bnd.delta_c, bnd.delta_k, bnd.rest, bnd.displacement)
+        return BondState(
+            coef,
+            i_den,
+            bnd.Kk,
+            bnd.Ck,
+            bnd.Kinf,
+            bnd.r_crit,
+            bnd.force,
+            bnd.delta_c,
+            bnd.delta_k,
+            bnd.rest,
+            bnd.displacement,
+        )
 
     def _step_options(self) -> StepOptions:
         return StepOptions(self.params.dt, self.params.theta, self._rot())
@@ -538,21 +573,42 @@ class Simulation:
         settings), rebuilt when one of them changed."""
         bnd, p = self.bonds, self.params
         rot = self._rot()
-        key = (p.dt, p.theta, int(bnd.broken.sum()), bnd.n, p.linear_solver,
-               p.linear_tolerance, rot, p.threads, p.linear_ssor_omega)
+        key = (
+            p.dt,
+            p.theta,
+            int(bnd.broken.sum()),
+            bnd.n,
+            p.linear_solver,
+            p.linear_tolerance,
+            rot,
+            p.threads,
+            p.linear_ssor_omega,
+        )
         if self._linear_key != key:
             assert self._bond_work is not None  # the step's bond laws are predicted before the solve
             rotation = None
             if rot:
-                rotation = dict(arm_i=bnd.arm_i, arm_j=bnd.arm_j,
-                                inv_inertia=bodies.inv_inertia,
-                                inv_inertia_plate=bodies.inv_inertia_plate)
-            self._linear = LinearBondSolver(bodies.inv_mass, bodies.inv_mass_plate, bnd.i,
-                                            bnd.j, bnd.frame, self._bond_work.cg, bnd.broken,
-                                            method=p.linear_solver,
-                                            tolerance=p.linear_tolerance, rotation=rotation,
-                                            threads=p.threads, ssor_omega=p.linear_ssor_omega,
-                                            factorisation=p.direct_factorisation)
+                rotation = dict(
+                    arm_i=bnd.arm_i,
+                    arm_j=bnd.arm_j,
+                    inv_inertia=bodies.inv_inertia,
+                    inv_inertia_plate=bodies.inv_inertia_plate,
+                )
+            self._linear = LinearBondSolver(
+                bodies.inv_mass,
+                bodies.inv_mass_plate,
+                bnd.i,
+                bnd.j,
+                bnd.frame,
+                self._bond_work.cg,
+                bnd.broken,
+                method=p.linear_solver,
+                tolerance=p.linear_tolerance,
+                rotation=rotation,
+                threads=p.threads,
+                ssor_omega=p.linear_ssor_omega,
+                factorisation=p.direct_factorisation,
+            )
             self._linear_key = key
         assert self._linear is not None  # built with its key
         return self._linear
@@ -567,14 +623,16 @@ class Simulation:
         w0, wp0 = self.spheres.angular_velocity, self.plates.angular_velocity
         previous = None
         if self._v_before is not None and self._v_before.shape == v0.shape:
-            previous = (Velocities(v0, w0, vp0, wp0),
-                        Velocities(self._v_before, self._w_before if rot else w0,
-                                   self._vp_before, self._wp_before if rot else wp0))
+            previous = (
+                Velocities(v0, w0, vp0, wp0),
+                Velocities(
+                    self._v_before, self._w_before if rot else w0, self._vp_before, self._wp_before if rot else wp0
+                ),
+            )
             for old in self._older:
                 if old[0].shape != v0.shape:
                     break
-                previous += (Velocities(old[0], old[1] if rot else w0, old[2],
-                                        old[3] if rot else wp0),)
+                previous += (Velocities(old[0], old[1] if rot else w0, old[2], old[3] if rot else wp0),)
             v0 = 2.0 * v0 - self._v_before
             vp0 = 2.0 * vp0 - self._vp_before
             if rot and self._w_before is not None:
@@ -582,8 +640,15 @@ class Simulation:
                 wp0 = 2.0 * wp0 - self._wp_before
         return Velocities(v0, w0, vp0, wp0), previous
 
-    def _fast_path(self, free: Velocities, end: Velocities, contacts: Contacts,
-                   bonds: BondGeometry, bond_step: BondStep, bodies: Bodies) -> bool:
+    def _fast_path(
+        self,
+        free: Velocities,
+        end: Velocities,
+        contacts: Contacts,
+        bonds: BondGeometry,
+        bond_step: BondStep,
+        bodies: Bodies,
+    ) -> bool:
         """Try the linear solver (:mod:`.linear`); True if its solution is the solution of
         the step: then end, the bond impulses and the contact impulses hold it. Contacts
         that the linear solution closes are solved on their Delassus operator condensed over
@@ -596,8 +661,7 @@ class Simulation:
         trial = Velocities(*(a.copy() for a in end))
         P_try = np.zeros_like(bond_step.impulse)
         start, previous = self._initial_guess()
-        solver.solve(free, bonds, bond_step.c0, bond_step.cg, trial, P_try, start=start,
-                     previous=previous)
+        solver.solve(free, bonds, bond_step.c0, bond_step.cg, trial, P_try, start=start, previous=previous)
         self.linear_iterations = solver.last_iterations
         # contacts must stay open with zero reaction, or be solved by the condensed problem
         ci, cj, cframe, gap = contacts.i, contacts.j, contacts.frame, contacts.gap
@@ -608,9 +672,19 @@ class Simulation:
             if np.any(u[:, 0] + np.maximum(gap, 0.0) / h < 0.0):
                 if p.fast_path_contacts > 0:
                     closed = condensed.solve_contacts(
-                        solver, ci, cj, cframe, gap, bodies.radius, bodies.inv_inertia,
-                        *trial, u, h, p.friction,
-                        p.fast_path_contacts)
+                        solver,
+                        ci,
+                        cj,
+                        cframe,
+                        gap,
+                        bodies.radius,
+                        bodies.inv_inertia,
+                        *trial,
+                        u,
+                        h,
+                        p.friction,
+                        p.fast_path_contacts,
+                    )
                 if closed is None:
                     bond_step.impulse[:] = P_try  # warm start for NLGS
                     return False

@@ -56,8 +56,7 @@ _SET_IN_POST_INIT: Any = None
 def _as(a, shape_tail, name, dtype=float):
     arr = np.ascontiguousarray(np.asarray(a, dtype=dtype))
     if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != tuple(shape_tail):
-        raise ValueError(f"{name}: expected shape (n, {', '.join(map(str, shape_tail))}) "
-                         f"got {arr.shape}")
+        raise ValueError(f"{name}: expected shape (n, {', '.join(map(str, shape_tail))}) got {arr.shape}")
     return arr
 
 
@@ -318,15 +317,35 @@ class Bonds:
     @classmethod
     def empty(cls, n_kelvin: int = 1) -> "Bonds":
         z = np.zeros(0)
-        return cls(i=np.zeros(0, np.int64), j=np.zeros(0, np.int64), delta0=z, l0=z, r_min=z,
-                   frame=np.zeros((0, 3, 3)), rest=np.zeros((0, 3)), Km=np.zeros((0, 2)),
-                   Cm=np.zeros((0, 2)), Kk=np.zeros((0, n_kelvin, 2)),
-                   Ck=np.zeros((0, n_kelvin, 2)), Kinf=np.zeros((0, 2)), r_crit=z,
-                   arm_i=np.zeros((0, 3)), arm_j=np.zeros((0, 3)))
+        return cls(
+            i=np.zeros(0, np.int64),
+            j=np.zeros(0, np.int64),
+            delta0=z,
+            l0=z,
+            r_min=z,
+            frame=np.zeros((0, 3, 3)),
+            rest=np.zeros((0, 3)),
+            Km=np.zeros((0, 2)),
+            Cm=np.zeros((0, 2)),
+            Kk=np.zeros((0, n_kelvin, 2)),
+            Ck=np.zeros((0, n_kelvin, 2)),
+            Kinf=np.zeros((0, 2)),
+            r_crit=z,
+            arm_i=np.zeros((0, 3)),
+            arm_j=np.zeros((0, 3)),
+        )
 
     @classmethod
-    def create(cls, spheres: Spheres, plates: Plates, i, j, law: GeneralizedBurgers,
-               nu: float = POISSON_RATIO, yield_stress: float = YIELD_STRESS) -> "Bonds":
+    def create(
+        cls,
+        spheres: Spheres,
+        plates: Plates,
+        i,
+        j,
+        law: GeneralizedBurgers,
+        nu: float = POISSON_RATIO,
+        yield_stress: float = YIELD_STRESS,
+    ) -> "Bonds":
         """Bonds between candidate spheres ``i`` and antagonists ``j`` (sphere index, or
         ``-1-k`` for plate k) in the current configuration, which is taken as the rest state.
 
@@ -387,10 +406,24 @@ class Bonds:
         Ck = np.array(law.eta_k).reshape(1, nk, 1) * a[:, None, None] * ratio
         Kinf = law.E_inf * a[:, None] * ratio
         r_crit = yield_stress * np.pi * r_min**2
-        return cls(i=i, j=j, delta0=delta0, l0=l0, r_min=r_min, frame=frame, rest=rest,
-                   Km=Km, Cm=Cm, Kk=np.ascontiguousarray(Kk), Ck=np.ascontiguousarray(Ck),
-                   Kinf=Kinf, r_crit=r_crit, arm_i=arm_i, arm_j=arm_j,
-                   law={**law.as_dict(), "nu": nu, "yield_stress": yield_stress})
+        return cls(
+            i=i,
+            j=j,
+            delta0=delta0,
+            l0=l0,
+            r_min=r_min,
+            frame=frame,
+            rest=rest,
+            Km=Km,
+            Cm=Cm,
+            Kk=np.ascontiguousarray(Kk),
+            Ck=np.ascontiguousarray(Ck),
+            Kinf=Kinf,
+            r_crit=r_crit,
+            arm_i=arm_i,
+            arm_j=arm_j,
+            law={**law.as_dict(), "nu": nu, "yield_stress": yield_stress},
+        )
 
 
 def local_frames(normal: np.ndarray) -> np.ndarray:
@@ -490,34 +523,28 @@ class NSCDParameters:
     def __post_init__(self):
         import numba
 
-        if not (isinstance(self.threads, (int, np.integer)) and
-                1 <= self.threads <= numba.config.NUMBA_NUM_THREADS):
-            raise ValueError(f"threads must be an integer in [1, NUMBA_NUM_THREADS = "
-                             f"{numba.config.NUMBA_NUM_THREADS}], got {self.threads!r}")
+        if not (isinstance(self.threads, (int, np.integer)) and 1 <= self.threads <= numba.config.NUMBA_NUM_THREADS):
+            raise ValueError(
+                f"threads must be an integer in [1, NUMBA_NUM_THREADS = "
+                f"{numba.config.NUMBA_NUM_THREADS}], got {self.threads!r}"
+            )
         self.threads = int(self.threads)
         if self.bond_kinematics not in BOND_KINEMATICS:
-            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, "
-                             f"got {self.bond_kinematics!r}")
+            raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, got {self.bond_kinematics!r}")
         if self.bonded_contact not in BONDED_CONTACT:
-            raise ValueError(f"bonded_contact must be one of {BONDED_CONTACT}, "
-                             f"got {self.bonded_contact!r}")
+            raise ValueError(f"bonded_contact must be one of {BONDED_CONTACT}, got {self.bonded_contact!r}")
         if self.convergence not in CONVERGENCE_NORMS:
-            raise ValueError(f"convergence must be one of {list(CONVERGENCE_NORMS)}, "
-                             f"got {self.convergence!r}")
+            raise ValueError(f"convergence must be one of {list(CONVERGENCE_NORMS)}, got {self.convergence!r}")
         if self.linear_solver not in ("cg", "cg_ssor", "direct"):
-            raise ValueError("linear_solver must be 'cg', 'cg_ssor' or 'direct', "
-                             f"got {self.linear_solver!r}")
+            raise ValueError(f"linear_solver must be 'cg', 'cg_ssor' or 'direct', got {self.linear_solver!r}")
         from .linear.direct import FACTORISATIONS
 
         if self.direct_factorisation not in FACTORISATIONS:
-            raise ValueError(f"direct_factorisation must be one of {FACTORISATIONS}, "
-                             f"got {self.direct_factorisation!r}")
+            raise ValueError(f"direct_factorisation must be one of {FACTORISATIONS}, got {self.direct_factorisation!r}")
         if not (0.0 < self.linear_ssor_omega < 2.0):
             raise ValueError(f"linear_ssor_omega must lie in (0, 2), got {self.linear_ssor_omega}")
-        if not (isinstance(self.fast_path_contacts, (int, np.integer))
-                and self.fast_path_contacts >= 0):
-            raise ValueError(f"fast_path_contacts must be an integer >= 0, "
-                             f"got {self.fast_path_contacts!r}")
+        if not (isinstance(self.fast_path_contacts, (int, np.integer)) and self.fast_path_contacts >= 0):
+            raise ValueError(f"fast_path_contacts must be an integer >= 0, got {self.fast_path_contacts!r}")
         self.fast_path_contacts = int(self.fast_path_contacts)
         if not (self.dt > 0):
             raise ValueError(f"dt must be > 0, got {self.dt}")
@@ -528,7 +555,6 @@ class NSCDParameters:
         if self.friction < 0 or self.tolerance <= 0 or self.max_iterations < 1:
             raise ValueError("friction >= 0, tolerance > 0 and max_iterations >= 1 required")
         self.gravity = np.asarray(self.gravity, dtype=float).reshape(3)
-
 
 
 @dataclass
@@ -568,10 +594,23 @@ class StepStats:
 
     def as_row(self) -> dict:
         """Flat dict (plate forces expanded to plate{k}_F{x,y,z}_N columns)."""
-        row = {k: getattr(self, k) for k in ("time", "solver", "iterations", "residual_quad",
-                                              "residual_max", "converged", "n_contacts",
-                                              "n_active_contacts", "n_bonds", "n_broken",
-                                              "n_broken_total", "dissipated")}
+        row = {
+            k: getattr(self, k)
+            for k in (
+                "time",
+                "solver",
+                "iterations",
+                "residual_quad",
+                "residual_max",
+                "converged",
+                "n_contacts",
+                "n_active_contacts",
+                "n_bonds",
+                "n_broken",
+                "n_broken_total",
+                "dissipated",
+            )
+        }
         for k in range(len(self.plate_force)):
             for c, ax in enumerate("xyz"):
                 row[f"plate{k}_F{ax}_N"] = float(self.plate_force[k, c])

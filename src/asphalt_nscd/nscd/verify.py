@@ -57,8 +57,7 @@ L0 = 4.5e-3
 DENSITY = 2600.0
 
 
-def _row(case, quantity, numerical, analytic, tolerance, unit="", scale=None, bound=False,
-         note=""):
+def _row(case, quantity, numerical, analytic, tolerance, unit="", scale=None, bound=False, note=""):
     numerical = float(numerical)
     analytic = float(analytic)
     if scale is None:
@@ -67,9 +66,17 @@ def _row(case, quantity, numerical, analytic, tolerance, unit="", scale=None, bo
         err = max(0.0, numerical - analytic) / scale
     else:
         err = abs(numerical - analytic) / scale
-    return {"case": case, "quantity": quantity, "numerical": numerical, "analytic": analytic,
-            "relative_error": err, "tolerance": float(tolerance),
-            "passed": bool(err <= tolerance), "unit": unit, "note": note}
+    return {
+        "case": case,
+        "quantity": quantity,
+        "numerical": numerical,
+        "analytic": analytic,
+        "relative_error": err,
+        "tolerance": float(tolerance),
+        "passed": bool(err <= tolerance),
+        "unit": unit,
+        "note": note,
+    }
 
 
 def _pair(mass1, inertia1=None, law=LAW_15C, gap_axis=0):
@@ -77,22 +84,27 @@ def _pair(mass1, inertia1=None, law=LAW_15C, gap_axis=0):
     pos = np.zeros((2, 3))
     pos[1, gap_axis] = L0
     inertia1 = 0.4 * mass1 * R_SPHERE**2 if inertia1 is None else inertia1
-    s = Spheres(position=pos, radius=[R_SPHERE, R_SPHERE], mass=[np.inf, mass1],
-                inertia=[np.inf, inertia1])
+    s = Spheres(position=pos, radius=[R_SPHERE, R_SPHERE], mass=[np.inf, mass1], inertia=[np.inf, inertia1])
     b = Bonds.create(s, Plates([]), [1], [0], law)
     return s, b
 
 
-def bond_law(law: GeneralizedBurgers, tangential: bool = False, nu: float = POISSON_RATIO,
-             r_min: float = R_SPHERE, l0: float = L0) -> GeneralizedBurgers:
+def bond_law(
+    law: GeneralizedBurgers,
+    tangential: bool = False,
+    nu: float = POISSON_RATIO,
+    r_min: float = R_SPHERE,
+    l0: float = L0,
+) -> GeneralizedBurgers:
     """Micro law (N/m, N s/m) of a bond of the verification geometry (Eqs. 30-33, 8-11)."""
     a = float(bond_scale(r_min, l0)) * (tangential_ratio(nu) if tangential else 1.0)
     return law.scaled(a)
 
 
 # ----------------------------------------------------------------------------- bonds
-def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5,
-               kinematics: str = "contact") -> list[dict]:
+def case_creep(
+    direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5, kinematics: str = "contact"
+) -> list[dict]:
     """Creep of a two-sphere bond under a constant force of R_crit/2 (normal or tangential);
     the loaded sphere does not rotate (with the 'contact' kinematics a force at its barycentre
     would also roll it about the bond point c, harmonic/solver.py; locked, delta is the
@@ -102,9 +114,9 @@ def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5,
     axis = b.frame[0, 0] if direction == "normal" else b.frame[0, 1]
     f = np.zeros((2, 3))
     f[1] = F * axis
-    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0),
-                                                bond_kinematics=kinematics),
-                     external_force=f)
+    sim = Simulation(
+        s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0), bond_kinematics=kinematics), external_force=f
+    )
     micro = bond_law(LAW_15C, tangential=direction != "normal")
     sampled_t: list[float] = []
     sampled_delta: list[float] = []
@@ -118,10 +130,12 @@ def case_creep(direction: str = "normal", dt: float = 1e-4, t_end: float = 0.5,
     times, num = np.array(sampled_t), np.array(sampled_delta)
     ana = F * micro.creep_compliance(times)
     worst = int(np.argmax(np.abs(num - ana) / ana))
-    return [_row(f"creep_{direction}", f"delta at t = {times[worst]:.3g} s (worst of 50)",
-                 num[worst], ana[worst], 1e-2, "m"),
-            _row(f"creep_{direction}", f"delta at t = {times[-1]:.3g} s", num[-1], ana[-1],
-                 1e-2, "m")]
+    return [
+        _row(
+            f"creep_{direction}", f"delta at t = {times[worst]:.3g} s (worst of 50)", num[worst], ana[worst], 1e-2, "m"
+        ),
+        _row(f"creep_{direction}", f"delta at t = {times[-1]:.3g} s", num[-1], ana[-1], 1e-2, "m"),
+    ]
 
 
 def relaxation_response(micro: GeneralizedBurgers, gap: float, times) -> np.ndarray:
@@ -135,8 +149,7 @@ def relaxation_response(micro: GeneralizedBurgers, gap: float, times) -> np.ndar
     n = 1 + nk
     A = np.zeros((n, n))
     c = np.zeros(n)
-    inv_c = np.array([0.0 if np.isinf(micro.eta_m) else 1.0 / micro.eta_m]
-                     + [1.0 / x for x in micro.eta_k])
+    inv_c = np.array([0.0 if np.isinf(micro.eta_m) else 1.0 / micro.eta_m] + [1.0 / x for x in micro.eta_k])
     kk = np.array([0.0] + list(micro.Ek))
     # R_ch = -Km gap + Km sum(y)
     for r in range(n):
@@ -154,12 +167,24 @@ def relaxation_response(micro: GeneralizedBurgers, gap: float, times) -> np.ndar
 
 def case_relaxation(dt: float = 1e-4, t_end: float = 0.3, theta: float = 0.5) -> list[dict]:
     """Sphere fixed, bonded to a plate whose displacement steps by u0 during the first step."""
-    s = Spheres(position=np.array([[0.0, 0.0, L0]]), radius=np.array([R_SPHERE]), mass=np.array([np.inf]),
-                inertia=np.array([np.inf]))
+    s = Spheres(
+        position=np.array([[0.0, 0.0, L0]]),
+        radius=np.array([R_SPHERE]),
+        mass=np.array([np.inf]),
+        inertia=np.array([np.inf]),
+    )
     u0 = 1e-6
-    plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1,
-                           displacement=(np.array([0.0, dt, 1e9]),
-                                         np.array([[0, 0, 0], [0, 0, u0], [0, 0, u0]])))])
+    plates = Plates(
+        [
+            Plate(
+                [0, 0, 0],
+                [0, 0, 1],
+                mode="driven",
+                mass=0.1,
+                displacement=(np.array([0.0, dt, 1e9]), np.array([[0, 0, 0], [0, 0, u0], [0, 0, u0]])),
+            )
+        ]
+    )
     b = Bonds.create(s, plates, [0], [-1], LAW_15C)
     b.r_crit[:] = np.inf
     sim = Simulation(s, plates, b, NSCDParameters(dt=dt, theta=theta, gravity=(0, 0, 0)))
@@ -174,9 +199,10 @@ def case_relaxation(dt: float = 1e-4, t_end: float = 0.3, theta: float = 0.5) ->
     # the plate moves +u0 along n: the gap delta_n = -u0; force R_n = +K u0 > 0 (pushes back)
     ana = relaxation_response(micro, -u0, np.array(times))
     worst = int(np.argmax(np.abs(np.array(num) - ana) / np.abs(ana)))
-    return [_row("relaxation", f"R_n at t = {times[worst]:.3g} s (worst of 30)", num[worst],
-                 ana[worst], 1e-2, "N"),
-            _row("relaxation", f"R_n at t = {times[-1]:.3g} s", num[-1], ana[-1], 1e-2, "N")]
+    return [
+        _row("relaxation", f"R_n at t = {times[worst]:.3g} s (worst of 30)", num[worst], ana[worst], 1e-2, "N"),
+        _row("relaxation", f"R_n at t = {times[-1]:.3g} s", num[-1], ana[-1], 1e-2, "N"),
+    ]
 
 
 def _fit_harmonic(t, y, omega):
@@ -187,8 +213,9 @@ def _fit_harmonic(t, y, omega):
     return coef[0] + 1j * coef[1]
 
 
-def _steady_state_bond(micro: GeneralizedBurgers, delta_hat: complex, omega: float, k: int,
-                       bonds: Bonds, comp: int) -> None:
+def _steady_state_bond(
+    micro: GeneralizedBurgers, delta_hat: complex, omega: float, k: int, bonds: Bonds, comp: int
+) -> None:
     """Set bond k's internal variables (component comp) to the exact steady state of
     delta(t) = Im(delta_hat e^{iwt}) at t = 0."""
     kstar = complex(micro.complex_modulus(omega))
@@ -200,8 +227,7 @@ def _steady_state_bond(micro: GeneralizedBurgers, delta_hat: complex, omega: flo
         bonds.delta_k[k, u, comp] = (-r_ch / (ek + 1j * omega * ck)).imag
 
 
-def case_sinusoid(freq: float = 10.0, dt: float = 1e-5, theta: float = 0.5,
-                  n_cycles: int = 3) -> list[dict]:
+def case_sinusoid(freq: float = 10.0, dt: float = 1e-5, theta: float = 0.5, n_cycles: int = 3) -> list[dict]:
     """Two-sphere bond (sphere 0 fixed, sphere 1 of 2 mm radius) under F sin(w t) along n."""
     mass = DENSITY * 4.0 / 3.0 * np.pi * R_SPHERE**3
     s, b = _pair(mass1=mass)
@@ -220,8 +246,7 @@ def case_sinusoid(freq: float = 10.0, dt: float = 1e-5, theta: float = 0.5,
         f[1] = F * np.sin(omega * t) * n
         return f
 
-    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=theta, gravity=(0, 0, 0)),
-                     external_force=force)
+    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=theta, gravity=(0, 0, 0)), external_force=force)
     period = 2 * np.pi / omega
     n_steps = int(round(n_cycles * period / dt))
     t_rec, x_rec = np.empty(n_steps), np.empty(n_steps)
@@ -232,16 +257,29 @@ def case_sinusoid(freq: float = 10.0, dt: float = 1e-5, theta: float = 0.5,
         x_rec[k] = s.position[1] @ n - x0
     last = t_rec >= t_rec[-1] - 2 * period
     fit = _fit_harmonic(t_rec[last], x_rec[last], omega)
-    return [_row("sinusoid", f"|X| at {freq:g} Hz, omega dt = {omega * dt:.2g}", abs(fit),
-                 abs(x_hat), 5e-3, "m"),
-            _row("sinusoid", f"phase of X at {freq:g} Hz", np.degrees(np.angle(fit)),
-                 np.degrees(np.angle(x_hat)), 0.05, "deg", scale=1.0,
-                 note="absolute error in degrees")]
+    return [
+        _row("sinusoid", f"|X| at {freq:g} Hz, omega dt = {omega * dt:.2g}", abs(fit), abs(x_hat), 5e-3, "m"),
+        _row(
+            "sinusoid",
+            f"phase of X at {freq:g} Hz",
+            np.degrees(np.angle(fit)),
+            np.degrees(np.angle(x_hat)),
+            0.05,
+            "deg",
+            scale=1.0,
+            note="absolute error in degrees",
+        ),
+    ]
 
 
-def phase_error_table(law: GeneralizedBurgers = LAW_15C, omegas=(2 * np.pi * 40.0,),
-                      dts=(5e-5,), thetas=(0.5, 1.0), n_cycles: int = 2,
-                      amplitude: float = HEAD_AMPLITUDE_M) -> pd.DataFrame:
+def phase_error_table(
+    law: GeneralizedBurgers = LAW_15C,
+    omegas=(2 * np.pi * 40.0,),
+    dts=(5e-5,),
+    thetas=(0.5, 1.0),
+    n_cycles: int = 2,
+    amplitude: float = HEAD_AMPLITUDE_M,
+) -> pd.DataFrame:
     """Phase and amplitude error of the time-discrete bond law (Moreau-Jean theta, internal
     variables by the theta-method) under an imposed sinusoidal gap.
 
@@ -266,17 +304,19 @@ def phase_error_table(law: GeneralizedBurgers = LAW_15C, omegas=(2 * np.pi * 40.
         kstar = complex(micro.complex_modulus(omega))
         for dt in dts:
             for theta in thetas:
-                s = Spheres(position=np.array([[0.0, 0.0, L0]]), radius=np.array([R_SPHERE]),
-                            mass=np.array([np.inf]), inertia=np.array([np.inf]))
-                drive = (lambda t, w=omega: np.array([0.0, 0.0, amplitude * np.sin(w * t)]))
-                plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1,
-                                       displacement=drive)])
+                s = Spheres(
+                    position=np.array([[0.0, 0.0, L0]]),
+                    radius=np.array([R_SPHERE]),
+                    mass=np.array([np.inf]),
+                    inertia=np.array([np.inf]),
+                )
+                drive = lambda t, w=omega: np.array([0.0, 0.0, amplitude * np.sin(w * t)])
+                plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1, displacement=drive)])
                 b = Bonds.create(s, plates, [0], [-1], law)
                 b.r_crit[:] = np.inf
                 # delta_n = -u(t) = Im(-amplitude e^{iwt})
                 _steady_state_bond(micro, -amplitude + 0j, omega, 0, b, 0)
-                sim = Simulation(s, plates, b, NSCDParameters(dt=dt, theta=theta,
-                                                              gravity=(0, 0, 0)))
+                sim = Simulation(s, plates, b, NSCDParameters(dt=dt, theta=theta, gravity=(0, 0, 0)))
                 period = 2 * np.pi / omega
                 n_steps = max(int(round(n_cycles * period / dt)), 8)
                 t = np.empty(n_steps)
@@ -288,12 +328,19 @@ def phase_error_table(law: GeneralizedBurgers = LAW_15C, omegas=(2 * np.pi * 40.
                 last = t >= t[-1] - period
                 r_hat = _fit_harmonic(t[last], r[last], omega)
                 k_num = -r_hat / (-amplitude)
-                rows.append({"omega_rad_s": omega, "frequency_Hz": omega / (2 * np.pi),
-                             "dt_s": dt, "theta": theta, "omega_dt": omega * dt,
-                             "phase_deg": float(np.degrees(np.angle(k_num))),
-                             "phase_exact_deg": float(np.degrees(np.angle(kstar))),
-                             "phase_error_deg": float(np.degrees(np.angle(k_num / kstar))),
-                             "amplitude_rel_error": float(abs(k_num) / abs(kstar) - 1.0)})
+                rows.append(
+                    {
+                        "omega_rad_s": omega,
+                        "frequency_Hz": omega / (2 * np.pi),
+                        "dt_s": dt,
+                        "theta": theta,
+                        "omega_dt": omega * dt,
+                        "phase_deg": float(np.degrees(np.angle(k_num))),
+                        "phase_exact_deg": float(np.degrees(np.angle(kstar))),
+                        "phase_error_deg": float(np.degrees(np.angle(k_num / kstar))),
+                        "amplitude_rel_error": float(abs(k_num) / abs(kstar) - 1.0),
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -303,9 +350,18 @@ def case_phase_table_rows(table: pd.DataFrame) -> list[dict]:
     if sub.empty:
         return []
     r = sub.iloc[0]
-    return [_row("phase_table", f"phase error at omega dt = {r.omega_dt:.2g}, theta = 0.5",
-                 r.phase_deg, r.phase_exact_deg, 0.05, "deg", scale=1.0,
-                 note="imposed gap; absolute error in degrees")]
+    return [
+        _row(
+            "phase_table",
+            f"phase error at omega dt = {r.omega_dt:.2g}, theta = 0.5",
+            r.phase_deg,
+            r.phase_exact_deg,
+            0.05,
+            "deg",
+            scale=1.0,
+            note="imposed gap; absolute error in degrees",
+        )
+    ]
 
 
 # ----------------------------------------------------------------------------- contacts
@@ -322,9 +378,19 @@ def case_rest(dt: float = 1e-4, n_steps: int = 200) -> list[dict]:
     for _ in range(n_steps):
         st = sim.step()
     w = s.mass[0] * 9.81
-    return [_row("rest", "plate reaction F_z", -st.plate_force[0, 2], w, 1e-9, "N"),
-            _row("rest", "penetration", max(0.0, -(s.position[0, 2] - 0.01)), 0.0, 1e-9, "m",
-                 scale=0.01, note="scale: radius")]
+    return [
+        _row("rest", "plate reaction F_z", -st.plate_force[0, 2], w, 1e-9, "N"),
+        _row(
+            "rest",
+            "penetration",
+            max(0.0, -(s.position[0, 2] - 0.01)),
+            0.0,
+            1e-9,
+            "m",
+            scale=0.01,
+            note="scale: radius",
+        ),
+    ]
 
 
 def _incline(alpha_deg, mu, rotating, dt=1e-4, t_end=0.2):
@@ -346,17 +412,34 @@ def case_incline(mu: float = 0.5) -> list[dict]:
     crit = np.degrees(np.arctan(mu))
     rows = []
     a_stick = _incline(crit - 5.0, mu, rotating=False)
-    rows.append(_row("incline_block", f"a at {crit - 5:.1f} deg < atan(mu) (stick)", a_stick,
-                     0.0, 1e-9, "m/s2", scale=g, note="scale: g"))
+    rows.append(
+        _row(
+            "incline_block",
+            f"a at {crit - 5:.1f} deg < atan(mu) (stick)",
+            a_stick,
+            0.0,
+            1e-9,
+            "m/s2",
+            scale=g,
+            note="scale: g",
+        )
+    )
     alpha = crit + 10.0
     a_slide = _incline(alpha, mu, rotating=False)
     ana = g * (np.sin(np.radians(alpha)) - mu * np.cos(np.radians(alpha)))
-    rows.append(_row("incline_block", f"a at {alpha:.1f} deg > atan(mu) (slide)", a_slide, ana,
-                     1e-6, "m/s2"))
+    rows.append(_row("incline_block", f"a at {alpha:.1f} deg > atan(mu) (slide)", a_slide, ana, 1e-6, "m/s2"))
     alpha = 20.0
     a_roll = _incline(alpha, mu, rotating=True)
-    rows.append(_row("incline_rolling", f"a at {alpha:.0f} deg (rolling, tan a < 3.5 mu)",
-                     a_roll, 5.0 / 7.0 * g * np.sin(np.radians(alpha)), 1e-6, "m/s2"))
+    rows.append(
+        _row(
+            "incline_rolling",
+            f"a at {alpha:.0f} deg (rolling, tan a < 3.5 mu)",
+            a_roll,
+            5.0 / 7.0 * g * np.sin(np.radians(alpha)),
+            1e-6,
+            "m/s2",
+        )
+    )
     return rows
 
 
@@ -373,10 +456,10 @@ def case_column(n: int = 5, dt: float = 1e-4, n_steps: int = 300) -> list[dict]:
     # reaction of the contact between sphere 0 and 1 = weight of the n-1 spheres above
     sel = (sim.contact_i == 0) & (sim.contact_j == 1)
     r01 = sim.contact_impulse[sel, 0].sum() / dt
-    return [_row("column", f"plate reaction under {n} spheres", -st.plate_force[0, 2], w, 1e-8,
-                 "N"),
-            _row("column", "reaction between spheres 1 and 2", r01, (n - 1) * m * 9.81, 1e-8,
-                 "N")]
+    return [
+        _row("column", f"plate reaction under {n} spheres", -st.plate_force[0, 2], w, 1e-8, "N"),
+        _row("column", "reaction between spheres 1 and 2", r01, (n - 1) * m * 9.81, 1e-8, "N"),
+    ]
 
 
 def case_impact(dt: float = 1e-4, theta: float = 0.5, height: float = 0.05):
@@ -402,16 +485,35 @@ def case_impact(dt: float = 1e-4, theta: float = 0.5, height: float = 0.05):
             v_imp = -v_before
             max_pen = max(max_pen, -(s.position[0, 2] - r))
     bound = (1 - theta) * dt * v_imp
-    rows = [_row("impact", "normal velocity after the impact step (max |v_z|)",
-                 np.max(np.abs(post)),
-                 0.0, 1e-9, "m/s", scale=v_imp, note="scale: impact velocity"),
-            _row("impact", "penetration <= (1 - theta) h v_impact", max_pen, bound, 1e-9, "m",
-                 scale=bound, bound=True, note="upper bound")]
+    rows = [
+        _row(
+            "impact",
+            "normal velocity after the impact step (max |v_z|)",
+            np.max(np.abs(post)),
+            0.0,
+            1e-9,
+            "m/s",
+            scale=v_imp,
+            note="scale: impact velocity",
+        ),
+        _row(
+            "impact",
+            "penetration <= (1 - theta) h v_impact",
+            max_pen,
+            bound,
+            1e-9,
+            "m",
+            scale=bound,
+            bound=True,
+            note="upper bound",
+        ),
+    ]
     return rows, np.array(diss), 0.5 * s.mass[0] * v_imp**2
 
 
-def rigid_rotation_force(kinematics: str, with_plate: bool = False, omega: float = 5.0,
-                         dt: float = 1e-5, n_steps: int = 20) -> float:
+def rigid_rotation_force(
+    kinematics: str, with_plate: bool = False, omega: float = 5.0, dt: float = 1e-5, n_steps: int = 20
+) -> float:
     """Largest bond force (N) over ``n_steps`` steps of a bonded pair in rigid rotation.
 
     Sphere-sphere: two mobile spheres at (0,0,0) and (L0,0,0), angular velocity (0, 0, omega)
@@ -423,23 +525,37 @@ def rigid_rotation_force(kinematics: str, with_plate: bool = False, omega: float
     w = np.array([0.0, 0.0, omega]) if not with_plate else np.array([0.0, omega, 0.0])
     if with_plate:
         pos = np.array([[0.0, 0.0, L0 / 2]])
-        s = Spheres(position=pos, radius=np.array([R_SPHERE]), mass=np.array([m]),
-                    inertia=np.array([0.4 * m * R_SPHERE**2]))
-        plates = Plates([Plate([0, 0, 0], [0, 0, 1], mode="driven", mass=0.1,
-                               displacement=lambda t: np.zeros(3), rotation=True,
-                               inertia=1e-4)])
+        s = Spheres(
+            position=pos, radius=np.array([R_SPHERE]), mass=np.array([m]), inertia=np.array([0.4 * m * R_SPHERE**2])
+        )
+        plates = Plates(
+            [
+                Plate(
+                    [0, 0, 0],
+                    [0, 0, 1],
+                    mode="driven",
+                    mass=0.1,
+                    displacement=lambda t: np.zeros(3),
+                    rotation=True,
+                    inertia=1e-4,
+                )
+            ]
+        )
         plates.angular_velocity[0] = w
         b = Bonds.create(s, plates, [0], [-1], LAW_15C)
     else:
         pos = np.array([[0.0, 0.0, 0.0], [L0, 0.0, 0.0]])
-        s = Spheres(position=pos, radius=np.array([R_SPHERE] * 2), mass=np.array([m] * 2),
-                    inertia=np.array([0.4 * m * R_SPHERE**2] * 2))
+        s = Spheres(
+            position=pos,
+            radius=np.array([R_SPHERE] * 2),
+            mass=np.array([m] * 2),
+            inertia=np.array([0.4 * m * R_SPHERE**2] * 2),
+        )
         plates = Plates([])
         b = Bonds.create(s, plates, [1], [0], LAW_15C)
     s.angular_velocity[:] = w
     s.velocity[:] = np.cross(w, s.position)
-    sim = Simulation(s, plates, b, NSCDParameters(dt=dt, gravity=(0, 0, 0),
-                                                  bond_kinematics=kinematics))
+    sim = Simulation(s, plates, b, NSCDParameters(dt=dt, gravity=(0, 0, 0), bond_kinematics=kinematics))
     f_max = 0.0
     for _ in range(n_steps):
         sim.step()
@@ -452,9 +568,18 @@ def case_rigid_rotation() -> list[dict]:
     rows = []
     for with_plate, name in ((False, "sphere-sphere"), (True, "sphere-rotating plate")):
         ref = rigid_rotation_force("barycentre", with_plate)
-        rows.append(_row("rigid_rotation", f"max |bond force|, contact kinematics, {name}",
-                         rigid_rotation_force("contact", with_plate), 0.0, 1e-9, "N",
-                         scale=ref, note=f"scale: barycentre kinematics force {ref:.3g} N"))
+        rows.append(
+            _row(
+                "rigid_rotation",
+                f"max |bond force|, contact kinematics, {name}",
+                rigid_rotation_force("contact", with_plate),
+                0.0,
+                1e-9,
+                "N",
+                scale=ref,
+                note=f"scale: barycentre kinematics force {ref:.3g} N",
+            )
+        )
     return rows
 
 
@@ -472,8 +597,7 @@ def case_breakage(direction: str = "normal", dt: float = 1e-4) -> list[dict]:
         f[1] = rate * t * axis
         return f
 
-    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0)),
-                     external_force=force)
+    sim = Simulation(s, None, b, NSCDParameters(dt=dt, theta=1.0, gravity=(0, 0, 0)), external_force=force)
     f_at_break = np.nan
     last_intact = np.nan
     for _ in range(int(1.5 * t_break / dt)):
@@ -482,67 +606,132 @@ def case_breakage(direction: str = "normal", dt: float = 1e-4) -> list[dict]:
             f_at_break = rate * sim.time
             break
         last_intact = np.abs(b.force[0, 0]) if direction == "normal" else np.hypot(*b.force[0, 1:])
-    return [_row(f"breakage_{direction}", "applied force at breakage", f_at_break, rc,
-                 rate * dt / rc + 1e-6, "N", note="tolerance: one ramp increment"),
-            _row(f"breakage_{direction}", "last intact bond force <= R_crit", last_intact, rc,
-                 0.0, "N", bound=True, note="upper bound")]
+    return [
+        _row(
+            f"breakage_{direction}",
+            "applied force at breakage",
+            f_at_break,
+            rc,
+            rate * dt / rc + 1e-6,
+            "N",
+            note="tolerance: one ramp increment",
+        ),
+        _row(
+            f"breakage_{direction}",
+            "last intact bond force <= R_crit",
+            last_intact,
+            rc,
+            0.0,
+            "N",
+            bound=True,
+            note="upper bound",
+        ),
+    ]
 
 
 def case_dissipation(impact_diss, impact_energy) -> list[dict]:
-    rows = [_row("dissipation", "-(min step dissipation), impact", -np.min(impact_diss), 0.0,
-                 1e-12, "J", scale=impact_energy, bound=True,
-                 note="must be <= 0; scale: impact energy")]
+    rows = [
+        _row(
+            "dissipation",
+            "-(min step dissipation), impact",
+            -np.min(impact_diss),
+            0.0,
+            1e-12,
+            "J",
+            scale=impact_energy,
+            bound=True,
+            note="must be <= 0; scale: impact energy",
+        )
+    ]
     # sliding block
     a = np.radians(40.0)
     normal = np.array([-np.sin(a), 0.0, np.cos(a)])
     s = _sphere_at(0.01 * normal, 0.01, rotating=False)
     s.velocity[0] = 0.1 * np.array([-np.cos(a), 0, -np.sin(a)])  # v0 = 0.1 m/s down
-    sim = Simulation(s, Plates([Plate([0, 0, 0], normal)]), None,
-                     NSCDParameters(dt=1e-4, friction=0.5))
+    sim = Simulation(s, Plates([Plate([0, 0, 0], normal)]), None, NSCDParameters(dt=1e-4, friction=0.5))
     mu, v0, n_steps, dt = 0.5, 0.1, 500, 1e-4
     d = sim.run(n_steps).dissipated.to_numpy()
     e = 0.5 * s.mass[0] * (s.velocity[0] ** 2).sum()
-    rows.append(_row("dissipation", "-(min step dissipation), sliding", -d.min(), 0.0, 1e-12,
-                     "J", scale=e, bound=True, note="must be <= 0; scale: final kinetic energy"))
+    rows.append(
+        _row(
+            "dissipation",
+            "-(min step dissipation), sliding",
+            -d.min(),
+            0.0,
+            1e-12,
+            "J",
+            scale=e,
+            bound=True,
+            note="must be <= 0; scale: final kinetic energy",
+        )
+    )
     t = n_steps * dt
     distance = v0 * t + 0.5 * 9.81 * (np.sin(a) - mu * np.cos(a)) * t**2
-    rows.append(_row("dissipation", "energy dissipated by friction while sliding", d.sum(),
-                     mu * s.mass[0] * 9.81 * np.cos(a) * distance, 1e-6, "J",
-                     note="mu m g cos(a) x distance slid"))
+    rows.append(
+        _row(
+            "dissipation",
+            "energy dissipated by friction while sliding",
+            d.sum(),
+            mu * s.mass[0] * 9.81 * np.cos(a) * distance,
+            1e-6,
+            "J",
+            note="mu m g cos(a) x distance slid",
+        )
+    )
     # bonded sinusoid, theta = 0.5 and 1
     for theta in (0.5, 1.0):
         mass = DENSITY * 4.0 / 3.0 * np.pi * R_SPHERE**3
         s, b = _pair(mass1=mass)
         F = 0.1 * b.r_crit[0]
         n = b.frame[0, 0]
-        sim = Simulation(s, None, b, NSCDParameters(dt=5e-5, theta=theta, gravity=(0, 0, 0)),
-                         external_force=lambda t: np.array([[0, 0, 0], F * np.sin(
-                             2 * np.pi * 40 * t) * n]))
+        sim = Simulation(
+            s,
+            None,
+            b,
+            NSCDParameters(dt=5e-5, theta=theta, gravity=(0, 0, 0)),
+            external_force=lambda t: np.array([[0, 0, 0], F * np.sin(2 * np.pi * 40 * t) * n]),
+        )
         d = sim.run(1000).dissipated.to_numpy()
-        rows.append(_row("dissipation", f"-(min step dissipation), bond, theta = {theta}",
-                         -d.min(), 0.0, 1e-9, "J", scale=max(np.abs(d).max(), 1e-300),
-                         bound=True, note="must be <= 0; scale: max |step dissipation|"))
+        rows.append(
+            _row(
+                "dissipation",
+                f"-(min step dissipation), bond, theta = {theta}",
+                -d.min(),
+                0.0,
+                1e-9,
+                "J",
+                scale=max(np.abs(d).max(), 1e-300),
+                bound=True,
+                note="must be <= 0; scale: max |step dissipation|",
+            )
+        )
     return rows
 
 
-def random_bonded_network(n: int = 40, seed: int = 0, law: GeneralizedBurgers = LAW_15C,
-                          contacts: bool = False):
+def random_bonded_network(n: int = 40, seed: int = 0, law: GeneralizedBurgers = LAW_15C, contacts: bool = False):
     """A small jittered bonded block for solver comparisons: spheres of radius 2-3 mm on a
     lattice of pitch 7 mm, bonded when the gap is below 2 mm, bottom plate fixed, top plate
     driven along x. ``contacts``: shrink the pitch so that some spheres touch."""
     rng = np.random.default_rng(seed)
     side = int(np.ceil(n ** (1 / 3)))
     pitch = 6.2e-3 if contacts else 7e-3
-    grid = np.array([[a, b, c] for c in range(side) for b in range(side)
-                     for a in range(side)][:n], float) * pitch
+    grid = np.array([[a, b, c] for c in range(side) for b in range(side) for a in range(side)][:n], float) * pitch
     pos = grid + rng.uniform(-2e-4, 2e-4, grid.shape) + 4e-3
     rad = rng.uniform(2e-3, 3e-3, n)
     s = Spheres.from_density(pos, rad, DENSITY)
     z_top = pos[:, 2].max() + 4e-3
-    plates = Plates([Plate([0, 0, 0], [0, 0, 1]),
-                     Plate([0, 0, z_top], [0, 0, -1], mode="driven", mass=0.235,
-                           displacement=lambda t: np.array([HEAD_AMPLITUDE_M * np.sin(2 * np.pi * 40 * t),
-                                                            0, 0]))])
+    plates = Plates(
+        [
+            Plate([0, 0, 0], [0, 0, 1]),
+            Plate(
+                [0, 0, z_top],
+                [0, 0, -1],
+                mode="driven",
+                mass=0.235,
+                displacement=lambda t: np.array([HEAD_AMPLITUDE_M * np.sin(2 * np.pi * 40 * t), 0, 0]),
+            ),
+        ]
+    )
     from .detection import plate_pairs, sphere_pairs
 
     i, j, _ = sphere_pairs(s.position, s.radius, 2e-3)
@@ -577,10 +766,24 @@ def case_fast_path_contacts(n_steps: int = 40) -> list[dict]:
     sims = []
     for fast in (True, False):
         s, plates, bonds, force = pressed_sphere_network(2.0)
-        sims.append(Simulation(s, plates, bonds, NSCDParameters(
-            dt=5e-5, friction=0.7, tolerance=1e-12, max_iterations=100000,
-            gravity=(0, 0, -9.81), fast_path=fast, linear_solver="direct",
-            fast_path_contacts=16 if fast else 0), external_force=force))
+        sims.append(
+            Simulation(
+                s,
+                plates,
+                bonds,
+                NSCDParameters(
+                    dt=5e-5,
+                    friction=0.7,
+                    tolerance=1e-12,
+                    max_iterations=100000,
+                    gravity=(0, 0, -9.81),
+                    fast_path=fast,
+                    linear_solver="direct",
+                    fast_path_contacts=16 if fast else 0,
+                ),
+                external_force=force,
+            )
+        )
     err_b = err_c = 0.0
     n_fast = n_closed = 0
     for _ in range(n_steps):
@@ -594,12 +797,31 @@ def case_fast_path_contacts(n_steps: int = 40) -> list[dict]:
             fc, gc = sims[0].contact_impulse, sims[1].contact_impulse
             err_c = max(err_c, np.abs(fc - gc).max() / np.abs(gc).max())
     note = f"{n_steps} steps, {n_closed} with a closed contact, {n_fast} on the fast path"
-    return [_row("fast_path_contacts", "max |P_bond,fast - P_bond,nlgs| / max |P_bond|", err_b,
-                 0.0, 1e-8, "1", scale=1.0, note=note),
-            _row("fast_path_contacts", "max |P_contact,fast - P_contact,nlgs| / max |P_contact|",
-                 err_c, 0.0, 1e-8, "1", scale=1.0, note=note),
-            _row("fast_path_contacts", "steps left to NLGS", float(n_steps - n_fast), 0.0, 0.0,
-                 "steps", scale=1.0, note=note)]
+    return [
+        _row(
+            "fast_path_contacts",
+            "max |P_bond,fast - P_bond,nlgs| / max |P_bond|",
+            err_b,
+            0.0,
+            1e-8,
+            "1",
+            scale=1.0,
+            note=note,
+        ),
+        _row(
+            "fast_path_contacts",
+            "max |P_contact,fast - P_contact,nlgs| / max |P_contact|",
+            err_c,
+            0.0,
+            1e-8,
+            "1",
+            scale=1.0,
+            note=note,
+        ),
+        _row(
+            "fast_path_contacts", "steps left to NLGS", float(n_steps - n_fast), 0.0, 0.0, "steps", scale=1.0, note=note
+        ),
+    ]
 
 
 def case_fast_path(n_steps: int = 40) -> list[dict]:
@@ -607,30 +829,55 @@ def case_fast_path(n_steps: int = 40) -> list[dict]:
     out = []
     for fast in (True, False):
         s, plates, bonds = random_bonded_network()
-        sim = Simulation(s, plates, bonds, NSCDParameters(dt=5e-5, friction=0.7,
-                                                          tolerance=1e-10, max_iterations=20000,
-                                                          gravity=(0, 0, 0), fast_path=fast))
+        sim = Simulation(
+            s,
+            plates,
+            bonds,
+            NSCDParameters(
+                dt=5e-5, friction=0.7, tolerance=1e-10, max_iterations=20000, gravity=(0, 0, 0), fast_path=fast
+            ),
+        )
         df = sim.run(n_steps)
         out.append((bonds.force.copy(), df))
     (f_lin, d_lin), (f_gs, _) = out
     scale = np.abs(f_gs).max()
-    return [_row("fast_path", "max |R_linear - R_nlgs| / max |R|",
-                 np.abs(f_lin - f_gs).max() / scale, 0.0, 1e-7, "1", scale=1.0,
-                 note=f"{len(f_gs)} bonds, linear steps: {(d_lin.solver == 'linear').sum()}")]
+    return [
+        _row(
+            "fast_path",
+            "max |R_linear - R_nlgs| / max |R|",
+            np.abs(f_lin - f_gs).max() / scale,
+            0.0,
+            1e-7,
+            "1",
+            scale=1.0,
+            note=f"{len(f_gs)} bonds, linear steps: {(d_lin.solver == 'linear').sum()}",
+        )
+    ]
 
 
 #: Table 3 of the paper at -10 degC read in Pa, Pa s (the stiffest, smallest phase angle).
 LAW_M10C = GeneralizedBurgers.burgers(Em=3.98e7, eta_m=6.28e7, Ek=9.56e8, eta_k=1.49e7)
 
 
-def _driver_phase(fast, solver="cg", tol=1e-7, linear_tol=1e-10, n_cycles=2, freq=40.0,
-                  dt=5e-5):
+def _driver_phase(fast, solver="cg", tol=1e-7, linear_tol=1e-10, n_cycles=2, freq=40.0, dt=5e-5):
     """Phase (deg) of the top-plate driver force against the imposed displacement of the
     small bonded network under the -10 degC law, fitted over the last cycle."""
     s, plates, bonds = random_bonded_network(n=64, law=LAW_M10C)
-    sim = Simulation(s, plates, bonds, NSCDParameters(
-        dt=dt, gravity=(0, 0, 0), tolerance=tol, max_iterations=100000, fast_path=fast,
-        linear_solver=solver, linear_tolerance=linear_tol, convergence="both"))
+    sim = Simulation(
+        s,
+        plates,
+        bonds,
+        NSCDParameters(
+            dt=dt,
+            gravity=(0, 0, 0),
+            tolerance=tol,
+            max_iterations=100000,
+            fast_path=fast,
+            linear_solver=solver,
+            linear_tolerance=linear_tol,
+            convergence="both",
+        ),
+    )
     omega = 2 * np.pi * freq
     n = int(round(n_cycles / freq / dt))
     t = np.empty(n)
@@ -649,15 +896,33 @@ def case_solver_tolerance_phase() -> list[dict]:
     ref = _driver_phase(True, "direct")
     cg = _driver_phase(True, "cg", linear_tol=1e-10)
     gs = _driver_phase(False, tol=1e-7)
-    return [_row("solver_tolerance", "driver-force phase, CG (rel. residual 1e-10)", cg, ref,
-                 0.001, "deg", scale=1.0, note="vs direct solver; absolute error in degrees"),
-            _row("solver_tolerance", "driver-force phase, NLGS (tol 1e-7, quad and max)", gs,
-                 ref, 0.01, "deg", scale=1.0,
-                 note="vs direct solver; absolute error in degrees")]
+    return [
+        _row(
+            "solver_tolerance",
+            "driver-force phase, CG (rel. residual 1e-10)",
+            cg,
+            ref,
+            0.001,
+            "deg",
+            scale=1.0,
+            note="vs direct solver; absolute error in degrees",
+        ),
+        _row(
+            "solver_tolerance",
+            "driver-force phase, NLGS (tol 1e-7, quad and max)",
+            gs,
+            ref,
+            0.01,
+            "deg",
+            scale=1.0,
+            note="vs direct solver; absolute error in degrees",
+        ),
+    ]
 
 
-def run_all(phase_omegas=(2 * np.pi * 40.0,), phase_dts=(1e-5, 2e-5, 5e-5, 1e-4, 2e-4),
-            phase_thetas=(0.5, 0.55, 1.0)) -> tuple[list[dict], pd.DataFrame]:
+def run_all(
+    phase_omegas=(2 * np.pi * 40.0,), phase_dts=(1e-5, 2e-5, 5e-5, 1e-4, 2e-4), phase_thetas=(0.5, 0.55, 1.0)
+) -> tuple[list[dict], pd.DataFrame]:
     """All verification cases. Returns (rows list, phase error DataFrame)."""
     rows: list[dict] = []
     rows += case_creep("normal")
@@ -691,8 +956,7 @@ def plot_phase_table(table: pd.DataFrame):
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for (f, th), g in table.groupby(["frequency_Hz", "theta"]):
         g = g.sort_values("omega_dt")
-        ax.loglog(g.omega_dt, np.abs(g.phase_error_deg).clip(lower=1e-8), "o-",
-                  label=f"{f:g} Hz, theta = {th:g}")
+        ax.loglog(g.omega_dt, np.abs(g.phase_error_deg).clip(lower=1e-8), "o-", label=f"{f:g} Hz, theta = {th:g}")
     ax.axhline(0.01, color="k", lw=0.8, ls="--")
     ax.set_xlabel("omega dt (rad)")
     ax.set_ylabel("|phase error| (deg)")

@@ -79,7 +79,9 @@ def load_table3(path, units: str = "Pa") -> pd.DataFrame:
         values = pd.to_numeric(raw[src], errors="coerce")
         bad = np.flatnonzero(~(values > 0).to_numpy())
         if bad.size:
-            raise InputError(f"{path}: line {bad[0] + 2}, column '{src}': expected a positive number, got {raw[src].iloc[bad[0]]!r}")
+            raise InputError(
+                f"{path}: line {bad[0] + 2}, column '{src}': expected a positive number, got {raw[src].iloc[bad[0]]!r}"
+            )
         out[dst] = values * factor
     return out
 
@@ -88,8 +90,10 @@ def burgers_model(row, unit: float = 1e6) -> GeneralizedBurgers:
     """The Burger's model of a parameter row in MPa, MPa s (dict or Series), in SI (Pa, Pa s)
     by default; ``unit`` = 1.0 keeps MPa and MPa s (the diagnosis' units)."""
     return GeneralizedBurgers.burgers(
-        Em=float(row["Em_MPa"]) * unit, eta_m=float(row["eta_m_MPa_s"]) * unit,
-        Ek=float(row["Ek_MPa"]) * unit, eta_k=float(row["eta_k_MPa_s"]) * unit,
+        Em=float(row["Em_MPa"]) * unit,
+        eta_m=float(row["eta_m_MPa_s"]) * unit,
+        Ek=float(row["Ek_MPa"]) * unit,
+        eta_k=float(row["eta_k_MPa_s"]) * unit,
     )
 
 
@@ -122,11 +126,18 @@ def burgers_curves(params_table: pd.DataFrame, frequency_Hz) -> pd.DataFrame:
     frames = []
     for _, row in params_table.iterrows():
         e = burgers_model(row).complex_modulus(2.0 * np.pi * f) * 1e-6
-        frames.append(pd.DataFrame({
-            "temperature_C": float(row["temperature_C"]), "frequency_Hz": f,
-            "E_norm_MPa": np.abs(e), "phase_deg": np.degrees(np.angle(e)),
-            "E1_MPa": e.real, "E2_MPa": e.imag,
-        }))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "temperature_C": float(row["temperature_C"]),
+                    "frequency_Hz": f,
+                    "E_norm_MPa": np.abs(e),
+                    "phase_deg": np.degrees(np.angle(e)),
+                    "E1_MPa": e.real,
+                    "E2_MPa": e.imag,
+                }
+            )
+        )
     return pd.concat(frames, ignore_index=True)
 
 
@@ -165,8 +176,14 @@ def _log_modulus_jacobian(x: np.ndarray, omega: np.ndarray) -> np.ndarray:
     Em, eta_m, Ek, eta_k = np.exp(np.asarray(x, dtype=float))
     kv = Ek + 1j * omega * eta_k
     D = 1.0 / Em + 1.0 / (1j * omega * eta_m) + 1.0 / kv
-    dD = np.column_stack([np.full(omega.shape, -1.0 / Em, dtype=complex), -1.0 / (1j * omega * eta_m),
-                          -Ek / kv**2, -1j * omega * eta_k / kv**2])
+    dD = np.column_stack(
+        [
+            np.full(omega.shape, -1.0 / Em, dtype=complex),
+            -1.0 / (1j * omega * eta_m),
+            -Ek / kv**2,
+            -1j * omega * eta_k / kv**2,
+        ]
+    )
     return -dD / D[:, None]
 
 
@@ -208,8 +225,10 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     if not (f.shape == E.shape == phi.shape):
         raise ValueError(f"frequency, |E*| and phase must have the same length, got {f.size}, {E.size}, {phi.size}")
     if np.unique(f).size < 2:
-        raise ValueError(f"need points at 2 or more distinct frequencies (4 real numbers: |E*| and Phi at each) "
-                         f"to fit 4 parameters, got {np.unique(f).size} frequency")
+        raise ValueError(
+            f"need points at 2 or more distinct frequencies (4 real numbers: |E*| and Phi at each) "
+            f"to fit 4 parameters, got {np.unique(f).size} frequency"
+        )
     if not (np.all(f > 0) and np.all(E > 0) and np.all(np.isfinite(f)) and np.all(np.isfinite(E))):
         raise ValueError("frequencies and |E*| must be positive and finite")
     if not np.all((phi > 0) & (phi < np.pi / 2)):
@@ -247,8 +266,18 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     starts = grid[np.argsort(cost_grid)[: max(1, int(n_starts))]]
 
     def solve(x0, max_nfev):
-        return least_squares(residuals, x0, jac=jacobian, bounds=(lo, hi), method="trf", x_scale=1.0,
-                             xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=max_nfev)
+        return least_squares(
+            residuals,
+            x0,
+            jac=jacobian,
+            bounds=(lo, hi),
+            method="trf",
+            x_scale=1.0,
+            xtol=1e-14,
+            ftol=1e-14,
+            gtol=1e-14,
+            max_nfev=max_nfev,
+        )
 
     # every start for a short run, then the two best to convergence (a start that has not
     # converged in EXPLORE_NFEV evaluations is slow because it crawls along a bound)
@@ -274,16 +303,18 @@ def fit_burgers(frequency_Hz, E_norm_MPa, phase_deg, weights=None, n_starts: int
     phi_model = phi + d.imag
     out = {name: float(v) for name, v in zip(PARAM_COLUMNS, p)}
     out.update({f"{name}_se": float(v) for name, v in zip(PARAM_COLUMNS, se)})
-    out.update({
-        "rmse_log_E": float(np.sqrt(np.mean(d.real**2))),
-        "rmse_phase_deg": float(np.degrees(np.sqrt(np.mean(d.imag**2)))),
-        "mre_E_pct": mre_pct(E_model, E),
-        "mre_phase_pct": mre_pct(phi_model, phi),
-        "max_abs_phase_err_deg": float(np.degrees(np.max(np.abs(d.imag)))),
-        "n_points": int(f.size),
-        "cost": float(best.cost),
-        "success": bool(best.success),
-    })
+    out.update(
+        {
+            "rmse_log_E": float(np.sqrt(np.mean(d.real**2))),
+            "rmse_phase_deg": float(np.degrees(np.sqrt(np.mean(d.imag**2)))),
+            "mre_E_pct": mre_pct(E_model, E),
+            "mre_phase_pct": mre_pct(phi_model, phi),
+            "max_abs_phase_err_deg": float(np.degrees(np.max(np.abs(d.imag)))),
+            "n_points": int(f.size),
+            "cost": float(best.cost),
+            "success": bool(best.success),
+        }
+    )
     return out
 
 
@@ -318,8 +349,9 @@ def fit_table(measured_df: pd.DataFrame, weights=None, n_starts: int = 8) -> pd.
     rows = []
     for T, group in measured_df.groupby("temperature_C", sort=True):
         try:
-            fit = fit_burgers(group["frequency_Hz"], group[cols["E"]], group[cols["phi"]],
-                              weights=weights, n_starts=n_starts)
+            fit = fit_burgers(
+                group["frequency_Hz"], group[cols["E"]], group[cols["phi"]], weights=weights, n_starts=n_starts
+            )
         except ValueError as exc:
             raise InputError(f"measured table, temperature_C={T:g}: {exc}") from None
         rows.append({"temperature_C": float(T), **fit})
@@ -351,8 +383,9 @@ def refit_check(params_table: pd.DataFrame, frequency_Hz, weights=None, n_starts
     return pd.DataFrame(rows)
 
 
-def micro_parameters(params_table: pd.DataFrame, r_min_m, l0_m, nu: float = POISSON_RATIO,
-                     grain_mass_kg: float | None = None) -> pd.DataFrame:
+def micro_parameters(
+    params_table: pd.DataFrame, r_min_m, l0_m, nu: float = POISSON_RATIO, grain_mass_kg: float | None = None
+) -> pd.DataFrame:
     """Bond (micro) parameters from macro Burger's parameters (Eqs. 30-33 and 8-11).
 
     Parameters
@@ -387,12 +420,19 @@ def micro_parameters(params_table: pd.DataFrame, r_min_m, l0_m, nu: float = POIS
     frames = []
     for _, row in params_table.iterrows():
         macro = burgers_model(row)
-        frame = pd.DataFrame({
-            "temperature_C": float(row["temperature_C"]), "bond": np.arange(r.size),
-            "r_min_m": r, "l0_m": l0, "scale_m": scale,
-            "Km_N_m": macro.Em * scale, "Cm_N_s_m": macro.eta_m * scale,
-            "Kk_N_m": macro.Ek[0] * scale, "Ck_N_s_m": macro.eta_k[0] * scale,
-        })
+        frame = pd.DataFrame(
+            {
+                "temperature_C": float(row["temperature_C"]),
+                "bond": np.arange(r.size),
+                "r_min_m": r,
+                "l0_m": l0,
+                "scale_m": scale,
+                "Km_N_m": macro.Em * scale,
+                "Cm_N_s_m": macro.eta_m * scale,
+                "Kk_N_m": macro.Ek[0] * scale,
+                "Ck_N_s_m": macro.eta_k[0] * scale,
+            }
+        )
         for name in ("Km_N_m", "Cm_N_s_m", "Kk_N_m", "Ck_N_s_m"):
             frame[name.replace("_N", "_t_N", 1)] = frame[name] * ratio
         if grain_mass_kg is not None:

@@ -13,12 +13,16 @@ from pathlib import Path
 
 
 def _add_fit_options(p) -> None:
-    p.add_argument("--weight-log-modulus", type=float, default=1.0,
-                   help="weight of the ln|E*| residuals (default 1)")
-    p.add_argument("--weight-phase", type=float, default=1.0,
-                   help="weight of the phase residuals in radians (default 1)")
-    p.add_argument("--n-starts", type=int, default=8,
-                   help="local least-squares runs from the best grid starting values (default 8)")
+    p.add_argument("--weight-log-modulus", type=float, default=1.0, help="weight of the ln|E*| residuals (default 1)")
+    p.add_argument(
+        "--weight-phase", type=float, default=1.0, help="weight of the phase residuals in radians (default 1)"
+    )
+    p.add_argument(
+        "--n-starts",
+        type=int,
+        default=8,
+        help="local least-squares runs from the best grid starting values (default 8)",
+    )
 
 
 def register(subparsers) -> None:
@@ -34,12 +38,21 @@ def register(subparsers) -> None:
 def _add_fit(subparsers) -> None:
     """``fit``: fit a Burger's model per temperature to a measured table (Eqs. 27-29)."""
     p = subparsers.add_parser("fit", help="fit a Burger's model per temperature to a measured table (Eqs. 27-29)")
-    p.add_argument("--measured", type=Path, required=True,
-                   help="measured table (specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg)")
+    p.add_argument(
+        "--measured",
+        type=Path,
+        required=True,
+        help="measured table (specimen, temperature_C, frequency_Hz, E_norm_MPa, phase_deg)",
+    )
     p.add_argument("--model", choices=["burgers"], default="burgers", help="macro model (only 'burgers')")
     _add_fit_options(p)
-    p.add_argument("-o", "--output", type=Path, required=True,
-                   help="CSV, one row per temperature: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s, *_se, fit errors")
+    p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        help="CSV, one row per temperature: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s, *_se, fit errors",
+    )
     p.set_defaults(func=_fit)
 
 
@@ -47,8 +60,12 @@ def _add_table3(subparsers) -> None:
     """``table3``: convert the paper's Table 3 (as printed) to MPa, MPa s."""
     p = subparsers.add_parser("table3", help="convert the paper's Table 3 (as printed) to MPa, MPa s")
     p.add_argument("table", type=Path, help="data/paper/table3_burgers.csv")
-    p.add_argument("--units", choices=["Pa", "kPa"], default="Pa",
-                   help="reading of the printed values (default Pa, as printed; see data/paper/SOURCE.md)")
+    p.add_argument(
+        "--units",
+        choices=["Pa", "kPa"],
+        default="Pa",
+        help="reading of the printed values (default Pa, as printed; see data/paper/SOURCE.md)",
+    )
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV in MPa, MPa s")
     p.set_defaults(func=_table3)
 
@@ -56,39 +73,67 @@ def _add_table3(subparsers) -> None:
 def _add_burgers_curves(subparsers) -> None:
     """``burgers-curves``: Burger's model isotherms of a parameter table."""
     p = subparsers.add_parser("burgers-curves", help="Burger's model isotherms of a parameter table")
-    p.add_argument("--parameters", type=Path, required=True,
-                   help="CSV: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s")
+    p.add_argument(
+        "--parameters", type=Path, required=True, help="CSV: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s"
+    )
     p.add_argument("--fmin", type=float, default=0.01, help="lowest frequency, Hz (default 0.01)")
     p.add_argument("--fmax", type=float, default=100.0, help="highest frequency, Hz (default 100)")
     p.add_argument("--points", type=int, default=61, help="log-spaced frequencies (default 61)")
-    p.add_argument("-o", "--output", type=Path, required=True,
-                   help="CSV: temperature_C, frequency_Hz, E_norm_MPa, phase_deg, E1_MPa, E2_MPa")
+    p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        help="CSV: temperature_C, frequency_Hz, E_norm_MPa, phase_deg, E1_MPa, E2_MPa",
+    )
     p.set_defaults(func=_curves)
 
 
 def _add_refit_check(subparsers) -> None:
     """``refit-check``: generate isotherms from a parameter table and fit them back (verification)."""
-    p = subparsers.add_parser("refit-check",
-                              help="generate isotherms from a parameter table and fit them back (verification)")
+    p = subparsers.add_parser(
+        "refit-check", help="generate isotherms from a parameter table and fit them back (verification)"
+    )
     p.add_argument("--parameters", type=Path, required=True, help="CSV in MPa, MPa s (e.g. output of table3)")
-    p.add_argument("--frequencies", type=float, nargs="+", default=[3.0, 6.0, 10.0, 25.0, 40.0],
-                   help="frequencies of the generated isotherms, Hz (default: the paper's 3 6 10 25 40)")
+    p.add_argument(
+        "--frequencies",
+        type=float,
+        nargs="+",
+        default=[3.0, 6.0, 10.0, 25.0, 40.0],
+        help="frequencies of the generated isotherms, Hz (default: the paper's 3 6 10 25 40)",
+    )
     _add_fit_options(p)
-    p.add_argument("-o", "--output", type=Path, required=True,
-                   help="CSV: true and refitted parameters and relative errors per temperature")
+    p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        help="CSV: true and refitted parameters and relative errors per temperature",
+    )
     p.set_defaults(func=_refit_check)
 
 
 def _add_micro(subparsers) -> None:
     """``micro``: bond parameters from macro Burger's parameters, r_min and l0 (Eqs. 30-33, 8-11)."""
-    p = subparsers.add_parser("micro", help="bond parameters from macro Burger's parameters, r_min and l0 (Eqs. 30-33, 8-11)")
+    p = subparsers.add_parser(
+        "micro", help="bond parameters from macro Burger's parameters, r_min and l0 (Eqs. 30-33, 8-11)"
+    )
     p.add_argument("--parameters", type=Path, required=True, help="CSV in MPa, MPa s")
     p.add_argument("--r-min-mm", type=float, nargs="+", required=True, help="smaller radius of each bonded pair, mm")
-    p.add_argument("--l0-mm", type=float, nargs="+", required=True,
-                   help="initial barycentre distance of each bond, mm (same count as --r-min-mm, or one)")
+    p.add_argument(
+        "--l0-mm",
+        type=float,
+        nargs="+",
+        required=True,
+        help="initial barycentre distance of each bond, mm (same count as --r-min-mm, or one)",
+    )
     p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (default 0.35)")
-    p.add_argument("--grain-mass-kg", type=float, default=None,
-                   help="typical grain mass; adds dt_e_s = sqrt(m_g/Km) (paper: 2.86e-5 kg)")
+    p.add_argument(
+        "--grain-mass-kg",
+        type=float,
+        default=None,
+        help="typical grain mass; adds dt_e_s = sqrt(m_g/Km) (paper: 2.86e-5 kg)",
+    )
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV, one row per (temperature, bond)")
     p.set_defaults(func=_micro)
 
@@ -97,35 +142,66 @@ def _add_export_law(subparsers) -> None:
     """``export-law``: material cards of a temperature-aware law: Abaqus, LS-DYNA, JSON and CSV
     Prony series."""
     p = subparsers.add_parser(
-        "export-law", help="material cards of a temperature-aware law: Abaqus, LS-DYNA, JSON and CSV Prony series",
+        "export-law",
+        help="material cards of a temperature-aware law: Abaqus, LS-DYNA, JSON and CSV Prony series",
         description="Relaxation Prony series at the law's reference temperature with its WLF shift "
-                    "(asphalt_nscd.rheology.export), written as an Abaqus input fragment (*ELASTIC, *VISCOELASTIC "
-                    "TIME=PRONY, *TRS WLF), an LS-DYNA *MAT_GENERAL_VISCOELASTIC card, a JSON and a CSV; checked "
-                    "against the law at every measured cell.")
-    p.add_argument("--law-json", type=Path, required=True,
-                   help="the law the card carries: law JSON of 'asphalt-nscd extend-law --card-law' "
-                        "(results/diagnosis/card_law.json)")
-    p.add_argument("--selected-law-json", type=Path, default=None,
-                   help="the selected law (extend-law -o), against which the card's loss is stated (default: the "
-                        "--law-json law)")
-    p.add_argument("--measured", type=Path, required=True,
-                   help="measured summary (temperature_C, frequency_Hz, E_norm_MPa_mean, phase_deg_mean: "
-                        "asphalt-nscd measured --summary) whose cells the card is checked at")
-    p.add_argument("--test", type=Path, default=None,
-                   help="the measured table's test JSON (asphalt-nscd measured --test-output): the units the lab "
-                        "wrote the table in, for the cards' comments (the cards themselves stay in MPa, s, degC)")
+        "(asphalt_nscd.rheology.export), written as an Abaqus input fragment (*ELASTIC, *VISCOELASTIC "
+        "TIME=PRONY, *TRS WLF), an LS-DYNA *MAT_GENERAL_VISCOELASTIC card, a JSON and a CSV; checked "
+        "against the law at every measured cell.",
+    )
+    p.add_argument(
+        "--law-json",
+        type=Path,
+        required=True,
+        help="the law the card carries: law JSON of 'asphalt-nscd extend-law --card-law' "
+        "(results/diagnosis/card_law.json)",
+    )
+    p.add_argument(
+        "--selected-law-json",
+        type=Path,
+        default=None,
+        help="the selected law (extend-law -o), against which the card's loss is stated (default: the --law-json law)",
+    )
+    p.add_argument(
+        "--measured",
+        type=Path,
+        required=True,
+        help="measured summary (temperature_C, frequency_Hz, E_norm_MPa_mean, phase_deg_mean: "
+        "asphalt-nscd measured --summary) whose cells the card is checked at",
+    )
+    p.add_argument(
+        "--test",
+        type=Path,
+        default=None,
+        help="the measured table's test JSON (asphalt-nscd measured --test-output): the units the lab "
+        "wrote the table in, for the cards' comments (the cards themselves stay in MPa, s, degC)",
+    )
     p.add_argument("-o", "--output", type=Path, required=True, help="directory of the cards")
     p.add_argument("--name", default="ASPHALT_MIX", help="material name of the Abaqus card")
-    p.add_argument("--tolerance", type=float, nargs=2, default=None, metavar=("E_PCT", "PHASE_DEG"),
-                   help="largest difference of the card to its law over the measured reduced band widened by a decade "
-                        "at each end and at every measured cell: |E*| %% and Phi deg (default 1 0.2, config "
-                        "diagnosis.material_card.tolerance); the fewest Prony terms that meet it")
-    p.add_argument("--nu", type=float, default=None,
-                   help="Poisson's ratio of the cards (constant; default: the paper's 0.35, Eqs. 8-11)")
-    p.add_argument("--corrected", type=Path, default=None,
-                   help="the artifact-corrected table the laws were fitted on (extend-law --corrected, or "
-                        "master-curve's): the card's errors against it and what the correction changes, per "
-                        "temperature")
+    p.add_argument(
+        "--tolerance",
+        type=float,
+        nargs=2,
+        default=None,
+        metavar=("E_PCT", "PHASE_DEG"),
+        help="largest difference of the card to its law over the measured reduced band widened by a decade "
+        "at each end and at every measured cell: |E*| %% and Phi deg (default 1 0.2, config "
+        "diagnosis.material_card.tolerance); the fewest Prony terms that meet it",
+    )
+    p.add_argument(
+        "--nu",
+        type=float,
+        default=None,
+        help="Poisson's ratio of the cards (constant; default: the paper's 0.35, Eqs. 8-11)",
+    )
+    p.add_argument(
+        "--corrected",
+        type=Path,
+        default=None,
+        help="the artifact-corrected table the laws were fitted on (extend-law --corrected, or "
+        "master-curve's): the card's errors against it and what the correction changes, per "
+        "temperature",
+    )
     p.set_defaults(func=_export)
 
 
@@ -160,22 +236,33 @@ def _export(args) -> int:
             f"{c['max_phase_difference_deg']:.3g} deg (at {c['at_phase'][0]:g} degC, {c['at_phase'][1]:g} Hz), above "
             f"{tolerance[0]:g} % / {tolerance[1]:g} deg; not carried by a single Prony + shift "
             f"law: {', '.join(c['not_carried']) or 'none of the law settings (more terms: --per-decade?)'}; no card "
-            "written (give it the law of 'extend-law --card-law')")
+            "written (give it the law of 'extend-law --card-law')"
+        )
     corrected = None
     if args.corrected is not None:
         from ..io import checked, read_csv
         from .metrics import cell_means
 
-        corrected = cell_means(checked(read_csv(args.corrected), args.corrected,
-                                       ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg"),
-                                       positive=("frequency_Hz", "E_norm_MPa")))
+        corrected = cell_means(
+            checked(
+                read_csv(args.corrected),
+                args.corrected,
+                ("temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg"),
+                positive=("frequency_Hz", "E_norm_MPa"),
+            )
+        )
     try:
         errors = export.card_errors(card, summary, selected, corrected)
     except InputError as exc:
-        raise InputError(f"{args.corrected if corrected is not None else args.selected_law_json or args.law_json}: "
-                         f"{exc}") from None
-    if corrected is not None and not (errors[["corrected_vs_measured_logE_pct", "corrected_vs_measured_phase_deg"]]
-                                      .abs().to_numpy() > 1e-3).any():
+        raise InputError(
+            f"{args.corrected if corrected is not None else args.selected_law_json or args.law_json}: {exc}"
+        ) from None
+    if (
+        corrected is not None
+        and not (
+            errors[["corrected_vs_measured_logE_pct", "corrected_vs_measured_phase_deg"]].abs().to_numpy() > 1e-3
+        ).any()
+    ):
         errors = export.card_errors(card, summary, selected)  # no correction was made: the table as measured
     carried = (law.get("model") or {}).get("settings") or {}
     chosen = (selected.get("selection") or {}).get("chosen_label") or ""
@@ -186,15 +273,23 @@ def _export(args) -> int:
         from ..lab.table_format import DisplayUnits
 
         display = DisplayUnits.of(load_test(args.test)).as_dict()
-    card.update({"carries": about.get("settings") or "", "selected_law": chosen,
-                 "is_selected_law": bool(about.get("is_selected_law", True)),
-                 "fit": about.get("fit") or (law.get("model") or {}).get("fit_loss"),
-                 "selected_fit": about.get("selected_fit") or (selected.get("model") or {}).get("fit_loss"),
-                 "selected_carriable": (selected.get("model") or {}).get("carriable_by_a_prony_card"),
-                 "corrections": [str(a) for a in (law.get("model") or {}).get("artifacts_corrected") or []],
-                 "carried_settings": carried, "findings": (law.get("model") or {}).get("findings") or [],
-                 "nu_source": nu_source, "display": display, "loss": export.loss_by_temperature(errors),
-                 "source": {k: v for k, v in (law.get("source") or {}).items() if k in ("measured", "measured_sha256")}})
+    card.update(
+        {
+            "carries": about.get("settings") or "",
+            "selected_law": chosen,
+            "is_selected_law": bool(about.get("is_selected_law", True)),
+            "fit": about.get("fit") or (law.get("model") or {}).get("fit_loss"),
+            "selected_fit": about.get("selected_fit") or (selected.get("model") or {}).get("fit_loss"),
+            "selected_carriable": (selected.get("model") or {}).get("carriable_by_a_prony_card"),
+            "corrections": [str(a) for a in (law.get("model") or {}).get("artifacts_corrected") or []],
+            "carried_settings": carried,
+            "findings": (law.get("model") or {}).get("findings") or [],
+            "nu_source": nu_source,
+            "display": display,
+            "loss": export.loss_by_temperature(errors),
+            "source": {k: v for k, v in (law.get("source") or {}).items() if k in ("measured", "measured_sha256")},
+        }
+    )
     try:
         band = card["terms_selection"]["band_rad_s"]
         times = np.logspace(-np.log10(band[1]), -np.log10(band[0]), 81)
@@ -207,8 +302,11 @@ def _export(args) -> int:
         log.info("material card: %s", line)
     worse = export.worse_than_selected(card)
     if worse:
-        log.warning("material card: against the lab's means the card is worse than the selected law in %s "
-                    "(card_errors.csv; the card's header)", "; ".join(worse))
+        log.warning(
+            "material card: against the lab's means the card is worse than the selected law in %s "
+            "(card_errors.csv; the card's header)",
+            "; ".join(worse),
+        )
     out = args.output
     out.mkdir(parents=True, exist_ok=True)
     for name, text in (("abaqus.inp", export.abaqus_card(card, args.name)), ("lsdyna.k", export.lsdyna_card(card))):
@@ -258,7 +356,9 @@ def _curves(args) -> int:
     from .calibration import burgers_curves, read_parameters
 
     if not (0 < args.fmin < args.fmax) or args.points < 2:
-        raise InputError(f"burgers-curves: need 0 < fmin < fmax and points >= 2, got {args.fmin}, {args.fmax}, {args.points}")
+        raise InputError(
+            f"burgers-curves: need 0 < fmin < fmax and points >= 2, got {args.fmin}, {args.fmax}, {args.points}"
+        )
     table = read_parameters(args.parameters)
     f = np.logspace(np.log10(args.fmin), np.log10(args.fmax), args.points)
     write_csv(burgers_curves(table, f), args.output, float_format="%.8g")

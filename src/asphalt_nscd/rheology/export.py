@@ -51,14 +51,19 @@ import pandas as pd
 from ..io import InputError
 from .laws import POISSON_RATIO
 
+
 def _chain(obj: dict):
     """GeneralizedBurgers (Pa, Pa s) of the law JSON's ``model.prony_at_T_ref``."""
     from .laws import GeneralizedBurgers
 
     eta_m = obj.get("eta_m")
-    return GeneralizedBurgers(Em=float(obj["Em"]), eta_m=math.inf if eta_m is None else float(eta_m),
-                              Ek=tuple(obj.get("Ek", ())), eta_k=tuple(obj.get("eta_k", ())),
-                              E_inf=float(obj.get("E_inf", 0.0)))
+    return GeneralizedBurgers(
+        Em=float(obj["Em"]),
+        eta_m=math.inf if eta_m is None else float(eta_m),
+        Ek=tuple(obj.get("Ek", ())),
+        eta_k=tuple(obj.get("eta_k", ())),
+        E_inf=float(obj.get("E_inf", 0.0)),
+    )
 
 
 def wlf_log_shift(T, T_ref: float, C1: float, C2: float) -> np.ndarray:
@@ -108,7 +113,7 @@ def fewest_terms(omega, E, tolerance=CARD_TOLERANCE, max_terms: int = MAX_TERMS)
     tol_E, tol_P = tolerance
 
     def errors(u):
-        x, Ef = _nnls_weights(omega, E, 10.0 ** u)
+        x, Ef = _nnls_weights(omega, E, 10.0**u)
         r = np.log(Ef / E)
         return x, r
 
@@ -136,8 +141,15 @@ def fewest_terms(omega, E, tolerance=CARD_TOLERANCE, max_terms: int = MAX_TERMS)
         eE, eP = 100.0 * float(np.abs(r.real).max()), math.degrees(float(np.abs(r.imag).max()))
         curve.append({"n": n, "max_E_pct": eE, "max_phase_deg": eP})
         keep = x[1:] > 0
-        best = {"E_inf": float(x[0]), "E_i": x[1:][keep], "tau_s": 10.0 ** u[keep], "max_E_pct": eE,
-                "max_phase_deg": eP, "n": int(keep.sum()), "met": eE <= tol_E and eP <= tol_P}
+        best = {
+            "E_inf": float(x[0]),
+            "E_i": x[1:][keep],
+            "tau_s": 10.0 ** u[keep],
+            "max_E_pct": eE,
+            "max_phase_deg": eP,
+            "n": int(keep.sum()),
+            "met": eE <= tol_E and eP <= tol_P,
+        }
         if best["met"]:
             break
     assert best is not None  # at least one number of terms is tried
@@ -185,8 +197,9 @@ def _joint_minimax(omega, E, x, u, r, tolerance, bounds, scaled_max):
     return np.exp(v[n:]), v[:n], r_new
 
 
-def prony_card(law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_decades: float = 1.0,
-               nu: float = POISSON_RATIO) -> dict:
+def prony_card(
+    law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_decades: float = 1.0, nu: float = POISSON_RATIO
+) -> dict:
     """The material card of a law JSON object (module docstring).
 
     Parameters
@@ -219,8 +232,10 @@ def prony_card(law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_
     entries = {T: g.scaled(1e-6) for T, g in law_file.validate(law, "law JSON").items()}
     T_ref = float(model["T_ref_C"])
     if temperature_key(entries, T_ref) is None:
-        raise InputError(f"law JSON: key 'temperatures': no entry at T_ref = {T_ref:g} degC (write the law there: "
-                         "extend-law --temperatures)")
+        raise InputError(
+            f"law JSON: key 'temperatures': no entry at T_ref = {T_ref:g} degC (write the law there: "
+            "extend-law --temperatures)"
+        )
     shift = model["shift"]
     T = cells["temperature_C"].to_numpy(float)
     f = cells["frequency_Hz"].to_numpy(float)
@@ -242,18 +257,34 @@ def prony_card(law: dict, cells: pd.DataFrame, tolerance=CARD_TOLERANCE, margin_
     E_i, tau = E_i[order], tau[order]
     E_inf = float(fit["E_inf"])
     E_0 = E_inf + float(E_i.sum())
-    card = {"T_ref_C": T_ref, "E_0_MPa": E_0, "E_inf_MPa": E_inf, "g_inf": E_inf / E_0,
-            "terms": [{"g": float(e / E_0), "tau_s": float(t), "E_MPa": float(e)} for e, t in zip(E_i, tau)],
-            "shift": {"law": "WLF", "C1": C1, "C2_K": C2, "T_ref_C": T_ref, "from": from_law,
-                      "max_log10_aT_difference": diff},
-            "nu": float(nu), "units": {"modulus": "MPa", "time": "s", "temperature": "degC"},
-            "terms_selection": {"n_terms": len(E_i), "tolerance": {"E_norm_pct": tolerance[0],
-                                                                   "phase_deg": tolerance[1]},
-                                "band_rad_s": [float(w_lo), float(w_hi)], "margin_decades": margin_decades,
-                                "max_E_norm_difference_pct": fit["max_E_pct"],
-                                "max_phase_difference_deg": fit["max_phase_deg"], "met": bool(fit["met"]),
-                                "curve": fit["curve"],
-                                "method": "fewest free relaxation times (variable projection, L2 then L8)"}}
+    card = {
+        "T_ref_C": T_ref,
+        "E_0_MPa": E_0,
+        "E_inf_MPa": E_inf,
+        "g_inf": E_inf / E_0,
+        "terms": [{"g": float(e / E_0), "tau_s": float(t), "E_MPa": float(e)} for e, t in zip(E_i, tau)],
+        "shift": {
+            "law": "WLF",
+            "C1": C1,
+            "C2_K": C2,
+            "T_ref_C": T_ref,
+            "from": from_law,
+            "max_log10_aT_difference": diff,
+        },
+        "nu": float(nu),
+        "units": {"modulus": "MPa", "time": "s", "temperature": "degC"},
+        "terms_selection": {
+            "n_terms": len(E_i),
+            "tolerance": {"E_norm_pct": tolerance[0], "phase_deg": tolerance[1]},
+            "band_rad_s": [float(w_lo), float(w_hi)],
+            "margin_decades": margin_decades,
+            "max_E_norm_difference_pct": fit["max_E_pct"],
+            "max_phase_difference_deg": fit["max_phase_deg"],
+            "met": bool(fit["met"]),
+            "curve": fit["curve"],
+            "method": "fewest free relaxation times (variable projection, L2 then L8)",
+        },
+    }
     card["check"], card["exact"] = _card_check(card, entries, model.get("settings") or {}, T, f, tolerance)
     return card
 
@@ -270,14 +301,18 @@ def card_wlf(shift: dict, T_ref: float, lo: float, hi: float) -> tuple[float, fl
 
     grid = np.linspace(lo, hi, 41)
     target = arrhenius_log_shift(grid, T_ref, float(shift["Ea_kJ_mol"]) * 1e3)
-    res = least_squares(lambda p: wlf_log_shift(grid, T_ref, p[0], p[1]) - target, [20.0, 150.0],
-                        bounds=([0.1, T_ref - lo + 1.0], [500.0, 1e5]))
+    res = least_squares(
+        lambda p: wlf_log_shift(grid, T_ref, p[0], p[1]) - target,
+        [20.0, 150.0],
+        bounds=([0.1, T_ref - lo + 1.0], [500.0, 1e5]),
+    )
     C1, C2 = (float(v) for v in res.x)
     return C1, C2, "WLF fitted to the law's Arrhenius shift over the calibrated range", float(np.abs(res.fun).max())
 
 
-def _card_check(card: dict, entries: dict, settings: dict, T: np.ndarray, f: np.ndarray,
-                tolerance=CARD_TOLERANCE) -> tuple[dict, bool]:
+def _card_check(
+    card: dict, entries: dict, settings: dict, T: np.ndarray, f: np.ndarray, tolerance=CARD_TOLERANCE
+) -> tuple[dict, bool]:
     """The card against the law at every calibrated cell (T degC, f Hz; arrays of shape (n,)):
     (the ``check`` block of :func:`prony_card`, whether it is within ``tolerance``, |E*| % and
     Phi deg)."""
@@ -287,20 +322,31 @@ def _card_check(card: dict, entries: dict, settings: dict, T: np.ndarray, f: np.
     E_law = law_file.complex_modulus(entries, T, f, "law JSON")
     dE = 100 * np.abs(np.abs(E_card) / np.abs(E_law) - 1)
     dP = np.abs(np.degrees(np.angle(E_card) - np.angle(E_law)))
-    lost = [name for name, on in (("vertical shift", settings.get("vertical")),
-                                  ("static modulus trend", settings.get("static") == "trend"),
-                                  ("per-isotherm refinement", settings.get("refine") is not None))
-            if on]
+    lost = [
+        name
+        for name, on in (
+            ("vertical shift", settings.get("vertical")),
+            ("static modulus trend", settings.get("static") == "trend"),
+            ("per-isotherm refinement", settings.get("refine") is not None),
+        )
+        if on
+    ]
     iE, iP = int(np.argmax(dE)), int(np.argmax(dP))
-    check = {"max_E_norm_difference_pct": float(dE[iE]), "at_E": [float(T[iE]), float(f[iE])],
-             "max_phase_difference_deg": float(dP[iP]), "at_phase": [float(T[iP]), float(f[iP])],
-             "n_cells": int(T.size), "not_carried": lost,
-             "tolerances": {"E_norm_pct": float(tolerance[0]), "phase_deg": float(tolerance[1])}}
+    check = {
+        "max_E_norm_difference_pct": float(dE[iE]),
+        "at_E": [float(T[iE]), float(f[iE])],
+        "max_phase_difference_deg": float(dP[iP]),
+        "at_phase": [float(T[iP]), float(f[iP])],
+        "n_cells": int(T.size),
+        "not_carried": lost,
+        "tolerances": {"E_norm_pct": float(tolerance[0]), "phase_deg": float(tolerance[1])},
+    }
     return check, bool(dE[iE] <= tolerance[0] and dP[iP] <= tolerance[1])
 
 
-def card_errors(card: dict, summary: pd.DataFrame, selected_law: dict,
-                corrected: pd.DataFrame | None = None) -> pd.DataFrame:
+def card_errors(
+    card: dict, summary: pd.DataFrame, selected_law: dict, corrected: pd.DataFrame | None = None
+) -> pd.DataFrame:
     """Per measured cell: the card's, the selected law's and the measured replicate means'
     |E*| (MPa) and Phi (deg), and the errors (|E*| as 100 ln(a / b), %, Phi in deg) of the card
     and of the law against the measured means and of the card against the law. ``summary``:
@@ -320,9 +366,18 @@ def card_errors(card: dict, summary: pd.DataFrame, selected_law: dict,
     E_card = card_modulus(card, f, T)
     E_m = summary["E_norm_MPa_mean"].to_numpy(float)
     P_m = summary["phase_deg_mean"].to_numpy(float)
-    out = pd.DataFrame({"temperature_C": T, "frequency_Hz": f, "E_norm_MPa_measured": E_m, "phase_deg_measured": P_m,
-                        "E_norm_MPa_card": np.abs(E_card), "phase_deg_card": np.degrees(np.angle(E_card)),
-                        "E_norm_MPa_law": np.abs(E_law), "phase_deg_law": np.degrees(np.angle(E_law))})
+    out = pd.DataFrame(
+        {
+            "temperature_C": T,
+            "frequency_Hz": f,
+            "E_norm_MPa_measured": E_m,
+            "phase_deg_measured": P_m,
+            "E_norm_MPa_card": np.abs(E_card),
+            "phase_deg_card": np.degrees(np.angle(E_card)),
+            "E_norm_MPa_law": np.abs(E_law),
+            "phase_deg_law": np.degrees(np.angle(E_law)),
+        }
+    )
     pairs = [("card", "measured"), ("law", "measured"), ("card", "law")]
     if corrected is not None:
         from .metrics import same_frequency, same_temperature
@@ -349,8 +404,11 @@ def loss_by_temperature(errors: pd.DataFrame) -> list[dict]:
     correction itself (corrected vs measured)."""
     out = []
     groups = [(float(T), g) for T, g in errors.groupby("temperature_C")] + [("all", errors)]
-    pairs = [p for p in ("card_vs_measured", "law_vs_measured", "card_vs_law", "card_vs_corrected",
-                         "corrected_vs_measured") if f"{p}_logE_pct" in errors]
+    pairs = [
+        p
+        for p in ("card_vs_measured", "law_vs_measured", "card_vs_law", "card_vs_corrected", "corrected_vs_measured")
+        if f"{p}_logE_pct" in errors
+    ]
     for T, g in groups:
         row = {"temperature_C": T, "n_cells": int(len(g))}
         for pair in pairs:
@@ -380,21 +438,28 @@ def loss_lines(card: dict, units=None) -> list[str]:
         return []
     if units is None:
         units = DisplayUnits(**card["display"]) if card.get("display") else DisplayUnits()
-    lines = [carried_text(card) + "; |E*| (mean / max |ln ratio|, %) and Phi (mean / max |difference|, deg) per "
-             "temperature, in-sample:"]
+    lines = [
+        carried_text(card) + "; |E*| (mean / max |ln ratio|, %) and Phi (mean / max |difference|, deg) per "
+        "temperature, in-sample:"
+    ]
     for r in card["loss"]:
         T = "all" if r["temperature_C"] == "all" else units.temperature_text(r["temperature_C"])
-        lines.append(f"{T}: card vs measured {r['card_vs_measured_logE_pct_mean']:.2f} / "
-                     f"{r['card_vs_measured_logE_pct_max']:.2f} %, {r['card_vs_measured_phase_deg_mean']:.2f} / "
-                     f"{r['card_vs_measured_phase_deg_max']:.2f} deg; selected law vs measured "
-                     f"{r['law_vs_measured_logE_pct_mean']:.2f} / {r['law_vs_measured_logE_pct_max']:.2f} %, "
-                     f"{r['law_vs_measured_phase_deg_mean']:.2f} / {r['law_vs_measured_phase_deg_max']:.2f} deg; "
-                     f"card vs selected law {r['card_vs_law_logE_pct_mean']:.2f} / {r['card_vs_law_logE_pct_max']:.2f} %, "
-                     f"{r['card_vs_law_phase_deg_mean']:.2f} / {r['card_vs_law_phase_deg_max']:.2f} deg"
-                     + (f"; card vs corrected {r['card_vs_corrected_logE_pct_mean']:.2f} / "
-                        f"{r['card_vs_corrected_logE_pct_max']:.2f} %, {r['card_vs_corrected_phase_deg_mean']:.2f} / "
-                        f"{r['card_vs_corrected_phase_deg_max']:.2f} deg" if "card_vs_corrected_logE_pct_mean" in r
-                        else ""))
+        lines.append(
+            f"{T}: card vs measured {r['card_vs_measured_logE_pct_mean']:.2f} / "
+            f"{r['card_vs_measured_logE_pct_max']:.2f} %, {r['card_vs_measured_phase_deg_mean']:.2f} / "
+            f"{r['card_vs_measured_phase_deg_max']:.2f} deg; selected law vs measured "
+            f"{r['law_vs_measured_logE_pct_mean']:.2f} / {r['law_vs_measured_logE_pct_max']:.2f} %, "
+            f"{r['law_vs_measured_phase_deg_mean']:.2f} / {r['law_vs_measured_phase_deg_max']:.2f} deg; "
+            f"card vs selected law {r['card_vs_law_logE_pct_mean']:.2f} / {r['card_vs_law_logE_pct_max']:.2f} %, "
+            f"{r['card_vs_law_phase_deg_mean']:.2f} / {r['card_vs_law_phase_deg_max']:.2f} deg"
+            + (
+                f"; card vs corrected {r['card_vs_corrected_logE_pct_mean']:.2f} / "
+                f"{r['card_vs_corrected_logE_pct_max']:.2f} %, {r['card_vs_corrected_phase_deg_mean']:.2f} / "
+                f"{r['card_vs_corrected_phase_deg_max']:.2f} deg"
+                if "card_vs_corrected_logE_pct_mean" in r
+                else ""
+            )
+        )
     return lines + correction_lines(card, units)
 
 
@@ -407,8 +472,10 @@ def worse_than_selected(card: dict) -> list[str]:
         return []
     r, tol = rows[0], card.get("terms_selection", {}).get("tolerance", {})
     out = []
-    for q, unit, t in (("logE_pct", "%", tol.get("E_norm_pct", CARD_TOLERANCE[0])),
-                       ("phase_deg", "deg", tol.get("phase_deg", CARD_TOLERANCE[1]))):
+    for q, unit, t in (
+        ("logE_pct", "%", tol.get("E_norm_pct", CARD_TOLERANCE[0])),
+        ("phase_deg", "deg", tol.get("phase_deg", CARD_TOLERANCE[1])),
+    ):
         for stat in ("mean", "max"):
             c, law = r[f"card_vs_measured_{q}_{stat}"], r[f"law_vs_measured_{q}_{stat}"]
             if c > law + t:
@@ -426,10 +493,16 @@ def carried_text(card: dict) -> str:
         return f"the card carries the selected law '{card['carries']}'" + (f", fitted {how}" if how else "")
     text = f"the card carries the law '{card['carries']}'" + (f", fitted {how}" if how else "")
     if card.get("selected_carriable") is False:
-        return text + f", not the selected '{card['selected_law']}', which a Prony series with a shift function cannot carry"
-    return (text + f", not the selected '{card['selected_law']}'"
-            + (f" (fitted {fits[card['selected_fit']]})" if card.get("selected_fit") in fits else "")
-            + ": the card's law is refitted in the card's own shift and loss (diagnosis.material_card)")
+        return (
+            text
+            + f", not the selected '{card['selected_law']}', which a Prony series with a shift function cannot carry"
+        )
+    return (
+        text
+        + f", not the selected '{card['selected_law']}'"
+        + (f" (fitted {fits[card['selected_fit']]})" if card.get("selected_fit") in fits else "")
+        + ": the card's law is refitted in the card's own shift and loss (diagnosis.material_card)"
+    )
 
 
 def correction_lines(card: dict, units=None) -> list[str]:
@@ -438,18 +511,25 @@ def correction_lines(card: dict, units=None) -> list[str]:
     from ..lab.table_format import DisplayUnits
 
     rows = [r for r in card.get("loss") or [] if "corrected_vs_measured_logE_pct_mean" in r]
-    if not rows or max(max(r["corrected_vs_measured_logE_pct_max"], r["corrected_vs_measured_phase_deg_max"])
-                       for r in rows) == 0:
+    if (
+        not rows
+        or max(max(r["corrected_vs_measured_logE_pct_max"], r["corrected_vs_measured_phase_deg_max"]) for r in rows)
+        == 0
+    ):
         return []
     if units is None:
         units = DisplayUnits(**card["display"]) if card.get("display") else DisplayUnits()
     named = ", ".join(card.get("corrections") or []) or "the artifacts the diagnosis named"
-    lines = [f"the laws were fitted to the table corrected for {named} (named by the diagnosis as identifiable from "
-             "the table); the correction changes the replicate means (mean / max |change|, |E*| %, Phi deg):"]
+    lines = [
+        f"the laws were fitted to the table corrected for {named} (named by the diagnosis as identifiable from "
+        "the table); the correction changes the replicate means (mean / max |change|, |E*| %, Phi deg):"
+    ]
     for r in rows:
         T = "all" if r["temperature_C"] == "all" else units.temperature_text(r["temperature_C"])
-        lines.append(f"{T}: {r['corrected_vs_measured_logE_pct_mean']:.2f} / {r['corrected_vs_measured_logE_pct_max']:.2f} %, "
-                     f"{r['corrected_vs_measured_phase_deg_mean']:.2f} / {r['corrected_vs_measured_phase_deg_max']:.2f} deg")
+        lines.append(
+            f"{T}: {r['corrected_vs_measured_logE_pct_mean']:.2f} / {r['corrected_vs_measured_logE_pct_max']:.2f} %, "
+            f"{r['corrected_vs_measured_phase_deg_mean']:.2f} / {r['corrected_vs_measured_phase_deg_max']:.2f} deg"
+        )
     return lines
 
 
@@ -514,14 +594,24 @@ def relaxation_and_creep(card: dict, temperatures, times_s) -> pd.DataFrame:
         for Ei, ti in zip(E, tau):
             k = 1.0 / lam - 1.0 / ti  # e^{-(t-u)/ti} e^{-u/lam}: int = e^{-t/ti} (1 - e^{-k t}) / k
             with np.errstate(over="ignore", invalid="ignore"):
-                term = np.where(np.abs(k)[None, :] * np.maximum(t[:, None], 1e-300) < 1e-8, t[:, None],
-                                (np.exp(-t[:, None] / ti) - np.exp(-t[:, None] / lam)) / k)
+                term = np.where(
+                    np.abs(k)[None, :] * np.maximum(t[:, None], 1e-300) < 1e-8,
+                    t[:, None],
+                    (np.exp(-t[:, None] / ti) - np.exp(-t[:, None] / lam)) / k,
+                )
             conv = conv + Ei * (term @ (d / lam))
         check = conv + Et * ct["D_0"] - 1.0
         for i in range(t.size):
-            rows.append({"temperature_C": T, "time_s": float(times_s[i]), "E_MPa": float(Et[i]),
-                         "G_MPa": float(Et[i] / (2.0 * (1.0 + card["nu"]))), "D_per_MPa": float(Dt[i]),
-                         "check": float(check[i])})
+            rows.append(
+                {
+                    "temperature_C": T,
+                    "time_s": float(times_s[i]),
+                    "E_MPa": float(Et[i]),
+                    "G_MPa": float(Et[i] / (2.0 * (1.0 + card["nu"]))),
+                    "D_per_MPa": float(Dt[i]),
+                    "check": float(check[i]),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -530,10 +620,13 @@ def interconversion_summary(functions: pd.DataFrame) -> dict:
     |int_0^t E(t - u) dD(u) - 1| over every temperature and time, against
     :data:`INTERCONVERSION_TOLERANCE` (``met``), with the method's source."""
     worst = float(np.abs(functions["check"].to_numpy(float)).max())
-    return {"max_abs_residual": worst, "tolerance": INTERCONVERSION_TOLERANCE,
-            "met": bool(worst <= INTERCONVERSION_TOLERANCE),
-            "method": "exact interconversion of the Prony series (Park & Schapery 1999, Int. J. Solids Struct. 36: "
-                      "1653-1675); residual of the convolution identity int_0^t E(t-u) dD(u) = 1"}
+    return {
+        "max_abs_residual": worst,
+        "tolerance": INTERCONVERSION_TOLERANCE,
+        "met": bool(worst <= INTERCONVERSION_TOLERANCE),
+        "method": "exact interconversion of the Prony series (Park & Schapery 1999, Int. J. Solids Struct. 36: "
+        "1653-1675); residual of the convolution identity int_0^t E(t-u) dD(u) = 1",
+    }
 
 
 def header_lines(card: dict) -> list[str]:
@@ -544,23 +637,27 @@ def header_lines(card: dict) -> list[str]:
     sel = card.get("terms_selection", {})
     tol = sel.get("tolerance", {})
     band = sel.get("band_rad_s", [float("nan"), float("nan")])
-    lines = [f"{len(card['terms'])} Prony terms: the fewest within {tol.get('E_norm_pct', '?')} % |E*| and "
-             f"{tol.get('phase_deg', '?')} deg of the law it carries over the reduced band {band[0]:.3g}-{band[1]:.3g} "
-             f"rad/s at T_ref (the measured band widened by {sel.get('margin_decades', '?')} decade at each end) and at "
-             f"the measured cells; achieved {sel.get('max_E_norm_difference_pct', float('nan')):.3g} % / "
-             f"{sel.get('max_phase_difference_deg', float('nan')):.3g} deg",
-             f"E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; units MPa, s, degC; "
-             f"g_inf = {card['g_inf']:.6g}",
-             f"largest difference to the law it carries over {card['check']['n_cells']} measured cells: "
-             f"{card['check']['max_E_norm_difference_pct']:.3g} % |E*|, {card['check']['max_phase_difference_deg']:.3g} "
-             "deg phase"]
+    lines = [
+        f"{len(card['terms'])} Prony terms: the fewest within {tol.get('E_norm_pct', '?')} % |E*| and "
+        f"{tol.get('phase_deg', '?')} deg of the law it carries over the reduced band {band[0]:.3g}-{band[1]:.3g} "
+        f"rad/s at T_ref (the measured band widened by {sel.get('margin_decades', '?')} decade at each end) and at "
+        f"the measured cells; achieved {sel.get('max_E_norm_difference_pct', float('nan')):.3g} % / "
+        f"{sel.get('max_phase_difference_deg', float('nan')):.3g} deg",
+        f"E(t) = E_0 (g_inf + sum g_i exp(-t/tau_i)) at T_ref = {card['T_ref_C']:g} degC; units MPa, s, degC; "
+        f"g_inf = {card['g_inf']:.6g}",
+        f"largest difference to the law it carries over {card['check']['n_cells']} measured cells: "
+        f"{card['check']['max_E_norm_difference_pct']:.3g} % |E*|, {card['check']['max_phase_difference_deg']:.3g} "
+        "deg phase",
+    ]
     if card.get("nu_source"):
         lines.append(f"Poisson's ratio {card['nu']:g}: {card['nu_source']}; shear and bulk relax alike")
     ic = card.get("interconversion")
     if ic:
-        lines.append(f"creep compliance D(t) interconverted exactly from E(t): largest residual "
-                     f"{100 * ic['max_abs_residual']:.2g} % (check {'met' if ic['met'] else 'MISSED'} at "
-                     f"{100 * ic['tolerance']:g} %)")
+        lines.append(
+            f"creep compliance D(t) interconverted exactly from E(t): largest residual "
+            f"{100 * ic['max_abs_residual']:.2g} % (check {'met' if ic['met'] else 'MISSED'} at "
+            f"{100 * ic['tolerance']:g} %)"
+        )
     return lines + source_lines(card) + loss_lines(card)
 
 
@@ -581,12 +678,14 @@ def abaqus_card(card: dict, name: str = "ASPHALT_MIX") -> str:
     ``*VISCOELASTIC, TIME=PRONY`` (g_i, k_i = g_i, tau_i: shear and bulk relax alike) and
     ``*TRS, DEFINITION=WLF`` (T_ref, C1, C2). Units MPa and s; temperatures in degC."""
     s = card["shift"]
-    lines = ["** Linear viscoelastic material card written by asphalt-nscd export-law",
-             *(f"** {line}" for line in header_lines(card)),
-             f"*MATERIAL, NAME={name}",
-             "*ELASTIC, MODULI=INSTANTANEOUS",
-             f"{card['E_0_MPa']:.9g}, {card['nu']:.6g}",
-             "*VISCOELASTIC, TIME=PRONY"]
+    lines = [
+        "** Linear viscoelastic material card written by asphalt-nscd export-law",
+        *(f"** {line}" for line in header_lines(card)),
+        f"*MATERIAL, NAME={name}",
+        "*ELASTIC, MODULI=INSTANTANEOUS",
+        f"{card['E_0_MPa']:.9g}, {card['nu']:.6g}",
+        "*VISCOELASTIC, TIME=PRONY",
+    ]
     lines += [f"{t['g']:.9g}, {t['g']:.9g}, {t['tau_s']:.9g}" for t in card["terms"]]
     lines += ["*TRS, DEFINITION=WLF", f"{s['T_ref_C']:.6g}, {s['C1']:.9g}, {s['C2_K']:.9g}"]
     return "\n".join(lines) + "\n"
@@ -602,16 +701,29 @@ def lsdyna_card(card: dict, mid: int = 1, density_t_mm3: float = 2.4e-9) -> str:
     s = card["shift"]
     terms = [(card["E_inf_MPa"], 0.0)] + [(t["E_MPa"], 1.0 / t["tau_s"]) for t in card["terms"]]
     bulk = card["E_0_MPa"] * k
-    lines = ["$ Linear viscoelastic material card written by asphalt-nscd export-law (units N, mm, s, tonne; MPa); "
-             "WLF shift (TREF, A = C1, B = C2)",
-             *(f"$ {line}" for line in header_lines(card)),
-             "*MAT_GENERAL_VISCOELASTIC",
-             "$      MID        RO      BULK       PCF        EF      TREF         A         B",
-             "".join(f"{v:>10}" for v in (mid, f"{density_t_mm3:.3e}", f"{bulk:.3e}", 0, 0,
-                                          f"{s['T_ref_C']:.4g}", f"{s['C1']:.5g}", f"{s['C2_K']:.5g}")),
-             "$    LCID1       NT     BSTART     TRAMP     LCIDK      NTK    BSTARTK    TRAMPK",
-             "".join(f"{v:>10}" for v in (0, 0, 0, 0, 0, 0, 0, 0)),
-             "$       GI     BETAI        KI    BETAKI"]
+    lines = [
+        "$ Linear viscoelastic material card written by asphalt-nscd export-law (units N, mm, s, tonne; MPa); "
+        "WLF shift (TREF, A = C1, B = C2)",
+        *(f"$ {line}" for line in header_lines(card)),
+        "*MAT_GENERAL_VISCOELASTIC",
+        "$      MID        RO      BULK       PCF        EF      TREF         A         B",
+        "".join(
+            f"{v:>10}"
+            for v in (
+                mid,
+                f"{density_t_mm3:.3e}",
+                f"{bulk:.3e}",
+                0,
+                0,
+                f"{s['T_ref_C']:.4g}",
+                f"{s['C1']:.5g}",
+                f"{s['C2_K']:.5g}",
+            )
+        ),
+        "$    LCID1       NT     BSTART     TRAMP     LCIDK      NTK    BSTARTK    TRAMPK",
+        "".join(f"{v:>10}" for v in (0, 0, 0, 0, 0, 0, 0, 0)),
+        "$       GI     BETAI        KI    BETAKI",
+    ]
     lines += ["".join(f"{v:>10.3e}" for v in (e * g, b, e * k, b)) for e, b in terms]
     return "\n".join(lines) + "\n"
 

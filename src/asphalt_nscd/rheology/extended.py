@@ -107,25 +107,43 @@ class LawSettings:
 
     def n_params(self, n_temperatures: int) -> int:
         """Number of backbone parameters for ``n_temperatures`` training isotherms."""
-        return (len(CORE_NAMES) + (2 if self.shift == "wlf" else 1) + (self.static != "none")
-                + (self.static == "trend") + self.vertical
-                + ((2 + (self.static != "none")) * n_temperatures if self.refine else 0))
+        return (
+            len(CORE_NAMES)
+            + (2 if self.shift == "wlf" else 1)
+            + (self.static != "none")
+            + (self.static == "trend")
+            + self.vertical
+            + ((2 + (self.static != "none")) * n_temperatures if self.refine else 0)
+        )
 
     def complexity(self, n_temperatures: int = 5) -> tuple:
         """Sort key from the simplest to the most flexible setting (a total order): number
         of backbone parameters, then weaker refinement, density, shift, static, vertical."""
-        return (self.n_params(n_temperatures), -(self.refine or np.inf), self.per_decade,
-                SHIFTS.index(self.shift), STATICS.index(self.static), self.vertical)
+        return (
+            self.n_params(n_temperatures),
+            -(self.refine or np.inf),
+            self.per_decade,
+            SHIFTS.index(self.shift),
+            STATICS.index(self.static),
+            self.vertical,
+        )
 
     def label(self) -> str:
         """``wlf, static=constant, vertical=off, refine=off, 2/decade``."""
         ref = "off" if self.refine is None else f"{self.refine:g}"
-        return (f"{self.shift}, static={self.static}, vertical={'on' if self.vertical else 'off'}, "
-                f"refine={ref}, {self.per_decade:g}/decade")
+        return (
+            f"{self.shift}, static={self.static}, vertical={'on' if self.vertical else 'off'}, "
+            f"refine={ref}, {self.per_decade:g}/decade"
+        )
 
     def as_dict(self) -> dict:
-        return {"shift": self.shift, "static": self.static, "vertical": self.vertical,
-                "refine": self.refine, "per_decade": self.per_decade}
+        return {
+            "shift": self.shift,
+            "static": self.static,
+            "vertical": self.vertical,
+            "refine": self.refine,
+            "per_decade": self.per_decade,
+        }
 
 
 def backbone_names(settings: LawSettings, temperatures) -> list:
@@ -139,8 +157,12 @@ def backbone_names(settings: LawSettings, temperatures) -> list:
     if settings.vertical:
         names.append("vertical_trend_per_100K")
     if settings.refine:
-        names += [f"dlog10_{kind}_{T:g}" for kind in REFINED for T in temperatures
-                  if kind != "E00" or settings.static != "none"]
+        names += [
+            f"dlog10_{kind}_{T:g}"
+            for kind in REFINED
+            for T in temperatures
+            if kind != "E00" or settings.static != "none"
+        ]
     return names
 
 
@@ -171,7 +193,9 @@ class Backbone:
         from .plausibility import at_bound, check_parameters
 
         c = self.core()
-        values = {k: v for k, v in c.items() if k != "tau_s" and not (k == "E00_MPa" and self.settings.static == "none")}
+        values = {
+            k: v for k, v in c.items() if k != "tau_s" and not (k == "E00_MPa" and self.settings.static == "none")
+        }
         for name in ("C1", "C2_K", "Ea_kJ_mol", "vertical_trend_per_100K", "static_trend_per_100K"):
             if name in self.names:
                 values[name] = self.value(name)
@@ -214,8 +238,11 @@ class Backbone:
         T = np.asarray(T, float)
         if self.settings.static == "none":
             return np.zeros_like(T)
-        return 10.0 ** (self.value("log10_E00_MPa") + self.value("static_trend_per_100K") * (T - self.T_ref_C) / 100.0
-                        + self._deviation("E00", T))
+        return 10.0 ** (
+            self.value("log10_E00_MPa")
+            + self.value("static_trend_per_100K") * (T - self.T_ref_C) / 100.0
+            + self._deviation("E00", T)
+        )
 
     def interp_weights(self, T) -> np.ndarray:
         """(n, n_T) weights of the training isotherms in the linear interpolation (constant
@@ -240,7 +267,7 @@ class Backbone:
         J = np.zeros((f.size, len(self.names)), complex)
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             L = self.log_shift(T)
-            x = 1j * 2 * np.pi * f * c["tau_s"] * 10.0 ** L
+            x = 1j * 2 * np.pi * f * c["tau_s"] * 10.0**L
             k, h, dl, beta = c["k"], c["h"], c["delta"], c["beta"]
             xk, xh, xb = x ** (-k), x ** (-h), 1.0 / (x * beta)
             D = 1.0 + dl * xk + xh + xb
@@ -251,8 +278,12 @@ class Backbone:
             E = core * 10.0 ** self.log_vertical(T)
             dcore_dD = -chain / D
             lnx = np.log(x)
-            dD = {"log10_delta": ln10 * dl * xk, "log10_beta": -ln10 * xb,
-                  "k_over_h": -dl * xk * lnx * h, "h": -dl * xk * lnx * (k / h) - xh * lnx}
+            dD = {
+                "log10_delta": ln10 * dl * xk,
+                "log10_beta": -ln10 * xb,
+                "k_over_h": -dl * xk * lnx * h,
+                "h": -dl * xk * lnx * (k / h) - xh * lnx,
+            }
             x_dDdx = -k * dl * xk - h * xh - xb  # x dD/dx
             dD["log10_tau_s"] = ln10 * x_dDdx
             for n, v in dD.items():
@@ -290,9 +321,15 @@ class Backbone:
     def core(self) -> dict:
         """2S2P1D constants at T_ref: ``E0_MPa, E00_MPa, delta, k, h, beta, tau_s``."""
         h = self.value("h")
-        return {"E0_MPa": 10 ** self.value("log10_E0_MPa"), "E00_MPa": float(self.static_modulus(self.T_ref_C)),
-                "delta": 10 ** self.value("log10_delta"), "k": self.value("k_over_h") * h, "h": h,
-                "beta": 10 ** self.value("log10_beta"), "tau_s": 10 ** self.value("log10_tau_s")}
+        return {
+            "E0_MPa": 10 ** self.value("log10_E0_MPa"),
+            "E00_MPa": float(self.static_modulus(self.T_ref_C)),
+            "delta": 10 ** self.value("log10_delta"),
+            "k": self.value("k_over_h") * h,
+            "h": h,
+            "beta": 10 ** self.value("log10_beta"),
+            "tau_s": 10 ** self.value("log10_tau_s"),
+        }
 
     def modulus(self, frequency_Hz, temperature_C) -> np.ndarray:
         """Backbone complex modulus (MPa) at broadcast (f Hz, T degC)."""
@@ -315,26 +352,48 @@ def _cell_arrays(cells: pd.DataFrame):
 
 def _bounds(name: str, T, E, T_ref) -> tuple[float, float]:
     Emax, Emin = float(np.abs(E).max()), float(np.abs(E).min())
-    table = {"log10_E0_MPa": (np.log10(Emax) - 0.05, max(5.3, np.log10(Emax) + 1.0)), "log10_delta": (-1.5, 1.7), "k_over_h": (0.03, 0.97),
-             "h": (0.1, 0.99), "log10_beta": (-1.0, 9.0), "log10_tau_s": (-12.0, 8.0), "C1": (0.5, 200.0),
-             "C2_K": (max(T_ref - T.min() + 5.0, 5.0), 3000.0), "Ea_kJ_mol": (10.0, 1000.0),
-             "log10_E00_MPa": (-2.0, min(np.log10(Emin) + 0.3, np.log10(Emax) - 0.1)),
-             "static_trend_per_100K": (-3.0, 3.0),
-             "vertical_trend_per_100K": (-3.0, 3.0)}
+    table = {
+        "log10_E0_MPa": (np.log10(Emax) - 0.05, max(5.3, np.log10(Emax) + 1.0)),
+        "log10_delta": (-1.5, 1.7),
+        "k_over_h": (0.03, 0.97),
+        "h": (0.1, 0.99),
+        "log10_beta": (-1.0, 9.0),
+        "log10_tau_s": (-12.0, 8.0),
+        "C1": (0.5, 200.0),
+        "C2_K": (max(T_ref - T.min() + 5.0, 5.0), 3000.0),
+        "Ea_kJ_mol": (10.0, 1000.0),
+        "log10_E00_MPa": (-2.0, min(np.log10(Emin) + 0.3, np.log10(Emax) - 0.1)),
+        "static_trend_per_100K": (-3.0, 3.0),
+        "vertical_trend_per_100K": (-3.0, 3.0),
+    }
     return table.get(name, (-2.0, 2.0))
 
 
 def _cold_starts(names, T, E, T_ref) -> list:
     Emax, Emin = float(np.abs(E).max()), float(np.abs(E).min())
-    base = {"log10_E0_MPa": min(np.log10(Emax) + 0.25, 5.2), "log10_delta": np.log10(2.0), "k_over_h": 0.33,
-            "h": 0.6, "log10_beta": 3.0, "C1": 25.0, "C2_K": max(170.0, T_ref - T.min() + 40.0),
-            "Ea_kJ_mol": 200.0, "log10_E00_MPa": np.log10(Emin) - 0.7}
+    base = {
+        "log10_E0_MPa": min(np.log10(Emax) + 0.25, 5.2),
+        "log10_delta": np.log10(2.0),
+        "k_over_h": 0.33,
+        "h": 0.6,
+        "log10_beta": 3.0,
+        "C1": 25.0,
+        "C2_K": max(170.0, T_ref - T.min() + 40.0),
+        "Ea_kJ_mol": 200.0,
+        "log10_E00_MPa": np.log10(Emin) - 0.7,
+    }
     return [{**base, "log10_tau_s": lt} for lt in (-4.0, -2.5, -1.0, 0.5)]
 
 
-def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = None,
-                 tolerances=TOLERANCES, start: dict | None = None, loss: str = "robust",
-                 starts: list | None = None) -> Backbone:
+def fit_backbone(
+    cells: pd.DataFrame,
+    settings: LawSettings,
+    T_ref_C: float | None = None,
+    tolerances=TOLERANCES,
+    start: dict | None = None,
+    loss: str = "robust",
+    starts: list | None = None,
+) -> Backbone:
     """Fit the backbone of :class:`ThermoLaw` to cell means (module docstring).
 
     Parameters
@@ -388,8 +447,12 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
     # the two temperature trends (weight 1 per TREND_SCALE: a weak prior that keeps a trend the
     # data do not resolve, e.g. E00 over cold isotherms only, near 0)
     reg = np.array([n.startswith("dlog10_") or n in TREND_NAMES for n in names])
-    w_reg = np.array([1.0 / TREND_SCALE if n in TREND_NAMES else np.sqrt(settings.refine or 0.0) / REFINE_SCALE_DECADES
-                      for n in np.array(names)[reg]])
+    w_reg = np.array(
+        [
+            1.0 / TREND_SCALE if n in TREND_NAMES else np.sqrt(settings.refine or 0.0) / REFINE_SCALE_DECADES
+            for n in np.array(names)[reg]
+        ]
+    )
 
     def resid(x):
         proto.x = x
@@ -413,8 +476,17 @@ def fit_backbone(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | No
         x0 = np.array([s.get(n, 0.0) for n in names], float)
         x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
         try:
-            res = least_squares(resid, x0, jac=jac, bounds=(lo, hi), method="trf", loss=LOSSES[loss], f_scale=1.0,
-                                x_scale="jac", max_nfev=2000)
+            res = least_squares(
+                resid,
+                x0,
+                jac=jac,
+                bounds=(lo, hi),
+                method="trf",
+                loss=LOSSES[loss],
+                f_scale=1.0,
+                x_scale="jac",
+                max_nfev=2000,
+            )
         except ValueError:
             continue
         if best is None or res.cost < best.cost:
@@ -468,19 +540,25 @@ class ThermoLaw:
         bb = self.backbone
         T = float(temperature_C)
         if bb.settings.shift == "wlf" and bb.value("C2_K") + T - bb.T_ref_C <= 0:
-            raise InputError(f"temperature {T:g} degC: outside the WLF domain (T - T_ref <= -C2 = "
-                             f"{-bb.value('C2_K'):.4g} K, T_ref = {bb.T_ref_C:g} degC)")
+            raise InputError(
+                f"temperature {T:g} degC: outside the WLF domain (T - T_ref <= -C2 = "
+                f"{-bb.value('C2_K'):.4g} K, T_ref = {bb.T_ref_C:g} degC)"
+            )
         with np.errstate(over="ignore"):
             aT = float(10.0 ** bb.log_shift(T))
             b = float(10.0 ** bb.log_vertical(T))
         if not (np.isfinite(aT) and aT > 0 and np.isfinite(b) and b > 0):
-            raise InputError(f"temperature {T:g} degC: the shift factors overflow (log10 aT = "
-                             f"{float(bb.log_shift(T)):.4g}); the law is undefined there")
+            raise InputError(
+                f"temperature {T:g} degC: the shift factors overflow (log10 aT = "
+                f"{float(bb.log_shift(T)):.4g}); the law is undefined there"
+            )
         E0 = bb.core()["E0_MPa"]
         E00_T = float(bb.static_modulus(T))
         if not E00_T < E0:
-            raise InputError(f"temperature {T:g} degC: the static modulus trend reaches the glassy modulus "
-                             f"({E00_T:.4g} >= {E0:.4g} MPa); the law is undefined there")
+            raise InputError(
+                f"temperature {T:g} degC: the static modulus trend reaches the glassy modulus "
+                f"({E00_T:.4g} >= {E0:.4g} MPa); the law is undefined there"
+            )
         c = b * (E0 - E00_T) / (E0 - float(bb.static_modulus(bb.T_ref_C)))
         p = self.prony
         Em, eta_m = p.Em * c, p.eta_m * c * aT
@@ -488,8 +566,8 @@ class ThermoLaw:
         eta_k = np.asarray(p.eta_k, float) * c * aT
         E_inf = b * E00_T
         if reduce and Ek.size:
-            w_lo = 2 * np.pi * self.band_Hz[0] / 10 ** self.margin_decades
-            w_hi = 2 * np.pi * self.band_Hz[1] * 10 ** self.margin_decades
+            w_lo = 2 * np.pi * self.band_Hz[0] / 10**self.margin_decades
+            w_hi = 2 * np.pi * self.band_Hz[1] * 10**self.margin_decades
             t = eta_k / Ek
             fast, slow = t < 1.0 / w_hi, t > 1.0 / w_lo
             J0 = 1.0 / Em + np.sum(1.0 / Ek[fast])
@@ -546,18 +624,29 @@ class ThermoLaw:
         p = self.prony.scaled(1e6).as_dict()
         if not np.isfinite(p["eta_m"]):
             p["eta_m"] = None
-        shift = ({"law": "WLF", "C1": bb.value("C1"), "C2_K": bb.value("C2_K")} if bb.settings.shift == "wlf"
-                 else {"law": "Arrhenius", "Ea_kJ_mol": bb.value("Ea_kJ_mol")})
-        return {"form": "2S2P1D backbone at T_ref with shift law, static modulus, vertical shift and "
-                        "per-isotherm refinement; Prony (generalized Kelvin) chain at T_ref shifted by aT",
-                "settings": bb.settings.as_dict(), "T_ref_C": bb.T_ref_C,
-                "calibrated_temperature_range_C": list(self.temperature_range_C),
-                "frequency_band_Hz": list(self.band_Hz), "margin_decades": self.margin_decades,
-                "shift": shift, "fit_loss": bb.loss, "backbone": {k: float(v) for k, v in zip(bb.names, bb.x)},
-                "backbone_2s2p1d_at_T_ref": {k: float(v) for k, v in bb.core().items()},
-                "vertical_trend_decades_per_100K": bb.value("vertical_trend_per_100K"),
-                "carriable_by_a_prony_card": bb.settings.carriable, "findings": bb.findings(),
-                "prony_at_T_ref": {**p, "units": "Pa, Pa s"}, **self.info}
+        shift = (
+            {"law": "WLF", "C1": bb.value("C1"), "C2_K": bb.value("C2_K")}
+            if bb.settings.shift == "wlf"
+            else {"law": "Arrhenius", "Ea_kJ_mol": bb.value("Ea_kJ_mol")}
+        )
+        return {
+            "form": "2S2P1D backbone at T_ref with shift law, static modulus, vertical shift and "
+            "per-isotherm refinement; Prony (generalized Kelvin) chain at T_ref shifted by aT",
+            "settings": bb.settings.as_dict(),
+            "T_ref_C": bb.T_ref_C,
+            "calibrated_temperature_range_C": list(self.temperature_range_C),
+            "frequency_band_Hz": list(self.band_Hz),
+            "margin_decades": self.margin_decades,
+            "shift": shift,
+            "fit_loss": bb.loss,
+            "backbone": {k: float(v) for k, v in zip(bb.names, bb.x)},
+            "backbone_2s2p1d_at_T_ref": {k: float(v) for k, v in bb.core().items()},
+            "vertical_trend_decades_per_100K": bb.value("vertical_trend_per_100K"),
+            "carriable_by_a_prony_card": bb.settings.carriable,
+            "findings": bb.findings(),
+            "prony_at_T_ref": {**p, "units": "Pa, Pa s"},
+            **self.info,
+        }
 
 
 #: reduced-frequency band (decades, margins included) beyond which the Prony grid of :func:`fit_law`
@@ -566,9 +655,16 @@ class ThermoLaw:
 MAX_BAND_DECADES = 40.0
 
 
-def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = None,
-            tolerances=TOLERANCES, margin_decades: float = 2.0, backbone: Backbone | None = None,
-            loss: str = "robust", starts: list | None = None) -> ThermoLaw:
+def fit_law(
+    cells: pd.DataFrame,
+    settings: LawSettings,
+    T_ref_C: float | None = None,
+    tolerances=TOLERANCES,
+    margin_decades: float = 2.0,
+    backbone: Backbone | None = None,
+    loss: str = "robust",
+    starts: list | None = None,
+) -> ThermoLaw:
     """Fit :class:`ThermoLaw` to cell means (``temperature_C, frequency_Hz, E_norm_MPa,
     phase_deg``); ``backbone``: an already fitted one of the same structure (reused); ``loss``,
     ``starts``: of :func:`fit_backbone` (without ``backbone``).
@@ -577,8 +673,11 @@ def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = 
     infinite band, or if the Prony fit fails. Over a band wider than :data:`MAX_BAND_DECADES`
     the relaxation times are thinned to at most that many decades' worth.
     """
-    bb = backbone if backbone is not None else fit_backbone(cells, settings, T_ref_C, tolerances, loss=loss,
-                                                            starts=starts)
+    bb = (
+        backbone
+        if backbone is not None
+        else fit_backbone(cells, settings, T_ref_C, tolerances, loss=loss, starts=starts)
+    )
     if backbone is not None and backbone.settings.structure != settings.structure:
         raise ValueError("fit_law: the given backbone has another structure than the settings")
     bb = Backbone(settings, bb.T_ref_C, bb.temperatures, bb.names, bb.x, bb.cost, bb.lower, bb.upper, bb.loss)
@@ -586,7 +685,7 @@ def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = 
     f = cells["frequency_Hz"].to_numpy(float)
     with np.errstate(over="ignore", invalid="ignore"):
         wr = 2 * np.pi * f * 10.0 ** bb.log_shift(T)
-        w_lo, w_hi = wr.min() / 10 ** margin_decades, wr.max() * 10 ** margin_decades
+        w_lo, w_hi = wr.min() / 10**margin_decades, wr.max() * 10**margin_decades
         span = float(np.log10(w_hi / w_lo)) if w_lo > 0 else np.inf
     if not np.isfinite(span):
         raise ValueError("fit_law: the shift law spreads the tested cells over an infinite band of reduced frequency")
@@ -597,10 +696,12 @@ def fit_law(cells: pd.DataFrame, settings: LawSettings, T_ref_C: float | None = 
     c = bb.core()
     E_ref = two_s2p1d_modulus(omega, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], c["tau_s"])
     tau = log_time_grid(w_lo, w_hi, per_decade=per_decade, margin_decades=0.5)
-    prony = fit_generalized_kelvin(omega, E_ref, tau, E_inf=c["E00_MPa"], dashpot=True,
-                                   glassy_modulus=c["E0_MPa"] - c["E00_MPa"])
-    return ThermoLaw(bb, prony, (float(f.min()), float(f.max())), (float(T.min()), float(T.max())),
-                     float(margin_decades))
+    prony = fit_generalized_kelvin(
+        omega, E_ref, tau, E_inf=c["E00_MPa"], dashpot=True, glassy_modulus=c["E0_MPa"] - c["E00_MPa"]
+    )
+    return ThermoLaw(
+        bb, prony, (float(f.min()), float(f.max())), (float(T.min()), float(T.max())), float(margin_decades)
+    )
 
 
 def law_metrics(law, cells: pd.DataFrame) -> pd.DataFrame:
@@ -678,13 +779,12 @@ def _minimax_lp(residuals, jacobian, p0, trust_floor, tolerances, prior_weight, 
                 rhs.append(-sgn * (p[i] - p0[i]))
         for i0, tol in ((ia, tol_a), (ib, tol_b)):
             row = np.zeros(nv)
-            row[i0:i0 + m] = 1.0 / (m * tol)
+            row[i0 : i0 + m] = 1.0 / (m * tol)
             row[it] = -1.0
             rows.append(row)
             rhs.append(0.0)
         step = np.where(free, delta * (p + trust_floor), 0.0)
-        bounds = ([(max(-p[i], -step[i]), step[i]) for i in range(n)]
-                  + [(0.0, None)] * (2 * m + n + 1))
+        bounds = [(max(-p[i], -step[i]), step[i]) for i in range(n)] + [(0.0, None)] * (2 * m + n + 1)
         lp = linprog(c, A_ub=np.array(rows), b_ub=np.array(rhs), bounds=bounds, method="highs")
         if lp.status != 0:
             delta *= 0.5
@@ -701,8 +801,7 @@ def _minimax_lp(residuals, jacobian, p0, trust_floor, tolerances, prior_weight, 
     return p, f
 
 
-def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
-                    per_decade: float = 4.0) -> dict:
+def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES, per_decade: float = 4.0) -> dict:
     """Closest causal linear viscoelastic fit to one isotherm (a consistency diagnostic).
 
     A generalized Maxwell series E* = E_inf + sum_i E_i i w rho_i / (1 + i w rho_i) with
@@ -744,12 +843,18 @@ def best_causal_fit(frequency_Hz, E_norm_MPa, phase_deg, tolerances=TOLERANCES,
 
     def jacobian(p):
         E = A @ p
-        return (np.real(np.conj(E)[:, None] * A) / (np.abs(E) * Ed)[:, None],
-                np.imag(A / E[:, None]) / ph_scale[:, None])
+        return (
+            np.real(np.conj(E)[:, None] * A) / (np.abs(E) * Ed)[:, None],
+            np.imag(A / E[:, None]) / ph_scale[:, None],
+        )
 
     floor = np.full(p0.size, 1e-3 * Ed.max() / p0.size)
     p, _ = _minimax_lp(residuals, jacobian, p0, floor, tolerances, 0.0, max_iter=400)
     a, b = residuals(p)
     mE, mP = 100 * np.mean(np.abs(a)), 100 * np.mean(np.abs(b))
-    return {"objective": float(max(mE / (100 * tolerances[0]), mP / (100 * tolerances[1]))),
-            "mre_E_norm_pct": float(mE), "mre_phase_pct": float(mP), "n_modes": int(np.sum(p[1:] > 0))}
+    return {
+        "objective": float(max(mE / (100 * tolerances[0]), mP / (100 * tolerances[1]))),
+        "mre_E_norm_pct": float(mE),
+        "mre_phase_pct": float(mP),
+        "n_modes": int(np.sum(p[1:] > 0)),
+    }

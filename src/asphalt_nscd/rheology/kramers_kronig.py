@@ -77,8 +77,9 @@ def kk_time_lag(df: pd.DataFrame, degree: int = 2) -> dict:
     """
     r = kk_residuals(df, degree)
     temps = np.sort(r["temperature_C"].unique())
-    X = np.column_stack([r["frequency_Hz"].to_numpy(float) * 360.0]
-                        + [(r["temperature_C"] == T).to_numpy(float) for T in temps])
+    X = np.column_stack(
+        [r["frequency_Hz"].to_numpy(float) * 360.0] + [(r["temperature_C"] == T).to_numpy(float) for T in temps]
+    )
     y = r["phase_kk_residual_deg"].to_numpy(float)
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     dof = max(len(y) - X.shape[1], 1)

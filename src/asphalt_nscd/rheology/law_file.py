@@ -34,8 +34,10 @@ UNITS = {"Em": "Pa", "eta_m": "Pa s", "Ek": "Pa", "eta_k": "Pa s", "E_inf": "Pa"
 #: fields of one temperature of a law file
 LAW_FIELDS = ("Em", "eta_m", "Ek", "eta_k", "E_inf")
 #: description of the law in the file
-LAW_TEXT = ("GeneralizedBurgers: Maxwell (Em, eta_m) in series with Kelvin-Voigt units "
-            "(Ek[i], eta_k[i]), in parallel with E_inf")
+LAW_TEXT = (
+    "GeneralizedBurgers: Maxwell (Em, eta_m) in series with Kelvin-Voigt units "
+    "(Ek[i], eta_k[i]), in parallel with E_inf"
+)
 
 
 def to_json(laws: dict, mre_E: dict | None = None, mre_phase: dict | None = None) -> dict:
@@ -89,8 +91,10 @@ def validate(obj, path) -> dict:
     def number(value, key, allow_zero=False):
         ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
         if not ok or value < 0 or (value == 0 and not allow_zero):
-            raise InputError(f"{path}: key {key}: expected a {'non-negative' if allow_zero else 'positive'} "
-                             f"finite number, got {value!r}")
+            raise InputError(
+                f"{path}: key {key}: expected a {'non-negative' if allow_zero else 'positive'} "
+                f"finite number, got {value!r}"
+            )
         return float(value)
 
     laws: dict[float, GeneralizedBurgers] = {}
@@ -115,13 +119,16 @@ def validate(obj, path) -> dict:
                 raise InputError(f"{path}: key 'temperatures.{key}.{k}': expected a list of positive numbers")
             units_lists.append([number(v, f"'temperatures.{key}.{k}[{i}]'") for i, v in enumerate(d[k])])
         if len(units_lists[0]) != len(units_lists[1]):
-            raise InputError(f"{path}: key 'temperatures.{key}': Ek has {len(units_lists[0])} units but "
-                             f"eta_k has {len(units_lists[1])}")
+            raise InputError(
+                f"{path}: key 'temperatures.{key}': Ek has {len(units_lists[0])} units but "
+                f"eta_k has {len(units_lists[1])}"
+            )
         E_inf = number(d["E_inf"], f"'temperatures.{key}.E_inf'", allow_zero=True)
         if temperature_key(laws, T) is not None:
             raise InputError(f"{path}: key {where}: temperature {T:g} degC given twice")
-        laws[T] = GeneralizedBurgers(Em=Em, eta_m=eta_m, Ek=tuple(units_lists[0]), eta_k=tuple(units_lists[1]),
-                                     E_inf=E_inf)
+        laws[T] = GeneralizedBurgers(
+            Em=Em, eta_m=eta_m, Ek=tuple(units_lists[0]), eta_k=tuple(units_lists[1]), E_inf=E_inf
+        )
     return laws
 
 
@@ -144,8 +151,9 @@ def read_mpa(path, temperatures=None) -> dict:
         return laws
     missing = [float(T) for T in temperatures if temperature_key(laws, T) is None]
     if missing:
-        raise InputError(f"{path}: key 'temperatures': no law at {missing} degC (measured temperatures); "
-                         f"given: {sorted(laws)}")
+        raise InputError(
+            f"{path}: key 'temperatures': no law at {missing} degC (measured temperatures); given: {sorted(laws)}"
+        )
     return {float(T): laws[temperature_key(laws, T)] for T in temperatures}
 
 
@@ -163,8 +171,9 @@ def law_at(laws: dict, temperature_C: float, where="") -> GeneralizedBurgers:
     """
     key = temperature_key(laws, temperature_C)
     if key is None:
-        raise InputError(f"{where}: key 'temperatures': no law at {float(temperature_C):g} degC; "
-                         f"available: {sorted(laws)}")
+        raise InputError(
+            f"{where}: key 'temperatures': no law at {float(temperature_C):g} degC; available: {sorted(laws)}"
+        )
     return laws[key]
 
 
@@ -174,7 +183,7 @@ def complex_modulus(laws: dict, temperature_C, frequency_Hz, where="") -> np.nda
 
     Raises InputError (naming ``where``) if a temperature has no law.
     """
-    T, f = np.broadcast_arrays(np.atleast_1d(np.asarray(temperature_C, float)),
-                               np.atleast_1d(np.asarray(frequency_Hz, float)))
-    return np.array([complex(law_at(laws, t, where).complex_modulus(2 * np.pi * x)) for t, x in zip(T, f)],
-                    complex)
+    T, f = np.broadcast_arrays(
+        np.atleast_1d(np.asarray(temperature_C, float)), np.atleast_1d(np.asarray(frequency_Hz, float))
+    )
+    return np.array([complex(law_at(laws, t, where).complex_modulus(2 * np.pi * x)) for t, x in zip(T, f)], complex)

@@ -127,8 +127,7 @@ class GeneralizedBurgers:
         )
 
     def as_dict(self) -> dict:
-        return {"Em": self.Em, "eta_m": self.eta_m, "Ek": list(self.Ek),
-                "eta_k": list(self.eta_k), "E_inf": self.E_inf}
+        return {"Em": self.Em, "eta_m": self.eta_m, "Ek": list(self.Ek), "eta_k": list(self.eta_k), "E_inf": self.E_inf}
 
 
 def bond_scale(r_min, l0) -> np.ndarray:

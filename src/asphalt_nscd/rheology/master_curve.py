@@ -99,8 +99,11 @@ class MasterCurveFit:
         ``fixed``: names held at their value (not checked against the bounds)."""
         from .plausibility import at_bound, check_parameters
 
-        values = {k: v for k, v in self.core().items()
-                  if k not in ("tau_ref_s",) and not (k == "E00_MPa" and not self.static_modulus)}
+        values = {
+            k: v
+            for k, v in self.core().items()
+            if k not in ("tau_ref_s",) and not (k == "E00_MPa" and not self.static_modulus)
+        }
         found = check_parameters(values)
         if self.lower is not None and self.upper is not None:
             core = [i for i, n in enumerate(self.names) if not n.startswith(("ln_factor_", "phase_offset_deg_"))]
@@ -109,14 +112,14 @@ class MasterCurveFit:
 
     def log_shift(self, temperature_C) -> np.ndarray:
         """log10 aT of the fitted shift law at ``temperature_C`` (degC)."""
-        return _log_shift(self.x, self.names, self.shift, self.T_ref_C, self.temperatures,
-                          np.asarray(temperature_C, dtype=float))
+        return _log_shift(
+            self.x, self.names, self.shift, self.T_ref_C, self.temperatures, np.asarray(temperature_C, dtype=float)
+        )
 
     def modulus(self, frequency_Hz, temperature_C) -> np.ndarray:
         """True (artifact-free, specimen-average) complex modulus, MPa; broadcast shapes."""
         f, T = np.broadcast_arrays(np.asarray(frequency_Hz, float), np.asarray(temperature_C, float))
-        E = _true_modulus(self.x, self.names, self.shift, self.T_ref_C, self.temperatures,
-                          self.static_modulus, f, T)
+        E = _true_modulus(self.x, self.names, self.shift, self.T_ref_C, self.temperatures, self.static_modulus, f, T)
         return E * np.exp(self.specimen_mean[0] + 1j * np.radians(self.specimen_mean[1]))
 
 
@@ -150,9 +153,13 @@ def replicate_noise(df: pd.DataFrame, covariates=()) -> tuple[float | None, floa
         d["rE"] = d["rE"] - d.groupby("specimen")["rE"].transform("mean")
         return float(np.sqrt(np.sum(d["rE"] ** 2) / dof_e)), sP
     # two-way least squares: cell means + specimen offsets + linear covariates
-    X = np.column_stack([pd.get_dummies(cell.ngroup()).to_numpy(float),
-                         pd.get_dummies(d["specimen"].astype(str)).to_numpy(float)[:, 1:]]
-                        + [d[c].to_numpy(float) for c in covariates])
+    X = np.column_stack(
+        [
+            pd.get_dummies(cell.ngroup()).to_numpy(float),
+            pd.get_dummies(d["specimen"].astype(str)).to_numpy(float)[:, 1:],
+        ]
+        + [d[c].to_numpy(float) for c in covariates]
+    )
     y = d["lnE"].to_numpy(float)
     coef, _, rank, _ = np.linalg.lstsq(X, y, rcond=None)
     dof = len(y) - int(rank)
@@ -236,15 +243,15 @@ def _core_values(x, names, static_modulus) -> dict:
 def _true_modulus(x, names, shift, T_ref, temperatures, static_modulus, f, T):
     c = _core_values(x, names, static_modulus)
     tau = c["tau_ref_s"] * 10.0 ** _log_shift(x, names, shift, T_ref, temperatures, T)
-    return two_s2p1d_modulus(2 * np.pi * f, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"],
-                             c["h"], c["beta"], tau)
+    return two_s2p1d_modulus(2 * np.pi * f, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], tau)
 
 
 class MasterCurveProblem:
     """Parameter layout and residuals of the master-curve model with optional terms."""
 
-    def __init__(self, data: dict, shift="wlf", T_ref_C=None, static_modulus=True, terms=(),
-                 sigma_lnE=0.02, sigma_phase_deg=0.5):
+    def __init__(
+        self, data: dict, shift="wlf", T_ref_C=None, static_modulus=True, terms=(), sigma_lnE=0.02, sigma_phase_deg=0.5
+    ):
         self.data = data
         self.shift = shift
         self.temperatures = data["temperatures"]
@@ -258,8 +265,9 @@ class MasterCurveProblem:
         if shift == "free":  # aT(Tref) = 1: no parameter for the reference isotherm
             self.core_names.remove(f"log10_aT_{self.T_ref_C:g}")
         n_spec = len(data["specimens"])
-        self.spec_names = ([f"ln_factor_{s}" for s in data["specimens"][1:]]
-                           + [f"phase_offset_deg_{s}" for s in data["specimens"][1:]])
+        self.spec_names = [f"ln_factor_{s}" for s in data["specimens"][1:]] + [
+            f"phase_offset_deg_{s}" for s in data["specimens"][1:]
+        ]
         self.names = self.core_names + self.spec_names + [n for t in self.terms for n in t.names]
         self._slices = []
         i = len(self.core_names) + len(self.spec_names)
@@ -331,8 +339,7 @@ class MasterCurveProblem:
                 dT = t.delta_T(x[sl], d)
                 if dT is not None:
                     T = T + dT
-        E = _true_modulus(x, self.names, self.shift, self.T_ref_C, self.temperatures,
-                          self.static_modulus, d["f"], T)
+        E = _true_modulus(x, self.names, self.shift, self.T_ref_C, self.temperatures, self.static_modulus, d["f"], T)
         c, ph = self.specimen_terms(x)
         E = E * np.exp(c[d["spec"]] + 1j * np.radians(ph[d["spec"]]))
         for t, sl in sorted(zip(self.terms, self._slices), key=lambda ts: ts[0].order):
@@ -343,8 +350,7 @@ class MasterCurveProblem:
     def specimen_terms(self, x):
         """ln|E*| factors and phase offsets (deg) per specimen, shapes (n_spec,) (first = 0)."""
         nc, m = len(self.core_names), self.n_spec - 1
-        return (np.concatenate([[0.0], x[nc:nc + m]]),
-                np.concatenate([[0.0], x[nc + m:nc + 2 * m]]))
+        return (np.concatenate([[0.0], x[nc : nc + m]]), np.concatenate([[0.0], x[nc + m : nc + 2 * m]]))
 
     def residuals(self, x) -> np.ndarray:
         E = self.measured_modulus(x)
@@ -377,8 +383,9 @@ class MasterCurveProblem:
                 return self.residuals(full)
 
             try:
-                res = least_squares(resid, s[free], bounds=(lo[free], hi[free]), method="trf",
-                                    x_scale="jac", max_nfev=max_nfev)
+                res = least_squares(
+                    resid, s[free], bounds=(lo[free], hi[free]), method="trf", x_scale="jac", max_nfev=max_nfev
+                )
             except ValueError:
                 continue
             if best is None or res.cost < best.cost:
@@ -397,21 +404,48 @@ class MasterCurveProblem:
         best.x = best_x
         E = self.measured_modulus(best.x)
         d = self.data
-        fitted = pd.DataFrame({"temperature_C": d["T"], "frequency_Hz": d["f"],
-                               "specimen": np.array(d["specimens"])[d["spec"]],
-                               "E_norm_MPa_model": np.abs(E),
-                               "phase_deg_model": np.degrees(np.angle(E))})
+        fitted = pd.DataFrame(
+            {
+                "temperature_C": d["T"],
+                "frequency_Hz": d["f"],
+                "specimen": np.array(d["specimens"])[d["spec"]],
+                "E_norm_MPa_model": np.abs(E),
+                "phase_deg_model": np.degrees(np.angle(E)),
+            }
+        )
         return MasterCurveFit(
-            names=list(self.names), x=best.x, se=se, cov=cov, rss=rss, n_residuals=n, n_free=p,
-            shift=self.shift, T_ref_C=self.T_ref_C, static_modulus=self.static_modulus,
-            temperatures=self.temperatures, specimens=list(d["specimens"]),
-            sigma_lnE=self.sigma[0], sigma_phase_deg=self.sigma[1], terms=list(self.terms),
-            residuals=best.fun, fitted=fitted,
-            specimen_mean=tuple(float(np.mean(v)) for v in self.specimen_terms(best.x)), lower=lo, upper=hi)
+            names=list(self.names),
+            x=best.x,
+            se=se,
+            cov=cov,
+            rss=rss,
+            n_residuals=n,
+            n_free=p,
+            shift=self.shift,
+            T_ref_C=self.T_ref_C,
+            static_modulus=self.static_modulus,
+            temperatures=self.temperatures,
+            specimens=list(d["specimens"]),
+            sigma_lnE=self.sigma[0],
+            sigma_phase_deg=self.sigma[1],
+            terms=list(self.terms),
+            residuals=best.fun,
+            fitted=fitted,
+            specimen_mean=tuple(float(np.mean(v)) for v in self.specimen_terms(best.x)),
+            lower=lo,
+            upper=hi,
+        )
 
 
-def fit_master_curve(df: pd.DataFrame, shift: str = "wlf", T_ref_C: float | None = None,
-                     static_modulus: bool = True, terms=(), sigma=None, x0=None) -> MasterCurveFit:
+def fit_master_curve(
+    df: pd.DataFrame,
+    shift: str = "wlf",
+    T_ref_C: float | None = None,
+    static_modulus: bool = True,
+    terms=(),
+    sigma=None,
+    x0=None,
+) -> MasterCurveFit:
     """Fit a 2S2P1D master curve with a shift law to a tidy measured table.
 
     Parameters
@@ -448,8 +482,15 @@ def fit_master_curve(df: pd.DataFrame, shift: str = "wlf", T_ref_C: float | None
     if sigma is None:
         sE, sP = replicate_noise(df)
         sigma = (max(sE, 2e-3), max(sP, 0.03)) if sE is not None and sP is not None else (0.02, 0.5)
-    prob = MasterCurveProblem(data, shift=shift, T_ref_C=T_ref_C, static_modulus=static_modulus,
-                              terms=terms, sigma_lnE=sigma[0], sigma_phase_deg=sigma[1])
+    prob = MasterCurveProblem(
+        data,
+        shift=shift,
+        T_ref_C=T_ref_C,
+        static_modulus=static_modulus,
+        terms=terms,
+        sigma_lnE=sigma[0],
+        sigma_phase_deg=sigma[1],
+    )
     return prob.fit(x0=x0)
 
 
@@ -460,14 +501,21 @@ def master_curve_table(fit: MasterCurveFit, df: pd.DataFrame, n_points: int = 20
     ``E_norm_MPa``, ``phase_deg`` (data rows also ``temperature_C``, ``specimen``).
     """
     aT = 10.0 ** fit.log_shift(df["temperature_C"].to_numpy(float))
-    data = pd.DataFrame({"kind": "data", "temperature_C": df["temperature_C"].to_numpy(float),
-                         "specimen": df["specimen"].astype(str).to_numpy(),
-                         "reduced_frequency_Hz": df["frequency_Hz"].to_numpy(float) * aT,
-                         "E_norm_MPa": df["E_norm_MPa"].to_numpy(float),
-                         "phase_deg": df["phase_deg"].to_numpy(float)})
-    fr = np.logspace(np.log10(data["reduced_frequency_Hz"].min()) - 0.5,
-                     np.log10(data["reduced_frequency_Hz"].max()) + 0.5, n_points)
+    data = pd.DataFrame(
+        {
+            "kind": "data",
+            "temperature_C": df["temperature_C"].to_numpy(float),
+            "specimen": df["specimen"].astype(str).to_numpy(),
+            "reduced_frequency_Hz": df["frequency_Hz"].to_numpy(float) * aT,
+            "E_norm_MPa": df["E_norm_MPa"].to_numpy(float),
+            "phase_deg": df["phase_deg"].to_numpy(float),
+        }
+    )
+    fr = np.logspace(
+        np.log10(data["reduced_frequency_Hz"].min()) - 0.5, np.log10(data["reduced_frequency_Hz"].max()) + 0.5, n_points
+    )
     E = fit.modulus(fr, fit.T_ref_C)
-    model = pd.DataFrame({"kind": "model", "reduced_frequency_Hz": fr,
-                          "E_norm_MPa": np.abs(E), "phase_deg": np.degrees(np.angle(E))})
+    model = pd.DataFrame(
+        {"kind": "model", "reduced_frequency_Hz": fr, "E_norm_MPa": np.abs(E), "phase_deg": np.degrees(np.angle(E))}
+    )
     return pd.concat([data, model], ignore_index=True)

@@ -55,9 +55,12 @@ def cell_means(df: pd.DataFrame) -> pd.DataFrame:
     frequency_Hz, n, E_norm_MPa, phase_deg, lnE`` (count; means of |E*| in MPa, Phi in deg,
     ln|E*|). ``df``: rows with ``temperature_C, frequency_Hz, E_norm_MPa > 0, phase_deg``."""
     d = df.assign(lnE=np.log(df["E_norm_MPa"]))
-    return (d.groupby(["temperature_C", "frequency_Hz"], as_index=False)
-            .agg(n=("E_norm_MPa", "size"), E_norm_MPa=("E_norm_MPa", "mean"),
-                 phase_deg=("phase_deg", "mean"), lnE=("lnE", "mean")))
+    return d.groupby(["temperature_C", "frequency_Hz"], as_index=False).agg(
+        n=("E_norm_MPa", "size"),
+        E_norm_MPa=("E_norm_MPa", "mean"),
+        phase_deg=("phase_deg", "mean"),
+        lnE=("lnE", "mean"),
+    )
 
 
 def same_temperature(a, b) -> np.ndarray | np.bool_:

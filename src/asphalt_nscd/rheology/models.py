@@ -58,8 +58,9 @@ def two_s2p1d_modulus(omega, E00, E0, delta, k, h, beta, tau) -> np.ndarray:
     return E00 + (E0 - E00) / denom
 
 
-def log_time_grid(omega_min: float, omega_max: float, per_decade: float = 1.0,
-                  margin_decades: float = 1.0) -> np.ndarray:
+def log_time_grid(
+    omega_min: float, omega_max: float, per_decade: float = 1.0, margin_decades: float = 1.0
+) -> np.ndarray:
     """Log-spaced characteristic times (s) covering 1/omega over the band plus a margin.
 
     Returns an array of shape (n,), increasing, n >= 2.
@@ -70,9 +71,9 @@ def log_time_grid(omega_min: float, omega_max: float, per_decade: float = 1.0,
     return np.logspace(lo, hi, n)
 
 
-def fit_generalized_kelvin(omega, E_star, tau_grid, E_inf: float = 0.0,
-                           dashpot: bool = True, weights=None,
-                           glassy_modulus: float | None = None) -> GeneralizedBurgers:
+def fit_generalized_kelvin(
+    omega, E_star, tau_grid, E_inf: float = 0.0, dashpot: bool = True, weights=None, glassy_modulus: float | None = None
+) -> GeneralizedBurgers:
     """Generalized Burger's law (Maxwell + N Kelvin-Voigt + static spring) by NNLS.
 
     The chain compliance D(w) = 1/(E*(w) - E_inf) is linear in the unknowns::
@@ -147,8 +148,9 @@ def fit_generalized_kelvin(omega, E_star, tau_grid, E_inf: float = 0.0,
     J = x[2:] if dashpot else x[1:]
     keep = J > 1e-12 * J0
     eta_m = 1.0 / phi if phi > 0 else np.inf
-    return GeneralizedBurgers(Em=1.0 / J0, eta_m=eta_m, Ek=tuple(1.0 / J[keep]),
-                              eta_k=tuple(tau[keep] / J[keep]), E_inf=float(E_inf))
+    return GeneralizedBurgers(
+        Em=1.0 / J0, eta_m=eta_m, Ek=tuple(1.0 / J[keep]), eta_k=tuple(tau[keep] / J[keep]), E_inf=float(E_inf)
+    )
 
 
 def fit_generalized_maxwell(omega, E_star, rho_grid, weights=None) -> dict:
@@ -178,8 +180,7 @@ def fit_generalized_maxwell(omega, E_star, rho_grid, weights=None) -> dict:
     A = np.column_stack(cols) / scale[:, None]
     A_ri = np.vstack([A.real, A.imag])
     norms = np.linalg.norm(A_ri, axis=0)
-    x, _ = nnls(A_ri / norms, np.concatenate([(E / scale).real, (E / scale).imag]),
-                maxiter=50 * A_ri.shape[1])
+    x, _ = nnls(A_ri / norms, np.concatenate([(E / scale).real, (E / scale).imag]), maxiter=50 * A_ri.shape[1])
     x = x / norms
     return {"E_inf": float(x[0]), "E_i": x[1:], "rho_s": rho}
 

@@ -55,8 +55,15 @@ def check_value(name: str, value: float) -> dict | None:
     lo, hi, unit, source = PLAUSIBLE[name]
     if lo <= value <= hi:
         return None
-    return {"name": name, "value": float(value), "low": lo, "high": hi, "unit": unit, "source": source,
-            "finding": "implausible"}
+    return {
+        "name": name,
+        "value": float(value),
+        "low": lo,
+        "high": hi,
+        "unit": unit,
+        "source": source,
+        "finding": "implausible",
+    }
 
 
 def at_bound(names, x, lower, upper, fixed=()) -> list[dict]:
@@ -69,8 +76,16 @@ def at_bound(names, x, lower, upper, fixed=()) -> list[dict]:
             continue
         tol = AT_BOUND_FRACTION * (hi - lo)
         if v <= lo + tol or v >= hi - tol:
-            out.append({"name": n, "value": float(v), "bound": "low" if v <= lo + tol else "high",
-                        "low": float(lo), "high": float(hi), "finding": "at bound"})
+            out.append(
+                {
+                    "name": n,
+                    "value": float(v),
+                    "bound": "low" if v <= lo + tol else "high",
+                    "low": float(lo),
+                    "high": float(hi),
+                    "finding": "at bound",
+                }
+            )
     return out
 
 
@@ -91,9 +106,12 @@ def describe(findings: list[dict]) -> str:
     parts = []
     for f in findings:
         if f["finding"] == "at bound":
-            parts.append(f"{f['name']} = {f['value']:.6g} at the {f['bound']} bound of its fit "
-                         f"[{f['low']:.6g}, {f['high']:.6g}]")
+            parts.append(
+                f"{f['name']} = {f['value']:.6g} at the {f['bound']} bound of its fit [{f['low']:.6g}, {f['high']:.6g}]"
+            )
         else:
-            parts.append(f"{f['name']} = {f['value']:.4g} {f['unit']} outside the plausible "
-                         f"{f['low']:.4g}-{f['high']:.4g} ({f['source']})")
+            parts.append(
+                f"{f['name']} = {f['value']:.4g} {f['unit']} outside the plausible "
+                f"{f['low']:.4g}-{f['high']:.4g} ({f['source']})"
+            )
     return "; ".join(parts)

@@ -150,8 +150,18 @@ def _draw(ax, sets, x_of, y_of, xerr_col=None, yerr_col=None, colors=None):
             else:
                 xerr = group[xerr_col] if xerr_col and xerr_col in group else None
                 yerr = group[yerr_col] if yerr_col and yerr_col in group else None
-                ax.errorbar(x, y, xerr=xerr, yerr=yerr, linestyle="none", marker=marker, color=color,
-                            markerfacecolor="none" if index % 2 else color, capsize=2, **cs.style)
+                ax.errorbar(
+                    x,
+                    y,
+                    xerr=xerr,
+                    yerr=yerr,
+                    linestyle="none",
+                    marker=marker,
+                    color=color,
+                    markerfacecolor="none" if index % 2 else color,
+                    capsize=2,
+                    **cs.style,
+                )
     _legends(ax, sets, colors)
     return colors
 
@@ -159,18 +169,35 @@ def _draw(ax, sets, x_of, y_of, xerr_col=None, yerr_col=None, colors=None):
 def _legends(ax, sets, colors) -> None:
     from matplotlib.lines import Line2D
 
-    temp_handles = [Line2D([], [], color=c, marker="s", linestyle="none", label=f"{T:g} °C")
-                    for T, c in sorted(colors.items())]
+    temp_handles = [
+        Line2D([], [], color=c, marker="s", linestyle="none", label=f"{T:g} °C") for T, c in sorted(colors.items())
+    ]
     set_handles = []
     for index, cs in enumerate(sets):
         marker, linestyle = _style(cs, index)
         if cs.kind == "line":
             set_handles.append(Line2D([], [], color="0.3", linestyle=linestyle, label=cs.label))
         else:
-            set_handles.append(Line2D([], [], color="0.3", marker=marker, linestyle="none", label=cs.label,
-                                      markerfacecolor="none" if index % 2 else "0.3"))
-    first = ax.legend(handles=temp_handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
-                      title="temperature", title_fontsize=8, frameon=False)
+            set_handles.append(
+                Line2D(
+                    [],
+                    [],
+                    color="0.3",
+                    marker=marker,
+                    linestyle="none",
+                    label=cs.label,
+                    markerfacecolor="none" if index % 2 else "0.3",
+                )
+            )
+    first = ax.legend(
+        handles=temp_handles,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        fontsize=8,
+        title="temperature",
+        title_fontsize=8,
+        frameon=False,
+    )
     ax.add_artist(first)
     ax.legend(handles=set_handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8, frameon=False)
 
@@ -218,8 +245,15 @@ def plot_black(curve_sets, ax=None, colors=None):
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6.4, 4.4))
-    _draw(ax, curve_sets, lambda g: g["phase_deg"], lambda g: g["E_norm_MPa"],
-          xerr_col="phase_deg_std", yerr_col="E_norm_MPa_std", colors=colors)
+    _draw(
+        ax,
+        curve_sets,
+        lambda g: g["phase_deg"],
+        lambda g: g["E_norm_MPa"],
+        xerr_col="phase_deg_std",
+        yerr_col="E_norm_MPa_std",
+        colors=colors,
+    )
     ax.set_yscale("log")
     ax.set_xlabel("phase angle Φ (°)")
     ax.set_ylabel("|E*| (MPa)")

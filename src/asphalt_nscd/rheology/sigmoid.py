@@ -77,6 +77,11 @@ def fit_sigmoid(table: pd.DataFrame, T_ref_C: float) -> dict:
         raise InputError("sigmoid master curve: the least-squares fit failed")
     p = dict(zip(PARAMETERS, (float(v) for v in best.x)), T_ref_C=float(T_ref_C))
     r = resid(best.x)
-    p.update({"rmse_log10": float(np.sqrt(np.mean(r**2))),
-              "mre_E_norm_pct": float(100 * np.mean(np.abs(10.0**r - 1.0))), "n_rows": int(y.size)})
+    p.update(
+        {
+            "rmse_log10": float(np.sqrt(np.mean(r**2))),
+            "mre_E_norm_pct": float(100 * np.mean(np.abs(10.0**r - 1.0))),
+            "n_rows": int(y.size),
+        }
+    )
     return p

@@ -64,8 +64,7 @@ def bench_record(summary: dict) -> dict:
     for part in ("shaking", "settling"):
         if part in vib:
             nscd[f"vibration_{part}"] = _stage(vib[part], n_layer)
-            phases[f"vibration_{part}"] = {"cpu_s": vib[part]["cpu_s"],
-                                           "wall_s": vib[part]["wall_clock_s"]}
+            phases[f"vibration_{part}"] = {"cpu_s": vib[part]["cpu_s"], "wall_s": vib[part]["wall_clock_s"]}
     if summary["stabilisation"].get("steps"):
         nscd["stabilisation"] = _stage(summary["stabilisation"], summary["n_spheres"])
     table = []
@@ -75,9 +74,15 @@ def bench_record(summary: dict) -> dict:
         rel = 100.0 * (n_ours - n_paper) / n_paper if n_ours is not None else None
         if rel is not None:
             worst = max(worst, abs(rel))
-        table.append({"diameter_mm": d_mm, "n_paper": n_paper, "n_layer": n_ours,
-                      "n_sample": summary["counts_sample"].get(f"{d_mm:g}"),
-                      "rel_diff_pct": rel})
+        table.append(
+            {
+                "diameter_mm": d_mm,
+                "n_paper": n_paper,
+                "n_layer": n_ours,
+                "n_sample": summary["counts_sample"].get(f"{d_mm:g}"),
+                "rel_diff_pct": rel,
+            }
+        )
     sample = {
         "n_spheres": summary["n_spheres"],
         "n_spheres_paper": PAPER["n_spheres_sample"],

@@ -11,12 +11,16 @@ import argparse
 
 def _add_config_options(p: argparse.ArgumentParser) -> None:
     group = p.add_mutually_exclusive_group()
-    group.add_argument("--config", nargs="+", metavar="FILE",
-                       help="workflow config files (YAML) merged as Snakemake merges --configfile: "
-                            "config/config.yaml of the working directory first, then each FILE in order "
-                            "(e.g. config/paper.yaml, an overlay on it); their 'sample' section is used. "
-                            "A single YAML/JSON file holding the sample section alone is merged over the "
-                            "paper's full-scale values")
+    group.add_argument(
+        "--config",
+        nargs="+",
+        metavar="FILE",
+        help="workflow config files (YAML) merged as Snakemake merges --configfile: "
+        "config/config.yaml of the working directory first, then each FILE in order "
+        "(e.g. config/paper.yaml, an overlay on it); their 'sample' section is used. "
+        "A single YAML/JSON file holding the sample section alone is merged over the "
+        "paper's full-scale values",
+    )
     group.add_argument("--config-json", help="the sample section as a JSON string (used by the workflow)")
 
 
@@ -42,14 +46,22 @@ def _load_config(args):
 def _add_bonded_contact(p: argparse.ArgumentParser) -> None:
     from ..nscd.state import BONDED_CONTACT
 
-    p.add_argument("--bonded-contact", choices=BONDED_CONTACT, default=None,
-                   help="contact of the bonded pairs in the stabilisation (config nscd.bonded_contact; "
-                   "default: the NSCD core's, after_break)")
+    p.add_argument(
+        "--bonded-contact",
+        choices=BONDED_CONTACT,
+        default=None,
+        help="contact of the bonded pairs in the stabilisation (config nscd.bonded_contact; "
+        "default: the NSCD core's, after_break)",
+    )
 
 
 def _add_progress(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True,
-                   help="progress bars of the dynamic stages on stderr (the job log)")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="progress bars of the dynamic stages on stderr (the job log)",
+    )
 
 
 def register(subparsers) -> None:

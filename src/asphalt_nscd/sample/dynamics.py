@@ -104,8 +104,12 @@ def _run(sim, n_steps: int, stop=None, label: str = "steps") -> dict:
             iterations += st.iterations
             max_iterations = max(max_iterations, st.iterations)
         if PROGRESS and (k + 1) % CHECK_EVERY == 0:
-            bar.set_postfix(sweeps=f"{iterations / max(steps - linear, 1):.0f}", contacts=st.n_contacts,
-                            unconverged=unconverged, refresh=False)
+            bar.set_postfix(
+                sweeps=f"{iterations / max(steps - linear, 1):.0f}",
+                contacts=st.n_contacts,
+                unconverged=unconverged,
+                refresh=False,
+            )
         if stop is not None and (k + 1) % CHECK_EVERY == 0 and stop(sim):
             break
     bar.close()
@@ -141,7 +145,9 @@ def deposit(position, radius, cfg: dict, geo: dict):
 
     dep = cfg["deposition"]
     spheres = Spheres.from_density(np.array(position, dtype=float), radius, cfg["density_deposition_kg_m3"])
-    sim = Simulation(spheres, box_plates(geo["box"]), None, _params(cfg, dep["time_step_s"], cfg["friction_deposition"]))
+    sim = Simulation(
+        spheres, box_plates(geo["box"]), None, _params(cfg, dep["time_step_s"], cfg["friction_deposition"])
+    )
     g = cfg["gravity_m_s2"]
     z_top = float(np.max(spheres.position[:, 2])) if spheres.n else 0.0
     t_fall = np.sqrt(2.0 * z_top / g) if g > 0 else 0.0
@@ -153,7 +159,7 @@ def deposit(position, radius, cfg: dict, geo: dict):
         raise InputError(f"sample.deposition.rest_measure: expected 'max' or 'rms', got {measure!r}")
 
     def speed(s):
-        v2 = (s.spheres.velocity ** 2).sum(1)
+        v2 = (s.spheres.velocity**2).sum(1)
         return float(np.sqrt(v2.max() if measure == "max" else v2.mean())) if v2.size else 0.0
 
     def at_rest(s):
@@ -183,11 +189,14 @@ def vibrate(position, radius, cfg: dict, geo: dict):
     amp = vib["amplitude_mm"] * 1e-3
     omega = 2 * np.pi * vib["frequency_Hz"]
     if vib.get("form", "tap") == "sine":
+
         def disp(t):
             return np.array([0.0, 0.0, -amp * np.sin(omega * t)])
     else:
+
         def disp(t):
             return np.array([0.0, 0.0, amp * (1.0 - np.cos(omega * t))])
+
     # The mass of a driven plate only enters the reported driver force; a finite value
     # avoids inf * 0 in the core's driver-force formula.
     wall = Plate([0.0, 0.0, z0], [0.0, 0.0, -1.0], mode="driven", mass=1.0, displacement=disp)
@@ -205,8 +214,17 @@ def vibrate(position, radius, cfg: dict, geo: dict):
     return spheres.position.copy(), info
 
 
-def stabilise(position, radius, mass, plate_point, plate_normal, plate_mass, bonds: dict, cfg: dict,
-              bonded_contact: str | None = None):
+def stabilise(
+    position,
+    radius,
+    mass,
+    plate_point,
+    plate_normal,
+    plate_mass,
+    bonds: dict,
+    cfg: dict,
+    bonded_contact: str | None = None,
+):
     """Bonded stabilisation of the flipped sample under gravity (``stabilisation.steps``).
 
     Parameters

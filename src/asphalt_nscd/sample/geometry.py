@@ -64,12 +64,7 @@ class Trapezoid:
         """Boolean mask (N,) of points (N, 3) of the specimen frame inside the trapezoid."""
         p = np.asarray(position, dtype=float)
         z = p[:, 2]
-        return (
-            (z >= 0.0)
-            & (z <= self.h)
-            & (np.abs(p[:, 0]) <= 0.5 * self.width(z))
-            & (np.abs(p[:, 1]) <= 0.5 * self.e)
-        )
+        return (z >= 0.0) & (z <= self.h) & (np.abs(p[:, 0]) <= 0.5 * self.width(z)) & (np.abs(p[:, 1]) <= 0.5 * self.e)
 
 
 def lattice_positions(radius, box, cell: float, rng: np.random.Generator) -> np.ndarray:
@@ -117,7 +112,9 @@ def lattice_positions(radius, box, cell: float, rng: np.random.Generator) -> np.
     per_layer = n_cells[0] * n_cells[1]
     if n_items > per_layer * n_cells[2]:
         need = int(np.ceil(n_items / per_layer)) * cell
-        raise ValueError(f"{n_items} lattice cells needed but the box holds {per_layer * n_cells[2]}; box height >= {need:.4g} m")
+        raise ValueError(
+            f"{n_items} lattice cells needed but the box holds {per_layer * n_cells[2]}; box height >= {need:.4g} m"
+        )
     item_order = rng.permutation(n_items)
     flat = np.arange(n_items)
     cells = np.stack([flat % n_cells[0], (flat // n_cells[0]) % n_cells[1], flat // per_layer], axis=1)
@@ -180,7 +177,9 @@ def layer_height(position, radius, footprint, measure: str = "surface", cell: fl
     return float(columns.mean())
 
 
-def solid_fraction_profile(position, radius, height: float, footprint, dz: float = 2e-3) -> tuple[np.ndarray, np.ndarray]:
+def solid_fraction_profile(
+    position, radius, height: float, footprint, dz: float = 2e-3
+) -> tuple[np.ndarray, np.ndarray]:
     """Solid fraction of horizontal slices of thickness ``dz`` (m) from the floor to
     ``height`` in a box of ``footprint`` (L, W) m: the exact volume of the sphere caps in each
     slice over the slice volume. Returns (slice mid-heights (S,) m, solid fraction (S,))."""

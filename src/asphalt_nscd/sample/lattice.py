@@ -15,9 +15,19 @@ import numpy as np
 from .store import SampleData
 
 
-def sample_from_bonds(position, radius, mass, plate_point, i, j, plate_mass=(np.inf, 0.235),
-                      density_kg_m3: float = 3415.0, seed: int = 0, d_min_m: float = 2e-3,
-                      config: dict | None = None) -> SampleData:
+def sample_from_bonds(
+    position,
+    radius,
+    mass,
+    plate_point,
+    i,
+    j,
+    plate_mass=(np.inf, 0.235),
+    density_kg_m3: float = 3415.0,
+    seed: int = 0,
+    d_min_m: float = 2e-3,
+    config: dict | None = None,
+) -> SampleData:
     """A bonded sample between horizontal plates with the bond geometry of docs/design.md.
 
     Parameters
@@ -49,17 +59,38 @@ def sample_from_bonds(position, radius, mass, plate_point, i, j, plate_mass=(np.
     l0[~sph] = np.abs(np.einsum("bk,bk->b", position[i[~sph]] - plate_point[k], plate_normal[k]))
     r_min[~sph] = radius[i[~sph]]
     delta0[~sph] = l0[~sph] - radius[i[~sph]]
-    attrs = {"seed": int(seed), "scale": 1.0, "density_kg_m3": float(density_kg_m3), "friction": 0.7,
-             "d_min_m": float(d_min_m), "config": config or {}, "stage": "final"}
-    return SampleData(position=position, radius=radius, mass=np.asarray(mass, float), plate_point=plate_point,
-                      plate_normal=plate_normal, plate_mass=np.asarray(plate_mass, float),
-                      bonds={"i": i, "j": j, "delta0": delta0, "l0": l0, "r_min": r_min}, attrs=attrs)
+    attrs = {
+        "seed": int(seed),
+        "scale": 1.0,
+        "density_kg_m3": float(density_kg_m3),
+        "friction": 0.7,
+        "d_min_m": float(d_min_m),
+        "config": config or {},
+        "stage": "final",
+    }
+    return SampleData(
+        position=position,
+        radius=radius,
+        mass=np.asarray(mass, float),
+        plate_point=plate_point,
+        plate_normal=plate_normal,
+        plate_mass=np.asarray(plate_mass, float),
+        bonds={"i": i, "j": j, "delta0": delta0, "l0": l0, "r_min": r_min},
+        attrs=attrs,
+    )
 
 
-def lattice_sample(n_spheres: int, seed: int = 0, spacing: float = 4.0e-3, aspect=(1.0, 0.5, 4.0),
-                   radius_range: tuple[float, float] = (1.0e-3, 1.6e-3), jitter: float = 0.05,
-                   density_kg_m3: float = 3415.0, d_min: float = 2e-3,
-                   plate_mass=(np.inf, 0.235)) -> SampleData:
+def lattice_sample(
+    n_spheres: int,
+    seed: int = 0,
+    spacing: float = 4.0e-3,
+    aspect=(1.0, 0.5, 4.0),
+    radius_range: tuple[float, float] = (1.0e-3, 1.6e-3),
+    jitter: float = 0.05,
+    density_kg_m3: float = 3415.0,
+    d_min: float = 2e-3,
+    plate_mass=(np.inf, 0.235),
+) -> SampleData:
     """Spheres on a jittered cubic lattice with bonds where the gap is below ``d_min``.
 
     A stand-in for a prepared sample (same file format) for tests and the benchmark. Sites are
@@ -85,13 +116,26 @@ def lattice_sample(n_spheres: int, seed: int = 0, spacing: float = 4.0e-3, aspec
     mass = density_kg_m3 * 4.0 / 3.0 * np.pi * radius**3
     tree = cKDTree(position)
     pairs = tree.query_pairs(2 * radius_range[1] + d_min, output_type="ndarray")
-    gap = (np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
-           - radius[pairs[:, 0]] - radius[pairs[:, 1]])
+    gap = (
+        np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
+        - radius[pairs[:, 0]]
+        - radius[pairs[:, 1]]
+    )
     pairs = pairs[gap < d_min]
     z_bottom, z_top = 0.0, (sites[:, 2].max() + 1.0) * spacing
     bottom = np.flatnonzero(sites[:, 2] == 0)
     top = np.flatnonzero(sites[:, 2] == sites[:, 2].max())
     i = np.concatenate([pairs[:, 0], bottom, top])
     j = np.concatenate([pairs[:, 1], np.full(len(bottom), -1), np.full(len(top), -2)])
-    return sample_from_bonds(position, radius, mass, [[0.0, 0.0, z_bottom], [0.0, 0.0, z_top]], i, j,
-                             plate_mass=plate_mass, density_kg_m3=density_kg_m3, seed=seed, d_min_m=d_min)
+    return sample_from_bonds(
+        position,
+        radius,
+        mass,
+        [[0.0, 0.0, z_bottom], [0.0, 0.0, z_top]],
+        i,
+        j,
+        plate_mass=plate_mass,
+        density_kg_m3=density_kg_m3,
+        seed=seed,
+        d_min_m=d_min,
+    )

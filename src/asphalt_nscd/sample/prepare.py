@@ -167,13 +167,24 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
         raise InputError(f"sample (box_height_mm / lattice_mm / scale): {exc}") from exc
     stages = []
     clock.lap("lattice")
-    log.info("sample s%d: %d spheres on the lattice of a %.0f x %.0f x %.0f mm box", seed, radius.size,
-             *(1e3 * np.asarray(geo["box"])))
+    log.info(
+        "sample s%d: %d spheres on the lattice of a %.0f x %.0f x %.0f mm box",
+        seed,
+        radius.size,
+        *(1e3 * np.asarray(geo["box"])),
+    )
 
     position, dep_info = dynamics.deposit(position, radius, cfg, geo)
     clock.lap("deposition")
-    stages.append({"title": "deposit by gravity", "frame": "deposition", "position": position,
-                   "radius": radius, "length": geo["box"][0]})
+    stages.append(
+        {
+            "title": "deposit by gravity",
+            "frame": "deposition",
+            "position": position,
+            "radius": radius,
+            "length": geo["box"][0],
+        }
+    )
     footprint = geo["box"][:2]
     lh = cfg["layer_height"]
     try:
@@ -186,12 +197,20 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     clock.lap("vibration")  # shaking and settling: vibration.{shaking,settling}.cpu_s split it
     h_layer = geometry.layer_height(position, radius, footprint, lh["measure"], lh["cell_mm"] * 1e-3)
     h_surface = geometry.layer_height(position, radius, footprint, "surface", lh["cell_mm"] * 1e-3)
-    log.info("layer after deposition %.1f mm, after vibration %.1f mm (%s)", h_deposit * 1e3, h_layer * 1e3,
-             lh["measure"])
+    log.info(
+        "layer after deposition %.1f mm, after vibration %.1f mm (%s)", h_deposit * 1e3, h_layer * 1e3, lh["measure"]
+    )
     z_mid, phi_slices = geometry.solid_fraction_profile(position, radius, h_surface, footprint)
     bulk = (z_mid > 0.2 * h_surface) & (z_mid < 0.8 * h_surface)
-    stages.append({"title": "after vibration of the top wall", "frame": "deposition", "position": position,
-                   "radius": radius, "length": geo["box"][0]})
+    stages.append(
+        {
+            "title": "after vibration of the top wall",
+            "frame": "deposition",
+            "position": position,
+            "radius": radius,
+            "length": geo["box"][0],
+        }
+    )
 
     # Stage 5: cut by barycentre, flip.
     zc = 0.5 * max(h_layer, trap.B)
@@ -217,11 +236,18 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     clock.lap("bonds")
 
     # Stage 9: stabilisation.
-    stab_position, stab_info = dynamics.stabilise(spec, r_final, mass, plate_point, plate_normal, plate_mass, bonds, cfg,
-                                                  bonded_contact=bonded_contact)
+    stab_position, stab_info = dynamics.stabilise(
+        spec, r_final, mass, plate_point, plate_normal, plate_mass, bonds, cfg, bonded_contact=bonded_contact
+    )
     clock.lap("stabilisation")
-    stages.append({"title": "sample after cut, flip, shrink and stabilisation", "frame": "specimen",
-                   "position": stab_position, "radius": r_final})
+    stages.append(
+        {
+            "title": "sample after cut, flip, shrink and stabilisation",
+            "frame": "specimen",
+            "position": stab_position,
+            "radius": r_final,
+        }
+    )
 
     attrs = {
         "seed": int(seed),
@@ -237,8 +263,16 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
         "h_m": trap.h,
         "n_spheres": int(r_final.size),
     }
-    sample = SampleData(position=stab_position, radius=r_final, mass=mass, plate_point=plate_point,
-                        plate_normal=plate_normal, plate_mass=plate_mass, bonds=bonds, attrs=attrs)
+    sample = SampleData(
+        position=stab_position,
+        radius=r_final,
+        mass=mass,
+        plate_point=plate_point,
+        plate_normal=plate_normal,
+        plate_mass=plate_mass,
+        bonds=bonds,
+        attrs=attrs,
+    )
     n = r_final.size
     n_ss = int(np.sum(bonds["j"] >= 0))
     d_cut_mm = np.round(2e3 * r_cut, 3)

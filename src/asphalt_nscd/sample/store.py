@@ -36,8 +36,7 @@ UNITS = {
     "bonds/r_min": "m",
 }
 #: Trailing shape of each dataset (the leading axis is the number of spheres, plates or bonds).
-SHAPES = {name: ((3,) if name in ("spheres/position", "plates/point", "plates/normal") else ())
-          for name in UNITS}
+SHAPES = {name: ((3,) if name in ("spheres/position", "plates/point", "plates/normal") else ()) for name in UNITS}
 
 
 @dataclass
@@ -72,9 +71,17 @@ def subsample(sample: SampleData, keep) -> SampleData:
     bonds["i"] = new[i[ok]]
     bonds["j"] = np.where(j[ok] >= 0, new[np.maximum(j[ok], 0)], j[ok])
     attrs = {**sample.attrs, "n_spheres": int(keep.sum())}
-    return SampleData(position=sample.position[keep], radius=sample.radius[keep], mass=sample.mass[keep],
-                      plate_point=sample.plate_point, plate_normal=sample.plate_normal, plate_mass=sample.plate_mass,
-                      bonds=bonds, attrs=attrs, name=sample.name)
+    return SampleData(
+        position=sample.position[keep],
+        radius=sample.radius[keep],
+        mass=sample.mass[keep],
+        plate_point=sample.plate_point,
+        plate_normal=sample.plate_normal,
+        plate_mass=sample.plate_mass,
+        bonds=bonds,
+        attrs=attrs,
+        name=sample.name,
+    )
 
 
 #: Standard 2PB trapezoid (EN 12697-26 Annex A, the paper's specimen), mm.
@@ -85,9 +92,10 @@ def specimen_geometry_mm(sample: SampleData) -> dict:
     """Specimen dimensions ``b_mm, B_mm, e_mm, h_mm`` of a sample, mm: the root attributes
     ``b_m, B_m, e_m, h_m`` (the scaled specimen) where present, else the standard trapezoid
     (:data:`STANDARD_SPECIMEN_MM`)."""
-    return {key: float(sample.attrs[key.replace("_mm", "_m")]) * 1e3
-            if key.replace("_mm", "_m") in sample.attrs else value
-            for key, value in STANDARD_SPECIMEN_MM.items()}
+    return {
+        key: float(sample.attrs[key.replace("_mm", "_m")]) * 1e3 if key.replace("_mm", "_m") in sample.attrs else value
+        for key, value in STANDARD_SPECIMEN_MM.items()
+    }
 
 
 def write_sample(path: str | Path, data: SampleData) -> None:
@@ -139,8 +147,9 @@ def read_sample(path: str | Path) -> SampleData:
                     raise InputError(f"{path}: dataset '{name}' missing (see docs/design.md)")
                 value = f[name][()]
                 if value.shape[1:] != tail:
-                    raise InputError(f"{path}: dataset '{name}' has shape {value.shape}, "
-                                     f"expected (n,{','.join(map(str, tail))})")
+                    raise InputError(
+                        f"{path}: dataset '{name}' has shape {value.shape}, expected (n,{','.join(map(str, tail))})"
+                    )
                 data[name] = value
             attrs = {}
             for key, value in f.attrs.items():
@@ -168,8 +177,11 @@ def read_sample(path: str | Path) -> SampleData:
 def _check_arrays(path, data: dict) -> None:
     """The consistency checks of :func:`read_sample` on the datasets ``data`` (name -> array)."""
     n = len(data["spheres/position"])
-    rows = {"spheres": (n, "one per sphere"), "plates": (2, "bottom and top plate"),
-            "bonds": (len(data["bonds/i"]), "one per bond, as 'bonds/i'")}
+    rows = {
+        "spheres": (n, "one per sphere"),
+        "plates": (2, "bottom and top plate"),
+        "bonds": (len(data["bonds/i"]), "one per bond, as 'bonds/i'"),
+    }
     for name, value in data.items():
         want, what = rows[name.split("/")[0]]
         if len(value) != want:
@@ -178,8 +190,9 @@ def _check_arrays(path, data: dict) -> None:
     if np.any((i < 0) | (i >= n)):
         raise InputError(f"{path}: dataset 'bonds/i' must lie in [0, {n})")
     if np.any((j >= n) | (j < -2) | (j == i)):
-        raise InputError(f"{path}: dataset 'bonds/j' must lie in [0, {n}) (another sphere) "
-                         "or be -1/-2 (bottom/top plate)")
+        raise InputError(
+            f"{path}: dataset 'bonds/j' must lie in [0, {n}) (another sphere) or be -1/-2 (bottom/top plate)"
+        )
     for name in ("spheres/mass", "spheres/radius", "bonds/l0", "bonds/r_min"):
         if np.any(~(data[name] > 0)):
             raise InputError(f"{path}: dataset '{name}' must be positive")

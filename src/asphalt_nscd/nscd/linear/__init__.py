@@ -47,6 +47,16 @@ from .ssor import SSORStructure, ssor_structure
 from .cg import _bonds, _matvec, _partition  # noqa: E402,F401
 from .ssor import _SSOR_KEYS, _lower_solve, _upper_solve  # noqa: E402,F401
 
-__all__ = ["LINEAR_SOLVERS", "LinearBondSolver", "PermutedLU", "splu_symmetric",
-           "bond_impulses", "dof_numbering", "skew", "ssor_structure", "CGOperator",
-           "DofMap", "SSORStructure"]
+__all__ = [
+    "LINEAR_SOLVERS",
+    "LinearBondSolver",
+    "PermutedLU",
+    "splu_symmetric",
+    "bond_impulses",
+    "dof_numbering",
+    "skew",
+    "ssor_structure",
+    "CGOperator",
+    "DofMap",
+    "SSORStructure",
+]

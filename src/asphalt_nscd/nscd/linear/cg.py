@@ -58,8 +58,9 @@ def matrix_free_operator(mass_dof, nblk, blk, frame, cgk, arm_i, arm_j, rot, thr
     al_j = np.einsum("bd,bd->b", aj, nrm)
     # lever arms along the normal (sphere-sphere bonds of state.Bonds.create, up to
     # round-off) are stored as their two components: the compact kernel branch
-    par = (np.abs(ai - al_i[:, None] * nrm).max(1) <= 1e-12 * np.abs(ai).max(1)) \
-        & (np.abs(aj - al_j[:, None] * nrm).max(1) <= 1e-12 * np.abs(aj).max(1))
+    par = (np.abs(ai - al_i[:, None] * nrm).max(1) <= 1e-12 * np.abs(ai).max(1)) & (
+        np.abs(aj - al_j[:, None] * nrm).max(1) <= 1e-12 * np.abs(aj).max(1)
+    )
     if not rot:
         par[:] = True
         al_i[:] = 0.0
@@ -71,11 +72,13 @@ def matrix_free_operator(mass_dof, nblk, blk, frame, cgk, arm_i, arm_j, rot, thr
     gcol = [g[order] for g in gcol]
     blk_c = np.ascontiguousarray(blk[par].astype(np.int32))
     arms_c = [al_i[par, None], al_j[par, None]] if rot else []  # unread without
-    bdat_c = np.ascontiguousarray(np.concatenate(  # rotation blocks
-        [nrm[par]] + [g[par] for g in gcol] + arms_c, 1))
+    bdat_c = np.ascontiguousarray(
+        np.concatenate(  # rotation blocks
+            [nrm[par]] + [g[par] for g in gcol] + arms_c, 1
+        )
+    )
     blk_g = np.ascontiguousarray(blk[~par].astype(np.int32))
-    bdat_g = np.ascontiguousarray(np.concatenate(
-        [nrm[~par]] + [g[~par] for g in gcol] + [ai[~par], aj[~par]], 1))
+    bdat_g = np.ascontiguousarray(np.concatenate([nrm[~par]] + [g[~par] for g in gcol] + [ai[~par], aj[~par]], 1))
     op = CGOperator(mass_dof, bdat_c, blk_c, bdat_g, blk_g)
     return op, order, part_c, part_g, nrm, gcol
 
@@ -147,8 +150,7 @@ def _matvec(mass_dof, bdat_c, blk_c, bdat, blk, z, beta, p, y, alpha, x):
 
 
 @njit(parallel=True)  # not cached: _pcg_threaded
-def _matvec_par(mass_dof, bdat_c, blk_c, bdat, blk, part_c, part_g, z, beta, p, y, alpha,
-                x):
+def _matvec_par(mass_dof, bdat_c, blk_c, bdat, blk, part_c, part_g, z, beta, p, y, alpha, x):
     """:func:`_matvec` on threads: the bonds are ordered by partition (LinearBondSolver with
     threads > 1): the bonds of partition t (t < T) touch only its blocks and are summed by
     one thread each, then the bonds across partitions (part_c[T]..part_c[T+1], and the same
@@ -164,10 +166,8 @@ def _matvec_par(mass_dof, bdat_c, blk_c, bdat, blk, part_c, part_g, z, beta, p, 
         py += pk * yk
     nt = len(part_c) - 2
     for t in prange(nt):
-        py += _bonds(part_c[t], part_c[t + 1], bdat_c, blk_c, part_g[t], part_g[t + 1], bdat,
-                     blk, p, y)
-    return py + _bonds(part_c[nt], part_c[nt + 1], bdat_c, blk_c, part_g[nt], part_g[nt + 1],
-                       bdat, blk, p, y)
+        py += _bonds(part_c[t], part_c[t + 1], bdat_c, blk_c, part_g[t], part_g[t + 1], bdat, blk, p, y)
+    return py + _bonds(part_c[nt], part_c[nt + 1], bdat_c, blk_c, part_g[nt], part_g[nt + 1], bdat, blk, p, y)
 
 
 @kernel
@@ -416,12 +416,10 @@ def _pcg_threaded(op, precond, rhs, x, tol, max_iter, work, part_c, part_g):
     it = 0
     while np.sqrt(rr) > tol * norm_b and it < max_iter:
         it += 1
-        pq = _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, z, beta, p,
-                         q, alpha, x)
+        pq = _matvec_par(mass_dof, bdat_c, blk_c, bdat_g, blk_g, part_c, part_g, z, beta, p, q, alpha, x)
         alpha = rz / pq
         rr, rz_new = _update_par(precond, alpha, q, r, z)
         beta = rz_new / rz
         rz = rz_new
     x += alpha * p
     return it, float(np.sqrt(rr)) / norm_b
-

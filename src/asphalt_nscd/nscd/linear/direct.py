@@ -38,8 +38,7 @@ def assemble_matrix(mass_dof, blk, L, G):
             rows.append(rr.ravel())
             cols.append(cc.ravel())
             vals.append(np.einsum("bki,bkl,blj->bij", L[a][ok], G[ok], L[c][ok]).ravel())
-    return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(ndof, ndof))
+    return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(ndof, ndof))
 
 
 #: factorisations of the step matrix (:func:`factor_spd`)
@@ -58,8 +57,13 @@ class CholeskyFactor:
         a.sum_duplicates()
         self.shape = a.shape
         self.nnz = None
-        self._solver = CholeskySolverD(int(a.shape[0]), a.row.astype(np.int32), a.col.astype(np.int32),
-                                       np.ascontiguousarray(a.data, np.float64), MatrixType.COO)
+        self._solver = CholeskySolverD(
+            int(a.shape[0]),
+            a.row.astype(np.int32),
+            a.col.astype(np.int32),
+            np.ascontiguousarray(a.data, np.float64),
+            MatrixType.COO,
+        )
 
     def solve(self, b):
         b = np.ascontiguousarray(b, np.float64)
@@ -117,8 +121,7 @@ def splu_symmetric(a, permutation=None):
         a = sp.csc_matrix(a, copy=True)
         a.sum_duplicates()
         a.sort_indices()
-        return splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                    options={"SymmetricMode": True})
+        return splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
     perm = np.asarray(permutation, np.int64)
     a = sp.csr_matrix(a)[perm][:, perm].tocsc()
     a.sum_duplicates()
@@ -167,4 +170,3 @@ class PermutedLU:
         out = np.empty_like(y)
         out[self.perm] = y
         return out
-

@@ -29,8 +29,10 @@ class DofMap(NamedTuple):
 def skew(a):
     """Cross-product matrices (B,3,3) of vectors a (B,3): skew(a) @ x = a x x."""
     z = np.zeros(len(a))
-    return np.stack([np.stack([z, -a[:, 2], a[:, 1]], 1), np.stack([a[:, 2], z, -a[:, 0]], 1),
-                     np.stack([-a[:, 1], a[:, 0], z], 1)], 1)
+    return np.stack(
+        [np.stack([z, -a[:, 2], a[:, 1]], 1), np.stack([a[:, 2], z, -a[:, 0]], 1), np.stack([-a[:, 1], a[:, 0], z], 1)],
+        1,
+    )
 
 
 def dof_numbering(inv_mass, inv_mass_plate, inv_inertia=None, inv_inertia_plate=None):
@@ -141,8 +143,7 @@ def _rhs(rhs, mass_dof, dofs, free, known, bonds, c0, cg, rot):
     (local_laws.bond_predict)."""
     st, sr, pt, pr = dofs.st, dofs.sr, dofs.pt, dofs.pr
     v, w, vp, wp = known.v, known.w, known.vp, known.wp
-    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i,
-                                           bonds.arm_j, bonds.broken)
+    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i, bonds.arm_j, bonds.broken)
     _gather(rhs, dofs, free)
     for k in range(len(rhs)):
         rhs[k] *= mass_dof[k]
@@ -203,8 +204,7 @@ def bond_impulses(bonds, c0, cg, vel, impulse, rot):
     """impulse (B,3) N s = c0 - cg F U of the intact bonds (Eq. 25; U: local_laws.bond_velocity
     of the velocities vel, bundles.Velocities; bonds : bundles.BondGeometry; c0 (B,3) N s,
     cg (B,3) N s/m)."""
-    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i,
-                                           bonds.arm_j, bonds.broken)
+    bi, bj, frame, arm_i, arm_j, broken = (bonds.i, bonds.j, bonds.frame, bonds.arm_i, bonds.arm_j, bonds.broken)
     v, w, vp, wp = vel.v, vel.w, vel.vp, vel.wp
     for b in range(len(bi)):
         if broken[b]:
@@ -213,4 +213,3 @@ def bond_impulses(bonds, c0, cg, vel, impulse, rot):
         for c in range(3):
             ul = frame[b, c, 0] * g0 + frame[b, c, 1] * g1 + frame[b, c, 2] * g2
             impulse[b, c] = c0[b, c] - cg[b, c] * ul
-

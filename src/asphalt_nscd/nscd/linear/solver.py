@@ -11,8 +11,7 @@ from ..bundles import Velocities
 from .cg import _matvec, _pcg, _pcg_threaded, block_jacobi, matrix_free_operator
 from .direct import assemble_matrix, factor_spd
 from .dofs import DofMap, _gather, _rhs, _scatter, bond_impulses, dof_numbering, skew
-from .ssor import (_SSOR_KEYS, SSORStructure, _galerkin_combine, _galerkin_gram, _pcg_ssor,
-                   ssor_structure)
+from .ssor import _SSOR_KEYS, SSORStructure, _galerkin_combine, _galerkin_gram, _pcg_ssor, ssor_structure
 
 #: Methods of :class:`LinearBondSolver` (and values of NSCDParameters.linear_solver).
 LINEAR_SOLVERS = ("cg", "cg_ssor", "direct")
@@ -42,9 +41,23 @@ class LinearBondSolver:
     bond coefficients ('cg', 'cg_ssor').
     """
 
-    def __init__(self, inv_mass, inv_mass_plate, bi, bj, frame, cg, broken, method="cg",
-                 tolerance=1e-10, max_iterations=10000, rotation=None, threads=1,
-                 ssor_omega=1.0, factorisation="cholesky"):
+    def __init__(
+        self,
+        inv_mass,
+        inv_mass_plate,
+        bi,
+        bj,
+        frame,
+        cg,
+        broken,
+        method="cg",
+        tolerance=1e-10,
+        max_iterations=10000,
+        rotation=None,
+        threads=1,
+        ssor_omega=1.0,
+        factorisation="cholesky",
+    ):
         if method not in LINEAR_SOLVERS:
             raise ValueError(f"linear solver must be one of {LINEAR_SOLVERS}, got {method!r}")
         if not 0.0 < ssor_omega < 2.0:
@@ -60,9 +73,9 @@ class LinearBondSolver:
         nb = len(bi)
         if self.rot:
             arm_i, arm_j = rotation["arm_i"], rotation["arm_j"]
-            st, sr, pt, pr, m3 = dof_numbering(inv_mass, inv_mass_plate,
-                                               rotation["inv_inertia"],
-                                               rotation["inv_inertia_plate"])
+            st, sr, pt, pr, m3 = dof_numbering(
+                inv_mass, inv_mass_plate, rotation["inv_inertia"], rotation["inv_inertia_plate"]
+            )
         else:
             arm_i = arm_j = np.zeros((nb, 3))
             st, sr, pt, pr, m3 = dof_numbering(inv_mass, inv_mass_plate)
@@ -89,21 +102,19 @@ class LinearBondSolver:
         self.lu = None
         if method in ("cg", "cg_ssor"):
             op, order, self.part_c, self.part_g, nrm, gcol = matrix_free_operator(
-                self.mass_dof, nblk, self.blk, frame[keep], cgk, arm_i[keep], arm_j[keep],
-                self.rot, threads)
+                self.mass_dof, nblk, self.blk, frame[keep], cgk, arm_i[keep], arm_j[keep], self.rot, threads
+            )
             self.blk = self.blk[order]
             G, L = G[order], [x[order] for x in L]
             self.op = op
-            self.bdat_c, self.blk_c, self.bdat_g, self.blk_g = (op.bdat_c, op.blk_c, op.bdat_g,
-                                                                op.blk_g)
+            self.bdat_c, self.blk_c, self.bdat_g, self.blk_g = (op.bdat_c, op.blk_c, op.bdat_g, op.blk_g)
             self.precond = block_jacobi(m3, self.blk, L, G)
             self.nnz_matrix = self.ndof + (144 if self.rot else 36) * len(G)
             self._work = np.zeros((4, self.ndof))
             if method == "cg_ssor":
                 ai, aj = arm_i[keep][order], arm_j[keep][order]
                 bdat_all = np.concatenate([nrm] + gcol + [ai, aj], 1)
-                ss = ssor_structure(st, sr, pt, pr, m3, self.blk, L, G, bdat_all,
-                                    self.ssor_omega)
+                ss = ssor_structure(st, sr, pt, pr, m3, self.blk, L, G, bdat_all, self.ssor_omega)
                 self._ssor = SSORStructure(*(ss[k] for k in _SSOR_KEYS))
                 self._work = np.zeros((9, self.ndof))
                 # products with A of the last solutions (x, A x), most recent first: the
@@ -120,8 +131,11 @@ class LinearBondSolver:
         self.nnz_matrix = K.nnz
         self.lu = factor_spd(K, factorisation) if self.ndof else None
         #: stored factor entries (SuperLU's L and U), None where the factorisation does not report them
-        self.nnz_factor = (None if self.lu is None or factorisation != "superlu"
-                           else self.lu.L.nnz + self.lu.U.nnz) if self.ndof else 0
+        self.nnz_factor = (
+            (None if self.lu is None or factorisation != "superlu" else self.lu.L.nnz + self.lu.U.nnz)
+            if self.ndof
+            else 0
+        )
 
     def solve(self, free, bonds, c0, cg, out, impulse, start=None, previous=None):
         """End-of-step velocities and bond impulses.
@@ -151,16 +165,26 @@ class LinearBondSolver:
             have = previous is not None and self._galerkin_start(previous, rhs, sol, ax)
             if not have:
                 _gather(sol, self.dofs, start or free)
-            it, res, checks = _pcg_ssor(self.op, self._ssor, rhs, sol, self.tolerance,
-                                        self.max_iterations, self._work, self.ssor_omega, ax,
-                                        have)
+            it, res, checks = _pcg_ssor(
+                self.op,
+                self._ssor,
+                rhs,
+                sol,
+                self.tolerance,
+                self.max_iterations,
+                self._work,
+                self.ssor_omega,
+                ax,
+                have,
+            )
             self.last_checks = checks
             self.last_extrapolated = bool(have)
             self.last_iterations, self.last_residual = it, res
             # (sol, A sol) becomes the most recent cached pair; the oldest pair is recycled
             self._cache.insert(0, (sol, ax))
-            self._spare = list(self._cache.pop()) if len(self._cache) > 4 else \
-                [np.zeros(self.ndof), np.zeros(self.ndof)]
+            self._spare = (
+                list(self._cache.pop()) if len(self._cache) > 4 else [np.zeros(self.ndof), np.zeros(self.ndof)]
+            )
         else:
             sol = np.empty(self.ndof)
             _gather(sol, self.dofs, start or free)
@@ -212,9 +236,18 @@ class LinearBondSolver:
                 continue
             x = col[:, d].copy()
             if self.method == "cg_ssor":
-                _pcg_ssor(self.op, self._ssor, rhs, x, self.tolerance, self.max_iterations,
-                          np.zeros((9, self.ndof)), self.ssor_omega, np.zeros(self.ndof),
-                          False)
+                _pcg_ssor(
+                    self.op,
+                    self._ssor,
+                    rhs,
+                    x,
+                    self.tolerance,
+                    self.max_iterations,
+                    np.zeros((9, self.ndof)),
+                    self.ssor_omega,
+                    np.zeros(self.ndof),
+                    False,
+                )
             else:
                 self._run_cg(rhs, x, np.zeros((4, self.ndof)))
             col[:, d] = x
@@ -231,8 +264,19 @@ class LinearBondSolver:
                 self.last_reused += 1
                 return axc
         ax = np.zeros(self.ndof)
-        _matvec(self.mass_dof, self.bdat_c, self.blk_c, self.bdat_g, self.blk_g, x, 0.0,
-                np.zeros(self.ndof), ax, 0.0, np.zeros(self.ndof))
+        _matvec(
+            self.mass_dof,
+            self.bdat_c,
+            self.blk_c,
+            self.bdat_g,
+            self.blk_g,
+            x,
+            0.0,
+            np.zeros(self.ndof),
+            ax,
+            0.0,
+            np.zeros(self.ndof),
+        )
         return ax
 
     def _galerkin_start(self, previous, rhs, x0, ax0):
@@ -257,15 +301,16 @@ class LinearBondSolver:
         ax = self._abasis[:m]
         for k in range(m):
             ax[k] = self._product(x[k])
-        diff = np.array([[1.0, 0.0, 0.0, 0.0], [1.0, -1.0, 0.0, 0.0], [1.0, -2.0, 1.0, 0.0],
-                         [1.0, -3.0, 3.0, -1.0]])[:m, :m]
+        diff = np.array([[1.0, 0.0, 0.0, 0.0], [1.0, -1.0, 0.0, 0.0], [1.0, -2.0, 1.0, 0.0], [1.0, -3.0, 3.0, -1.0]])[
+            :m, :m
+        ]
         G, b = np.zeros((m, m)), np.zeros(m)
         _galerkin_gram(x, ax, rhs, diff, G, b, np.zeros(m), np.zeros(m))
         if not G[0, 0] > 0.0:
             return False
         keep = 1
         for k in range(1, m):  # Cholesky-like pivot test: drop what the span already holds
-            sub = G[:k + 1, :k + 1]
+            sub = G[: k + 1, : k + 1]
             if np.linalg.eigvalsh(sub).min() > 1e-12 * np.abs(np.diag(sub)).max():
                 keep = k + 1
             else:
@@ -274,4 +319,3 @@ class LinearBondSolver:
         coef = c @ diff[:keep]  # coefficients of x_n, x_n-1, ...
         _galerkin_combine(np.pad(coef, (0, 4 - coef.size)), x, ax, m, x0, ax0)
         return True
-

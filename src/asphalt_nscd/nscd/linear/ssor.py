@@ -85,7 +85,7 @@ def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all, omega=1.0):
     nbody = len(bfirst)
     body_of = np.full(max(nblk, 1), -1, np.int64)
     for k in range(nbody):
-        body_of[bfirst[k]:bfirst[k] + bcount[k]] = k
+        body_of[bfirst[k] : bfirst[k] + bcount[k]] = k
     D = np.zeros((nbody, 6, 6))
     idx = np.arange(3)
     for k in range(nbody):
@@ -108,10 +108,16 @@ def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all, omega=1.0):
                     for e in range(3):
                         np.add.at(D, (body, o1 + a, o2 + e), block[:, a, e])
     Dinv = omega * np.linalg.inv(D) if nbody else D.copy()
-    bi_body = np.where(blk[:, 0] >= 0, body_of[np.maximum(blk[:, 0], 0)],
-                       np.where(blk[:, 1] >= 0, body_of[np.maximum(blk[:, 1], 0)], -1))
-    bj_body = np.where(blk[:, 2] >= 0, body_of[np.maximum(blk[:, 2], 0)],
-                       np.where(blk[:, 3] >= 0, body_of[np.maximum(blk[:, 3], 0)], -1))
+    bi_body = np.where(
+        blk[:, 0] >= 0,
+        body_of[np.maximum(blk[:, 0], 0)],
+        np.where(blk[:, 1] >= 0, body_of[np.maximum(blk[:, 1], 0)], -1),
+    )
+    bj_body = np.where(
+        blk[:, 2] >= 0,
+        body_of[np.maximum(blk[:, 2], 0)],
+        np.where(blk[:, 3] >= 0, body_of[np.maximum(blk[:, 3], 0)], -1),
+    )
     both = np.flatnonzero((bi_body >= 0) & (bj_body >= 0))
     hi = np.maximum(bi_body[both], bj_body[both])
     lo = np.minimum(bi_body[both], bj_body[both])
@@ -124,11 +130,16 @@ def ssor_structure(st, sr, pt, pr, m3, blk, L, G, bdat_all, omega=1.0):
     lidx, ldat = _pack(both[o], side_hi[o], blk, bdat_all, bfirst, body_of)
     uidx, udat = _pack(both[o2], 1 - side_hi[o2], blk, bdat_all, bfirst, body_of)
     rot = bool((blk[:, [1, 3]] >= 0).any())
-    out = {"bfirst": bfirst, "bcount": bcount, "D": np.ascontiguousarray(D),
-           "Dinv": np.ascontiguousarray(Dinv)}
+    out = {"bfirst": bfirst, "bcount": bcount, "D": np.ascontiguousarray(D), "Dinv": np.ascontiguousarray(Dinv)}
     for pre, ptr, idx, dat in (("l", lptr, lidx, ldat), ("u", uptr, uidx, udat)):
-        (out[pre + "cptr"], out[pre + "cidx"], out[pre + "cdat"], out[pre + "ptr"],
-         out[pre + "idx"], out[pre + "dat"]) = _split_compact(ptr, idx, dat, rot)
+        (
+            out[pre + "cptr"],
+            out[pre + "cidx"],
+            out[pre + "cdat"],
+            out[pre + "ptr"],
+            out[pre + "idx"],
+            out[pre + "dat"],
+        ) = _split_compact(ptr, idx, dat, rot)
     return out
 
 
@@ -145,8 +156,9 @@ def _pack(bond, own, blk, bdat, bfirst, body_of):
     r_k = blk[bond, 2 * own + 1]
     body = body_of[np.where(t_k >= 0, t_k, r_k)]
     first = bfirst[body] if len(body) else np.zeros(0, np.int64)
-    idx = np.stack([t_o, r_o, np.where(t_k >= 0, 3 * (t_k - first), -1),
-                    np.where(r_k >= 0, 3 * (r_k - first), -1)], 1).astype(np.int32)
+    idx = np.stack(
+        [t_o, r_o, np.where(t_k >= 0, 3 * (t_k - first), -1), np.where(r_k >= 0, 3 * (r_k - first), -1)], 1
+    ).astype(np.int32)
     arm_o = np.where((other == 0)[:, None], bdat[bond, 5:8], bdat[bond, 8:11])
     arm_k = np.where((own == 0)[:, None], bdat[bond, 5:8], bdat[bond, 8:11])
     dat = np.concatenate([bdat[bond, :5], arm_o, arm_k], 1) if len(e) else np.zeros((0, 11))
@@ -166,12 +178,13 @@ def _split_compact(ptr, idx, dat, rot):
     al_o = np.einsum("bd,bd->b", dat[:, 5:8], nrm)
     al_k = np.einsum("bd,bd->b", dat[:, 8:11], nrm)
     if rot:
-        ok = (idx[:, 0] >= 0) & (idx[:, 1] == idx[:, 0] + 1) & (idx[:, 2] == 0) \
-            & (idx[:, 3] == 3)
-        ok &= np.abs(dat[:, 5:8] - al_o[:, None] * nrm).max(1, initial=0.0) \
-            <= 1e-12 * np.abs(dat[:, 5:8]).max(1, initial=0.0)
-        ok &= np.abs(dat[:, 8:11] - al_k[:, None] * nrm).max(1, initial=0.0) \
-            <= 1e-12 * np.abs(dat[:, 8:11]).max(1, initial=0.0)
+        ok = (idx[:, 0] >= 0) & (idx[:, 1] == idx[:, 0] + 1) & (idx[:, 2] == 0) & (idx[:, 3] == 3)
+        ok &= np.abs(dat[:, 5:8] - al_o[:, None] * nrm).max(1, initial=0.0) <= 1e-12 * np.abs(dat[:, 5:8]).max(
+            1, initial=0.0
+        )
+        ok &= np.abs(dat[:, 8:11] - al_k[:, None] * nrm).max(1, initial=0.0) <= 1e-12 * np.abs(dat[:, 8:11]).max(
+            1, initial=0.0
+        )
         cdat = np.concatenate([dat[:, :5], al_o[:, None], al_k[:, None]], 1)[ok]
     else:
         ok = (idx[:, 0] >= 0) & (idx[:, 1] < 0) & (idx[:, 2] == 0) & (idx[:, 3] < 0)
@@ -179,9 +192,14 @@ def _split_compact(ptr, idx, dat, rot):
     owner = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))
     cptr = np.searchsorted(owner[ok], np.arange(len(ptr))).astype(np.int64)
     gptr = np.searchsorted(owner[~ok], np.arange(len(ptr))).astype(np.int64)
-    return (cptr, np.ascontiguousarray((3 * idx[ok, 0]).astype(np.int32)),
-            np.ascontiguousarray(cdat.reshape(-1, 7 if rot else 5)), gptr,
-            np.ascontiguousarray(idx[~ok]), np.ascontiguousarray(dat[~ok]))
+    return (
+        cptr,
+        np.ascontiguousarray((3 * idx[ok, 0]).astype(np.int32)),
+        np.ascontiguousarray(cdat.reshape(-1, 7 if rot else 5)),
+        gptr,
+        np.ascontiguousarray(idx[~ok]),
+        np.ascontiguousarray(dat[~ok]),
+    )
 
 
 @helper
@@ -221,8 +239,7 @@ def _couple(e, idx, dat, y):
 
 
 @helper
-def _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, ptr, idx, dat, rhs, y,
-                side_out, lower, c_side):
+def _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, ptr, idx, dat, rhs, y, side_out, lower, c_side):
     """One body of a triangular solve: s = rhs_k + sum of the entries' L_k^T f (scalars:
     no memory round trip), y_k = Dinv_k s; side_out_k = s (lower: D y_k) or
     rhs_k - c_side s (upper). m: position of the body in the visiting order (index of the
@@ -300,8 +317,14 @@ def _solve_body(k, m, bfirst, bcount, Dinv, cptr, cidx, cdat, ptr, idx, dat, rhs
             side_out[f + 4] = rhs[f + 4] - c_side * s4
             side_out[f + 5] = rhs[f + 5] - c_side * s5
         for a in range(6):
-            y[f + a] = (Dinv[k, a, 0] * s0 + Dinv[k, a, 1] * s1 + Dinv[k, a, 2] * s2
-                        + Dinv[k, a, 3] * s3 + Dinv[k, a, 4] * s4 + Dinv[k, a, 5] * s5)
+            y[f + a] = (
+                Dinv[k, a, 0] * s0
+                + Dinv[k, a, 1] * s1
+                + Dinv[k, a, 2] * s2
+                + Dinv[k, a, 3] * s3
+                + Dinv[k, a, 4] * s4
+                + Dinv[k, a, 5] * s5
+            )
     else:
         for a in range(3):
             y[f + a] = Dinv[k, a, 0] * s0 + Dinv[k, a, 1] * s1 + Dinv[k, a, 2] * s2
@@ -312,20 +335,19 @@ def _lower_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, 
     """y = (D + L)^-1 rhs, body by body in increasing order; also dy = D y = rhs - L y (a
     by-product). D: the (relaxed) body blocks of :func:`ssor_structure`."""
     for k in range(len(bfirst)):
-        _solve_body(k, k, bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y,
-                    dy, True, 1.0)
+        _solve_body(k, k, bfirst, bcount, Dinv, cptr, cidx, cdat, lptr, lidx, ldat, rhs, y, dy, True, 1.0)
 
 
 @kernel
-def _upper_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y, uy,
-                 c_side):
+def _upper_solve(bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y, uy, c_side):
     """y = (D + U)^-1 rhs, body by body in decreasing order; also uy = rhs - c_side D y
     (c_side = 1: U y). The entries of the m-th body visited (k = nbody - 1 - m) are
     uptr[m]..uptr[m+1] (and cptr[m]..cptr[m+1])."""
     nbody = len(bfirst)
     for m in range(nbody):
-        _solve_body(nbody - 1 - m, m, bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx,
-                    udat, rhs, y, uy, False, c_side)
+        _solve_body(
+            nbody - 1 - m, m, bfirst, bcount, Dinv, cptr, cidx, cdat, uptr, uidx, udat, rhs, y, uy, False, c_side
+        )
 
 
 @njit(cache=True)
@@ -347,10 +369,8 @@ def _pcg_ssor(op, ss, rhs, x, tol, max_iter, work, omega, ax, have_ax):
     Returns (iterations, |rhs - A x| / |rhs|, number of true-residual products)."""
     mass_dof, bdat_c, blk_c, bdat_g, blk_g = op.mass_dof, op.bdat_c, op.blk_c, op.bdat_g, op.blk_g
     ss_bfirst, ss_bcount, ss_Dinv = ss.bfirst, ss.bcount, ss.Dinv
-    ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr, ss_lidx, ss_ldat = (ss.lcptr, ss.lcidx, ss.lcdat,
-                                                             ss.lptr, ss.lidx, ss.ldat)
-    ss_ucptr, ss_ucidx, ss_ucdat, ss_uptr, ss_uidx, ss_udat = (ss.ucptr, ss.ucidx, ss.ucdat,
-                                                             ss.uptr, ss.uidx, ss.udat)
+    ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr, ss_lidx, ss_ldat = (ss.lcptr, ss.lcidx, ss.lcdat, ss.lptr, ss.lidx, ss.ldat)
+    ss_ucptr, ss_ucidx, ss_ucdat, ss_uptr, ss_uidx, ss_udat = (ss.ucptr, ss.ucidx, ss.ucdat, ss.uptr, ss.uidx, ss.udat)
     n = len(rhs)
     rh = work[0]
     z = work[1]
@@ -389,8 +409,7 @@ def _pcg_ssor(op, ss, rhs, x, tol, max_iter, work, omega, ax, have_ax):
             _matvec(mass_dof, bdat_c, blk_c, bdat_g, blk_g, x, 0.0, scratch, ax, 0.0, dummy)
         return 0, res, checks
     # r^ = (D_w + L)^-1 (b - A x), z = D_w r^
-    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
-                 ss_lidx, ss_ldat, tmp, rh, z)
+    _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr, ss_lidx, ss_ldat, tmp, rh, z)
     rz = 0.0
     for k in range(n):
         rz += rh[k] * z[k]
@@ -405,10 +424,10 @@ def _pcg_ssor(op, ss, rhs, x, tol, max_iter, work, omega, ax, have_ax):
         # dq = D_w q; A^ p = q + t
         for k in range(n):
             p[k] = z[k] + beta * p[k]
-        _upper_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_ucptr, ss_ucidx, ss_ucdat, ss_uptr,
-                     ss_uidx, ss_udat, p, t, tmp, c_side)
-        _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr,
-                     ss_lidx, ss_ldat, tmp, q, dq)
+        _upper_solve(
+            ss_bfirst, ss_bcount, ss_Dinv, ss_ucptr, ss_ucidx, ss_ucdat, ss_uptr, ss_uidx, ss_udat, p, t, tmp, c_side
+        )
+        _lower_solve(ss_bfirst, ss_bcount, ss_Dinv, ss_lcptr, ss_lcidx, ss_lcdat, ss_lptr, ss_lidx, ss_ldat, tmp, q, dq)
         pq = 0.0
         for k in range(n):
             q[k] += t[k]
@@ -474,4 +493,3 @@ def _galerkin_combine(coef, x, ax, m, out, aout):
             a += coef[c] * ax[c, k]
         out[k] = s
         aout[k] = a
-
