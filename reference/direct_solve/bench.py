@@ -43,7 +43,7 @@ def step_matrix(sample_path: str) -> sp.csc_matrix:
     lsolver.factor_spd = capture
     try:
         cfg = config.load(["config/paper.yaml"])
-        settings = twopb.settings_from(json.loads(plan.mode_settings_json(cfg, "paper_kPa")))
+        settings = twopb.settings_from(plan.mode_settings(cfg, "paper_kPa"))
         assert settings.linear_solver == "direct"
         table = study.parameter_table("data/paper/table3_burgers.csv", "kPa")
         law = burgers_model(study.parameters_at(table, 15.0, {}, where="Table 3"))

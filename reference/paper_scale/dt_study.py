@@ -38,7 +38,7 @@ def main(sample: str, out: str) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for mode in ("paper", "paper_kPa"):
             units = plan.table3_reading(cfg, mode)
-            base = twopb.settings_from(json.loads(plan.mode_settings_json(cfg, mode)))
+            base = twopb.settings_from(plan.mode_settings(cfg, mode))
             base = dataclasses.replace(base, method="orbit", checkpoint_every=0)
             table = study.parameter_table("data/paper/table3_burgers.csv", units)
             for T, f in CASES:

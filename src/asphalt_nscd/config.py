@@ -14,8 +14,8 @@ same files see the same configuration:
 
 Snakemake starts its merge from the ``--configfile`` files, so their keys come first; the
 Snakefile puts the keys back in config/config.yaml's order (:func:`restore_default_order`),
-the order :func:`load` gives, so that a config section written as JSON in a job's command
-line is the same whichever files gave its values. Files ending in ``.json`` are read as
+the order :func:`load` gives, so that the run's configuration file the jobs read
+(:func:`write_run_config`, named by its hash) is the same whichever files gave its values. Files ending in ``.json`` are read as
 JSON, every other file as YAML.
 """
 
@@ -112,8 +112,8 @@ def ordered_like(cfg: Mapping, reference: Mapping) -> dict:
     Snakemake puts the keys of the ``--configfile`` files first (it starts from them and merges
     the Snakefile's ``configfile:`` and then them again over it), so the same configuration
     built from an overlay lists its keys in another order than config/config.yaml. The
-    workflow restores config/config.yaml's order, so that the JSON of a config section in a
-    job's command line reads the same whichever files gave the values.
+    workflow restores config/config.yaml's order, so that the run's configuration file
+    (:func:`write_run_config`) is the same whichever files gave the values.
     """
     out = {}
     for key in [k for k in reference if k in cfg] + [k for k in cfg if k not in reference]:
@@ -134,3 +134,73 @@ def restore_default_order(cfg: dict, default: str | Path = DEFAULT_CONFIG) -> No
     ordered = ordered_like(cfg, read(default))
     cfg.clear()
     cfg.update(ordered)
+
+
+#: the workflow's schemas (top level and one per section), relative to the working directory
+SCHEMA_DIR = Path("workflow") / "schemas"
+
+#: where the workflow writes the configuration of a run (:func:`write_run_config`)
+RUN_CONFIG_DIR = Path("results") / "config"
+
+
+def check(cfg: Mapping, where: str, schema_dir: str | Path = SCHEMA_DIR) -> None:
+    """Check a merged configuration against the workflow's schemas as Snakemake does at load
+    (the Snakefile's top-level ``validate``, then each section's in workflow/rules/common.smk):
+    ``config.schema.yaml``, then ``<section>.schema.yaml`` for every section that has one.
+    Schemas absent from ``schema_dir`` are skipped (a command run outside a checkout).
+
+    Raises
+    ------
+    InputError
+        naming ``where`` (the files read), the key path and what the schema expects.
+    """
+    import jsonschema
+    import yaml
+
+    schema_dir = Path(schema_dir)
+    pairs = [("", cfg, schema_dir / "config.schema.yaml")]
+    pairs += [(s, cfg[s], schema_dir / f"{s}.schema.yaml") for s in cfg if isinstance(cfg.get(s), Mapping)]
+    for section, value, path in pairs:
+        if not path.is_file():
+            continue
+        schema = yaml.safe_load(path.read_text(encoding="utf-8"))
+        validator = jsonschema.validators.validator_for(schema)(schema)
+        error = jsonschema.exceptions.best_match(validator.iter_errors(value))
+        if error is not None:
+            key = ".".join(str(k) for k in [section, *error.absolute_path] if k != "") or "(top level)"
+            raise InputError(f"{where}: {key}: {error.message} (schema {path})")
+
+
+def checked(paths, *, default: str | Path | None = DEFAULT_CONFIG) -> dict:
+    """The configuration of the config files ``paths`` merged as :func:`load` merges them,
+    checked against the workflow's schemas (:func:`check`): what a command given ``--config``
+    reads, the same configuration Snakemake checks for the workflow.
+
+    Raises
+    ------
+    InputError
+        naming the file (missing, unreadable, not a mapping) or the key the schemas refuse.
+    """
+    cfg = load(paths, default=default)
+    names = " ".join(str(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths))
+    check(cfg, names)
+    return cfg
+
+
+def write_run_config(cfg: Mapping, directory: str | Path = RUN_CONFIG_DIR) -> str:
+    """Write the workflow's merged, checked configuration ``cfg`` to
+    ``{directory}/<first 12 hex digits of its SHA-256>.yaml`` (atomically, only if absent) and
+    return that path. The Snakefile calls it once per run: the jobs read their settings from
+    this file (``--config``), including any ``snakemake --config KEY=VALUE``; the name changes
+    with the content, so a file is never rewritten under a running job."""
+    import hashlib
+
+    import yaml
+
+    from .io import write_text
+
+    text = yaml.safe_dump(json.loads(json.dumps(cfg)), sort_keys=False, allow_unicode=True)
+    path = Path(directory) / f"{hashlib.sha256(text.encode()).hexdigest()[:12]}.yaml"
+    if not path.is_file():
+        write_text(text, path)
+    return path.as_posix()

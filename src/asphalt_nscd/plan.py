@@ -27,7 +27,6 @@ back into its values and :func:`case_options` into the ``asphalt-nscd run-2pb`` 
 from __future__ import annotations
 
 import inspect
-import json
 import math
 import os
 import re
@@ -302,15 +301,20 @@ def sample_file(name: str) -> str:
     return f"results/samples/{name}.h5"
 
 
-def sample_settings(config: dict) -> str:
-    """The sample section as JSON without the seed list (adding a seed reruns no other sample)."""
-    return json.dumps({k: v for k, v in config["sample"].items() if k != "seeds"})
+def sample_settings(config: dict) -> dict:
+    """What a sample job reads from the config, kept by the rules as a parameter so that a
+    change of it reruns the samples: the sample section without the seed list (adding a seed
+    reruns no other sample) and the bonded pairs' contact (nscd.bonded_contact)."""
+    return {
+        "sample": {k: v for k, v in config["sample"].items() if k != "seeds"},
+        "bonded_contact": bonded_contact(config),
+    }
 
 
 def resolution_levels(config: dict) -> dict:
     """Levels of the network-factor resolution study (config harmonic.resolution.levels):
-    name (:func:`asphalt_nscd.harmonic.resolution.level_name`) -> {scale, cut_mm}."""
-    from .harmonic.resolution import level_name
+    name (:func:`asphalt_nscd.sample.settings.level_name`) -> {scale, cut_mm}."""
+    from .sample.settings import level_name
 
     return {
         level_name(lv["scale"], lv["cut_mm"]): {"scale": float(lv["scale"]), "cut_mm": float(lv["cut_mm"])}
@@ -318,15 +322,17 @@ def resolution_levels(config: dict) -> dict:
     }
 
 
-def resolution_sample_settings(config: dict, level: str) -> str:
-    """The sample section of a resolution level as JSON: the config's with its scale and PSD cut."""
+def resolution_sample_settings(config: dict, level: str) -> dict:
+    """:func:`sample_settings` of a resolution level (what ``prepare-sample --level`` reads):
+    the sample section with the level's scale and PSD cut."""
     try:
         lv = resolution_levels(config)[level]
     except KeyError:
         raise InputError(f"harmonic.resolution.levels: no level {level!r}") from None
-    cfg = {k: v for k, v in config["sample"].items() if k != "seeds"}
-    cfg = {**cfg, "scale": lv["scale"], "psd": {**cfg.get("psd", {}), "cut_mm": lv["cut_mm"]}}
-    return json.dumps(cfg)
+    out = sample_settings(config)
+    section = out["sample"]
+    out["sample"] = {**section, "scale": lv["scale"], "psd": {**section.get("psd", {}), "cut_mm": lv["cut_mm"]}}
+    return out
 
 
 def resolution_samples(config: dict) -> list:
@@ -476,21 +482,14 @@ def last_cycle_record(config: dict) -> str:
 # campaign: one job's law and options
 
 
-def mode_settings_json(config: dict, mode: str) -> str:
-    """The test settings of a job mode as JSON: campaign.test with the mode's overrides of
-    dt_policy, yield_stress_Pa and start, and the core's bond kinematics
-    (:func:`asphalt_nscd.campaign.twopb.mode_settings`, shared with campaign-bench)."""
-    from .campaign.twopb import mode_settings
+def mode_settings(config: dict, mode: str) -> dict:
+    """The test settings of a job mode (:func:`asphalt_nscd.campaign.twopb.job_settings`, what
+    ``run-2pb --config`` builds from the same config): campaign.test with the mode's overrides of
+    dt_policy, yield_stress_Pa and start, the core's bond kinematics and solver, the reduced
+    window. The rules keep it as a parameter so that a change of it reruns the mode's jobs."""
+    from .campaign.twopb import job_settings
 
-    return json.dumps(
-        mode_settings(
-            config["campaign"],
-            mode,
-            bond_kinematics(config),
-            config["nscd"].get("linear_solver", "cg"),
-            config["nscd"].get("linear_tolerance"),
-        )
-    )
+    return job_settings(config, mode)
 
 
 def transfer_correction(config: dict) -> bool:

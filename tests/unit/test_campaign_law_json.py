@@ -1,6 +1,7 @@
 """Extended campaign mode: the law-JSON reader (good and bad files), `run-2pb --law-json` and
 `campaign-isotherms --law-json`."""
 
+from cli_options import set_options
 import json
 import math
 
@@ -147,8 +148,7 @@ def _run(sample, tmp_path, name, source, freq=10):
             "20",
             "--frequency",
             str(freq),
-            "--settings-json",
-            SETTINGS,
+            *set_options(SETTINGS),
             "--no-progress",
             "--mode",
             "extended",

@@ -1,6 +1,7 @@
 """Periodic start of the 2PB test: the theta-method's steady state is an exact periodic orbit
 of the NSCD step map, and one cycle from it gives the converged from-rest result."""
 
+from cli_options import set_options
 import dataclasses
 import math
 
@@ -344,8 +345,7 @@ def test_periodic_check_cli(tiny_sample, tmp_path):
                 str(tiny_sample),
                 "--cases",
                 "paper:15:3",
-                "--settings-json",
-                settings,
+                *set_options(settings),
                 "--long-cycles",
                 "6",
                 "-o",

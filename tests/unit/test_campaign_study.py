@@ -1,5 +1,6 @@
 """Campaign tables (isotherms, Table 4 analogue, sensitivity, units question) and the CLI."""
 
+from cli_options import set_options
 import json
 import math
 
@@ -179,8 +180,7 @@ def test_cli_run_2pb_and_bad_input(tmp_path):
         "20",
         "--frequency",
         "10",
-        "--settings-json",
-        settings,
+        *set_options(settings),
         "--no-progress",
         "-o",
         str(tmp_path / "r.h5"),
@@ -192,7 +192,7 @@ def test_cli_run_2pb_and_bad_input(tmp_path):
     assert row["sample"] == "s1" and row["mode"] == "sensitivity" and row["parameter"] == "Em"
     assert row["Em_MPa"] == pytest.approx(1.5 * 20.2) and row["n_steps"] == 80
     assert main(base + ["--factor", "Em=big"]) == 2
-    assert main(base[:-4] + ["--settings-json", '{"dt": 1}', "-o", "x.h5", "--row", "x.csv"]) == 2
+    assert main(base[:-4] + ["--set", "dt=1", "-o", "x.h5", "--row", "x.csv"]) == 2
 
 
 def test_cli_aggregation_and_figures(tmp_path):
@@ -225,8 +225,7 @@ def test_cli_aggregation_and_figures(tmp_path):
                     "20",
                     "--frequency",
                     str(f),
-                    "--settings-json",
-                    settings,
+                    *set_options(settings),
                     "--no-progress",
                     "-o",
                     str(rec),
@@ -424,7 +423,7 @@ def test_campaign_bench_per_job_on_a_sample(tmp_path):
 
 
 def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
-    """--modes restricts the timed jobs and the projection; --baseline-settings-json times
+    """--modes restricts the timed jobs and the projection; --baseline-set times
     a second simulation of each job class in the same run (speedup = baseline / configured);
     bad values are refused naming the option."""
     import yaml
@@ -451,12 +450,7 @@ def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
         "-o",
         str(out),
     ]
-    assert (
-        main(
-            base + ["--modes", "paper", "--job-warmup", "1", "--baseline-settings-json", '{"linear_solver": "direct"}']
-        )
-        == 0
-    )
+    assert main(base + ["--modes", "paper", "--job-warmup", "1", "--baseline-set", "linear_solver=direct"]) == 0
     proj = json.loads(out.read_text())["projections"][str(cfg_path)]
     costs = proj["job_costs"]
     assert costs and {c["mode"] for c in costs} == {"paper"}
@@ -469,5 +463,7 @@ def test_campaign_bench_same_run_baseline_and_modes(tmp_path, capsys):
     assert "--modes ['nonsense']: no such jobs" in capsys.readouterr().err
     assert main(base + ["--job-warmup", "-1"]) == 2
     assert "--job-warmup >= 0" in capsys.readouterr().err
-    assert main(base + ["--baseline-settings-json", '{"no_such_setting": 1}']) == 2
-    assert "--baseline-settings-json: expected an object of TwoPBSettings keys" in capsys.readouterr().err
+    assert main(base + ["--baseline-set", "no_such_setting=1"]) == 2
+    assert "--baseline-set: unknown setting(s) ['no_such_setting']" in capsys.readouterr().err
+    assert main(base + ["--baseline-set", "linear_solver"]) == 2
+    assert "--baseline-set 'linear_solver': expected KEY=VALUE" in capsys.readouterr().err

@@ -4,7 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from asphalt_nscd.harmonic.resolution import level_name, resolution_rows, resolution_summary
+from asphalt_nscd.harmonic.resolution import resolution_rows, resolution_summary
+from asphalt_nscd.sample.settings import level_name
 from asphalt_nscd.io import InputError
 from asphalt_nscd.sample.lattice import lattice_sample
 from asphalt_nscd.sample.store import write_sample

@@ -2,6 +2,7 @@
 correction of `run-2pb --network-factor-json`: NF_s is real and independent of the law and
 the frequency; the corrected time-domain test returns the law's |E*|; bad JSON is rejected."""
 
+from cli_options import set_options
 import json
 
 import numpy as np
@@ -170,8 +171,7 @@ def _run(sample, tmp_path, name, extra, settings=SETTINGS):
             "20",
             "--frequency",
             "1",
-            "--settings-json",
-            settings,
+            *set_options(settings),
             "--no-progress",
             "--mode",
             "extended",

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import copy
 import inspect
-import json
 from collections import Counter
 from pathlib import Path
 from types import SimpleNamespace
@@ -173,8 +172,8 @@ def test_mode_laws_and_options():
     assert plan.mode_frequencies(cfg, "paper_kPa") == plan.mode_frequencies(cfg, "paper")
     both = copy.deepcopy(cfg)
     both["campaign"]["paper_kPa"] = {"yield_stress_Pa": None, "linear_solver": "direct"}
-    kpa = json.loads(plan.mode_settings_json(both, "paper_kPa"))
-    pa = json.loads(plan.mode_settings_json(both, "paper"))
+    kpa = plan.mode_settings(both, "paper_kPa")
+    pa = plan.mode_settings(both, "paper")
     assert kpa["yield_stress_Pa"] is None and kpa["linear_solver"] == "direct"
     assert {k: v for k, v in kpa.items() if k not in ("yield_stress_Pa", "linear_solver")} == {
         k: v for k, v in pa.items() if k not in ("yield_stress_Pa", "linear_solver")
@@ -185,11 +184,11 @@ def test_mode_laws_and_options():
     assert plan.mode_frequencies(cfg, "measured") == "0.1 0.5 1 5 10 25"
     assert plan.policy_units_option(cfg, "measured") == ""
     assert plan.policy_units_option(cfg, "paper") == "--table3-units Pa"
-    settings = json.loads(plan.mode_settings_json(cfg, "extended"))
+    settings = plan.mode_settings(cfg, "extended")
     assert settings["bond_kinematics"] == plan.bond_kinematics(cfg) and settings["start"] in ("rest", "periodic")
     wc = SimpleNamespace(mode="paper")
     assert plan.from_wildcards(plan.mode_rows, cfg)(wc) == plan.mode_rows(cfg, "paper")
-    assert plan.from_wildcards(plan.mode_settings_json, cfg)(wc) == plan.mode_settings_json(cfg, "paper")
+    assert plan.from_wildcards(plan.mode_settings, cfg)(wc) == plan.mode_settings(cfg, "paper")
     assert plan.from_wildcards(plan.policy_temperature, cfg)(wc) == 15
     assert plan.from_wildcards(plan.mode_parameters, cfg)(wc) == "data/paper/table3_burgers.csv"
 
@@ -325,8 +324,9 @@ def test_lab_inputs(tmp_path):
 def test_settings_and_options_of_other_rules():
     cfg = load_config("smoke")
     paper = load_config("paper")
-    settings = json.loads(plan.sample_settings(cfg))
-    assert "seeds" not in settings and settings["scale"] == cfg["sample"]["scale"]
+    settings = plan.sample_settings(cfg)
+    assert "seeds" not in settings["sample"] and settings["sample"]["scale"] == cfg["sample"]["scale"]
+    assert settings["bonded_contact"] == cfg["nscd"]["bonded_contact"]
     assert plan.sample_file("s3") == "results/samples/s3.h5"
     assert plan.prepare_bench_file(paper) == "results/bench/prepare_s1.json"
     assert plan.calibration_fit_options(cfg).startswith("--weight-log-modulus ")
@@ -382,7 +382,7 @@ def test_each_mode_runs_its_configured_linear_solver(named_config):
     """The 2PB jobs get the core's linear solver (nscd.linear_solver) unless their schedule sets
     its own: the measured and extended modes run the direct solver in every shipped config."""
     _, cfg = named_config
-    settings = {m: json.loads(plan.mode_settings_json(cfg, m)) for m in ("paper", "measured", "extended", "dt_study")}
+    settings = {m: plan.mode_settings(cfg, m) for m in ("paper", "measured", "extended", "dt_study")}
     assert settings["measured"]["linear_solver"] == settings["extended"]["linear_solver"] == "direct"
     expected = cfg["campaign"]["paper"].get("linear_solver", cfg["nscd"]["linear_solver"])
     assert settings["paper"]["linear_solver"] == settings["dt_study"]["linear_solver"] == expected

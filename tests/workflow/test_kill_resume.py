@@ -4,6 +4,8 @@ leaves no half-written output behind."""
 
 from __future__ import annotations
 
+from cli_options import set_options
+
 import json
 import signal
 import subprocess
@@ -53,8 +55,7 @@ def command(sample: Path, out: Path) -> list[str]:
         "--frequency",
         "10",
         "--no-progress",
-        "--settings-json",
-        json.dumps(SETTINGS),
+        *set_options(json.dumps(SETTINGS)),
         "-o",
         str(out),
         "--row",

@@ -34,12 +34,11 @@ rule run_2pb:
     params:
         source=plan.from_wildcards(plan.law_option, config),
         args=plan.from_wildcards(plan.case_options, config),
-        settings=plan.from_wildcards(plan.mode_settings_json, config),
-        window=config["lab"]["simulation_window_cycles"],
+        settings=plan.from_wildcards(plan.mode_settings, config),
     shell:
         "asphalt-nscd run-2pb --sample {input.sample} --sample-name {wildcards.sample} --mode {wildcards.mode}"
-        " {params.source} {input.parameters} {params.args} --settings-json {params.settings:q}"
-        " --window-cycles {params.window} -o {output.record} --row {output.row} 2> {log}"
+        ' {params.source} {input.parameters} {params.args} --config "$ASPHALT_NSCD_RUN_CONFIG"'
+        " -o {output.record} --row {output.row} 2> {log}"
 
 
 rule campaign_isotherms:
@@ -228,7 +227,7 @@ rule campaign_dt_policy:
         units=plan.from_wildcards(plan.policy_units_option, config),
         T=plan.from_wildcards(plan.policy_temperature, config),
         freqs=plan.from_wildcards(plan.mode_frequencies, config),
-        settings=plan.from_wildcards(plan.mode_settings_json, config),
+        settings=plan.from_wildcards(plan.mode_settings, config),
     shell:
         "asphalt-nscd campaign-dt-policy --parameters {input.parameters} {params.units} --temperature {params.T}"
-        " --frequencies {params.freqs} --settings-json {params.settings:q} -o {output} 2> {log}"
+        ' --frequencies {params.freqs} --config "$ASPHALT_NSCD_RUN_CONFIG" --settings-mode {wildcards.mode} -o {output} 2> {log}'

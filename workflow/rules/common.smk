@@ -6,6 +6,7 @@ import os
 import sys
 from pathlib import Path
 
+from asphalt_nscd import config as config_files
 from asphalt_nscd import plan
 
 # Jobs call the `asphalt-nscd` console script. Put the environment that runs Snakemake first on
@@ -20,3 +21,8 @@ os.environ.update(plan.job_environment(sys.executable, workflow.basedir, os.envi
 plan.reject_resource_keys(config)
 for _section, _schema in plan.section_schemas(config, Path(workflow.basedir) / "workflow" / "schemas").items():
     validate(config[_section], _schema)
+
+# The run's configuration, merged and checked, written once (results/config/<its hash>.yaml; a file is never
+# rewritten under a running job): jobs read their settings from it (`--config "$ASPHALT_NSCD_RUN_CONFIG"`). Each rule
+# keeps what its jobs read as a `settings` param, so a change of those settings, and only of those, reruns the jobs.
+os.environ.update(ASPHALT_NSCD_RUN_CONFIG=config_files.write_run_config(config))  # set here, not required of the user

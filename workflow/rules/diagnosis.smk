@@ -155,13 +155,12 @@ if plan.crossval_time_domain_cell(config):
             sample=plan.crossval_sample(config),
             temperature=plan.crossval_time_domain_cell(config)["temperature_C"],
             frequency=plan.crossval_time_domain_cell(config)["frequency_Hz"],
-            settings=plan.mode_settings_json(config, "extended"),
-            window=config["lab"]["simulation_window_cycles"],
+            settings=plan.mode_settings(config, "extended"),
         shell:
             "asphalt-nscd run-2pb --sample {input.sample} --sample-name {params.sample} --mode crossval"
             " --law-json {input.law} --temperature {params.temperature} --frequency {params.frequency}"
-            " --network-factor-json {input.transfer} --settings-json {params.settings:q} --verify"
-            " --window-cycles {params.window} -o {output.record} --row {output.row} 2> {log}"
+            ' --network-factor-json {input.transfer} --config "$ASPHALT_NSCD_RUN_CONFIG" --settings-mode extended --verify'
+            " -o {output.record} --row {output.row} 2> {log}"
 
 
 rule export_law:

@@ -1,6 +1,6 @@
 # Numerical sample preparation (paper Section 3.2.1): one rule per sample, named s{seed}
-# after config["sample"]["seeds"]. The sample section is passed to the CLI as JSON, so any
-# change of it reruns the samples (params are tracked).
+# after config["sample"]["seeds"]. Jobs read the run's configuration ($ASPHALT_NSCD_RUN_CONFIG, workflow/rules/common.smk);
+# the settings they take from it are kept as `settings` params, so a change of them reruns the samples.
 # Rerun one sample: `snakemake --cores 1 results/samples/s1.h5 --forcerun prepare_sample`.
 from asphalt_nscd import plan
 
@@ -25,11 +25,9 @@ rule prepare_sample:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        cfg=plan.sample_settings(config),
-        bonded_contact=plan.bonded_contact(config),
+        settings=plan.sample_settings(config),
     shell:
-        "asphalt-nscd prepare-sample --config-json {params.cfg:q} --seed {wildcards.seed}"
-        " --bonded-contact {params.bonded_contact}"
+        'asphalt-nscd prepare-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --seed {wildcards.seed}'
         " -o {output.h5} --summary {output.summary} --vtk-dir {output.vtk} --figure {output.figure} 2> {log}"
 
 
@@ -48,11 +46,10 @@ rule prepare_resolution_sample:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        cfg=plan.from_wildcards(plan.resolution_sample_settings, config),
-        bonded_contact=plan.bonded_contact(config),
+        settings=plan.from_wildcards(plan.resolution_sample_settings, config),
     shell:
-        "asphalt-nscd prepare-sample --config-json {params.cfg:q} --seed {wildcards.seed}"
-        " --bonded-contact {params.bonded_contact} -o {output.h5} --summary {output.summary} 2> {log}"
+        'asphalt-nscd prepare-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --level {wildcards.level} --seed {wildcards.seed}'
+        " -o {output.h5} --summary {output.summary} 2> {log}"
 
 
 rule prepare_bench:
@@ -71,11 +68,10 @@ rule prepare_bench:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        cfg=plan.sample_settings(config),
-        bonded_contact=plan.bonded_contact(config),
+        settings=plan.sample_settings(config),
     shell:
-        "NUMBA_NUM_THREADS={threads} asphalt-nscd prepare-bench --config-json {params.cfg:q} --seed {wildcards.seed}"
-        " --bonded-contact {params.bonded_contact} -o {output} 2> {log}"
+        'NUMBA_NUM_THREADS={threads} asphalt-nscd prepare-bench --config "$ASPHALT_NSCD_RUN_CONFIG" --seed {wildcards.seed}'
+        " -o {output} 2> {log}"
 
 
 rule sample_table:
@@ -94,6 +90,6 @@ rule sample_table:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        cfg=plan.sample_settings(config),
+        settings=plan.sample_settings(config)["sample"],
     shell:
-        "asphalt-nscd sample-table --config-json {params.cfg:q} --summaries {input.summaries} -o {output} 2> {log}"
+        'asphalt-nscd sample-table --config "$ASPHALT_NSCD_RUN_CONFIG" --summaries {input.summaries} -o {output} 2> {log}'

@@ -20,9 +20,35 @@ import argparse
 from typing import Any
 
 
-def _settings_options(p):
+def _settings_options(p, config: bool = True):
+    """The test settings of a command: ``--config`` (with ``config``) and ``--settings-mode``,
+    ``--set`` and ``--window-cycles`` (:func:`_settings`)."""
+    if config:
+        p.add_argument(
+            "--config",
+            nargs="+",
+            default=None,
+            metavar="FILE",
+            help="workflow config files (YAML) merged as Snakemake merges --configfile: "
+            "config/config.yaml of the working directory first, then each FILE in order, checked "
+            "against the workflow's schemas; the test settings are those of the jobs of "
+            "--settings-mode (campaign section, nscd core, lab.simulation_window_cycles; "
+            "asphalt_nscd.campaign.twopb.job_settings). Default: TwoPBSettings' own values",
+        )
+        p.add_argument(
+            "--settings-mode",
+            default=None,
+            metavar="MODE",
+            help="the campaign mode whose settings --config gives (paper, paper_kPa, measured, "
+            "extended, dt_study, ...; default: --mode, or paper)",
+        )
     p.add_argument(
-        "--settings-json", default="{}", help="the campaign.test config section as JSON (keys of TwoPBSettings)"
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override one test setting (a key of TwoPBSettings; VALUE read as YAML, e.g. "
+        "n_cycles=3, start=rest, yield_stress_Pa=null); repeatable, applied after --config",
     )
     p.add_argument(
         "--window-cycles", type=float, default=None, help="last cycles reduced (config lab.simulation_window_cycles)"
@@ -257,11 +283,13 @@ def _add_campaign_bench(subparsers) -> None:
         "--modes", nargs="+", default=None, help="time and project only these modes' jobs (--per-job; e.g. paper)"
     )
     p.add_argument(
-        "--baseline-settings-json",
-        default=None,
-        help="test settings (TwoPBSettings keys, JSON) of a baseline timed in the same run, "
-        "alternating with the configured ones (--per-job; e.g. '{\"fast_path_contacts\": 0}'): "
-        "adds s_per_step_baseline and speedup to each job class",
+        "--baseline-set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a test setting (key of TwoPBSettings, VALUE read as YAML) of a baseline timed in the "
+        "same run, alternating with the configured ones (--per-job; e.g. fast_path_contacts=0); "
+        "repeatable: adds s_per_step_baseline and speedup to each job class",
     )
     p.add_argument("--table3", default="data/paper/table3_burgers.csv", help="the paper's Table 3 (--per-job)")
     p.add_argument(
@@ -413,9 +441,9 @@ def _add_periodic_check(subparsers) -> None:
         help="workflow config files (YAML) merged as Snakemake merges --configfile: "
         "config/config.yaml of the working directory first, then each FILE in order (e.g. "
         "config/paper.yaml, an overlay on it); the jobs' test settings per mode (campaign "
-        "section, nscd.bond_kinematics, lab.simulation_window_cycles); default: --settings-json",
+        "section, nscd.bond_kinematics, lab.simulation_window_cycles); default: TwoPBSettings' own values",
     )
-    _settings_options(p)
+    _settings_options(p, config=False)
     p.add_argument(
         "--table3",
         default="data/paper/table3_burgers.csv",
@@ -475,17 +503,7 @@ def _periodic_check(args) -> int:
                 raise ValueError
         except (ValueError, IndexError):
             raise InputError(f"--cases {case!r}: expected MODE:T:F (e.g. measured:54:0.1)") from None
-        base = None
-        if cfg is not None:
-            kin = cfg.get("nscd", {}).get("bond_kinematics", "contact")
-            base = twopb.mode_settings(
-                cfg["campaign"],
-                mode,
-                kin,
-                cfg.get("nscd", {}).get("linear_solver", "cg"),
-                cfg.get("nscd", {}).get("linear_tolerance"),
-            )
-            base["window_cycles"] = cfg.get("lab", {}).get("simulation_window_cycles", 1.0)
+        base = twopb.job_settings(cfg, mode) if cfg is not None else {}
         settings = _settings(args, base)
         law = laws.law(mode, T)
         meta = {
@@ -513,18 +531,48 @@ def _periodic_check(args) -> int:
     return 0
 
 
-def _settings(args, base: dict | None = None):
-    """TwoPBSettings from ``base`` (e.g. a mode's config settings) updated by --settings-json
-    and --window-cycles."""
-    import json
+def _overrides(items: list[str], option: str) -> dict:
+    """The settings of ``KEY=VALUE`` items (VALUE read as YAML: 3, 1e-5, rest, null, true).
+
+    Raises
+    ------
+    InputError
+        naming ``option`` and the item that is not KEY=VALUE or whose VALUE is not YAML.
+    """
+    import yaml
 
     from ..io import InputError
-    from .twopb import settings_from
 
-    try:
-        cfg = {**(base or {}), **json.loads(args.settings_json)}
-    except ValueError as exc:
-        raise InputError(f"--settings-json: not valid JSON ({exc})") from exc
+    out = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        try:
+            if not sep or not key.strip():
+                raise ValueError("expected KEY=VALUE")
+            out[key.strip()] = yaml.safe_load(text)
+        except (ValueError, yaml.YAMLError) as exc:
+            raise InputError(f"{option} {item!r}: {exc}") from None
+    return out
+
+
+def _settings(args, base: dict | None = None):
+    """TwoPBSettings from ``base`` (e.g. a mode's config settings; default: those of --config
+    and --settings-mode, else TwoPBSettings' own values) updated by each --set KEY=VALUE and by
+    --window-cycles.
+
+    Raises
+    ------
+    InputError
+        naming the config file and key the schemas refuse, or the --set item that is not
+        KEY=VALUE, not YAML, or not a setting.
+    """
+    from .. import config
+    from .twopb import job_settings, settings_from
+
+    if base is None and getattr(args, "config", None):
+        mode = args.settings_mode or getattr(args, "mode", None) or "paper"
+        base = job_settings(config.checked(args.config), mode)
+    cfg = {**(base or {}), **_overrides(args.set, "--set")}
     if getattr(args, "window_cycles", None) is not None:
         cfg["window_cycles"] = args.window_cycles
     return settings_from(cfg)
@@ -768,7 +816,6 @@ def _prepare_seconds(args) -> float:
 
 
 def _bench(args) -> int:
-    import json
     from pathlib import Path
 
     from ..io import InputError, write_json
@@ -777,20 +824,13 @@ def _bench(args) -> int:
     if args.per_job and args.sample is None:
         raise InputError("campaign-bench --per-job needs --sample (a prepared sample file)")
     prepare_s = _prepare_seconds(args)
-    baseline = None
-    if args.baseline_settings_json:
-        try:
-            baseline = json.loads(args.baseline_settings_json)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"--baseline-settings-json: not JSON ({exc})") from None
-        unknown = set(baseline) - set(twopb.TwoPBSettings.__dataclass_fields__) if isinstance(baseline, dict) else {0}
+    baseline = _overrides(args.baseline_set, "--baseline-set") or None
+    if baseline is not None:
+        unknown = sorted(set(baseline) - set(twopb.TwoPBSettings.__dataclass_fields__))
         if unknown:
-            raise InputError(
-                f"--baseline-settings-json: expected an object of TwoPBSettings keys, "
-                f"got {args.baseline_settings_json!r}"
-            )
+            raise InputError(f"--baseline-set: unknown setting(s) {unknown}; expected keys of TwoPBSettings")
         if not args.per_job:
-            raise InputError("--baseline-settings-json needs --per-job")
+            raise InputError("--baseline-set needs --per-job")
     cost = bench.measure_step_cost(args.sample, n_spheres=args.n_spheres, n_steps=args.steps)
     out: dict[str, Any] = {"measurement": cost, "prepare_s_per_sample": prepare_s, "projections": {}}
     for path in args.config:

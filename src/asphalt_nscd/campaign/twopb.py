@@ -206,9 +206,29 @@ def mode_settings(
     return cfg
 
 
-def settings_from(cfg: dict, where: str = "--settings-json") -> TwoPBSettings:
+def job_settings(cfg: dict, mode: str) -> dict:
+    """The test settings of a job of ``mode`` from a whole workflow config ``cfg`` (merged and
+    checked, :func:`asphalt_nscd.config.checked`): :func:`mode_settings` of its ``campaign``
+    section with the core's ``nscd.bond_kinematics``, ``nscd.linear_solver`` and
+    ``nscd.linear_tolerance``, and ``window_cycles`` from ``lab.simulation_window_cycles``.
+    What ``run-2pb --config`` runs and what the workflow tracks per job (a change reruns it)."""
+    nscd = cfg.get("nscd") or {}
+    out = mode_settings(
+        cfg["campaign"],
+        mode,
+        nscd.get("bond_kinematics", "contact"),
+        nscd.get("linear_solver", "cg"),
+        nscd.get("linear_tolerance"),
+    )
+    window = (cfg.get("lab") or {}).get("simulation_window_cycles")
+    if window is not None:
+        out["window_cycles"] = window
+    return out
+
+
+def settings_from(cfg: dict, where: str = "--set") -> TwoPBSettings:
     """:class:`TwoPBSettings` from a dict of its fields (e.g. :func:`mode_settings` updated by
-    the command line's JSON).
+    the command line's ``--set KEY=VALUE``).
 
     Raises
     ------
@@ -228,16 +248,18 @@ def settings_from(cfg: dict, where: str = "--settings-json") -> TwoPBSettings:
 def read_config(paths) -> dict:
     """The workflow config of the files ``paths`` (one path, or several merged in order), with
     ``config/config.yaml`` of the working directory merged under them as Snakemake merges
-    ``--configfile`` (:func:`asphalt_nscd.config.load`); it must hold a ``campaign`` section.
+    ``--configfile`` and checked against the workflow's schemas
+    (:func:`asphalt_nscd.config.checked`); it must hold a ``campaign`` section.
 
     Raises
     ------
     InputError
-        naming the file: unreadable, not YAML, not a mapping; or no ``campaign`` section.
+        naming the file: unreadable, not YAML, not a mapping, a key the schemas refuse; or no
+        ``campaign`` section.
     """
     from .. import config
 
-    cfg = config.load(paths)
+    cfg = config.checked(paths)
     if "campaign" not in cfg:
         names = " ".join(str(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths))
         raise InputError(f"{names}: no 'campaign' section")

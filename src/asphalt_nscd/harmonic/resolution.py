@@ -32,11 +32,6 @@ from ..io import InputError
 from ..rheology.laws import POISSON_RATIO
 
 
-def level_name(scale: float, cut_mm: float) -> str:
-    """Name of a resolution level: ``x{scale}_cut{cut}`` (``:g``), e.g. x0.7_cut6.3."""
-    return f"x{float(scale):g}_cut{float(cut_mm):g}"
-
-
 def resolution_rows(
     samples, kinematics=("contact", "barycentre"), head_rotation: str = "free", nu: float = POISSON_RATIO
 ) -> pd.DataFrame:
@@ -44,7 +39,7 @@ def resolution_rows(
 
     Parameters
     ----------
-    samples : iterable of (level, path): the resolution level's name (:func:`level_name`)
+    samples : iterable of (level, path): the resolution level's name (:func:`asphalt_nscd.sample.settings.level_name`)
         and the sample file.
     kinematics : bond kinematics to compute ('contact', 'barycentre').
     head_rotation, nu : as :func:`.transfer.transfer_json`.

@@ -9,38 +9,50 @@ from __future__ import annotations
 import argparse
 
 
-def _add_config_options(p: argparse.ArgumentParser) -> None:
-    group = p.add_mutually_exclusive_group()
-    group.add_argument(
+def _add_config_options(p: argparse.ArgumentParser, level: bool = False) -> None:
+    p.add_argument(
         "--config",
         nargs="+",
         metavar="FILE",
         help="workflow config files (YAML) merged as Snakemake merges --configfile: "
         "config/config.yaml of the working directory first, then each FILE in order "
-        "(e.g. config/paper.yaml, an overlay on it); their 'sample' section is used. "
+        "(e.g. config/paper.yaml, an overlay on it), checked against the workflow's schemas; "
+        "their 'sample' section is used (and nscd.bonded_contact). "
         "A single YAML/JSON file holding the sample section alone is merged over the "
         "paper's full-scale values",
     )
-    group.add_argument("--config-json", help="the sample section as a JSON string (used by the workflow)")
+    if level:
+        p.add_argument(
+            "--level",
+            default=None,
+            metavar="NAME",
+            help="a level of the network-factor resolution study (harmonic.resolution.levels of "
+            "--config, named x{scale}_cut{cut_mm}, e.g. x1_cut4): the sample section with its "
+            "scale and PSD cut",
+        )
 
 
-def _load_config(args):
-    import json
-
-    from ..io import InputError
+def _load_config(args) -> dict:
+    """The sample section of --config (with --level), or the paper's full-scale values."""
     from . import settings
 
     if args.config:
-        return settings.load(args.config)
-    if args.config_json:
-        try:
-            data = json.loads(args.config_json)
-        except ValueError as exc:
-            raise InputError(f"--config-json: not valid JSON ({exc})") from exc
-        if not isinstance(data, dict):
-            raise InputError("--config-json: expected a JSON object of sample settings")
-        return settings.merge(settings.DEFAULTS, data, "--config-json: sample")
+        return settings.load(args.config, level=getattr(args, "level", None))
+    if getattr(args, "level", None):
+        from ..io import InputError
+
+        raise InputError("--level needs --config (a workflow config listing harmonic.resolution.levels)")
     return settings.merge(settings.DEFAULTS, {})
+
+
+def _bonded_contact(args) -> str | None:
+    """--bonded-contact, else nscd.bonded_contact of a workflow --config, else None (the core's)."""
+    from . import settings
+
+    if args.bonded_contact is not None or not args.config:
+        return args.bonded_contact
+    whole = settings.workflow_config(args.config)
+    return ((whole or {}).get("nscd") or {}).get("bonded_contact")
 
 
 def _add_bonded_contact(p: argparse.ArgumentParser) -> None:
@@ -50,8 +62,8 @@ def _add_bonded_contact(p: argparse.ArgumentParser) -> None:
         "--bonded-contact",
         choices=BONDED_CONTACT,
         default=None,
-        help="contact of the bonded pairs in the stabilisation (config nscd.bonded_contact; "
-        "default: the NSCD core's, after_break)",
+        help="contact of the bonded pairs in the stabilisation (default: nscd.bonded_contact of a "
+        "workflow --config, else the NSCD core's, after_break)",
     )
 
 
@@ -70,9 +82,9 @@ def register(subparsers) -> None:
         "prepare-sample",
         help="prepare one numerical sample (lattice, deposition, vibration, cut, flip, shrink, bonds)",
         description="Prepare one numerical 2PB sample (paper Section 3.2.1) and write the HDF5 "
-        "sample file of docs/design.md. Without --config/--config-json the paper's full-scale values are used.",
+        "sample file of docs/design.md. Without --config the paper's full-scale values are used.",
     )
-    _add_config_options(p)
+    _add_config_options(p, level=True)
     p.add_argument("--seed", type=int, required=True, help="random seed of the lattice placement")
     p.add_argument("-o", "--output", required=True, help="sample file (.h5)")
     p.add_argument("--vtk-dir", help="directory for the ParaView files of each stage (.vtu)")
@@ -89,7 +101,7 @@ def register(subparsers) -> None:
         "wall time of each phase, the NLGS statistics of the dynamic stages, and the counts, bonds, "
         "porosity and density beside the paper's (asphalt_nscd.sample.bench).",
     )
-    _add_config_options(b)
+    _add_config_options(b, level=True)
     b.add_argument("--seed", type=int, required=True, help="random seed of the lattice placement")
     b.add_argument("-o", "--output", required=True, help="benchmark JSON record")
     b.add_argument("--sample", help="also write the sample file (.h5)")
@@ -117,7 +129,7 @@ def _prepare(args) -> int:
 
     dynamics.PROGRESS = bool(args.progress)
     cfg = _load_config(args)
-    result = prepare_sample(cfg, args.seed, bonded_contact=args.bonded_contact)
+    result = prepare_sample(cfg, args.seed, bonded_contact=_bonded_contact(args))
     write_outputs(result, args.output, vtk_dir=args.vtk_dir)
     if args.summary:
         write_json(result.summary, args.summary)
@@ -145,13 +157,13 @@ def _bench(args) -> int:
 
     dynamics.PROGRESS = bool(args.progress)
     cfg = _load_config(args)
-    result = prepare_sample(cfg, args.seed, bonded_contact=args.bonded_contact)
+    result = prepare_sample(cfg, args.seed, bonded_contact=_bonded_contact(args))
     if args.sample:
         write_outputs(result, args.sample)
     if args.summary:
         write_json(result.summary, args.summary)
     rec = bench_record(result.summary)
-    rec["config"] = " ".join(args.config) if args.config else "--config-json"
+    rec["config"] = " ".join(args.config) if args.config else "paper full scale (no --config)"
     write_json(rec, args.output)
     return 0
 

@@ -85,35 +85,76 @@ def merge(defaults: dict, given: dict, where: str = "sample") -> dict:
     return out
 
 
-def load(paths) -> dict:
-    """The ``sample`` section of the config files ``paths`` (one path or several, in order),
-    merged over :data:`DEFAULTS`.
+def level_name(scale: float, cut_mm: float) -> str:
+    """Name of a resolution level (config ``harmonic.resolution.levels``): ``x{scale}_cut{cut}``
+    (``:g``), e.g. x0.7_cut6.3."""
+    return f"x{float(scale):g}_cut{float(cut_mm):g}"
 
-    Files holding a workflow config (a top-level key among
-    :data:`asphalt_nscd.config.SECTIONS`) are merged as Snakemake merges ``--configfile``:
-    config/config.yaml of the working directory first, then each file in order
-    (:func:`asphalt_nscd.config.load`); the ``sample`` section of the result is taken. A single
-    file holding the sample section alone (YAML, or JSON if named ``*.json``) is merged over
-    :data:`DEFAULTS` directly.
+
+def workflow_config(paths) -> dict | None:
+    """The whole workflow configuration of the files ``paths`` (merged over config/config.yaml
+    of the working directory and checked against the workflow's schemas,
+    :func:`asphalt_nscd.config.checked`), or None when ``paths`` is a single file holding a
+    bare sample section (no top-level key among :data:`asphalt_nscd.config.SECTIONS`).
 
     Raises
     ------
     InputError
-        naming the file: missing, unreadable, not valid YAML/JSON, not a mapping; or naming the
-        key: an unknown key of the sample section.
+        naming the file (missing, unreadable, not a mapping) or the key the schemas refuse.
+    """
+    from .. import config
+
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    if len(paths) == 1 and not set(config.read(paths[0])) & set(config.SECTIONS):
+        return None
+    return config.checked(paths)
+
+
+def load(paths, level: str | None = None) -> dict:
+    """The ``sample`` section of the config files ``paths`` (one path or several, in order),
+    merged over :data:`DEFAULTS`; with ``level``, the section of that resolution level (its
+    ``scale`` and ``psd.cut_mm`` from ``harmonic.resolution.levels``, named by
+    :func:`level_name`).
+
+    Files holding a workflow config (a top-level key among
+    :data:`asphalt_nscd.config.SECTIONS`) are merged as Snakemake merges ``--configfile``:
+    config/config.yaml of the working directory first, then each file in order, and checked
+    against the workflow's schemas (:func:`workflow_config`); the ``sample`` section of the
+    result is taken. A single file holding the sample section alone (YAML, or JSON if named
+    ``*.json``) is merged over :data:`DEFAULTS` directly.
+
+    Raises
+    ------
+    InputError
+        naming the file: missing, unreadable, not valid YAML/JSON, not a mapping, refused by a
+        schema; or naming the key: an unknown key of the sample section, a ``level`` the
+        config does not list (or given with a bare sample section).
     """
     from .. import config
 
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     names = " ".join(str(p) for p in paths)
-    if len(paths) == 1:
-        data = config.read(paths[0])
-        if not set(data) & set(config.SECTIONS):
-            return merge(DEFAULTS, data, f"{names}: sample")
-    section = config.load(paths).get("sample") or {}
+    whole = workflow_config(paths)
+    if whole is None:
+        if level is not None:
+            raise InputError(f"{names}: a resolution level needs a workflow config (harmonic.resolution.levels)")
+        return merge(DEFAULTS, config.read(paths[0]), f"{names}: sample")
+    section = whole.get("sample") or {}
     if not isinstance(section, dict):
         raise InputError(f"{names}: sample: expected a mapping of sample settings, got {section!r}")
-    return merge(DEFAULTS, section, f"{names}: sample")
+    out = merge(DEFAULTS, section, f"{names}: sample")
+    if level is not None:
+        levels = {
+            level_name(lv["scale"], lv["cut_mm"]): lv
+            for lv in ((whole.get("harmonic") or {}).get("resolution") or {}).get("levels") or []
+        }
+        if level not in levels:
+            raise InputError(
+                f"{names}: harmonic.resolution.levels: no level {level!r}; expected one of {sorted(levels)}"
+            )
+        out["scale"] = float(levels[level]["scale"])
+        out["psd"]["cut_mm"] = float(levels[level]["cut_mm"])
+    return out
 
 
 def scaled_geometry(cfg: dict) -> dict:
