@@ -77,6 +77,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def with_config_values(parser: argparse.ArgumentParser, args: argparse.Namespace, argv) -> argparse.Namespace:
+    """``args`` of a command that takes its option values from a workflow config: when the
+    command declares ``config_values`` (a function of the merged config giving argument name
+    -> value) and was given ``--config FILE...``, the files are merged and checked against the
+    workflow's schemas (:func:`asphalt_nscd.config.checked`), the values become the command's
+    defaults, and the command line is parsed again, so that an option given on it wins.
+
+    Raises
+    ------
+    InputError
+        naming the config file and key that cannot be read or that the schemas refuse.
+    """
+    values = getattr(args, "config_values", None)
+    if values is None or not getattr(args, "config", None):
+        return args
+    from . import config
+
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
+    known = {a.dest for a in sub._actions}
+    sub.set_defaults(**{k: v for k, v in values(config.checked(args.config)).items() if k in known})
+    return parser.parse_args(argv)
+
+
 def _terminate(signum, frame) -> None:
     """SIGTERM handler: unwind like an exception (atomic writers remove their temporary files)."""
     request_termination(signum)
@@ -85,7 +108,8 @@ def _terminate(signum, frame) -> None:
 def main(argv: list[str] | None = None) -> int:
     import logging
 
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO,
         format="%(asctime)s %(name)s %(levelname)s: %(message)s",
@@ -94,6 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger("asphalt_nscd").debug("asphalt-nscd %s", " ".join(sys.argv[1:] if argv is None else argv))
     signal.signal(signal.SIGTERM, _terminate)
     try:
+        args = with_config_values(parser, args, argv)
         status = args.func(args)
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)

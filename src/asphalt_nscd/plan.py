@@ -697,47 +697,13 @@ def diagnosis_input_files(config: dict) -> list:
     return [p for paths in diagnosis_inputs(config).values() for p in paths]
 
 
-def artifact_search_options(config: dict) -> str:
-    """Options of the artifact search (diagnosis.alpha, shift, T_ref_C, identifiability):
-    rules calibrate_search and master_curve."""
-    diag = config["diagnosis"]
-    ident = diag["identifiability"]
-    opts = (
-        f"--alpha {diag['alpha']} --shift {diag['shift']} --identifiability-null {ident['null']} "
-        f"--identifiability-rival {ident['rival']}"
-    )
-    if diag.get("T_ref_C") is not None:
-        opts += f" --t-ref {diag['T_ref_C']}"
-    return opts
+def diagnosis_settings(config: dict, *groups: str) -> dict:
+    """The option values a diagnosis rule's command takes from the run's configuration
+    (:func:`asphalt_nscd.diagnosis.settings.option_values` of ``groups``: search, law,
+    calibration, causes), kept by the rule as a parameter so that a change of them reruns it."""
+    from .diagnosis.settings import option_values
 
-
-def diagnosis_fit_options(config: dict) -> str:
-    """Options of the artifact search, of the extended law's candidates (diagnosis.law) and of
-    the law a material card carries (diagnosis.material_card)."""
-    diag = config["diagnosis"]
-    law = diag["law"]
-    refines = " ".join("off" if r is None else str(r) for r in law["refines"])
-    opts = (
-        f"{artifact_search_options(config)} "
-        f"--law-shifts {' '.join(law['shifts'])} --law-statics {' '.join(law['statics'])} "
-        f"--law-verticals {' '.join('on' if v else 'off' for v in law['verticals'])} "
-        f"--law-refines {refines} --law-per-decades {spaced(law['per_decades'])} "
-        f"--margin-decades {law['margin_decades']} "
-        f"--tolerances-pct {law['tolerances_pct'][0]} {law['tolerances_pct'][1]}"
-    )
-    if not law.get("one_se", True):
-        opts += " --no-one-se"
-    if not law.get("artifacts", True):
-        opts += " --no-artifacts"
-    card = diag["material_card"]
-    opts += f" --card-fit {card['fit']} --card-shift {card['shift']}"
-    return opts
-
-
-def calibration_options(config: dict) -> str:
-    """Options of rule calibrate_search (diagnosis.calibration)."""
-    cal = config["diagnosis"]["calibration"]
-    return f"--tables {cal['tables']} --seed {cal['seed']} --familywise-rate {cal['familywise_rate']}"
+    return option_values(config, *groups)
 
 
 def diagnose_options(config: dict) -> str:
@@ -750,16 +716,6 @@ def diagnose_options(config: dict) -> str:
     if "time_integration" in inputs:
         opts += f" --theta {config['campaign']['test']['theta']}"
     return opts.strip()
-
-
-def diagnose_tolerances(config: dict) -> str:
-    """Cause tolerances of rule diagnose (diagnosis.cause_tolerances; defaults 0.01 on the
-    network factor, 0.1 degree on the phase)."""
-    tol = config["diagnosis"].get("cause_tolerances", {})
-    return (
-        f"--tolerance-network-factor {tol.get('network_factor', 0.01)} "
-        f"--tolerance-phase-deg {tol.get('time_integration_deg', 0.1)}"
-    )
 
 
 def crossval_file(scheme: str, suffix: str = ".csv") -> str:

@@ -434,3 +434,39 @@ def test_commands_check_the_schemas(tmp_path, in_repo):
         config.checked(bad)
     assert main(["sample-table", "--config", str(bad), "-o", str(tmp_path / "t.csv")]) == 2
     assert not (tmp_path / "t.csv").exists()
+
+
+@pytest.mark.parametrize("name", ["config", "smoke", "table"])
+def test_diagnosis_commands_take_their_options_from_the_config(name, tmp_path, in_repo):
+    """`--config` gives a diagnosis command the options of its config's diagnosis section
+    (diagnosis.settings.option_values): the parsed arguments equal those of the same options
+    spelled out, an option given on the command line wins, and a bad config is refused."""
+    from asphalt_nscd.cli import build_parser, main, with_config_values
+    from asphalt_nscd.diagnosis.settings import option_values
+
+    cfg = snakemake_config(name)
+    path = config.write_run_config(cfg, tmp_path)
+    values = option_values(cfg, "search", "law")
+
+    def spelled(v) -> list[str]:
+        return [str(x) for x in v] if isinstance(v, list) else [str(v)]
+
+    flags = []
+    for dest, v in values.items():
+        if isinstance(v, bool):
+            flags += [f"--{dest.replace('_', '-')}"] if v else []
+        elif v is not None:
+            flags += [f"--{dest.replace('_', '-')}", *spelled(v)]
+    base = ["crossval", "--measured", "m.csv", "--scheme", "lofo", "-o", "o.csv"]
+
+    def parsed(argv):
+        parser = build_parser()
+        return vars(with_config_values(parser, parser.parse_args(argv), argv))
+
+    by_config, by_flags = parsed(base + ["--config", path]), parsed(base + flags)
+    for dest in values:
+        assert by_config[dest] == by_flags[dest], dest
+    assert parsed(base + ["--config", path, "--alpha", "0.02"])["alpha"] == 0.02
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("diagnosis:\n  alpha: high\n")
+    assert main(base + ["--config", str(bad)]) == 2

@@ -220,16 +220,18 @@ def test_diagnosis_inputs_with_auto_settings():
     opts = plan.diagnose_options(cfg)
     # diagnose reads the artifact search and the law (rules master_curve, extend_law): no fit options
     assert opts.startswith("--simulated ") and "--law-" not in opts and "--alpha" not in opts
-    search = "--alpha 0.001 --shift wlf --identifiability-null 0.995 --identifiability-rival 0.95"
-    assert plan.artifact_search_options(cfg) == search
-    assert plan.diagnosis_fit_options(cfg).startswith(search + " --law-shifts wlf --law-statics constant trend")
+    search = {"alpha": 0.001, "shift": "wlf", "t_ref": None, "identifiability_null": 0.995, "identifiability_rival": 0.95}
+    assert plan.diagnosis_settings(cfg, "search") == search
+    law = plan.diagnosis_settings(cfg, "search", "law")
+    assert {k: law[k] for k in search} == search
+    assert law["law_shifts"] == ["wlf"] and law["law_statics"] == ["constant", "trend"]
     assert opts.endswith(
         "--simulated results/sim/measured/s1/21C_10Hz.csv --harmonic results/harmonic/jobs/s1_measured.csv"
         " --time-integration results/campaign/measured/dt_policy_phase_error.csv"
         " --simulated-extended results/sim/extended/s1/21C_10Hz.csv --transfer results/harmonic/transfer/s1.json"
         " --theta 0.5"
     )
-    assert plan.diagnose_tolerances(cfg) == "--tolerance-network-factor 0.01 --tolerance-phase-deg 0.1"
+    assert plan.diagnosis_settings(cfg, "causes") == {"tolerance_network_factor": 0.01, "tolerance_phase_deg": 0.1}
     # null leaves an input out (and the theta with the time integration), a path is used as is
     other = copy.deepcopy(cfg)
     other["diagnosis"]["harmonic"] = None
@@ -245,8 +247,9 @@ def test_diagnosis_inputs_with_auto_settings():
     full = load_config("config")
     assert len(plan.diagnosis_inputs(full)["simulated"]) == 30
     assert plan.diagnosis_inputs(full)["transfer"] == ["results/harmonic/transfer/s1.json"]
-    fit = plan.diagnosis_fit_options(full)
-    assert "--law-verticals off on --law-refines off 1.0 --law-per-decades 2 4" in fit
+    fit = plan.diagnosis_settings(full, "law")
+    assert fit["law_verticals"] == ["off", "on"] and fit["law_refines"] == ["off", "1.0"]
+    assert fit["law_per_decades"] == [2.0, 4.0] and fit["card_fit"] == "least_squares"
 
 
 def test_crossval_time_domain_cell(tmp_path):

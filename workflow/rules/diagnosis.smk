@@ -49,11 +49,10 @@ rule calibrate_search:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        options=plan.artifact_search_options(config),
-        calibration=plan.calibration_options(config),
+        settings=plan.diagnosis_settings(config, "search", "calibration"),
     shell:
-        "asphalt-nscd calibrate-search --measured {input.measured:q} --test {input.test:q} {params.options} "
-        "{params.calibration} --jobs {threads} -o {output:q} 2> {log}"
+        'asphalt-nscd calibrate-search --measured {input.measured:q} --test {input.test:q} --config "$ASPHALT_NSCD_RUN_CONFIG" '
+        "--jobs {threads} -o {output:q} 2> {log}"
 
 
 rule master_curve:
@@ -71,9 +70,9 @@ rule master_curve:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        options=plan.artifact_search_options(config),
+        settings=plan.diagnosis_settings(config, "search"),
     shell:
-        "asphalt-nscd master-curve --measured {input.measured} --test {input.test} {params.options} "
+        'asphalt-nscd master-curve --measured {input.measured} --test {input.test} --config "$ASPHALT_NSCD_RUN_CONFIG" '
         "--calibration {input.calibration} -o {output.search} --corrected {output.corrected} 2> {log}"
 
 
@@ -103,9 +102,9 @@ rule extend_law:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        options=plan.diagnosis_fit_options(config),
+        settings=plan.diagnosis_settings(config, "search", "law"),
     shell:
-        "asphalt-nscd extend-law --measured {input.measured} {params.options} --master-curve {input.search} "
+        'asphalt-nscd extend-law --measured {input.measured} --config "$ASPHALT_NSCD_RUN_CONFIG" --master-curve {input.search} '
         "--corrected-table {input.corrected} --calibration {input.calibration} -o {output.laws} "
         "--cv-curve {output.curve} --card-law {output.card} --without-flagged {output.without_flagged} 2> {log}"
 
@@ -127,11 +126,11 @@ if plan.crossval_time_domain_cell(config):
         conda:
             "../envs/asphalt-nscd.yaml"
         params:
-            options=plan.diagnosis_fit_options(config),
+            settings=plan.diagnosis_settings(config, "search", "law"),
             frequency=plan.crossval_time_domain_cell(config)["frequency_Hz"],
             temperature=plan.crossval_time_domain_cell(config)["temperature_C"],
         shell:
-            "asphalt-nscd extend-law --measured {input.measured} {params.options} --calibration {input.calibration} "
+            'asphalt-nscd extend-law --measured {input.measured} --config "$ASPHALT_NSCD_RUN_CONFIG" --calibration {input.calibration} '
             "--exclude-frequency {params.frequency} --temperatures {params.temperature} -o {output} 2> {log}"
 
     rule crossval_time_domain:
@@ -238,10 +237,10 @@ rule crossval:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        options=plan.diagnosis_fit_options(config),
+        settings=plan.diagnosis_settings(config, "search", "law"),
         time_domain=plan.time_domain_option,
     shell:
-        "asphalt-nscd crossval --measured {input.measured} --scheme {wildcards.scheme} {params.options} "
+        'asphalt-nscd crossval --measured {input.measured} --scheme {wildcards.scheme} --config "$ASPHALT_NSCD_RUN_CONFIG" '
         "--calibration {input.calibration} --sample {input.sample} --transfer {input.transfer} {params.time_domain} -o {output.rows} "
         "--summary {output.summary} --curve {output.curve} --figure {output.figure} 2> {log}"
 
@@ -289,11 +288,11 @@ rule diagnose:
         "../envs/asphalt-nscd.yaml"
     params:
         options=plan.diagnose_options(config),
-        tolerances=plan.diagnose_tolerances(config),
+        settings=plan.diagnosis_settings(config, "causes"),
     shell:
         "asphalt-nscd diagnose --measured {input.measured} --test {input.test} --master-curve {input.search} "
         "--corrected-table {input.corrected} --macro-params {input.macro} --law-json {input.laws} "
-        "--crossval {input.crossval} --card {input.card} --law-without-flagged {input.without_flagged} {params.options} {params.tolerances} -o {output.report} "
+        '--crossval {input.crossval} --card {input.card} --law-without-flagged {input.without_flagged} {params.options} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.report} '
         "--budget-csv {output.budget} --effects-csv {output.effects} --gain-csv {output.gain} "
         "--figure {output.figure} --page {output.page} 2> {log}"
 

@@ -38,6 +38,27 @@ def _measured_option(p) -> None:
     )
 
 
+def _config_option(p, *groups: str) -> None:
+    """``--config``: the option values of ``groups`` from a workflow config
+    (:func:`asphalt_nscd.diagnosis.settings.option_values`; applied by asphalt_nscd.cli.main)."""
+    p.add_argument(
+        "--config",
+        nargs="+",
+        default=None,
+        metavar="FILE",
+        help="workflow config files (YAML) merged as Snakemake merges --configfile (config/config.yaml "
+        "of the working directory first) and checked against the workflow's schemas: the options "
+        "below take the values of its diagnosis section; an option given here wins",
+    )
+    p.set_defaults(config_values=lambda cfg: _option_values(cfg, *groups))
+
+
+def _option_values(cfg, *groups):
+    from .settings import option_values
+
+    return option_values(cfg, *groups)
+
+
 def _search_options(p) -> None:
     """Options of the artifact search (master-curve, extend-law, crossval)."""
     _measured_option(p)
@@ -116,6 +137,7 @@ def read_calibration(args) -> dict | None:
 def _fit_options(p) -> None:
     """Options of the artifact search and of the extended law (extend-law, crossval)."""
     _search_options(p)
+    _config_option(p, "search", "law")
     g = p.add_argument_group(
         "extended law: candidate settings, chosen by cross-validation (asphalt_nscd.diagnosis.crossval)"
     )
@@ -308,6 +330,7 @@ def _add_calibrate_search(subparsers) -> None:
         "(asphalt_nscd.diagnosis.calibration).",
     )
     _search_options(p)
+    _config_option(p, "search", "calibration")
     p.add_argument(
         "--test",
         type=Path,
@@ -345,6 +368,7 @@ def _add_master_curve(subparsers) -> None:
         "'diagnose --master-curve'.",
     )
     _search_options(p)
+    _config_option(p, "search")
     p.add_argument(
         "--test",
         type=Path,
@@ -653,6 +677,7 @@ def _add_diagnose(subparsers) -> None:
         help="test-geometry JSON of the measured table (default: the sidecar <measured stem>.test.json "
         "next to it, else an unknown test: inertia not testable)",
     )
+    _config_option(p, "causes")
     p.add_argument(
         "--tolerance-network-factor",
         type=float,
