@@ -220,7 +220,13 @@ def test_diagnosis_inputs_with_auto_settings():
     opts = plan.diagnose_options(cfg)
     # diagnose reads the artifact search and the law (rules master_curve, extend_law): no fit options
     assert opts.startswith("--simulated ") and "--law-" not in opts and "--alpha" not in opts
-    search = {"alpha": 0.001, "shift": "wlf", "t_ref": None, "identifiability_null": 0.995, "identifiability_rival": 0.95}
+    search = {
+        "alpha": 0.001,
+        "shift": "wlf",
+        "t_ref": None,
+        "identifiability_null": 0.995,
+        "identifiability_rival": 0.95,
+    }
     assert plan.diagnosis_settings(cfg, "search") == search
     law = plan.diagnosis_settings(cfg, "search", "law")
     assert {k: law[k] for k in search} == search
