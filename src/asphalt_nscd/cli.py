@@ -11,6 +11,7 @@ simulation resumes from its last checkpoint when rerun.
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import signal
 import sys
@@ -77,12 +78,42 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@functools.lru_cache(maxsize=1)
+def _commands() -> dict:
+    """Subcommand name -> its parser (built once per process)."""
+    return dict(next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)).choices)
+
+
+def config_values(command: str, cfg, **args) -> dict:
+    """The option values command ``command`` takes from the merged, checked config ``cfg`` when
+    run with the options ``args`` (argument name -> value; the others at their defaults): what
+    a rule keeps as its ``settings`` parameter, so that a change of them, and only of them,
+    reruns it.
+
+    Raises
+    ------
+    KeyError
+        for a command that takes no values from a config.
+    """
+    sub = _commands()[command]
+    values = sub.get_default("config_values")
+    if values is None:
+        raise KeyError(f"asphalt-nscd {command} takes no option values from --config")
+    defaults = {a.dest: a.default for a in sub._actions if a.dest != "help"}
+    known = set(defaults)
+    return {
+        k: v
+        for k, v in values(cfg, argparse.Namespace(**{**defaults, **args, "command": command})).items()
+        if k in known
+    }
+
+
 def with_config_values(parser: argparse.ArgumentParser, args: argparse.Namespace, argv) -> argparse.Namespace:
     """``args`` of a command that takes its option values from a workflow config: when the
-    command declares ``config_values`` (a function of the merged config giving argument name
-    -> value) and was given ``--config FILE...``, the files are merged and checked against the
-    workflow's schemas (:func:`asphalt_nscd.config.checked`), the values become the command's
-    defaults, and the command line is parsed again, so that an option given on it wins.
+    command declares ``config_values`` (:func:`asphalt_nscd.config.config_option`) and was given ``--config
+    FILE...``, the files are merged and checked against the workflow's schemas
+    (:func:`asphalt_nscd.config.checked`), the values become the command's defaults, and the
+    command line is parsed again, so that an option given on it wins.
 
     Raises
     ------
@@ -96,7 +127,7 @@ def with_config_values(parser: argparse.ArgumentParser, args: argparse.Namespace
 
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
     known = {a.dest for a in sub._actions}
-    sub.set_defaults(**{k: v for k, v in values(config.checked(args.config)).items() if k in known})
+    sub.set_defaults(**{k: v for k, v in values(config.checked(args.config), args).items() if k in known})
     return parser.parse_args(argv)
 
 

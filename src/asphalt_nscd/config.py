@@ -204,3 +204,20 @@ def write_run_config(cfg: Mapping, directory: str | Path = RUN_CONFIG_DIR) -> st
     if not path.is_file():
         write_text(text, path)
     return path.as_posix()
+
+
+def config_option(p, values, section: str) -> None:
+    """Give command ``p`` the option ``--config FILE...`` and the function ``values(cfg, args)``
+    (merged, checked workflow config and the parsed command line -> argument name -> value)
+    whose values become the command's defaults (:func:`asphalt_nscd.cli.with_config_values`); ``section`` names
+    the config keys the values come from, for the help."""
+    p.add_argument(
+        "--config",
+        nargs="+",
+        default=None,
+        metavar="FILE",
+        help="workflow config files (YAML) merged as Snakemake merges --configfile (config/config.yaml "
+        f"of the working directory first) and checked against the workflow's schemas: options of "
+        f"this command not given here take the values of {section}",
+    )
+    p.set_defaults(config_values=values)

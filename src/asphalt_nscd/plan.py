@@ -32,6 +32,8 @@ import os
 import re
 from pathlib import Path
 
+from .campaign import modes
+from .campaign.modes import OWN_LAW_MODES, schedule
 from .io import InputError
 
 #: the index of results/report/, the default target (rule all)
@@ -95,7 +97,9 @@ TABLE3_READINGS = ("Pa", "kPa")
 #: calibration.table3_units): same schedule (campaign.paper), own overrides (campaign.paper_<unit>)
 READING_MODES = tuple(f"paper_{u}" for u in TABLE3_READINGS)
 #: main campaign modes with a numerical isotherms / Table 4 aggregation (wildcard constraint)
-ISOTHERM_MODES = "paper|paper_Pa|paper_kPa|measured|extended"
+ISOTHERM_MODES = "|".join(modes.ISOTHERM_MODES)
+#: the paper's Table 4 (MRE of its simulations against its experiments)
+PAPER_TABLE4 = "data/paper/table4_mre.csv"
 #: every job mode of rule run_2pb (wildcard constraint)
 JOB_MODES = (
     "paper|paper_Pa|paper_kPa|measured|extended|dt_study|sensitivity|units_Pa|units_kPa|units_Pa_nobreak"
@@ -201,6 +205,15 @@ def from_wildcards(func, config: dict):
     return of_wildcards
 
 
+def command_settings(config: dict, command: str, **args) -> dict:
+    """The option values ``asphalt-nscd command --config`` takes from the run's configuration
+    when given the options ``args`` (:func:`asphalt_nscd.cli.config_values`): a rule keeps them
+    as its ``settings`` parameter, so that a change of them, and only of them, reruns it."""
+    from .cli import config_values
+
+    return config_values(command, config, **args)
+
+
 # ---------------------------------------------------------------------------------------------
 # lab data
 
@@ -226,13 +239,6 @@ def measured_test_input(config: dict) -> list:
     return [test] if Path(test).is_file() or config["measured"].get("test") else []
 
 
-def measured_test_option(wildcards, input) -> str:
-    """Params function of rule measured_table: ``--test {json}`` when the job has one."""
-    import shlex
-
-    return f"--test {shlex.quote(str(input.test[0]))}" if input.test else ""
-
-
 def record_file(config: dict, record: str) -> str:
     """Path of the raw lab record ``record`` (lab.records)."""
     records = lab_records(config)
@@ -244,24 +250,6 @@ def record_file(config: dict, record: str) -> str:
 def record_meta(config: dict, record: str) -> str:
     """The metadata JSON beside a raw lab record (same stem, ``.json``)."""
     return str(Path(record_file(config, record)).with_suffix(".json"))
-
-
-# ---------------------------------------------------------------------------------------------
-# calibration
-
-
-def calibration_fit_options(config: dict) -> str:
-    """Options of the Burger's fits (rules fit_burgers, table3_refit_check): weights and starts
-    of config calibration."""
-    cal = config["calibration"]
-    return (
-        f"--weight-log-modulus {cal['weight_log_modulus']} --weight-phase {cal['weight_phase']} "
-        f"--n-starts {cal['n_starts']}"
-    )
-
-
-# ---------------------------------------------------------------------------------------------
-# NSCD core
 
 
 def nscd_bench_files(config: dict) -> list:
@@ -351,11 +339,6 @@ def resolution_samples(config: dict) -> list:
     return out
 
 
-def resolution_options(config: dict) -> str:
-    """The ``--samples LEVEL=PATH ...`` option of harmonic-resolution."""
-    return "--samples " + " ".join(f"{level}={path}" for level, path in resolution_samples(config))
-
-
 def prepare_bench_file(config: dict) -> str:
     """The preparation benchmark: the first seed at the configuration's own size."""
     return f"results/bench/prepare_s{config['sample']['seeds'][0]}.json"
@@ -391,21 +374,6 @@ def mode_samples(config: dict, mode: str) -> list:
     campaign.extended.n_samples (extended)."""
     camp = config["campaign"]
     return campaign_samples(config, camp["extended"]["n_samples"] if mode == "extended" else camp["n_samples"])
-
-
-def schedule(config: dict, mode: str) -> dict:
-    """The schedule section of a main mode: campaign.measured (measured, extended) or
-    campaign.paper (paper and the reading modes paper_Pa, paper_kPa)."""
-    return config["campaign"]["measured" if mode in ("measured", "extended") else "paper"]
-
-
-def table3_reading(config: dict, mode: str) -> str:
-    """The unit reading of Table 3 of a paper-parameter mode: calibration.table3_units for
-    ``paper`` and the studies run beside it (dt_study, sensitivity), the mode's own for
-    ``paper_<unit>`` and ``units_<unit>[_nobreak]``."""
-    if mode.startswith(("paper_", "units_")):
-        return mode.split("_")[1]
-    return config["calibration"]["table3_units"]
 
 
 def mode_rows(config: dict, mode: str, samples=None) -> list:
@@ -524,70 +492,78 @@ def law_option(config: dict, mode: str) -> str:
 
 
 def case_options(config: dict, mode: str, sample: str, case: str) -> str:
-    """``asphalt-nscd run-2pb`` options of one job: temperature and frequency of the case name,
-    its time step or sensitivity factor, the network factor JSON (extended mode with the
-    transfer correction) and the Table 3 unit reading (paper-parameter modes)."""
+    """``asphalt-nscd run-2pb`` options of one job's case name: its temperature and frequency,
+    and its time step (dt study) or sensitivity factor. What the job takes from the run's
+    config besides its test settings is :func:`job_values`."""
     c = parse_case(case)
     opts = f"--temperature {c['T']} --frequency {c['f']}"
     if c["dt"]:
         opts += f" --dt {c['dt']}"
     if c["p"]:
         opts += f" --factor {c['p']}={c['x']}"
-    if mode == "extended" and transfer_correction(config):
-        opts += f" --network-factor-json {transfer_file(sample)}"
-    if not c["dt"] and not c["p"] and is_verification(config, mode, c["T"], c["f"]):
-        opts += " --verify"
-    if mode in ("measured", "extended"):
-        return opts
-    return f"{opts} --table3-units {table3_reading(config, mode)}"
+    return opts
 
 
-def is_verification(config: dict, mode: str, T, f) -> bool:
-    """Whether the main-campaign job of ``mode`` at (T degC, f Hz) is a verification job
-    (campaign.verification: ``ends`` = the coldest and warmest temperature at the lowest and
-    highest frequency of the mode's schedule; null = none): it steps in time and records its
-    orbit's result beside (asphalt_nscd.campaign.twopb.run_test)."""
-    if config["campaign"].get("verification") != "ends" or mode not in ISOTHERM_MODES.split("|"):
-        return False
-    sched = schedule(config, mode)
-    temps, freqs = [float(t) for t in sched["temperatures_C"]], [float(x) for x in sched["frequencies_Hz"]]
-    return float(T) in (min(temps), max(temps)) and float(f) in (min(freqs), max(freqs))
+def job_values(config: dict, mode: str, sample: str, case: str) -> dict:
+    """What a run_2pb job of ``case`` takes from the run's config besides its test settings
+    (:func:`asphalt_nscd.campaign.modes.config_values`: the Table 3 reading, whether it is a
+    verification job), kept by the rule as a parameter so that a change of them reruns it."""
+    c = parse_case(case)
+    return command_settings(
+        config,
+        "run-2pb",
+        mode=mode,
+        temperature=float(c["T"]),
+        frequency=float(c["f"]),
+        dt=float(c["dt"]) if c["dt"] else None,
+        factor=[f"{c['p']}={c['x']}"] if c["p"] else [],
+        law_json=mode_parameters(config, mode) if mode == "extended" else None,
+    )
+
+
+def isotherm_settings(config: dict, mode: str) -> dict:
+    """What campaign-isotherms of ``mode`` takes from the run's config (its Table 3 reading and
+    title; :func:`command_settings`)."""
+    return command_settings(
+        config,
+        "campaign-isotherms",
+        mode=mode,
+        law_json=mode_parameters(config, mode) if mode == "extended" else None,
+    )
+
+
+def policy_settings(config: dict, mode: str) -> dict:
+    """What campaign-dt-policy of ``mode`` takes from the run's config besides the test
+    settings (Table 3 reading, temperature, frequencies; :func:`command_settings`)."""
+    return command_settings(config, "campaign-dt-policy", settings_mode=mode)
+
+
+def mode_paper_table4(config: dict, mode: str) -> list:
+    """The paper's Table 4 shown beside a paper-parameter mode's Table 4 analogue, else none."""
+    return [] if mode in OWN_LAW_MODES else [PAPER_TABLE4]
+
+
+def input_options(**flags: str):
+    """Params function of a rule whose command takes some inputs as options: ``key=flag`` ->
+    ``flag path...`` for each named input ``key`` the job has (an empty input gives nothing),
+    the paths shell-quoted."""
+    import shlex
+
+    def options(wildcards, input) -> str:
+        out = []
+        for key, flag in flags.items():
+            paths = getattr(input, key, None) or []
+            paths = [paths] if isinstance(paths, str) else list(paths)
+            if paths:
+                out.append(" ".join([flag, *(shlex.quote(str(p)) for p in paths)]))
+        return " ".join(out)
+
+    return options
 
 
 def mode_summary(config: dict, mode: str) -> list:
     """The lab summary the isotherms of a mode are compared with (measured, extended), else none."""
-    return [MEASURED_SUMMARY] if mode in ("measured", "extended") else []
-
-
-def mode_options(config: dict, mode: str) -> str:
-    """campaign-isotherms options of a mode: the measured summary, or the Table 3 reading and
-    the paper's Table 4."""
-    if mode in ("measured", "extended"):
-        return f"--measured-summary {MEASURED_SUMMARY}"
-    return f"--table3-units {table3_reading(config, mode)} --paper-table4 data/paper/table4_mre.csv"
-
-
-def isotherms_title(config: dict, mode: str) -> str:
-    """Title of the isotherm figures of a mode."""
-    if mode in ("measured", "extended"):
-        return f"NSCD vs measured ({mode} mode)"
-    return f"NSCD vs Table 3 Burger's read in {table3_reading(config, mode)} ({mode} mode)"
-
-
-def policy_temperature(config: dict, mode: str) -> float:
-    """Temperature of the dt-policy phase error of a mode: the upper median of its schedule."""
-    temps = sorted(schedule(config, mode)["temperatures_C"])
-    return temps[len(temps) // 2]
-
-
-def policy_units_option(config: dict, mode: str) -> str:
-    """The Table 3 reading option of the dt-policy check (none for the measured mode)."""
-    return "" if mode == "measured" else f"--table3-units {table3_reading(config, mode)}"
-
-
-def mode_frequencies(config: dict, mode: str) -> str:
-    """The frequencies of a mode's schedule, space-separated (``:g``)."""
-    return " ".join(number(f) for f in schedule(config, mode)["frequencies_Hz"])
+    return [MEASURED_SUMMARY] if mode in OWN_LAW_MODES else []
 
 
 # ---------------------------------------------------------------------------------------------
@@ -606,43 +582,21 @@ def harmonic_sweep_file(sample: str, mode: str) -> str:
     return f"results/harmonic/sweep/{sample}_{mode}.csv"
 
 
+def harmonic_frequency_option(wildcards, input) -> str:
+    """Params function of rule harmonic_jobs: ``--grid paper`` (the paper's frequencies,
+    harmonic.paper_frequencies_Hz, from the run's config) in the paper mode, else the measured
+    (T, f) of the lab summary, the job's ``input.summary``."""
+    return "--grid paper" if wildcards.mode == "paper" else f"--frequencies-from {input.summary}"
+
+
+def harmonic_job_settings(config: dict, mode: str) -> dict:
+    """What a harmonic_jobs job of ``mode`` takes from the run's config (:func:`command_settings`)."""
+    return command_settings(config, "harmonic", grid="paper" if mode == "paper" else None)
+
+
 def harmonic_parameters(config: dict, mode: str) -> str:
     """Burger's table of a harmonic mode (paper: Table 3 read; measured: calibrated)."""
     return HARMONIC_PARAMETERS[mode]
-
-
-def harmonic_frequency_option_function(config: dict):
-    """Params function of rule harmonic_jobs: the paper's frequency list (paper mode), or the
-    measured (T, f) of the lab summary, the job's ``input.summary``."""
-    frequencies = config["harmonic"]["paper_frequencies_Hz"]
-
-    def frequency_option(wildcards, input):
-        if wildcards.mode == "paper":
-            return f"--frequency {spaced(frequencies)}"
-        return f"--frequencies-from {input.summary}"
-
-    return frequency_option
-
-
-def harmonic_kinematics_options(config: dict) -> str:
-    """Bond kinematics and head rotation options of the harmonic solver (config harmonic)."""
-    harm = config["harmonic"]
-    return f"--bond-kinematics {harm['bond_kinematics']} --head-rotation {harm['head_rotation']}"
-
-
-def harmonic_solver_options(config: dict) -> str:
-    """Inertia, solver, tolerance and kinematics options of the harmonic solver."""
-    harm = config["harmonic"]
-    return (
-        f"--inertia {harm['inertia']} --solver {harm['solver']} --rtol {harm['rtol']} "
-        + harmonic_kinematics_options(config)
-    )
-
-
-def harmonic_sweep(config: dict) -> str:
-    """The frequency sweep option values: fmin, fmax (Hz), points."""
-    sweep = config["harmonic"]["sweep"]
-    return f"{sweep['fmin_Hz']} {sweep['fmax_Hz']} {sweep['points']}"
 
 
 def head_rotation(config: dict) -> str:
@@ -692,6 +646,19 @@ def diagnosis_inputs(config: dict) -> dict:
     return inputs
 
 
+def diagnosis_input_function(config: dict):
+    """Input function of rule diagnose (for ``unpack``): :func:`diagnosis_inputs`, named by key."""
+
+    def inputs(wildcards) -> dict:
+        return diagnosis_inputs(config)
+
+    return inputs
+
+
+#: the option of each simulation input of rule diagnose (``diagnose --simulated ...``)
+DIAGNOSIS_INPUT_OPTIONS = {key: f"--{key.replace('_', '-')}" for key in DIAGNOSIS_INPUT_KEYS}
+
+
 def diagnosis_input_files(config: dict) -> list:
     """Every simulation file of rule diagnose, in the order of :func:`diagnosis_inputs`."""
     return [p for paths in diagnosis_inputs(config).values() for p in paths]
@@ -704,18 +671,6 @@ def diagnosis_settings(config: dict, *groups: str) -> dict:
     from .diagnosis.settings import option_values
 
     return option_values(config, *groups)
-
-
-def diagnose_options(config: dict) -> str:
-    """Options of rule diagnose: the simulation inputs and, with the time integration input,
-    the campaign's Moreau-Jean theta (rows of other thetas are dropped)."""
-    opts = ""
-    inputs = diagnosis_inputs(config)
-    for key, paths in inputs.items():
-        opts += f" --{key.replace('_', '-')} " + " ".join(paths)
-    if "time_integration" in inputs:
-        opts += f" --theta {config['campaign']['test']['theta']}"
-    return opts.strip()
 
 
 def crossval_file(scheme: str, suffix: str = ".csv") -> str:
@@ -789,15 +744,6 @@ def output_directory(wildcards, output) -> str:
     """Params function of a command that writes its files into one directory (rule export_law):
     the directory of the job's first output file."""
     return str(Path(output[0]).parent)
-
-
-def time_domain_option(wildcards, input) -> str:
-    """Params function of rule crossval: ``--time-domain {row}`` when the job has the row."""
-    return f"--time-domain {input.time_domain}" if input.time_domain else ""
-
-
-# ---------------------------------------------------------------------------------------------
-# report
 
 
 def report_files(config: dict) -> list:

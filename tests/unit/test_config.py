@@ -470,3 +470,94 @@ def test_diagnosis_commands_take_their_options_from_the_config(name, tmp_path, i
     bad = tmp_path / "bad.yaml"
     bad.write_text("diagnosis:\n  alpha: high\n")
     assert main(base + ["--config", str(bad)]) == 2
+
+
+@pytest.mark.parametrize("name", ["config", "smoke", "paper"])
+def test_commands_take_from_the_run_config_what_the_rules_track(name, tmp_path, in_repo):
+    """A command given the run's config file parses to the values the rule keeps as its
+    settings (plan.command_settings and the mode-aware plan.job_values, isotherm_settings,
+    policy_settings), and those are the config's own values: the Burger's fits, the harmonic
+    solver and its studies, the 2PB job's Table 3 reading and verification, the dt-policy check."""
+    from asphalt_nscd import plan
+    from asphalt_nscd.cli import build_parser, with_config_values
+
+    cfg = snakemake_config(name)
+    path = config.write_run_config(cfg, tmp_path)
+
+    def parsed(*argv: str) -> dict:
+        parser = build_parser()
+        args = [*argv, "--config", path]
+        return vars(with_config_values(parser, parser.parse_args(args), args))
+
+    def agrees(got: dict, settings: dict) -> None:
+        assert settings, "the rule tracks nothing"
+        for dest, value in settings.items():
+            assert got[dest] == value, dest
+
+    cal, harm = cfg["calibration"], cfg["harmonic"]
+    fit = parsed("fit", "--measured", "m.csv", "-o", "o.csv")
+    agrees(fit, plan.command_settings(cfg, "fit"))
+    assert (fit["weight_phase"], fit["n_starts"]) == (cal["weight_phase"], cal["n_starts"])
+    micro = parsed("micro", "--parameters", "p.csv", "-o", "o.csv")
+    agrees(micro, plan.command_settings(cfg, "micro"))
+    assert micro["r_min_mm"] == cal["micro"]["r_min_mm"] and micro["nu"] == cal["micro"]["poisson_ratio"]
+    assert parsed("table3", "t.csv", "-o", "o.csv")["units"] == cal["table3_units"]
+    refit = parsed("refit-check", "--parameters", "p.csv", "-o", "o.csv")
+    assert refit["frequencies"] == cal["refit_frequencies_Hz"]
+    jobs = parsed("harmonic", "--sample", "s.h5", "--parameters", "p.csv", "--grid", "paper", "-o", "o.csv")
+    agrees(jobs, plan.harmonic_job_settings(cfg, "paper"))
+    assert jobs["frequency"] == harm["paper_frequencies_Hz"] and jobs["sweep"] is None
+    sweep = parsed("harmonic", "--sample", "s.h5", "--parameters", "p.csv", "--grid", "sweep", "-o", "o.csv")
+    assert sweep["sweep"] == [harm["sweep"]["fmin_Hz"], harm["sweep"]["fmax_Hz"], harm["sweep"]["points"]]
+    assert sweep["frequency"] is None
+    measured = parsed("harmonic", "--sample", "s.h5", "--parameters", "p.csv", "--frequencies-from", "m.csv", "-o", "o")
+    assert measured["frequency"] is None and measured["rtol"] == harm["rtol"]
+    compare = parsed("harmonic-compare", "--sample", "s.h5", "--parameters", "p.csv", "-o", "o.csv")
+    agrees(compare, plan.command_settings(cfg, "harmonic-compare"))
+    assert compare["dt"] == harm["compare"]["dt_s"] and compare["head_rotation"] == plan.head_rotation(cfg)
+    for command in ("harmonic-sensitivity", "harmonic-kinematics"):
+        agrees(
+            parsed(command, "--sample", "s.h5", "--parameters", "p.csv", "-o", "o.csv"),
+            plan.command_settings(cfg, command),
+        )
+    agrees(
+        parsed("harmonic-transfer", "--sample", "s.h5", "-o", "o.json"), plan.command_settings(cfg, "harmonic-transfer")
+    )
+    resolution = parsed(
+        "harmonic-resolution", "--samples", "a.h5", "-o", "o", "--summary", "s", "--fits", "f", "--figure", "g"
+    )
+    assert resolution["levels"] == [level for level, _ in plan.resolution_samples(cfg)]
+    agrees(parsed("harmonic-bench", "-o", "b.json"), plan.command_settings(cfg, "harmonic-bench"))
+    # the 2PB jobs of every main mode at their schedule's corners, and the studies' jobs
+    for mode in ("paper", "paper_kPa", "measured", "extended"):
+        sched = cfg["campaign"]["measured" if mode in ("measured", "extended") else "paper"]
+        source = ["--law-json", "law.json"] if mode == "extended" else ["--parameters", "p.csv"]
+        for T in (min(sched["temperatures_C"]), max(sched["temperatures_C"])):
+            for f in sched["frequencies_Hz"]:
+                case = plan.case_name(T, f)
+                argv = ["run-2pb", "--sample", "s.h5", "--mode", mode, *source, "-o", "r.h5", "--row", "r.csv"]
+                got = parsed(*argv, *plan.case_options(cfg, mode, "s1", case).split())
+                agrees(got, plan.job_values(cfg, mode, "s1", case))
+        isotherms = ["campaign-isotherms", "--rows", "r.csv", *source, "--mode", mode, "--isotherms", "i"]
+        got = parsed(*isotherms, "--table4", "t", "--figure-modulus", "m", "--figure-phase", "p")
+        agrees(got, plan.isotherm_settings(cfg, mode))
+        if mode != "extended":
+            got = parsed("campaign-dt-policy", "--parameters", "p.csv", "--settings-mode", mode, "-o", "o.csv")
+            agrees(got, plan.policy_settings(cfg, mode))
+            assert got["frequencies"] == [float(f) for f in sched["frequencies_Hz"]]
+    for case in ("20C_3Hz_Emx1.5", "15C_3Hz_dt5e-05"):
+        argv = [
+            "run-2pb",
+            "--sample",
+            "s.h5",
+            "--mode",
+            "sensitivity",
+            "--parameters",
+            "p.csv",
+            "-o",
+            "r",
+            "--row",
+            "r",
+        ]
+        got = parsed(*argv, *plan.case_options(cfg, "sensitivity", "s1", case).split())
+        assert got["verify"] is False and got["table3_units"] == cal["table3_units"]

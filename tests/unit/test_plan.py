@@ -17,6 +17,7 @@ import pytest
 import yaml
 
 from asphalt_nscd import plan
+from asphalt_nscd.campaign import modes
 from asphalt_nscd.io import InputError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -117,41 +118,52 @@ def test_case_names_round_trip():
 
 def test_case_options_of_known_cases():
     cfg = load_config("smoke")
-    # the smoke schedule's one cell is its coldest and warmest, lowest and highest: a verification job
-    assert plan.case_options(cfg, "extended", "s1", "21C_10Hz") == (
-        "--temperature 21 --frequency 10 --network-factor-json results/harmonic/transfer/s1.json --verify"
+    # the case name gives temperature, frequency and a dt or factor; the run's config the rest
+    assert plan.case_options(cfg, "extended", "s1", "21C_10Hz") == "--temperature 21 --frequency 10"
+    assert plan.case_options(cfg, "sensitivity", "s1", "20C_40Hz_eta_kx0.5") == (
+        "--temperature 20 --frequency 40 --factor eta_k=0.5"
     )
-    assert plan.case_options(cfg, "measured", "s1", "21C_10Hz") == "--temperature 21 --frequency 10 --verify"
-    cfg = copy.deepcopy(cfg)
-    cfg["campaign"]["verification"] = None
-    assert plan.case_options(cfg, "measured", "s1", "21C_10Hz") == "--temperature 21 --frequency 10"
+    assert (
+        plan.case_options(cfg, "dt_study", "s1", "15C_40Hz_dt0.0002") == "--temperature 15 --frequency 40 --dt 0.0002"
+    )
+    # the smoke schedule's one cell is its coldest and warmest, lowest and highest: a verification job
+    assert plan.job_values(cfg, "extended", "s1", "21C_10Hz") == {"verify": True}
+    assert plan.job_values(cfg, "measured", "s1", "21C_10Hz") == {"table3_units": None, "verify": True}
+    off = copy.deepcopy(cfg)
+    off["campaign"]["verification"] = None
+    assert plan.job_values(off, "measured", "s1", "21C_10Hz") == {"table3_units": None, "verify": False}
     paper = load_config("paper")
     ends = [
         (T, f)
         for T in paper["campaign"]["paper"]["temperatures_C"]
         for f in paper["campaign"]["paper"]["frequencies_Hz"]
-        if plan.is_verification(paper, "paper_kPa", T, f)
+        if modes.is_verification(paper, "paper_kPa", T, f)
     ]
     assert ends == [(-10, 3), (-10, 40), (30, 3), (30, 40)]
-    assert not plan.is_verification(paper, "sensitivity", -10, 3)
-    assert plan.case_options(cfg, "sensitivity", "s1", "20C_40Hz_eta_kx0.5") == (
-        "--temperature 20 --frequency 40 --factor eta_k=0.5 --table3-units Pa"
-    )
-    assert plan.case_options(cfg, "dt_study", "s1", "15C_40Hz_dt0.0002") == (
-        "--temperature 15 --frequency 40 --dt 0.0002 --table3-units Pa"
-    )
-    assert plan.case_options(cfg, "units_kPa_nobreak", "s1", "20C_40Hz").endswith("--table3-units kPa")
-    off = copy.deepcopy(cfg)
+    assert not modes.is_verification(paper, "sensitivity", -10, 3)
+    # a study job (factor, dt) never verifies; its Table 3 reading is the paper mode's or its own
+    assert plan.job_values(paper, "sensitivity", "s1", "-10C_3Hz_eta_kx0.5") == {"table3_units": "Pa"}
+    assert plan.job_values(paper, "dt_study", "s1", "15C_3Hz_dt0.0002") == {"table3_units": "Pa"}
+    assert plan.job_values(paper, "units_kPa_nobreak", "s1", "20C_40Hz") == {"table3_units": "kPa", "verify": False}
+    assert plan.job_values(paper, "paper_kPa", "s1", "-10C_40Hz") == {"table3_units": "kPa", "verify": True}
+    assert plan.job_transfer(off, "extended", "s1") == ["results/harmonic/transfer/s1.json"]
     off["campaign"]["extended"]["transfer_correction"] = False
-    assert plan.case_options(off, "extended", "s1", "21C_10Hz") == "--temperature 21 --frequency 10"
     assert plan.job_transfer(off, "extended", "s1") == []
     assert plan.job_transfer(cfg, "extended", "s2") == ["results/harmonic/transfer/s2.json"]
     assert plan.job_transfer(cfg, "measured", "s1") == []
     # the same through the rule's params function of the wildcards
     fn = plan.from_wildcards(plan.case_options, cfg)
     assert fn(SimpleNamespace(mode="dt_study", sample="s1", case="15C_40Hz_dt0.0002")) == (
-        "--temperature 15 --frequency 40 --dt 0.0002 --table3-units Pa"
+        "--temperature 15 --frequency 40 --dt 0.0002"
     )
+    # an input given as an option only when the job has it, shell-quoted
+    opt = plan.input_options(transfer="--network-factor-json", test="--test")
+    assert opt(None, SimpleNamespace(transfer=["t/s1.json"], test=[])) == "--network-factor-json t/s1.json"
+    assert (
+        opt(None, SimpleNamespace(transfer="a b.json", test=["x.json"]))
+        == "--network-factor-json 'a b.json' --test x.json"
+    )
+    assert opt(None, SimpleNamespace()) == ""
 
 
 def test_mode_laws_and_options():
@@ -161,15 +173,25 @@ def test_mode_laws_and_options():
     assert plan.mode_parameters(cfg, "units_kPa") == cfg["calibration"]["table3"] == "data/paper/table3_burgers.csv"
     assert plan.law_option(cfg, "extended") == "--law-json" and plan.law_option(cfg, "paper") == "--parameters"
     assert plan.mode_summary(cfg, "extended") == [plan.MEASURED_SUMMARY] and plan.mode_summary(cfg, "paper") == []
-    assert plan.mode_options(cfg, "paper") == "--table3-units Pa --paper-table4 data/paper/table4_mre.csv"
-    assert plan.mode_options(cfg, "measured") == "--measured-summary results/lab/measured_summary.csv"
-    assert plan.isotherms_title(cfg, "paper") == "NSCD vs Table 3 Burger's read in Pa (paper mode)"
-    assert plan.isotherms_title(cfg, "paper_kPa") == "NSCD vs Table 3 Burger's read in kPa (paper_kPa mode)"
+    assert (
+        plan.mode_paper_table4(cfg, "paper_kPa") == [plan.PAPER_TABLE4]
+        and plan.mode_paper_table4(cfg, "measured") == []
+    )
+    assert Path(plan.PAPER_TABLE4).is_file()
+    title = "NSCD vs Table 3 Burger's read in Pa (paper mode)"
+    assert plan.isotherm_settings(cfg, "paper") == {"table3_units": "Pa", "title": title}
+    assert plan.isotherm_settings(cfg, "paper_kPa") == {
+        "table3_units": "kPa",
+        "title": "NSCD vs Table 3 Burger's read in kPa (paper_kPa mode)",
+    }
+    assert plan.isotherm_settings(cfg, "extended") == {"title": "NSCD vs measured (extended mode)"}
+    assert plan.isotherm_settings(cfg, "measured") == {
+        "table3_units": None,
+        "title": "NSCD vs measured (measured mode)",
+    }
     # the reading modes: the paper schedule, their own reading and overrides
-    assert plan.mode_options(cfg, "paper_kPa") == "--table3-units kPa --paper-table4 data/paper/table4_mre.csv"
-    assert plan.case_options(cfg, "paper_kPa", "s1", "15C_40Hz") == "--temperature 15 --frequency 40 --table3-units kPa"
-    assert plan.policy_units_option(cfg, "paper_Pa") == "--table3-units Pa"
-    assert plan.mode_frequencies(cfg, "paper_kPa") == plan.mode_frequencies(cfg, "paper")
+    assert plan.job_values(cfg, "paper_kPa", "s1", "15C_40Hz") == {"table3_units": "kPa", "verify": False}
+    assert modes.schedule(cfg, "paper_kPa") == modes.schedule(cfg, "paper")
     both = copy.deepcopy(cfg)
     both["campaign"]["paper_kPa"] = {"yield_stress_Pa": None, "linear_solver": "direct"}
     kpa = plan.mode_settings(both, "paper_kPa")
@@ -178,18 +200,24 @@ def test_mode_laws_and_options():
     assert {k: v for k, v in kpa.items() if k not in ("yield_stress_Pa", "linear_solver")} == {
         k: v for k, v in pa.items() if k not in ("yield_stress_Pa", "linear_solver")
     }
-    assert plan.isotherms_title(cfg, "extended") == "NSCD vs measured (extended mode)"
-    # dt-policy check: upper median temperature and the schedule's frequencies
-    assert plan.policy_temperature(cfg, "paper") == 15 and plan.policy_temperature(cfg, "measured") == 21
-    assert plan.mode_frequencies(cfg, "measured") == "0.1 0.5 1 5 10 25"
-    assert plan.policy_units_option(cfg, "measured") == ""
-    assert plan.policy_units_option(cfg, "paper") == "--table3-units Pa"
+    # dt-policy check: the reading, upper median temperature and the schedule's frequencies
+    assert plan.policy_settings(cfg, "paper") == {
+        "table3_units": "Pa",
+        "temperature": 15.0,
+        "frequencies": [3.0, 6.0, 10.0, 25.0, 40.0],
+    }
+    assert plan.policy_settings(cfg, "measured") == {
+        "table3_units": None,
+        "temperature": 21.0,
+        "frequencies": [0.1, 0.5, 1.0, 5.0, 10.0, 25.0],
+    }
+    assert plan.policy_settings(cfg, "paper_Pa")["table3_units"] == "Pa"
     settings = plan.mode_settings(cfg, "extended")
     assert settings["bond_kinematics"] == plan.bond_kinematics(cfg) and settings["start"] in ("rest", "periodic")
     wc = SimpleNamespace(mode="paper")
     assert plan.from_wildcards(plan.mode_rows, cfg)(wc) == plan.mode_rows(cfg, "paper")
     assert plan.from_wildcards(plan.mode_settings, cfg)(wc) == plan.mode_settings(cfg, "paper")
-    assert plan.from_wildcards(plan.policy_temperature, cfg)(wc) == 15
+    assert plan.from_wildcards(plan.policy_settings, cfg)(wc)["temperature"] == 15
     assert plan.from_wildcards(plan.mode_parameters, cfg)(wc) == "data/paper/table3_burgers.csv"
 
 
@@ -217,9 +245,8 @@ def test_diagnosis_inputs_with_auto_settings():
         "simulated_extended": ["results/sim/extended/s1/21C_10Hz.csv"],
         "transfer": ["results/harmonic/transfer/s1.json"],
     }
-    opts = plan.diagnose_options(cfg)
-    # diagnose reads the artifact search and the law (rules master_curve, extend_law): no fit options
-    assert opts.startswith("--simulated ") and "--law-" not in opts and "--alpha" not in opts
+    opts = plan.input_options(**plan.DIAGNOSIS_INPUT_OPTIONS)(None, SimpleNamespace(**plan.diagnosis_inputs(cfg)))
+    assert plan.diagnosis_input_function(cfg)(None) == plan.diagnosis_inputs(cfg)
     search = {
         "alpha": 0.001,
         "shift": "wlf",
@@ -231,21 +258,23 @@ def test_diagnosis_inputs_with_auto_settings():
     law = plan.diagnosis_settings(cfg, "search", "law")
     assert {k: law[k] for k in search} == search
     assert law["law_shifts"] == ["wlf"] and law["law_statics"] == ["constant", "trend"]
-    assert opts.endswith(
+    assert opts == (
         "--simulated results/sim/measured/s1/21C_10Hz.csv --harmonic results/harmonic/jobs/s1_measured.csv"
         " --time-integration results/campaign/measured/dt_policy_phase_error.csv"
         " --simulated-extended results/sim/extended/s1/21C_10Hz.csv --transfer results/harmonic/transfer/s1.json"
-        " --theta 0.5"
     )
-    assert plan.diagnosis_settings(cfg, "causes") == {"tolerance_network_factor": 0.01, "tolerance_phase_deg": 0.1}
-    # null leaves an input out (and the theta with the time integration), a path is used as is
+    assert plan.diagnosis_settings(cfg, "causes") == {
+        "tolerance_network_factor": 0.01,
+        "tolerance_phase_deg": 0.1,
+        "theta": 0.5,
+    }
+    # null leaves an input out, a path is used as is
     other = copy.deepcopy(cfg)
     other["diagnosis"]["harmonic"] = None
     other["diagnosis"]["time_integration"] = None
     other["diagnosis"]["simulated"] = "data/my_rows.csv"
     inputs = plan.diagnosis_inputs(other)
     assert "harmonic" not in inputs and inputs["simulated"] == ["data/my_rows.csv"]
-    assert "--theta" not in plan.diagnose_options(other)
     assert plan.diagnosis_input_files(other)[0] == "data/my_rows.csv"
     with pytest.raises(InputError, match="unknown simulation input"):
         plan.diagnosis_auto_input(cfg, "nope")
@@ -320,8 +349,6 @@ def test_lab_inputs(tmp_path):
     assert plan.measured_test(other) == str(tmp_path / "m.test.json") and plan.measured_test_input(other) == []
     other["measured"]["test"] = "given.json"
     assert plan.measured_test_input(other) == ["given.json"]
-    assert plan.measured_test_option(None, SimpleNamespace(test=["a.json"])) == "--test a.json"
-    assert plan.measured_test_option(None, SimpleNamespace(test=[])) == ""
     other["lab"]["records"] = ["data/lab/r1.csv", "data/lab/r2.csv"]
     assert plan.lab_records(other) == {"r1": "data/lab/r1.csv", "r2": "data/lab/r2.csv"}
     assert plan.from_wildcards(plan.record_meta, other)(SimpleNamespace(record="r2")) == "data/lab/r2.json"
@@ -338,7 +365,12 @@ def test_settings_and_options_of_other_rules():
     assert settings["bonded_contact"] == cfg["nscd"]["bonded_contact"]
     assert plan.sample_file("s3") == "results/samples/s3.h5"
     assert plan.prepare_bench_file(paper) == "results/bench/prepare_s1.json"
-    assert plan.calibration_fit_options(cfg).startswith("--weight-log-modulus ")
+    assert plan.command_settings(cfg, "fit") == {
+        "model": "burgers",
+        "weight_log_modulus": cfg["calibration"]["weight_log_modulus"],
+        "weight_phase": cfg["calibration"]["weight_phase"],
+        "n_starts": cfg["calibration"]["n_starts"],
+    }
     bench = cfg["nscd"]["bench"]
     assert plan.nscd_bench_files(cfg) == [f"results/bench/nscd_bonded_n{n}.json" for n in bench["bonded_n"]] + [
         f"results/bench/nscd_granular_n{n}.json" for n in bench["granular_n"]
@@ -349,21 +381,30 @@ def test_settings_and_options_of_other_rules():
     assert plan.bench_tolerance(cfg, "bonded") == bench["tolerance"]
     assert plan.spaced([3, 6.5]) == "3 6.5" and plan.comma_list([1e-4, 2]) == "0.0001,2"
     assert plan.number(40.0) == "40" and plan.number("1e-05") == "1e-05"
-    # harmonic solver
-    fn = plan.harmonic_frequency_option_function(cfg)
-    assert fn(SimpleNamespace(mode="paper"), None) == "--frequency 3 6 10 25 40"
+    # harmonic solver: the paper's frequencies or the lab summary's
+    fn = plan.harmonic_frequency_option
+    assert fn(SimpleNamespace(mode="paper"), None) == "--grid paper"
     assert fn(SimpleNamespace(mode="measured"), SimpleNamespace(summary="s.csv")) == "--frequencies-from s.csv"
-    assert plan.harmonic_solver_options(cfg).startswith("--inertia full --solver ")
-    assert plan.harmonic_solver_options(cfg).endswith(plan.harmonic_kinematics_options(cfg))
+    harm = cfg["harmonic"]
+    jobs = plan.harmonic_job_settings(cfg, "paper")
+    assert jobs["frequency"] == [3.0, 6.0, 10.0, 25.0, 40.0] and jobs["inertia"] == harm["inertia"]
+    assert "frequency" not in plan.harmonic_job_settings(cfg, "measured")
+    sweep = plan.command_settings(cfg, "harmonic", grid="sweep")["sweep"]
+    assert sweep == [harm["sweep"]["fmin_Hz"], harm["sweep"]["fmax_Hz"], harm["sweep"]["points"]]
     assert (
         plan.from_wildcards(plan.harmonic_parameters, cfg)(SimpleNamespace(mode="measured"))
         == plan.HARMONIC_PARAMETERS["measured"]
     )
-    sweep = cfg["harmonic"]["sweep"]
-    assert plan.harmonic_sweep(cfg) == f"{sweep['fmin_Hz']} {sweep['fmax_Hz']} {sweep['points']}"
+    # the commands that check or correct the time-domain test take its kinematics
+    transfer = plan.command_settings(cfg, "harmonic-transfer")
+    assert transfer == {
+        "bond_kinematics": plan.bond_kinematics(cfg),
+        "head_rotation": plan.head_rotation(cfg),
+        "nu": plan.twopb_poisson_ratio(cfg),
+    }
+    levels = plan.command_settings(cfg, "harmonic-resolution")["levels"]
+    assert levels == [level for level, _ in plan.resolution_samples(cfg)]
     assert plan.head_rotation(cfg) in ("free", "clamped") and 0 < plan.twopb_poisson_ratio(cfg) < 0.5
-    assert plan.time_domain_option(None, SimpleNamespace(time_domain="r.csv")) == "--time-domain r.csv"
-    assert plan.time_domain_option(None, SimpleNamespace(time_domain=[])) == ""
 
 
 def test_environment_and_schemas(tmp_path):

@@ -33,11 +33,13 @@ rule run_2pb:
         "../envs/asphalt-nscd.yaml"
     params:
         source=plan.from_wildcards(plan.law_option, config),
-        args=plan.from_wildcards(plan.case_options, config),
+        case=plan.from_wildcards(plan.case_options, config),
+        transfer=plan.input_options(transfer="--network-factor-json"),
         settings=plan.from_wildcards(plan.mode_settings, config),
+        job=plan.from_wildcards(plan.job_values, config),
     shell:
         "asphalt-nscd run-2pb --sample {input.sample} --sample-name {wildcards.sample} --mode {wildcards.mode}"
-        ' {params.source} {input.parameters} {params.args} --config "$ASPHALT_NSCD_RUN_CONFIG"'
+        ' {params.source} {input.parameters} {params.case} {params.transfer} --config "$ASPHALT_NSCD_RUN_CONFIG"'
         " -o {output.record} --row {output.row} 2> {log}"
 
 
@@ -46,6 +48,7 @@ rule campaign_isotherms:
         rows=plan.from_wildcards(plan.mode_rows, config),
         parameters=plan.from_wildcards(plan.mode_parameters, config),
         summary=plan.from_wildcards(plan.mode_summary, config),
+        paper_table4=plan.from_wildcards(plan.mode_paper_table4, config),
     output:
         isotherms="results/campaign/{mode}/numerical_isotherms.csv",
         table4=report(
@@ -76,12 +79,12 @@ rule campaign_isotherms:
         "../envs/asphalt-nscd.yaml"
     params:
         source=plan.from_wildcards(plan.law_option, config),
-        options=plan.from_wildcards(plan.mode_options, config),
-        title=plan.from_wildcards(plan.isotherms_title, config),
+        references=plan.input_options(summary="--measured-summary", paper_table4="--paper-table4"),
+        settings=plan.from_wildcards(plan.isotherm_settings, config),
     shell:
-        "asphalt-nscd campaign-isotherms --rows {input.rows} {params.source} {input.parameters} {params.options}"
-        " --isotherms {output.isotherms} --table4 {output.table4} --figure-modulus {output.modulus}"
-        " --figure-phase {output.phase} --title {params.title:q} 2> {log}"
+        "asphalt-nscd campaign-isotherms --rows {input.rows} {params.source} {input.parameters} {params.references}"
+        ' --mode {wildcards.mode} --config "$ASPHALT_NSCD_RUN_CONFIG" --isotherms {output.isotherms}'
+        " --table4 {output.table4} --figure-modulus {output.modulus} --figure-phase {output.phase} 2> {log}"
 
 
 rule campaign_dt_study:
@@ -224,10 +227,8 @@ rule campaign_dt_policy:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        units=plan.from_wildcards(plan.policy_units_option, config),
-        T=plan.from_wildcards(plan.policy_temperature, config),
-        freqs=plan.from_wildcards(plan.mode_frequencies, config),
         settings=plan.from_wildcards(plan.mode_settings, config),
+        policy=plan.from_wildcards(plan.policy_settings, config),
     shell:
-        "asphalt-nscd campaign-dt-policy --parameters {input.parameters} {params.units} --temperature {params.T}"
-        ' --frequencies {params.freqs} --config "$ASPHALT_NSCD_RUN_CONFIG" --settings-mode {wildcards.mode} -o {output} 2> {log}'
+        "asphalt-nscd campaign-dt-policy --parameters {input.parameters}"
+        ' --config "$ASPHALT_NSCD_RUN_CONFIG" --settings-mode {wildcards.mode} -o {output} 2> {log}'

@@ -238,7 +238,7 @@ rule crossval:
         "../envs/asphalt-nscd.yaml"
     params:
         settings=plan.diagnosis_settings(config, "search", "law"),
-        time_domain=plan.time_domain_option,
+        time_domain=plan.input_options(time_domain="--time-domain"),
     shell:
         'asphalt-nscd crossval --measured {input.measured} --scheme {wildcards.scheme} --config "$ASPHALT_NSCD_RUN_CONFIG" '
         "--calibration {input.calibration} --sample {input.sample} --transfer {input.transfer} {params.time_domain} -o {output.rows} "
@@ -247,6 +247,7 @@ rule crossval:
 
 rule diagnose:
     input:
+        unpack(plan.diagnosis_input_function(config)),
         measured=plan.MEASURED,
         search=rules.master_curve.output.search,
         corrected=rules.master_curve.output.corrected,
@@ -254,7 +255,6 @@ rule diagnose:
         laws=plan.LAW_JSON,
         crossval=plan.crossval_files(config),
         test=plan.MEASURED_TEST,
-        simulations=plan.diagnosis_input_files(config),
         card=plan.MATERIAL_CARDS["json"],
         without_flagged=rules.extend_law.output.without_flagged,
     output:
@@ -287,12 +287,12 @@ rule diagnose:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        options=plan.diagnose_options(config),
+        simulations=plan.input_options(**plan.DIAGNOSIS_INPUT_OPTIONS),
         settings=plan.diagnosis_settings(config, "causes"),
     shell:
         "asphalt-nscd diagnose --measured {input.measured} --test {input.test} --master-curve {input.search} "
         "--corrected-table {input.corrected} --macro-params {input.macro} --law-json {input.laws} "
-        '--crossval {input.crossval} --card {input.card} --law-without-flagged {input.without_flagged} {params.options} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.report} '
+        '--crossval {input.crossval} --card {input.card} --law-without-flagged {input.without_flagged} {params.simulations} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.report} '
         "--budget-csv {output.budget} --effects-csv {output.effects} --gain-csv {output.gain} "
         "--figure {output.figure} --page {output.page} 2> {log}"
 

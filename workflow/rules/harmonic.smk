@@ -30,11 +30,11 @@ rule harmonic_jobs:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        frequencies=plan.harmonic_frequency_option_function(config),
-        options=plan.harmonic_solver_options(config),
+        frequencies=plan.harmonic_frequency_option,
+        settings=plan.from_wildcards(plan.harmonic_job_settings, config),
     shell:
-        "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
-        "{params.frequencies} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
+        "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} {params.frequencies}"
+        ' --config "$ASPHALT_NSCD_RUN_CONFIG" --mode {wildcards.mode} -o {output} 2> {log}'
 
 
 rule harmonic_sweep:
@@ -52,11 +52,10 @@ rule harmonic_sweep:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        sweep=plan.harmonic_sweep(config),
-        options=plan.harmonic_solver_options(config),
+        settings=plan.command_settings(config, "harmonic", grid="sweep"),
     shell:
-        "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} "
-        "--sweep {params.sweep} {params.options} --mode {wildcards.mode} -o {output} 2> {log}"
+        "asphalt-nscd harmonic --sample {input.sample} --parameters {input.parameters} --grid sweep"
+        ' --config "$ASPHALT_NSCD_RUN_CONFIG" --mode {wildcards.mode} -o {output} 2> {log}'
 
 
 rule harmonic_figures:
@@ -149,15 +148,10 @@ rule harmonic_sensitivity:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        temperature=config["harmonic"]["sensitivity"]["temperature_C"],
-        frequencies=plan.spaced(config["harmonic"]["sensitivity"]["frequencies_Hz"]),
-        levels=plan.spaced(config["harmonic"]["sensitivity"]["levels_percent"]),
-        inertia=config["harmonic"]["inertia"],
-        kinematics=plan.harmonic_kinematics_options(config),
+        settings=plan.command_settings(config, "harmonic-sensitivity"),
     shell:
-        "asphalt-nscd harmonic-sensitivity --sample {input.sample} --parameters {input.parameters} "
-        "--temperature {params.temperature} --frequency {params.frequencies} --levels {params.levels} "
-        "--inertia {params.inertia} {params.kinematics} -o {output.table} --figure {output.figure} 2> {log}"
+        "asphalt-nscd harmonic-sensitivity --sample {input.sample} --parameters {input.parameters}"
+        ' --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.table} --figure {output.figure} 2> {log}'
 
 
 rule harmonic_compare:
@@ -182,22 +176,12 @@ rule harmonic_compare:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        temperatures=plan.spaced(config["harmonic"]["compare"]["temperatures_C"]),
-        frequencies=plan.spaced(config["harmonic"]["compare"]["frequencies_Hz"]),
-        dts=plan.spaced(config["harmonic"]["compare"]["dt_s"]),
-        rtols=plan.spaced(config["harmonic"]["compare"]["rtol"]),
-        cycles=config["harmonic"]["compare"]["cycles"],
-        settle=config["harmonic"]["compare"]["settle_factor"],
-        # the time-domain core's kinematics (config nscd.bond_kinematics and
-        # campaign.test.head_rotation), used by both sides of the comparison
-        bond_kinematics=plan.bond_kinematics(config),
-        head_rotation=plan.head_rotation(config),
+        # harmonic.compare, and the time-domain core's kinematics (nscd.bond_kinematics,
+        # campaign.test.head_rotation) on both sides of the comparison
+        settings=plan.command_settings(config, "harmonic-compare"),
     shell:
-        "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters} "
-        "--temperature {params.temperatures} --frequency {params.frequencies} --dt {params.dts} "
-        "--rtol {params.rtols} --cycles {params.cycles} --settle-factor {params.settle} "
-        "--bond-kinematics {params.bond_kinematics} --head-rotation {params.head_rotation} "
-        "-o {output.table} --figure {output.figure} 2> {log}"
+        "asphalt-nscd harmonic-compare --sample {input.sample} --parameters {input.parameters}"
+        ' --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.table} --figure {output.figure} 2> {log}'
 
 
 rule harmonic_kinematics:
@@ -217,13 +201,10 @@ rule harmonic_kinematics:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        temperatures=plan.spaced(config["harmonic"]["kinematics_study"]["temperatures_C"]),
-        frequencies=plan.spaced(config["harmonic"]["kinematics_study"]["frequencies_Hz"]),
-        inertia=plan.spaced(config["harmonic"]["kinematics_study"]["inertia"]),
+        settings=plan.command_settings(config, "harmonic-kinematics"),
     shell:
-        "asphalt-nscd harmonic-kinematics --sample {input.sample} --parameters {input.parameters} "
-        "--temperature {params.temperatures} --frequency {params.frequencies} "
-        "--inertia {params.inertia} -o {output} 2> {log}"
+        "asphalt-nscd harmonic-kinematics --sample {input.sample} --parameters {input.parameters}"
+        ' --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule harmonic_transfer:
@@ -241,13 +222,9 @@ rule harmonic_transfer:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        bond_kinematics=plan.bond_kinematics(config),
-        head_rotation=plan.head_rotation(config),
-        nu=plan.twopb_poisson_ratio(config),
+        settings=plan.command_settings(config, "harmonic-transfer"),
     shell:
-        "asphalt-nscd harmonic-transfer --sample {input.sample} --nu {params.nu} "
-        "--bond-kinematics {params.bond_kinematics} --head-rotation {params.head_rotation} "
-        "-o {output} 2> {log}"
+        'asphalt-nscd harmonic-transfer --sample {input.sample} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule harmonic_resolution:
@@ -279,11 +256,9 @@ rule harmonic_resolution:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        samples=plan.resolution_options(config),
-        head_rotation=plan.head_rotation(config),
-        nu=plan.twopb_poisson_ratio(config),
+        settings=plan.command_settings(config, "harmonic-resolution"),
     shell:
-        "asphalt-nscd harmonic-resolution {params.samples} --head-rotation {params.head_rotation} --nu {params.nu}"
+        'asphalt-nscd harmonic-resolution --samples {input} --config "$ASPHALT_NSCD_RUN_CONFIG"'
         " -o {output.table} --summary {output.summary} --fits {output.fits} --figure {output.figure} 2> {log}"
 
 
@@ -297,9 +272,6 @@ rule harmonic_bench:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        n=config["harmonic"]["bench"]["n_spheres"],
-        td_steps=config["harmonic"]["bench"]["time_domain_steps"],
-        kinematics=plan.harmonic_kinematics_options(config),
+        settings=plan.command_settings(config, "harmonic-bench"),
     shell:
-        "asphalt-nscd harmonic-bench --n {params.n} --td-steps {params.td_steps} {params.kinematics} "
-        "-o {output} 2> {log}"
+        'asphalt-nscd harmonic-bench --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'

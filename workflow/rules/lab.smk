@@ -29,7 +29,7 @@ rule measured_table:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        test=plan.measured_test_option,
+        test=plan.input_options(test="--test"),
     shell:
         "asphalt-nscd measured {input.table:q} {params.test} -o {output.table:q} --summary {output.summary:q} "
         "--test-output {output.test:q} 2> {log:q}"

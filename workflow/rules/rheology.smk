@@ -21,10 +21,9 @@ rule fit_burgers:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        options=plan.calibration_fit_options(config),
-        model=config["calibration"]["model"],
+        settings=plan.command_settings(config, "fit"),
     shell:
-        "asphalt-nscd fit --measured {input} --model {params.model} {params.options} -o {output} 2> {log}"
+        'asphalt-nscd fit --measured {input} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule paper_table3:
@@ -39,9 +38,9 @@ rule paper_table3:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        units=config["calibration"]["table3_units"],
+        settings=plan.command_settings(config, "table3"),
     shell:
-        "asphalt-nscd table3 {input} --units {params.units} -o {output} 2> {log}"
+        'asphalt-nscd table3 {input} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule table3_refit_check:
@@ -60,11 +59,9 @@ rule table3_refit_check:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        options=plan.calibration_fit_options(config),
-        frequencies=plan.spaced(config["calibration"]["refit_frequencies_Hz"]),
+        settings=plan.command_settings(config, "refit-check"),
     shell:
-        "asphalt-nscd refit-check --parameters {input} --frequencies {params.frequencies} "
-        "{params.options} -o {output} 2> {log}"
+        'asphalt-nscd refit-check --parameters {input} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule burgers_curves:
@@ -81,12 +78,9 @@ rule burgers_curves:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        fmin=config["calibration"]["curves"]["fmin_Hz"],
-        fmax=config["calibration"]["curves"]["fmax_Hz"],
-        points=config["calibration"]["curves"]["points"],
+        settings=plan.command_settings(config, "burgers-curves"),
     shell:
-        "asphalt-nscd burgers-curves --parameters {input} --fmin {params.fmin} --fmax {params.fmax} "
-        "--points {params.points} -o {output} 2> {log}"
+        'asphalt-nscd burgers-curves --parameters {input} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule micro_parameters:
@@ -107,10 +101,6 @@ rule micro_parameters:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        r_min=plan.spaced(config["calibration"]["micro"]["r_min_mm"]),
-        l0=plan.spaced(config["calibration"]["micro"]["l0_mm"]),
-        nu=config["calibration"]["micro"]["poisson_ratio"],
-        mass=config["calibration"]["micro"]["grain_mass_kg"],
+        settings=plan.command_settings(config, "micro"),
     shell:
-        "asphalt-nscd micro --parameters {input} --r-min-mm {params.r_min} --l0-mm {params.l0} "
-        "--nu {params.nu} --grain-mass-kg {params.mass} -o {output} 2> {log}"
+        'asphalt-nscd micro --parameters {input} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'

@@ -33,7 +33,9 @@ def _settings_options(p, config: bool = True):
             "config/config.yaml of the working directory first, then each FILE in order, checked "
             "against the workflow's schemas; the test settings are those of the jobs of "
             "--settings-mode (campaign section, nscd core, lab.simulation_window_cycles; "
-            "asphalt_nscd.campaign.twopb.job_settings). Default: TwoPBSettings' own values",
+            "asphalt_nscd.campaign.twopb.job_settings), and the mode's Table 3 reading (run-2pb: "
+            "whether the job verifies the orbit; campaign-dt-policy: its temperature and "
+            "frequencies; asphalt_nscd.campaign.modes). Default: TwoPBSettings' own values",
         )
         p.add_argument(
             "--settings-mode",
@@ -93,6 +95,12 @@ def register(subparsers) -> None:
     _add_periodic_check(subparsers)
 
 
+def _config_values(cfg, args) -> dict:
+    from .modes import config_values
+
+    return config_values(cfg, args)
+
+
 def _add_run_2pb(subparsers) -> None:
     """``run-2pb``: one numerical 2PB complex modulus test (record + reduced row)."""
     p = subparsers.add_parser(
@@ -138,7 +146,7 @@ def _add_run_2pb(subparsers) -> None:
     )
     p.add_argument("-o", "--output", required=True, help="record (.h5)")
     p.add_argument("--row", required=True, help="reduced row (.csv)")
-    p.set_defaults(func=_run)
+    p.set_defaults(func=_run, config_values=_config_values)
 
 
 def _add_campaign_isotherms(subparsers) -> None:
@@ -159,7 +167,15 @@ def _add_campaign_isotherms(subparsers) -> None:
     p.add_argument("--table4", required=True, help="output Table 4 analogue CSV")
     p.add_argument("--figure-modulus", required=True, help="Fig. 9 analogue (png)")
     p.add_argument("--figure-phase", required=True, help="Fig. 10 analogue (png)")
-    p.add_argument("--title", default="", help="figure title")
+    p.add_argument("--title", default="", help="figure title (with --config: the mode's)")
+    p.add_argument(
+        "--mode",
+        default="paper",
+        help="the campaign mode of the rows: with --config, its Table 3 reading and the title",
+    )
+    from ..config import config_option
+
+    config_option(p, _config_values, "the mode's Table 3 reading (calibration.table3_units for paper)")
     p.set_defaults(func=_isotherms)
 
 
@@ -238,11 +254,22 @@ def _add_campaign_dt_policy(subparsers) -> None:
     """``campaign-dt-policy``: phase error of the dt policy (one bond)."""
     p = subparsers.add_parser("campaign-dt-policy", help="phase error of the dt policy (one bond)")
     _parameter_options(p)
-    p.add_argument("--temperature", type=float, required=True, help="temperature, degC")
-    p.add_argument("--frequencies", type=float, nargs="+", required=True, help="frequencies, Hz")
+    p.add_argument(
+        "--temperature",
+        type=float,
+        default=None,
+        help="temperature, degC (with --config: the upper median of the mode's schedule)",
+    )
+    p.add_argument(
+        "--frequencies",
+        type=float,
+        nargs="+",
+        default=None,
+        help="frequencies, Hz (with --config: the mode's schedule)",
+    )
     _settings_options(p)
     p.add_argument("-o", "--output", required=True, help="output CSV")
-    p.set_defaults(func=_dt_policy)
+    p.set_defaults(func=_dt_policy, config_values=_config_values)
 
 
 def _add_campaign_bench(subparsers) -> None:
@@ -796,6 +823,10 @@ def _dt_policy(args) -> int:
     from ..io import write_csv
     from . import study
 
+    if args.temperature is None or not args.frequencies:
+        from ..io import InputError
+
+        raise InputError("campaign-dt-policy: give --temperature and --frequencies, or --config")
     table = study.parameter_table(args.parameters, args.table3_units)
     out = study.dt_policy_phase_table(table, args.temperature, args.frequencies, _settings(args))
     write_csv(out, args.output)

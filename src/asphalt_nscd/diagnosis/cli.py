@@ -41,16 +41,9 @@ def _measured_option(p) -> None:
 def _config_option(p, *groups: str) -> None:
     """``--config``: the option values of ``groups`` from a workflow config
     (:func:`asphalt_nscd.diagnosis.settings.option_values`; applied by asphalt_nscd.cli.main)."""
-    p.add_argument(
-        "--config",
-        nargs="+",
-        default=None,
-        metavar="FILE",
-        help="workflow config files (YAML) merged as Snakemake merges --configfile (config/config.yaml "
-        "of the working directory first) and checked against the workflow's schemas: the options "
-        "below take the values of its diagnosis section; an option given here wins",
-    )
-    p.set_defaults(config_values=lambda cfg: _option_values(cfg, *groups))
+    from ..config import config_option
+
+    config_option(p, lambda cfg, args: _option_values(cfg, *groups), "its diagnosis section")
 
 
 def _option_values(cfg, *groups):

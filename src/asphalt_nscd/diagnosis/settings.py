@@ -14,7 +14,7 @@ from collections.abc import Mapping
 
 #: option groups: the artifact search (every command of the step), the extended law's candidates
 #: and the law a material card carries (extend-law, crossval), the search's calibration
-#: (calibrate-search), the cause tolerances (diagnose)
+#: (calibrate-search), the cause tolerances and the campaign's Moreau-Jean theta (diagnose)
 GROUPS = ("search", "law", "calibration", "causes")
 
 
@@ -73,5 +73,7 @@ def option_values(cfg: Mapping, *groups: str) -> dict:
         out |= {
             "tolerance_network_factor": float(tol.get("network_factor", 0.01)),
             "tolerance_phase_deg": float(tol.get("time_integration_deg", 0.1)),
+            # the rows of a time-integration table at the campaign's own Moreau-Jean theta
+            "theta": float(cfg["campaign"]["test"]["theta"]),
         }
     return out

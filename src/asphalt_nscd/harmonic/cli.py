@@ -57,15 +57,97 @@ def _add_law_options(
         "--temperature",
         type=float,
         nargs="+" if not temperature_required else 1,
-        required=temperature_required,
         default=[],
-        help="temperatures, degC (default: every row of --parameters)",
+        help="temperature, degC (required without --config)"
+        if temperature_required
+        else "temperatures, degC (default: every row of --parameters)",
     )
     p.add_argument(
         "--amplitude-m", type=float, default=HEAD_AMPLITUDE_M, help=f"head amplitude A, m ({HEAD_AMPLITUDE_M})"
     )
     p.add_argument("--nu", type=float, default=POISSON_RATIO, help=f"Poisson's ratio of Eqs. 8-11 ({POISSON_RATIO})")
     _add_kinematics_options(p, bond_kinematics, head_rotation)
+
+
+def config_values(cfg, args) -> dict:
+    """Option values of this step's commands from a merged, checked workflow config
+    (``--config``; an option given on the command line wins): the ``harmonic`` section, and for
+    the commands that check or correct the time-domain test (harmonic-compare,
+    harmonic-transfer, harmonic-resolution) that test's kinematics (``nscd.bond_kinematics``,
+    ``campaign.test.head_rotation``, ``campaign.test.nu``). ``harmonic --grid paper|sweep``
+    takes its frequencies from ``harmonic.paper_frequencies_Hz`` or ``harmonic.sweep``."""
+    harm, test = cfg["harmonic"], cfg["campaign"]["test"]
+    solver = {"inertia": harm["inertia"], "solver": harm["solver"], "rtol": float(harm["rtol"])}
+    kinematics = {"bond_kinematics": harm["bond_kinematics"], "head_rotation": harm["head_rotation"]}
+    time_domain = {
+        "bond_kinematics": cfg["nscd"].get("bond_kinematics", "contact"),
+        "head_rotation": test.get("head_rotation", "free"),
+        "nu": float(test.get("nu", POISSON_RATIO)),
+    }
+    command = args.command
+    if command == "harmonic":
+        out = {**solver, **kinematics}
+        if getattr(args, "grid", None) == "paper":
+            out["frequency"] = [float(f) for f in harm["paper_frequencies_Hz"]]
+        elif getattr(args, "grid", None) == "sweep":
+            sweep = harm["sweep"]
+            out["sweep"] = [float(sweep["fmin_Hz"]), float(sweep["fmax_Hz"]), float(sweep["points"])]
+        return out
+    if command == "harmonic-sensitivity":
+        sens = harm["sensitivity"]
+        return {
+            "temperature": [float(sens["temperature_C"])],
+            "frequency": [float(f) for f in sens["frequencies_Hz"]],
+            "levels": [float(x) for x in sens["levels_percent"]],
+            "inertia": harm["inertia"],
+            **kinematics,
+        }
+    if command == "harmonic-compare":
+        comp = harm["compare"]
+        return {
+            "temperature": [float(t) for t in comp["temperatures_C"]],
+            "frequency": [float(f) for f in comp["frequencies_Hz"]],
+            "dt": [float(x) for x in comp["dt_s"]],
+            "rtol": [float(x) for x in comp["rtol"]],
+            "cycles": int(comp["cycles"]),
+            "settle_factor": float(comp["settle_factor"]),
+            "bond_kinematics": time_domain["bond_kinematics"],
+            "head_rotation": time_domain["head_rotation"],
+        }
+    if command == "harmonic-kinematics":
+        kin = harm["kinematics_study"]
+        return {
+            "temperature": [float(t) for t in kin["temperatures_C"]],
+            "frequency": [float(f) for f in kin["frequencies_Hz"]],
+            "inertia": list(kin["inertia"]),
+        }
+    if command == "harmonic-transfer":
+        return time_domain
+    if command == "harmonic-resolution":
+        res = harm["resolution"]
+        from ..sample.settings import level_name
+
+        levels = [level_name(lv["scale"], lv["cut_mm"]) for lv in res["levels"]]
+        return {
+            "levels": [name for name in levels for _ in res["seeds"]],
+            "head_rotation": time_domain["head_rotation"],
+            "nu": time_domain["nu"],
+        }
+    if command == "harmonic-bench":
+        bench = harm["bench"]
+        return {"n": int(bench["n_spheres"]), "td_steps": int(bench["time_domain_steps"]), **kinematics}
+    return {}
+
+
+def _config_option(p) -> None:
+    from ..config import config_option
+
+    config_option(
+        p,
+        config_values,
+        "its harmonic section (and the time-domain test's kinematics: nscd.bond_kinematics, "
+        "campaign.test.head_rotation, campaign.test.nu)",
+    )
 
 
 def register(subparsers) -> None:
@@ -103,6 +185,13 @@ def _add_harmonic(subparsers) -> None:
         help="N log-spaced frequencies from FMIN to FMAX, Hz",
     )
     p.add_argument(
+        "--grid",
+        choices=["paper", "sweep"],
+        default=None,
+        help="with --config: the frequencies of harmonic.paper_frequencies_Hz (paper) or the grid of "
+        "harmonic.sweep (sweep)",
+    )
+    p.add_argument(
         "--inertia",
         choices=["full", "none"],
         default="full",
@@ -122,6 +211,7 @@ def _add_harmonic(subparsers) -> None:
     p.add_argument(
         "-o", "--output", type=Path, required=True, help="CSV: one reduced row per (T, f) + macro law + network factor"
     )
+    _config_option(p)
     p.set_defaults(func=_harmonic)
 
 
@@ -129,8 +219,10 @@ def _add_harmonic_compare(subparsers) -> None:
     """``harmonic-compare``: harmonic vs NSCD time-domain |E*|, Phi per (T, f, dt, rtol)."""
     p = subparsers.add_parser("harmonic-compare", help="harmonic vs NSCD time-domain |E*|, Phi per (T, f, dt, rtol)")
     _add_law_options(p)
-    p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
-    p.add_argument("--dt", type=float, nargs="+", required=True, help="time steps, s")
+    p.add_argument(
+        "--frequency", type=float, nargs="+", default=None, help="frequencies, Hz (required without --config)"
+    )
+    p.add_argument("--dt", type=float, nargs="+", default=None, help="time steps, s (required without --config)")
     p.add_argument(
         "--rtol",
         type=float,
@@ -145,6 +237,7 @@ def _add_harmonic_compare(subparsers) -> None:
     p.add_argument("--theta", type=float, default=0.5, help="Moreau-Jean theta (0.5)")
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV of differences")
     p.add_argument("--figure", type=Path, default=None, help="PNG: difference vs dt and rtol")
+    _config_option(p)
     p.set_defaults(func=_compare)
 
 
@@ -152,7 +245,9 @@ def _add_harmonic_sensitivity(subparsers) -> None:
     """``harmonic-sensitivity``: harmonic |E*|, Phi with each Burger's parameter at +-p %."""
     p = subparsers.add_parser("harmonic-sensitivity", help="harmonic |E*|, Phi with each Burger's parameter at +-p %%")
     _add_law_options(p, temperature_required=True)
-    p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
+    p.add_argument(
+        "--frequency", type=float, nargs="+", default=None, help="frequencies, Hz (required without --config)"
+    )
     p.add_argument(
         "--levels",
         type=float,
@@ -163,6 +258,7 @@ def _add_harmonic_sensitivity(subparsers) -> None:
     p.add_argument("--inertia", choices=["full", "none"], default="full", help="see 'harmonic'")
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV")
     p.add_argument("--figure", type=Path, default=None, help="PNG at the first frequency")
+    _config_option(p)
     p.set_defaults(func=_sensitivity)
 
 
@@ -216,7 +312,9 @@ def _add_harmonic_kinematics(subparsers) -> None:
         default=[],
         help="temperatures, degC (default: every row of --parameters)",
     )
-    p.add_argument("--frequency", type=float, nargs="+", required=True, help="frequencies, Hz")
+    p.add_argument(
+        "--frequency", type=float, nargs="+", default=None, help="frequencies, Hz (required without --config)"
+    )
     p.add_argument(
         "--amplitude-m", type=float, default=HEAD_AMPLITUDE_M, help=f"head amplitude A, m ({HEAD_AMPLITUDE_M})"
     )
@@ -235,6 +333,7 @@ def _add_harmonic_kinematics(subparsers) -> None:
         required=True,
         help="CSV per (bond_kinematics, head_rotation, inertia, T, f): network_factor, phase_difference_deg",
     )
+    _config_option(p)
     p.set_defaults(func=_kinematics)
 
 
@@ -259,6 +358,7 @@ def _add_harmonic_transfer(subparsers) -> None:
         required=True,
         help="transfer JSON: network_factor, sample, bond_kinematics, head_rotation, nu, units",
     )
+    _config_option(p)
     p.set_defaults(func=_transfer)
 
 
@@ -276,8 +376,17 @@ def _add_harmonic_resolution(subparsers) -> None:
         "--samples",
         nargs="+",
         required=True,
-        metavar="LEVEL=PATH",
-        help="resolution level name and sample file, e.g. x0.7_cut6.3=results/samples/s1.h5",
+        metavar="[LEVEL=]PATH",
+        help="sample files, each with its resolution level name (e.g. x0.7_cut6.3=results/samples/s1.h5) "
+        "or with the names in --levels",
+    )
+    p.add_argument(
+        "--levels",
+        nargs="+",
+        default=None,
+        metavar="LEVEL",
+        help="the level name of each of --samples given without one (with --config: each level of "
+        "harmonic.resolution.levels once per seed, in the config's order)",
     )
     p.add_argument(
         "--kinematics",
@@ -292,6 +401,7 @@ def _add_harmonic_resolution(subparsers) -> None:
     p.add_argument("--summary", type=Path, required=True, help="CSV per (kinematics, level): mean, sd, 95 %% CI")
     p.add_argument("--fits", type=Path, required=True, help="CSV per kinematics: NF_inf, its s.e., c")
     p.add_argument("--figure", type=Path, required=True, help="figure (png)")
+    _config_option(p)
     p.set_defaults(func=_resolution)
 
 
@@ -328,7 +438,17 @@ def _add_harmonic_bench(subparsers) -> None:
     )
     _add_kinematics_options(p)
     p.add_argument("-o", "--output", type=Path, required=True, help="JSON")
+    _config_option(p)
     p.set_defaults(func=_bench)
+
+
+def _need(args, *dests: str) -> None:
+    """Raise InputError naming the options among ``dests`` neither given nor taken from --config."""
+    from ..io import InputError
+
+    missing = [f"--{d.replace('_', '-')}" for d in dests if getattr(args, d) in (None, [])]
+    if missing:
+        raise InputError(f"asphalt-nscd {args.command}: give {', '.join(missing)} (or --config)")
 
 
 def _load(args):
@@ -384,6 +504,7 @@ def _compare(args) -> int:
     from ..io import savefig, write_csv
     from .analysis import compare_time_domain, plot_compare
 
+    _need(args, "frequency", "dt")
     system, params, geometry = _load(args)
     frame = compare_time_domain(
         args.sample,
@@ -416,6 +537,7 @@ def _sensitivity(args) -> int:
     from ..io import savefig, write_csv
     from .analysis import plot_sensitivity, sensitivity_table
 
+    _need(args, "temperature", "frequency")
     system, params, geometry = _load(args)
     frame = sensitivity_table(
         system, params.iloc[0], args.frequency, args.levels, geometry, amplitude=args.amplitude_m, inertia=args.inertia
@@ -461,10 +583,17 @@ def _resolution(args) -> int:
     from .resolution import plot_resolution, resolution_rows, resolution_summary
 
     samples = []
-    for item in args.samples:
-        level, sep, path = item.partition("=")
-        if not sep or not level or not path:
-            raise InputError(f"--samples {item!r}: expected LEVEL=PATH")
+    named = [item.partition("=") for item in args.samples]
+    if not all(sep for _, sep, _ in named):
+        if args.levels is None or len(args.levels) != len(args.samples) or any(sep for _, sep, _ in named):
+            raise InputError(
+                f"--samples: give every sample as LEVEL=PATH, or plain paths with one --levels name each "
+                f"({len(args.samples)} samples, {0 if args.levels is None else len(args.levels)} level names)"
+            )
+        named = [(level, "=", path) for level, path in zip(args.levels, args.samples)]
+    for level, _, path in named:
+        if not level or not path:
+            raise InputError(f"--samples {level}={path}: expected LEVEL=PATH")
         samples.append((level, path))
     rows = resolution_rows(samples, kinematics=args.kinematics, head_rotation=args.head_rotation, nu=args.nu)
     levels, fits = resolution_summary(rows)
@@ -485,6 +614,7 @@ def _kinematics(args) -> int:
     from .network import network_from_sample
     from .response import select_temperatures
 
+    _need(args, "frequency")
     sample = read_sample(args.sample)
     network = network_from_sample(sample)
     params = select_temperatures(read_parameters(args.parameters), args.temperature, args.parameters)

@@ -25,6 +25,34 @@ def _add_fit_options(p) -> None:
     )
 
 
+def config_values(cfg, args) -> dict:
+    """Option values of this step's commands from the ``calibration`` section of a merged,
+    checked workflow config (``--config``; an option given on the command line wins)."""
+    cal = cfg["calibration"]
+    micro, curves = cal["micro"], cal["curves"]
+    return {
+        "model": cal["model"],
+        "weight_log_modulus": float(cal["weight_log_modulus"]),
+        "weight_phase": float(cal["weight_phase"]),
+        "n_starts": int(cal["n_starts"]),
+        "units": cal["table3_units"],
+        "frequencies": [float(f) for f in cal["refit_frequencies_Hz"]],
+        "fmin": float(curves["fmin_Hz"]),
+        "fmax": float(curves["fmax_Hz"]),
+        "points": int(curves["points"]),
+        "r_min_mm": [float(r) for r in micro["r_min_mm"]],
+        "l0_mm": [float(x) for x in micro["l0_mm"]],
+        "nu": float(micro["poisson_ratio"]),
+        "grain_mass_kg": None if micro.get("grain_mass_kg") is None else float(micro["grain_mass_kg"]),
+    }
+
+
+def _config_option(p) -> None:
+    from ..config import config_option
+
+    config_option(p, config_values, "its calibration section")
+
+
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
     _add_fit(subparsers)
@@ -53,6 +81,7 @@ def _add_fit(subparsers) -> None:
         required=True,
         help="CSV, one row per temperature: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s, *_se, fit errors",
     )
+    _config_option(p)
     p.set_defaults(func=_fit)
 
 
@@ -67,6 +96,7 @@ def _add_table3(subparsers) -> None:
         help="reading of the printed values (default Pa, as printed; see data/paper/SOURCE.md)",
     )
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV in MPa, MPa s")
+    _config_option(p)
     p.set_defaults(func=_table3)
 
 
@@ -86,6 +116,7 @@ def _add_burgers_curves(subparsers) -> None:
         required=True,
         help="CSV: temperature_C, frequency_Hz, E_norm_MPa, phase_deg, E1_MPa, E2_MPa",
     )
+    _config_option(p)
     p.set_defaults(func=_curves)
 
 
@@ -110,6 +141,7 @@ def _add_refit_check(subparsers) -> None:
         required=True,
         help="CSV: true and refitted parameters and relative errors per temperature",
     )
+    _config_option(p)
     p.set_defaults(func=_refit_check)
 
 
@@ -119,13 +151,20 @@ def _add_micro(subparsers) -> None:
         "micro", help="bond parameters from macro Burger's parameters, r_min and l0 (Eqs. 30-33, 8-11)"
     )
     p.add_argument("--parameters", type=Path, required=True, help="CSV in MPa, MPa s")
-    p.add_argument("--r-min-mm", type=float, nargs="+", required=True, help="smaller radius of each bonded pair, mm")
+    p.add_argument(
+        "--r-min-mm",
+        type=float,
+        nargs="+",
+        default=None,
+        help="smaller radius of each bonded pair, mm (required without --config)",
+    )
     p.add_argument(
         "--l0-mm",
         type=float,
         nargs="+",
-        required=True,
-        help="initial barycentre distance of each bond, mm (same count as --r-min-mm, or one)",
+        default=None,
+        help="initial barycentre distance of each bond, mm (same count as --r-min-mm, or one; required "
+        "without --config)",
     )
     p.add_argument("--nu", type=float, default=0.35, help="Poisson's ratio of Eqs. 8-11 (default 0.35)")
     p.add_argument(
@@ -135,6 +174,7 @@ def _add_micro(subparsers) -> None:
         help="typical grain mass; adds dt_e_s = sqrt(m_g/Km) (paper: 2.86e-5 kg)",
     )
     p.add_argument("-o", "--output", type=Path, required=True, help="CSV, one row per (temperature, bond)")
+    _config_option(p)
     p.set_defaults(func=_micro)
 
 
@@ -381,6 +421,8 @@ def _micro(args) -> int:
     from ..io import InputError, write_csv
     from .calibration import micro_parameters, read_parameters
 
+    if args.r_min_mm is None or args.l0_mm is None:
+        raise InputError("micro: give --r-min-mm and --l0-mm, or --config (calibration.micro)")
     r = np.asarray(args.r_min_mm) * 1e-3
     l0 = np.asarray(args.l0_mm) * 1e-3
     if r.size != l0.size and 1 not in (r.size, l0.size):
