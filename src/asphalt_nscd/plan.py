@@ -260,9 +260,9 @@ def nscd_bench_files(config: dict) -> list:
     ]
 
 
-def bench_tolerance(config: dict, case: str) -> float:
-    """Solver tolerance of a benchmark case: nscd.bench.granular_tolerance or .tolerance."""
-    return config["nscd"]["bench"]["granular_tolerance" if case == "granular" else "tolerance"]
+def bench_settings(config: dict, case: str) -> dict:
+    """What ``asphalt-nscd bench --case CASE`` takes from the run's config (:func:`command_settings`)."""
+    return command_settings(config, "bench", case=case)
 
 
 def bond_kinematics(config: dict) -> str:

@@ -545,6 +545,38 @@ def test_commands_take_from_the_run_config_what_the_rules_track(name, tmp_path, 
             got = parsed("campaign-dt-policy", "--parameters", "p.csv", "--settings-mode", mode, "-o", "o.csv")
             agrees(got, plan.policy_settings(cfg, mode))
             assert got["frequencies"] == [float(f) for f in sched["frequencies_Hz"]]
+    # the studies beside the campaign, the core's checks and the diagnosis benchmark
+    sens = parsed(
+        "campaign-sensitivity",
+        "--rows",
+        "r",
+        "--baseline",
+        "b",
+        "--parameters",
+        "p",
+        "--table",
+        "t",
+        "--figures",
+        *"abcd",
+    )
+    assert (
+        sens["temperature"] == cfg["campaign"]["sensitivity"]["temperature_C"]
+        and sens["table3_units"] == cal["table3_units"]
+    )
+    units = parsed("campaign-units", "--table3", "t", "--rows-pa", "a", "--rows-kpa", "b", "--sample", "s", "-o", "o")
+    agrees(units, plan.command_settings(cfg, "campaign-units"))
+    assert (units["r_min_mm"], units["l0_mm"]) == (cal["micro"]["r_min_mm"][0], cal["micro"]["l0_mm"][0])
+    verify = parsed("verify", "-o", "v.json")
+    assert [float(x) for x in verify["phase_dts"].split(",")] == cfg["nscd"]["verify"]["phase_dts_s"]
+    for case in ("bonded", "granular"):
+        agrees(parsed("bench", "--case", case, "--n", "10", "-o", "b.json"), plan.bench_settings(cfg, case))
+    bench = parsed("diagnose-bench", "-o", "b.json")
+    agrees(bench, plan.diagnosis_settings(cfg, "bench"))
+    assert bench["families"].split(",") == cfg["diagnosis"]["bench"]["families"]
+    card = parsed("export-law", "--law-json", "l", "--measured", "m", "-o", "d")
+    assert card["tolerance"] == cfg["diagnosis"]["material_card"]["tolerance"] and card["nu"] is None
+    assert parsed("reduce", "r.csv", "--meta", "m.json", "-o", "o")["window_s"] == cfg["lab"]["window_s"]
+    assert parsed("reduce", "r.csv", "--meta", "m.json", "--window-cycles", "1", "-o", "o")["window_s"] is None
     for case in ("20C_3Hz_Emx1.5", "15C_3Hz_dt5e-05"):
         argv = [
             "run-2pb",

@@ -375,10 +375,10 @@ def test_settings_and_options_of_other_rules():
     assert plan.nscd_bench_files(cfg) == [f"results/bench/nscd_bonded_n{n}.json" for n in bench["bonded_n"]] + [
         f"results/bench/nscd_granular_n{n}.json" for n in bench["granular_n"]
     ]
-    assert (
-        plan.from_wildcards(plan.bench_tolerance, cfg)(SimpleNamespace(case="granular")) == bench["granular_tolerance"]
-    )
-    assert plan.bench_tolerance(cfg, "bonded") == bench["tolerance"]
+    granular = plan.from_wildcards(plan.bench_settings, cfg)(SimpleNamespace(case="granular"))
+    assert granular["tolerance"] == bench["granular_tolerance"] and granular["steps"] == bench["steps"]
+    assert plan.bench_settings(cfg, "bonded")["tolerance"] == bench["tolerance"]
+    assert plan.bench_settings(cfg, "bonded")["bonded_contact"] == plan.bonded_contact(cfg)
     assert plan.spaced([3, 6.5]) == "3 6.5" and plan.comma_list([1e-4, 2]) == "0.0001,2"
     assert plan.number(40.0) == "40" and plan.number("1e-05") == "1e-05"
     # harmonic solver: the paper's frequencies or the lab summary's

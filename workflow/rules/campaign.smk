@@ -108,10 +108,10 @@ rule campaign_dt_study:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        units=config["calibration"]["table3_units"],
+        settings=plan.command_settings(config, "campaign-dt-study"),
     shell:
         "asphalt-nscd campaign-dt-study --records {input.records} --rows {input.rows}"
-        " --parameters {input.parameters} --table3-units {params.units}"
+        ' --parameters {input.parameters} --config "$ASPHALT_NSCD_RUN_CONFIG"'
         " --table {output.table} --figure {output.figure} 2> {log}"
 
 
@@ -163,11 +163,10 @@ rule campaign_sensitivity:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        units=config["calibration"]["table3_units"],
-        T=config["campaign"]["sensitivity"]["temperature_C"],
+        settings=plan.command_settings(config, "campaign-sensitivity"),
     shell:
         "asphalt-nscd campaign-sensitivity --rows {input.rows} --baseline {input.baseline}"
-        " --parameters {input.parameters} --table3-units {params.units} --temperature {params.T}"
+        ' --parameters {input.parameters} --config "$ASPHALT_NSCD_RUN_CONFIG"'
         " --table {output.table} --figures {output.figures} 2> {log}"
 
 
@@ -197,14 +196,11 @@ rule campaign_units_question:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        T=config["campaign"]["units_question"]["temperature_C"],
-        mass=config["calibration"]["micro"]["grain_mass_kg"],
-        r_min=config["calibration"]["micro"]["r_min_mm"][0],
-        l0=config["calibration"]["micro"]["l0_mm"][0],
+        settings=plan.command_settings(config, "campaign-units"),
     shell:
         "asphalt-nscd campaign-units --table3 {input.table3} --rows-pa {input.rows_pa} --rows-kpa {input.rows_kpa}"
-        " --rows-kpa-nobreak {input.rows_kpa_nobreak} --sample {input.sample} --temperature {params.T} --grain-mass-kg {params.mass}"
-        " --r-min-mm {params.r_min} --l0-mm {params.l0} -o {output.table} --evidence {output.evidence}"
+        ' --rows-kpa-nobreak {input.rows_kpa_nobreak} --sample {input.sample} --config "$ASPHALT_NSCD_RUN_CONFIG"'
+        " -o {output.table} --evidence {output.evidence}"
         " --measured-summary {input.summary} 2> {log}"
 
 

@@ -190,10 +190,10 @@ rule export_law:
         "../envs/asphalt-nscd.yaml"
     params:
         out_dir=plan.output_directory,
-        tolerance=config["diagnosis"]["material_card"]["tolerance"],
+        settings=plan.command_settings(config, "export-law"),
     shell:
         "asphalt-nscd export-law --law-json {input.card} --selected-law-json {input.law} --measured {input.summary}"
-        " --corrected {input.corrected} --test {input.test} --tolerance {params.tolerance} -o {params.out_dir} 2> {log}"
+        ' --corrected {input.corrected} --test {input.test} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {params.out_dir} 2> {log}'
 
 
 rule crossval:
@@ -316,18 +316,9 @@ rule diagnose_bench:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        clean=config["diagnosis"]["bench"]["clean"],
-        planted=config["diagnosis"]["bench"]["planted"],
-        base_seed=config["diagnosis"]["bench"]["base_seed"],
-        families=plan.comma_list(config["diagnosis"]["bench"]["families"]),
-        alpha=config["diagnosis"]["alpha"],
-        configuration=config["diagnosis"]["bench"]["configuration"],
-        power=config["diagnosis"]["bench"]["power"],
+        settings=plan.diagnosis_settings(config, "bench"),
     shell:
-        "asphalt-nscd diagnose-bench --clean {params.clean} --planted {params.planted} "
-        "--base-seed {params.base_seed} --families {params.families} --alpha {params.alpha} "
-        "--configuration {params.configuration} --power {params.power} "
-        "-o {output.bench} --table {output.table} 2> {log}"
+        'asphalt-nscd diagnose-bench --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.bench} --table {output.table} 2> {log}'
 
 
 rule own_table:

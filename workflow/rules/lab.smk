@@ -52,6 +52,6 @@ rule reduce_record:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        window_s=config["lab"]["window_s"],
+        settings=plan.command_settings(config, "reduce"),
     shell:
-        "asphalt-nscd reduce {input.record} --meta {input.meta} --window-s {params.window_s} -o {output} 2> {log}"
+        'asphalt-nscd reduce {input.record} --meta {input.meta} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'

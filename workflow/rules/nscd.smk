@@ -31,13 +31,10 @@ rule nscd_verify:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        freqs=plan.comma_list(config["nscd"]["verify"]["phase_frequencies_Hz"]),
-        dts=plan.comma_list(config["nscd"]["verify"]["phase_dts_s"]),
-        thetas=plan.comma_list(config["nscd"]["verify"]["phase_thetas"]),
+        settings=plan.command_settings(config, "verify"),
     shell:
         "asphalt-nscd verify -o {output.json} --csv {output.csv} --phase-table {output.phase} "
-        "--figure {output.figure} --phase-frequencies {params.freqs} --phase-dts {params.dts} "
-        "--phase-thetas {params.thetas} 2> {log}"
+        '--figure {output.figure} --config "$ASPHALT_NSCD_RUN_CONFIG" 2> {log}'
 
 
 rule nscd_bench:
@@ -53,19 +50,10 @@ rule nscd_bench:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        steps=config["nscd"]["bench"]["steps"],
-        baseline=config["nscd"]["bench"]["baseline_steps"],
-        settle=config["nscd"]["bench"]["settle_steps"],
-        settle_speed=config["nscd"]["bench"].get("settle_speed_m_s", 5.0e-3),
-        tol=plan.from_wildcards(plan.bench_tolerance, config),
-        kinematics=plan.bond_kinematics(config),
-        bonded_contact=plan.bonded_contact(config),
+        settings=plan.from_wildcards(plan.bench_settings, config),
     shell:
-        "NUMBA_NUM_THREADS={threads} asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} --threads {threads} "
-        "--steps {params.steps} --baseline-steps {params.baseline} --settle-steps {params.settle} "
-        "--settle-speed {params.settle_speed} "
-        "--tolerance {params.tol} --bond-kinematics {params.kinematics} "
-        "--bonded-contact {params.bonded_contact} -o {output} 2> {log}"
+        "NUMBA_NUM_THREADS={threads} asphalt-nscd bench --case {wildcards.case} --n {wildcards.n} --threads {threads}"
+        ' --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule nscd_bench_summary:

@@ -187,6 +187,9 @@ def _add_campaign_dt_study(subparsers) -> None:
     _parameter_options(p)
     p.add_argument("--table", required=True, help="output CSV")
     p.add_argument("--figure", required=True, help="output png")
+    from ..config import config_option
+
+    config_option(p, _config_values, "calibration.table3_units")
     p.set_defaults(func=_dt_study)
 
 
@@ -214,6 +217,9 @@ def _add_campaign_sensitivity(subparsers) -> None:
         metavar="PNG",
         help="figures for Em, eta_m, Ek, eta_k (Figs. 11-14 analogues)",
     )
+    from ..config import config_option
+
+    config_option(p, _config_values, "calibration.table3_units and campaign.sensitivity.temperature_C")
     p.set_defaults(func=_sensitivity)
 
 
@@ -230,7 +236,9 @@ def _add_campaign_units(subparsers) -> None:
         help="reduced rows of the kPa-reading runs with unbreakable bonds",
     )
     p.add_argument("--sample", required=True, help="sample file of the runs (.h5)")
-    p.add_argument("--temperature", type=float, required=True, help="temperature of the runs, degC")
+    p.add_argument(
+        "--temperature", type=float, default=None, help="temperature of the runs, degC (required without --config)"
+    )
     p.add_argument("--grain-mass-kg", type=float, default=2.86e-5, help="typical grain mass m_g, kg")
     p.add_argument("--r-min-mm", type=float, default=1.0, help="r_min of the representative bond, mm")
     p.add_argument("--l0-mm", type=float, default=2.0, help="l0 of the representative bond, mm")
@@ -247,6 +255,9 @@ def _add_campaign_units(subparsers) -> None:
         help="measured summary (MPa) whose |E*| at the temperature and 10 Hz is the mix the moduli are "
         "compared with (--evidence; default: 5-30 GPa of dense mixes)",
     )
+    from ..config import config_option
+
+    config_option(p, _config_values, "campaign.units_question.temperature_C and the first bond of calibration.micro")
     p.set_defaults(func=_units)
 
 
@@ -411,6 +422,9 @@ def _add_bench(subparsers) -> None:
         help="relaxation factor of cg_ssor in (0, 2) (default: NSCDParameters')",
     )
     b.add_argument("-o", "--output", required=True, help="JSON record")
+    from ..nscd.cli import config_option
+
+    config_option(b)
     b.set_defaults(func=_core_bench)
 
 
@@ -801,6 +815,10 @@ def _units(args) -> int:
     from ..sample.store import read_sample
     from . import study
 
+    if args.temperature is None:
+        from ..io import InputError
+
+        raise InputError("campaign-units: give --temperature, or --config")
     micro = {"grain_mass_kg": args.grain_mass_kg, "r_min_mm": [args.r_min_mm], "l0_mm": [args.l0_mm]}
     rows = {"Pa": _read_rows(args.rows_pa), "kPa": _read_rows(args.rows_kpa)}
     if args.rows_kpa_nobreak:

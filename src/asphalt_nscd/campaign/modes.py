@@ -73,7 +73,11 @@ def config_values(cfg: Mapping, args) -> dict:
       ``--factor``), whether it is a verification job (:func:`is_verification`);
     * ``campaign-isotherms``: the Table 3 reading and the figures' title;
     * ``campaign-dt-policy``: the Table 3 reading, :func:`policy_temperature` and the
-      schedule's frequencies.
+      schedule's frequencies;
+    * ``campaign-dt-study``, ``campaign-sensitivity``: the paper mode's Table 3 reading (and
+      ``campaign.sensitivity.temperature_C``);
+    * ``campaign-units``: ``campaign.units_question.temperature_C`` and the first
+      representative bond of ``calibration.micro`` (grain mass, r_min, l0).
 
     The test settings themselves come from :func:`asphalt_nscd.campaign.twopb.job_settings`.
     """
@@ -90,4 +94,14 @@ def config_values(cfg: Mapping, args) -> dict:
     elif command == "campaign-dt-policy":
         out["temperature"] = policy_temperature(cfg, mode)
         out["frequencies"] = [float(f) for f in schedule(cfg, mode)["frequencies_Hz"]]
+    elif command == "campaign-sensitivity":
+        out["temperature"] = float(cfg["campaign"]["sensitivity"]["temperature_C"])
+    elif command == "campaign-units":
+        micro = cfg["calibration"]["micro"]
+        out |= {
+            "temperature": float(cfg["campaign"]["units_question"]["temperature_C"]),
+            "grain_mass_kg": float(micro["grain_mass_kg"]),
+            "r_min_mm": float(micro["r_min_mm"][0]),
+            "l0_mm": float(micro["l0_mm"][0]),
+        }
     return out

@@ -799,6 +799,7 @@ def _add_diagnose_bench(subparsers) -> None:
         default=None,
         help="bench table CSV: per artifact and family, detection and false-alarm counts, rates, 95 %% CIs",
     )
+    _config_option(p, "bench")
     p.set_defaults(func=_bench)
 
 

@@ -14,8 +14,9 @@ from collections.abc import Mapping
 
 #: option groups: the artifact search (every command of the step), the extended law's candidates
 #: and the law a material card carries (extend-law, crossval), the search's calibration
-#: (calibrate-search), the cause tolerances and the campaign's Moreau-Jean theta (diagnose)
-GROUPS = ("search", "law", "calibration", "causes")
+#: (calibrate-search), the cause tolerances and the campaign's Moreau-Jean theta (diagnose), the detection
+#: benchmark (diagnose-bench)
+GROUPS = ("search", "law", "calibration", "causes", "bench")
 
 
 def option_values(cfg: Mapping, *groups: str) -> dict:
@@ -75,5 +76,16 @@ def option_values(cfg: Mapping, *groups: str) -> dict:
             "tolerance_phase_deg": float(tol.get("time_integration_deg", 0.1)),
             # the rows of a time-integration table at the campaign's own Moreau-Jean theta
             "theta": float(cfg["campaign"]["test"]["theta"]),
+        }
+    if "bench" in groups:
+        bench = diag["bench"]
+        out |= {
+            "clean": int(bench["clean"]),
+            "planted": int(bench["planted"]),
+            "base_seed": int(bench["base_seed"]),
+            "families": ",".join(bench["families"]),
+            "alpha": float(diag["alpha"]),
+            "configuration": bench["configuration"],
+            "power": int(bench["power"]),
         }
     return out

@@ -10,6 +10,12 @@ from __future__ import annotations
 from pathlib import Path
 
 
+def _reduce_config_values(cfg, args) -> dict:
+    """``reduce --config``: the lab's analysis window ``lab.window_s`` (unless --window-cycles)."""
+    window = cfg["lab"].get("window_s")
+    return {} if args.window_cycles is not None or window is None else {"window_s": float(window)}
+
+
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
     p = subparsers.add_parser(
@@ -34,6 +40,9 @@ def register(subparsers) -> None:
         "--window-cycles", type=float, default=None, help="analyse the last WINDOW_CYCLES cycles (simulation: 1)"
     )
     p.add_argument("-o", "--output", type=Path, required=True, help="one-row CSV of the reduced results")
+    from ..config import config_option
+
+    config_option(p, _reduce_config_values, "lab.window_s")
     p.set_defaults(func=_reduce)
 
     p = subparsers.add_parser(

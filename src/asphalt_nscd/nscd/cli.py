@@ -9,6 +9,38 @@ needs the harmonic solver).
 """
 
 
+def config_values(cfg, args) -> dict:
+    """Option values of this step's commands from the ``nscd`` section of a merged, checked
+    workflow config (``--config``; an option given on the command line wins): the phase error
+    table of ``verify`` (nscd.verify) and the benchmark settings of ``bench`` (nscd.bench, the
+    case's tolerance, the core's bond kinematics and bonded contact)."""
+    nscd = cfg["nscd"]
+    if args.command == "verify":
+        ver = nscd["verify"]
+        return {
+            "phase_frequencies": ",".join(f"{float(x):g}" for x in ver["phase_frequencies_Hz"]),
+            "phase_dts": ",".join(f"{float(x):g}" for x in ver["phase_dts_s"]),
+            "phase_thetas": ",".join(f"{float(x):g}" for x in ver["phase_thetas"]),
+        }
+    bench = nscd["bench"]
+    return {
+        "steps": int(bench["steps"]),
+        "baseline_steps": int(bench["baseline_steps"]),
+        "settle_steps": int(bench["settle_steps"]),
+        "settle_speed": float(bench.get("settle_speed_m_s", 5.0e-3)),
+        "tolerance": float(bench["granular_tolerance" if args.case == "granular" else "tolerance"]),
+        "bond_kinematics": nscd.get("bond_kinematics", "contact"),
+        "bonded_contact": nscd.get("bonded_contact", "after_break"),
+    }
+
+
+def config_option(p) -> None:
+    """``--config``: the option values of :func:`config_values`."""
+    from ..config import config_option as option
+
+    option(p, config_values, "its nscd section")
+
+
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
     p = subparsers.add_parser("verify", help="NSCD core verification against closed forms")
@@ -28,6 +60,7 @@ def register(subparsers) -> None:
         "--phase-frequencies", default="3,40", help="frequencies (Hz) of the phase error table, comma-separated"
     )
     p.add_argument("--strict", action="store_true", help="exit 1 if a case fails")
+    config_option(p)
     p.set_defaults(func=_verify)
 
     c = subparsers.add_parser("bench-summary", help="table of NSCD benchmark JSON records")

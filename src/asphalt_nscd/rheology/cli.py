@@ -27,24 +27,33 @@ def _add_fit_options(p) -> None:
 
 def config_values(cfg, args) -> dict:
     """Option values of this step's commands from the ``calibration`` section of a merged,
-    checked workflow config (``--config``; an option given on the command line wins)."""
+    checked workflow config (``--config``; an option given on the command line wins), and
+    export-law's tolerance (``diagnosis.material_card.tolerance``)."""
     cal = cfg["calibration"]
     micro, curves = cal["micro"], cal["curves"]
-    return {
-        "model": cal["model"],
+    weights = {
         "weight_log_modulus": float(cal["weight_log_modulus"]),
         "weight_phase": float(cal["weight_phase"]),
         "n_starts": int(cal["n_starts"]),
-        "units": cal["table3_units"],
-        "frequencies": [float(f) for f in cal["refit_frequencies_Hz"]],
-        "fmin": float(curves["fmin_Hz"]),
-        "fmax": float(curves["fmax_Hz"]),
-        "points": int(curves["points"]),
-        "r_min_mm": [float(r) for r in micro["r_min_mm"]],
-        "l0_mm": [float(x) for x in micro["l0_mm"]],
-        "nu": float(micro["poisson_ratio"]),
-        "grain_mass_kg": None if micro.get("grain_mass_kg") is None else float(micro["grain_mass_kg"]),
     }
+    by_command = {
+        "fit": {"model": cal["model"], **weights},
+        "refit-check": {"frequencies": [float(f) for f in cal["refit_frequencies_Hz"]], **weights},
+        "table3": {"units": cal["table3_units"]},
+        "burgers-curves": {
+            "fmin": float(curves["fmin_Hz"]),
+            "fmax": float(curves["fmax_Hz"]),
+            "points": int(curves["points"]),
+        },
+        "micro": {
+            "r_min_mm": [float(r) for r in micro["r_min_mm"]],
+            "l0_mm": [float(x) for x in micro["l0_mm"]],
+            "nu": float(micro["poisson_ratio"]),
+            "grain_mass_kg": None if micro.get("grain_mass_kg") is None else float(micro["grain_mass_kg"]),
+        },
+        "export-law": {"tolerance": [float(x) for x in cfg["diagnosis"]["material_card"]["tolerance"]]},
+    }
+    return by_command.get(args.command, {})
 
 
 def _config_option(p) -> None:
@@ -242,6 +251,7 @@ def _add_export_law(subparsers) -> None:
         "master-curve's): the card's errors against it and what the correction changes, per "
         "temperature",
     )
+    _config_option(p)
     p.set_defaults(func=_export)
 
 
