@@ -376,7 +376,7 @@ def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_p
     (free: one period later every bond force is back while the mechanisms fall as they would
     from rest) or cancelled by the support force, which the time domain then applies too
     (supported: every bond force is back and the mechanisms stay in the steady state)."""
-    from asphalt_nscd.harmonic import timedomain
+    from asphalt_nscd.harmonic import solver
     from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
     from asphalt_nscd.sample.store import write_sample
 
@@ -402,12 +402,12 @@ def test_gravity_state_with_mechanisms_is_exact_on_the_rest_of_the_network(tmp_p
     write_sample(path, sample)
     f = 200.0  # a short period: the mechanisms fall ~0.1 mm in it and touch nothing
     s = twopb.TwoPBSettings(dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=1.0, gravity=True)
-    held = timedomain.held_spheres(read_sample(path))
+    held = solver.held_spheres(read_sample(path))
     assert held[:n].all() and not held[n:].any()  # the two hanging spheres, and only them
     sim, _ = twopb.build_simulation(read_sample(path), LAW_15C, f, twopb.time_step(f, s), s)
     assert sim.n_mechanisms_dropped == 2 and sim.spheres.n == n and len(sim.bonds.i) == len(b["i"])
     assert periodic.periodic_state(sim, LAW_15C, f, s.amplitude_m).gravity.n_mechanisms == 0
-    monkeypatch.setattr(timedomain, "held_spheres", lambda sample, *a, **k: np.ones(sample.radius.size, bool))
+    monkeypatch.setattr(solver, "held_spheres", lambda sample, *a, **k: np.ones(sample.radius.size, bool))
     sim, _ = twopb.build_simulation(read_sample(path), LAW_15C, f, twopb.time_step(f, s), s)
     sim.params.linear_tolerance = 1e-13
     state = periodic.periodic_state(sim, LAW_15C, f, s.amplitude_m, s.head_rotation, mechanisms=mechanisms)

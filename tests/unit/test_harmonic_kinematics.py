@@ -10,7 +10,8 @@ import pandas as pd
 import pytest
 
 from asphalt_nscd.cli import main
-from asphalt_nscd.harmonic.network import head_inertia, network_from_arrays, network_from_sample
+from asphalt_nscd.harmonic.network import network_from_arrays, network_from_sample
+from asphalt_nscd.sample.rig import head_inertia
 from asphalt_nscd.sample.lattice import lattice_sample, sample_from_bonds
 from asphalt_nscd.sample.store import read_sample, write_sample
 from asphalt_nscd.harmonic.solver import HarmonicSystem
@@ -378,3 +379,28 @@ def test_kinematics_study_cli(tmp_path):
         )
         == 2
     )
+
+
+def test_the_rig_and_the_network_share_the_head():
+    """The 2PB rig (sample.rig) and the harmonic network read the same head from a sample: the
+    same rotational inertia, from the sample's b_m, e_m or, without them, from the top-plate
+    bonds' contact points; a rig holding only some spheres leaves the others out."""
+    from asphalt_nscd.nscd import NSCDParameters
+    from asphalt_nscd.rheology.laws import GeneralizedBurgers
+    from asphalt_nscd.sample import rig
+    from asphalt_nscd.sample.lattice import lattice_sample
+
+    sample = lattice_sample(40, seed=3)
+    assert "b_m" not in sample.attrs  # the head's footprint from the top-plate bonds' contact points
+    inertia = rig.head_inertia_of(sample)
+    assert np.all(inertia > 0) and np.array_equal(inertia, network_from_sample(sample).plate_inertia)
+    law = GeneralizedBurgers(Em=2.6e10, eta_m=2.6e10, Ek=[7.8e9], eta_k=[1.9e8])
+    still = lambda t: (0.0, 0.0, 0.0)  # noqa: E731
+    sim = rig.setup(sample, law, still, NSCDParameters(dt=1e-5), "free")
+    assert sim.n_mechanisms_dropped == 0 and np.array_equal(sim.plates.inertia[1], inertia)
+    held = np.ones(sample.radius.size, bool)
+    held[:2] = False
+    sim = rig.setup(sample, law, still, NSCDParameters(dt=1e-5), "clamped", held=held)
+    assert sim.n_mechanisms_dropped == 2 and sim.spheres.n == sample.radius.size - 2
+    with pytest.raises(ValueError, match="held: expected a mask"):
+        rig.setup(sample, law, still, NSCDParameters(dt=1e-5), held=held[:-1])

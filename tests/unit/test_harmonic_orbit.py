@@ -138,8 +138,8 @@ def test_the_support_cancels_the_weight_along_the_zero_modes_only():
 
 def test_a_floating_cluster_is_left_out_of_the_test(tmp_path):
     """Spheres no chain of bonds ties to a plate carry no load and, under gravity, would fall
-    through the sample: the test leaves them out (harmonic.timedomain.held_spheres)."""
-    from asphalt_nscd.harmonic.timedomain import held_spheres
+    through the sample: the test leaves them out (harmonic.solver.held_spheres)."""
+    from asphalt_nscd.harmonic.solver import held_spheres
     from asphalt_nscd.sample.lattice import lattice_sample
 
     smp = lattice_sample(40, seed=3, radius_range=(0.9e-3, 1.5e-3), plate_mass=(np.inf, 1e-3))

@@ -313,16 +313,17 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
     fixed, top plate driven by :class:`HeadMotion` (and free to rotate when
     ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid), bonds
-    with the macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``;
-    built by :func:`asphalt_nscd.harmonic.timedomain.build_simulation`.
-    Returns (Simulation, HeadMotion).
+    with the macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``:
+    the 2PB rig (:func:`asphalt_nscd.sample.rig.setup`) holding the spheres the bond network
+    holds (:func:`asphalt_nscd.harmonic.solver.held_spheres`). Returns (Simulation, HeadMotion).
 
     Raises
     ------
     InputError if the head is free to rotate but has no positive finite inertia.
     """
-    from ..harmonic.timedomain import build_simulation as test_simulation
+    from ..harmonic import solver
     from ..nscd import NSCDParameters
+    from ..sample import rig
 
     motion = HeadMotion(settings.amplitude_m, frequency_Hz)
     strength = np.inf if settings.yield_stress_Pa is None else float(settings.yield_stress_Pa)
@@ -339,9 +340,8 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
         linear_tolerance=settings.linear_tolerance,
         fast_path_contacts=settings.fast_path_contacts,
     )
-    sim = test_simulation(
-        sample, law, motion, params, head_rotation=settings.head_rotation, nu=settings.nu, yield_stress=strength
-    )
+    held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
+    sim = rig.setup(sample, law, motion, params, settings.head_rotation, settings.nu, strength, held=held)
     return sim, motion
 
 

@@ -484,10 +484,10 @@ def _bench_previous_inertia_path(system, ref: dict, law, f: float, new_s: float)
 
 def _time_domain_step_time(sample, law, frequency_Hz, dt, n_steps) -> float:
     from ..nscd import NSCDParameters
-    from .timedomain import build_simulation
+    from .timedomain import simulation
 
     w = 2 * np.pi * frequency_Hz
-    sim = build_simulation(
+    sim = simulation(
         sample,
         law,
         lambda t: (HEAD_AMPLITUDE_M * np.sin(w * t), 0.0, 0.0),

@@ -15,15 +15,9 @@ of the gap on the line of centres, c = x_i + (r_i + delta0/2) e with e the unit 
 sphere i towards the other body (e = n for sphere-sphere bonds, minus the plate normal for
 sphere-plate bonds), delta0 = l0 - r_i - r_j (sphere-sphere) or l0 - r_i (sphere-plate).
 
-Top-plate (head) rotational inertia, used when the head is free to rotate: the head is a
-steel cuboid (density :data:`PLATE_DENSITY_KG_M3`) of the sample file's top-plate mass m
-(0.235 kg scaled with the sample) and footprint b x e (root attributes ``b_m, e_m`` of the
-sample file, the specimen's head; else the x-y extent of the top-plate bonds' contact
-points), of thickness t = m / (rho b e). It rotates about the head-face centre
-``plates/point[1]``: I = diag(m (e^2 + t^2)/12, m (b^2 + t^2)/12, m (b^2 + e^2)/12) +
-m (t/2)^2 diag(1, 1, 0) (parallel-axis term of the face offset). The mass coupling between
-the imposed head translation and the head rotation (centre of mass t/2 above the face) is
-neglected.
+Top-plate (head) rotational inertia, used when the head is free to rotate: the steel cuboid of
+the 2PB rig (:mod:`asphalt_nscd.sample.rig`, :func:`asphalt_nscd.sample.rig.head_inertia`),
+about the head-face centre ``plates/point[1]``.
 
 Test samples (a jittered lattice, given spheres and bonds) come from
 :mod:`asphalt_nscd.sample.lattice`.
@@ -36,9 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..rheology.laws import bond_scale
-
-#: Steel density of the head plate (rotational inertia, module docstring), kg/m^3.
-PLATE_DENSITY_KG_M3 = 7850.0
+from ..sample.rig import contact_points, head_inertia
 
 
 @dataclass(frozen=True)
@@ -125,39 +117,6 @@ def bond_normals(position, plate_normal, i, j) -> np.ndarray:
     return n
 
 
-def contact_points(position, radius, plate_normal, i, j, l0) -> np.ndarray:
-    """Contact points c = x_i + (r_i + delta0/2) e of the bonds, shape (B, 3), m.
-
-    e points from sphere i to the other body; delta0 = l0 - r_i - r_j (sphere-sphere) or
-    l0 - r_i (sphere-plate), so r_i + delta0/2 = (l0 + r_i - r_j)/2 or (l0 + r_i)/2.
-    """
-    sph = j >= 0
-    d = np.empty((len(i), 3))
-    d[sph] = position[j[sph]] - position[i[sph]]
-    d[sph] /= np.linalg.norm(d[sph], axis=1, keepdims=True)
-    d[~sph] = -plate_normal[-1 - j[~sph]]
-    other = np.where(sph, radius[np.where(sph, j, 0)], 0.0)
-    arm = 0.5 * (np.asarray(l0, float) + radius[i] - other)
-    return position[i] + arm[:, None] * d
-
-
-def head_inertia(mass: float, b_m: float, e_m: float, density_kg_m3: float = PLATE_DENSITY_KG_M3) -> np.ndarray:
-    """Moments of inertia (3,) kg m^2 of the head about its face centre (module docstring).
-
-    A steel cuboid of mass ``mass`` (kg), footprint ``b_m`` (along x) x ``e_m`` (along y), m.
-    """
-    if not (mass > 0 and np.isfinite(mass)) or b_m <= 0 or e_m <= 0:
-        return np.zeros(3)
-    t = mass / (density_kg_m3 * b_m * e_m)
-    return np.array(
-        [
-            mass * (e_m**2 + t**2) / 12 + mass * t**2 / 4,
-            mass * (b_m**2 + t**2) / 12 + mass * t**2 / 4,
-            mass * (b_m**2 + e_m**2) / 12,
-        ]
-    )
-
-
 def network_from_arrays(
     position,
     mass,
@@ -222,9 +181,9 @@ def network_from_sample(sample) -> BondNetwork:
     """The :class:`BondNetwork` of a sample read by the store (:class:`asphalt_nscd.sample.store.
     SampleData`, arrays checked there), named after it; the head size (b, e) is the root
     attributes ``b_m, e_m`` when present (module docstring)."""
-    head = None
-    if "b_m" in sample.attrs and "e_m" in sample.attrs:
-        head = (float(sample.attrs["b_m"]), float(sample.attrs["e_m"]))
+    from ..sample.rig import head_size_m
+
+    head = head_size_m(sample)
     return network_from_arrays(
         sample.position,
         sample.mass,

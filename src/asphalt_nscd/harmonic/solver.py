@@ -714,3 +714,50 @@ def _check_inertia(inertia: str) -> None:
 def _relative_residual(a, x, b) -> float:
     norm_b = np.linalg.norm(b)
     return float(np.linalg.norm(a @ x - b) / norm_b) if norm_b > 0 else 0.0
+
+
+def held_spheres(
+    sample, bond_kinematics: str = "contact", head_rotation: str = "free", nu: float = POISSON_RATIO
+) -> np.ndarray:
+    """Mask (N,) of the spheres the bond network holds: every sphere but (1) the spheres no
+    chain of bonds ties to a plate (a sphere or a cluster floating inside the sample: it carries
+    no load in the test and, under gravity, falls through the sample -- 3 mm in the 25 ms of a
+    40 Hz cycle -- into spheres it then pushes) and (2) the dangling mechanisms of the
+    ``contact`` kinematics, the clusters of weakly held spheres
+    (:meth:`asphalt_nscd.harmonic.solver.HarmonicSystem.mechanism_modes`) that hang by a
+    single bond from the rest of the sample (a sphere held by one bond, a pair held by one),
+    found again after each removal until none is left. Such a cluster carries no load in the
+    linear test (nothing passes through it), and under gravity its linearised bond lets it
+    turn without limit about the bond's contact point (a pendulum without a restoring force:
+    about 400 rad in 0.35 s for a 2 mm sphere), through its neighbours. A weakly held sphere
+    on a load path (two bonds, a chain link) stays: its only zero mode is a spin about the
+    line through its bonds (``campaign.test.mechanisms`` says how its weight meets it). The
+    ``barycentre`` kinematics has no mechanisms; its floating spheres are dropped too."""
+    from ..sample.store import subsample
+    from .network import network_from_sample
+
+    keep = np.ones(sample.radius.size, bool)
+    while True:
+        sub = subsample(sample, keep)
+        system = HarmonicSystem(
+            network_from_sample(sub),
+            nu=nu,
+            bond_kinematics=bond_kinematics,
+            head_rotation=head_rotation,
+            regularisation=0.0,
+        )
+        i, j = sub.bonds["i"], sub.bonds["j"]
+        dropped = [np.flatnonzero(~system.active)]  # no chain of bonds to a plate
+        if bond_kinematics != "contact":
+            modes = []
+        else:
+            modes = system.mechanism_modes()
+        for _, _, _, spheres in modes:
+            inside = np.zeros(sub.radius.size, bool)
+            inside[spheres] = True
+            external = inside[i] != ((j >= 0) & inside[np.maximum(j, 0)])  # one end in the cluster
+            if int(external.sum()) <= 1:
+                dropped.append(spheres)
+        if not sum(len(d) for d in dropped):
+            return keep
+        keep[np.flatnonzero(keep)[np.concatenate(dropped)]] = False

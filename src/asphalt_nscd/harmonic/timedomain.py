@@ -1,13 +1,13 @@
 """Time-domain check of the harmonic solver: the same sample, law and head motion run
 through the NSCD core (:mod:`asphalt_nscd.nscd`), reduced by the same Eqs. 1-5.
 
-Set-up (identical to the harmonic model with the same ``bond_kinematics`` and
-``head_rotation``, passed to the NSCD core: ``NSCDParameters.bond_kinematics`` and, for a
-free head, a top plate with ``rotation=True`` and the harmonic model's head inertia
-(:func:`.network.head_inertia`, about ``plates/point[1]``)): no gravity, bottom plate fixed,
-top plate driven with x(t) = A sin(w t) (mass = the sample file's top-plate mass, which
-enters the driver force), bonds created from the sample configuration with the macro law scaled per bond
-(``Bonds.create``: Eqs. 30-33, 8-11), Moreau-Jean theta-method with step ``dt``.
+Set-up: the 2PB rig of the campaign's jobs (:func:`asphalt_nscd.sample.rig.setup`, the
+spheres the bond network holds, :func:`.solver.held_spheres`), identical to the harmonic
+model with the same ``bond_kinematics`` and ``head_rotation`` (``NSCDParameters.bond_kinematics``
+and, for a free head, the rig's head inertia): no gravity, bottom plate fixed, top plate driven
+with x(t) = A sin(w t) (mass = the sample file's top-plate mass, which enters the driver force),
+bonds with the macro law scaled per bond (Eqs. 30-33, 8-11), Moreau-Jean theta-method with
+step ``dt``.
 
 Reading: the forces of a step are means over the step, so they are sampled at the mid-step
 time t - dt/2 together with the imposed displacement at that time (sampling them at the end
@@ -31,12 +31,11 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ..io import InputError
-from ..nscd.state import HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
+from ..nscd.state import HEAD_AMPLITUDE_M, HEAD_ROTATIONS
 from ..rheology.laws import POISSON_RATIO
 
 
@@ -108,9 +107,7 @@ def time_domain_row(
     params = NSCDParameters(
         dt=dt, theta=theta, gravity=(0.0, 0.0, 0.0), tolerance=tolerance, bond_kinematics=bond_kinematics
     )
-    sim = build_simulation(
-        sample, law, lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0), params, head_rotation=head_rotation, nu=nu
-    )
+    sim = simulation(sample, law, lambda t: (amplitude * np.sin(omega * t), 0.0, 0.0), params, head_rotation, nu)
     spheres = sim.spheres
     period = 1.0 / frequency_Hz
     duration = max(n_cycles * period, settle_factor * relaxation_bound_s(law))
@@ -154,118 +151,12 @@ def time_domain_row(
     return row
 
 
-def held_spheres(
-    sample, bond_kinematics: str = "contact", head_rotation: str = "free", nu: float = POISSON_RATIO
-) -> np.ndarray:
-    """Mask (N,) of the spheres the bond network holds: every sphere but (1) the spheres no
-    chain of bonds ties to a plate (a sphere or a cluster floating inside the sample: it carries
-    no load in the test and, under gravity, falls through the sample -- 3 mm in the 25 ms of a
-    40 Hz cycle -- into spheres it then pushes) and (2) the dangling mechanisms of the
-    ``contact`` kinematics, the clusters of weakly held spheres
-    (:meth:`asphalt_nscd.harmonic.solver.HarmonicSystem.mechanism_modes`) that hang by a
-    single bond from the rest of the sample (a sphere held by one bond, a pair held by one),
-    found again after each removal until none is left. Such a cluster carries no load in the
-    linear test (nothing passes through it), and under gravity its linearised bond lets it
-    turn without limit about the bond's contact point (a pendulum without a restoring force:
-    about 400 rad in 0.35 s for a 2 mm sphere), through its neighbours. A weakly held sphere
-    on a load path (two bonds, a chain link) stays: its only zero mode is a spin about the
-    line through its bonds (``campaign.test.mechanisms`` says how its weight meets it). The
-    ``barycentre`` kinematics has no mechanisms; its floating spheres are dropped too."""
-    from ..sample.store import subsample
-    from .network import network_from_sample
-    from .solver import HarmonicSystem
+def simulation(sample, law, displacement, params, head_rotation: str = "clamped", nu: float = POISSON_RATIO):
+    """The 2PB rig of ``sample`` (:func:`asphalt_nscd.sample.rig.setup`) holding the spheres the
+    bond network holds under ``params.bond_kinematics`` (:func:`.solver.held_spheres`),
+    unbreakable bonds: the time-domain twin of the harmonic model."""
+    from ..sample import rig
+    from . import solver
 
-    keep = np.ones(sample.radius.size, bool)
-    while True:
-        sub = subsample(sample, keep)
-        system = HarmonicSystem(
-            network_from_sample(sub),
-            nu=nu,
-            bond_kinematics=bond_kinematics,
-            head_rotation=head_rotation,
-            regularisation=0.0,
-        )
-        i, j = sub.bonds["i"], sub.bonds["j"]
-        dropped = [np.flatnonzero(~system.active)]  # no chain of bonds to a plate
-        if bond_kinematics != "contact":
-            modes = []
-        else:
-            modes = system.mechanism_modes()
-        for _, _, _, spheres in modes:
-            inside = np.zeros(sub.radius.size, bool)
-            inside[spheres] = True
-            external = inside[i] != ((j >= 0) & inside[np.maximum(j, 0)])  # one end in the cluster
-            if int(external.sum()) <= 1:
-                dropped.append(spheres)
-        if not sum(len(d) for d in dropped):
-            return keep
-        keep[np.flatnonzero(keep)[np.concatenate(dropped)]] = False
-
-
-def build_simulation(
-    sample,
-    law,
-    displacement,
-    params,
-    head_rotation: str = "clamped",
-    nu: float = POISSON_RATIO,
-    yield_stress: float = YIELD_STRESS,
-):
-    """The NSCD simulation of the 2PB test on ``sample`` (SampleData): its spheres (a copy of
-    the positions: the run moves them), the bottom plate fixed, the top plate (the head, its
-    mass from the sample) driven by ``displacement(t) -> (x, y, z)`` (m) and, when
-    ``head_rotation == 'free'``, free to rotate with the steel cuboid's inertia
-    (:func:`asphalt_nscd.harmonic.network.network_from_sample`); bonds of the sample with the
-    macro ``law`` (GeneralizedBurgers, Pa, Pa s), Poisson ratio ``nu`` and ``yield_stress``
-    (Pa; inf: unbreakable); ``params`` (NSCDParameters) of the run. The one builder of the
-    campaign's jobs (:func:`asphalt_nscd.campaign.twopb.build_simulation`), the time-domain
-    check of the harmonic solution and its benchmark. The spheres the bond network does not
-    hold under ``params.bond_kinematics`` (:func:`held_spheres`) are left out of the test; the
-    simulation's ``n_mechanisms_dropped`` says how many.
-
-    Raises
-    ------
-    InputError if the head is free to rotate but has no positive finite inertia.
-    ValueError on an unknown ``head_rotation``.
-    """
-    from ..nscd import Bonds, Plate, Plates, Simulation, Spheres
-    from ..sample.store import subsample
-    from .network import network_from_sample
-
-    if head_rotation not in HEAD_ROTATIONS:
-        raise ValueError(f"head_rotation must be one of {HEAD_ROTATIONS}, got {head_rotation!r}")
-    keep = held_spheres(sample, params.bond_kinematics, head_rotation, nu)
-    n_dropped = int((~keep).sum())
-    if n_dropped:
-        sample = subsample(sample, keep)
-    spheres = Spheres(
-        position=np.array(sample.position, dtype=float), radius=sample.radius, mass=sample.mass, inertia=sample.inertia
-    )
-    head: dict[str, Any] = {}
-    if head_rotation == "free":
-        inertia = network_from_sample(sample).plate_inertia
-        assert inertia is not None  # the network of a sample has its head's inertia
-        if not np.all((inertia > 0) & np.isfinite(inertia)):
-            raise InputError(
-                f"head_rotation 'free': the head has no positive finite rotational "
-                f"inertia (top-plate mass {sample.plate_mass[1]} kg, moments "
-                f"{inertia} kg m²)"
-            )
-        head = {"rotation": True, "inertia": inertia}
-    plates = Plates(
-        [
-            Plate(sample.plate_point[0], sample.plate_normal[0], mode="fixed"),
-            Plate(
-                sample.plate_point[1],
-                sample.plate_normal[1],
-                mode="driven",
-                mass=float(sample.plate_mass[1]),
-                displacement=displacement,
-                **head,
-            ),
-        ]
-    )
-    bonds = Bonds.create(spheres, plates, sample.bonds["i"], sample.bonds["j"], law, nu=nu, yield_stress=yield_stress)
-    sim = Simulation(spheres, plates, bonds, params)
-    sim.n_mechanisms_dropped = n_dropped
-    return sim
+    held = solver.held_spheres(sample, params.bond_kinematics, head_rotation, nu)
+    return rig.setup(sample, law, displacement, params, head_rotation, nu, held=held)

@@ -82,7 +82,7 @@ class Simulation:
     """
 
     #: spheres left out of the test because the bond network does not hold them; set only by
-    #: :func:`asphalt_nscd.harmonic.timedomain.build_simulation`
+    #: :func:`asphalt_nscd.sample.rig.setup`
     n_mechanisms_dropped: int
 
     def __init__(

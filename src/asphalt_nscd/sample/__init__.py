@@ -8,6 +8,7 @@ geometry   lattice placement, trapezoid cut, flip, shrink, density, bonds, descr
 dynamics   deposition, vibration and bonded stabilisation with the NSCD core
 prepare    the whole chain for one seed (:func:`prepare.prepare_sample`) and the summary
 store      HDF5 sample file of docs/design.md, ParaView (VTU) files
+rig        the 2PB rig: sample + plates + head motion + law -> an NSCD simulation ready to step
 figures    Fig. 5-like picture of the stages
 cli        ``asphalt-nscd prepare-sample`` and ``asphalt-nscd sample-table``
 
