@@ -1038,7 +1038,7 @@ def _crossval(args) -> int:
     from ..io import InputError, write_csv
     from ..lab.measured import load_measured
     from . import crossval as cv
-    from . import artifacts
+    from . import artifacts, render
     from .inputs import read_simulated_many
 
     measured = load_measured(args.measured)
@@ -1063,7 +1063,7 @@ def _crossval(args) -> int:
     if args.curve is not None:
         write_csv(res.curves if len(res.curves) else pd.DataFrame(columns=["scheme", "fold", "settings"]), args.curve)
     if args.figure is not None:
-        cv.figure(res.rows, res.full.law, args.figure)
+        render.crossval_figure(res.rows, res.full.law, args.figure)
     return 0
 
 

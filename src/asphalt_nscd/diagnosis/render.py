@@ -788,3 +788,62 @@ def effects_table(report: dict) -> pd.DataFrame:
         for e in report["effects"]
     ]
     return pd.DataFrame(rows)
+
+
+def crossval_figure(rows: pd.DataFrame, law, path, model: str = "extended_law") -> None:
+    """Measured, in-sample and held-out isotherms of one model (top |E*|, bottom Phi vs f),
+    saved atomically to ``path``; the in-sample law is drawn as curves when given."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io import InputError, savefig
+    from .crossval import FIT_ERRORS
+
+    sub = rows[rows["model"] == model]
+    held = sub[(sub["kind"] == "held_out") & sub["computable"]]
+    if len(sub) and held.empty:  # no fold computable: say why, draw nothing
+        why = "; ".join(sorted(set(sub.loc[sub["kind"] == "held_out", "reason"].astype(str)))) or "no held-out cell"
+        fig, ax = plt.subplots(figsize=(7, 2.5))
+        ax.axis("off")
+        ax.text(
+            0.02, 0.5, f"{sub['scheme'].iloc[0]}: no fold could be computed\n{why}", wrap=True, va="center", fontsize=9
+        )
+        savefig(fig, path)
+        plt.close(fig)
+        return
+    meas = sub.drop_duplicates(["temperature_C", "frequency_Hz"])
+    temps = sorted(meas["temperature_C"].unique())
+    fig, axes = plt.subplots(2, 1, figsize=(7, 8), sharex=True)
+    colors = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(temps), 1)))
+    f_all = meas["frequency_Hz"].to_numpy(float)
+    fg: np.ndarray | list = (
+        np.logspace(np.log10(f_all.min()) - 0.2, np.log10(f_all.max()) + 0.2, 80) if f_all.size else []
+    )
+    scheme = sub["scheme"].iloc[0] if len(sub) else ""
+    for T, color in zip(temps, colors):
+        m = meas[meas["temperature_C"] == T].sort_values("frequency_Hz")
+        h = sub[(sub["temperature_C"] == T) & (sub["kind"] == "held_out") & sub["computable"]]
+        axes[0].plot(m["frequency_Hz"], m["E_norm_MPa_measured"], "o", color=color, label=f"{T:g} degC measured")
+        axes[1].plot(m["frequency_Hz"], m["phase_deg_measured"], "o", color=color)
+        axes[0].plot(h["frequency_Hz"], h["E_norm_MPa_predicted"], "x", color=color, ms=9, mew=2)
+        axes[1].plot(h["frequency_Hz"], h["phase_deg_predicted"], "x", color=color, ms=9, mew=2)
+        if law is not None and len(fg):
+            try:
+                E = law.complex_modulus(fg, np.full(len(fg), T))
+            except (InputError, *FIT_ERRORS):
+                continue
+            axes[0].plot(fg, np.abs(E), "-", color=color, lw=1)
+            axes[1].plot(fg, np.degrees(np.angle(E)), "-", color=color, lw=1)
+    axes[0].plot([], [], "k-", lw=1, label="in-sample law (fitted on every cell)")
+    axes[0].plot([], [], "kx", ms=9, mew=2, label=f"held out ({scheme}: fold's law)")
+    axes[0].set_xscale("log")
+    axes[0].set_yscale("log")
+    axes[0].set_ylabel("norm of E* (MPa)")
+    axes[1].set_ylabel("phase angle (deg)")
+    axes[1].set_xlabel("frequency (Hz)")
+    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.suptitle(f"{model.replace('_', ' ')}: measured, in-sample and held-out ({scheme}) isotherms")
+    savefig(fig, path)
+    plt.close(fig)

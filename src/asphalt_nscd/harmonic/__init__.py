@@ -22,9 +22,10 @@ head rotation ``free`` (default, the cantilever of EN 12697-26 Eq. 3) or ``clamp
 :mod:`.solver`.
 
 Modules: :mod:`.network` (sample -> bond network), :mod:`.solver` (assembly, solvers,
-content of the force), :mod:`.response` (EN 12697-26 rows, macro law, network factor),
+content of the force, the mechanisms and the spheres the network holds), :mod:`.response` (EN 12697-26 rows, macro law, network factor),
 :mod:`.ordering` (METIS nested-dissection ordering of the sparse factorisations),
-:mod:`.timedomain` (the same test through the NSCD core), :mod:`.periodic` (the periodic
-steady state the 2PB test may start in), :mod:`.analysis` (sensitivity,
-comparison, network factor tables, benchmark, figures), :mod:`.cli` (subcommands).
+:mod:`.timedomain` (the same test through the NSCD core, on the 2PB rig of
+:mod:`asphalt_nscd.sample.rig`), :mod:`.periodic` (the periodic steady state the 2PB test may
+start in), :mod:`.analysis` (sensitivity, comparison, network factor tables, benchmark),
+:mod:`.figures` (their figures), :mod:`.cli` (subcommands).
 """

@@ -502,7 +502,8 @@ def _harmonic(args) -> int:
 
 def _compare(args) -> int:
     from ..io import savefig, write_csv
-    from .analysis import compare_time_domain, plot_compare
+    from .analysis import compare_time_domain
+    from .figures import plot_compare
 
     _need(args, "frequency", "dt")
     system, params, geometry = _load(args)
@@ -535,7 +536,8 @@ def _compare(args) -> int:
 
 def _sensitivity(args) -> int:
     from ..io import savefig, write_csv
-    from .analysis import plot_sensitivity, sensitivity_table
+    from .analysis import sensitivity_table
+    from .figures import plot_sensitivity
 
     _need(args, "temperature", "frequency")
     system, params, geometry = _load(args)
@@ -580,7 +582,8 @@ def _resolution(args) -> int:
     import matplotlib.pyplot as plt
 
     from ..io import InputError, savefig, write_csv
-    from .resolution import plot_resolution, resolution_rows, resolution_summary
+    from .figures import plot_resolution
+    from .resolution import resolution_rows, resolution_summary
 
     samples = []
     named = [item.partition("=") for item in args.samples]

@@ -34,8 +34,8 @@ Modules: moreau_jean.py (the time step, phase by phase), detection.py, delassus.
 local_laws.py (contact Eqs. 6-7, bond Eqs. 12-26), gauss_seidel.py (NLGS), linear/ (the
 linear fast path: cg, cg_ssor, direct; also ``splu_symmetric`` and ``PermutedLU``, shared
 with harmonic/), condensed.py (contacts inside the fast path), bundles.py (the named
-tuples of arrays passed to the kernels), _jit.py, state.py, checkpoint.py, verify.py,
-bench.py. Choices and their measurements: docs/choices.md ("NSCD core").
+tuples of arrays passed to the kernels), _jit.py, state.py, checkpoint.py, verify.py
+(figures.py: its figure), bench.py. Choices and their measurements: docs/choices.md ("NSCD core").
 CLI: ``asphalt-nscd verify -o verify.json``, ``asphalt-nscd bench --case bonded|granular``.
 """
 

@@ -86,7 +86,7 @@ def _verify(args) -> int:
     import pandas as pd
 
     from ..io import savefig, write_csv, write_json
-    from . import verify
+    from . import figures, verify
 
     dts = _floats(args.phase_dts, "--phase-dts")
     thetas = _floats(args.phase_thetas, "--phase-thetas")
@@ -98,7 +98,7 @@ def _verify(args) -> int:
     if args.phase_table:
         write_csv(table, args.phase_table)
     if args.figure:
-        savefig(verify.plot_phase_table(table), args.figure)
+        savefig(figures.plot_phase_table(table), args.figure)
     failed = [r for r in rows if not r["passed"]]
     for r in failed:
         print(
