@@ -593,3 +593,44 @@ def test_commands_take_from_the_run_config_what_the_rules_track(name, tmp_path, 
         ]
         got = parsed(*argv, *plan.case_options(cfg, "sensitivity", "s1", case).split())
         assert got["verify"] is False and got["table3_units"] == cal["table3_units"]
+
+
+def _same_value(a, b) -> bool:
+    """Equal as option values: numbers by value, comma-separated numbers by their numbers,
+    'off' and number strings of the refinement weights by meaning."""
+
+    def norm(v):
+        if isinstance(v, str) and "," in v:
+            return [norm(x) for x in v.split(",")]
+        if isinstance(v, (list, tuple)):
+            return [norm(x) for x in v]
+        if isinstance(v, bool) or v is None:
+            return v
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return v
+
+    return norm(a) == norm(b)
+
+
+def test_command_defaults_are_the_default_config(in_repo):
+    """Every option a command takes from --config has, run without one, the default config's
+    value (config/config.yaml) or no value of its own (None or empty: required without a
+    config, or worked out from the job's mode): the defaults are written once."""
+    from asphalt_nscd.cli import _commands, config_values
+
+    cfg = config.checked([])
+    probes = {"run-2pb": {"temperature": 15.0, "frequency": 3.0}, "bench": {"case": "bonded"}}
+    checked = 0
+    for name, sub in _commands().items():
+        if sub.get_default("config_values") is None:
+            continue
+        defaults = {a.dest: a.default for a in sub._actions}
+        for dest, value in config_values(name, cfg, **probes.get(name, {})).items():
+            own = defaults[dest]
+            if own is None or own == [] or own == "":
+                continue
+            checked += 1
+            assert _same_value(own, value), f"asphalt-nscd {name} --{dest.replace('_', '-')}: {own!r} != {value!r}"
+    assert checked > 40

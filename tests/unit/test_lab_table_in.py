@@ -115,6 +115,8 @@ def chain(tmp_path, table):
                 *SEARCH,
                 "--tables",
                 "20",
+                "--seed",
+                "0",
                 "-o",
                 str(d["cal.json"]),
             ]

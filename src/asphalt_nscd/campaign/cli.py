@@ -374,7 +374,12 @@ def _add_bench(subparsers) -> None:
     b.add_argument("--case", required=True, choices=["bonded", "granular"])
     b.add_argument("--n", type=int, required=True, help="number of spheres")
     b.add_argument("--steps", type=int, default=20, help="timed steps")
-    b.add_argument("--baseline-steps", type=int, default=5, help="timed NLGS steps of the bonded baseline")
+    b.add_argument(
+        "--baseline-steps",
+        type=int,
+        default=3,
+        help="timed NLGS steps of the bonded baseline (default 3, config nscd.bench)",
+    )
     b.add_argument("--tolerance", type=float, default=1e-7, help="NLGS tolerance")
     b.add_argument("--settle-steps", type=int, default=5000, help="most untimed settling steps of the granular case")
     b.add_argument(

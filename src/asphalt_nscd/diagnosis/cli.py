@@ -331,7 +331,12 @@ def _add_calibrate_search(subparsers) -> None:
         help="test-geometry JSON of the measured table (default: the sidecar <measured stem>.test.json next to it)",
     )
     p.add_argument("--tables", type=int, default=200, help="bootstrap tables (default 200, at least 20)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap tables (default 0)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=20261123,
+        help="seed of the bootstrap tables (default 20261123, config diagnosis.calibration.seed)",
+    )
     p.add_argument(
         "--familywise-rate",
         type=float,
@@ -745,8 +750,8 @@ def _add_diagnose_bench(subparsers) -> None:
         "and family the false-alarm rate (clean tables) and the detection rate at the stated "
         "effect sizes, with exact binomial 95 % confidence intervals.",
     )
-    p.add_argument("--clean", type=int, default=200, help="clean tables per family (default 200)")
-    p.add_argument("--planted", type=int, default=40, help="planted tables per family and artifact (default 40)")
+    p.add_argument("--clean", type=int, default=20, help="clean tables per family (default 20, config diagnosis.bench)")
+    p.add_argument("--planted", type=int, default=8, help="planted tables per family and artifact (default 8)")
     p.add_argument(
         "--families",
         type=str,

@@ -412,7 +412,12 @@ def _add_harmonic_bench(subparsers) -> None:
         "harmonic-bench",
         help="benchmark the harmonic solver (JSON); run it with OPENBLAS_NUM_THREADS=1 (one core, as under Snakemake)",
     )
-    p.add_argument("--n", type=int, default=12000, help="spheres of the generated lattice sample")
+    p.add_argument(
+        "--n",
+        type=int,
+        default=2000,
+        help="spheres of the generated lattice sample (default 2000, config harmonic.bench)",
+    )
     p.add_argument("--sample", type=Path, default=None, help="use this sample file instead of generating one")
     p.add_argument("--seed", type=int, default=0, help="seed of the generated sample")
     p.add_argument(
@@ -432,7 +437,7 @@ def _add_harmonic_bench(subparsers) -> None:
     p.add_argument(
         "--skip-baseline", action="store_true", help="do not time the previous inertia path (MMD + GMRES with G^-1)"
     )
-    p.add_argument("--td-steps", type=int, default=20, help="NSCD steps timed (0: skip)")
+    p.add_argument("--td-steps", type=int, default=10, help="NSCD steps timed (0: skip; default 10)")
     p.add_argument(
         "--skip-direct", action="store_true", help="do not time the complex LU per (T, f) (minutes on 10^4 spheres)"
     )

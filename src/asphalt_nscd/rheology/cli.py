@@ -115,8 +115,10 @@ def _add_burgers_curves(subparsers) -> None:
     p.add_argument(
         "--parameters", type=Path, required=True, help="CSV: temperature_C, Em_MPa, eta_m_MPa_s, Ek_MPa, eta_k_MPa_s"
     )
-    p.add_argument("--fmin", type=float, default=0.01, help="lowest frequency, Hz (default 0.01)")
-    p.add_argument("--fmax", type=float, default=100.0, help="highest frequency, Hz (default 100)")
+    p.add_argument(
+        "--fmin", type=float, default=0.05, help="lowest frequency, Hz (default 0.05, config calibration.curves)"
+    )
+    p.add_argument("--fmax", type=float, default=50.0, help="highest frequency, Hz (default 50)")
     p.add_argument("--points", type=int, default=61, help="log-spaced frequencies (default 61)")
     p.add_argument(
         "-o",
