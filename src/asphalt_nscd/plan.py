@@ -139,16 +139,6 @@ def number(x) -> str:
     return f"{float(x):g}"
 
 
-def spaced(values) -> str:
-    """Values joined by spaces with ``str`` (a multi-value CLI option)."""
-    return " ".join(str(v) for v in values)
-
-
-def comma_list(values) -> str:
-    """Values joined by commas with ``str`` (a comma-separated CLI option)."""
-    return ",".join(str(v) for v in values)
-
-
 def job_environment(python_executable: str, basedir: str, path: str) -> dict:
     """Environment variables the workflow sets for its jobs: PATH with the directory of the
     Python running Snakemake first (so that ``.venv/bin/snakemake`` finds the ``asphalt-nscd``
@@ -263,11 +253,6 @@ def nscd_bench_files(config: dict) -> list:
 def bench_settings(config: dict, case: str) -> dict:
     """What ``asphalt-nscd bench --case CASE`` takes from the run's config (:func:`command_settings`)."""
     return command_settings(config, "bench", case=case)
-
-
-def bond_kinematics(config: dict) -> str:
-    """The NSCD core's bond kinematics (nscd.bond_kinematics, default contact)."""
-    return config["nscd"].get("bond_kinematics", "contact")
 
 
 def bonded_contact(config: dict) -> str:
@@ -597,23 +582,6 @@ def harmonic_job_settings(config: dict, mode: str) -> dict:
 def harmonic_parameters(config: dict, mode: str) -> str:
     """Burger's table of a harmonic mode (paper: Table 3 read; measured: calibrated)."""
     return HARMONIC_PARAMETERS[mode]
-
-
-def head_rotation(config: dict) -> str:
-    """Head-plate rotation of the time-domain test (campaign.test.head_rotation, default free)."""
-    return config["campaign"]["test"].get("head_rotation", "free")
-
-
-def twopb_poisson_ratio(config: dict) -> float:
-    """Poisson ratio of the time-domain test (campaign.test.nu, default
-    :data:`asphalt_nscd.rheology.laws.POISSON_RATIO`)."""
-    from .rheology.laws import POISSON_RATIO
-
-    return config["campaign"]["test"].get("nu", POISSON_RATIO)
-
-
-# ---------------------------------------------------------------------------------------------
-# diagnosis
 
 
 def diagnosis_auto_input(config: dict, key: str) -> list:

@@ -514,7 +514,10 @@ def test_commands_take_from_the_run_config_what_the_rules_track(name, tmp_path, 
     assert measured["frequency"] is None and measured["rtol"] == harm["rtol"]
     compare = parsed("harmonic-compare", "--sample", "s.h5", "--parameters", "p.csv", "-o", "o.csv")
     agrees(compare, plan.command_settings(cfg, "harmonic-compare"))
-    assert compare["dt"] == harm["compare"]["dt_s"] and compare["head_rotation"] == plan.head_rotation(cfg)
+    assert (
+        compare["dt"] == harm["compare"]["dt_s"]
+        and compare["head_rotation"] == cfg["campaign"]["test"]["head_rotation"]
+    )
     for command in ("harmonic-sensitivity", "harmonic-kinematics"):
         agrees(
             parsed(command, "--sample", "s.h5", "--parameters", "p.csv", "-o", "o.csv"),
