@@ -47,7 +47,7 @@ rule all:
     default_target: True
     input:
         plan.REPORT_INDEX,
-        plan.report_files(config),
+        plan.report_input(workflow, config),
 
 
 # Snakemake reports a failed rule as "check log file(s)": print the project's own one-line errors (file, row or

@@ -714,93 +714,68 @@ def output_directory(wildcards, output) -> str:
     return str(Path(output[0]).parent)
 
 
-def report_files(config: dict) -> list:
-    """Every figure and table rule report_index collects into results/report/, in the order of
-    the rule files (lab data, rheology, NSCD core, samples, campaign, harmonic, diagnosis)."""
-    samples = sample_names(config)
+def report_wildcards(config: dict) -> dict:
+    """Wildcard values of the report's files, per rule: rule name -> the list of wildcard
+    dictionaries its report outputs are expanded with (:func:`report_files`). A rule without
+    wildcards that is not listed reports its outputs once; a rule listed with an empty list
+    reports none (the paper mode's studies when the campaign has no paper mode)."""
     camp = config["campaign"]
-    files = [MEASURED, MEASURED_SUMMARY]
-    files += [f"results/lab/reduced/{record}.csv" for record in sorted(lab_records(config))]
-    files += [
-        BURGERS_PARAMETERS,
-        "results/calibration/table3_refit_check.csv",
-        "results/calibration/burgers_parameters_micro.csv",
-        "results/calibration/paper_table3_micro.csv",
-        *(f"results/calibration/figures/measured_{plot}.png" for plot in RHEOLOGY_PLOTS),
-        "results/calibration/figures/paper_table3_isotherms-modulus.png",
-        "results/calibration/figures/paper_table3_isotherms-phase.png",
-    ]
-    files += [
-        "results/nscd/verify.csv",
-        "results/nscd/phase_error.csv",
-        "results/nscd/phase_error.png",
-        "results/bench/nscd_bench.csv",
-    ]
-    files += ["results/samples/table2_counts.csv", prepare_bench_file(config)]
-    files += [f"results/samples/{sample}_stages.png" for sample in samples]
-    for mode in camp["modes"]:
-        files += [
-            f"results/campaign/{mode}/table4_{mode}.csv",
-            f"results/campaign/{mode}/figures/fig09_isotherms_modulus.png",
-            f"results/campaign/{mode}/figures/fig10_isotherms_phase.png",
-            f"results/campaign/{mode}/dt_policy_phase_error.csv",
-        ]
-    # the extended mode always runs: the diagnosis compares it with the measured mode
-    files += [
-        "results/campaign/extended/table4_extended.csv",
-        "results/campaign/extended/figures/fig09_isotherms_modulus.png",
-        "results/campaign/extended/figures/fig10_isotherms_phase.png",
-    ]
-    if "paper" in camp["modes"]:
-        files += [
-            "results/campaign/paper/dt_study.csv",
-            "results/campaign/paper/figures/fig06_dt_study.png",
-            "results/campaign/paper/figures/fig07_last_cycle.png",
-            "results/campaign/paper/figures/fig08_velocity_profile.png",
-            "results/campaign/paper/sensitivity.csv",
-            *sensitivity_figures(),
-            "results/campaign/units_question.csv",
-            "results/campaign/units_evidence.csv",
-        ]
-    files += [f"results/harmonic/figures/{mode}_{plot}.png" for mode in HARMONIC_MODES for plot in RHEOLOGY_PLOTS]
-    files += [
-        "results/harmonic/network_factor.csv",
-        "results/harmonic/network_factor_summary.csv",
-        "results/harmonic/sensitivity.csv",
-        "results/harmonic/sensitivity.png",
-        "results/harmonic/compare_time_domain.csv",
-        "results/harmonic/compare_time_domain.png",
-        "results/harmonic/kinematics_study.csv",
-        "results/harmonic/resolution_summary.csv",
-        "results/harmonic/resolution_fits.csv",
-        "results/harmonic/resolution.png",
-        "results/harmonic/bench.json",
-    ]
-    files += [
-        DIAGNOSIS_PAGE,
-        "results/diagnosis/error_budget.png",
-        "results/diagnosis/error_budget.csv",
-        "results/diagnosis/causes.csv",
-        "results/diagnosis/gain.csv",
-        "results/diagnosis/report.json",
-        LAW_JSON,
-        *MATERIAL_CARDS.values(),
-        *MATERIAL_CARD_FIGURES.values(),
-        *MASTER_CURVE_FIGURES.values(),
-        "results/diagnosis/law_residuals.csv",
-        SIGMOID_TABLE,
-        "results/diagnosis/extended_law_cv_curve.csv",
-        CORRECTED_TABLE,
-        CALIBRATION_JSON,
-        "results/diagnosis/detection_bench.json",
-        "results/diagnosis/detection_bench.csv",
-    ]
-    files += [
-        crossval_file(scheme, suffix)
-        for scheme in config["diagnosis"]["crossval"]["schemes"]
-        for suffix in (".csv", "_summary.csv", "_curve.csv", ".png")
-    ]
+    paper = "paper" in camp["modes"]
+    return {
+        "reduce_record": [{"record": record} for record in sorted(lab_records(config))],
+        "micro_parameters": [{"table": "burgers_parameters"}, {"table": "paper_table3"}],
+        "prepare_sample": [{"seed": name[1:]} for name in sample_names(config)],
+        "prepare_bench": [{"seed": str(config["sample"]["seeds"][0])}],
+        # the extended mode always runs: the diagnosis compares it with the measured mode
+        "campaign_isotherms": [{"mode": mode} for mode in [*camp["modes"], "extended"]],
+        "campaign_dt_policy": [{"mode": mode} for mode in camp["modes"]],
+        "campaign_dt_study": [{}] if paper else [],
+        "campaign_last_cycle": [{}] if paper else [],
+        "campaign_sensitivity": [{}] if paper else [],
+        "campaign_units_question": [{}] if paper else [],
+        "harmonic_figures": [{"mode": mode} for mode in HARMONIC_MODES],
+        "crossval": [{"scheme": scheme} for scheme in config["diagnosis"]["crossval"]["schemes"]],
+    }
+
+
+def report_files(rules, config: dict) -> list:
+    """Every file rule report_index collects into results/report/: the outputs the rules flag
+    with Snakemake's ``report()``, in the order of the rules (the rule files in
+    :data:`asphalt_nscd.STAGES` order), each rule's wildcards expanded with
+    :func:`report_wildcards`. ``rules``: the workflow's rules (``workflow.rules``; anything with
+    ``name`` and ``output`` whose items carry Snakemake's ``flags``).
+
+    Raises InputError for a flagged output with wildcards that :func:`report_wildcards` does not
+    give values for."""
+    from snakemake.exceptions import WildcardError
+    from snakemake.io import apply_wildcards
+
+    values = report_wildcards(config)
+    files = []
+    for rule in rules:
+        flagged = [str(out) for out in rule.output if "report" in getattr(out, "flags", {})]
+        combos = values.get(rule.name, [{}])
+        for pattern in flagged:
+            for wildcards in combos:
+                try:
+                    files.append(apply_wildcards(pattern, wildcards))
+                except WildcardError as err:
+                    raise InputError(
+                        f"rule {rule.name}: report output {pattern} has a wildcard without values"
+                        " (plan.report_wildcards)"
+                    ) from err
     return files
+
+
+def report_input(workflow, config: dict):
+    """The input function of rules report_index and all: :func:`report_files` of the workflow's
+    rules, evaluated when Snakemake builds the jobs, once every rule file is read
+    (``workflow``: the Snakefile's ``workflow`` object)."""
+
+    def report_of_rules(wildcards):
+        return report_files(workflow.rules, config)
+
+    return report_of_rules
 
 
 #: where ``make table`` puts the complete run of each table (rule own_table)

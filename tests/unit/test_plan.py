@@ -321,19 +321,91 @@ def test_crossval_time_domain_cell(tmp_path):
         plan.crossval_time_domain_cell(other)
 
 
-def test_report_files_are_the_report_index_inputs(named_config):
-    name, cfg = named_config
-    files = plan.report_files(cfg)
-    # counts of the collect-report command of the dry runs (smoke: one sample, else four)
-    assert len(files) == {"smoke": 98, "config": 101, "paper": 105}[name]  # paper: + the paper_kPa mode's 4
+def workflow_report_files(name: str) -> list:
+    """plan.report_files of the workflow's own rules under config/{name}.yaml: a dry run of a
+    Snakefile that includes the project's and writes the list once every rule file is read."""
+    import json
+    import subprocess
+    import sys
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "report_files.json"
+        snakefile = Path(tmp) / "Snakefile"
+        snakefile.write_text(
+            f'include: "{REPO / "Snakefile"}"\n'
+            "import json as _json\n"
+            f'_json.dump(plan.report_files(workflow.rules, config), open("{out}", "w"))\n'
+        )
+        proc = subprocess.run(
+            [sys.executable, "-m", "snakemake", "-s", str(snakefile), "-d", str(REPO), "-n", "--quiet", "all"]
+            + ["--configfile", str(REPO / "config" / f"{name}.yaml"), "--nolock"],
+            capture_output=True,
+            text=True,
+            cwd=REPO,
+        )
+        assert proc.returncode == 0 and out.exists(), proc.stderr[-2000:]
+        return json.loads(out.read_text())
+
+
+@pytest.fixture(scope="module", params=["smoke", "config", "paper"])
+def named_report_files(request):
+    return request.param, load_config(request.param), workflow_report_files(request.param)
+
+
+def test_the_report_is_every_output_the_rules_flag(named_report_files):
+    name, cfg, files = named_report_files
+    # one sample in the smoke run, four in the others; paper adds the paper_kPa mode's four
+    assert len(files) == len(set(files)) == {"smoke": 98, "config": 101, "paper": 105}[name]
+    assert all(f.startswith("results/") and "{" not in f for f in files)
+    # in the order of the rule files: the lab data first, the figures' rule file last
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
-    assert files[-1] == "results/diagnosis/crossval/loso.png"
-    assert "results/campaign/paper/figures/fig14_sensitivity_eta_k.png" in files
-    assert "results/campaign/extended/table4_extended.csv" in files
-    assert all(f.startswith("results/") for f in files)
+    assert files[-1] == plan.MATERIAL_CARD_FIGURES["terms_curve"]
+    for expected in (
+        "results/campaign/paper/figures/fig14_sensitivity_eta_k.png",
+        "results/campaign/extended/table4_extended.csv",
+        plan.DIAGNOSIS_PAGE,
+        plan.prepare_bench_file(cfg),
+        *plan.MATERIAL_CARDS.values(),
+        *plan.crossval_files(cfg, "_summary.csv"),
+        *(f"results/samples/{s}_stages.png" for s in plan.sample_names(cfg)),
+        *(f"results/campaign/{m}/dt_policy_phase_error.csv" for m in cfg["campaign"]["modes"]),
+    ):
+        assert expected in files, expected
+
+
+class _Out(str):
+    """An output of a fake rule: a path with Snakemake's flags."""
+
+    def __new__(cls, path, report=False):
+        out = super().__new__(cls, path)
+        out.flags = {"report": True} if report else {}
+        return out
+
+
+def _rule(name, *outputs):
+    return SimpleNamespace(name=name, output=list(outputs))
+
+
+def test_report_files_expand_the_flagged_outputs_with_the_rules_wildcards():
+    cfg = load_config("config")
+    rules = [
+        _rule("measured_table", _Out("results/lab/measured.csv", report=True), _Out("results/lab/x.json")),
+        _rule("crossval", _Out("results/diagnosis/crossval/{scheme,lofo|loto|loso}.png", report=True)),
+        _rule("campaign_sensitivity", _Out("results/campaign/paper/sensitivity.csv", report=True)),
+    ]
+    files = plan.report_files(rules, cfg)
+    schemes = cfg["diagnosis"]["crossval"]["schemes"]
+    assert files == ["results/lab/measured.csv", *(f"results/diagnosis/crossval/{s}.png" for s in schemes)] + [
+        "results/campaign/paper/sensitivity.csv"
+    ]
+    # the paper mode's studies report nothing when the campaign has no paper mode
     no_paper = copy.deepcopy(cfg)
     no_paper["campaign"]["modes"] = ["measured"]
-    assert not any("sensitivity_" in f or "units_question" in f for f in plan.report_files(no_paper))
+    assert "results/campaign/paper/sensitivity.csv" not in plan.report_files(rules, no_paper)
+    # a flagged output whose wildcards have no values is refused, naming the rule
+    with pytest.raises(InputError, match="rule new_rule: report output"):
+        plan.report_files([_rule("new_rule", _Out("results/{thing}.csv", report=True))], cfg)
 
 
 def test_lab_inputs(tmp_path):
@@ -480,7 +552,6 @@ def test_shared_result_files_are_named_once():
     assert plan.crossval_files(cfg, "_summary.csv") == [
         plan.crossval_file(s, "_summary.csv") for s in cfg["diagnosis"]["crossval"]["schemes"]
     ]
-    assert set(plan.MATERIAL_CARDS.values()) <= set(plan.report_files(cfg))
 
 
 def test_own_table_folder_is_named_by_the_tables_folder_and_file(tmp_path, monkeypatch):

@@ -1,7 +1,7 @@
 # Shared setup. Every config section has its own JSON schema, validated at load.
 # The logic of the rule files (samples, campaign cases, options, report files) is the tested
 # module asphalt_nscd.plan; each rule file imports it and only declares rules.
-# Rule report_index (figures.smk) collects plan.report_files(config) into results/report/.
+# Rule report_index (figures.smk) collects every output the rules flag with report() into results/report/
 import os
 import sys
 from pathlib import Path

@@ -62,7 +62,11 @@ rule master_curve:
         calibration=rules.calibrate_search.output[0],
     output:
         search=plan.MASTER_CURVE_JSON,
-        corrected=plan.CORRECTED_TABLE,
+        corrected=report(
+            plan.CORRECTED_TABLE,
+            caption="../report/diagnosis_corrected.rst",
+            category="Diagnosis",
+        ),
     log:
         "logs/diagnosis/master_curve.log",
     benchmark:
@@ -177,11 +181,19 @@ rule export_law:
             caption="../report/diagnosis_material_cards.rst",
             category="Diagnosis",
         ),
-        lsdyna=plan.MATERIAL_CARDS["lsdyna"],
-        json=plan.MATERIAL_CARDS["json"],
-        table=plan.MATERIAL_CARDS["table"],
-        errors=plan.MATERIAL_CARDS["errors"],
-        functions=plan.MATERIAL_CARDS["functions"],
+        lsdyna=report(
+            plan.MATERIAL_CARDS["lsdyna"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
+        ),
+        json=report(plan.MATERIAL_CARDS["json"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"),
+        table=report(
+            plan.MATERIAL_CARDS["table"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
+        ),
+        errors=report(
+            plan.MATERIAL_CARDS["errors"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
+        ),
+        functions=report(
+            plan.MATERIAL_CARDS["functions"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
+        ),
     log:
         "logs/diagnosis/export_law.log",
     benchmark:
@@ -258,7 +270,11 @@ rule diagnose:
         card=plan.MATERIAL_CARDS["json"],
         without_flagged=rules.extend_law.output.without_flagged,
     output:
-        report="results/diagnosis/report.json",
+        report=report(
+            "results/diagnosis/report.json",
+            caption="../report/diagnosis_what_goes_wrong.rst",
+            category=DIAG_CATEGORY,
+        ),
         budget=report(
             "results/diagnosis/error_budget.csv",
             caption="../report/diagnosis_error_budget.rst",
@@ -279,7 +295,7 @@ rule diagnose:
             caption="../report/diagnosis_what_goes_wrong.rst",
             category=DIAG_CATEGORY,
         ),
-        page=plan.DIAGNOSIS_PAGE,
+        page=report(plan.DIAGNOSIS_PAGE, caption="../report/diagnosis_what_goes_wrong.rst", category=DIAG_CATEGORY),
     log:
         "logs/diagnosis/diagnose.log",
     benchmark:

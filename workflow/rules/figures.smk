@@ -1,6 +1,6 @@
 # Figures and the report (src/asphalt_nscd/figures): the rheology figures of the measured mix and
 # of the paper's Table 3 (isotherms, Black diagram, Cole-Cole plane; asphalt-nscd plot-rheology),
-# and the report index: every figure and table of plan.report_files(config) collected into
+# and the report index: every output the rules flag with report() (plan.report_files) collected into
 # results/report/ (asphalt-nscd collect-report); `snakemake --report` shows the same files with
 # their captions.
 
@@ -95,7 +95,11 @@ rule master_curve_figures:
             caption="../report/diagnosis_master_curve.rst",
             category="Diagnosis",
         ),
-        residual_table="results/diagnosis/law_residuals.csv",
+        residual_table=report(
+            "results/diagnosis/law_residuals.csv",
+            caption="../report/diagnosis_master_curve.rst",
+            category="Diagnosis",
+        ),
         sigmoid=report(
             plan.SIGMOID_TABLE,
             caption="../report/diagnosis_master_curve.rst",
@@ -151,7 +155,8 @@ rule card_figures:
 
 rule report_index:
     input:
-        plan.report_files(config),
+        # every output the rules flag with report(), wildcards expanded (plan.report_wildcards)
+        plan.report_input(workflow, config),
     output:
         plan.REPORT_INDEX,
     log:

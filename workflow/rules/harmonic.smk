@@ -264,7 +264,7 @@ rule harmonic_resolution:
 
 rule harmonic_bench:
     output:
-        "results/harmonic/bench.json",
+        report("results/harmonic/bench.json", caption="../report/harmonic_bench.rst", category="Harmonic solver"),
     log:
         "logs/harmonic/bench.log",
     benchmark:
