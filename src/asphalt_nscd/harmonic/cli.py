@@ -76,14 +76,12 @@ def config_values(cfg, args) -> dict:
     harmonic-transfer, harmonic-resolution) that test's kinematics (``nscd.bond_kinematics``,
     ``campaign.test.head_rotation``, ``campaign.test.nu``). ``harmonic --grid paper|sweep``
     takes its frequencies from ``harmonic.paper_frequencies_Hz`` or ``harmonic.sweep``."""
-    harm, test = cfg["harmonic"], cfg["campaign"]["test"]
+    from ..sample import rig
+
+    harm = cfg["harmonic"]
     solver = {"inertia": harm["inertia"], "solver": harm["solver"], "rtol": float(harm["rtol"])}
     kinematics = {"bond_kinematics": harm["bond_kinematics"], "head_rotation": harm["head_rotation"]}
-    time_domain = {
-        "bond_kinematics": cfg["nscd"].get("bond_kinematics", "contact"),
-        "head_rotation": test.get("head_rotation", "free"),
-        "nu": float(test.get("nu", POISSON_RATIO)),
-    }
+    time_domain = rig.kinematics(cfg)
     command = args.command
     if command == "harmonic":
         out = {**solver, **kinematics}

@@ -27,10 +27,10 @@ def config_values(cfg, args) -> dict:
         "steps": int(bench["steps"]),
         "baseline_steps": int(bench["baseline_steps"]),
         "settle_steps": int(bench["settle_steps"]),
-        "settle_speed": float(bench.get("settle_speed_m_s", 5.0e-3)),
+        "settle_speed": float(bench["settle_speed_m_s"]),
         "tolerance": float(bench["granular_tolerance" if args.case == "granular" else "tolerance"]),
-        "bond_kinematics": nscd.get("bond_kinematics", "contact"),
-        "bonded_contact": nscd.get("bonded_contact", "after_break"),
+        "bond_kinematics": nscd["bond_kinematics"],
+        "bonded_contact": nscd["bonded_contact"],
     }
 
 

@@ -38,6 +38,21 @@ from ..rheology.laws import POISSON_RATIO
 PLATE_DENSITY_KG_M3 = 7850.0
 
 
+def kinematics(cfg: dict) -> dict:
+    """The rig's kinematics in a merged, checked workflow config (:func:`asphalt_nscd.config.checked`;
+    its values are config/config.yaml's unless an overlay changes them): ``bond_kinematics``
+    (``nscd.bond_kinematics``), ``head_rotation`` (``campaign.test.head_rotation``) and ``nu``
+    (``campaign.test.nu``, Poisson's ratio of Eqs. 8-11). What the time-domain test runs with
+    outside a campaign mode's overrides, read here once for the commands that check or correct it
+    (harmonic-compare, -transfer, -resolution)."""
+    test = cfg["campaign"]["test"]
+    return {
+        "bond_kinematics": cfg["nscd"]["bond_kinematics"],
+        "head_rotation": test["head_rotation"],
+        "nu": float(test["nu"]),
+    }
+
+
 def contact_points(position, radius, plate_normal, i, j, l0) -> np.ndarray:
     """Contact points c = x_i + (r_i + delta0/2) e of the bonds, shape (B, 3), m.
 
