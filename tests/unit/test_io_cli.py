@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from asphalt_nscd import cli
@@ -170,3 +172,18 @@ def test_publish_table_puts_a_complete_run_in_place_and_keeps_it_when_the_next_f
     # the complete run of the new table replaces it
     assert _run(tmp_path, monkeypatch, *args) == 0
     assert json.loads((out / "manifest.json").read_text())["measured_sha256"] == io.content_sha256(measured)
+
+
+def test_collect_report_gives_each_step_one_section(tmp_path, monkeypatch):
+    """Files of one step that the rules list apart (a step's tables in its rule file, its figures
+    in the figures' rule file) land in one section, the steps in the order of their first file."""
+    monkeypatch.chdir(tmp_path)
+    files = ["results/calibration/fit.csv", "results/samples/s1.png", "results/calibration/fig.png"]
+    for f in files:
+        Path(f).parent.mkdir(parents=True, exist_ok=True)
+        Path(f).write_text("x")
+    assert cli.main(["collect-report", *files, "--out-dir", "results/report", "-o", "results/report/index.md"]) == 0
+    text = Path("results/report/index.md").read_text()
+    assert text.count("## calibration") == 1 and text.count("## samples") == 1
+    assert text.index("calibration/fit.csv") < text.index("calibration/fig.png") < text.index("## samples")
+    assert Path("results/report/calibration/fig.png").read_text() == "x"

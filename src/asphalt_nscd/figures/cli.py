@@ -191,9 +191,10 @@ def _master_curve_figures(args) -> int:
 
 
 def _collect_report(args) -> int:
-    """Copy each file to OUT_DIR/<path below results/> and write a Markdown index."""
-    lines = ["# Report", "", "Figures and tables of the workflow, by step.", ""]
-    section = None
+    """Copy each file to OUT_DIR/<path below results/> and write a Markdown index: one section
+    per step (the first folder below results/), the steps in the order their first file comes,
+    each step's files in their given order."""
+    sections: dict[str, list[str]] = {}
     for src in args.files:
         if not src.is_file():
             raise InputError(f"{src}: report input does not exist")
@@ -202,15 +203,12 @@ def _collect_report(args) -> int:
         if dest.resolve() != src.resolve():
             with atomic_path(dest) as tmp:
                 shutil.copyfile(src, tmp)
-        step = rel.parts[0] if len(rel.parts) > 1 else "other"
-        if step != section:
-            lines += ["", f"## {step}", ""]
-            section = step
         link = rel.as_posix()
-        if src.suffix.lower() in {".png", ".svg", ".jpg"}:
-            lines.append(f"![{link}]({link})")
-        else:
-            lines.append(f"- [{link}]({link})")
+        entry = f"![{link}]({link})" if src.suffix.lower() in {".png", ".svg", ".jpg"} else f"- [{link}]({link})"
+        sections.setdefault(rel.parts[0] if len(rel.parts) > 1 else "other", []).append(entry)
+    lines = ["# Report", "", "Figures and tables of the workflow, by step.", ""]
+    for step, entries in sections.items():
+        lines += ["", f"## {step}", "", *entries]
     write_text("\n".join(lines) + "\n", args.output)
     return 0
 
