@@ -256,8 +256,8 @@ def bench_settings(config: dict, case: str) -> dict:
 
 
 def bonded_contact(config: dict) -> str:
-    """Contact of the bonded pairs (nscd.bonded_contact, default after_break)."""
-    return config["nscd"].get("bonded_contact", "after_break")
+    """Contact of the bonded pairs (nscd.bonded_contact; its default is the schema's)."""
+    return config["nscd"]["bonded_contact"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -582,6 +582,10 @@ def harmonic_job_settings(config: dict, mode: str) -> dict:
 def harmonic_parameters(config: dict, mode: str) -> str:
     """Burger's table of a harmonic mode (paper: Table 3 read; measured: calibrated)."""
     return HARMONIC_PARAMETERS[mode]
+
+
+# ---------------------------------------------------------------------------------------------
+# diagnosis
 
 
 def diagnosis_auto_input(config: dict, key: str) -> list:

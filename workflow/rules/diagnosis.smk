@@ -28,6 +28,8 @@
 from asphalt_nscd import plan
 
 DIAG_CATEGORY = "What the simulation gets wrong"
+# one caption for the extended law's material cards (rule export_law)
+CARDS_CAPTION = "../report/diagnosis_material_cards.rst"
 
 
 rule calibrate_search:
@@ -178,22 +180,14 @@ rule export_law:
     output:
         abaqus=report(
             plan.MATERIAL_CARDS["abaqus"],
-            caption="../report/diagnosis_material_cards.rst",
+            caption=CARDS_CAPTION,
             category="Diagnosis",
         ),
-        lsdyna=report(
-            plan.MATERIAL_CARDS["lsdyna"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
-        ),
-        json=report(plan.MATERIAL_CARDS["json"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"),
-        table=report(
-            plan.MATERIAL_CARDS["table"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
-        ),
-        errors=report(
-            plan.MATERIAL_CARDS["errors"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
-        ),
-        functions=report(
-            plan.MATERIAL_CARDS["functions"], caption="../report/diagnosis_material_cards.rst", category="Diagnosis"
-        ),
+        lsdyna=report(plan.MATERIAL_CARDS["lsdyna"], caption=CARDS_CAPTION, category="Diagnosis"),
+        json=report(plan.MATERIAL_CARDS["json"], caption=CARDS_CAPTION, category="Diagnosis"),
+        table=report(plan.MATERIAL_CARDS["table"], caption=CARDS_CAPTION, category="Diagnosis"),
+        errors=report(plan.MATERIAL_CARDS["errors"], caption=CARDS_CAPTION, category="Diagnosis"),
+        functions=report(plan.MATERIAL_CARDS["functions"], caption=CARDS_CAPTION, category="Diagnosis"),
     log:
         "logs/diagnosis/export_law.log",
     benchmark:
