@@ -187,3 +187,12 @@ def test_collect_report_gives_each_step_one_section(tmp_path, monkeypatch):
     assert text.count("## calibration") == 1 and text.count("## samples") == 1
     assert text.index("calibration/fit.csv") < text.index("calibration/fig.png") < text.index("## samples")
     assert Path("results/report/calibration/fig.png").read_text() == "x"
+
+
+def test_collect_report_refused_for_a_missing_input_copies_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    Path("results/lab").mkdir(parents=True)
+    Path("results/lab/a.csv").write_text("x")
+    args = ["collect-report", "results/lab/a.csv", "results/lab/none.csv", "--out-dir", "results/report"]
+    assert cli.main([*args, "-o", "results/report/index.md"]) == 2
+    assert not Path("results/report").exists()

@@ -194,10 +194,14 @@ def _collect_report(args) -> int:
     """Copy each file to OUT_DIR/<path below results/> and write a Markdown index: one section
     per step (the first folder below results/), the steps in the order their first file comes,
     each step's files in their given order."""
+    missing = [str(src) for src in args.files if not src.is_file()]
+    if missing:  # before any copy: a refused report leaves nothing behind
+        raise InputError(
+            f"{missing[0]}: report input does not exist"
+            + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
+        )
     sections: dict[str, list[str]] = {}
     for src in args.files:
-        if not src.is_file():
-            raise InputError(f"{src}: report input does not exist")
         rel = src.relative_to("results") if src.parts and src.parts[0] == "results" else Path(src.name)
         dest = args.out_dir / rel
         if dest.resolve() != src.resolve():
