@@ -274,6 +274,11 @@ def sample_file(name: str) -> str:
     return f"results/samples/{name}.h5"
 
 
+def held_file(name: str) -> str:
+    """Held-sphere file of sample ``name`` (rule held_spheres, read by its 2PB jobs)."""
+    return f"results/campaign/held/{name}.json"
+
+
 def sample_settings(config: dict) -> dict:
     """What a sample job reads from the config, kept by the rules as a parameter so that a
     change of it reruns the samples: the sample section without the seed list (adding a seed
@@ -322,11 +327,6 @@ def resolution_samples(config: dict) -> list:
             else:
                 out.append((name, f"results/samples/resolution/{name}/s{seed}.h5"))
     return out
-
-
-def prepare_bench_file(config: dict) -> str:
-    """The preparation benchmark: the first seed at the configuration's own size."""
-    return f"results/bench/prepare_s{config['sample']['seeds'][0]}.json"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -729,7 +729,6 @@ def report_wildcards(config: dict) -> dict:
         "reduce_record": [{"record": record} for record in sorted(lab_records(config))],
         "micro_parameters": [{"table": "burgers_parameters"}, {"table": "paper_table3"}],
         "prepare_sample": [{"seed": name[1:]} for name in sample_names(config)],
-        "prepare_bench": [{"seed": str(config["sample"]["seeds"][0])}],
         # the extended mode always runs: the diagnosis compares it with the measured mode
         "campaign_isotherms": [{"mode": mode} for mode in [*camp["modes"], "extended"]],
         "campaign_dt_policy": [{"mode": mode} for mode in camp["modes"]],

@@ -108,3 +108,47 @@ def test_build_simulation_does_not_move_the_sample(tiny_sample):
         sim.step()
     assert np.abs(sim.spheres.position - before).max() > 0
     np.testing.assert_array_equal(sample.position, before)
+
+
+def test_held_sphere_file_is_the_jobs_own_mask_and_refuses_another_sample(tiny_sample, tmp_path, monkeypatch):
+    """``held-spheres`` writes the mask a job would find (harmonic.solver.held_spheres); a job
+    given the file reads it instead of searching again and gives the same record; the file is
+    refused, naming the key, for another sample file or other kinematics."""
+    import json
+    import shutil
+
+    from asphalt_nscd.cli import main
+    from asphalt_nscd.harmonic import solver
+    from asphalt_nscd.io import InputError
+    from asphalt_nscd.sample import rig
+    from asphalt_nscd.sample.store import read_sample
+
+    held_json = tmp_path / "held.json"
+    assert main(["held-spheres", "--sample", str(tiny_sample), "-o", str(held_json)]) == 0
+    s = twopb.TwoPBSettings(n_cycles=1, dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=0.02)
+    mask = rig.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)
+    np.testing.assert_array_equal(
+        mask, solver.held_spheres(read_sample(tiny_sample), s.bond_kinematics, s.head_rotation, s.nu)
+    )
+    own = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "own.h5", progress=False)
+
+    def no_search(*args, **kwargs):
+        raise AssertionError("the job searched the held spheres again")
+
+    monkeypatch.setattr(solver, "held_spheres", no_search)
+    read = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "read.h5", progress=False, held_file=held_json)
+    np.testing.assert_array_equal(read["force_N"], own["force_N"])
+
+    other = tmp_path / "s2.h5"
+    shutil.copy(tiny_sample, other)
+    with open(other, "ab") as fh:  # another file: its SHA-256 differs
+        fh.write(b"\0")
+    with pytest.raises(InputError, match="sample_sha256"):
+        rig.read_held(held_json, other, s.bond_kinematics, s.head_rotation, s.nu)
+    with pytest.raises(InputError, match="nu is 0.35"):
+        rig.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, 0.3)
+    rec = json.loads(held_json.read_text())
+    rec["dropped"] = [rec["n_spheres"]]
+    held_json.write_text(json.dumps(rec))
+    with pytest.raises(InputError, match="dropped"):
+        rig.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)

@@ -356,7 +356,7 @@ def named_report_files(request):
 def test_the_report_is_every_output_the_rules_flag(named_report_files):
     name, cfg, files = named_report_files
     # one sample in the smoke run, four in the others; paper adds the paper_kPa mode's four
-    assert len(files) == len(set(files)) == {"smoke": 98, "config": 101, "paper": 105}[name]
+    assert len(files) == len(set(files)) == {"smoke": 98, "config": 104, "paper": 108}[name]
     assert all(f.startswith("results/") and "{" not in f for f in files)
     # in the order of the rule files: the lab data first, the figures' rule file last
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]
@@ -365,7 +365,7 @@ def test_the_report_is_every_output_the_rules_flag(named_report_files):
         "results/campaign/paper/figures/fig14_sensitivity_eta_k.png",
         "results/campaign/extended/table4_extended.csv",
         plan.DIAGNOSIS_PAGE,
-        plan.prepare_bench_file(cfg),
+        *(f"results/bench/prepare_{s}.json" for s in plan.sample_names(cfg)),
         *plan.MATERIAL_CARDS.values(),
         *plan.crossval_files(cfg, "_summary.csv"),
         *(f"results/samples/{s}_stages.png" for s in plan.sample_names(cfg)),
@@ -431,12 +431,11 @@ def test_lab_inputs(tmp_path):
 
 def test_settings_and_options_of_other_rules():
     cfg = load_config("smoke")
-    paper = load_config("paper")
     settings = plan.sample_settings(cfg)
     assert "seeds" not in settings["sample"] and settings["sample"]["scale"] == cfg["sample"]["scale"]
     assert settings["bonded_contact"] == cfg["nscd"]["bonded_contact"]
     assert plan.sample_file("s3") == "results/samples/s3.h5"
-    assert plan.prepare_bench_file(paper) == "results/bench/prepare_s1.json"
+    assert plan.held_file("s2") == "results/campaign/held/s2.json"
     assert plan.command_settings(cfg, "fit") == {
         "model": "burgers",
         "weight_log_modulus": cfg["calibration"]["weight_log_modulus"],

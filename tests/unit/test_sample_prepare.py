@@ -95,6 +95,8 @@ def test_prepare_sample_cli(tmp_path):
         str(tmp_path / "stages.png"),
         "--summary",
         str(tmp_path / "summary.json"),
+        "--bench",
+        str(tmp_path / "bench.json"),
     ]
     assert main(argv) == 0
     s = read_sample(out)
@@ -108,6 +110,10 @@ def test_prepare_sample_cli(tmp_path):
     ]
     assert (tmp_path / "stages.png").stat().st_size > 1000
     assert json.loads((tmp_path / "summary.json").read_text())["n_spheres"] == s.radius.size
+    # the preparation's own benchmark record, as prepare-bench writes it (test_prepare_bench_cli)
+    rec = json.loads((tmp_path / "bench.json").read_text())
+    assert rec["case"] == "prepare" and rec["seed"] == 5 and rec["sample"]["n_spheres"] == s.radius.size
+    assert rec["phases"]["total"]["cpu_s"] > 0 and rec["config"] == str(cfg)
 
 
 def test_rest_measure_rms_ends_deposition_no_later_than_max(tiny_cfg):

@@ -16,6 +16,12 @@ rule prepare_sample:
             category="Numerical samples",
             subcategory="s{seed}",
         ),
+        bench=report(
+            "results/bench/prepare_s{seed}.json",
+            caption="../report/sample_prepare_bench.rst",
+            category="Numerical samples",
+            subcategory="s{seed}",
+        ),
     log:
         "logs/samples/s{seed}.log",
     benchmark:
@@ -28,7 +34,8 @@ rule prepare_sample:
         settings=plan.sample_settings(config),
     shell:
         'asphalt-nscd prepare-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --seed {wildcards.seed}'
-        " -o {output.h5} --summary {output.summary} --vtk-dir {output.vtk} --figure {output.figure} 2> {log}"
+        " -o {output.h5} --summary {output.summary} --vtk-dir {output.vtk} --figure {output.figure}"
+        " --bench {output.bench} 2> {log}"
 
 
 rule prepare_resolution_sample:
@@ -50,28 +57,6 @@ rule prepare_resolution_sample:
     shell:
         'asphalt-nscd prepare-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --level {wildcards.level} --seed {wildcards.seed}'
         " -o {output.h5} --summary {output.summary} 2> {log}"
-
-
-rule prepare_bench:
-    output:
-        report(
-            "results/bench/prepare_s{seed}.json",
-            caption="../report/sample_prepare_bench.rst",
-            category="Numerical samples",
-        ),
-    log:
-        "logs/samples/prepare_bench_s{seed}.log",
-    benchmark:
-        "benchmarks/samples/prepare_bench_s{seed}.tsv"
-    wildcard_constraints:
-        seed=r"\d+",
-    conda:
-        "../envs/asphalt-nscd.yaml"
-    params:
-        settings=plan.sample_settings(config),
-    shell:
-        'NUMBA_NUM_THREADS={threads} asphalt-nscd prepare-bench --config "$ASPHALT_NSCD_RUN_CONFIG" --seed {wildcards.seed}'
-        " -o {output} 2> {log}"
 
 
 rule sample_table:

@@ -1,5 +1,6 @@
 """Subcommands of the campaign step (registered by asphalt_nscd.cli).
 
+``held-spheres``        the spheres the 2PB rig holds in a sample (JSON), read by its jobs
 ``run-2pb``             one numerical 2PB complex modulus test: record (HDF5) + reduced row (CSV);
                         ``--network-factor-json``: bond law divided by the sample's network factor
 ``campaign-isotherms``  numerical isotherms, Table 4 analogue, Figs. 9-10 analogues of one mode
@@ -84,6 +85,7 @@ def _parameter_options(p, law_json: bool = False):
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
     _add_bench(subparsers)
+    _add_held_spheres(subparsers)
     _add_run_2pb(subparsers)
     _add_campaign_isotherms(subparsers)
     _add_campaign_dt_study(subparsers)
@@ -99,6 +101,32 @@ def _config_values(cfg, args) -> dict:
     from .modes import config_values
 
     return config_values(cfg, args)
+
+
+def _add_held_spheres(subparsers) -> None:
+    """``held-spheres``: the held-sphere file of a sample (:func:`asphalt_nscd.sample.rig.held_record`)."""
+    p = subparsers.add_parser(
+        "held-spheres",
+        help="the spheres the 2PB rig holds in a sample (JSON read by run-2pb --held-spheres)",
+        description="Find the spheres the bond network of a sample holds under the test's kinematics "
+        "(bond kinematics, head rotation, nu of the --config test settings; "
+        "asphalt_nscd.harmonic.solver.held_spheres) and write them with the sample file's SHA-256 "
+        "(asphalt_nscd.sample.rig.held_record). The mask depends on neither the law nor T, f or dt, "
+        "so the jobs of a sample read it instead of finding it again.",
+    )
+    p.add_argument("--sample", required=True, help="sample file (.h5)")
+    _settings_options(p)
+    p.add_argument("-o", "--output", required=True, help="held-sphere file (.json)")
+    p.set_defaults(func=_held_spheres)
+
+
+def _held_spheres(args) -> int:
+    from ..io import write_json
+    from ..sample import rig
+
+    s = _settings(args)
+    write_json(rig.held_record(args.sample, s.bond_kinematics, s.head_rotation, s.nu), args.output)
+    return 0
 
 
 def _add_run_2pb(subparsers) -> None:
@@ -133,6 +161,13 @@ def _add_run_2pb(subparsers) -> None:
         "harmonic-transfer', e.g. results/harmonic/transfer/s1.json; its sample, "
         "bond_kinematics, head_rotation and nu must match the run), so that the "
         "inertia-free sample modulus equals the macro law (asphalt_nscd.harmonic.transfer)",
+    )
+    p.add_argument(
+        "--held-spheres",
+        default=None,
+        metavar="PATH",
+        help="the sample's held-sphere file (output of 'asphalt-nscd held-spheres'; its sample file "
+        "SHA-256 and kinematics must match the job's); default: the job finds the held spheres itself",
     )
     _settings_options(p)
     p.add_argument(
@@ -687,7 +722,15 @@ def _run(args) -> int:
         **{k: v for k, v in params.items()},
     }
     rec = twopb.run_test(
-        args.sample, law, args.frequency, settings, args.output, meta=meta, progress=args.progress, verify=args.verify
+        args.sample,
+        law,
+        args.frequency,
+        settings,
+        args.output,
+        meta=meta,
+        progress=args.progress,
+        verify=args.verify,
+        held_file=args.held_spheres,
     )
     row = twopb.reduce_test(rec, settings.window_cycles)
     row.update({k: v for k, v in params.items()})

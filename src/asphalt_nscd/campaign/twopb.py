@@ -309,13 +309,14 @@ def specimen_of(sample) -> Specimen2PB:
     return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **specimen_geometry_mm(sample))
 
 
-def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
+def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, held=None):
     """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
     fixed, top plate driven by :class:`HeadMotion` (and free to rotate when
     ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid), bonds
     with the macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``:
     the 2PB rig (:func:`asphalt_nscd.sample.rig.setup`) holding the spheres the bond network
-    holds (:func:`asphalt_nscd.harmonic.solver.held_spheres`). Returns (Simulation, HeadMotion).
+    holds: ``held`` (N,) bool when given (:func:`asphalt_nscd.sample.rig.read_held`), else
+    :func:`asphalt_nscd.harmonic.solver.held_spheres` under ``settings``. Returns (Simulation, HeadMotion).
 
     Raises
     ------
@@ -340,7 +341,8 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
         linear_tolerance=settings.linear_tolerance,
         fast_path_contacts=settings.fast_path_contacts,
     )
-    held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
+    if held is None:
+        held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
     sim = rig.setup(sample, law, motion, params, settings.head_rotation, settings.nu, strength, held=held)
     return sim, motion
 
@@ -422,11 +424,11 @@ def time_domain_step(frequency_Hz: float, settings: TwoPBSettings) -> float | No
     return None if n is None else 1.0 / (frequency_Hz * n)
 
 
-def _set_up(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, continuous: bool):
+def _set_up(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, continuous: bool, held):
     """The simulation of a job at step ``dt`` in its initial state, with its linearity
     certificate: (sim, motion, rest heights (N,) m, start info, periodic state or None, steps,
-    certificate or None)."""
-    sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings)
+    certificate or None). ``held``: the held-sphere mask of :func:`build_simulation`."""
+    sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings, held=held)
     rest_z = sim.spheres.position[:, 2].copy()
     start_info, state = periodic_start(sim, law, frequency_Hz, settings, continuous=continuous)
     n_steps = n_steps_of(frequency_Hz, dt, settings, start_info["start"])
@@ -532,6 +534,7 @@ def run_test(
     stop_after: int | None = None,
     continuous_start: bool = False,
     verify: bool = False,
+    held_file=None,
 ):
     """Run (or resume) the numerical 2PB test and write its record (HDF5) atomically.
 
@@ -551,6 +554,9 @@ def run_test(
         the difference).
     verify : step in time whatever ``settings.method`` says, and record the orbit's reduced
         result (``start_info['orbit']``) beside (a verification job).
+    held_file : the sample's held-sphere file (:func:`asphalt_nscd.sample.rig.read_held`,
+        checked against ``sample_path`` and ``settings``); None: the job finds the held
+        spheres itself (:func:`asphalt_nscd.harmonic.solver.held_spheres`, the same mask).
 
     Returns
     -------
@@ -612,8 +618,16 @@ def run_test(
             )
             sim = None
     if sim is None:
+        if held_file is not None:
+            from ..sample import rig
+
+            held = rig.read_held(held_file, sample_path, settings.bond_kinematics, settings.head_rotation, settings.nu)
+        else:
+            from ..harmonic.solver import held_spheres
+
+            held = held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
         sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-            sample, law, frequency_Hz, dt, settings, continuous_start
+            sample, law, frequency_Hz, dt, settings, continuous_start, held
         )
         path, why = choose_path(settings, start_info, cert, verify)
         dt_td = time_domain_step(frequency_Hz, settings)
@@ -624,7 +638,7 @@ def run_test(
             )
             dt = dt_td
             sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-                sample, law, frequency_Hz, dt, settings, continuous_start
+                sample, law, frequency_Hz, dt, settings, continuous_start, held
             )
             start_info["solve_s"] = start_info.get("solve_s", 0.0) + spent[0]  # both set-ups count
             start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + spent[1]

@@ -90,6 +90,7 @@ def register(subparsers) -> None:
     p.add_argument("--vtk-dir", help="directory for the ParaView files of each stage (.vtu)")
     p.add_argument("--figure", help="Fig. 5-like picture of the stages (.png/.pdf)")
     p.add_argument("--summary", help="summary JSON (counts, porosity, coordination, bonds per sphere)")
+    p.add_argument("--bench", help="benchmark JSON of this preparation, phase by phase (as prepare-bench writes)")
     _add_bonded_contact(p)
     _add_progress(p)
     p.set_defaults(func=_prepare)
@@ -133,6 +134,8 @@ def _prepare(args) -> int:
     write_outputs(result, args.output, vtk_dir=args.vtk_dir)
     if args.summary:
         write_json(result.summary, args.summary)
+    if args.bench:
+        _write_bench(result, args, args.bench)
     if args.figure:
         import matplotlib
 
@@ -150,7 +153,6 @@ def _prepare(args) -> int:
 
 def _bench(args) -> int:
     from ..io import write_json
-    from .bench import bench_record
     from .prepare import prepare_sample, write_outputs
 
     from . import dynamics
@@ -162,10 +164,18 @@ def _bench(args) -> int:
         write_outputs(result, args.sample)
     if args.summary:
         write_json(result.summary, args.summary)
+    _write_bench(result, args, args.output)
+    return 0
+
+
+def _write_bench(result, args, path) -> None:
+    """The benchmark record of a preparation (:func:`asphalt_nscd.sample.bench.bench_record`) to ``path``."""
+    from ..io import write_json
+    from .bench import bench_record
+
     rec = bench_record(result.summary)
     rec["config"] = " ".join(args.config) if args.config else "paper full scale (no --config)"
-    write_json(rec, args.output)
-    return 0
+    write_json(rec, path)
 
 
 def _table(args) -> int:

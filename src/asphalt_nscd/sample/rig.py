@@ -183,3 +183,78 @@ def setup(
     sim = Simulation(spheres, plates, bonds, params)
     sim.n_mechanisms_dropped = n_dropped
     return sim
+
+
+def _file_sha256(path) -> str:
+    import hashlib
+
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+def held_record(sample_path, bond_kinematics: str, head_rotation: str, nu: float) -> dict:
+    """The spheres the rig holds in the sample file ``sample_path`` under these kinematics
+    (:func:`asphalt_nscd.harmonic.solver.held_spheres`), as a JSON-serialisable record: the
+    sample file's SHA-256, its sphere and bond counts, the kinematics (``bond_kinematics``,
+    ``head_rotation``, ``nu``) and the 0-based indices of the spheres left out (``dropped``).
+    The mask depends on nothing else (not the law, T, f or the time step), so a campaign
+    computes it once per sample (rule ``held_spheres``) and its jobs read it (:func:`read_held`).
+
+    Raises
+    ------
+    InputError if the sample file is missing or malformed.
+    """
+    from ..harmonic.solver import held_spheres
+    from .store import read_sample
+
+    sample = read_sample(sample_path)
+    held = held_spheres(sample, bond_kinematics, head_rotation, nu)
+    return {
+        "sample_sha256": _file_sha256(sample_path),
+        "n_spheres": int(sample.radius.size),
+        "n_bonds": int(len(sample.bonds["i"])),
+        "bond_kinematics": bond_kinematics,
+        "head_rotation": head_rotation,
+        "nu": float(nu),
+        "dropped": [int(k) for k in np.flatnonzero(~held)],
+    }
+
+
+def read_held(path, sample_path, bond_kinematics: str, head_rotation: str, nu: float) -> np.ndarray:
+    """The held-sphere mask (N,) bool of a :func:`held_record` file ``path``, checked against the
+    job's sample file and kinematics.
+
+    Raises
+    ------
+    InputError
+        naming ``path`` and the key when the file is unreadable, lacks a key, or was computed
+        from another sample file (SHA-256) or other kinematics than the job's.
+    """
+    from ..io import read_json
+
+    rec = read_json(path, "held-sphere file")
+    want = {
+        "sample_sha256": _file_sha256(sample_path),
+        "bond_kinematics": bond_kinematics,
+        "head_rotation": head_rotation,
+        "nu": float(nu),
+    }
+    if not isinstance(rec, dict):
+        raise InputError(f"{path}: expected a JSON object (asphalt-nscd held-spheres), got {type(rec).__name__}")
+    for key, value in want.items():
+        if key not in rec:
+            raise InputError(f"{path}: key {key!r} missing (expected the output of asphalt-nscd held-spheres)")
+        if rec[key] != value:
+            what = f"sample file {sample_path}" if key == "sample_sha256" else "the job's settings"
+            raise InputError(f"{path}: {key} is {rec[key]!r}, but {what} give {value!r}: recompute it for this job")
+    n = rec.get("n_spheres")
+    dropped = rec.get("dropped")
+    if (
+        not isinstance(n, int)
+        or not isinstance(dropped, list)
+        or not all(isinstance(k, int) and 0 <= k < n for k in dropped)
+    ):
+        raise InputError(f"{path}: expected n_spheres (integer) and dropped (sphere indices below it)")
+    held = np.ones(n, bool)
+    held[dropped] = False
+    return held
