@@ -120,13 +120,12 @@ def test_held_sphere_file_is_the_jobs_own_mask_and_refuses_another_sample(tiny_s
     from asphalt_nscd.cli import main
     from asphalt_nscd.harmonic import solver
     from asphalt_nscd.io import InputError
-    from asphalt_nscd.sample import rig
     from asphalt_nscd.sample.store import read_sample
 
     held_json = tmp_path / "held.json"
     assert main(["held-spheres", "--sample", str(tiny_sample), "-o", str(held_json)]) == 0
     s = twopb.TwoPBSettings(n_cycles=1, dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=0.02)
-    mask = rig.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)
+    mask = twopb.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)
     np.testing.assert_array_equal(
         mask, solver.held_spheres(read_sample(tiny_sample), s.bond_kinematics, s.head_rotation, s.nu)
     )
@@ -144,11 +143,11 @@ def test_held_sphere_file_is_the_jobs_own_mask_and_refuses_another_sample(tiny_s
     with open(other, "ab") as fh:  # another file: its SHA-256 differs
         fh.write(b"\0")
     with pytest.raises(InputError, match="sample_sha256"):
-        rig.read_held(held_json, other, s.bond_kinematics, s.head_rotation, s.nu)
+        twopb.read_held(held_json, other, s.bond_kinematics, s.head_rotation, s.nu)
     with pytest.raises(InputError, match="nu is 0.35"):
-        rig.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, 0.3)
+        twopb.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, 0.3)
     rec = json.loads(held_json.read_text())
     rec["dropped"] = [rec["n_spheres"]]
     held_json.write_text(json.dumps(rec))
     with pytest.raises(InputError, match="dropped"):
-        rig.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)
+        twopb.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)

@@ -104,14 +104,14 @@ def _config_values(cfg, args) -> dict:
 
 
 def _add_held_spheres(subparsers) -> None:
-    """``held-spheres``: the held-sphere file of a sample (:func:`asphalt_nscd.sample.rig.held_record`)."""
+    """``held-spheres``: the held-sphere file of a sample (:func:`asphalt_nscd.campaign.twopb.held_record`)."""
     p = subparsers.add_parser(
         "held-spheres",
         help="the spheres the 2PB rig holds in a sample (JSON read by run-2pb --held-spheres)",
         description="Find the spheres the bond network of a sample holds under the test's kinematics "
         "(bond kinematics, head rotation, nu of the --config test settings; "
         "asphalt_nscd.harmonic.solver.held_spheres) and write them with the sample file's SHA-256 "
-        "(asphalt_nscd.sample.rig.held_record). The mask depends on neither the law nor T, f or dt, "
+        "(asphalt_nscd.campaign.twopb.held_record). The mask depends on neither the law nor T, f or dt, "
         "so the jobs of a sample read it instead of finding it again.",
     )
     p.add_argument("--sample", required=True, help="sample file (.h5)")
@@ -122,10 +122,10 @@ def _add_held_spheres(subparsers) -> None:
 
 def _held_spheres(args) -> int:
     from ..io import write_json
-    from ..sample import rig
+    from .twopb import held_record
 
     s = _settings(args)
-    write_json(rig.held_record(args.sample, s.bond_kinematics, s.head_rotation, s.nu), args.output)
+    write_json(held_record(args.sample, s.bond_kinematics, s.head_rotation, s.nu), args.output)
     return 0
 
 

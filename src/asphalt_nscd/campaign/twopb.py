@@ -309,13 +309,88 @@ def specimen_of(sample) -> Specimen2PB:
     return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **specimen_geometry_mm(sample))
 
 
+def _file_sha256(path) -> str:
+    import hashlib
+
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+def held_record(sample_path, bond_kinematics: str, head_rotation: str, nu: float) -> dict:
+    """The spheres the rig holds in the sample file ``sample_path`` under these kinematics
+    (:func:`asphalt_nscd.harmonic.solver.held_spheres`), as a JSON-serialisable record: the
+    sample file's SHA-256, its sphere and bond counts, the kinematics (``bond_kinematics``,
+    ``head_rotation``, ``nu``) and the 0-based indices of the spheres left out (``dropped``).
+    The mask depends on nothing else (not the law, T, f or the time step), so a campaign
+    computes it once per sample (rule ``held_spheres``) and its jobs read it (:func:`read_held`).
+
+    Raises
+    ------
+    InputError if the sample file is missing or malformed.
+    """
+    from ..harmonic.solver import held_spheres
+    from ..sample.store import read_sample
+
+    sample = read_sample(sample_path)
+    held = held_spheres(sample, bond_kinematics, head_rotation, nu)
+    return {
+        "sample_sha256": _file_sha256(sample_path),
+        "n_spheres": int(sample.radius.size),
+        "n_bonds": int(len(sample.bonds["i"])),
+        "bond_kinematics": bond_kinematics,
+        "head_rotation": head_rotation,
+        "nu": float(nu),
+        "dropped": [int(k) for k in np.flatnonzero(~held)],
+    }
+
+
+def read_held(path, sample_path, bond_kinematics: str, head_rotation: str, nu: float) -> np.ndarray:
+    """The held-sphere mask (N,) bool of a :func:`held_record` file ``path``, checked against the
+    job's sample file and kinematics.
+
+    Raises
+    ------
+    InputError
+        naming ``path`` and the key when the file is unreadable, lacks a key, or was computed
+        from another sample file (SHA-256) or other kinematics than the job's.
+    """
+    from ..io import read_json
+
+    rec = read_json(path, "held-sphere file")
+    want = {
+        "sample_sha256": _file_sha256(sample_path),
+        "bond_kinematics": bond_kinematics,
+        "head_rotation": head_rotation,
+        "nu": float(nu),
+    }
+    if not isinstance(rec, dict):
+        raise InputError(f"{path}: expected a JSON object (asphalt-nscd held-spheres), got {type(rec).__name__}")
+    for key, value in want.items():
+        if key not in rec:
+            raise InputError(f"{path}: key {key!r} missing (expected the output of asphalt-nscd held-spheres)")
+        if rec[key] != value:
+            what = f"sample file {sample_path}" if key == "sample_sha256" else "the job's settings"
+            raise InputError(f"{path}: {key} is {rec[key]!r}, but {what} give {value!r}: recompute it for this job")
+    n = rec.get("n_spheres")
+    dropped = rec.get("dropped")
+    if (
+        not isinstance(n, int)
+        or not isinstance(dropped, list)
+        or not all(isinstance(k, int) and 0 <= k < n for k in dropped)
+    ):
+        raise InputError(f"{path}: expected n_spheres (integer) and dropped (sphere indices below it)")
+    held = np.ones(n, bool)
+    held[dropped] = False
+    return held
+
+
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, held=None):
     """The NSCD simulation of the test: spheres of ``sample`` (SampleData), bottom plate
     fixed, top plate driven by :class:`HeadMotion` (and free to rotate when
     ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid), bonds
     with the macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``:
     the 2PB rig (:func:`asphalt_nscd.sample.rig.setup`) holding the spheres the bond network
-    holds: ``held`` (N,) bool when given (:func:`asphalt_nscd.sample.rig.read_held`), else
+    holds: ``held`` (N,) bool when given (:func:`read_held`), else
     :func:`asphalt_nscd.harmonic.solver.held_spheres` under ``settings``. Returns (Simulation, HeadMotion).
 
     Raises
@@ -554,7 +629,7 @@ def run_test(
         the difference).
     verify : step in time whatever ``settings.method`` says, and record the orbit's reduced
         result (``start_info['orbit']``) beside (a verification job).
-    held_file : the sample's held-sphere file (:func:`asphalt_nscd.sample.rig.read_held`,
+    held_file : the sample's held-sphere file (:func:`read_held`,
         checked against ``sample_path`` and ``settings``); None: the job finds the held
         spheres itself (:func:`asphalt_nscd.harmonic.solver.held_spheres`, the same mask).
 
@@ -619,9 +694,7 @@ def run_test(
             sim = None
     if sim is None:
         if held_file is not None:
-            from ..sample import rig
-
-            held = rig.read_held(held_file, sample_path, settings.bond_kinematics, settings.head_rotation, settings.nu)
+            held = read_held(held_file, sample_path, settings.bond_kinematics, settings.head_rotation, settings.nu)
         else:
             from ..harmonic.solver import held_spheres
 
