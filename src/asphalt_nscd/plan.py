@@ -274,9 +274,18 @@ def sample_file(name: str) -> str:
     return f"results/samples/{name}.h5"
 
 
-def held_file(name: str) -> str:
-    """Held-sphere file of sample ``name`` (rule held_spheres, read by its 2PB jobs)."""
-    return f"results/campaign/held/{name}.json"
+def rig_state_file(name: str) -> str:
+    """Rig-state file of sample ``name`` (rule rig_state, read by its 2PB jobs)."""
+    return f"results/campaign/rig/{name}.h5"
+
+
+def rig_state_settings(config: dict) -> dict:
+    """The test settings a rig state is computed for (:data:`asphalt_nscd.campaign.twopb.RIG_STATE_SETTINGS`
+    of the jobs' settings, what ``rig-state --config`` reads), kept by rule rig_state as a parameter."""
+    from .campaign.twopb import RIG_STATE_SETTINGS, job_settings
+
+    settings = job_settings(config, "paper")
+    return {k: settings[k] for k in RIG_STATE_SETTINGS}
 
 
 def sample_settings(config: dict) -> dict:

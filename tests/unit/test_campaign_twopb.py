@@ -110,44 +110,56 @@ def test_build_simulation_does_not_move_the_sample(tiny_sample):
     np.testing.assert_array_equal(sample.position, before)
 
 
-def test_held_sphere_file_is_the_jobs_own_mask_and_refuses_another_sample(tiny_sample, tmp_path, monkeypatch):
-    """``held-spheres`` writes the mask a job would find (harmonic.solver.held_spheres); a job
-    given the file reads it instead of searching again and gives the same record; the file is
-    refused, naming the key, for another sample file or other kinematics."""
-    import json
+def test_rig_state_file_is_what_the_job_computes_and_refuses_another_sample(tiny_sample, tmp_path, monkeypatch):
+    """``rig-state`` writes the held spheres and the law-free gravity solution a job would
+    compute (harmonic.solver.held_spheres, harmonic.periodic.gravity_unit); a job given the file
+    reads them instead of computing them and gives the same record; the file is refused,
+    naming the key, for another sample file or other settings."""
+    import dataclasses
     import shutil
 
+    import h5py
+
     from asphalt_nscd.cli import main
-    from asphalt_nscd.harmonic import solver
+    from asphalt_nscd.harmonic import periodic, solver
     from asphalt_nscd.io import InputError
     from asphalt_nscd.sample.store import read_sample
 
-    held_json = tmp_path / "held.json"
-    assert main(["held-spheres", "--sample", str(tiny_sample), "-o", str(held_json)]) == 0
-    s = twopb.TwoPBSettings(n_cycles=1, dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=0.02)
-    mask = twopb.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)
-    np.testing.assert_array_equal(
-        mask, solver.held_spheres(read_sample(tiny_sample), s.bond_kinematics, s.head_rotation, s.nu)
+    s = twopb.TwoPBSettings(
+        n_cycles=1, dt_policy="steps_per_cycle", steps_per_cycle=40, dt_max_s=0.02, gravity=True, start="periodic"
     )
+    rig = tmp_path / "rig.h5"
+    twopb.write_rig_state(tiny_sample, s, rig)
+    held, unit = twopb.read_rig_state(rig, tiny_sample, s)
+    np.testing.assert_array_equal(
+        held, solver.held_spheres(read_sample(tiny_sample), s.bond_kinematics, s.head_rotation, s.nu)
+    )
+    assert np.abs(unit.displacement).max() > 0 and unit.failed == "" and unit.residual <= periodic.GRAVITY_RESIDUAL_MAX
     own = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "own.h5", progress=False)
 
-    def no_search(*args, **kwargs):
-        raise AssertionError("the job searched the held spheres again")
+    def not_again(*args, **kwargs):
+        raise AssertionError("the job computed what its rig state holds")
 
-    monkeypatch.setattr(solver, "held_spheres", no_search)
-    read = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "read.h5", progress=False, held_file=held_json)
+    monkeypatch.setattr(solver, "held_spheres", not_again)
+    monkeypatch.setattr(periodic, "gravity_unit", not_again)
+    read = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "read.h5", progress=False, rig_state=rig)
+    assert read["attrs"]["start"] == own["attrs"]["start"] == "periodic"
     np.testing.assert_array_equal(read["force_N"], own["force_N"])
+    monkeypatch.undo()
 
+    # the command writes the same file content from a --config's settings
+    assert main(["rig-state", "--sample", str(tiny_sample), "--set", "gravity=true", "-o", str(tmp_path / "c.h5")]) == 0
+    with h5py.File(tmp_path / "c.h5") as a, h5py.File(rig) as b:
+        np.testing.assert_array_equal(a["gravity/displacement"][()], b["gravity/displacement"][()])
     other = tmp_path / "s2.h5"
     shutil.copy(tiny_sample, other)
     with open(other, "ab") as fh:  # another file: its SHA-256 differs
         fh.write(b"\0")
     with pytest.raises(InputError, match="sample_sha256"):
-        twopb.read_held(held_json, other, s.bond_kinematics, s.head_rotation, s.nu)
+        twopb.read_rig_state(rig, other, s)
     with pytest.raises(InputError, match="nu is 0.35"):
-        twopb.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, 0.3)
-    rec = json.loads(held_json.read_text())
-    rec["dropped"] = [rec["n_spheres"]]
-    held_json.write_text(json.dumps(rec))
-    with pytest.raises(InputError, match="dropped"):
-        twopb.read_held(held_json, tiny_sample, s.bond_kinematics, s.head_rotation, s.nu)
+        twopb.read_rig_state(rig, tiny_sample, dataclasses.replace(s, nu=0.3))
+    with pytest.raises(InputError, match="gravity is True"):
+        twopb.read_rig_state(rig, tiny_sample, dataclasses.replace(s, gravity=False))
+    with pytest.raises(InputError, match="not a rig-state file"):
+        twopb.read_rig_state(tiny_sample, tiny_sample, s)

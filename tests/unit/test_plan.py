@@ -435,7 +435,14 @@ def test_settings_and_options_of_other_rules():
     assert "seeds" not in settings["sample"] and settings["sample"]["scale"] == cfg["sample"]["scale"]
     assert settings["bonded_contact"] == cfg["nscd"]["bonded_contact"]
     assert plan.sample_file("s3") == "results/samples/s3.h5"
-    assert plan.held_file("s2") == "results/campaign/held/s2.json"
+    assert plan.rig_state_file("s2") == "results/campaign/rig/s2.h5"
+    assert plan.rig_state_settings(cfg) == {
+        "bond_kinematics": cfg["nscd"]["bond_kinematics"],
+        "head_rotation": cfg["campaign"]["test"]["head_rotation"],
+        "nu": cfg["campaign"]["test"]["nu"],
+        "gravity": cfg["campaign"]["test"]["gravity"],
+        "mechanisms": cfg["campaign"]["test"]["mechanisms"],
+    }
     assert plan.command_settings(cfg, "fit") == {
         "model": "burgers",
         "weight_log_modulus": cfg["calibration"]["weight_log_modulus"],

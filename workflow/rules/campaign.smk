@@ -10,37 +10,36 @@
 # Start of each job (campaign.test.start, per-mode `start`): rest (n_cycles) or periodic
 # (periodic_cycles from the periodic steady state, asphalt_nscd.harmonic.periodic); the row's
 # `start` column says which was used.
-# The spheres the rig holds are found once per sample (rule held_spheres) and read by its jobs.
+# What a sample's jobs share and no law changes (held spheres, gravity solution) is computed once (rule rig_state).
 # Rerun one job: `snakemake --cores 1 results/sim/paper/s1/15C_40Hz.csv --forcerun run_2pb`.
 from asphalt_nscd import plan
-from asphalt_nscd.sample import rig
 
 
-rule held_spheres:
-    # the spheres the 2PB rig holds in a sample under the test's kinematics: one search per
-    # sample, read by all its jobs (the mask depends on neither the law nor T, f or dt)
+rule rig_state:
+    # what every 2PB job of a sample shares and no law changes: the spheres the rig holds and the
+    # law-free gravity solution under the test settings (one factorisation per sample, not per job)
     input:
         sample=plan.sample_file("{sample}"),
     output:
-        plan.held_file("{sample}"),
+        plan.rig_state_file("{sample}"),
     log:
-        "logs/campaign/held_{sample}.log",
+        "logs/campaign/rig_{sample}.log",
     benchmark:
-        "benchmarks/campaign/held_{sample}.tsv"
+        "benchmarks/campaign/rig_{sample}.tsv"
     wildcard_constraints:
         sample=r"s\d+",
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        kinematics=rig.kinematics(config),
+        settings=plan.rig_state_settings(config),
     shell:
-        'asphalt-nscd held-spheres --sample {input.sample} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
+        'asphalt-nscd rig-state --sample {input.sample} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output} 2> {log}'
 
 
 rule run_2pb:
     input:
         sample=plan.sample_file("{sample}"),
-        held=plan.held_file("{sample}"),
+        rig=plan.rig_state_file("{sample}"),
         parameters=plan.from_wildcards(plan.mode_parameters, config),
         transfer=plan.from_wildcards(plan.job_transfer, config),
     output:
@@ -62,7 +61,7 @@ rule run_2pb:
         settings=plan.from_wildcards(plan.mode_settings, config),
         job=plan.from_wildcards(plan.job_values, config),
     shell:
-        "asphalt-nscd run-2pb --sample {input.sample} --held-spheres {input.held} --sample-name {wildcards.sample} --mode {wildcards.mode}"
+        "asphalt-nscd run-2pb --sample {input.sample} --rig-state {input.rig} --sample-name {wildcards.sample} --mode {wildcards.mode}"
         ' {params.source} {input.parameters} {params.case} {params.transfer} --config "$ASPHALT_NSCD_RUN_CONFIG"'
         " -o {output.record} --row {output.row} 2> {log}"
 

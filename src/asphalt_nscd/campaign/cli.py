@@ -1,6 +1,6 @@
 """Subcommands of the campaign step (registered by asphalt_nscd.cli).
 
-``held-spheres``        the spheres the 2PB rig holds in a sample (JSON), read by its jobs
+``rig-state``           what a sample's 2PB jobs share and no law changes (HDF5): held spheres, gravity
 ``run-2pb``             one numerical 2PB complex modulus test: record (HDF5) + reduced row (CSV);
                         ``--network-factor-json``: bond law divided by the sample's network factor
 ``campaign-isotherms``  numerical isotherms, Table 4 analogue, Figs. 9-10 analogues of one mode
@@ -85,7 +85,7 @@ def _parameter_options(p, law_json: bool = False):
 def register(subparsers) -> None:
     """Add this step's subcommands to the asphalt-nscd parser."""
     _add_bench(subparsers)
-    _add_held_spheres(subparsers)
+    _add_rig_state(subparsers)
     _add_run_2pb(subparsers)
     _add_campaign_isotherms(subparsers)
     _add_campaign_dt_study(subparsers)
@@ -103,29 +103,29 @@ def _config_values(cfg, args) -> dict:
     return config_values(cfg, args)
 
 
-def _add_held_spheres(subparsers) -> None:
-    """``held-spheres``: the held-sphere file of a sample (:func:`asphalt_nscd.campaign.twopb.held_record`)."""
+def _add_rig_state(subparsers) -> None:
+    """``rig-state``: what every 2PB job of a sample needs and no law changes
+    (:func:`asphalt_nscd.campaign.twopb.write_rig_state`)."""
     p = subparsers.add_parser(
-        "held-spheres",
-        help="the spheres the 2PB rig holds in a sample (JSON read by run-2pb --held-spheres)",
-        description="Find the spheres the bond network of a sample holds under the test's kinematics "
-        "(bond kinematics, head rotation, nu of the --config test settings; "
-        "asphalt_nscd.harmonic.solver.held_spheres) and write them with the sample file's SHA-256 "
-        "(asphalt_nscd.campaign.twopb.held_record). The mask depends on neither the law nor T, f or dt, "
-        "so the jobs of a sample read it instead of finding it again.",
+        "rig-state",
+        help="the held spheres and the law-free gravity solution of a sample (HDF5 read by run-2pb --rig-state)",
+        description="Compute once per sample what its 2PB jobs share: the spheres the bond network holds "
+        "(asphalt_nscd.harmonic.solver.held_spheres) and, with gravity, the solution U_1 of the "
+        "reference stiffness under the weights (asphalt_nscd.harmonic.periodic.gravity_unit), under "
+        "the --config test settings (bond kinematics, head rotation, nu, gravity, mechanisms), with "
+        "the sample file's SHA-256 (asphalt_nscd.campaign.twopb.write_rig_state). Neither depends on "
+        "the law, T, f or dt.",
     )
     p.add_argument("--sample", required=True, help="sample file (.h5)")
     _settings_options(p)
-    p.add_argument("-o", "--output", required=True, help="held-sphere file (.json)")
-    p.set_defaults(func=_held_spheres)
+    p.add_argument("-o", "--output", required=True, help="rig-state file (.h5)")
+    p.set_defaults(func=_rig_state)
 
 
-def _held_spheres(args) -> int:
-    from ..io import write_json
-    from .twopb import held_record
+def _rig_state(args) -> int:
+    from .twopb import write_rig_state
 
-    s = _settings(args)
-    write_json(held_record(args.sample, s.bond_kinematics, s.head_rotation, s.nu), args.output)
+    write_rig_state(args.sample, _settings(args), args.output)
     return 0
 
 
@@ -163,11 +163,12 @@ def _add_run_2pb(subparsers) -> None:
         "inertia-free sample modulus equals the macro law (asphalt_nscd.harmonic.transfer)",
     )
     p.add_argument(
-        "--held-spheres",
+        "--rig-state",
         default=None,
         metavar="PATH",
-        help="the sample's held-sphere file (output of 'asphalt-nscd held-spheres'; its sample file "
-        "SHA-256 and kinematics must match the job's); default: the job finds the held spheres itself",
+        help="the sample's rig-state file (output of 'asphalt-nscd rig-state': held spheres and the "
+        "law-free gravity solution; its sample file SHA-256 and settings must match the job's); "
+        "default: the job computes both itself",
     )
     _settings_options(p)
     p.add_argument(
@@ -730,7 +731,7 @@ def _run(args) -> int:
         meta=meta,
         progress=args.progress,
         verify=args.verify,
-        held_file=args.held_spheres,
+        rig_state=args.rig_state,
     )
     row = twopb.reduce_test(rec, settings.window_cycles)
     row.update({k: v for k, v in params.items()})

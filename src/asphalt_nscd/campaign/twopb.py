@@ -316,72 +316,104 @@ def _file_sha256(path) -> str:
         return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
-def held_record(sample_path, bond_kinematics: str, head_rotation: str, nu: float) -> dict:
-    """The spheres the rig holds in the sample file ``sample_path`` under these kinematics
-    (:func:`asphalt_nscd.harmonic.solver.held_spheres`), as a JSON-serialisable record: the
-    sample file's SHA-256, its sphere and bond counts, the kinematics (``bond_kinematics``,
-    ``head_rotation``, ``nu``) and the 0-based indices of the spheres left out (``dropped``).
-    The mask depends on nothing else (not the law, T, f or the time step), so a campaign
-    computes it once per sample (rule ``held_spheres``) and its jobs read it (:func:`read_held`).
+#: the settings a rig-state file is computed for (:func:`write_rig_state`), checked by its reader
+RIG_STATE_SETTINGS = ("bond_kinematics", "head_rotation", "nu", "gravity", "mechanisms")
+
+#: datasets of a rig state's ``gravity`` group, the fields of :class:`asphalt_nscd.harmonic.periodic.GravityUnit`
+_UNIT_ARRAYS = ("displacement", "rotation", "head_rotation", "support_force", "mechanism_acceleration")
+
+
+def write_rig_state(sample_path, settings: TwoPBSettings, output) -> dict:
+    """Compute once what every 2PB job of a sample needs and no law changes, and write it
+    atomically to ``output`` (HDF5): the spheres the rig holds
+    (:func:`asphalt_nscd.harmonic.solver.held_spheres`; dataset ``held`` (N,) bool) and, with
+    gravity, the law-free gravity solution U_1 (:func:`asphalt_nscd.harmonic.periodic.gravity_unit`;
+    group ``gravity``: ``displacement``, ``rotation`` (N_held, 3), ``head_rotation`` (3,),
+    ``support_force`` (N_held, 3) N, ``mechanism_acceleration`` (N_held, 3) m/s^2; attributes
+    ``residual``, ``n_mechanisms``, ``failed``). Root attributes: the sample file's SHA-256, its
+    sphere and bond counts and :data:`RIG_STATE_SETTINGS` of ``settings``. Both depend on the
+    sample and these settings only, not on the law, T, f or dt; each one costs a factorisation
+    of the sample's harmonic system, about a fifth of an orbit job's CPU at paper scale.
+    Returns the root attributes.
 
     Raises
     ------
     InputError if the sample file is missing or malformed.
     """
-    from ..harmonic.solver import held_spheres
+    import h5py
+
+    from ..harmonic import periodic, solver
+    from ..rheology.laws import GeneralizedBurgers
     from ..sample.store import read_sample
 
     sample = read_sample(sample_path)
-    held = held_spheres(sample, bond_kinematics, head_rotation, nu)
-    return {
+    held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
+    # the rig as a job builds it; the law only scales the bonds, which U_1 does not see
+    sim, _ = build_simulation(sample, GeneralizedBurgers(Em=1.0, eta_m=1.0), 1.0, 1.0e-4, settings, held=held)
+    unit = periodic.gravity_unit(sim, settings.head_rotation, settings.nu, mechanisms=settings.mechanisms)
+    attrs = {
         "sample_sha256": _file_sha256(sample_path),
         "n_spheres": int(sample.radius.size),
         "n_bonds": int(len(sample.bonds["i"])),
-        "bond_kinematics": bond_kinematics,
-        "head_rotation": head_rotation,
-        "nu": float(nu),
-        "dropped": [int(k) for k in np.flatnonzero(~held)],
+        **{k: getattr(settings, k) for k in RIG_STATE_SETTINGS},
     }
+    with atomic_path(output) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f["held"] = held
+            grp = f.create_group("gravity")
+            for k in _UNIT_ARRAYS:
+                grp[k] = np.asarray(getattr(unit, k), float)
+            grp.attrs.update(residual=unit.residual, n_mechanisms=unit.n_mechanisms, failed=unit.failed)
+            f.attrs.update(attrs)
+    return attrs
 
 
-def read_held(path, sample_path, bond_kinematics: str, head_rotation: str, nu: float) -> np.ndarray:
-    """The held-sphere mask (N,) bool of a :func:`held_record` file ``path``, checked against the
-    job's sample file and kinematics.
+def read_rig_state(path, sample_path, settings: TwoPBSettings):
+    """The rig state of :func:`write_rig_state` in ``path``, checked against the job's sample
+    file and settings: (held (N,) bool, :class:`asphalt_nscd.harmonic.periodic.GravityUnit`).
 
     Raises
     ------
     InputError
-        naming ``path`` and the key when the file is unreadable, lacks a key, or was computed
-        from another sample file (SHA-256) or other kinematics than the job's.
+        naming ``path`` and the key when the file is missing or not a rig state, or was
+        computed from another sample file (SHA-256) or other settings than the job's.
     """
-    from ..io import read_json
+    import h5py
 
-    rec = read_json(path, "held-sphere file")
-    want = {
-        "sample_sha256": _file_sha256(sample_path),
-        "bond_kinematics": bond_kinematics,
-        "head_rotation": head_rotation,
-        "nu": float(nu),
-    }
-    if not isinstance(rec, dict):
-        raise InputError(f"{path}: expected a JSON object (asphalt-nscd held-spheres), got {type(rec).__name__}")
+    from ..harmonic.periodic import GravityUnit
+
+    want = {"sample_sha256": _file_sha256(sample_path), **{k: getattr(settings, k) for k in RIG_STATE_SETTINGS}}
+    try:
+        with h5py.File(path, "r") as f:
+            attrs = {k: f.attrs[k] for k in f.attrs}
+            held = np.asarray(f["held"], bool)
+            grp = f["gravity"]
+            arrays = {k: np.asarray(grp[k], float) for k in _UNIT_ARRAYS}
+            gattrs = {k: grp.attrs[k] for k in ("residual", "n_mechanisms", "failed")}
+    except (OSError, KeyError) as exc:
+        raise InputError(f"{path}: not a rig-state file of asphalt-nscd rig-state ({exc})") from None
     for key, value in want.items():
-        if key not in rec:
-            raise InputError(f"{path}: key {key!r} missing (expected the output of asphalt-nscd held-spheres)")
-        if rec[key] != value:
+        if key not in attrs:
+            raise InputError(f"{path}: attribute {key!r} missing (expected the output of asphalt-nscd rig-state)")
+        stored = attrs[key].item() if hasattr(attrs[key], "item") else attrs[key]
+        if stored != value:
             what = f"sample file {sample_path}" if key == "sample_sha256" else "the job's settings"
-            raise InputError(f"{path}: {key} is {rec[key]!r}, but {what} give {value!r}: recompute it for this job")
-    n = rec.get("n_spheres")
-    dropped = rec.get("dropped")
-    if (
-        not isinstance(n, int)
-        or not isinstance(dropped, list)
-        or not all(isinstance(k, int) and 0 <= k < n for k in dropped)
+            raise InputError(f"{path}: {key} is {stored!r}, but {what} give {value!r}: recompute it for this job")
+    n_held = int(held.sum())
+    if held.shape != (int(attrs.get("n_spheres", -1)),) or any(
+        arrays[k].shape != (n_held, 3) for k in _UNIT_ARRAYS if k != "head_rotation"
     ):
-        raise InputError(f"{path}: expected n_spheres (integer) and dropped (sphere indices below it)")
-    held = np.ones(n, bool)
-    held[dropped] = False
-    return held
+        raise InputError(
+            f"{path}: held has {held.shape} entries and gravity {arrays['displacement'].shape}: expected "
+            f"n_spheres entries and one row per held sphere"
+        )
+    unit = GravityUnit(
+        residual=float(gattrs["residual"]),
+        n_mechanisms=int(gattrs["n_mechanisms"]),
+        failed=str(gattrs["failed"]),
+        **arrays,
+    )
+    return held, unit
 
 
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, held=None):
@@ -390,7 +422,7 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     ``settings.head_rotation == 'free'``, inertia of the harmonic model's steel cuboid), bonds
     with the macro ``law`` (GeneralizedBurgers, Pa, Pa s) and ``settings.bond_kinematics``:
     the 2PB rig (:func:`asphalt_nscd.sample.rig.setup`) holding the spheres the bond network
-    holds: ``held`` (N,) bool when given (:func:`read_held`), else
+    holds: ``held`` (N,) bool when given (:func:`read_rig_state`), else
     :func:`asphalt_nscd.harmonic.solver.held_spheres` under ``settings``. Returns (Simulation, HeadMotion).
 
     Raises
@@ -430,7 +462,7 @@ def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings, continuou
 
 
 def periodic_start(
-    sim, law, frequency_Hz: float, settings: TwoPBSettings, continuous: bool = False
+    sim, law, frequency_Hz: float, settings: TwoPBSettings, continuous: bool = False, gravity=None
 ) -> tuple[dict, "periodic.PeriodicState | None"]:
     """:func:`start_test` with the periodic state it computed: (info, state; None without a
     periodic request).
@@ -445,7 +477,9 @@ def periodic_start(
     record's times), force_ratio (steady bond force / strength), gravity (with gravity on: the
     steady state under gravity superposed, :meth:`asphalt_nscd.harmonic.periodic.GravityState.info`), gmres_iterations,
     laplace_imag (the theta-method's effective angular frequency, rad/s) and fallback
-    (reason, when it starts from rest).
+    (reason, when it starts from rest). ``gravity``: the law-free gravity solution of ``sim``
+    (:func:`asphalt_nscd.harmonic.periodic.gravity_unit`, e.g. from :func:`read_rig_state`), or
+    None to compute it.
     """
     info: dict[str, Any] = {"start": "rest", "requested": settings.start}
     if settings.start != "periodic":
@@ -462,6 +496,7 @@ def periodic_start(
         nu=settings.nu,
         continuous=continuous,
         mechanisms=settings.mechanisms,
+        gravity=gravity,
     )
     info.update(
         {
@@ -499,13 +534,14 @@ def time_domain_step(frequency_Hz: float, settings: TwoPBSettings) -> float | No
     return None if n is None else 1.0 / (frequency_Hz * n)
 
 
-def _set_up(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, continuous: bool, held):
+def _set_up(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, continuous: bool, held, unit=None):
     """The simulation of a job at step ``dt`` in its initial state, with its linearity
     certificate: (sim, motion, rest heights (N,) m, start info, periodic state or None, steps,
-    certificate or None). ``held``: the held-sphere mask of :func:`build_simulation`."""
+    certificate or None). ``held``: the held-sphere mask of :func:`build_simulation`; ``unit``:
+    the gravity solution of :func:`periodic_start` (None: computed)."""
     sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings, held=held)
     rest_z = sim.spheres.position[:, 2].copy()
-    start_info, state = periodic_start(sim, law, frequency_Hz, settings, continuous=continuous)
+    start_info, state = periodic_start(sim, law, frequency_Hz, settings, continuous=continuous, gravity=unit)
     n_steps = n_steps_of(frequency_Hz, dt, settings, start_info["start"])
     cert = None
     if state is not None and state.phasors is not None and not continuous:
@@ -609,7 +645,7 @@ def run_test(
     stop_after: int | None = None,
     continuous_start: bool = False,
     verify: bool = False,
-    held_file=None,
+    rig_state=None,
 ):
     """Run (or resume) the numerical 2PB test and write its record (HDF5) atomically.
 
@@ -629,9 +665,10 @@ def run_test(
         the difference).
     verify : step in time whatever ``settings.method`` says, and record the orbit's reduced
         result (``start_info['orbit']``) beside (a verification job).
-    held_file : the sample's held-sphere file (:func:`read_held`,
-        checked against ``sample_path`` and ``settings``); None: the job finds the held
-        spheres itself (:func:`asphalt_nscd.harmonic.solver.held_spheres`, the same mask).
+    rig_state : the sample's rig-state file (:func:`write_rig_state`, checked against
+        ``sample_path`` and ``settings`` by :func:`read_rig_state`): the held spheres and the
+        law-free gravity solution, read instead of computed; None: the job computes both (the
+        same numbers).
 
     Returns
     -------
@@ -693,14 +730,15 @@ def run_test(
             )
             sim = None
     if sim is None:
-        if held_file is not None:
-            held = read_held(held_file, sample_path, settings.bond_kinematics, settings.head_rotation, settings.nu)
+        if rig_state is not None:
+            held, unit = read_rig_state(rig_state, sample_path, settings)
         else:
             from ..harmonic.solver import held_spheres
 
             held = held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
+            unit = None
         sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-            sample, law, frequency_Hz, dt, settings, continuous_start, held
+            sample, law, frequency_Hz, dt, settings, continuous_start, held, unit
         )
         path, why = choose_path(settings, start_info, cert, verify)
         dt_td = time_domain_step(frequency_Hz, settings)
@@ -711,7 +749,7 @@ def run_test(
             )
             dt = dt_td
             sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-                sample, law, frequency_Hz, dt, settings, continuous_start, held
+                sample, law, frequency_Hz, dt, settings, continuous_start, held, unit
             )
             start_info["solve_s"] = start_info.get("solve_s", 0.0) + spent[0]  # both set-ups count
             start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + spent[1]

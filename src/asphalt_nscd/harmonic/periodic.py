@@ -276,52 +276,54 @@ def support_force(sim, head_rotation: str = "free", nu: float = POISSON_RATIO) -
     return mechanism_support(system, sim.spheres.mass, g)[0]
 
 
-def gravity_state(
-    sim, law, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None, mechanisms: str = "supported"
-) -> GravityState:
-    """Steady state of the 2PB simulation under its gravity with the head held (module
-    docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
+@dataclass
+class GravityUnit:
+    """The law-free part of :func:`gravity_state`: the solution U_1 of G U_1 = F_g (reference
+    stiffness G of the bonds, :meth:`asphalt_nscd.harmonic.solver.HarmonicSystem._reference_blocks`,
+    stiffened along the mechanisms' zero modes; F_g the weights, less the load along those modes).
+    Every bond of a job follows one macro law, so the gravity state of any law is U_1 scaled by
+    that law's compliance (:func:`gravity_state`): U_1 depends on the sample, the kinematics,
+    ``nu``, the gravity and ``mechanisms`` only, and a campaign computes it once per sample
+    (:func:`gravity_unit`; its file, :mod:`asphalt_nscd.campaign.twopb`).
 
-    Parameters
-    ----------
-    sim : asphalt_nscd.nscd.Simulation at rest (as :func:`periodic_state`), gravity
-        ``sim.params.gravity`` (m/s^2).
-    law : GeneralizedBurgers (Pa, Pa s), the macro law of the bonds.
-    head_rotation, nu : as :func:`periodic_state`.
-    system : the HarmonicSystem of :func:`network_of` (sim) with these options and no
-        rotational regularisation, to reuse (optional; :func:`periodic_state` passes its own).
-    mechanisms : :data:`MECHANISMS` -- ``supported``: the weight of the weakly held spheres along
-        their zero modes is cancelled by ``support_force`` (which the time domain must apply too);
-        ``free``: that load is left out of the steady state and its free fall reported
-        (``mechanism_acceleration``).
+    displacement, rotation : (N, 3) m/Pa-like unit solution of the spheres (translation, rotation).
+    head_rotation : (3,) the head's.
+    residual, n_mechanisms, failed : as :class:`GravityState`.
+    support_force, mechanism_acceleration : (N, 3) N and m/s^2, :func:`mechanism_support`
+        (both computed; :func:`gravity_state` keeps the one its ``mechanisms`` uses).
+    """
 
-    Returns
-    -------
-    GravityState (all zero when the gravity is zero).
+    displacement: np.ndarray
+    rotation: np.ndarray
+    head_rotation: np.ndarray
+    residual: float
+    n_mechanisms: int
+    failed: str
+    support_force: np.ndarray
+    mechanism_acceleration: np.ndarray
+
+
+def gravity_unit(
+    sim, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None, mechanisms: str = "supported"
+) -> GravityUnit:
+    """The law-free part U_1 of the gravity state of a 2PB simulation (:class:`GravityUnit`;
+    arguments as :func:`gravity_state`, whose factorisation of G it is). All zero when the
+    gravity is zero.
 
     Raises
     ------
-    ValueError if the law is not a generalized Burger's model.
+    ValueError on an unknown ``mechanisms``.
     """
     from .solver import HarmonicSystem
 
-    tic = time.perf_counter()
-    if not all(hasattr(law, k) for k in ("Em", "eta_m", "Ek", "eta_k", "E_inf")):
-        raise ValueError(f"gravity_state: {type(law).__name__} is not a generalized Burger's law")
+    if mechanisms not in MECHANISMS:
+        raise ValueError(f"mechanisms must be one of {MECHANISMS}, got {mechanisms!r}")
     p = sim.params
     contact = p.bond_kinematics == "contact"
     head = head_rotation if contact else "clamped"
-    sph, b = sim.spheres, sim.bonds
+    sph = sim.spheres
     n = sph.n
     g = np.asarray(p.gravity, float)
-    liquid = np.isfinite(law.eta_m) and law.E_inf == 0.0
-    if liquid:  # steady creep: U_0 = c0 U_1 (springs), V = U_1 / eta_m (Maxwell dashpot)
-        c0, c1 = 1.0 / law.Em + sum(1.0 / e for e in law.Ek), 1.0 / law.eta_m
-    else:  # static equilibrium at the static modulus E(0)
-        chain = 0.0 if np.isfinite(law.eta_m) else 1.0 / (1.0 / law.Em + sum(1.0 / e for e in law.Ek))
-        c0, c1 = 1.0 / (law.E_inf + chain), 0.0
-    if mechanisms not in MECHANISMS:
-        raise ValueError(f"mechanisms must be one of {MECHANISMS}, got {mechanisms!r}")
     X1 = np.zeros((n, 3))
     TH1 = np.zeros((n, 3))
     THp1 = np.zeros(3)
@@ -389,6 +391,77 @@ def gravity_state(
             TH1[act] = q[:, 3:]
         if head == "free":
             THp1 = u[d * act.size : d * act.size + 3].copy()
+    return GravityUnit(
+        displacement=X1,
+        rotation=TH1,
+        head_rotation=THp1,
+        residual=residual,
+        n_mechanisms=n_mech,
+        failed=failed,
+        support_force=support,
+        mechanism_acceleration=accel,
+    )
+
+
+def gravity_state(
+    sim,
+    law,
+    head_rotation: str = "free",
+    nu: float = POISSON_RATIO,
+    system=None,
+    mechanisms: str = "supported",
+    unit: GravityUnit | None = None,
+) -> GravityState:
+    """Steady state of the 2PB simulation under its gravity with the head held (module
+    docstring): steady creep for a liquid bond law, static equilibrium for a solid one.
+
+    Parameters
+    ----------
+    sim : asphalt_nscd.nscd.Simulation at rest (as :func:`periodic_state`), gravity
+        ``sim.params.gravity`` (m/s^2).
+    law : GeneralizedBurgers (Pa, Pa s), the macro law of the bonds.
+    head_rotation, nu : as :func:`periodic_state`.
+    system : the HarmonicSystem of :func:`network_of` (sim) with these options and no
+        rotational regularisation, to reuse (optional; :func:`periodic_state` passes its own).
+    mechanisms : :data:`MECHANISMS` -- ``supported``: the weight of the weakly held spheres along
+        their zero modes is cancelled by ``support_force`` (which the time domain must apply too);
+        ``free``: that load is left out of the steady state and its free fall reported
+        (``mechanism_acceleration``).
+    unit : the :func:`gravity_unit` of this simulation with these options, computed before
+        (optional; without it the function computes it, factorising G).
+
+    Returns
+    -------
+    GravityState (all zero when the gravity is zero).
+
+    Raises
+    ------
+    ValueError if the law is not a generalized Burger's model, on an unknown ``mechanisms``, or
+    for a ``unit`` of another number of spheres.
+    """
+    tic = time.perf_counter()
+    if not all(hasattr(law, k) for k in ("Em", "eta_m", "Ek", "eta_k", "E_inf")):
+        raise ValueError(f"gravity_state: {type(law).__name__} is not a generalized Burger's law")
+    if mechanisms not in MECHANISMS:
+        raise ValueError(f"mechanisms must be one of {MECHANISMS}, got {mechanisms!r}")
+    p = sim.params
+    contact = p.bond_kinematics == "contact"
+    b = sim.bonds
+    n = sim.spheres.n
+    g = np.asarray(p.gravity, float)
+    liquid = np.isfinite(law.eta_m) and law.E_inf == 0.0
+    if liquid:  # steady creep: U_0 = c0 U_1 (springs), V = U_1 / eta_m (Maxwell dashpot)
+        c0, c1 = 1.0 / law.Em + sum(1.0 / e for e in law.Ek), 1.0 / law.eta_m
+    else:  # static equilibrium at the static modulus E(0)
+        chain = 0.0 if np.isfinite(law.eta_m) else 1.0 / (1.0 / law.Em + sum(1.0 / e for e in law.Ek))
+        c0, c1 = 1.0 / (law.E_inf + chain), 0.0
+    if unit is None:
+        unit = gravity_unit(sim, head_rotation=head_rotation, nu=nu, system=system, mechanisms=mechanisms)
+    elif unit.displacement.shape != (n, 3):
+        raise ValueError(f"gravity_state: the unit state has {unit.displacement.shape[0]} spheres, the simulation {n}")
+    X1, TH1, THp1 = unit.displacement, unit.rotation, unit.head_rotation
+    residual, n_mech, failed = unit.residual, unit.n_mechanisms, unit.failed
+    support, accel = unit.support_force, unit.mechanism_acceleration
     X0, TH0, THp0 = c0 * X1, c0 * TH1, c0 * THp1
     delta = _bond_displacement(b, X0, TH0, THp0, np.zeros(3), contact)
     Km, Cm, Kinf, Kk, Ck = _bond_laws(b)
@@ -419,7 +492,7 @@ def gravity_state(
         solve_s=time.perf_counter() - tic,
         support_force=support if mechanisms == "supported" else np.zeros((n, 3)),
         mechanism_acceleration=accel if mechanisms == "free" else np.zeros((n, 3)),
-        load_N=float(np.linalg.norm(sph.mass * np.linalg.norm(g))) if n else 0.0,
+        load_N=float(np.linalg.norm(sim.spheres.mass * np.linalg.norm(g))) if n else 0.0,
     )
 
 
@@ -433,6 +506,7 @@ def periodic_state(
     continuous: bool = False,
     system=None,
     mechanisms: str = "supported",
+    gravity: GravityUnit | None = None,
 ) -> PeriodicState:
     """Periodic steady state of the 2PB test built by :func:`asphalt_nscd.campaign.twopb.build_simulation` (module
     docstring), before its first step.
@@ -451,6 +525,8 @@ def periodic_state(
         (optional; built with the rotational regularisation off: the inertia makes the
         dynamic matrix regular, and the core has no such spring).
     mechanisms : of :func:`gravity_state` (:data:`MECHANISMS`).
+    gravity : the :func:`gravity_unit` of ``sim`` with these options, computed before (optional:
+        :func:`gravity_state`'s ``unit``).
 
     Returns
     -------
@@ -487,7 +563,7 @@ def periodic_state(
     d_c = -r_ch * inv_c
     d_k = -r_ch[:, None, :] / (Kk + s * Ck)
     g = gravity_state(
-        sim, law, head_rotation=head_rotation, nu=nu, system=system, mechanisms=mechanisms
+        sim, law, head_rotation=head_rotation, nu=nu, system=system, mechanisms=mechanisms, unit=gravity
     )  # zero without gravity
     # peak force per bond: the steady (gravity) force plus the periodic amplitude
     amp_n = np.abs(g.bond_force[:, 0]) + np.abs(force[:, 0])
