@@ -4,7 +4,10 @@ cProfile with the process's CPU clock and write the CPU of its phases.
 Usage, from a checkout with a paper-scale sample (``make run CONFIG=config/paper.yaml`` made
 ``results/samples/s1.h5``):
 
-    .venv/bin/python reference/paper_scale/profile_job.py SAMPLE.h5 OUT.csv [--temperature 20 --frequency 10]
+    .venv/bin/python reference/paper_scale/profile_job.py SAMPLE.h5 OUT.csv [--rig-state RIG.h5] [--temperature 20 --frequency 10]
+
+``--rig-state``: the sample's rig state (``results/campaign/rig/s1.h5``, rule ``rig_state``), as the
+workflow's jobs read it; without it the job computes the held spheres and the gravity solution itself.
 
 Rows (phase, cpu_s, calls): the job's process CPU without the profiler (a separate run,
 ``resource.getrusage`` of the child), the profiled total, and the cumulative CPU of the
@@ -39,6 +42,7 @@ PHASES = {
         "~",
         "<built-in method scipy.sparse.linalg._dsolve._superlu.gstrf>",
     ),
+    "rig state read (campaign.twopb.read_rig_state)": ("campaign/twopb.py", "read_rig_state"),
     "rig set-up (sample.rig.setup)": ("sample/rig.py", "setup"),
     "record written (campaign.twopb.write_record)": ("campaign/twopb.py", "write_record"),
 }
@@ -58,10 +62,13 @@ def main(argv=None) -> int:
     p.add_argument("output")
     p.add_argument("--temperature", default="20")
     p.add_argument("--frequency", default="10")
+    p.add_argument("--rig-state", default=None, help="the sample's rig-state file (run-2pb --rig-state)")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         cmd = ["run-2pb", "--sample", args.sample, "--mode", "paper", "--parameters", "data/paper/table3_burgers.csv"]
         cmd += ["--temperature", args.temperature, "--frequency", args.frequency]
+        if args.rig_state:
+            cmd += ["--rig-state", args.rig_state]
         cmd += ["--config", "config/config.yaml", "config/paper.yaml"]
         cmd += ["-o", os.path.join(tmp, "r.h5"), "--row", os.path.join(tmp, "r.csv")]
         startup = _child_cpu([sys.executable, "-m", "asphalt_nscd", "run-2pb", "--help"])
