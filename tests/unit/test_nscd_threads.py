@@ -72,7 +72,16 @@ def test_threads_validated():
 def test_kernels_compile_without_reference_counting():
     """The loop kernels are built without numba's NRT (nscd/_jit.py); a numba version that
     rejects the flag would silently make them 5-15x slower."""
+    import numpy as np
+
     from asphalt_nscd.nscd import _jit, linear
 
     assert _jit.NO_NRT
     assert linear._bonds.targetoptions.get("_nrt") is False
+
+    @_jit.kernel
+    def first(a):
+        return a[0]
+
+    assert first(np.arange(3.0) + 2.0) == 2.0  # the flag compiles
+    assert first.targetoptions.get("_nrt") is False

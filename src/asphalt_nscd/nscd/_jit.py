@@ -31,22 +31,19 @@ from numba import njit
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
-def _probe() -> bool:
+def _accepts_nrt_flag() -> bool:
+    """Whether this numba's CPU target declares the ``_nrt`` option (read from its option
+    table, without compiling: a compile at import cost every process about 0.75 s of CPU, the
+    first compilation initialising numba's compiler; tests/unit/test_nscd_threads.py compiles
+    a kernel with the flag)."""
     try:
-
-        @njit(_nrt=False)  # type: ignore[call-overload]  # a private option that numba's typing does not declare
-        def _f(a):
-            return a[0]
-
-        import numpy as np
-
-        _f(np.zeros(1))
-        return True
-    except Exception:  # noqa: BLE001 - any failure: use the public decorator
+        from numba.core.cpu import CPUTargetOptions
+    except ImportError:  # a numba without that module: use the public decorator
         return False
+    return hasattr(CPUTargetOptions, "_nrt")
 
 
-NO_NRT = _probe()
+NO_NRT = _accepts_nrt_flag()
 _OPTS = {"_nrt": False} if NO_NRT else {}
 
 
