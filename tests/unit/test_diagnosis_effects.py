@@ -504,3 +504,28 @@ def test_committed_power_claim_holds_on_fresh_seeds(claim):
         f"{conf}: {artifact} at {key} = {size:g} missed on {len(missed)} of {n} tables {missed}; "
         f"the committed benchmark's rate is >= {low:.3f}; {_rerun_hint()}"
     )
+
+
+@pytest.mark.parametrize("seed,schedule", [(3, "paper_2pb"), (4, "aashto_t342")])
+def test_residuals_of_many_parameter_vectors_are_each_vectors_residuals_to_the_bit(seed, schedule):
+    """The fits' finite-difference Jacobian evaluates its points as rows of one array
+    (MasterCurveProblem.fit's ``workers`` map): each row must be, to the bit, what the
+    vector alone gives, with every artifact term and each shift law, so that the fits do not
+    depend on how the points are grouped."""
+    from asphalt_nscd.rheology.master_curve import MasterCurveProblem
+
+    table, truth = synthetic.generate(seed, ["time_lag"], schedule=schedule, family="mixed")
+    search = ArtifactSearch(table, test=from_dict(truth["test"], "synthetic"))
+    terms = [c.term for c in search.all_candidates()]
+    assert {"time_lag", "self_heating", "temperature_drift"} <= {t.name for t in terms}
+    problems = [search.problem(terms)] + [
+        MasterCurveProblem(search.data, shift=shift, terms=search.nuisance + terms) for shift in ("wlf", "arrhenius")
+    ]
+    for k, prob in enumerate(problems):
+        lo, hi = prob.bounds()
+        X = lo + (hi - lo) * np.random.default_rng([seed, k]).random((6, lo.size))
+        X[0] = prob.starts()[0]
+        rows = prob.residuals(X)
+        assert rows.shape == (6, 2 * len(table))
+        for x, row in zip(X, rows):
+            assert np.array_equal(row, prob.residuals(x)), prob.shift

@@ -220,7 +220,7 @@ def make_term(
             [0.0],
             [-5.0],
             [5.0],
-            apply=lambda x, E, d: E * np.exp(1j * 2 * np.pi * d["f"] * x[0] * 1e-3),
+            apply=lambda x, E, d: E * np.exp(1j * 2 * np.pi * d["f"] * x[..., 0:1] * 1e-3),
             order=3,
         )
     if name == "inertia_uncorrected":
@@ -233,7 +233,7 @@ def make_term(
             [0.0],
             [-5000.0],
             [5000.0],
-            apply=lambda x, E, d: E - PAPER_GAMMA_PER_MM * 1e-6 * x[0] * (2 * np.pi * d["f"]) ** 2,
+            apply=lambda x, E, d: E - PAPER_GAMMA_PER_MM * 1e-6 * x[..., 0:1] * (2 * np.pi * d["f"]) ** 2,
             order=2,
         )
     if name == "strain_nonlinearity":
@@ -243,14 +243,14 @@ def make_term(
             [0.0],
             [-0.5],
             [0.5],
-            apply=lambda x, E, d: E * np.exp(-x[0] * (d["strain_microstrain"] - strain_ref_microstrain) / 100.0),
+            apply=lambda x, E, d: E * np.exp(-x[..., 0:1] * (d["strain_microstrain"] - strain_ref_microstrain) / 100.0),
             order=1,
         )
     if name == "self_heating":
 
         def heat(x, E, d):
             n = d["test_step"]
-            return np.abs(E) * np.exp(-x[1] / 100 * n + 1j * np.angle(E) * (1 + x[2] / 100 * n))
+            return np.abs(E) * np.exp(-x[..., 1:2] / 100 * n + 1j * np.angle(E) * (1 + x[..., 2:3] / 100 * n))
 
         return Term(
             name,
@@ -258,7 +258,7 @@ def make_term(
             [0.0, 0.0, 0.0],
             [-5.0, -30.0, -30.0],
             [5.0, 30.0, 30.0],
-            delta_T=lambda x, d: x[0] * d["test_step"],
+            delta_T=lambda x, d: x[..., 0:1] * d["test_step"],
             apply=heat,
             order=0,
         )
@@ -271,12 +271,13 @@ def make_term(
             # is the free shift's); the centre travels with the rows, so that held-out rows get
             # the correction they get inside the whole table
             n = d["test_step"] - d["test_step_centre"]
-            out = np.zeros(np.shape(n))
-            for i, T in enumerate(temps):
-                sel = same_temperature(d["T"], T)
-                if sel.any():
-                    out[sel] = x[i] * n[sel]
+            col = rows(d["T"])
+            sel = col >= 0
+            out = np.zeros(np.shape(x)[:-1] + np.shape(n))
+            out[..., sel] = np.asarray(x)[..., col[sel]] * n[sel]
             return out
+
+        rows = _IsothermIndex(temps)
 
         return Term(
             name,
@@ -311,19 +312,39 @@ def one_sided(name: str, estimate: float, p: float) -> float:
     return p / 2 if estimate > 0 else 1 - p / 2
 
 
+class _IsothermIndex:
+    """Index in ``temperatures`` of the isotherm of each row (-1: none; the last match wins),
+    by :func:`same_temperature`. A fit evaluates its terms on the same rows thousands of
+    times, so the index of the last rows asked for is kept (compared by value)."""
+
+    def __init__(self, temperatures):
+        self.temperatures = [float(T) for T in temperatures]
+        self._rows = None
+        self._col = None
+
+    def __call__(self, T) -> np.ndarray:
+        T = np.asarray(T, dtype=float)
+        if self._rows is None or self._rows.shape != T.shape or not np.array_equal(self._rows, T):
+            col = np.full(T.shape, -1)
+            for i, T_iso in enumerate(self.temperatures):
+                col[same_temperature(T, T_iso)] = i
+            self._rows, self._col = T.copy(), col
+        return self._col
+
+
 def vertical_term(data: dict, T_ref_C: float) -> Term:
     """Nuisance term of the screening model: a free |E*| factor exp(v_T) per isotherm
     (v = 0 at ``T_ref_C``), the vertical shift of a thermorheologically not quite simple mix."""
     others = [float(T) for T in data["temperatures"] if not same_temperature(T, T_ref_C)]
 
+    rows = _IsothermIndex(others)
+
     def apply(x, E, d):
         # isotherm index of each row of ``d`` (any rows: the fit's or new ones, e.g. a held-out fold)
-        col = np.full(np.shape(d["T"]), -1)
-        for i, T in enumerate(others):
-            col[same_temperature(d["T"], T)] = i
+        col = rows(d["T"])
         sel = col >= 0
         v = np.zeros(E.shape)
-        v[sel] = np.asarray(x)[col[sel]]
+        v[..., sel] = np.asarray(x)[..., col[sel]]
         return E * np.exp(v)
 
     return Term(

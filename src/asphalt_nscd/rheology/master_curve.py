@@ -20,6 +20,7 @@ Standard errors are Jacobian (Gauss-Newton) estimates with the residual variance
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -36,6 +37,9 @@ class Term:
 
     ``delta_T(x, data)`` returns a temperature perturbation per point (degC) or None;
     ``apply(x, E, data)`` returns the measured complex modulus from the true one (MPa).
+    Both take the term's parameters ``x`` of shape (q,) or, for several parameter vectors at
+    once, (m, q) with ``E`` of shape (m, n), and broadcast: row i of the result is the result
+    for ``x[i]``, by the same operations.
     """
 
     name: str
@@ -202,24 +206,48 @@ def _core_names(shift: str, static_modulus: bool, temperatures) -> list:
 
 
 def _log_shift(x, names, shift, T_ref, temperatures, T):
+    """log10 aT at ``T`` (degC) of the parameters ``x``: shape (p,), any ``T``; or (m, p) with
+    ``T`` of shape (n,) or (m, n), giving (m, n), each row by the operations of one vector."""
+    x = np.asarray(x, dtype=float)
+    rows = x.ndim == 2
+
+    def value(i):
+        return x[:, i, None] if rows else x[i]
+
     if shift == "wlf":
-        C1 = x[names.index("C1")]
-        C2 = x[names.index("C2_K")]
+        C1 = value(names.index("C1"))
+        C2 = value(names.index("C2_K"))
         dT = T - T_ref
         return -C1 * dT / np.maximum(C2 + dT, 1e-6)
     if shift == "arrhenius":
-        return arrhenius_log_shift(T, T_ref, x[names.index("Ea_kJ_mol")] * 1e3)
+        return arrhenius_log_shift(T, T_ref, value(names.index("Ea_kJ_mol")) * 1e3)
     # free shifts: piecewise-linear interpolation between the isotherms' shifts, extended
     # linearly beyond the end isotherms (a temperature perturbation of an end isotherm, e.g. a
     # drift along its tests, then moves it along the slope of its last segment)
-    vals = np.array([0.0 if T_ == T_ref else x[names.index(f"log10_aT_{T_:g}")] for T_ in temperatures])
-    out = np.interp(T, temperatures, vals)
+    idx = _free_shift_index(tuple(names), float(T_ref), tuple(float(T_) for T_ in temperatures))
+    vals = np.stack([np.zeros(x.shape[:-1]) if i < 0 else x[..., i] for i in idx], axis=-1)
+
+    def shift_at(j):
+        return vals[:, j, None] if rows else vals[j]
+
+    if rows:
+        T = np.broadcast_to(T, (len(x), np.shape(T)[-1]))
+        out = np.array([np.interp(T_row, temperatures, v) for T_row, v in zip(T, vals)])
+    else:
+        out = np.interp(T, temperatures, vals)
     if len(temperatures) > 1:
         lo, hi = temperatures[0], temperatures[-1]
-        s_lo = (vals[1] - vals[0]) / (temperatures[1] - lo)
-        s_hi = (vals[-1] - vals[-2]) / (hi - temperatures[-2])
-        out = np.where(T < lo, vals[0] + s_lo * (T - lo), np.where(T > hi, vals[-1] + s_hi * (T - hi), out))
+        s_lo = (shift_at(1) - shift_at(0)) / (temperatures[1] - lo)
+        s_hi = (shift_at(-1) - shift_at(-2)) / (hi - temperatures[-2])
+        out = np.where(T < lo, shift_at(0) + s_lo * (T - lo), np.where(T > hi, shift_at(-1) + s_hi * (T - hi), out))
     return out
+
+
+@functools.lru_cache(maxsize=64)
+def _free_shift_index(names: tuple, T_ref: float, temperatures: tuple) -> tuple:
+    """Position in ``names`` of each isotherm's free shift (-1 for the reference isotherm,
+    whose shift is 0); cached, as a fit asks for it at every residual evaluation."""
+    return tuple(-1 if T_ == T_ref else names.index(f"log10_aT_{T_:g}") for T_ in temperatures)
 
 
 def _core_values(x, names, static_modulus) -> dict:
@@ -241,7 +269,16 @@ def _core_values(x, names, static_modulus) -> dict:
 
 
 def _true_modulus(x, names, shift, T_ref, temperatures, static_modulus, f, T):
-    c = _core_values(x, names, static_modulus)
+    """2S2P1D modulus at ``f`` (Hz, shape (n,)) and ``T`` (degC) of the parameters ``x``, MPa:
+    shape (p,) gives (n,); (m, p), with ``T`` of shape (n,) or (m, n), gives (m, n). The
+    scalars of each row are computed as for one vector, and the formula runs on broadcast
+    arrays by the same elementwise operations, so row i is the value for ``x[i]``."""
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 1:
+        c = _core_values(x, names, static_modulus)
+    else:
+        cores = [_core_values(row, names, static_modulus) for row in x]
+        c = {key: np.array([core[key] for core in cores], dtype=float)[:, None] for key in cores[0]}
     tau = c["tau_ref_s"] * 10.0 ** _log_shift(x, names, shift, T_ref, temperatures, T)
     return two_s2p1d_modulus(2 * np.pi * f, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], tau)
 
@@ -331,35 +368,45 @@ class MasterCurveProblem:
 
     # ------------------------------------------------------------------ model
     def measured_modulus(self, x) -> np.ndarray:
-        """Model of the measured complex modulus at every data point, MPa, shape (n,)."""
+        """Model of the measured complex modulus at every data point, MPa: shape (n,) for
+        ``x`` of shape (p,); (m, n) for (m, p), row i the value for ``x[i]`` (the
+        finite-difference Jacobian's points in one call)."""
+        x = np.asarray(x, dtype=float)
         d = self.data
         T = d["T"]
         for t, sl in zip(self.terms, self._slices):
             if t.delta_T is not None:
-                dT = t.delta_T(x[sl], d)
+                dT = t.delta_T(x[..., sl], d)
                 if dT is not None:
                     T = T + dT
         E = _true_modulus(x, self.names, self.shift, self.T_ref_C, self.temperatures, self.static_modulus, d["f"], T)
         c, ph = self.specimen_terms(x)
-        E = E * np.exp(c[d["spec"]] + 1j * np.radians(ph[d["spec"]]))
+        E = E * np.exp(c[..., d["spec"]] + 1j * np.radians(ph[..., d["spec"]]))
         for t, sl in sorted(zip(self.terms, self._slices), key=lambda ts: ts[0].order):
             if t.apply is not None:
-                E = t.apply(x[sl], E, d)
+                E = t.apply(x[..., sl], E, d)
         return E
 
     def specimen_terms(self, x):
-        """ln|E*| factors and phase offsets (deg) per specimen, shapes (n_spec,) (first = 0)."""
+        """ln|E*| factors and phase offsets (deg) per specimen, shapes (n_spec,) (first = 0);
+        (m, n_spec) for ``x`` of shape (m, p)."""
+        x = np.asarray(x, dtype=float)
         nc, m = len(self.core_names), self.n_spec - 1
-        return (np.concatenate([[0.0], x[nc : nc + m]]), np.concatenate([[0.0], x[nc + m : nc + 2 * m]]))
+        first = np.zeros(x.shape[:-1] + (1,))
+        return (
+            np.concatenate([first, x[..., nc : nc + m]], axis=-1),
+            np.concatenate([first, x[..., nc + m : nc + 2 * m]], axis=-1),
+        )
 
     def residuals(self, x) -> np.ndarray:
+        """Weighted residuals (ln|E*| then phase), shape (2 n,); (m, 2 n) for ``x`` of shape (m, p)."""
         E = self.measured_modulus(x)
         d = self.data
         lnE = np.log(np.maximum(np.abs(E), 1e-300))
         ph = np.degrees(np.angle(E))
         rE = (lnE - d["lnE"]) / self.sigma[0]
         rP = (ph - d["phase"]) / self.sigma[1]
-        r = np.concatenate([rE, rP])
+        r = np.concatenate([rE, rP], axis=-1)
         return np.where(np.isfinite(r), r, 1e3)
 
     # ------------------------------------------------------------------ fit
@@ -382,9 +429,25 @@ class MasterCurveProblem:
                 full[free] = z
                 return self.residuals(full)
 
+            def resid_map(fun, zs, full=full):
+                # SciPy's finite-difference Jacobian asks for its points through this map
+                # (least_squares ``workers``): all of them are evaluated in one call
+                Z = [np.asarray(z, dtype=float) for z in zs]
+                if not Z:
+                    return []
+                X = np.tile(full, (len(Z), 1))
+                X[:, free] = Z
+                return list(self.residuals(X))
+
             try:
                 res = least_squares(
-                    resid, s[free], bounds=(lo[free], hi[free]), method="trf", x_scale="jac", max_nfev=max_nfev
+                    resid,
+                    s[free],
+                    bounds=(lo[free], hi[free]),
+                    method="trf",
+                    x_scale="jac",
+                    max_nfev=max_nfev,
+                    workers=resid_map,
                 )
             except ValueError:
                 continue

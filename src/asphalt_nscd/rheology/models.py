@@ -38,23 +38,32 @@ def two_s2p1d_modulus(omega, E00, E0, delta, k, h, beta, tau) -> np.ndarray:
         Angular frequency, rad/s (> 0).
     E00, E0 : float or array broadcasting with ``omega``
         Static and glassy moduli (E0 > E00 >= 0), unit U.
-    delta : float
+    delta : float or array broadcasting with ``omega``
         Weight of the k parabolic element (> 0).
-    k, h : float
+    k, h : float or arrays broadcasting with ``omega``
         Exponents of the parabolic elements, 0 < k < h < 1.
-    beta : float
-        Dashpot parameter (> 0; ``np.inf`` gives the Huet-Sayegh model).
+    beta : float or array broadcasting with ``omega``
+        Dashpot parameter (> 0; ``np.inf`` gives the Huet-Sayegh model; an array is all finite
+        or all infinite).
     tau : float or array broadcasting with ``omega``
         Characteristic time, s (temperature-dependent through the shift factor).
 
     Returns
     -------
     complex ndarray, broadcast shape, unit U.
+
+    Raises
+    ------
+    ValueError
+        If ``beta`` is an array with both finite and infinite values.
     """
     iwt = 1j * np.asarray(omega, dtype=float) * tau
     denom = 1.0 + delta * iwt ** (-k) + iwt ** (-h)
-    if np.isfinite(beta):
+    finite = np.isfinite(beta)
+    if np.all(finite):
         denom = denom + 1.0 / (iwt * beta)
+    elif np.any(finite):
+        raise ValueError("beta must be all finite or all infinite (the Huet-Sayegh model)")
     return E00 + (E0 - E00) / denom
 
 
