@@ -73,6 +73,9 @@ def test_bench_command_is_reproducible_from_its_base_seed(tmp_path):
     table = pd.read_csv(tmp_path / "a.csv")
     assert set(table["artifact"]) == {"any", *bench.KINDS[1:]} and set(table["family"]) == {"mixed", "all"}
     assert {"detection_ci_low", "false_alarm_ci_high", "effect_size"} <= set(table.columns)
+    # worker processes (the workflow's --jobs {threads}) give the same table to the byte
+    assert main(args + ["--jobs", "2", "-o", str(tmp_path / "j.json"), "--table", str(tmp_path / "j.csv")]) == 0
+    assert (tmp_path / "j.csv").read_bytes() == (tmp_path / "a.csv").read_bytes()
     assert (
         main(
             [

@@ -328,7 +328,7 @@ rule diagnose_bench:
     params:
         settings=plan.diagnosis_settings(config, "bench"),
     shell:
-        'asphalt-nscd diagnose-bench --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.bench} --table {output.table} 2> {log}'
+        'asphalt-nscd diagnose-bench --config "$ASPHALT_NSCD_RUN_CONFIG" --jobs {threads} -o {output.bench} --table {output.table} 2> {log}'
 
 
 rule own_table:
