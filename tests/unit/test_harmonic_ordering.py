@@ -83,7 +83,38 @@ def test_shifted_factor_is_reused_for_nearby_frequencies_and_replaced_far_away(n
     # the shift of a new factor is Re(w^2 / E*)
     w = 2 * np.pi * 100.0
     assert system.factor_log[-1]["shift"] == pytest.approx((w**2 / LAW.complex_modulus(w)).real, rel=1e-5)
-    assert len(system._shifted) == solver_module.MAX_SHIFTED_FACTORS
+    # both factors fit the memory budget: back at 10 Hz the first is reused, not recomputed
+    assert len(system._shifted) == 2
+    n = len(system.factor_log)
+    a = system.solve_law(LAW, 10.0, inertia="full", rtol=1e-13)
+    assert len(system.factor_log) == n and a.solver == "reuse"
+    np.testing.assert_allclose(
+        a.force, reference.solve_law(LAW, 10.0, inertia="full", solver="direct").force, rtol=1e-9
+    )
+
+
+def test_shifted_factors_beyond_the_memory_budget_are_dropped_least_recent_first(network, monkeypatch):
+    probe = HarmonicSystem(network)
+    probe.solve_law(LAW, 100.0, inertia="full")
+    size = solver_module.FACTOR_BYTES_PER_ENTRY * probe.factor_log[-1]["stored_entries"]
+
+    def factorisations(system, frequencies):
+        n = len(system.factor_log)
+        for f in frequencies:
+            system.solve_law(LAW, f, inertia="full")
+        return len(system.factor_log) - n
+
+    # 100 Hz and 0.3 Hz are outside each other's reuse band: each needs its own factor
+    # room for one factor and a half: the cached factor is dropped before the next is computed
+    monkeypatch.setattr(solver_module, "SHIFTED_FACTOR_BUDGET_BYTES", 1.5 * size)
+    one = HarmonicSystem(network)
+    assert factorisations(one, [100.0, 0.3, 100.0, 0.3]) == 4 and len(one._shifted) == 1
+    # room for two: both kept, the return to a shift reuses its factor
+    monkeypatch.setattr(solver_module, "SHIFTED_FACTOR_BUDGET_BYTES", 2.5 * size)
+    two = HarmonicSystem(network)
+    assert factorisations(two, [100.0, 0.3, 100.0, 0.3]) == 2 and len(two._shifted) == 2
+    w = 2 * np.pi * np.array([100.0, 0.3])
+    np.testing.assert_allclose(list(two._shifted), (w**2 / LAW.complex_modulus(w)).real, rtol=1e-5)
 
 
 def test_gmres_cap_refactorises_then_falls_back_to_direct(network, monkeypatch):

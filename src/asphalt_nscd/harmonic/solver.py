@@ -52,8 +52,14 @@ SHIFT_REUSE_BELOW = 100.0
 SHIFT_REUSE_ABOVE = 20.0
 #: GMRES iterations (no restart) before a reused shifted factor is replaced by a new one.
 GMRES_MAX_ITERATIONS = 80
-#: Shifted factors kept in memory besides G (each about 0.75 GB at 12,000 spheres).
-MAX_SHIFTED_FACTORS = 1
+#: Memory for the cached shifted factors besides G, bytes: factors are kept, least recently
+#: used dropped first, while their estimated size stays within it; one is always kept. A sweep
+#: or a cross-validation returns to the shifts of earlier temperatures and folds: on a
+#: 9,000-sphere sample (about 0.3 GB per factor) one factor made 28 factorisations for a
+#: 105-point sweep, six made 6, 32 % less CPU (docs/choices.md, Harmonic solver speed).
+SHIFTED_FACTOR_BUDGET_BYTES = 1.5e9
+#: Estimated bytes per stored entry of a SuperLU factor (an 8-byte value, a 4-byte row index).
+FACTOR_BYTES_PER_ENTRY = 12
 #: EN 12697-26 lumped-mass factor of the specimen in mu = 0.135 M + m (Eq. 1).
 SPECIMEN_MASS_FACTOR = 0.135
 
@@ -414,7 +420,8 @@ class HarmonicSystem:
         reuse : bool
             Reuse a cached factor of shift sigma_c if sigma_c / :data:`SHIFT_REUSE_BELOW` <=
             sigma <= sigma_c * :data:`SHIFT_REUSE_ABOVE` (the nearest in log scale). The
-            cache keeps :data:`MAX_SHIFTED_FACTORS` factors (least recently used dropped).
+            cache keeps factors within :data:`SHIFTED_FACTOR_BUDGET_BYTES` (least recently
+            used dropped first, at least one kept).
 
         Returns
         -------
@@ -429,7 +436,11 @@ class HarmonicSystem:
         if best is not None:
             self._shifted.move_to_end(best[1])
             return self._shifted[best[1]], best[1], True
-        while len(self._shifted) >= MAX_SHIFTED_FACTORS:  # free memory before factorising
+        # free memory before factorising; the new factor has the cached ones' pattern, about their size
+        while self._shifted:
+            sizes = [FACTOR_BYTES_PER_ENTRY * f.nnz for f in self._shifted.values()]
+            if sum(sizes) + max(sizes) <= SHIFTED_FACTOR_BUDGET_BYTES:
+                break
             self._shifted.popitem(last=False)
         g = self._reference_blocks()["ff"]
         a = (g - sigma * sp.diags(self.mass_free, format="csc")).tocsc()
