@@ -1,28 +1,34 @@
-"""CPU of a whole workflow run from its Snakemake benchmarks, with the benchmarks' sampling loss.
+"""CPU of a whole workflow run: every job's exact CPU record, Snakemake's sampled benchmarks, and
+the whole invocation under ``/usr/bin/time``.
 
-Snakemake's ``benchmark:`` records the CPU of a job's processes as last sampled by psutil: every
-second for the first 30 samples, then every 30 s. The CPU after the last sample is lost: up to
-1 s for a short job, up to 30 s for a long one. A 2PB job's row holds its own CPU
-(``cpu_time_s``, from the job's start to its end), which misses only the process start-up;
-measured with ``/usr/bin/time`` on three jobs of the paper configuration (an orbit job and two
-time-domain jobs, 2026-11-25): 1.41-1.55 s.
+Every job's command appends its exact CPU to ``benchmarks/process_cpu.jsonl``
+(``asphalt_nscd.cli.cpu_record``: ``getrusage`` of the process and the workers it waited for,
+start-up and imports included; only the interpreter's exit after the record, about 0.1 s, is
+missing). Snakemake's ``benchmark:`` records are the CPU of a job's processes as last sampled by
+psutil: every second for the first 30 samples, then every 30 s, so a job loses the CPU after its
+last sample (up to 1 s for a short job, 30 s for a long one). ``/usr/bin/time -v`` of the
+invocation (``--time-file``) counts everything: the jobs, their exits and Snakemake itself.
 
 Usage, from the run's working directory:
 
-    .venv/bin/python /path/to/reference/paper_scale/whole_run_cpu.py [--start-up 1.45] [-o OUT.csv]
+    .venv/bin/python /path/to/reference/paper_scale/whole_run_cpu.py [--time-file TIME] [-o OUT.csv]
 
-Writes one row per group (2PB jobs; every other rule's jobs), with the benchmarks' sum, the
-corrected sum (2PB jobs: the larger of the benchmark and the row's CPU + start-up) and an upper
-bound (every other job loses its whole sampling interval: 1 s below 30 s of wall time, else 30 s).
+Writes one row per command (its jobs' exact CPU; a job run more than once counts its last
+successful run), the sum of the records, the sum of the benchmarks and, with ``--time-file``, the
+invocation's total and what is outside the records (Snakemake, the interpreters' exits).
 """
 
 from __future__ import annotations
 
 import argparse
 import glob
+import json
+import re
 from pathlib import Path
 
 import pandas as pd
+
+CPU_LOG = Path("benchmarks/process_cpu.jsonl")
 
 
 def benchmark(path: str) -> tuple[float, float]:
@@ -31,39 +37,66 @@ def benchmark(path: str) -> tuple[float, float]:
     return float(table["cpu_time"].iloc[-1]), float(table["s"].iloc[-1])
 
 
+def job_records(path: Path) -> tuple[pd.DataFrame, int]:
+    """The last successful record of each distinct command line in the CPU log ``path``, as a table
+    (command, cpu_s, wall_s, max_rss_mb), and how many other records (failed or earlier runs) it
+    holds."""
+    last: dict[tuple, dict] = {}
+    n = 0
+    for line in path.read_text().splitlines():
+        if not line.strip():
+            continue
+        n += 1
+        rec = json.loads(line)
+        if rec["status"] == 0:
+            last[tuple(rec["argv"])] = rec
+    rows = [
+        {
+            "command": argv[0] if argv else "",
+            "cpu_s": rec["user_s"] + rec["system_s"],
+            "wall_s": rec["wall_s"],
+            "max_rss_mb": rec["max_rss_mb"],
+        }
+        for argv, rec in last.items()
+    ]
+    return pd.DataFrame(rows, columns=["command", "cpu_s", "wall_s", "max_rss_mb"]), n - len(last)
+
+
+def time_total(path: Path) -> float:
+    """User + system seconds of a ``/usr/bin/time -v`` report."""
+    text = path.read_text()
+    seconds = [float(re.search(rf"{kind} time \(seconds\): ([0-9.]+)", text).group(1)) for kind in ("User", "System")]
+    return sum(seconds)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--start-up", type=float, default=1.45, help="2PB process CPU outside the row's own, s")
-    parser.add_argument("-o", "--output", type=Path, default=None, help="CSV of the groups (default: print only)")
+    parser.add_argument("--time-file", type=Path, default=None, help="/usr/bin/time -v report of the invocation")
+    parser.add_argument("-o", "--output", type=Path, default=None, help="CSV of the rows (default: print only)")
     args = parser.parse_args()
-    rows = {"2PB jobs (rule run_2pb)": [0, 0.0, 0.0, 0.0], "every other rule": [0, 0.0, 0.0, 0.0]}
-    for path in sorted(glob.glob("benchmarks/**/*.tsv", recursive=True)):
-        cpu, wall = benchmark(path)
-        if path.startswith("benchmarks/sim/"):
-            record = Path("results") / Path(path).relative_to("benchmarks").with_suffix(".csv")
-            own = float(pd.read_csv(record)["cpu_time_s"].iloc[0]) + args.start_up
-            r = rows["2PB jobs (rule run_2pb)"]
-            r[0] += 1
-            r[1] += cpu
-            r[2] += max(cpu, own)
-            r[3] += max(cpu, own)
-        else:
-            r = rows["every other rule"]
-            r[0] += 1
-            r[1] += cpu
-            r[2] += cpu
-            r[3] += cpu + (30.0 if wall > 30.0 else 1.0)
-    table = pd.DataFrame(
-        [
-            {"what": k, "n_jobs": v[0], "benchmarks_cpu_s": v[1], "corrected_cpu_s": v[2], "upper_cpu_s": v[3]}
-            for k, v in rows.items()
-        ]
-    )
-    total = table.drop(columns="what").sum()
-    table.loc[len(table)] = {"what": "the whole run", **total.to_dict()}
-    table[["benchmarks_cpu_s", "corrected_cpu_s", "upper_cpu_s"]] = table[
-        ["benchmarks_cpu_s", "corrected_cpu_s", "upper_cpu_s"]
-    ].round(0)
+    rows = []
+    if CPU_LOG.exists():
+        jobs, other = job_records(CPU_LOG)
+        per_command = jobs.groupby("command").agg(n_jobs=("cpu_s", "size"), cpu_s=("cpu_s", "sum"))
+        for command, r in per_command.sort_values("cpu_s", ascending=False).iterrows():
+            rows.append({"what": f"asphalt-nscd {command}", "n_jobs": int(r["n_jobs"]), "cpu_s": r["cpu_s"]})
+        records = float(jobs["cpu_s"].sum())
+        rows.append({"what": "every job (exact records)", "n_jobs": len(jobs), "cpu_s": records})
+        if other:
+            rows.append({"what": "records of failed or repeated runs, not counted", "n_jobs": other, "cpu_s": None})
+    else:
+        records = None
+    bench = [benchmark(p) for p in sorted(glob.glob("benchmarks/**/*.tsv", recursive=True))]
+    rows.append({"what": "every job (Snakemake benchmarks, sampled)", "n_jobs": len(bench), "cpu_s": sum(c for c, _ in bench)})
+    if args.time_file is not None:
+        total = time_total(args.time_file)
+        rows.append({"what": "the whole invocation (/usr/bin/time)", "n_jobs": None, "cpu_s": total})
+        if records is not None:
+            rows.append({"what": "outside the records: Snakemake, interpreter exits", "n_jobs": None, "cpu_s": total - records})
+    table = pd.DataFrame(rows, columns=["what", "n_jobs", "cpu_s"])
+    table["cpu_s"] = table["cpu_s"].round(1)
+    table["core_hours"] = (table["cpu_s"] / 3600.0).round(3)
+    table["n_jobs"] = table["n_jobs"].astype("Int64")
     print(table.to_string(index=False))
     if args.output is not None:
         table.to_csv(args.output, index=False)

@@ -6,6 +6,12 @@ subcommands; handlers import heavy modules (numba kernels, matplotlib) lazily so
 reported as ``error: ...`` with exit status 2. SIGTERM (what Snakemake and SLURM send to a
 job they stop) raises ``SystemExit(143)``, so that temporary files are removed and a long
 simulation resumes from its last checkpoint when rerun.
+
+When the environment variable ``ASPHALT_NSCD_CPU_LOG`` names a file (the workflow sets it to
+``benchmarks/process_cpu.jsonl``), every command appends one JSON line to it at its end: its
+arguments, exit status and the exact CPU of its process and of the worker processes it waited
+for (``getrusage``, interpreter start-up and imports included), unlike Snakemake's sampled
+``benchmark:`` records (:func:`cpu_record`).
 """
 
 from __future__ import annotations
@@ -13,11 +19,17 @@ from __future__ import annotations
 import argparse
 import functools
 import importlib
+import os
 import signal
 import sys
+import time
 
 from . import STAGES
 from .io import InputError, request_termination
+
+#: Environment variable naming the JSON-lines file that every command appends its CPU record to
+#: (:func:`cpu_record`); unset: no record.
+CPU_LOG_ENV = "ASPHALT_NSCD_CPU_LOG"
 
 #: Subpackages contributing subcommands: the stages (:data:`asphalt_nscd.STAGES`).
 SUBCOMMAND_PACKAGES = STAGES
@@ -136,7 +148,70 @@ def _terminate(signum, frame) -> None:
     request_termination(signum)
 
 
+def cpu_record(argv: list[str], status: int | str, wall_s: float) -> dict:
+    """The CPU record of this process at its end: ``argv`` (the command's arguments),
+    ``status`` (exit status, or the name of the exception that ended it), ``user_s`` and
+    ``system_s`` (s, this process from its start, interpreter and imports included, plus the
+    child processes it waited for: the worker pools of the benchmarks and the searches),
+    ``max_rss_mb`` (MB, the largest resident set of this process or of one child) and
+    ``wall_s`` (s, from the start of :func:`main`). Source: ``getrusage(2)``, exact where
+    Snakemake's ``benchmark:`` samples the process tree (every 1 s, later every 30 s) and loses
+    the CPU after its last sample; only the interpreter's exit after the record is not in it
+    (about 0.1 s with numba loaded)."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return {
+        "argv": list(argv),
+        "status": status,
+        "user_s": round(own.ru_utime + children.ru_utime, 4),
+        "system_s": round(own.ru_stime + children.ru_stime, 4),
+        "max_rss_mb": round(max(own.ru_maxrss, children.ru_maxrss) / 1024.0, 1),  # Linux: KiB
+        "wall_s": round(wall_s, 4),
+        "pid": os.getpid(),
+        "end": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
+
+
+def append_cpu_record(path: str, record: dict) -> None:
+    """Append ``record`` as one JSON line to ``path`` (its folder created), under an exclusive
+    lock, so that jobs ending together do not interleave. A log that cannot be written warns on
+    stderr and does not fail the command."""
+    import fcntl
+    import json
+    from pathlib import Path
+
+    try:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "a", encoding="utf-8") as fh:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            fh.write(json.dumps(record) + "\n")
+            fh.flush()
+    except OSError as exc:
+        print(f"warning: {path}: the CPU record of this command could not be written ({exc})", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    start = time.perf_counter()
+    args_list = sys.argv[1:] if argv is None else list(argv)
+    status: int | str = "interrupted"
+    try:
+        status = _main(argv)
+        return status
+    except SystemExit as exc:
+        status = exc.code if isinstance(exc.code, int) else 1
+        raise
+    except BaseException as exc:
+        status = type(exc).__name__
+        raise
+    finally:
+        log = os.environ.get(CPU_LOG_ENV)
+        if log:
+            append_cpu_record(log, cpu_record(args_list, status, time.perf_counter() - start))
+
+
+def _main(argv: list[str] | None) -> int:
     import logging
 
     parser = build_parser()

@@ -139,14 +139,22 @@ def number(x) -> str:
     return f"{float(x):g}"
 
 
-def job_environment(python_executable: str, basedir: str, path: str) -> dict:
+#: The JSON-lines file, relative to the working directory, to which every job appends its exact CPU record
+#: (:func:`asphalt_nscd.cli.cpu_record`); reference/paper_scale/whole_run_cpu.py sums it.
+CPU_LOG = "benchmarks/process_cpu.jsonl"
+
+
+def job_environment(python_executable: str, basedir: str, path: str, workdir: str = ".") -> dict:
     """Environment variables the workflow sets for its jobs: PATH with the directory of the
     Python running Snakemake first (so that ``.venv/bin/snakemake`` finds the ``asphalt-nscd``
-    console script installed beside it), and ASPHALT_NSCD_SOURCE, the repository holding the
-    workflow (the conda environment's post-deploy script installs the package from it)."""
+    console script installed beside it), ASPHALT_NSCD_SOURCE, the repository holding the
+    workflow (the conda environment's post-deploy script installs the package from it), and
+    ASPHALT_NSCD_CPU_LOG, :data:`CPU_LOG` under ``workdir`` (absolute), where every job's
+    command appends its CPU record."""
     return {
         "PATH": f"{Path(python_executable).parent}{os.pathsep}{path}",
         "ASPHALT_NSCD_SOURCE": str(Path(basedir).resolve()),
+        "ASPHALT_NSCD_CPU_LOG": str(Path(workdir).resolve() / CPU_LOG),
     }
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -196,3 +197,33 @@ def test_collect_report_refused_for_a_missing_input_copies_nothing(tmp_path, mon
     args = ["collect-report", "results/lab/a.csv", "results/lab/none.csv", "--out-dir", "results/report"]
     assert cli.main([*args, "-o", "results/report/index.md"]) == 2
     assert not Path("results/report").exists()
+
+
+def test_every_command_appends_its_exact_cpu_record(tmp_path):
+    """With ASPHALT_NSCD_CPU_LOG set (the workflow sets it for its jobs), a command appends one
+    JSON line at its end, failed or not: its arguments, exit status and getrusage CPU, which is
+    what the parent sees its child cost (start-up and imports included) but the interpreter's exit
+    after it (about 0.1 s with numba loaded)."""
+    import json
+    import resource
+    import subprocess
+    import sys
+
+    log = tmp_path / "cpu" / "process_cpu.jsonl"
+    env = {**os.environ, "ASPHALT_NSCD_CPU_LOG": str(log)}
+    runs = [["run-2pb", "--help"], ["reduce", str(tmp_path / "missing.csv"), "--meta", "m.json", "-o", "o.json"]]
+    seen = []
+    for argv in runs:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        proc = subprocess.run([sys.executable, "-m", "asphalt_nscd", *argv], env=env, capture_output=True, text=True)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        seen.append((proc.returncode, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime))
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    assert [r["argv"] for r in records] == runs
+    assert [r["status"] for r in records] == [code for code, _ in seen]
+    assert seen[0][0] == 0 and seen[1][0] != 0
+    for record, (_, child_cpu) in zip(records, seen):
+        cpu = record["user_s"] + record["system_s"]
+        assert 0.2 < cpu <= child_cpu + 0.02, (cpu, child_cpu)  # the interpreter start-up counts
+        assert child_cpu - cpu < 0.3, (cpu, child_cpu)  # only the interpreter's exit comes after
+        assert record["max_rss_mb"] > 10 and record["wall_s"] > 0

@@ -484,9 +484,10 @@ def test_settings_and_options_of_other_rules():
 
 
 def test_environment_and_schemas(tmp_path):
-    env = plan.job_environment("/opt/venv/bin/python", str(tmp_path), "/usr/bin")
+    env = plan.job_environment("/opt/venv/bin/python", str(tmp_path), "/usr/bin", str(tmp_path / "run"))
     assert env["PATH"].split(":") == ["/opt/venv/bin", "/usr/bin"]
     assert env["ASPHALT_NSCD_SOURCE"] == str(tmp_path.resolve())
+    assert env["ASPHALT_NSCD_CPU_LOG"] == str(tmp_path.resolve() / "run" / "benchmarks" / "process_cpu.jsonl")
     cfg = load_config("smoke")
     schemas = plan.section_schemas(cfg, SCHEMAS)
     assert {"campaign", "diagnosis", "harmonic", "sample"} <= set(schemas)

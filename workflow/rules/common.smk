@@ -14,7 +14,8 @@ from asphalt_nscd import plan
 # without an activated virtual environment. Under --software-deployment-method conda the job's
 # environment (workflow/envs/asphalt-nscd.yaml) is activated in front of this; its post-deploy
 # script installs the package from ASPHALT_NSCD_SOURCE, the repository holding this workflow.
-os.environ.update(plan.job_environment(sys.executable, workflow.basedir, os.environ.get("PATH", "")))
+# Every job appends its exact CPU record to benchmarks/process_cpu.jsonl (ASPHALT_NSCD_CPU_LOG, plan.CPU_LOG).
+os.environ.update(plan.job_environment(sys.executable, workflow.basedir, os.environ.get("PATH", ""), os.getcwd()))
 
 # Threads and runtimes are resources of the workflow profiles (profiles/default, profiles/slurm):
 # a config that still sets one of the former keys stops here with the key's new place.
