@@ -87,12 +87,16 @@ def main() -> None:
     else:
         records = None
     bench = [benchmark(p) for p in sorted(glob.glob("benchmarks/**/*.tsv", recursive=True))]
-    rows.append({"what": "every job (Snakemake benchmarks, sampled)", "n_jobs": len(bench), "cpu_s": sum(c for c, _ in bench)})
+    rows.append(
+        {"what": "every job (Snakemake benchmarks, sampled)", "n_jobs": len(bench), "cpu_s": sum(c for c, _ in bench)}
+    )
     if args.time_file is not None:
         total = time_total(args.time_file)
         rows.append({"what": "the whole invocation (/usr/bin/time)", "n_jobs": None, "cpu_s": total})
         if records is not None:
-            rows.append({"what": "outside the records: Snakemake, interpreter exits", "n_jobs": None, "cpu_s": total - records})
+            rows.append(
+                {"what": "outside the records: Snakemake, interpreter exits", "n_jobs": None, "cpu_s": total - records}
+            )
     table = pd.DataFrame(rows, columns=["what", "n_jobs", "cpu_s"])
     table["cpu_s"] = table["cpu_s"].round(1)
     table["core_hours"] = (table["cpu_s"] / 3600.0).round(3)
