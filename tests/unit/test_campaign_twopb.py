@@ -130,7 +130,7 @@ def test_rig_state_file_is_what_the_job_computes_and_refuses_another_sample(tiny
     )
     rig = tmp_path / "rig.h5"
     twopb.write_rig_state(tiny_sample, s, rig)
-    held, unit = twopb.read_rig_state(rig, tiny_sample, s)
+    held, unit, reference = twopb.read_rig_state(rig, tiny_sample, s)
     np.testing.assert_array_equal(
         held, solver.held_spheres(read_sample(tiny_sample), s.bond_kinematics, s.head_rotation, s.nu)
     )
@@ -142,10 +142,23 @@ def test_rig_state_file_is_what_the_job_computes_and_refuses_another_sample(tiny
 
     monkeypatch.setattr(solver, "held_spheres", not_again)
     monkeypatch.setattr(periodic, "gravity_unit", not_again)
+    monkeypatch.setattr(solver.HarmonicSystem, "_pattern", not_again)  # G comes assembled
+    monkeypatch.setattr(solver, "nested_dissection", not_again)  # and ordered
     read = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "read.h5", progress=False, rig_state=rig)
     assert read["attrs"]["start"] == own["attrs"]["start"] == "periodic"
     np.testing.assert_array_equal(read["force_N"], own["force_N"])
     monkeypatch.undo()
+    # the reference is the system's own G and ordering, and only its own network's
+    system = periodic.harmonic_system(twopb.build_simulation(read_sample(tiny_sample), LAW_15C, 10.0, 1e-3, s)[0])
+    for name, block in system.reference_state()["G"].items():
+        assert (block != reference["G"][name]).nnz == 0
+    np.testing.assert_array_equal(system.permutation(), reference["permutation"])
+    with pytest.raises(ValueError, match="another network"):
+        solver.HarmonicSystem(
+            system.network, nu=0.35, regularisation=0.0, reference={**reference, "network_sha256": "0"}
+        )
+    with pytest.raises(ValueError, match="options"):
+        solver.HarmonicSystem(system.network, nu=0.3, regularisation=0.0, reference=reference)
 
     # the command writes the same file content from a --config's settings
     assert main(["rig-state", "--sample", str(tiny_sample), "--set", "gravity=true", "-o", str(tmp_path / "c.h5")]) == 0

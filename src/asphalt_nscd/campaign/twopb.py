@@ -330,11 +330,13 @@ def write_rig_state(sample_path, settings: TwoPBSettings, output) -> dict:
     gravity, the law-free gravity solution U_1 (:func:`asphalt_nscd.harmonic.periodic.gravity_unit`;
     group ``gravity``: ``displacement``, ``rotation`` (N_held, 3), ``head_rotation`` (3,),
     ``support_force`` (N_held, 3) N, ``mechanism_acceleration`` (N_held, 3) m/s^2; attributes
-    ``residual``, ``n_mechanisms``, ``failed``). Root attributes: the sample file's SHA-256, its
-    sphere and bond counts and :data:`RIG_STATE_SETTINGS` of ``settings``. Both depend on the
-    sample and these settings only, not on the law, T, f or dt; each one costs a factorisation
-    of the sample's harmonic system, about a fifth of an orbit job's CPU at paper scale.
-    Returns the root attributes.
+    ``residual``, ``n_mechanisms``, ``failed``), and the reference stiffness G of the sample's
+    harmonic system with its fill-reducing ordering (group ``harmonic_reference``,
+    :meth:`asphalt_nscd.harmonic.solver.HarmonicSystem.reference_state`: a job takes them
+    instead of assembling G from its bonds' 6x6 blocks and ordering it, the same to the last
+    bit). Root attributes: the sample file's SHA-256, its sphere and bond counts and
+    :data:`RIG_STATE_SETTINGS` of ``settings``. All depend on the sample and these settings
+    only, not on the law, T, f or dt. Returns the root attributes.
 
     Raises
     ------
@@ -350,7 +352,11 @@ def write_rig_state(sample_path, settings: TwoPBSettings, output) -> dict:
     held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
     # the rig as a job builds it; the law only scales the bonds, which U_1 does not see
     sim, _ = build_simulation(sample, GeneralizedBurgers(Em=1.0, eta_m=1.0), 1.0, 1.0e-4, settings, held=held)
-    unit = periodic.gravity_unit(sim, settings.head_rotation, settings.nu, mechanisms=settings.mechanisms)
+    system = periodic.harmonic_system(sim, settings.head_rotation, settings.nu)
+    unit = periodic.gravity_unit(
+        sim, settings.head_rotation, settings.nu, system=system, mechanisms=settings.mechanisms
+    )
+    reference = system.reference_state()
     attrs = {
         "sample_sha256": _file_sha256(sample_path),
         "n_spheres": int(sample.radius.size),
@@ -364,13 +370,48 @@ def write_rig_state(sample_path, settings: TwoPBSettings, output) -> dict:
             for k in _UNIT_ARRAYS:
                 grp[k] = np.asarray(getattr(unit, k), float)
             grp.attrs.update(residual=unit.residual, n_mechanisms=unit.n_mechanisms, failed=unit.failed)
+            _write_reference(f.create_group("harmonic_reference"), reference)
             f.attrs.update(attrs)
     return attrs
 
 
+def _write_reference(grp, reference: dict) -> None:
+    """A :meth:`asphalt_nscd.harmonic.solver.HarmonicSystem.reference_state` into the HDF5 group
+    ``grp``: per block of G a subgroup (``data``, ``indices``, ``indptr``; attribute ``shape``),
+    ``permutation`` when there is one, attributes ``network_sha256`` and ``options``."""
+    for name, block in reference["G"].items():
+        sub = grp.create_group(f"G/{name}")
+        sub["data"], sub["indices"], sub["indptr"] = block.data, block.indices, block.indptr
+        sub.attrs["shape"] = block.shape
+    if reference["permutation"] is not None:
+        grp["permutation"] = reference["permutation"]
+    grp.attrs.update(network_sha256=reference["network_sha256"], options=reference["options"])
+
+
+def _read_reference(grp) -> dict:
+    """The reference state :func:`_write_reference` wrote to ``grp``."""
+    import scipy.sparse as sp
+
+    blocks = {
+        name: sp.csc_matrix(
+            (np.asarray(sub["data"]), np.asarray(sub["indices"]), np.asarray(sub["indptr"])),
+            shape=tuple(int(k) for k in sub.attrs["shape"]),
+        )
+        for name, sub in grp["G"].items()
+    }
+    return {
+        "G": blocks,
+        "permutation": np.asarray(grp["permutation"]) if "permutation" in grp else None,
+        "network_sha256": str(grp.attrs["network_sha256"]),
+        "options": str(grp.attrs["options"]),
+    }
+
+
 def read_rig_state(path, sample_path, settings: TwoPBSettings):
     """The rig state of :func:`write_rig_state` in ``path``, checked against the job's sample
-    file and settings: (held (N,) bool, :class:`asphalt_nscd.harmonic.periodic.GravityUnit`).
+    file and settings: (held (N,) bool, :class:`asphalt_nscd.harmonic.periodic.GravityUnit`,
+    the harmonic system's reference state or None for a file without one:
+    :meth:`asphalt_nscd.harmonic.solver.HarmonicSystem.reference_state`).
 
     Raises
     ------
@@ -390,6 +431,7 @@ def read_rig_state(path, sample_path, settings: TwoPBSettings):
             grp = f["gravity"]
             arrays = {k: np.asarray(grp[k], float) for k in _UNIT_ARRAYS}
             gattrs = {k: grp.attrs[k] for k in ("residual", "n_mechanisms", "failed")}
+            reference = _read_reference(f["harmonic_reference"]) if "harmonic_reference" in f else None
     except (OSError, KeyError) as exc:
         raise InputError(f"{path}: not a rig-state file of asphalt-nscd rig-state ({exc})") from None
     for key, value in want.items():
@@ -413,7 +455,7 @@ def read_rig_state(path, sample_path, settings: TwoPBSettings):
         failed=str(gattrs["failed"]),
         **arrays,
     )
-    return held, unit
+    return held, unit, reference
 
 
 def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, held=None):
@@ -462,7 +504,13 @@ def start_test(sim, law, frequency_Hz: float, settings: TwoPBSettings, continuou
 
 
 def periodic_start(
-    sim, law, frequency_Hz: float, settings: TwoPBSettings, continuous: bool = False, gravity=None
+    sim,
+    law,
+    frequency_Hz: float,
+    settings: TwoPBSettings,
+    continuous: bool = False,
+    gravity=None,
+    reference: dict | None = None,
 ) -> tuple[dict, "periodic.PeriodicState | None"]:
     """:func:`start_test` with the periodic state it computed: (info, state; None without a
     periodic request).
@@ -479,12 +527,23 @@ def periodic_start(
     laplace_imag (the theta-method's effective angular frequency, rad/s) and fallback
     (reason, when it starts from rest). ``gravity``: the law-free gravity solution of ``sim``
     (:func:`asphalt_nscd.harmonic.periodic.gravity_unit`, e.g. from :func:`read_rig_state`), or
-    None to compute it.
+    None to compute it. ``reference``: the harmonic system's reference state (G and its ordering,
+    from :func:`read_rig_state`), or None to assemble them.
+
+    Raises
+    ------
+    InputError for a ``reference`` computed on another network or with other options.
     """
     info: dict[str, Any] = {"start": "rest", "requested": settings.start}
+    system = None
+    if reference is not None:
+        try:
+            system = periodic.harmonic_system(sim, settings.head_rotation, settings.nu, reference)
+        except ValueError as exc:
+            raise InputError(f"rig state: {exc}; recompute it (asphalt-nscd rig-state) for this job") from None
     if settings.start != "periodic":
         if settings.gravity and settings.mechanisms == "supported":
-            sim.external_force = periodic.support_force(sim, settings.head_rotation, settings.nu)
+            sim.external_force = periodic.support_force(sim, settings.head_rotation, settings.nu, system=system)
         return info, None
     cpu = time.process_time()
     state = periodic.periodic_state(
@@ -495,6 +554,7 @@ def periodic_start(
         head_rotation=settings.head_rotation,
         nu=settings.nu,
         continuous=continuous,
+        system=system,
         mechanisms=settings.mechanisms,
         gravity=gravity,
     )
@@ -534,14 +594,27 @@ def time_domain_step(frequency_Hz: float, settings: TwoPBSettings) -> float | No
     return None if n is None else 1.0 / (frequency_Hz * n)
 
 
-def _set_up(sample, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, continuous: bool, held, unit=None):
+def _set_up(
+    sample,
+    law,
+    frequency_Hz: float,
+    dt: float,
+    settings: TwoPBSettings,
+    continuous: bool,
+    held,
+    unit=None,
+    reference=None,
+):
     """The simulation of a job at step ``dt`` in its initial state, with its linearity
     certificate: (sim, motion, rest heights (N,) m, start info, periodic state or None, steps,
-    certificate or None). ``held``: the held-sphere mask of :func:`build_simulation`; ``unit``:
-    the gravity solution of :func:`periodic_start` (None: computed)."""
+    certificate or None). ``held``: the held-sphere mask of :func:`build_simulation`; ``unit``
+    and ``reference``: the gravity solution and the harmonic system's reference state of
+    :func:`periodic_start` (None: computed)."""
     sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings, held=held)
     rest_z = sim.spheres.position[:, 2].copy()
-    start_info, state = periodic_start(sim, law, frequency_Hz, settings, continuous=continuous, gravity=unit)
+    start_info, state = periodic_start(
+        sim, law, frequency_Hz, settings, continuous=continuous, gravity=unit, reference=reference
+    )
     n_steps = n_steps_of(frequency_Hz, dt, settings, start_info["start"])
     cert = None
     if state is not None and state.phasors is not None and not continuous:
@@ -731,14 +804,14 @@ def run_test(
             sim = None
     if sim is None:
         if rig_state is not None:
-            held, unit = read_rig_state(rig_state, sample_path, settings)
+            held, unit, reference = read_rig_state(rig_state, sample_path, settings)
         else:
             from ..harmonic.solver import held_spheres
 
             held = held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
-            unit = None
+            unit = reference = None
         sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-            sample, law, frequency_Hz, dt, settings, continuous_start, held, unit
+            sample, law, frequency_Hz, dt, settings, continuous_start, held, unit, reference
         )
         path, why = choose_path(settings, start_info, cert, verify)
         dt_td = time_domain_step(frequency_Hz, settings)
@@ -749,7 +822,7 @@ def run_test(
             )
             dt = dt_td
             sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-                sample, law, frequency_Hz, dt, settings, continuous_start, held, unit
+                sample, law, frequency_Hz, dt, settings, continuous_start, held, unit, reference
             )
             start_info["solve_s"] = start_info.get("solve_s", 0.0) + spent[0]  # both set-ups count
             start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + spent[1]

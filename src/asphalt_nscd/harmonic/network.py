@@ -95,6 +95,21 @@ class BondNetwork:
         """Total mass of the spheres, kg (M of the mass factor mu = 0.135 M + m)."""
         return float(self.mass.sum())
 
+    def digest(self) -> str:
+        """SHA-256 (hex) of every array of the network, in field order: two networks with the same
+        digest give the same harmonic system to the last bit (a rig state's reference is taken
+        only by the network it was computed on)."""
+        import dataclasses
+        import hashlib
+
+        h = hashlib.sha256()
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if isinstance(value, np.ndarray):
+                h.update(f"{field.name} {value.dtype.str} {value.shape}".encode())
+                h.update(np.ascontiguousarray(value).tobytes())
+        return h.hexdigest()
+
 
 def bond_normals(position, plate_normal, i, j) -> np.ndarray:
     """Unit bond directions n, shape (B, 3), in the initial configuration.

@@ -213,6 +213,33 @@ def network_of(sim):
     return dataclasses.replace(net, plate_inertia=np.array(head, float))
 
 
+def harmonic_system(sim, head_rotation: str = "free", nu: float = POISSON_RATIO, reference: dict | None = None):
+    """The :class:`asphalt_nscd.harmonic.solver.HarmonicSystem` of :func:`network_of` (sim) that the
+    periodic and gravity states solve: the core's bond kinematics, the head's rotation (clamped
+    under the barycentre kinematics, where the head's rotation is not modelled), Poisson's ratio
+    ``nu`` (Eqs. 8-11) and no rotational regularisation (the inertia makes the dynamic matrix
+    regular, and the core has no such spring). ``reference``: that system's
+    :meth:`~asphalt_nscd.harmonic.solver.HarmonicSystem.reference_state` computed before (a
+    rig state), whose G and ordering it takes instead of assembling them.
+
+    Raises
+    ------
+    ValueError for a ``reference`` that does not fit the network.
+    """
+    from .solver import HarmonicSystem
+
+    p = sim.params
+    head = head_rotation if p.bond_kinematics == "contact" else "clamped"
+    return HarmonicSystem(
+        network_of(sim),
+        nu=nu,
+        bond_kinematics=p.bond_kinematics,
+        head_rotation=head,
+        regularisation=0.0,
+        reference=reference,
+    )
+
+
 def _bond_displacement(bonds, X, TH, THp, up, contact: bool) -> np.ndarray:
     """Displacement (B, 3) of every bond in its local frame for sphere displacements X and
     rotations TH (N, 3), head rotation THp (3,) and head translation up (3,), real or
@@ -261,18 +288,16 @@ def mechanism_support(system, mass, gravity) -> tuple[np.ndarray, np.ndarray, in
     return support, accel, n_modes
 
 
-def support_force(sim, head_rotation: str = "free", nu: float = POISSON_RATIO) -> np.ndarray:
+def support_force(sim, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None) -> np.ndarray:
     """The support force (N, 3) N of the weakly held spheres of a 2PB simulation under its gravity
-    (:func:`mechanism_support` on :func:`network_of` (sim)); zero without gravity or mechanisms."""
-    from .solver import HarmonicSystem
-
+    (:func:`mechanism_support` on :func:`network_of` (sim)); zero without gravity or mechanisms.
+    ``system``: its :func:`harmonic_system`, built before (optional)."""
     p = sim.params
     g = np.asarray(p.gravity, float)
     if not np.any(g != 0.0) or p.bond_kinematics != "contact":
         return np.zeros((sim.spheres.n, 3))
-    system = HarmonicSystem(
-        network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head_rotation, regularisation=0.0
-    )
+    if system is None:
+        system = harmonic_system(sim, head_rotation, nu)
     return mechanism_support(system, sim.spheres.mass, g)[0]
 
 
@@ -314,8 +339,6 @@ def gravity_unit(
     ------
     ValueError on an unknown ``mechanisms``.
     """
-    from .solver import HarmonicSystem
-
     if mechanisms not in MECHANISMS:
         raise ValueError(f"mechanisms must be one of {MECHANISMS}, got {mechanisms!r}")
     p = sim.params
@@ -333,9 +356,7 @@ def gravity_unit(
         import scipy.sparse as sp
 
         if system is None:
-            system = HarmonicSystem(
-                network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head, regularisation=0.0
-            )
+            system = harmonic_system(sim, head_rotation, nu)
         d = system.dof_per_sphere
         act = np.flatnonzero(system.active)
         rhs = np.zeros(system.n_free)
@@ -521,9 +542,8 @@ def periodic_state(
     nu : Poisson's ratio of Eqs. 8-11.
     continuous : solve at s = i w (the continuous steady state) instead of s_h (for the
         measurement of what the discrete correction buys).
-    system : a HarmonicSystem of :func:`network_of` (sim) with the same options, to reuse
-        (optional; built with the rotational regularisation off: the inertia makes the
-        dynamic matrix regular, and the core has no such spring).
+    system : the :func:`harmonic_system` of ``sim`` with these options, to reuse (optional;
+        e.g. built from a rig state's reference).
     mechanisms : of :func:`gravity_state` (:data:`MECHANISMS`).
     gravity : the :func:`gravity_unit` of ``sim`` with these options, computed before (optional:
         :func:`gravity_state`'s ``unit``).
@@ -532,16 +552,11 @@ def periodic_state(
     -------
     PeriodicState
     """
-    from .solver import HarmonicSystem
-
     tic = time.perf_counter()
     p = sim.params
     contact = p.bond_kinematics == "contact"
-    head = head_rotation if contact else "clamped"
     if system is None:
-        system = HarmonicSystem(
-            network_of(sim), nu=nu, bond_kinematics=p.bond_kinematics, head_rotation=head, regularisation=0.0
-        )
+        system = harmonic_system(sim, head_rotation, nu)
     s = 1j * 2.0 * math.pi * frequency_Hz if continuous else theta_laplace(frequency_Hz, p.dt, p.theta)
     sol = system.solve_law(law, frequency_Hz, amplitude=amplitude_m, inertia="full", solver="reuse", laplace=s)
     rot = -1j  # phasor of A sin(w t) from that of A cos(w t)

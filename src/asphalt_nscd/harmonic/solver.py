@@ -145,11 +145,18 @@ class HarmonicSystem:
         Whether the head rotates (3 more unknowns) or only translates (module docstring).
     regularisation : float
         eps of the regularising rotational bond spring (``contact`` only; module docstring).
+    reference : dict, optional
+        The :meth:`reference_state` of a system of the same network and options, computed
+        before (e.g. once per sample, :func:`asphalt_nscd.campaign.twopb.write_rig_state`):
+        its reference stiffness G and fill-reducing ordering are taken instead of assembled,
+        the same to the last bit. The per-bond pattern is then built only if an assembly of
+        other stiffnesses needs it (:meth:`blocks`).
 
     Raises
     ------
     ValueError
-        on an unknown option, negative ``regularisation``, or ``contact`` without radii.
+        on an unknown option, negative ``regularisation``, ``contact`` without radii, or a
+        ``reference`` whose shapes do not fit the network.
     """
 
     def __init__(
@@ -160,6 +167,7 @@ class HarmonicSystem:
         head_rotation: str = "free",
         regularisation: float = ROTATIONAL_REGULARISATION,
         ordering: str = "metis",
+        reference: dict | None = None,
     ):
         if bond_kinematics not in BOND_KINEMATICS:
             raise ValueError(f"bond_kinematics must be one of {BOND_KINEMATICS}, got {bond_kinematics!r}")
@@ -213,6 +221,78 @@ class HarmonicSystem:
         self.keep = self.active[i]  # bonds of load-free clusters carry nothing
         a_body = i[self.keep]
         c_body = np.where(j >= 0, j, n_sph - 1 - j)[self.keep]  # -1 -> n_sph, -2 -> n_sph + 1
+        sa, sc = slot[a_body], slot[c_body]
+        self._slots = (slot, gdof, n_slot, a_body, c_body)
+        # Body graph of the free unknowns (spheres, and the head when it rotates) for the
+        # nested-dissection ordering: node k holds unknowns node_start[k]:node_start[k+1].
+        n_node = n_act + (1 if n_head_rot else 0)
+        edge = (sa < n_node) & (sc < n_node)
+        self._graph = (n_node, sa[edge], sc[edge], np.r_[d * np.arange(n_act + 1), [self.n_free] if n_head_rot else []])
+        mass = np.zeros((n_act, d))
+        mass[:, :3] = network.mass[act, None]
+        if contact:
+            assert network.rotational_inertia is not None  # given with the contact points
+            mass[:, 3:] = network.rotational_inertia[act, None]
+        head = np.asarray(network.plate_inertia if network.plate_inertia is not None else np.zeros(3), float)[
+            :n_head_rot
+        ]
+        self.mass_free = np.concatenate([mass.ravel(), head])
+        if reference is not None:
+            self._take_reference(reference)
+
+    #: the sparse blocks of G in a :meth:`reference_state`, with their shapes' rows / columns: free or prescribed
+    REFERENCE_BLOCKS = ("ff", "fp", "pf", "pp")
+
+    def reference_state(self) -> dict:
+        """What a job on this network needs and no law changes, to give another system of the
+        same network and options (``reference``): ``{"G": {block: CSC matrix}, "permutation":
+        (n_free,) int64 or None, "network_sha256": the network's digest, "options":
+        :meth:`options`}``, the blocks of :meth:`_reference_blocks` (N/m per unit
+        a_b, blocks ff (n_free, n_free), fp (n_free, 3), pf (3, n_free), pp (3, 3)) and the
+        ordering of :meth:`permutation`."""
+        return {
+            "G": dict(self._reference_blocks()),
+            "permutation": self.permutation(),
+            "network_sha256": self.network.digest(),
+            "options": self.options(),
+        }
+
+    def options(self) -> str:
+        """The options that shape G and its ordering, as one string (checked by ``reference``)."""
+        return (
+            f"nu-ratio {self.t_ratio!r}, {self.bond_kinematics}, head {self.head_rotation}, "
+            f"regularisation {self.regularisation!r}, ordering {self.ordering}"
+        )
+
+    def _take_reference(self, reference: dict) -> None:
+        """Adopt a :meth:`reference_state` after checking its network digest and shapes."""
+        if reference.get("network_sha256") != self.network.digest():
+            raise ValueError("reference: computed on another network (its network_sha256 differs)")
+        if reference.get("options") != self.options():
+            raise ValueError(f"reference: computed with options {reference.get('options')!r}, not {self.options()!r}")
+        n = self.n_free
+        want = {"ff": (n, n), "fp": (n, 3), "pf": (3, n), "pp": (3, 3)}
+        g = reference.get("G", {})
+        perm = reference.get("permutation")
+        for name, shape in want.items():
+            if name not in g or tuple(g[name].shape) != shape:
+                got = None if name not in g else tuple(g[name].shape)
+                raise ValueError(f"reference: block {name} of G has shape {got}, expected {shape} for this network")
+        if perm is not None and (perm.shape != (n,) or not np.array_equal(np.sort(perm), np.arange(n))):
+            raise ValueError(f"reference: the permutation is not one of the {n} free unknowns")
+        self._ref_blocks = {name: sp.csc_matrix(g[name]) for name in want}
+        if perm is not None:
+            self._perm = np.asarray(perm, np.int64)
+
+    def _pattern(self) -> None:
+        """The per-bond 6x6 blocks of the unit normal and tangential stiffnesses and their
+        assembly pattern (:meth:`blocks`): built on the first assembly, which a system given
+        its reference stiffness G (``reference``) may never need."""
+        if hasattr(self, "_blocks"):
+            return
+        network = self.network
+        contact = self.bond_kinematics == "contact"
+        slot, gdof, n_slot, a_body, c_body = self._slots
         n = network.normal[self.keep]
         # Point where the bond acts: contact point, or the barycentre of sphere i.
         if contact:
@@ -278,20 +358,6 @@ class HarmonicSystem:
             c0 = 0 if name[1] == "f" else self.n_free
             shape = (self.n_free if name[0] == "f" else 3, self.n_free if name[1] == "f" else 3)
             self._blocks[name] = (sel, rows[sel] - r0, cols[sel] - c0, shape)
-        # Body graph of the free unknowns (spheres, and the head when it rotates) for the
-        # nested-dissection ordering: node k holds unknowns node_start[k]:node_start[k+1].
-        n_node = n_act + (1 if n_head_rot else 0)
-        edge = (sa < n_node) & (sc < n_node)
-        self._graph = (n_node, sa[edge], sc[edge], np.r_[d * np.arange(n_act + 1), [self.n_free] if n_head_rot else []])
-        mass = np.zeros((n_act, d))
-        mass[:, :3] = network.mass[act, None]
-        if contact:
-            assert network.rotational_inertia is not None  # given with the contact points
-            mass[:, 3:] = network.rotational_inertia[act, None]
-        head = np.asarray(network.plate_inertia if network.plate_inertia is not None else np.zeros(3), float)[
-            :n_head_rot
-        ]
-        self.mass_free = np.concatenate([mass.ravel(), head])
 
     def mechanism_modes(self, max_bonds: int = 3):
         """Zero modes of the weakly held spheres (mechanisms): the spheres with at most
@@ -345,6 +411,7 @@ class HarmonicSystem:
 
         Real stiffnesses give real (float64) blocks, complex ones complex blocks (CSC).
         """
+        self._pattern()
         kn = np.asarray(kn)[self.keep][self._src][:, None, None]
         kt = np.asarray(kt)[self.keep][self._src][:, None, None]
         data = self._reduce(kn * self._unit_n + kt * self._unit_t).ravel()[self._valid]
