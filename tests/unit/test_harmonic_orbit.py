@@ -53,7 +53,7 @@ def test_a_certified_job_takes_its_orbit_equal_to_the_time_domain(tiny_sample, t
     assert abs(o["phase_deg"] - t["phase_deg"]) < 1e-3
     assert v["verification"] and abs(v["orbit_vs_time_domain_E_pct"]) < 1e-2
     assert abs(v["orbit_vs_time_domain_phase_deg"]) < 1e-3 and v["E_norm_MPa"] == t["E_norm_MPa"]
-    assert o["n_steps"] == t["n_steps"] and o["cpu_time_s"] < t["cpu_time_s"]
+    assert o["n_steps"] == t["n_steps"]  # the same cycle, on the orbit without stepping (its cost: benchmarks)
     assert t["n_contact_steps"] == 0 and o["n_contact_steps"] == 0  # certified: no contact in the time domain
 
 
