@@ -227,3 +227,23 @@ def test_every_command_appends_its_exact_cpu_record(tmp_path):
         assert 0.2 < cpu <= child_cpu + 0.02, (cpu, child_cpu)  # the interpreter start-up counts
         assert child_cpu - cpu < 0.3, (cpu, child_cpu)  # only the interpreter's exit comes after
         assert record["max_rss_mb"] > 10 and record["wall_s"] > 0
+
+
+def test_a_command_runs_one_blas_thread_unless_the_user_sets_a_count():
+    """The CLI sets OPENBLAS_NUM_THREADS=1 before numpy or scipy can load OpenBLAS (which reads it
+    once): jobs run side by side, and idle OpenBLAS threads spin. A count the user set is kept."""
+    import subprocess
+    import sys
+
+    probe = "import sys, os; import asphalt_nscd.cli; assert 'numpy' not in sys.modules; print(os.environ['OPENBLAS_NUM_THREADS'])"
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    out = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "1"
+    out = subprocess.run(
+        [sys.executable, "-c", probe],
+        env={**env, "OPENBLAS_NUM_THREADS": "3"},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert out.stdout.strip() == "3"
