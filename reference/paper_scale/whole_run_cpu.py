@@ -27,14 +27,9 @@ import re
 from pathlib import Path
 
 import pandas as pd
+from collect import benchmark_cpu  # this folder's collect.py: one reader of the benchmark files
 
 CPU_LOG = Path("benchmarks/process_cpu.jsonl")
-
-
-def benchmark(path: str) -> tuple[float, float]:
-    """(CPU s, wall s) of the last record of a Snakemake benchmark TSV."""
-    table = pd.read_csv(path, sep="\t")
-    return float(table["cpu_time"].iloc[-1]), float(table["s"].iloc[-1])
 
 
 def job_records(path: Path) -> tuple[pd.DataFrame, int]:
@@ -86,10 +81,8 @@ def main() -> None:
             rows.append({"what": "records of failed or repeated runs, not counted", "n_jobs": other, "cpu_s": None})
     else:
         records = None
-    bench = [benchmark(p) for p in sorted(glob.glob("benchmarks/**/*.tsv", recursive=True))]
-    rows.append(
-        {"what": "every job (Snakemake benchmarks, sampled)", "n_jobs": len(bench), "cpu_s": sum(c for c, _ in bench)}
-    )
+    bench = [benchmark_cpu(Path(p)) for p in sorted(glob.glob("benchmarks/**/*.tsv", recursive=True))]
+    rows.append({"what": "every job (Snakemake benchmarks, sampled)", "n_jobs": len(bench), "cpu_s": sum(bench)})
     if args.time_file is not None:
         total = time_total(args.time_file)
         rows.append({"what": "the whole invocation (/usr/bin/time)", "n_jobs": None, "cpu_s": total})
