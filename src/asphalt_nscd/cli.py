@@ -164,7 +164,7 @@ def cpu_record(argv: list[str], status: int | str, wall_s: float) -> dict:
     ``wall_s`` (s, from the start of :func:`main`). Source: ``getrusage(2)``, exact where
     Snakemake's ``benchmark:`` samples the process tree (every 1 s, later every 30 s) and loses
     the CPU after its last sample; only the interpreter's exit after the record is not in it
-    (about 0.1 s with numba loaded)."""
+    (about 0.1 s with numba loaded on an idle machine, up to 0.3 s seen under load)."""
     import resource
 
     own = resource.getrusage(resource.RUSAGE_SELF)

@@ -203,7 +203,7 @@ def test_every_command_appends_its_exact_cpu_record(tmp_path):
     """With ASPHALT_NSCD_CPU_LOG set (the workflow sets it for its jobs), a command appends one
     JSON line at its end, failed or not: its arguments, exit status and getrusage CPU, which is
     what the parent sees its child cost (start-up and imports included) but the interpreter's exit
-    after it (about 0.1 s with numba loaded)."""
+    after it."""
     import json
     import resource
     import subprocess
@@ -224,8 +224,10 @@ def test_every_command_appends_its_exact_cpu_record(tmp_path):
     assert seen[0][0] == 0 and seen[1][0] != 0
     for record, (_, child_cpu) in zip(records, seen):
         cpu = record["user_s"] + record["system_s"]
-        assert 0.2 < cpu <= child_cpu + 0.02, (cpu, child_cpu)  # the interpreter start-up counts
-        assert child_cpu - cpu < 0.3, (cpu, child_cpu)  # only the interpreter's exit comes after
+        assert cpu <= child_cpu + 0.02, (cpu, child_cpu)  # nothing counted that the process did not spend
+        # the start-up (interpreter, imports: about 0.8 s of the 1 s) counts; only the exit comes after
+        # the record (0.1 s on an idle machine, 0.3 s seen beside a full test run)
+        assert cpu > 0.5 * child_cpu, (cpu, child_cpu)
         assert record["max_rss_mb"] > 10 and record["wall_s"] > 0
 
 
