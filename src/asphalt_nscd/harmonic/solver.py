@@ -240,9 +240,6 @@ class HarmonicSystem:
         if reference is not None:
             self._take_reference(reference)
 
-    #: the sparse blocks of G in a :meth:`reference_state`, with their shapes' rows / columns: free or prescribed
-    REFERENCE_BLOCKS = ("ff", "fp", "pf", "pp")
-
     def reference_state(self) -> dict:
         """What a job on this network needs and no law changes, to give another system of the
         same network and options (``reference``): ``{"G": {block: CSC matrix}, "permutation":
