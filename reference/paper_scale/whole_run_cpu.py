@@ -29,7 +29,9 @@ from pathlib import Path
 import pandas as pd
 from collect import benchmark_cpu  # this folder's collect.py: one reader of the benchmark files
 
-CPU_LOG = Path("benchmarks/process_cpu.jsonl")
+from asphalt_nscd.plan import CPU_LOG as _CPU_LOG  # where the workflow's jobs append their records
+
+CPU_LOG = Path(_CPU_LOG)
 
 
 def job_records(path: Path) -> tuple[pd.DataFrame, int]:

@@ -34,6 +34,7 @@ from pathlib import Path
 
 from .campaign import modes
 from .campaign.modes import OWN_LAW_MODES, schedule
+from .cli import CPU_LOG_ENV
 from .io import InputError
 
 #: the index of results/report/, the default target (rule all)
@@ -154,7 +155,7 @@ def job_environment(python_executable: str, basedir: str, path: str, workdir: st
     return {
         "PATH": f"{Path(python_executable).parent}{os.pathsep}{path}",
         "ASPHALT_NSCD_SOURCE": str(Path(basedir).resolve()),
-        "ASPHALT_NSCD_CPU_LOG": str(Path(workdir).resolve() / CPU_LOG),
+        CPU_LOG_ENV: str(Path(workdir).resolve() / CPU_LOG),
     }
 
 
