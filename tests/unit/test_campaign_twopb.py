@@ -136,6 +136,8 @@ def test_rig_state_file_is_what_the_job_computes_and_refuses_another_sample(tiny
     )
     assert np.abs(unit.displacement).max() > 0 and unit.failed == "" and unit.residual <= periodic.GRAVITY_RESIDUAL_MAX
     own = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "own.h5", progress=False)
+    rest = dataclasses.replace(s, start="rest")  # a rest start takes the support force from the unit
+    own_rest = twopb.run_test(tiny_sample, LAW_15C, 10.0, rest, tmp_path / "own_rest.h5", progress=False)
 
     def not_again(*args, **kwargs):
         raise AssertionError("the job computed what its rig state holds")
@@ -147,6 +149,12 @@ def test_rig_state_file_is_what_the_job_computes_and_refuses_another_sample(tiny
     read = twopb.run_test(tiny_sample, LAW_15C, 10.0, s, tmp_path / "read.h5", progress=False, rig_state=rig)
     assert read["attrs"]["start"] == own["attrs"]["start"] == "periodic"
     np.testing.assert_array_equal(read["force_N"], own["force_N"])
+    monkeypatch.setattr(periodic, "mechanism_support", not_again)
+    read_rest = twopb.run_test(
+        tiny_sample, LAW_15C, 10.0, rest, tmp_path / "read_rest.h5", progress=False, rig_state=rig
+    )
+    assert read_rest["attrs"]["start"] == own_rest["attrs"]["start"] == "rest"
+    np.testing.assert_array_equal(read_rest["force_N"], own_rest["force_N"])
     monkeypatch.undo()
     # the reference is the system's own G and ordering, and only its own network's
     system = periodic.harmonic_system(twopb.build_simulation(read_sample(tiny_sample), LAW_15C, 10.0, 1e-3, s)[0])

@@ -516,8 +516,8 @@ def periodic_start(
     periodic request).
 
     With gravity and ``settings.mechanisms == 'supported'`` the simulation's external force is set
-    to the weakly held spheres' support force (:func:`asphalt_nscd.harmonic.periodic.support_force`),
-    whatever the start.
+    to the weakly held spheres' support force (:func:`asphalt_nscd.harmonic.periodic.support_force`;
+    ``gravity``'s when given), whatever the start.
 
     ``info``: start ('rest' | 'periodic', the start used), requested, and for a
     periodic request (``continuous``: the continuous steady state s = i w instead of the
@@ -543,7 +543,9 @@ def periodic_start(
             raise InputError(f"rig state: {exc}; recompute it (asphalt-nscd rig-state) for this job") from None
     if settings.start != "periodic":
         if settings.gravity and settings.mechanisms == "supported":
-            sim.external_force = periodic.support_force(sim, settings.head_rotation, settings.nu, system=system)
+            sim.external_force = periodic.support_force(
+                sim, settings.head_rotation, settings.nu, system=system, unit=gravity
+            )
         return info, None
     cpu = time.process_time()
     state = periodic.periodic_state(

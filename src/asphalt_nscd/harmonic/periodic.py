@@ -288,14 +288,20 @@ def mechanism_support(system, mass, gravity) -> tuple[np.ndarray, np.ndarray, in
     return support, accel, n_modes
 
 
-def support_force(sim, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None) -> np.ndarray:
+def support_force(
+    sim, head_rotation: str = "free", nu: float = POISSON_RATIO, system=None, unit: "GravityUnit | None" = None
+) -> np.ndarray:
     """The support force (N, 3) N of the weakly held spheres of a 2PB simulation under its gravity
     (:func:`mechanism_support` on :func:`network_of` (sim)); zero without gravity or mechanisms.
-    ``system``: its :func:`harmonic_system`, built before (optional)."""
+    ``system``: its :func:`harmonic_system`, built before (optional); ``unit``: its
+    :func:`gravity_unit` with the same ``head_rotation`` and ``nu`` (e.g. from a rig state), whose
+    support force it returns without solving (optional)."""
     p = sim.params
     g = np.asarray(p.gravity, float)
     if not np.any(g != 0.0) or p.bond_kinematics != "contact":
         return np.zeros((sim.spheres.n, 3))
+    if unit is not None:
+        return unit.support_force.copy()
     if system is None:
         system = harmonic_system(sim, head_rotation, nu)
     return mechanism_support(system, sim.spheres.mass, g)[0]
