@@ -15,13 +15,16 @@ Usage (any clone with the project's environment):
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+import pandas as pd
+
+from asphalt_nscd.io import write_csv
 
 SNAKEFILE = """\
 N = int(config["n_jobs"])
@@ -37,7 +40,8 @@ rule job:
     shell: "sleep {SLEEP}; touch {output}"
 """
 
-VARIANTS = {"snakemake default (100/1s)": None, "profiles/default (1000/10s)": "1000/10s"}
+#: variant -> --max-jobs-per-timespan (100/1s is Snakemake's default, passed explicitly)
+VARIANTS = {"snakemake default (100/1s)": "100/1s", "profiles/default (1000/10s)": "1000/10s"}
 
 
 def main(argv=None) -> int:
@@ -47,7 +51,7 @@ def main(argv=None) -> int:
     parser.add_argument("-o", "--output", type=Path, required=True, help="CSV of the two runs")
     args = parser.parse_args(argv)
     snakemake = Path(sys.executable).with_name("snakemake")
-    rows = []
+    rows = {}
     with tempfile.TemporaryDirectory() as tmp:
         running = {}
         for name, timespan in VARIANTS.items():
@@ -55,41 +59,32 @@ def main(argv=None) -> int:
             work.mkdir()
             (work / "Snakefile").write_text(SNAKEFILE)
             cmd = [str(snakemake), "--cores", "2", "--quiet", "--workflow-profile", "none", "--scheduler", "greedy"]
-            cmd += ["--scheduler-subsample", "20", "--config", f"n_jobs={args.jobs}", f"sleep_s={args.sleep}"]
-            if timespan:
-                cmd += ["--max-jobs-per-timespan", timespan]
-            log = open(work / "snakemake.log", "w")
-            proc = subprocess.Popen(cmd, cwd=work, stdout=log, stderr=subprocess.STDOUT)
-            running[proc.pid] = (name, timespan or "100/1s", work, time.monotonic())
+            cmd += ["--scheduler-subsample", "20", "--max-jobs-per-timespan", timespan]
+            cmd += ["--config", f"n_jobs={args.jobs}", f"sleep_s={args.sleep}"]
+            with open(work / "snakemake.log", "w") as log:
+                proc = subprocess.Popen(cmd, cwd=work, stdout=log, stderr=subprocess.STDOUT)
+            running[proc.pid] = (name, timespan, proc, work, time.monotonic())
         while running:
             pid, status, usage = os.wait4(-1, 0)
             if pid not in running:
                 continue
-            name, timespan, work, start = running.pop(pid)
+            name, timespan, proc, work, start = running.pop(pid)
             if os.waitstatus_to_exitcode(status) != 0:
-                sys.exit(f"snakemake ({name}) failed:\n{(work / 'snakemake.log').read_text()[-3000:]}")
-            rows.append(
-                {
-                    "variant": name,
-                    "max_jobs_per_timespan": timespan,
-                    "jobs": args.jobs,
-                    "sleep_s": args.sleep,
-                    "cpu_s": round(usage.ru_utime + usage.ru_stime, 2),
-                    "wall_s": round(time.monotonic() - start, 1),
-                }
-            )
-    rows.sort(key=lambda r: r["variant"], reverse=True)
-    base = rows[0]["cpu_s"]
-    for row in rows:
-        row["cpu_ratio_to_default"] = round(row["cpu_s"] / base, 3)
-    tmp_out = args.output.with_suffix(args.output.suffix + ".tmp")
-    with open(tmp_out, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    tmp_out.replace(args.output)
-    for row in rows:
-        print(row)
+                for _, _, other, _, _ in running.values():
+                    other.terminate()
+                sys.exit(f"snakemake ({name}) failed; its log:\n{(work / 'snakemake.log').read_text()[-3000:]}")
+            rows[name] = {
+                "variant": name,
+                "max_jobs_per_timespan": timespan,
+                "jobs": args.jobs,
+                "sleep_s": args.sleep,
+                "cpu_s": round(usage.ru_utime + usage.ru_stime, 2),
+                "wall_s": round(time.monotonic() - start, 1),
+            }
+    table = pd.DataFrame([rows[name] for name in VARIANTS])
+    table["cpu_ratio_to_default"] = (table["cpu_s"] / table["cpu_s"].iloc[0]).round(3)
+    write_csv(table, args.output)
+    print(table.to_string(index=False))
     return 0
 
 
