@@ -1,23 +1,35 @@
-"""Time-step study at the paper's scale in both readings of Table 3, on the exact orbit.
+"""Time-step study at the paper's scale on the exact orbit: both readings of Table 3, and the
+measured and extended modes.
 
 For a job whose linearity certificate holds, the orbit at a time step dt is what the time
 stepping gives at that dt (``reference/paper_scale/verification.csv``: the two agree to 1e-4 %
-and 1e-5 deg), so the influence of dt on |E*| and Phi is measured here without stepping: for the
-paper's Fig. 6 case (15 degC, 3 Hz), the hottest temperature (30 degC) at 3 Hz and at 40 Hz (the
-top of the band, nearest the sample's first resonance in the Pa reading), in each reading, at
-the paper's dt = 5e-5 s and at 25 to 2,000 steps per cycle. A case whose certificate fails is
-written with its reason and no value.
+and 1e-5 deg), so the influence of dt on |E*| and Phi is measured here without stepping.
 
-Usage, from a run's working directory (the paper-scale samples prepared):
+* Table 3's readings (modes paper, paper_kPa): the paper's Fig. 6 case (15 degC, 3 Hz), the
+  hottest temperature (30 degC) at 3 Hz and at 40 Hz (the top of the band, nearest the sample's
+  first resonance in the Pa reading), at the paper's dt = 5e-5 s and at 25 to 2,000 steps per
+  cycle.
+* The measured mode (the calibrated Burger's table) and the extended mode (the diagnosis's
+  generalized Burger's law, divided by the sample's network factor when
+  campaign.extended.transfer_correction is on): the four corners of the measured schedule
+  (coldest and warmest temperature at the lowest and highest frequency, the jobs that the
+  verification steps in time), at 25 to 2,000 steps per cycle.
+
+A case whose certificate fails is written with its reason and no value.
+
+Usage, from a run's working directory (the paper-scale samples prepared; for the measured and
+extended modes also the calibration, the diagnosis's law and the sample's network factor):
 
     .venv/bin/python /path/to/reference/paper_scale/dt_study.py results/samples/s2.h5 dt_study_orbit.csv
+    .venv/bin/python /path/to/reference/paper_scale/dt_study.py results/samples/s2.h5 \
+        dt_study_orbit_measured.csv --modes measured extended
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
-import sys
 import tempfile
 from pathlib import Path
 
@@ -25,6 +37,8 @@ import pandas as pd
 
 from asphalt_nscd import config, plan
 from asphalt_nscd.campaign import study, twopb
+from asphalt_nscd.campaign.modes import table3_reading
+from asphalt_nscd.rheology import law_file
 from asphalt_nscd.rheology.calibration import burgers_model
 
 CASES = [(15.0, 3.0), (30.0, 3.0), (30.0, 40.0)]
@@ -32,22 +46,56 @@ STEPS_PER_CYCLE = [25, 50, 100, 200, 500, 1000, 2000]
 PAPER_DT_S = 5e-5
 
 
-def main(sample: str, out: str) -> None:
+def _cases(cfg: dict, mode: str) -> list[tuple[float, float]]:
+    """(T degC, f Hz) of the study in ``mode``: CASES for Table 3's readings, the corners of the
+    measured schedule for the measured and extended modes."""
+    if mode not in ("measured", "extended"):
+        return CASES
+    sched = cfg["campaign"]["measured"]
+    temps, freqs = sched["temperatures_C"], sched["frequencies_Hz"]
+    return [(float(T), float(f)) for T in (min(temps), max(temps)) for f in (min(freqs), max(freqs))]
+
+
+def _law(cfg: dict, mode: str, sample: str, settings, temperature_C: float):
+    """The bond law of ``mode`` at ``temperature_C``, read from the run's files as the mode's
+    jobs read it (asphalt_nscd.plan.mode_parameters, plan.job_transfer)."""
+    if mode == "extended":
+        law = law_file.law_at(law_file.read(plan.LAW_JSON), temperature_C, where=plan.LAW_JSON)
+        transfer = plan.job_transfer(cfg, mode, Path(sample).stem)
+        if transfer:
+            from asphalt_nscd.harmonic.transfer import corrected_law
+
+            law, _ = corrected_law(
+                law,
+                transfer[0],
+                sample=Path(sample).stem,
+                bond_kinematics=settings.bond_kinematics,
+                head_rotation=settings.head_rotation,
+                nu=settings.nu,
+            )
+        return law
+    path = plan.mode_parameters(cfg, mode)
+    table = study.parameter_table(path, table3_reading(cfg, mode))
+    return burgers_model(study.parameters_at(table, temperature_C, {}, where=path))
+
+
+def main(sample: str, out: str, modes: list[str]) -> None:
     cfg = config.load(["config/paper.yaml"])
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for mode in ("paper", "paper_kPa"):
-            units = plan.table3_reading(cfg, mode)
+        for mode in modes:
+            reading = table3_reading(cfg, mode) or mode
             base = twopb.settings_from(plan.mode_settings(cfg, mode))
             base = dataclasses.replace(base, method="orbit", checkpoint_every=0)
-            table = study.parameter_table("data/paper/table3_burgers.csv", units)
-            for T, f in CASES:
-                law = burgers_model(study.parameters_at(table, T, {}, where="Table 3"))
-                dts = [("paper", PAPER_DT_S)] + [(str(n), 1.0 / (f * n)) for n in STEPS_PER_CYCLE]
+            for T, f in _cases(cfg, mode):
+                law = _law(cfg, mode, sample, base, T)
+                dts = [(str(n), 1.0 / (f * n)) for n in STEPS_PER_CYCLE]
+                if mode.startswith("paper"):
+                    dts = [("paper", PAPER_DT_S)] + dts
                 for label, dt in dts:
-                    s = dataclasses.replace(base, dt_policy="fixed", dt_s=dt)
+                    s = dataclasses.replace(base, dt_policy="fixed", dt_s=dt, time_domain_steps_per_cycle=None)
                     row = {
-                        "reading": units,
+                        "reading": reading,
                         "temperature_C": T,
                         "frequency_Hz": f,
                         "dt_label": label,
@@ -84,4 +132,15 @@ def main(sample: str, out: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("sample", help="paper-scale sample (.h5) of the run's working directory")
+    parser.add_argument("out", help="output CSV")
+    parser.add_argument(
+        "--modes",
+        nargs="+",
+        default=["paper", "paper_kPa"],
+        choices=["paper", "paper_kPa", "measured", "extended"],
+        help="modes studied (default: Table 3's two readings)",
+    )
+    args = parser.parse_args()
+    main(args.sample, args.out, args.modes)
