@@ -38,8 +38,6 @@ import pandas as pd
 from asphalt_nscd import config, plan
 from asphalt_nscd.campaign import study, twopb
 from asphalt_nscd.campaign.modes import table3_reading
-from asphalt_nscd.rheology import law_file
-from asphalt_nscd.rheology.calibration import burgers_model
 
 CASES = [(15.0, 3.0), (30.0, 3.0), (30.0, 40.0)]
 STEPS_PER_CYCLE = [25, 50, 100, 200, 500, 1000, 2000]
@@ -56,27 +54,18 @@ def _cases(cfg: dict, mode: str) -> list[tuple[float, float]]:
     return [(float(T), float(f)) for T in (min(temps), max(temps)) for f in (min(freqs), max(freqs))]
 
 
-def _law(cfg: dict, mode: str, sample: str, settings, temperature_C: float):
-    """The bond law of ``mode`` at ``temperature_C``, read from the run's files as the mode's
-    jobs read it (asphalt_nscd.plan.mode_parameters, plan.job_transfer)."""
-    if mode == "extended":
-        law = law_file.law_at(law_file.read(plan.LAW_JSON), temperature_C, where=plan.LAW_JSON)
-        transfer = plan.job_transfer(cfg, mode, Path(sample).stem)
-        if transfer:
-            from asphalt_nscd.harmonic.transfer import corrected_law
-
-            law, _ = corrected_law(
-                law,
-                transfer[0],
-                sample=Path(sample).stem,
-                bond_kinematics=settings.bond_kinematics,
-                head_rotation=settings.head_rotation,
-                nu=settings.nu,
-            )
-        return law
-    path = plan.mode_parameters(cfg, mode)
-    table = study.parameter_table(path, table3_reading(cfg, mode))
-    return burgers_model(study.parameters_at(table, temperature_C, {}, where=path))
+def _job_laws(cfg: dict, mode: str, sample: str) -> study.JobLaws:
+    """The laws of ``mode``'s jobs, from the run's files as the workflow passes them to run-2pb
+    (asphalt_nscd.plan.mode_parameters, plan.job_transfer)."""
+    transfer = plan.job_transfer(cfg, mode, Path(sample).stem)
+    return study.JobLaws(
+        table3=cfg["calibration"]["table3"],
+        table3_units=table3_reading(cfg, "paper"),
+        parameters=plan.mode_parameters(cfg, "measured"),
+        law_json=plan.LAW_JSON,
+        network_factor_json=transfer[0] if transfer else None,
+        sample_name=Path(sample).stem,
+    )
 
 
 def main(sample: str, out: str, modes: list[str]) -> None:
@@ -87,8 +76,9 @@ def main(sample: str, out: str, modes: list[str]) -> None:
             reading = table3_reading(cfg, mode) or mode
             base = twopb.settings_from(plan.mode_settings(cfg, mode))
             base = dataclasses.replace(base, method="orbit", checkpoint_every=0)
+            laws = _job_laws(cfg, mode, sample)
             for T, f in _cases(cfg, mode):
-                law = _law(cfg, mode, sample, base, T)
+                law = laws.law(mode, T)
                 dts = [(str(n), 1.0 / (f * n)) for n in STEPS_PER_CYCLE]
                 if mode.startswith("paper"):
                     dts = [("paper", PAPER_DT_S)] + dts
