@@ -58,6 +58,7 @@ CASES = {
     ),
     "UTF-8 byte-order mark": (b"\xef\xbb\xbf" + _csv(TABLE), None, "same", None),
     "CRLF line ends": (_csv(TABLE).replace(b"\n", b"\r\n"), None, "same", None),
+    "CR-only line ends (old spreadsheet exports)": (_csv(TABLE).replace(b"\n", b"\r"), None, "same", None),
     "trailing blank line": (_csv(TABLE) + b"\n", None, "same", None),
     "rows shuffled": (_csv(TABLE.sample(frac=1.0, random_state=3)), None, "same", None),
     "an extra column": (_csv(TABLE.assign(operator="jd")), None, "same", None),
@@ -174,6 +175,24 @@ CASES = {
         '{"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": Infinity}',
         "refused",
         r"height_mm",
+    ),
+    "sidecar a 1e300 mm specimen": (
+        _csv(TABLE),
+        '{"test": "uniaxial_cylinder", "diameter_mm": 1e300, "height_mm": 150}',
+        "refused",
+        r"complex_modulus\.test\.json: key 'diameter_mm'.*at most 1000 mm",
+    ),
+    "sidecar a 0 mm specimen": (
+        _csv(TABLE),
+        '{"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 0}',
+        "refused",
+        r"complex_modulus\.test\.json: key 'height_mm'",
+    ),
+    "sidecar a 1e6 kg moving mass": (
+        _csv(TABLE),
+        '{"test": "uniaxial_cylinder", "diameter_mm": 100, "height_mm": 150, "moving_mass_kg": 1e6}',
+        "refused",
+        r"key 'moving_mass_kg'.*at most 100 kg",
     ),
     "sidecar without its test key": (_csv(TABLE), _sidecar(test=_DROP), "refused", r"'test'"),
     "sidecar maps two quantities to one column": (

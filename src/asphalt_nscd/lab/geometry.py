@@ -39,7 +39,12 @@ if TYPE_CHECKING:
 
 TESTS = ("2pb_trapezoid", "uniaxial_cylinder", "unknown")
 
-_POSITIVE_OR_NULL = {"type": ["number", "null"], "exclusiveMinimum": 0}
+#: Largest dimension (mm) and mass (kg) a declaration may give: no complex-modulus specimen or moving
+#: mass of a laboratory test comes near them (EN 12697-26 and AASHTO T 342 specimens are 25-250 mm, under 10 kg).
+MAX_DIMENSION_MM = 1000.0
+MAX_MASS_KG = 100.0
+_POSITIVE_OR_NULL = {"type": ["number", "null"], "exclusiveMinimum": 0, "maximum": MAX_DIMENSION_MM}
+_MASS_OR_NULL = {"type": ["number", "null"], "exclusiveMinimum": 0, "maximum": MAX_MASS_KG}
 #: JSON schema of a test-geometry declaration (sidecar ``<table stem>.test.json``).
 SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -53,11 +58,11 @@ SCHEMA: dict[str, Any] = {
         "b_mm": {**_POSITIVE_OR_NULL, "description": "2PB head width, mm"},
         "e_mm": {**_POSITIVE_OR_NULL, "description": "2PB thickness, mm"},
         "h_mm": {**_POSITIVE_OR_NULL, "description": "2PB height, mm"},
-        "M_kg": {**_POSITIVE_OR_NULL, "description": "2PB specimen mass, kg"},
-        "m_kg": {**_POSITIVE_OR_NULL, "description": "2PB moving mass at the head, kg"},
+        "M_kg": {**_MASS_OR_NULL, "description": "2PB specimen mass, kg"},
+        "m_kg": {**_MASS_OR_NULL, "description": "2PB moving mass at the head, kg"},
         "diameter_mm": {**_POSITIVE_OR_NULL, "description": "cylinder diameter, mm"},
         "height_mm": {**_POSITIVE_OR_NULL, "description": "length over which the axial displacement is measured, mm"},
-        "moving_mass_kg": {**_POSITIVE_OR_NULL, "description": "uniaxial moving mass, kg"},
+        "moving_mass_kg": {**_MASS_OR_NULL, "description": "uniaxial moving mass, kg"},
         "table": {
             "type": "object",
             "description": "how the lab wrote the table: units, form of the modulus, column names "
@@ -218,6 +223,9 @@ def from_dict(obj, where: str) -> DeclaredTest:
             other = {k for t in TESTS for k in FORM_KEYS[t] + MASS_KEYS[t]} - own
             key = ", ".join(sorted(set(obj) & other))
             msg = f"not a key of test '{obj['test']}' (its keys: {sorted(own)})"
+        elif e.validator in ("maximum", "exclusiveMinimum"):
+            unit, top = ("kg", MAX_MASS_KG) if key.endswith("_kg") else ("mm", MAX_DIMENSION_MM)
+            msg = f"{e.instance!r} {unit} is outside any specimen's range; expected a number > 0 and at most {top:g} {unit}, or null"
         else:
             msg = e.message
         raise InputError(f"{where}: key '{key}': {msg}")

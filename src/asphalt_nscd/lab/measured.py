@@ -230,7 +230,9 @@ def _read_text_table(path: Path) -> pd.DataFrame:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
-    text = text.rstrip("\r\n\t ") + "\n"  # trailing blank lines
+    # line endings of every origin: CR LF (Windows), LF, and CR alone (old spreadsheet exports)
+    text = text.replace("\r\n", "\n").replace("\r", "\n")
+    text = text.rstrip("\n\t ") + "\n"  # trailing blank lines
     first = text.splitlines()[0]
     sep = max((",", ";", "\t"), key=first.count)
     header = next(csv.reader([first], delimiter=sep))
