@@ -8,7 +8,7 @@ CORES  ?= 2
 # CONFIG: config/config.yaml, or an overlay merged over it by Snakemake (config/paper.yaml, config/smoke.yaml)
 CONFIG ?= config/config.yaml
 
-.PHONY: run test setup report dry-run bench clean table
+.PHONY: run test setup report dry-run bench clean table forecast
 
 $(BIN)/asphalt-nscd: pyproject.toml requirements.lock
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found; set PYTHON=/path/to/python3.11" >&2; exit 1; }
@@ -33,6 +33,15 @@ table: setup
 	@test -n "$$TABLE" || { echo "usage: make table TABLE=path/to/table.csv [TEST=path/to/table.test.json]" >&2; exit 2; }
 	$(BIN)/asphalt-nscd own-table-config "$$TABLE" $${TEST:+--test "$$TEST"} -o $(TABLE_OVERLAY)
 	$(BIN)/snakemake own_table --cores $(CORES) --rerun-incomplete --configfile config/config.yaml config/table.yaml $(TABLE_OVERLAY)
+
+# A forecast from the binder: make forecast TABLE=path/to/matched_table.tsv (its sidecar <table>.test.json beside it);
+# every mix whose |E*| and phase cells are empty is forecast by every model fitted on the mixes that have them
+# (README, "A forecast from the binder"). The complete run is copied to results/forecasts/<folder>-<table>/.
+FORECAST_OVERLAY := results/forecast_table.yaml
+forecast: setup
+	@test -n "$$TABLE" || { echo "usage: make forecast TABLE=path/to/matched_table.tsv" >&2; exit 2; }
+	$(BIN)/asphalt-nscd forecast-config "$$TABLE" -o $(FORECAST_OVERLAY)
+	$(BIN)/snakemake forecast_publish --cores $(CORES) --rerun-incomplete --configfile $(CONFIG) $(FORECAST_OVERLAY)
 
 report: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html

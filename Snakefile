@@ -48,6 +48,7 @@ rule all:
     input:
         plan.REPORT_INDEX,
         plan.report_input(workflow, config),
+        plan.forecast_dir(config),
 
 
 # Snakemake reports a failed rule as "check log file(s)": print the project's own one-line errors (file, row or

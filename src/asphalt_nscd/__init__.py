@@ -13,6 +13,7 @@ Subpackages follow the workflow's chain:
 ``campaign``   numerical 2PB complex modulus test and sensitivity study
 ``harmonic``   exact steady-state complex modulus of a bonded sample
 ``diagnosis``  error budget, named causes, extended contact law
+``forecast``   a mix's complex modulus from its binder, gradation and volumetrics
 ``figures``    master-curve figures, rheology plots of tables, the report
 =============  ==============================================================
 
@@ -25,7 +26,7 @@ from importlib import metadata as _metadata
 #: The package's stages in the order of their imports: each imports only the ones before it (and
 #: ``io``, ``config``). The one list of them: the CLI registers its subcommands in this order, the
 #: layer test enforces it and the Snakefile includes ``workflow/rules/<stage>.smk`` in it.
-STAGES = ("lab", "rheology", "nscd", "sample", "harmonic", "campaign", "diagnosis", "figures")
+STAGES = ("lab", "rheology", "nscd", "sample", "harmonic", "campaign", "diagnosis", "forecast", "figures")
 
 try:  # one version string: the package metadata (pyproject.toml)
     __version__ = _metadata.version("asphalt-nscd")

@@ -52,9 +52,20 @@ COMMAND_GROUPS = {
     "campaign": "simulation",
     "harmonic": "harmonic",
     "diagnosis": "diagnosis",
+    "forecast": "forecast",
     "figures": "figures",
 }
-GROUP_ORDER = ("data", "calibration", "samples", "simulation", "harmonic", "diagnosis", "figures", "benchmarks")
+GROUP_ORDER = (
+    "data",
+    "calibration",
+    "samples",
+    "simulation",
+    "harmonic",
+    "diagnosis",
+    "forecast",
+    "figures",
+    "benchmarks",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -33,7 +33,7 @@ from .io import InputError
 DEFAULT_CONFIG = Path("config") / "config.yaml"
 
 #: top-level sections of a workflow config (workflow/schemas/config.schema.yaml)
-SECTIONS = ("measured", "lab", "calibration", "nscd", "sample", "campaign", "harmonic", "diagnosis")
+SECTIONS = ("measured", "lab", "calibration", "nscd", "sample", "campaign", "harmonic", "diagnosis", "forecast")
 
 
 def read(path: str | Path) -> dict:

@@ -841,3 +841,68 @@ def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str
                     seen.add(text)
                     out.append(f"{path}: {text}")
     return out
+
+
+# forecast: a mix's |E*| and phase from its binder, gradation and volumetrics (workflow/rules/forecast.smk)
+#: the working area of the forecast chain
+FORECAST = "results/forecast"
+#: the matched table in the project's columns (checkpoint forecast_table)
+FORECAST_MATCHED = f"{FORECAST}/matched.csv"
+#: where the last complete forecast of each table is published (rule forecast_publish)
+FORECASTS = "results/forecasts"
+
+
+def forecast_dir(config: dict) -> str:
+    """``results/forecasts/<folder>-<stem>``: the folder of the last complete forecast of
+    forecast.table (:func:`own_table_dir`'s rule)."""
+    table = Path(config["forecast"]["table"])
+    folder = table.resolve().parent.name
+    return f"{FORECASTS}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{FORECASTS}/{table.stem}"
+
+
+def forecast_sidecar(config: dict) -> list:
+    """The sidecar ``<stem>.test.json`` of forecast.table when it exists (an input of the
+    checkpoint, so that editing it reruns the chain)."""
+    table = Path(config["forecast"]["table"])
+    side = table.with_name(table.stem + ".test.json")
+    return [str(side)] if side.is_file() else []
+
+
+def forecast_mixes_option(config: dict) -> str:
+    """``--mixes ID...`` of forecast.mixes, or nothing (every mix)."""
+    mixes = config["forecast"].get("mixes")
+    return "" if not mixes else "--mixes " + " ".join(str(m) for m in mixes)
+
+
+def matched_mixes(path) -> list:
+    """The mix ids of a matched table in the project's columns, in file order (the checkpoint's
+    output, already checked)."""
+    import csv
+
+    with open(path, newline="", encoding="utf-8") as fh:
+        return list(dict.fromkeys(row["mix_id"] for row in csv.DictReader(fh)))
+
+
+def forecast_responses(config: dict, matched) -> list:
+    """The DEM response file of every (mix, seed) of the matched table, or none when
+    forecast.dem.models is empty."""
+    dem = config["forecast"].get("dem") or {}
+    if not dem.get("models"):
+        return []
+    return [f"{FORECAST}/responses/{m}_s{s}.npz" for m in matched_mixes(matched) for s in dem.get("seeds", [1])]
+
+
+def forecast_settings(config: dict) -> dict:
+    """What the forecast's chain commands read from the config (a change reruns them): the
+    forecast section, and the sample section the preparations take their dynamics from."""
+    return {"forecast": config["forecast"], "sample": {k: v for k, v in config["sample"].items() if k != "seeds"}}
+
+
+def forecast_responses_input(config: dict, checkpoints):
+    """The input function of the forecast's chain rules: :func:`forecast_responses` of the matched
+    table, which exists once checkpoint forecast_table has run (``checkpoints``: the Snakefile's)."""
+
+    def responses(wildcards):
+        return forecast_responses(config, checkpoints.forecast_table.get().output.matched)
+
+    return responses

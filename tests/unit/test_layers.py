@@ -4,7 +4,7 @@ Every import of every module of ``src/asphalt_nscd`` counts: at module level and
 functions, relative and absolute; ``from . import x`` and ``from pkg import x`` name the
 submodule ``pkg.x`` when it exists. Layers, lowest first::
 
-    io < lab < rheology < nscd < sample < harmonic < campaign < diagnosis < figures < top
+    io < lab < rheology < nscd < sample < harmonic < campaign < diagnosis < forecast < figures < top
 
 ``io`` holds the package's two base modules, ``io`` (files, errors, termination) and
 ``config`` (the workflow's configuration files). ``top`` is the package itself: ``asphalt_nscd/__init__``, ``cli``, ``__main__`` and ``plan``

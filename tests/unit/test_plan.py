@@ -356,7 +356,7 @@ def named_report_files(request):
 def test_the_report_is_every_output_the_rules_flag(named_report_files):
     name, cfg, files = named_report_files
     # one sample in the smoke run, four in the others; paper adds the paper_kPa mode's four
-    assert len(files) == len(set(files)) == {"smoke": 98, "config": 104, "paper": 108}[name]
+    assert len(files) == len(set(files)) == {"smoke": 103, "config": 109, "paper": 113}[name]
     assert all(f.startswith("results/") and "{" not in f for f in files)
     # in the order of the rule files: the lab data first, the figures' rule file last
     assert files[:2] == ["results/lab/measured.csv", "results/lab/measured_summary.csv"]

@@ -50,12 +50,12 @@ def test_rule_files_hold_no_python_logic():
 
 
 def _rules() -> dict:
-    """Rule name -> its rule file, for every rule of workflow/rules/*.smk."""
+    """Rule name -> its rule file, for every rule (and checkpoint) of workflow/rules/*.smk."""
     import re
 
     rules = {}
     for smk in sorted((REPO / "workflow" / "rules").glob("*.smk")):
-        for name in re.findall(r"^\s*rule (\w+):", smk.read_text(), flags=re.M):
+        for name in re.findall(r"^\s*(?:rule|checkpoint) (\w+):", smk.read_text(), flags=re.M):
             rules[name] = smk.name
     return rules
 

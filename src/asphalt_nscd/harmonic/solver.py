@@ -526,6 +526,7 @@ class HarmonicSystem:
         amplitude: float = HEAD_AMPLITUDE_M,
         inertia: str = "full",
         omega2: complex | None = None,
+        axis: int = 0,
     ) -> HarmonicSolution:
         """Steady state for per-bond stiffnesses kn, kt (B,) complex N/m at w (rad/s).
 
@@ -541,6 +542,9 @@ class HarmonicSystem:
         omega2 : complex, optional
             The factor of the mass matrix, -s^2 for the Laplace variable s (1/s^2); default
             w^2 (s = i w). See :meth:`solve_law` (``laplace``).
+        axis : {0, 1, 2}
+            Axis of the head displacement: 0 (x) bends the 2PB cantilever; 2 (z, along the
+            specimen's height) compresses it, the uniaxial test (with ``head_rotation="clamped"``).
 
         Raises
         ------
@@ -549,8 +553,11 @@ class HarmonicSystem:
         """
         _check_inertia(inertia)
         t0 = time.perf_counter()
+        if axis not in (0, 1, 2):
+            raise ValueError(f"axis must be 0, 1 or 2, got {axis!r}")
         blk = self.blocks(np.asarray(kn, complex), np.asarray(kt, complex))
-        up = np.array([amplitude, 0.0, 0.0], complex)
+        up = np.zeros(3, complex)
+        up[axis] = amplitude
         omega2 = omega**2 if omega2 is None else omega2
         a_ff = blk["ff"]
         if inertia != "none":
@@ -559,7 +566,7 @@ class HarmonicSystem:
         uf = self.factorise(a_ff, "complex K - w^2 M").solve(rhs) if self.n_free else np.zeros(0, complex)
         residual = _relative_residual(a_ff, uf, rhs)
         reaction = blk["pf"] @ uf + blk["pp"] @ up
-        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct", omega2=omega2)
+        return self._solution(omega, uf, reaction, amplitude, inertia, residual, t0, "direct", omega2=omega2, up=up)
 
     def solve_law(
         self,
@@ -697,8 +704,8 @@ class HarmonicSystem:
                 break
         return None, float("nan")
 
-    def _solution(self, omega, uf, reaction, amplitude, inertia, residual, t0, solver, omega2=None):
-        up = np.array([amplitude, 0.0, 0.0], complex)
+    def _solution(self, omega, uf, reaction, amplitude, inertia, residual, t0, solver, omega2=None, up=None):
+        up = np.array([amplitude, 0.0, 0.0], complex) if up is None else up
         m_top = float(self.network.plate_mass[1])
         sample_mass = self.network.sample_mass
         mu = SPECIMEN_MASS_FACTOR * sample_mass + m_top

@@ -3,6 +3,7 @@
 * ``reduce``   — EN 12697-26 reduction of a force/displacement record (Eqs. 1-5).
 * ``measured`` — validate a measured complex-modulus table, write the tidy table and the
   replicate summary.
+* ``matched``  — read a matched binder-mix table and write it in the project's columns.
 """
 
 from __future__ import annotations
@@ -73,6 +74,20 @@ def register(subparsers) -> None:
     )
     p.set_defaults(func=_measured)
 
+    m = subparsers.add_parser(
+        "matched",
+        help="read a matched binder-mix table (as published, with its sidecar); write it in the project's columns",
+        description="Read a matched binder-mix table -- each mix's measured |E*| and phase (empty where they are to "
+        "be forecast) beside its binder's |G*|, phase angle and viscosity and its gradation and volumetrics -- in "
+        "its own headers and units declared in the sidecar <table stem>.test.json (asphalt_nscd.lab.matched), "
+        "check it, and write it in the project's columns and units.",
+    )
+    m.add_argument("table", type=Path, help="the table (.csv, .tsv or .txt)")
+    m.add_argument("--sidecar", type=Path, default=None, help="its sidecar (default: <table stem>.test.json beside it)")
+    m.add_argument("-o", "--output", type=Path, required=True, help="the table in the project's columns (CSV)")
+    m.add_argument("--mixes", nargs="+", default=None, help="keep only these mixes (default: every mix)")
+    m.set_defaults(func=_matched)
+
 
 def _reduce(args) -> int:
     import pandas as pd
@@ -108,4 +123,19 @@ def _measured(args) -> int:
     write_csv(summary, args.summary, float_format="%.6g")
     if args.test_output is not None:
         write_json(frame.attrs["test"].to_json(), args.test_output)
+    return 0
+
+
+def _matched(args) -> int:
+    from .matched import read_matched, write_matched
+
+    from ..io import InputError
+
+    table = read_matched(args.table, args.sidecar)
+    if args.mixes:
+        missing = sorted(set(args.mixes) - set(table["mix_id"]))
+        if missing:
+            raise InputError(f"{args.table}: no mix {missing} (config forecast.mixes)")
+        table = table[table["mix_id"].isin(args.mixes)]
+    write_matched(table, args.output)
     return 0

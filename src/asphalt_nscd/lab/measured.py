@@ -205,7 +205,7 @@ def load_measured(path, test=None) -> pd.DataFrame:
     return out
 
 
-def _read_text_table(path: Path) -> pd.DataFrame:
+def _read_text_table(path: Path, allowed_suffixes: tuple = (".csv",)) -> pd.DataFrame:
     """The CSV at ``path`` as text cells (str, no NaN), header names stripped. Columns may be
     separated by commas, semicolons or tabs (the header's most frequent one); a table separated
     by semicolons or tabs may write decimal commas (``0,5``), read as points. Blank lines at the
@@ -219,8 +219,8 @@ def _read_text_table(path: Path) -> pd.DataFrame:
 
     if not path.is_file():
         raise InputError(f"{path}: file not found")
-    if path.suffix.lower() != ".csv":
-        raise InputError(f"{path}: expected a .csv file, got suffix '{path.suffix}'")
+    if path.suffix.lower() not in allowed_suffixes:
+        raise InputError(f"{path}: expected a {'/'.join(allowed_suffixes)} file, got suffix '{path.suffix}'")
     raw = path.read_bytes()
     if not raw.strip():
         raise InputError(f"{path}: file is empty; expected a header line with columns {list(REQUIRED_COLUMNS)}")

@@ -83,8 +83,11 @@ class PreparedSample:
     trapezoid: geometry.Trapezoid
 
 
-def sphere_population(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sphere_population(cfg: dict, passing: dict | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Class diameters (m), counts in the layer, and the solid volume (m^3) for a config.
+
+    ``passing``: sieve opening (mm) -> % passing of the aggregate to sample (a mix's own
+    gradation, :mod:`asphalt_nscd.forecast.formulation`); None: the paper's Table 1.
 
     Raises
     ------
@@ -94,7 +97,7 @@ def sphere_population(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     geo = settings.scaled_geometry(cfg)
     p = cfg["psd"]
     try:
-        d, frac = psd.class_fractions(cut_mm=p["cut_mm"], class_diameter=p["class_diameter"])
+        d, frac = psd.class_fractions(passing, cut_mm=p["cut_mm"], class_diameter=p["class_diameter"])
         volume = p["solid_fraction"] * geo["box"][0] * geo["box"][1] * geo["layer_height"]
         counts = psd.sphere_counts(volume, d, frac)
     except ValueError as exc:
@@ -130,8 +133,32 @@ def counts_table(cfg: dict, summaries=()) -> pandas.DataFrame:
     return table[first + [c for c in table.columns if c not in first]]
 
 
-def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> PreparedSample:
-    """Run stages 1-9 for one seed (see module docstring).
+@dataclass
+class Packing:
+    """The vibrated layer of stages 1-4 (:func:`pack`), before the cut: what a preparation
+    spends its time on, and all that depends on the seed.
+
+    ``position`` (N, 3) m and ``radius`` (N,) m in the deposition frame; ``d_class`` (K,) m and
+    ``counts`` (K,) the sphere classes; ``summary`` the layer's entries of the sample summary.
+    """
+
+    position: np.ndarray
+    radius: np.ndarray
+    d_class: np.ndarray
+    counts: np.ndarray
+    stages: list
+    summary: dict
+    clock: _PhaseClock
+
+
+def prepare_sample(
+    cfg: dict,
+    seed: int,
+    bonded_contact: str | None = None,
+    passing: dict | None = None,
+    solid_fraction: float | None = None,
+) -> PreparedSample:
+    """Run stages 1-9 for one seed (see module docstring): :func:`pack`, then :func:`finish`.
 
     Parameters
     ----------
@@ -142,6 +169,11 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     bonded_contact
         contact of the bonded pairs during the stabilisation (config ``nscd.bonded_contact``,
         NSCDParameters); None: the core's default.
+    passing
+        % passing per sieve (mm) of the aggregate; None: the paper's Table 1 (:func:`sphere_population`).
+    solid_fraction
+        sphere volume / specimen volume after the shrink (stage 7); None: the paper's shrink by
+        ``shrink_volume_fraction`` of each sphere's volume (:func:`finish`).
 
     Returns
     -------
@@ -152,15 +184,24 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     InputError
         if the box cannot hold the spheres, or the cut leaves no sphere.
     """
+    return finish(pack(cfg, seed, passing), cfg, seed, bonded_contact, solid_fraction)
+
+
+def pack(cfg: dict, seed: int, passing: dict | None = None) -> Packing:
+    """Stages 1-4 for one seed: sphere classes, lattice, deposition, vibration (module docstring).
+
+    Raises
+    ------
+    InputError
+        if the box cannot hold the spheres or the layer height cannot be measured.
+    """
     from . import dynamics
 
     clock = _PhaseClock()
     geo = settings.scaled_geometry(cfg)
-    trap = geometry.Trapezoid(B=geo["B"], b=geo["b"], e=geo["e"], h=geo["h"])
     rng = np.random.default_rng(seed)
-    d_class, counts, _ = sphere_population(cfg)
+    d_class, counts, _ = sphere_population(cfg, passing)
     radius = np.repeat(0.5 * d_class, counts)
-    d_min = cfg["bond_gap_mm"] * 1e-3 if cfg["bond_gap_mm"] is not None else float(d_class.min())
     try:
         position = geometry.lattice_positions(radius, geo["box"], geo["lattice"], rng)
     except ValueError as exc:
@@ -211,6 +252,90 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
             "length": geo["box"][0],
         }
     )
+    summary = {
+        "seed": int(seed),
+        "n_spheres_layer": int(radius.size),
+        "layer_height_measure": lh["measure"],
+        "layer_height_after_deposition_mm": h_deposit * 1e3,
+        "layer_height_after_vibration_mm": h_layer * 1e3,
+        "layer_top_after_deposition_mm": top_deposit * 1e3,
+        "layer_top_after_vibration_mm": geometry.layer_top(position, radius) * 1e3,
+        "layer_surface_after_vibration_mm": h_surface * 1e3,
+        "solid_fraction_layer": float(geometry.sphere_volume(radius).sum() / (footprint[0] * footprint[1] * h_surface)),
+        "solid_fraction_bulk": float(np.mean(phi_slices[bulk])) if bulk.any() else float("nan"),
+        "max_overlap_after_vibration_mm": geometry.max_overlap(position, radius) * 1e3,
+        "deposition": dep_info,
+        "vibration": vib_info,
+    }
+    return Packing(position, radius, d_class, counts, stages, summary, clock)
+
+
+def save_packing(path, packing: Packing) -> None:
+    """Write a :class:`Packing` (its arrays and summary; not its stage snapshots) to an ``.npz``
+    file, atomically: a preparation's costly part, kept so that :func:`finish` can be rerun."""
+    import json
+
+    from ..io import atomic_path
+
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(
+                fh,
+                position=packing.position,
+                radius=packing.radius,
+                d_class=packing.d_class,
+                counts=packing.counts,
+                summary=np.array(json.dumps(packing.summary)),
+            )
+
+
+def load_packing(path) -> Packing:
+    """Read a packing written by :func:`save_packing` (stage snapshots: the vibrated layer only).
+
+    Raises InputError naming the file when it is missing or not a packing."""
+    import json
+
+    try:
+        with np.load(path) as data:
+            arrays = {k: data[k] for k in ("position", "radius", "d_class", "counts")}
+            summary = json.loads(str(data["summary"]))
+    except (OSError, KeyError, ValueError) as exc:
+        raise InputError(f"{path}: not a packing file of 'forecast-pack' ({exc})") from None
+    n = arrays["radius"].shape[0]
+    if arrays["position"].shape != (n, 3) or arrays["d_class"].shape != arrays["counts"].shape:
+        raise InputError(f"{path}: inconsistent packing arrays (positions {arrays['position'].shape}, {n} radii)")
+    stage = {"title": "after vibration of the top wall", "frame": "deposition", **arrays}
+    clock = _PhaseClock()
+    return Packing(arrays["position"], arrays["radius"], arrays["d_class"], arrays["counts"], [stage], summary, clock)
+
+
+def finish(
+    packing: Packing,
+    cfg: dict,
+    seed: int,
+    bonded_contact: str | None = None,
+    solid_fraction: float | None = None,
+) -> PreparedSample:
+    """Stages 5-9 on a :func:`pack` layer: cut, flip, plates, shrink, bonds, stabilisation.
+
+    ``solid_fraction``: shrink every sphere by one factor so that the spheres fill this fraction
+    of the specimen (a mix's own coarse-aggregate volume, :mod:`asphalt_nscd.forecast.formulation`),
+    but at least by the paper's ``shrink_volume_fraction`` of their volume (a target above what
+    that leaves takes the paper's shrink); None: the paper's shrink.
+
+    Raises
+    ------
+    InputError
+        if the cut leaves no sphere, or ``solid_fraction`` is not in (0, 1).
+    """
+    from . import dynamics
+
+    clock, stages = packing.clock, list(packing.stages)
+    position, radius, d_class, counts = packing.position, packing.radius, packing.d_class, packing.counts
+    geo = settings.scaled_geometry(cfg)
+    trap = geometry.Trapezoid(B=geo["B"], b=geo["b"], e=geo["e"], h=geo["h"])
+    d_min = cfg["bond_gap_mm"] * 1e-3 if cfg["bond_gap_mm"] is not None else float(d_class.min())
+    h_layer = packing.summary["layer_height_after_vibration_mm"] * 1e-3
 
     # Stage 5: cut by barycentre, flip.
     zc = 0.5 * max(h_layer, trap.B)
@@ -225,7 +350,13 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
     clock.lap("cut_flip")
 
     # Stages 6-8: plates, shrink, density, bonds.
-    r_final = geometry.shrink_radii(r_cut, cfg["shrink_volume_fraction"])
+    if solid_fraction is None:
+        r_final = geometry.shrink_radii(r_cut, cfg["shrink_volume_fraction"])
+    else:
+        if not 0.0 < solid_fraction < 1.0:
+            raise InputError(f"sample: solid fraction after the shrink {solid_fraction!r}; expected a number in (0, 1)")
+        paper = (1.0 - cfg["shrink_volume_fraction"]) ** (1.0 / 3.0)
+        r_final = r_cut * min(paper, (solid_fraction / (1.0 - porosity_cut)) ** (1.0 / 3.0))
     density = geometry.density_for_mass(r_final, geo["sample_mass"])
     mass = density * geometry.sphere_volume(r_final)
     plate_point = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, trap.h]])
@@ -282,23 +413,16 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
         "psd_cut_mm": float(cfg["psd"]["cut_mm"]),
         "counts_layer": {f"{d * 1e3:g}": int(c) for d, c in zip(d_class, counts)},
         "counts_sample": {f"{d * 1e3:g}": int(np.sum(d_cut_mm == round(d * 1e3, 3))) for d in d_class},
-        "n_spheres_layer": int(radius.size),
+        "n_spheres_layer": packing.summary["n_spheres_layer"],
         "n_spheres": int(n),
         "trapezoid_mm": {"B": trap.B * 1e3, "b": trap.b * 1e3, "e": trap.e * 1e3, "h": trap.h * 1e3},
-        "layer_height_measure": lh["measure"],
-        "layer_height_after_deposition_mm": h_deposit * 1e3,
-        "layer_height_after_vibration_mm": h_layer * 1e3,
-        "layer_top_after_deposition_mm": top_deposit * 1e3,
-        "layer_top_after_vibration_mm": geometry.layer_top(position, radius) * 1e3,
-        "layer_surface_after_vibration_mm": h_surface * 1e3,
-        "solid_fraction_layer": float(geometry.sphere_volume(radius).sum() / (footprint[0] * footprint[1] * h_surface)),
-        "solid_fraction_bulk": float(np.mean(phi_slices[bulk])) if bulk.any() else float("nan"),
+        **{k: packing.summary[k] for k in _LAYER_KEYS},
         "trapezoid_centre_height_mm": zc * 1e3,
         "porosity_before_shrink": porosity_cut,
         "porosity": 1.0 - geometry.sphere_volume(r_final).sum() / trap.volume,
         "coordination_number": coordination,
         "contact_tolerance_mm": CONTACT_TOLERANCE * d_min * 1e3,
-        "max_overlap_after_vibration_mm": geometry.max_overlap(position, radius) * 1e3,
+        "max_overlap_after_vibration_mm": packing.summary["max_overlap_after_vibration_mm"],
         "n_bonds": int(bonds["i"].size),
         "n_bonds_sphere_sphere": n_ss,
         "n_bonds_bottom_plate": int(np.sum(bonds["j"] == -1)),
@@ -309,13 +433,29 @@ def prepare_sample(cfg: dict, seed: int, bonded_contact: str | None = None) -> P
         "density_kg_m3": density,
         "sample_mass_kg": float(mass.sum()),
         "top_plate_mass_kg": float(geo["top_plate_mass"]),
-        "deposition": dep_info,
-        "vibration": vib_info,
+        "deposition": packing.summary["deposition"],
+        "vibration": packing.summary["vibration"],
         "stabilisation": stab_info,
         "timings_s": clock.wall(),
         "cpu_s": clock.cpu(),
     }
+    if solid_fraction is not None:  # the shrink to a target: its radius factor, for the contacts of the packing
+        factor = float(np.max(r_final / r_cut))
+        summary["shrink_radius_factor"] = sample.attrs["shrink_radius_factor"] = factor
     return PreparedSample(sample=sample, stages=stages, summary=summary, trapezoid=trap)
+
+
+#: entries of the sample summary that describe the layer (:func:`pack`), in the summary's order
+_LAYER_KEYS = (
+    "layer_height_measure",
+    "layer_height_after_deposition_mm",
+    "layer_height_after_vibration_mm",
+    "layer_top_after_deposition_mm",
+    "layer_top_after_vibration_mm",
+    "layer_surface_after_vibration_mm",
+    "solid_fraction_layer",
+    "solid_fraction_bulk",
+)
 
 
 def write_outputs(result: PreparedSample, path, vtk_dir=None) -> None:

@@ -1,0 +1,409 @@
+"""Subcommands of the forecast step (registered by asphalt_nscd.cli).
+
+``forecast-binders``   the binders' data quality and master curves
+``forecast-pack``      the packed layer of a mix's sample (Section 3.2.1 stages 1-4, the costly part)
+``forecast-sample``    the mix's sample from its packing (cut, shrink to its volumetrics, bonds, stabilisation)
+``forecast-response``  the sample's uniaxial response as a function of its bond moduli (:mod:`.dem`)
+``forecast-crossval``  every model's held-out errors, mixes left out (:mod:`.validation`)
+``forecast``           every model's forecast of the mixes whose |E*| and phase are empty
+``forecast-page``      the page and its figures
+``forecast-publish``   the complete run, with its manifest, in the table's folder
+``forecast-config``    the config overlay of ``make forecast TABLE=...``
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def _config(args) -> dict:
+    """The merged, checked workflow config of ``--config`` (config/config.yaml alone without it)."""
+    from .. import config
+
+    return config.checked(args.config or [])
+
+
+def _add_config(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--config",
+        nargs="+",
+        metavar="FILE",
+        default=None,
+        help="workflow config files (YAML) merged as Snakemake merges --configfile (config/config.yaml of the "
+        "working directory first); their forecast section, and the sample section's dynamics",
+    )
+
+
+def _add_mix(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--table", required=True, help="matched table in the project's columns (asphalt-nscd matched)")
+    p.add_argument("--mix", required=True, help="mix_id of the mix")
+    p.add_argument("--size-dmax", type=float, default=None, help="cube side / largest diameter (default: config)")
+    p.add_argument("--cut-mm", type=float, default=None, help="PSD cut, mm (default: config forecast.dem.cut_mm)")
+
+
+def register(subparsers) -> None:
+    """Add this step's subcommands to the asphalt-nscd parser."""
+    p = subparsers.add_parser(
+        "forecast-pack",
+        help="the packed layer of a mix's sample: its gradation above the cut, deposited and vibrated",
+        description="Stages 1-4 of the preparation (paper Section 3.2.1: lattice, deposition, vibration) with the "
+        "mix's own gradation in the cubic box of forecast.dem (asphalt_nscd.forecast.formulation); writes the "
+        "packing (.npz) that forecast-sample finishes.",
+    )
+    _add_config(p)
+    _add_mix(p)
+    p.add_argument("--seed", type=int, required=True, help="random seed of the lattice placement")
+    p.add_argument("-o", "--output", required=True, help="packing file (.npz)")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=False, help="progress bars")
+    p.set_defaults(func=_pack)
+
+    s = subparsers.add_parser(
+        "forecast-sample",
+        help="a mix's sample from its packing: cut, shrink to its coarse-aggregate volume, bonds, stabilisation",
+        description="Stages 5-9 of the preparation on a forecast-pack layer: the cube cut at the layer's "
+        "mid-height, spheres shrunk to the mix's coarse-aggregate volume fraction (at least the paper's 10 %% of "
+        "their volume), bonds below the gap d_min, bonded stabilisation; writes the sample file (.h5).",
+    )
+    _add_config(s)
+    _add_mix(s)
+    s.add_argument("--packing", required=True, help="packing file of forecast-pack (.npz)")
+    s.add_argument("-o", "--output", required=True, help="sample file (.h5)")
+    s.add_argument("--summary", default=None, help="summary JSON of the sample")
+    s.set_defaults(func=_sample)
+    _register_chain(subparsers)
+    _add_page(subparsers)
+    _add_publish(subparsers)
+    _add_overlay(subparsers)
+
+
+def _register_chain(subparsers) -> None:
+    b = subparsers.add_parser(
+        "forecast-binders",
+        help="the binders' own data quality and a master curve per binder on the points that pass",
+        description="Identify the binders of a matched table (mixes with identical binder columns share one), check "
+        "every binder point (bounds, |G*| monotonic in frequency, Kramers-Kronig, time-temperature; "
+        "asphalt_nscd.forecast.binder) and fit a CAM master curve per binder on the points that pass.",
+    )
+    b.add_argument("matched", help="matched table in the project's columns (asphalt-nscd matched)")
+    b.add_argument("-o", "--output", required=True, help="every binder point with passed and reason (CSV)")
+    b.add_argument("--curves", required=True, help="the binder master curves (JSON)")
+    b.set_defaults(func=_binders)
+
+    r = subparsers.add_parser(
+        "forecast-response",
+        help="a mix sample's uniaxial response as a function of its bond moduli (exact, one eigensolve)",
+        description="The harmonic uniaxial test of a forecast sample (head clamped, driven along the height, no "
+        "inertia) as a rational function of zeta = skeleton / mortar modulus (asphalt_nscd.forecast.dem).",
+    )
+    r.add_argument("sample", help="sample file of forecast-sample (.h5)")
+    r.add_argument("--mix", required=True, help="mix_id of the sample")
+    r.add_argument("--seed", type=int, required=True, help="its preparation seed")
+    r.add_argument("-o", "--output", required=True, help="response file (.npz)")
+    r.set_defaults(func=_response)
+
+    for name, func, what in (
+        ("forecast-crossval", _crossval, "every model's held-out errors with mixes left out, per temperature"),
+        ("forecast", _predict, "every model's forecast of the mixes whose |E*| and phase are empty"),
+    ):
+        c = subparsers.add_parser(name, help=what)
+        _add_config(c)
+        c.add_argument("matched", help="matched table in the project's columns")
+        c.add_argument("--curves", required=True, help="binder master curves of forecast-binders (JSON)")
+        c.add_argument("--responses", nargs="*", default=[], help="DEM responses of the mixes (forecast-response)")
+        c.set_defaults(func=func)
+        if name == "forecast-crossval":
+            c.add_argument("-o", "--output", required=True, help="held-out predictions, one row per cell and model")
+            c.add_argument("--scores", required=True, help="errors per model, route, group and temperature (CSV)")
+            c.add_argument("--constants", required=True, help="each fold's fitted coefficients and constants (JSON)")
+        else:
+            c.add_argument("-o", "--output", required=True, help="forecast.csv: one row per mix, condition and model")
+            c.add_argument("--scores", required=True, help="scores of forecast-crossval (the best model per table)")
+            c.add_argument("--level1", required=True, help="Level 1 |E*| tables of the forecast mixes (CSV)")
+            c.add_argument("--sigmoid", required=True, help="sigmoidal master curves of the forecast mixes (CSV)")
+            c.add_argument("--constants", required=True, help="the coefficients fitted on every measured mix (JSON)")
+
+
+def _add_page(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forecast-page",
+        help="the forecast page: which model forecasts best where and by how much, with its figures",
+        description="Write forecast.md (asphalt_nscd.forecast.page) and its figures (predicted against measured "
+        "per model; the binder master curves with the points left out) from the chain's tables.",
+    )
+    _add_config(p)
+    p.add_argument("--table-name", required=True, help="the table's name on the page")
+    for name, what in (
+        ("matched", "matched table"),
+        ("points", "binder points of forecast-binders"),
+        ("curves", "binder curves of forecast-binders"),
+        ("rows", "held-out rows of forecast-crossval"),
+        ("scores", "scores of forecast-crossval"),
+        ("constants", "fold constants of forecast-crossval"),
+        ("forecast", "forecast.csv of forecast"),
+        ("forecast-constants", "constants of forecast (its best model)"),
+    ):
+        p.add_argument(f"--{name}", required=True, help=what)
+    p.add_argument("-o", "--output", required=True, help="the page (.md); figures in figures/ beside it")
+    p.set_defaults(func=_page)
+
+
+def _page(args) -> int:
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io import read_csv, read_json, savefig, write_text
+    from ..lab.matched import read_matched
+    from . import page, render
+    from .models import read_curves
+
+    cfg = _config(args)["forecast"]
+    route = cfg["binder_routes"][0]
+    rows, scores = read_csv(args.rows), read_csv(args.scores)
+    points = read_csv(args.points)
+    out = Path(args.output)
+    figures = {"predictions": "figures/predicted_vs_measured.png", "binders": "figures/binder_master_curves.png"}
+    fig = render.prediction_figure(rows, route)
+    savefig(fig, out.parent / figures["predictions"])
+    plt.close(fig)
+    fig = render.binder_figure(points, read_curves(args.curves))
+    savefig(fig, out.parent / figures["binders"])
+    plt.close(fig)
+    text = page.page(
+        args.table_name,
+        read_matched(args.matched),
+        points,
+        rows,
+        scores,
+        read_json(args.constants),
+        read_csv(args.forecast, allow_empty=True),
+        read_json(args.forecast_constants)["best_model"],
+        route,
+        cfg["confidence"],
+        figures,
+    )
+    write_text(text, out)
+    return 0
+
+
+def _add_overlay(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forecast-config",
+        help="the config overlay of make forecast: forecast.table set to a table (YAML)",
+        description="Write the YAML overlay that sets forecast.table (make forecast TABLE=...): the path reaches "
+        "the workflow through this file, so a path with spaces, quotes or non-ASCII characters works.",
+    )
+    p.add_argument("table", help="the matched table (its sidecar <table stem>.test.json beside it)")
+    p.add_argument("-o", "--output", required=True, help="the overlay (YAML)")
+    p.set_defaults(func=_overlay)
+
+
+def _overlay(args) -> int:
+    from pathlib import Path
+
+    import yaml
+
+    from ..io import InputError, write_text
+
+    if not Path(args.table).is_file():
+        raise InputError(f"TABLE={args.table}: file not found (expected a matched binder-mix table)")
+    write_text(
+        "# written by make forecast (asphalt-nscd forecast-config): the table of this run\n"
+        + yaml.safe_dump({"forecast": {"table": str(args.table)}}, allow_unicode=True, sort_keys=False),
+        args.output,
+    )
+    return 0
+
+
+def _add_publish(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forecast-publish",
+        help="copy a complete forecast run, with its manifest, to its folder (the last complete run stays)",
+        description="Copy the forecast's files into the folder of the table (results/forecasts/<folder>-<table>/) "
+        "with manifest.json (the table's and each file's SHA-256); the folder holds the last complete run.",
+    )
+    p.add_argument("files", nargs="+", help="the run's files (under results/)")
+    p.add_argument("--table", required=True, help="the matched table the run read")
+    p.add_argument("--root", required=True, help="the folder the files' paths are kept relative to")
+    p.add_argument("-o", "--output", required=True, help="the folder to publish to")
+    p.set_defaults(func=_publish)
+
+
+def _publish(args) -> int:
+    from datetime import datetime, timezone
+
+    from ..io import content_sha256, publish_directory
+
+    manifest = {
+        "table": str(args.table),
+        "table_sha256": content_sha256(args.table),
+        "written_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "about": "the last complete forecast of this table (make forecast / make run); a run that fails or is "
+        "stopped leaves this folder as it was",
+    }
+    out = publish_directory(args.files, args.root, args.output, manifest)
+    print(f"the complete forecast of {args.table}: {out}/ ({len(set(args.files))} files, manifest.json)")
+    return 0
+
+
+def _read_inputs(args):
+    """(forecast config, matched table, binder of each mix, curves, responses) of a chain command."""
+    from ..lab.matched import read_matched
+    from .models import read_curves, read_responses
+    from .validation import binder_ids
+
+    cfg = _config(args)["forecast"]
+    matched = read_matched(args.matched)
+    return cfg, matched, binder_ids(matched), read_curves(args.curves), read_responses(args.responses)
+
+
+def _binders(args) -> int:
+    from ..io import write_csv, write_json
+    from ..lab.matched import read_matched
+    from .binder import fit_binders
+    from .models import binder_points
+    from .validation import binder_ids
+
+    matched = read_matched(args.matched)
+    points = binder_points(matched, binder_ids(matched))
+    curves, checked = fit_binders(points.drop(columns="mixes"))
+    checked = checked.merge(points[["binder", "temperature_C", "frequency_Hz", "mixes"]], how="left")
+    mixes = points.groupby("binder")["mixes"].first().to_dict()
+    write_csv(checked, args.output)
+    write_json({"curves": {b: c.as_dict() | {"mixes": mixes.get(b, "")} for b, c in curves.items()}}, args.curves)
+    return 0
+
+
+def _response(args) -> int:
+    from ..sample.store import read_sample
+    from .dem import sample_response
+
+    sample_response(read_sample(args.sample), args.mix, args.seed).save(args.output)
+    return 0
+
+
+def _crossval(args) -> int:
+    from ..io import json_safe, write_csv, write_json
+    from .models import model_set, routed_tables
+    from .validation import cross_validate, mix_folds, score
+
+    cfg, matched, binder_of_mix, curves, responses = _read_inputs(args)
+    models = model_set(cfg, responses)
+    measured = matched.dropna(subset=["E_norm_MPa"])["mix_id"].unique()
+    folds = mix_folds(measured, cfg.get("folds"), cfg.get("seed", 1))
+    frames, states = [], []
+    for route, table in routed_tables(matched, curves, binder_of_mix, cfg["binder_routes"]).items():
+        rows, st = cross_validate(table, models, binder_of_mix, folds, route)
+        frames.append(rows)
+        states += st
+    import pandas as pd
+
+    rows = pd.concat(frames, ignore_index=True)
+    rows.insert(4, "label", _labels(rows))
+    write_csv(rows, args.output)
+    write_csv(score(rows, cfg["confidence"]).assign(label=lambda s: _labels(s)), args.scores)
+    write_json(json_safe({"folds": folds, "fits": states}), args.constants)
+    return 0
+
+
+def _labels(scores):
+    from .dem import MODELS as DEM_MODELS
+
+    return [m if m in DEM_MODELS else f"{m}_{c}" for m, c in zip(scores["model"], scores["coefficients"])]
+
+
+def _predict(args) -> int:
+    import pandas as pd
+
+    from ..io import json_safe, read_csv, write_csv, write_json
+    from . import level1
+    from .models import label, model_set, routed_tables
+
+    cfg, matched, binder_of_mix, curves, responses = _read_inputs(args)
+    route = cfg["binder_routes"][0]
+    table = routed_tables(matched, curves, binder_of_mix, [route])[route]
+    train = table.dropna(subset=["E_norm_MPa", "phase_deg"])
+    todo = table[table["E_norm_MPa"].isna()]
+    frames, fits = [], []
+    for model in model_set(cfg, responses):
+        state = model.fit(train)
+        fits.append({"model": label(model), "binder_route": route, "state": state})
+        if todo.empty:
+            continue
+        E, P, _ = model.predict(state, todo)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "mix_id": todo["mix_id"].to_numpy(),
+                    "temperature_C": todo["temperature_C"].to_numpy(),
+                    "frequency_Hz": todo["frequency_Hz"].to_numpy(),
+                    "model": label(model),
+                    "E_norm_MPa": E,
+                    "phase_deg": P,
+                }
+            )
+        )
+    columns = ["mix_id", "temperature_C", "frequency_Hz", "model", "E_norm_MPa", "phase_deg"]
+    forecast = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=columns)
+    best = level1.best_model(read_csv(args.scores), route)
+    tables, sigmoids = level1.designer_tables(forecast, best)
+    write_csv(forecast[columns], args.output)
+    write_csv(tables, args.level1)
+    write_csv(sigmoids, args.sigmoid)
+    write_json(json_safe({"binder_route": route, "best_model": best, "fits": fits}), args.constants)
+    return 0
+
+
+def _mix_settings(args):
+    """(mix row, sample section of the mix, passing curve, coarse volume fraction, seed-free settings)."""
+    import pandas as pd
+
+    from ..io import InputError
+    from ..lab.matched import read_matched
+    from ..sample import settings
+    from . import formulation
+
+    cfg = _config(args)
+    dem = cfg["forecast"]["dem"]
+    cut = float(args.cut_mm if args.cut_mm is not None else dem["cut_mm"])
+    size = float(args.size_dmax if args.size_dmax is not None else dem["size_dmax"])
+    table = read_matched(args.table)
+    rows = table[table["mix_id"] == str(args.mix)]
+    if rows.empty:
+        raise InputError(f"{args.table}: no mix {args.mix!r} (mixes: {list(pd.unique(table['mix_id']))[:10]} ...)")
+    base = settings.merge(settings.DEFAULTS, cfg.get("sample") or {})
+    sample_cfg, passing, coarse = formulation.sample_settings(
+        base, rows.iloc[0], cut, size, float(dem["layer_over_side"])
+    )
+    return rows.iloc[0], sample_cfg, passing, coarse
+
+
+def _pack(args) -> int:
+    from ..sample import dynamics
+    from ..sample.prepare import pack, save_packing
+
+    dynamics.PROGRESS = bool(args.progress)
+    _, sample_cfg, passing, _ = _mix_settings(args)
+    save_packing(args.output, pack(sample_cfg, args.seed, passing))
+    return 0
+
+
+def _sample(args) -> int:
+    from ..io import write_json
+    from ..sample import dynamics
+    from ..sample.prepare import finish, load_packing, write_outputs
+
+    dynamics.PROGRESS = False
+    mix, sample_cfg, _, coarse = _mix_settings(args)
+    packing = load_packing(args.packing)
+    seed = int(packing.summary.get("seed", 0))
+    result = finish(packing, sample_cfg, seed, solid_fraction=coarse)
+    result.sample.attrs["mix_id"] = str(mix["mix_id"])
+    result.summary.update(mix_id=str(mix["mix_id"]), coarse_volume_fraction=coarse)
+    write_outputs(result, args.output)
+    if args.summary:
+        write_json(result.summary, args.summary)
+    return 0

@@ -1,0 +1,97 @@
+"""The forecast's inputs read once and its models assembled: binders, curves, DEM responses, model set.
+
+One place for what every forecast command reads: the matched table's binders as points
+(:func:`binder_points`), the binder master curves (JSON of ``forecast-binders``), the DEM
+responses of the mixes' samples (``forecast-response``), and the set of models a run scores
+(:func:`model_set`): each published formula with its published and recalibrated coefficients
+(:class:`.validation.Baseline`), then the discrete models (:class:`.dem.DemModel`) when their
+responses are given. Model labels (:func:`label`): ``hirsch_published``, ``hirsch_recalibrated``,
+..., ``dem``, ``dem_extended``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from ..io import InputError
+
+
+def label(model) -> str:
+    """The model's name in tables: ``<formula>_<coefficients>`` or the DEM model's name."""
+    from .dem import MODELS as DEM_MODELS
+
+    return model.model if model.model in DEM_MODELS else f"{model.model}_{model.coefficients}"
+
+
+def binder_points(matched: pd.DataFrame, binder_of_mix: pd.Series) -> pd.DataFrame:
+    """One row per (binder, temperature, frequency): columns ``binder, temperature_C,
+    frequency_Hz, G_Pa, delta_deg, eta_Pa_s`` and ``mixes`` (the mixes that use the binder),
+    from the first mix of each binder (mixes of one binder carry identical columns); the
+    frequency is the one the binder was tested at (``binder_frequency_Hz``)."""
+    b = matched["mix_id"].map(binder_of_mix)
+    first = matched.groupby(b, sort=True)["mix_id"].first()
+    rows = matched[matched["mix_id"].isin(first.to_numpy())]
+    mixes = matched.groupby(b)["mix_id"].unique().map(lambda m: " ".join(sorted(map(str, m))))
+    out = pd.DataFrame(
+        {
+            "binder": rows["mix_id"].map(binder_of_mix).to_numpy(),
+            "temperature_C": rows["temperature_C"].to_numpy(float),
+            "frequency_Hz": rows["binder_frequency_Hz"].to_numpy(float),
+            "G_Pa": rows["binder_G_MPa"].to_numpy(float) * 1e6,
+            "delta_deg": rows["binder_delta_deg"].to_numpy(float),
+            "eta_Pa_s": rows["binder_eta_Pa_s"].to_numpy(float),
+        }
+    )
+    out["mixes"] = out["binder"].map(mixes)
+    return out.sort_values(["binder", "temperature_C", "frequency_Hz"]).reset_index(drop=True)
+
+
+def read_curves(path) -> dict:
+    """binder id -> :class:`.binder.BinderCurve` from the JSON of ``forecast-binders``.
+
+    Raises InputError naming the file when it is not such a file."""
+    from ..io import read_json
+    from .binder import BinderCurve
+
+    data = read_json(path, what="binder master curves JSON")
+    try:
+        fields = set(BinderCurve.__dataclass_fields__)
+        return {
+            b: BinderCurve.from_dict({k: v for k, v in c.items() if k in fields}) for b, c in data["curves"].items()
+        }
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise InputError(f"{path}: not a binder-curve file of 'forecast-binders' ({exc})") from None
+
+
+def read_responses(paths) -> dict:
+    """mix_id -> list of :class:`.dem.Response` (one per seed) from response files."""
+    from .dem import Response
+
+    out: dict[str, list] = {}
+    for p in paths:
+        r = Response.load(Path(p))
+        out.setdefault(r.mix_id, []).append(r)
+    return out
+
+
+def model_set(forecast_cfg: dict, responses: dict | None) -> list:
+    """The models a run scores: every baseline of ``forecast.baselines`` with published and
+    recalibrated coefficients, then ``forecast.dem.models`` when ``responses`` are given."""
+    from .dem import DemModel
+    from .validation import COEFFICIENTS, Baseline
+
+    models: list = [Baseline(m, c) for m in forecast_cfg.get("baselines", []) for c in COEFFICIENTS]
+    if responses:
+        dem = forecast_cfg.get("dem") or {}
+        models += [DemModel(name, responses, dem["cut_mm"]) for name in dem.get("models", [])]
+    return models
+
+
+def routed_tables(matched: pd.DataFrame, curves: dict, binder_of_mix: pd.Series, routes) -> dict:
+    """route -> the matched table with its binder columns as that route reads them
+    (:func:`.validation.with_binder_route`)."""
+    from .validation import with_binder_route
+
+    return {route: with_binder_route(matched, curves, binder_of_mix, route) for route in routes}
