@@ -55,6 +55,7 @@ test: setup
 bench: setup
 	$(BIN)/asphalt-nscd bench --case bonded --n 2000 -o results/bench/bonded.json
 	$(BIN)/asphalt-nscd bench --case granular --n 2000 -o results/bench/granular.json
+	$(BIN)/asphalt-nscd forecast-bench --config $(CONFIG) --table data/binder_mix/mixes_35.tsv --mixes 197 211 -o results/bench/forecast_mix.json
 
 clean:
 	rm -rf results logs benchmarks .snakemake

@@ -148,3 +148,28 @@ def test_a_held_out_mix_never_reaches_its_fold(table, responses):
     np.testing.assert_array_equal(again.loc[own, "E_pred_MPa"], base.loc[own, "E_pred_MPa"])
     np.testing.assert_array_equal(again.loc[own, "phase_pred_deg"], base.loc[own, "phase_pred_deg"])
     assert np.all(again.loc[~own, "E_pred_MPa"].to_numpy() != base.loc[~own, "E_pred_MPa"].to_numpy())
+
+
+@pytest.mark.slow
+def test_a_coarser_gradation_stiffens_the_forecast_as_the_size_study_shows(table):
+    """The same mix with more aggregate retained on 4.75 mm (rho4 33 -> 60 %): its sample, prepared by
+    Section 3.2.1 at the smallest size of the size study, holds more coarse aggregate, and its
+    sample factor -- mortar alone and with the skeleton -- is larger, as at every size of
+    reference/forecast/size_study_summary.csv (the coarse mixes' factors above the fine ones')."""
+    from asphalt_nscd.forecast import formulation
+    from asphalt_nscd.sample import settings
+    from asphalt_nscd.sample.prepare import finish, pack
+
+    base = settings.merge(settings.DEFAULTS, {"deposition": {"duration_s": 0.6}, "vibration": {"duration_s": 0.1}})
+    base["stabilisation"]["steps"] = 100
+    mix = table[table["mix_id"] == "193"].iloc[0]
+    coarse = mix.copy()
+    coarse["rho4_pct"] = 60.0
+    factors = []
+    for m in (mix, coarse):
+        cfg, passing, fraction = formulation.sample_settings(base, m, 4.0, 2.0, 1.3)
+        result = finish(pack(cfg, 1, passing), cfg, 1, solid_fraction=fraction)
+        r = dem.sample_response(result.sample)
+        factors.append((fraction, r.factor(0.0).real, r.factor(1.0).real))
+    (f0, a0, b0), (f1, a1, b1) = factors
+    assert f1 > f0 + 0.1 and a1 > a0 and b1 > b0

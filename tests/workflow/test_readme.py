@@ -44,6 +44,7 @@ NOT_IDENTICAL = {
         "bench/*": "NSCD core benchmark: measured times (bench command)",
         "report/bench/*": "copy of the benchmark table",
         "harmonic/bench.json": "harmonic solver benchmark: measured times",
+        "forecasts/*/manifest.json": "the time stamp of a published forecast (its files' SHA-256 are compared through them)",
         "report/harmonic/bench.json": "copy of the harmonic solver benchmark",
     },
     "columns": {
@@ -485,3 +486,64 @@ def test_own_table_in_ksi_and_degF_through_the_readme_command(smoke_run):
         proc.wait()
     assert {p.relative_to(published): p.read_bytes() for p in published.rglob("*") if p.is_file()} == first
     assert sorted(p.name for p in published.parent.iterdir()) == [published.name]
+
+
+def readme_forecast_command() -> str:
+    """The command of the README's section "A forecast from the binder"."""
+    text = (REPO / "README.md").read_text()
+    section = text.split("## A forecast from the binder", 1)[1]
+    block = re.search(r"```(?:bash|sh)?\n(.*?)```", section, re.S)
+    assert block, "README: no code block under 'A forecast from the binder'"
+    lines = [ln.split("#")[0].strip() for ln in block.group(1).splitlines() if ln.split("#")[0].strip()]
+    assert len(lines) == 1 and "TABLE=" in lines[0], lines
+    return lines[0]
+
+
+@pytest.mark.slow
+def test_forecast_of_emptied_mixes_through_the_readme_command(smoke_run):
+    """The shipped matched table as published (psi, radians, its sidecar), two mixes' |E*| and phase
+    emptied, in a folder whose name has a space and non-ASCII characters, through the README's
+    forecast command on the smoke configuration (six mixes): every model forecasts the two mixes at
+    their 30 conditions, the held-out table and the page are written, the Level 1 tables are there,
+    and the complete run is published with its manifest."""
+    from asphalt_nscd.lab.matched import read_matched
+
+    shipped = REPO / "data" / "binder_mix"
+    folder = smoke_run / "binder d\u00e9p\u00f4t"
+    folder.mkdir(exist_ok=True)
+    lines = (shipped / "mixes_35.tsv").read_text(encoding="utf-8").split("\n")
+    emptied = ("204", "236")
+
+    def empty(line: str) -> str:
+        cells = line.split("\t")
+        return "\t".join("" if k in (1, 2) else c for k, c in enumerate(cells)) if cells[0] in emptied else line
+
+    (folder / "mixes.tsv").write_text("\n".join([lines[0], *map(empty, lines[1:])]), encoding="utf-8")
+    shutil.copy(shipped / "mixes_35.test.json", folder / "mixes.test.json")
+    table_arg = f"TABLE={folder.name}/mixes.tsv"
+    command = [table_arg if c.startswith("TABLE=") else c for c in readme_forecast_command().split()]
+    env = newcomer_env()
+    run(command + [f"CONFIG={SMOKE}", *make_args(env)], smoke_run, env)
+    results = smoke_run / "results"
+    published = results / "forecasts" / f"{folder.name}-mixes"
+    manifest = json.loads((published / "manifest.json").read_text())
+    assert manifest["table_sha256"] == content_sha256(folder / "mixes.tsv")
+    assert {rel: content_sha256(published / rel) for rel in manifest["files"]} == manifest["files"]
+    forecast = pd.read_csv(published / "forecast" / "forecast.csv", dtype={"mix_id": str})
+    assert set(forecast["mix_id"]) == set(emptied)
+    models = set(forecast["model"])
+    assert {"hirsch_published", "hirsch_recalibrated", "witczak_1_40d_recalibrated", "dem", "dem_extended"} <= models
+    assert forecast.groupby(["mix_id", "model"]).size().eq(30).all()
+    assert np.isfinite(forecast[["E_norm_MPa", "phase_deg"]].to_numpy()).all()
+    truth = read_matched(shipped / "mixes_35.tsv")
+    best = forecast[forecast["model"] == "hirsch_recalibrated"].merge(
+        truth[["mix_id", "temperature_C", "frequency_Hz", "E_norm_MPa"]], on=["mix_id", "temperature_C", "frequency_Hz"]
+    )
+    assert len(best) == 60 and np.all(np.abs(np.log(best["E_norm_MPa_x"] / best["E_norm_MPa_y"])) < np.log(4))
+    scores = pd.read_csv(published / "forecast" / "crossval.csv")
+    assert set(scores["binder_route"]) == {"curve", "raw"} and scores["abs_logE_ci_low"].notna().any()
+    level1 = pd.read_csv(published / "forecast" / "level1_tables.csv", dtype={"mix_id": str})
+    assert set(level1["mix_id"]) == set(emptied) and set(level1["unit"]) == {"psi", "MPa"}
+    assert len(level1) == 2 * 2 * 5 and {"0.1 Hz", "25 Hz"} <= set(level1.columns)
+    page = (published / "forecast" / "forecast.md").read_text()
+    assert "## Which model forecasts best" in page and "204, 236" in page

@@ -112,7 +112,7 @@ rule forecast_crossval:
     params:
         settings=plan.forecast_settings(config),
     shell:
-        'asphalt-nscd forecast-crossval --config "$ASPHALT_NSCD_RUN_CONFIG" {input.matched} --curves {input.curves}'
+        'asphalt-nscd forecast-crossval --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched} --curves {input.curves}'
         " --responses {input.responses} -o {output.rows} --scores {output.scores} --constants {output.constants}"
         " 2> {log}"
 
@@ -135,7 +135,7 @@ rule forecast_predict:
     params:
         settings=plan.forecast_settings(config),
     shell:
-        'asphalt-nscd forecast --config "$ASPHALT_NSCD_RUN_CONFIG" {input.matched} --curves {input.curves}'
+        'asphalt-nscd forecast --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched} --curves {input.curves}'
         " --responses {input.responses} --scores {input.scores} -o {output.forecast} --level1 {output.level1}"
         " --sigmoid {output.sigmoid} --constants {output.constants} 2> {log}"
 

@@ -9,6 +9,7 @@
 ``forecast-page``      the page and its figures
 ``forecast-publish``   the complete run, with its manifest, in the table's folder
 ``forecast-config``    the config overlay of ``make forecast TABLE=...``
+``forecast-bench``     the discrete forecast's cost per mix (JSON)
 """
 
 from __future__ import annotations
@@ -74,6 +75,7 @@ def register(subparsers) -> None:
     _add_page(subparsers)
     _add_publish(subparsers)
     _add_overlay(subparsers)
+    _add_bench(subparsers)
 
 
 def _register_chain(subparsers) -> None:
@@ -107,7 +109,7 @@ def _register_chain(subparsers) -> None:
     ):
         c = subparsers.add_parser(name, help=what)
         _add_config(c)
-        c.add_argument("matched", help="matched table in the project's columns")
+        c.add_argument("--matched", required=True, help="matched table in the project's columns")
         c.add_argument("--curves", required=True, help="binder master curves of forecast-binders (JSON)")
         c.add_argument("--responses", nargs="*", default=[], help="DEM responses of the mixes (forecast-response)")
         c.set_defaults(func=func)
@@ -215,6 +217,36 @@ def _overlay(args) -> int:
         + yaml.safe_dump({"forecast": {"table": str(args.table)}}, allow_unicode=True, sort_keys=False),
         args.output,
     )
+    return 0
+
+
+def _add_bench(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forecast-bench",
+        help="the discrete forecast's cost per mix: packing, sample, response, against one solve per condition (JSON)",
+        description="Prepare the sample of each mix asked for and time its packing, its sample, its response "
+        "(one generalized eigen-decomposition) and, as the baseline of the same run, one sparse solve per "
+        "condition (asphalt_nscd.forecast.bench).",
+    )
+    _add_config(p)
+    p.add_argument("--table", required=True, help="matched table (any format the door reads)")
+    p.add_argument("--mixes", nargs="+", required=True, help="mix_id of the mixes to time")
+    p.add_argument("--seed", type=int, default=1, help="preparation seed")
+    p.add_argument("--conditions", type=int, default=30, help="conditions of the baseline's direct solves")
+    p.add_argument("-o", "--output", required=True, help="benchmark JSON")
+    p.set_defaults(func=_bench)
+
+
+def _bench(args) -> int:
+    from ..io import write_json
+    from . import bench
+
+    records = []
+    for mix in args.mixes:
+        args.mix, args.size_dmax, args.cut_mm = mix, None, None
+        row, sample_cfg, passing, coarse = _mix_settings(args)
+        records.append(bench.bench_mix(sample_cfg, passing, coarse, str(mix), args.seed, args.conditions))
+    write_json({"machine": bench.machine(), "mixes": records}, args.output)
     return 0
 
 

@@ -73,6 +73,15 @@ class Response:
         s = ((self.alpha + z * self.beta) ** 2 / (1.0 + z * self.lam)).sum(-1)
         return (self.p0 + z[..., 0] * self.p1 - s) / self.side_m
 
+    def factor_and_slope(self, zeta) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`factor` and its derivative with respect to zeta, at each zeta (complex arrays)."""
+        z = np.asarray(zeta, complex)[..., None]
+        a = self.alpha + z * self.beta
+        d = 1.0 + z * self.lam
+        f = (self.p0 + z[..., 0] * self.p1 - (a**2 / d).sum(-1)) / self.side_m
+        slope = (self.p1 - ((2.0 * self.beta * a * d - self.lam * a**2) / d**2).sum(-1)) / self.side_m
+        return f, slope
+
     def save(self, path) -> None:
         """Write the response (``.npz``, atomic)."""
         from ..io import atomic_path
@@ -210,15 +219,23 @@ class DemModel:
             out.append((idx, mortar_modulus(G, d, v["phi_filler"], v["phi_fine"]), self.responses[mix_id]))
         return out
 
-    def _log_modulus(self, cells: list, n: int, ln_c) -> np.ndarray:
-        """ln E*_sample (Pa, complex) of every row for the constants ln (C_m, C_a, C_s)."""
+    def _log_modulus(self, cells: list, n: int, ln_c, slopes: bool = False):
+        """ln E*_sample (Pa, complex) of every row for the constants ln (C_m, C_a, C_s), and with
+        ``slopes`` its derivatives with respect to them, (n, 3) complex (module docstring)."""
         out = np.empty(n, complex)
+        jac = np.empty((n, 3), complex)
         c_m, c_a, c_s = np.exp(ln_c)
         for idx, e, responses in cells:
-            e1 = c_m * e if c_a == np.inf else 1.0 / (1.0 / (c_m * e) + 1.0 / (c_a * E_AGGREGATE_PA))
-            zeta = c_s * E_AGGREGATE_PA / e1
-            out[idx] = np.log(e1) + np.mean([np.log(resp.factor(zeta)) for resp in responses], axis=0)
-        return out
+            u = 1.0 / (c_m * e)
+            v = 0.0 if c_a == np.inf else 1.0 / (c_a * E_AGGREGATE_PA)
+            zeta = c_s * E_AGGREGATE_PA * (u + v)
+            fs = [resp.factor_and_slope(zeta) for resp in responses]
+            out[idx] = -np.log(u + v) + np.mean([np.log(f) for f, _ in fs], axis=0)
+            if slopes:
+                g = zeta * np.mean([d / f for f, d in fs], axis=0)  # d ln(factor) / d ln(zeta)
+                wu, wv = u / (u + v), v / (u + v)
+                jac[idx] = np.column_stack([wu * (1.0 - g), wv * (1.0 - g), g])
+        return (out, jac) if slopes else out
 
     def fit(self, train: pd.DataFrame) -> dict:
         """The constants of a fold, by least squares of the complex-log residuals of the training
@@ -235,11 +252,24 @@ class DemModel:
             res = y - lf - ln_c
             return {"C_m": float(np.exp(ln_c)), "cost": float(np.sum(np.abs(res) ** 2) / 2), "n_rows": len(rows)}
 
+        memo: dict = {}
+
+        def evaluate(x):
+            key = tuple(np.asarray(x, float))
+            if key not in memo:
+                memo.clear()
+                memo[key] = self._log_modulus(cells, len(rows), x, slopes=True)
+            return memo[key]
+
         def resid(x):
-            r = self._log_modulus(cells, len(rows), x) - y
+            r = evaluate(x)[0] - y
             return np.concatenate([r.real, r.imag])
 
-        fits = [least_squares(resid, x0, bounds=LN_BOUNDS) for x0 in STARTS]
+        def jac(x):
+            j = evaluate(x)[1]
+            return np.concatenate([j.real, j.imag])
+
+        fits = [least_squares(resid, x0, jac=jac, bounds=LN_BOUNDS) for x0 in STARTS]
         best = min(fits, key=lambda f: f.cost)
         c = np.exp(best.x)
         return {

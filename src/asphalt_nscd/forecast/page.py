@@ -14,9 +14,10 @@ import pandas as pd
 
 from . import render
 
-#: physical range of the discrete model's constants: a bond or a contact stiffer than the stone it
-#: joins (C_a, C_s above 1), or a mortar bridge more than 100 times the mortar's stiffness, is not physical
-PHYSICAL_MAX = {"C_m": 100.0, "C_a": 1.0, "C_s": 1.0}
+#: physical range (low, high) of the discrete model's constants: a bond or a contact stiffer than the stone
+#: it joins (C_a, C_s above 1) is not physical; the mortar's modulus is a lower bound (Hashin-Shtrikman), so
+#: its bridge cannot be softer than it (C_m below 1)
+PHYSICAL = {"C_m": (1.0, np.inf), "C_a": (0.0, 1.0), "C_s": (0.0, 1.0)}
 
 
 def _overall(scores, route, label, group="all"):
@@ -60,7 +61,7 @@ def _constants(constants: dict) -> pd.DataFrame:
     rows = []
     for fit in constants.get("fits", []):
         state = fit.get("state") or {}
-        for k in PHYSICAL_MAX:
+        for k in PHYSICAL:
             if k in state and fit["model"].startswith("dem"):
                 rows.append({"model": fit["model"], "route": fit["binder_route"], "constant": k, "value": state[k]})
         if state.get("at_bound"):
@@ -127,7 +128,7 @@ def page(
     L += ["### Phase error by temperature", "", render.temperature_table(scores, route, "abs_phase_deg", "deg"), ""]
     L += _route_section(scores, route)
     L += _seen_section(scores, route)
-    L += _dem_section(scores, route, constants, errors, confidence)
+    L += _dem_section(scores, route, constants, errors, confidence, rows, matched)
     L += _binder_section(points, figures)
     L += _forecast_section(forecast, best, todo)
     return "\n".join(L) + "\n"
@@ -139,7 +140,10 @@ def _route_section(scores, route) -> list[str]:
         return []
     o = other[0]
     L = ["## The binder through its master curve against the table's raw values", ""]
-    L += ["| model | |E*| error, curve (%) | raw (%) | phase error, curve (deg) | raw (deg) |", "|---|---|---|---|---|"]
+    L += [
+        "| model | \\|E*\\| error, curve (%) | raw (%) | phase error, curve (deg) | raw (deg) |",
+        "|---|---|---|---|---|",
+    ]
     for lab in scores["label"].unique():
         a, b = _overall(scores, route, lab), _overall(scores, o, lab)
         if a is None or b is None:
@@ -152,7 +156,10 @@ def _route_section(scores, route) -> list[str]:
 
 def _seen_section(scores, route) -> list[str]:
     L = ["## Mixes whose binder serves a training mix, and mixes whose binder does not", ""]
-    L += ["| model | binder seen: mixes, |E*| error (%) | binder unseen: mixes, |E*| error (%) |", "|---|---|---|"]
+    L += [
+        "| model | binder seen: mixes, \\|E*\\| error (%) | binder unseen: mixes, \\|E*\\| error (%) |",
+        "|---|---|---|",
+    ]
     for lab in scores["label"].unique():
         a, b = _overall(scores, route, lab, "binder_seen"), _overall(scores, route, lab, "binder_unseen")
         fa = (
@@ -169,13 +176,13 @@ def _seen_section(scores, route) -> list[str]:
     return L + [""]
 
 
-def _dem_section(scores, route, constants, errors, confidence) -> list[str]:
+def _dem_section(scores, route, constants, errors, confidence, rows, matched) -> list[str]:
     if "dem" not in set(scores["label"]):
         return []
     L = ["## What the discrete model gets wrong, and what its extension gains", ""]
     s = scores[(scores["binder_route"] == route) & (scores["group"] == "all") & scores["temperature_C"].notna()]
     L += [
-        "| T (°C) | dem: |E*| bias (%) | dem: phase bias (deg) | dem_extended: |E*| bias (%) | dem_extended: phase bias (deg) |"
+        "| T (°C) | dem: \\|E*\\| bias (%) | dem: phase bias (deg) | dem_extended: \\|E*\\| bias (%) | dem_extended: phase bias (deg) |"
     ]
     L += ["|---|---|---|---|---|"]
     for T in sorted(s["temperature_C"].unique()):
@@ -203,6 +210,7 @@ def _dem_section(scores, route, constants, errors, confidence) -> list[str]:
         L += ["Held-out gain of the extension, paired over the same mixes (negative: `dem_extended` better):", ""]
         L += _sentence_pair(errors, "dem_extended", "dem", route, "e", "%", confidence)
         L += _sentence_pair(errors, "dem_extended", "dem", route, "p", "deg", confidence)
+    L += _trend_lines(rows, matched, route, confidence)
     c = _constants(constants)
     if len(c):
         L += ["", "Constants fitted in the folds (every fold, both routes), against their physical range:", ""]
@@ -211,14 +219,56 @@ def _dem_section(scores, route, constants, errors, confidence) -> list[str]:
             "|---|---|---|---|---|---|",
         ]
         for (model, k), g in c[c["constant"] != "at_bound"].groupby(["model", "constant"]):
-            top = PHYSICAL_MAX[k]
-            n_out = int(np.sum(g["value"] > top))
+            lo, hi = PHYSICAL[k]
+            n_out = int(np.sum((g["value"] < lo) | (g["value"] > hi)))
+            bounds = f"[{lo:g}, ∞)" if np.isinf(hi) else f"({lo:g}, {hi:g}]"
             L.append(
-                f"| {model} | {k} | {g['value'].min():.3g} | {g['value'].max():.3g} | (0, {top:g}] | {n_out} of {len(g)} |"
+                f"| {model} | {k} | {g['value'].min():.3g} | {g['value'].max():.3g} | {bounds} | {n_out} of {len(g)} |"
             )
         n_bound = int(np.sum(c["constant"] == "at_bound"))
         L += ["", f"Fits with a constant at its search bound: {n_bound}."]
     return L + [""]
+
+
+def _features(matched: pd.DataFrame, cut_mm: float) -> pd.DataFrame:
+    """Per mix: its coarse-aggregate volume fraction above the cut (%) and its VMA (%)."""
+    from .formulation import phase_volumes
+
+    first = matched.groupby("mix_id", sort=False).first()
+    v = {m: phase_volumes(r.assign(mix_id=m) if hasattr(r, "assign") else r, cut_mm) for m, r in first.iterrows()}
+    return pd.DataFrame(
+        {"coarse_pct": {m: 100 * x["coarse"] for m, x in v.items()}, "VMA_pct": {m: x["VMA_pct"] for m, x in v.items()}}
+    )
+
+
+def _trend_lines(rows, matched, route, confidence, cut_mm: float = 4.0) -> list[str]:
+    """The table's own trend of |E*| with the coarse-aggregate fraction and VMA, per temperature,
+    and the trend each model leaves in its held-out errors (render.trends)."""
+    labels = [lab for lab in ("dem", "dem_extended", "hirsch_recalibrated") if lab in set(rows["label"])]
+    t = render.trends(rows, _features(matched, cut_mm), route, labels, confidence)
+    if t.empty:
+        return []
+    L = [
+        "",
+        "**The table's own trend with the gradation and the voids.** Slope over the mixes, per temperature, of the "
+        "measured 100 ln|E*| and of each model's held-out error 100 ln(forecast/measured), per percentage point of "
+        f"coarse-aggregate volume (above the {cut_mm:g} mm cut) and of VMA (a model that follows the table's trend "
+        "leaves a slope near 0):",
+        "",
+        "| T (°C) | per | " + " | ".join(["measured", *labels]) + " |",
+        "|---|---|" + "---|" * (1 + len(labels)),
+    ]
+    for (T, feature), g in t.groupby(["temperature_C", "feature"], sort=True):
+        cells = []
+        for lab in ["measured", *labels]:
+            r = g[g["label"] == lab]
+            cells.append("–" if r.empty else _ci(r.iloc[0]))
+        L.append(f"| {T:.1f} | {feature.replace('_pct', '')} | " + " | ".join(cells) + " |")
+    return L + [""]
+
+
+def _ci(r) -> str:
+    return f"{r['slope']:+.1f} [{r['ci_low']:+.1f}, {r['ci_high']:+.1f}]"
 
 
 def _binder_section(points, figures) -> list[str]:

@@ -53,6 +53,44 @@ def paired(errors: pd.DataFrame, a: str, b: str, route: str, column: str, confid
     return pd.DataFrame(out)
 
 
+def trends(rows: pd.DataFrame, features: pd.DataFrame, route: str, labels, confidence: float = 0.95) -> pd.DataFrame:
+    """The table's own trend with the formulation, and what each model leaves of it.
+
+    For each temperature and each feature column of ``features`` (index mix_id: e.g. the coarse
+    aggregate fraction, VMA), the least-squares slope over the mixes of the measured mean
+    100 ln|E*| (``label`` "measured") and of each model's mean held-out error 100 ln(E_forecast /
+    E_measured) (a slope near 0: the model follows the trend), with its t(n - 2) interval."""
+    from scipy import stats
+
+    d = rows[rows["binder_route"] == route].assign(
+        e=100.0 * np.log(rows["E_pred_MPa"] / rows["E_meas_MPa"]), m=100.0 * np.log(rows["E_meas_MPa"])
+    )
+    out = []
+    for T, g in d.groupby("temperature_C"):
+        per = {"measured": g.groupby("mix_id")["m"].mean()}
+        per |= {lab: g[g["label"] == lab].groupby("mix_id")["e"].mean() for lab in labels}
+        for feature in features.columns:
+            for lab, y in per.items():
+                x = features[feature].reindex(y.index.astype(str)).to_numpy(float)
+                ok = np.isfinite(x) & np.isfinite(y.to_numpy(float))
+                if ok.sum() < 4:
+                    continue
+                fit = stats.linregress(x[ok], y.to_numpy(float)[ok])
+                h = stats.t.ppf(0.5 + confidence / 2, ok.sum() - 2) * fit.stderr
+                out.append(
+                    {
+                        "temperature_C": T,
+                        "feature": feature,
+                        "label": lab,
+                        "slope": fit.slope,
+                        "ci_low": fit.slope - h,
+                        "ci_high": fit.slope + h,
+                        "n_mixes": int(ok.sum()),
+                    }
+                )
+    return pd.DataFrame(out)
+
+
 def _fmt_ci(v, lo, hi, digits=1) -> str:
     if not np.isfinite(v):
         return "–"
@@ -66,7 +104,7 @@ def score_table(scores: pd.DataFrame, route: str, group: str = "all") -> str:
     s = scores[(scores["binder_route"] == route) & (scores["group"] == group) & scores["temperature_C"].isna()]
     s = s.sort_values("abs_logE_pct")
     lines = [
-        "| model | mixes | mean abs ln error of |E*| (%) | largest (%) | bias (%) | mean abs phase error (deg) | largest (deg) | bias (deg) |",
+        "| model | mixes | mean abs ln error of \\|E*\\| (%) | largest (%) | bias (%) | mean abs phase error (deg) | largest (deg) | bias (deg) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for _, r in s.iterrows():
