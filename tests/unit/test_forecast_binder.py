@@ -253,3 +253,17 @@ def test_bad_input_raises_naming_the_problem():
         B.fit_binders(s[at(s, 21.1)], shift="wlf")
     with pytest.raises(ValueError, match="binder S: the viscosity shift needs eta_Pa_s"):
         B.fit_binders(s)
+
+
+def test_a_binder_whose_points_mostly_fail_still_gets_a_curve_on_a_lower_rung():
+    """Phase angles 35 degrees off the |G*| slope: too few points pass Kramers-Kronig to carry a curve,
+    which then comes from the points within bounds and monotonic (:data:`B.FIT_LADDER`); without
+    viscosities the shift is Arrhenius. A healthy binder stays on the first rung."""
+    frame = synthetic()
+    bad = frame.assign(delta_deg=np.clip(frame["delta_deg"] - 35.0, 0.5, 89.0))
+    checked = B.check_points(bad)
+    assert checked["passed"].sum() < 8
+    curve, rung, shift = B.fit_binder_ladder(checked)
+    assert rung == "bounds_monotonic" and shift == "arrhenius" and curve.n_used > checked["passed"].sum()
+    curve, rung, shift = B.fit_binder_ladder(B.check_points(frame))
+    assert rung == "passed" and shift == "arrhenius" and curve.rmse_lnG < 0.5  # Arrhenius on a WLF binder: 0.32

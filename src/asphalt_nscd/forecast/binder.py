@@ -426,6 +426,35 @@ def fit_binders(
     return curves, points
 
 
+#: what a binder's curve is fitted on, in order, when the points before cannot carry it: the points that pass
+#: every check; those within bounds and monotonic; those within bounds (each with the viscosity shift when the
+#: binder has viscosities at 2 temperatures, else Arrhenius, whose one constant the data always fix)
+FIT_LADDER = (("passed", ()), ("bounds_monotonic", ("bounds", "monotonic")), ("bounds", ("bounds",)))
+
+
+def fit_binder_ladder(points: pd.DataFrame, *, T_ref_C: float = T_REF_C) -> tuple[BinderCurve, str, str]:
+    """The curve of one binder from :func:`check_points`'s rows: on the first rung of
+    :data:`FIT_LADDER` whose points carry it, with the default shift law, or Arrhenius when the
+    binder has no viscosity. Returns (curve, rung, shift law).
+
+    Raises ValueError naming the binder when no rung carries a curve."""
+    eta = points.get("eta_Pa_s")
+    has_eta = eta is not None and points.loc[np.isfinite(eta.to_numpy(float)), "temperature_C"].nunique() >= 2
+    shift = DEFAULT_SHIFT if has_eta else "arrhenius"
+    errors = []
+    for rung, reasons in FIT_LADDER:
+        if rung == "passed":
+            use = points
+        else:
+            bad = points["reason"].str.split(";").apply(lambda r: any(x in reasons for x in r if x))
+            use = points.assign(passed=~bad.to_numpy(bool))
+        try:
+            return fit_curve(use, shift=shift, T_ref_C=T_ref_C), rung, shift
+        except ValueError as exc:
+            errors.append(f"{rung}: {exc}")
+    raise ValueError(f"binder {points['binder'].iloc[0]}: no master curve ({'; '.join(errors)})")
+
+
 def viscosity_Pa_s(curve: BinderCurve, temperature_C) -> np.ndarray:
     """MEPDG Level 1 binder viscosity from the master curve at 10 rad/s (NCHRP 1-37A):
     eta = |G*| / 10 (1 / sin delta)^4.8628, |G*| in Pa, eta in Pa s (module docstring), for

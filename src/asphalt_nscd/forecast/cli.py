@@ -293,19 +293,36 @@ def _read_inputs(args):
 
 
 def _binders(args) -> int:
-    from ..io import write_csv, write_json
+    import logging
+
+    from ..io import InputError, write_csv, write_json
     from ..lab.matched import read_matched
-    from .binder import fit_binders
+    from .binder import check_points, fit_binder_ladder
     from .models import binder_points
     from .validation import binder_ids
 
     matched = read_matched(args.matched)
     points = binder_points(matched, binder_ids(matched))
-    curves, checked = fit_binders(points.drop(columns="mixes"))
+    try:
+        checked = check_points(points.drop(columns="mixes"))
+        fits = {b: fit_binder_ladder(g) for b, g in checked.groupby("binder")}
+    except ValueError as exc:
+        raise InputError(f"{args.matched}: {exc}") from None
     checked = checked.merge(points[["binder", "temperature_C", "frequency_Hz", "mixes"]], how="left")
     mixes = points.groupby("binder")["mixes"].first().to_dict()
+    for b, (_, rung, shift) in fits.items():
+        if rung != "passed":
+            logging.getLogger("asphalt_nscd").warning(
+                "%s: binder %s (mixes %s): too few points pass its checks; its master curve is fitted on the points "
+                "that pass the %s checks",
+                args.matched,
+                b,
+                mixes.get(b, ""),
+                rung.replace("_", " and "),
+            )
     write_csv(checked, args.output)
-    write_json({"curves": {b: c.as_dict() | {"mixes": mixes.get(b, "")} for b, c in curves.items()}}, args.curves)
+    curves = {b: c.as_dict() | {"mixes": mixes.get(b, ""), "fitted_on": rung} for b, (c, rung, _) in fits.items()}
+    write_json({"curves": curves}, args.curves)
     return 0
 
 
@@ -328,7 +345,7 @@ def _crossval(args) -> int:
     folds = mix_folds(measured, cfg.get("folds"), cfg.get("seed", 1))
     frames, states = [], []
     for route, table in routed_tables(matched, curves, binder_of_mix, cfg["binder_routes"]).items():
-        rows, st = cross_validate(table, models, binder_of_mix, folds, route)
+        rows, st = cross_validate(table, [m for m in models if m.available(table)], binder_of_mix, folds, route)
         frames.append(rows)
         states += st
     import pandas as pd
@@ -360,7 +377,7 @@ def _predict(args) -> int:
     train = table.dropna(subset=["E_norm_MPa", "phase_deg"])
     todo = table[table["E_norm_MPa"].isna()]
     frames, fits = [], []
-    for model in model_set(cfg, responses):
+    for model in (m for m in model_set(cfg, responses) if m.available(table)):
         state = model.fit(train)
         fits.append({"model": label(model), "binder_route": route, "state": state})
         if todo.empty:

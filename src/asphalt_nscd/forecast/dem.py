@@ -204,6 +204,10 @@ class DemModel:
             raise InputError(f"DEM model {name!r}: expected one of {MODELS}")
         self.model, self.responses, self.cut_mm = name, responses, float(cut_mm)
 
+    def available(self, table: pd.DataFrame) -> bool:
+        """Whether every mix of ``table`` has a sample response."""
+        return set(table["mix_id"]) <= set(self.responses)
+
     def _cells(self, rows: pd.DataFrame) -> list:
         """(row indices, E*_mortar (Pa), responses) per mix of ``rows``."""
         from .formulation import phase_volumes

@@ -65,6 +65,11 @@ class Baseline:
     def name(self) -> str:
         return f"{self.model} ({self.coefficients})"
 
+    def available(self, table: pd.DataFrame) -> bool:
+        """Whether ``table`` gives every input the formula reads (a table without viscosity gives
+        Witczak 1-37A its input only through the binder's master curve)."""
+        return all(table[c].notna().all() for c in _inputs_needed(self.model))
+
     def fit(self, train: pd.DataFrame) -> dict | None:
         """The coefficients for a fold: None (published) or recalibrated on ``train`` (rows of
         the training mixes with measured |E*| and phase)."""
