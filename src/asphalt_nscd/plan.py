@@ -894,8 +894,19 @@ def forecast_responses(config: dict, matched) -> list:
 
 def forecast_settings(config: dict) -> dict:
     """What the forecast's chain commands read from the config (a change reruns them): the
-    forecast section, and the sample section the preparations take their dynamics from."""
-    return {"forecast": config["forecast"], "sample": {k: v for k, v in config["sample"].items() if k != "seeds"}}
+    forecast section without the seed list."""
+    dem = {k: v for k, v in (config["forecast"].get("dem") or {}).items() if k != "seeds"}
+    return {**config["forecast"], "dem": dem}
+
+
+def forecast_sample_settings(config: dict) -> dict:
+    """What a mix's preparation reads from the config (a change reruns it, and only it): the cut, the
+    cube's size and the layer (forecast.dem), and the sample section the dynamics come from."""
+    dem = config["forecast"].get("dem") or {}
+    return {
+        "dem": {k: dem.get(k) for k in ("cut_mm", "size_dmax", "layer_over_side")},
+        "sample": {k: v for k, v in config["sample"].items() if k != "seeds"},
+    }
 
 
 def forecast_responses_input(config: dict, checkpoints):

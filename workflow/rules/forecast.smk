@@ -53,7 +53,7 @@ rule forecast_pack:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        settings=plan.forecast_settings(config),
+        settings=plan.forecast_sample_settings(config),
     shell:
         'asphalt-nscd forecast-pack --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input} --mix {wildcards.mix}'
         " --seed {wildcards.seed} -o {output} 2> {log}"
@@ -73,7 +73,7 @@ rule forecast_sample:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        settings=plan.forecast_settings(config),
+        settings=plan.forecast_sample_settings(config),
     shell:
         'asphalt-nscd forecast-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input.matched}'
         " --mix {wildcards.mix} --packing {input.packing} -o {output.h5} --summary {output.summary} 2> {log}"

@@ -87,7 +87,8 @@ class Response:
         from ..io import atomic_path
 
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, **{k: np.asarray(v) for k, v in self.__dict__.items()})
+            arrays: dict = {k: np.asarray(v) for k, v in self.__dict__.items()}
+            np.savez(fh, **arrays)
 
     @classmethod
     def load(cls, path) -> "Response":

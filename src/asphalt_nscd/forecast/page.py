@@ -104,6 +104,18 @@ def page(
             f"- {at}: lowest |E*| error {r['best_E']} ({r['best_E_pct']:.1f} %), lowest phase error "
             f"{r['best_phase']} ({r['best_phase_deg']:.1f}°)."
         )
+    overall = scores[(scores["binder_route"] == route) & (scores["group"] == "all") & scores["temperature_C"].isna()]
+    for column, key, unit in (("e", "abs_logE_pct", "%"), ("p", "abs_phase_deg", "deg")):
+        ranked = overall.sort_values(key)["label"].tolist()
+        if len(ranked) >= 2:
+            d = render.paired(errors, ranked[0], ranked[1], route, column, confidence)
+            r = d[d["temperature_C"].isna()].iloc[0]
+            resolved = np.isfinite(r["ci_high"]) and r["ci_high"] < 0
+            L.append(
+                f"- {'|E*|' if column == 'e' else 'Phase'}: {ranked[0]} against the runner-up {ranked[1]}, paired over "
+                f"{int(r['n_mixes'])} mixes: {r['mean']:+.1f} {unit} [{r['ci_low']:+.1f}, {r['ci_high']:+.1f}]"
+                f" ({'resolved' if resolved else 'not resolved: the interval holds 0'})."
+            )
     base = _best_baseline(scores, route)
     dem_labels = [lab for lab in ("dem_extended", "dem") if lab in set(scores["label"])]
     if base and dem_labels:

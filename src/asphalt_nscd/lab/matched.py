@@ -404,7 +404,8 @@ def _number(path, frame, col: str, expected: str, empty_ok: bool = False) -> np.
 
 def _by_order(path, mix: pd.Series, fmt: MatchedFormat) -> tuple[np.ndarray, np.ndarray]:
     """Temperatures and frequencies of the rows from the declared block order."""
-    temps, freqs = fmt.order["temperatures"], fmt.order["frequencies_Hz"]
+    order = fmt.order or {}
+    temps, freqs = order["temperatures"], order["frequencies_Hz"]
     n = len(temps) * len(freqs)
     T = np.empty(len(mix))
     f = np.empty(len(mix))

@@ -1,0 +1,124 @@
+"""Collect the committed tables of a forecast run (``make run`` or the reference overlay) into a folder.
+
+    python reference/forecast/collect.py RUN_DIR --label default -o reference/forecast
+
+RUN_DIR is the working directory of the run (it holds ``results/forecast/`` and
+``benchmarks/process_cpu.jsonl``). Writes, each prefixed by the label:
+
+* ``<label>_crossval.csv``: the held-out scores (``results/forecast/crossval.csv``);
+* ``<label>_costs.csv``: the exact CPU (user + system, getrusage) of each mix's packing, sample and
+  response, and of the chain's other commands, from the run's CPU records (the last record of
+  each command line);
+* ``<label>_constants.csv``: the discrete model's constants fitted on every measured mix (route
+  curve) with those of every fold (smallest, largest);
+* ``<label>_seed_spread.csv`` (runs of several seeds): per mix and seed, the mean over the table's
+  conditions of 100 |ln(E_seed / E_mean)|, |E*| of ``dem_extended`` at the fitted constants from one
+  seed's sample against the geometric mean over the seeds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from asphalt_nscd.forecast.dem import DemModel
+from asphalt_nscd.forecast.models import read_curves, read_responses
+from asphalt_nscd.forecast.validation import binder_ids, with_binder_route
+from asphalt_nscd.io import read_csv, read_json, write_csv
+from asphalt_nscd.lab.matched import read_matched
+
+
+def costs(run: Path) -> pd.DataFrame:
+    last = {}
+    for line in (run / "benchmarks" / "process_cpu.jsonl").read_text().splitlines():
+        r = json.loads(line)
+        if r["argv"] and (r["argv"][0].startswith("forecast") or r["argv"][0] == "matched") and r["status"] == 0:
+            last[tuple(r["argv"])] = r
+    rows = []
+    for argv, r in last.items():
+        mix = argv[argv.index("--mix") + 1] if "--mix" in argv else ""
+        seed = argv[argv.index("--seed") + 1] if "--seed" in argv else ""
+        rows.append(
+            {
+                "command": argv[0],
+                "mix_id": mix,
+                "seed": seed,
+                "cpu_s": r["user_s"] + r["system_s"],
+                "max_rss_mb": r["max_rss_mb"],
+            }
+        )
+    return pd.DataFrame(rows).sort_values(["command", "mix_id", "seed"])
+
+
+def constants(run: Path) -> pd.DataFrame:
+    final = read_json(run / "results" / "forecast" / "forecast_constants.json")
+    folds = read_json(run / "results" / "forecast" / "crossval_constants.json")["fits"]
+    rows = []
+    for fit in final["fits"]:
+        if not fit["model"].startswith("dem"):
+            continue
+        for k, v in fit["state"].items():
+            if not k.startswith("C_"):
+                continue
+            per = [f["state"][k] for f in folds if f["model"] == fit["model"] and f["binder_route"] == "curve"]
+            rows.append(
+                {
+                    "model": fit["model"],
+                    "constant": k,
+                    "all_mixes": v,
+                    "folds_min": min(per),
+                    "folds_max": max(per),
+                    "n_folds": len(per),
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def seed_spread(run: Path, cut_mm: float) -> pd.DataFrame | None:
+    res = run / "results" / "forecast"
+    responses = read_responses(sorted((res / "responses").glob("*.npz")))
+    if max(len(v) for v in responses.values()) < 2:
+        return None
+    matched = read_matched(res / "matched.csv")
+    table = with_binder_route(matched, read_curves(res / "binder_curves.json"), binder_ids(matched), "curve")
+    state = next(f["state"] for f in read_json(res / "forecast_constants.json")["fits"] if f["model"] == "dem_extended")
+    rows = []
+    for mix, resp in responses.items():
+        t = table[table["mix_id"] == mix]
+        logs = [np.log(DemModel("dem_extended", {mix: [r]}, cut_mm).predict(state, t)[0]) for r in resp]
+        mean = np.mean(logs, axis=0)
+        for r, lg in zip(resp, logs):
+            rows.append(
+                {
+                    "mix_id": mix,
+                    "seed": r.seed,
+                    "n_spheres": r.n_spheres,
+                    "mean_abs_log_diff_pct": float(100 * np.mean(np.abs(lg - mean))),
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("run", type=Path)
+    p.add_argument("--label", required=True)
+    p.add_argument("--cut-mm", type=float, default=4.0, help="the run's forecast.dem.cut_mm")
+    p.add_argument("-o", "--output", type=Path, required=True)
+    a = p.parse_args(argv)
+    a.output.mkdir(parents=True, exist_ok=True)
+    write_csv(read_csv(a.run / "results" / "forecast" / "crossval.csv"), a.output / f"{a.label}_crossval.csv")
+    write_csv(costs(a.run), a.output / f"{a.label}_costs.csv")
+    write_csv(constants(a.run), a.output / f"{a.label}_constants.csv")
+    spread = seed_spread(a.run, a.cut_mm)
+    if spread is not None:
+        write_csv(spread, a.output / f"{a.label}_seed_spread.csv")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
