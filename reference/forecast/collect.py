@@ -6,6 +6,8 @@ RUN_DIR is the working directory of the run (it holds ``results/forecast/`` and
 ``benchmarks/process_cpu.jsonl``). Writes, each prefixed by the label:
 
 * ``<label>_crossval.csv``: the held-out scores (``results/forecast/crossval.csv``);
+* ``<label>_per_mix.csv``: each mix's mean held-out errors per model, route and temperature (the
+  paired comparisons of the page, :func:`asphalt_nscd.forecast.render.per_mix_errors`);
 * ``<label>_costs.csv``: the exact CPU (user + system, getrusage) of each mix's packing, sample and
   response, and of the chain's other commands, from the run's CPU records (the last record of
   each command line);
@@ -111,7 +113,11 @@ def main(argv=None) -> int:
     p.add_argument("-o", "--output", type=Path, required=True)
     a = p.parse_args(argv)
     a.output.mkdir(parents=True, exist_ok=True)
+    from asphalt_nscd.forecast.render import per_mix_errors
+
     write_csv(read_csv(a.run / "results" / "forecast" / "crossval.csv"), a.output / f"{a.label}_crossval.csv")
+    rows = read_csv(a.run / "results" / "forecast" / "crossval_rows.csv", dtype={"mix_id": str})
+    write_csv(per_mix_errors(rows).round(6), a.output / f"{a.label}_per_mix.csv")
     write_csv(costs(a.run), a.output / f"{a.label}_costs.csv")
     write_csv(constants(a.run), a.output / f"{a.label}_constants.csv")
     spread = seed_spread(a.run, a.cut_mm)

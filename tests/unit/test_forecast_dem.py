@@ -173,3 +173,20 @@ def test_a_coarser_gradation_stiffens_the_forecast_as_the_size_study_shows(table
         factors.append((fraction, r.factor(0.0).real, r.factor(1.0).real))
     (f0, a0, b0), (f1, a1, b1) = factors
     assert f1 > f0 + 0.1 and a1 > a0 and b1 > b0
+
+
+def test_a_mix_without_a_usable_sample_is_forecast_as_missing(table, responses):
+    """A sample that carries no load (its response empty): the discrete models forecast its mix as
+    missing values and fit on the others; the scores count its cells as not computed."""
+    from asphalt_nscd.forecast.validation import score
+
+    t = _planted(table, responses, {"C_m": 20.0, "C_a": 0.3, "C_s": 0.02}, 0.03, 5)
+    gone = dict(responses, **{"209": [dem.Response.empty("209", 1, _sample(9))]})
+    model = dem.DemModel("dem_extended", gone, 4.0)
+    ids = pd.Series({m: m for m in MIXES})
+    rows, states = cross_validate(t, [model], ids, mix_folds(MIXES), "raw")
+    own = rows["mix_id"] == "209"
+    assert rows.loc[own, "E_pred_MPa"].isna().all() and rows.loc[~own, "E_pred_MPa"].notna().all()
+    assert all(s["state"]["n_rows"] == 30 * 4 for s in states if s["fold"] != MIXES.index("209"))
+    s = score(rows)
+    assert s[(s["group"] == "all") & s["temperature_C"].isna()].iloc[0]["n_mixes"] == 5

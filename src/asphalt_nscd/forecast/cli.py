@@ -327,10 +327,19 @@ def _binders(args) -> int:
 
 
 def _response(args) -> int:
-    from ..sample.store import read_sample
-    from .dem import sample_response
+    import logging
 
-    sample_response(read_sample(args.sample), args.mix, args.seed).save(args.output)
+    from ..io import InputError
+    from ..sample.store import read_sample
+    from .dem import Response, sample_response
+
+    sample = read_sample(args.sample)
+    try:
+        response = sample_response(sample, args.mix, args.seed)
+    except InputError as exc:  # a sample that carries no load: the discrete models cannot forecast this mix
+        logging.getLogger("asphalt_nscd").warning("mix %s: no discrete forecast (%s)", args.mix, exc)
+        response = Response.empty(args.mix, args.seed, sample)
+    response.save(args.output)
     return 0
 
 

@@ -67,6 +67,28 @@ class Response:
     n_skeleton: int
     cpu_s: float = 0.0
 
+    @classmethod
+    def empty(cls, mix_id: str, seed: int, sample) -> "Response":
+        """The response of a sample that carries no load between its plates: NaN everywhere, so
+        that the discrete models forecast its mix as missing and leave it out of their fits."""
+        return cls(
+            str(mix_id),
+            int(seed),
+            float(sample.attrs.get("h_m", np.nan)),
+            np.nan,
+            np.nan,
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            int(sample.radius.size),
+            int(sample.bonds["i"].size),
+            0,
+        )
+
+    @property
+    def usable(self) -> bool:
+        return bool(np.isfinite(self.p0))
+
     def factor(self, zeta) -> np.ndarray:
         """E*_sample / (C_m E*_mortar) at each zeta (complex array): F(zeta) / L."""
         z = np.asarray(zeta, complex)[..., None]
@@ -206,8 +228,10 @@ class DemModel:
         self.model, self.responses, self.cut_mm = name, responses, float(cut_mm)
 
     def available(self, table: pd.DataFrame) -> bool:
-        """Whether every mix of ``table`` has a sample response."""
-        return set(table["mix_id"]) <= set(self.responses)
+        """Whether some mix of ``table`` has a usable sample response (the others are forecast as
+        missing values and left out of the fits)."""
+        usable = {m for m, resp in self.responses.items() if all(r.usable for r in resp)}
+        return bool(usable & set(table["mix_id"]))
 
     def _cells(self, rows: pd.DataFrame) -> list:
         """(row indices, E*_mortar (Pa), responses) per mix of ``rows``."""
@@ -218,6 +242,8 @@ class DemModel:
         for mix_id, idx in rows.groupby("mix_id", sort=False).indices.items():
             if mix_id not in self.responses:
                 raise InputError(f"DEM model: no sample response for mix {mix_id!r}")
+            if not all(resp.usable for resp in self.responses[mix_id]):
+                continue  # a sample that carries no load: forecast as missing
             r = rows.iloc[idx]
             v = phase_volumes(r.iloc[0], self.cut_mm)
             G, d = r["binder_G_mix_MPa"].to_numpy(float) * 1e6, r["binder_delta_mix_deg"].to_numpy(float)
@@ -227,8 +253,8 @@ class DemModel:
     def _log_modulus(self, cells: list, n: int, ln_c, slopes: bool = False):
         """ln E*_sample (Pa, complex) of every row for the constants ln (C_m, C_a, C_s), and with
         ``slopes`` its derivatives with respect to them, (n, 3) complex (module docstring)."""
-        out = np.empty(n, complex)
-        jac = np.empty((n, 3), complex)
+        out = np.full(n, np.nan + 0j)
+        jac = np.zeros((n, 3), complex)
         c_m, c_a, c_s = np.exp(ln_c)
         for idx, e, responses in cells:
             u = 1.0 / (c_m * e)
@@ -249,6 +275,8 @@ class DemModel:
         from scipy.optimize import least_squares
 
         rows = train.dropna(subset=["E_norm_MPa", "phase_deg"])
+        usable = {m for m, resp in self.responses.items() if all(r.usable for r in resp)}
+        rows = rows[rows["mix_id"].isin(usable)].reset_index(drop=True)
         y = np.log(rows["E_norm_MPa"].to_numpy(float) * 1e6) + 1j * np.radians(rows["phase_deg"].to_numpy(float))
         cells = self._cells(rows)
         if self.model == "dem":

@@ -1,0 +1,160 @@
+"""Write reference/forecast/README.md from the committed tables beside it (every number computed here).
+
+    python reference/forecast/readme.py
+
+Reads ``<label>_crossval.csv``, ``<label>_per_mix.csv``, ``<label>_costs.csv``, ``<label>_constants.csv``
+and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, and the size study's
+``size_study_summary.csv``; a table that is missing leaves its section out.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+HERE = Path(__file__).resolve().parent
+ROUTE = "curve"
+
+
+def _read(name: str) -> pd.DataFrame | None:
+    p = HERE / name
+    return pd.read_csv(p, dtype={"mix_id": str}) if p.exists() else None
+
+
+def _ci(v, lo, hi, d=1) -> str:
+    return f"{v:.{d}f} [{lo:.{d}f}, {hi:.{d}f}]"
+
+
+def headline(scores: pd.DataFrame) -> list[str]:
+    s = scores[(scores["binder_route"] == ROUTE) & (scores["group"] == "all") & scores["temperature_C"].isna()]
+    lines = ["| model | mean abs 100 ln(E_f/E_m) (%) | mean abs phase error (°) | largest (%) |", "|---|---|---|---|"]
+    for _, r in s.sort_values("abs_logE_pct").iterrows():
+        lines.append(
+            f"| {r['label']} | {_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
+            f"{_ci(r['abs_phase_deg'], r['abs_phase_ci_low'], r['abs_phase_ci_high'])} | {r['max_abs_logE_pct']:.0f} |"
+        )
+    return lines
+
+
+def paired(per_mix: pd.DataFrame, a: str, b: str) -> list[str]:
+    from scipy import stats
+
+    e = per_mix[per_mix["binder_route"] == ROUTE]
+    lines = [f"| T (°C) | {a} − {b}: \\|E*\\| (%) | phase (°) |", "|---|---|---|"]
+    for T in [np.nan, *sorted(e["temperature_C"].dropna().unique())]:
+        sel = e[e["temperature_C"].isna()] if np.isnan(T) else e[e["temperature_C"] == T]
+        cells = []
+        for col in ("e", "p"):
+            w = sel.pivot_table(index="mix_id", columns="label", values=col)
+            d = (w[a] - w[b]).dropna().to_numpy()
+            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
+            cells.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
+        lines.append(f"| {'all' if np.isnan(T) else f'{T:.1f}'} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def costs(c: pd.DataFrame) -> list[str]:
+    g = c.groupby("command")["cpu_s"]
+    per_mix = c[c["command"].isin(["forecast-pack", "forecast-sample", "forecast-response"])]
+    n = per_mix["mix_id"].nunique()
+    lines = ["| command | jobs | CPU total (s) | per job: mean (s) | largest (s) |", "|---|---|---|---|---|"]
+    for cmd, v in g:
+        lines.append(f"| {cmd} | {v.size} | {v.sum():.0f} | {v.mean():.1f} | {v.max():.1f} |")
+    lines += [
+        "",
+        f"Per mix (packing, sample and response over its seeds): {per_mix['cpu_s'].sum() / n:.0f} s; "
+        f"the whole chain {c['cpu_s'].sum():.0f} s of CPU.",
+    ]
+    return lines
+
+
+def main() -> int:
+    L = [
+        "# The forecast from the binder: reference tables",
+        "",
+        "Committed tables of two runs of the forecast on the 35 shipped mixes (`data/binder_mix/`), written by "
+        "`reference/forecast/collect.py`, and this page by `reference/forecast/readme.py` from them.",
+        "",
+        "```bash",
+        "make run                                                     # default: 2.5 largest diameters, one seed",
+        "python reference/forecast/collect.py . --label default -o reference/forecast",
+        ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_reference.yaml",
+        "python reference/forecast/collect.py . --label reference -o reference/forecast  # 3.0 diameters, two seeds",
+        "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
+        "    --summary reference/forecast/size_study_summary.csv",
+        "python reference/forecast/readme.py",
+        "```",
+        "",
+        "Errors are held out (leave one mix out, binder through its master curve), 95 % t intervals over the 35 mixes.",
+    ]
+    for label, what in (("default", "Default run"), ("reference", "Reference run")):
+        scores, per_mix, c = _read(f"{label}_crossval.csv"), _read(f"{label}_per_mix.csv"), _read(f"{label}_costs.csv")
+        if scores is None:
+            continue
+        L += ["", f"## {what}", "", *headline(scores)]
+        if per_mix is not None and "dem_extended" in set(per_mix["label"]):
+            best = (
+                scores[
+                    (scores["binder_route"] == ROUTE)
+                    & (scores["group"] == "all")
+                    & scores["temperature_C"].isna()
+                    & scores["label"].str.endswith("_recalibrated")
+                ]
+                .sort_values("abs_logE_pct")["label"]
+                .iloc[0]
+            )
+            L += [
+                "",
+                "`dem_extended` against the best recalibrated formula, paired over the mixes:",
+                "",
+                *paired(per_mix, "dem_extended", best),
+            ]
+        if c is not None:
+            L += ["", "CPU (exact records of the run's commands, this shared 2-core machine):", "", *costs(c)]
+        k = _read(f"{label}_constants.csv")
+        if k is not None:
+            L += [
+                "",
+                "Constants fitted on every measured mix (and the range over the folds):",
+                "",
+                "| model | constant | all mixes | folds: smallest | largest |",
+                "|---|---|---|---|---|",
+            ]
+            L += [
+                f"| {r['model']} | {r['constant']} | {r['all_mixes']:.4g} | {r['folds_min']:.4g} | {r['folds_max']:.4g} |"
+                for _, r in k.iterrows()
+            ]
+        sp = _read(f"{label}_seed_spread.csv")
+        if sp is not None:
+            m = sp.groupby("mix_id")["mean_abs_log_diff_pct"].mean()
+            L += [
+                "",
+                f"Seeds: the forecast |E*| of `dem_extended` from one seed's sample differs from the mean over "
+                f"the seeds by {m.mean():.1f} % on average over the mixes (largest mix {m.max():.1f} %).",
+            ]
+    sz = _read("size_study_summary.csv")
+    if sz is not None:
+        L += [
+            "",
+            "## Size study",
+            "",
+            "Sample factor E*/e_1 (mortar alone, ζ = 0, and with the skeleton, ζ = 1): mean over "
+            "the seeds and their coefficient of variation, per mix and cube size (side / largest diameter):",
+            "",
+            "| mix | coarse fraction | size | spheres | seeds | ζ = 0 | CV (%) | ζ = 1 | CV (%) | packing CPU (s) |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        for _, r in sz.iterrows():
+            L.append(
+                f"| {r['mix_id']} | {r['coarse']:.2f} | {r['size_dmax']:g} | {r['n_spheres']:.0f} | {int(r['n_seeds'])} | "
+                f"{r['factor_zeta0_mean']:.3f} | {r['factor_zeta0_cv_pct']:.1f} | {r['factor_zeta1_mean']:.3f} | "
+                f"{r['factor_zeta1_cv_pct']:.1f} | {r['pack_cpu_s']:.0f} |"
+            )
+    (HERE / "README.md").write_text("\n".join(L) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
