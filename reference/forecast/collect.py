@@ -35,11 +35,17 @@ from asphalt_nscd.lab.matched import read_matched
 
 
 def costs(run: Path) -> pd.DataFrame:
+    """CPU of the run's last complete forecast: the commands given the configuration of its last
+    successful ``forecast-crossval`` (or no configuration), the last record of each command line."""
+    records = [json.loads(line) for line in (run / "benchmarks" / "process_cpu.jsonl").read_text().splitlines()]
+    records = [r for r in records if r["argv"] and r["status"] == 0]
+    final = [r["argv"] for r in records if r["argv"][0] == "forecast-crossval"][-1]
+    config = final[final.index("--config") + 1]
     last = {}
-    for line in (run / "benchmarks" / "process_cpu.jsonl").read_text().splitlines():
-        r = json.loads(line)
-        if r["argv"] and (r["argv"][0].startswith("forecast") or r["argv"][0] == "matched") and r["status"] == 0:
-            last[tuple(r["argv"])] = r
+    for r in records:
+        a = r["argv"]
+        if (a[0].startswith("forecast") or a[0] == "matched") and ("--config" not in a or config in a):
+            last[tuple(a)] = r
     rows = []
     for argv, r in last.items():
         mix = argv[argv.index("--mix") + 1] if "--mix" in argv else ""
