@@ -70,7 +70,7 @@ def constants(run: Path) -> pd.DataFrame:
         if not fit["model"].startswith("dem"):
             continue
         for k, v in fit["state"].items():
-            if not k.startswith("C_"):
+            if not (k.startswith("C_") or k == "n_s"):
                 continue
             per = [f["state"][k] for f in folds if f["model"] == fit["model"] and f["binder_route"] == "curve"]
             rows.append(

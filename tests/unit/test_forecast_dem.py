@@ -87,7 +87,7 @@ def test_dem_follows_the_mortar_and_the_extension_adds_the_glassy_and_skeleton_l
     ext = dem.DemModel("dem_extended", responses, 4.0)
     glassy = rows.assign(binder_G_mix_MPa=1e6, binder_delta_mix_deg=1.0)  # a binder far stiffer than stone
     soft = rows.assign(binder_G_mix_MPa=1e-9, binder_delta_mix_deg=89.0)  # a fluid binder
-    state = {"C_m": 1.0, "C_a": 0.5, "C_s": 0.01}
+    state = {"C_m": 1.0, "C_a": 0.5, "C_s": 0.01, "n_s": 0.0}
     Eg, Pg, _ = ext.predict(state, glassy)
     Es, Ps, _ = ext.predict(state, soft)
     Es2, _, _ = ext.predict(state, soft.assign(binder_G_mix_MPa=1e-11))
@@ -96,6 +96,9 @@ def test_dem_follows_the_mortar_and_the_extension_adds_the_glassy_and_skeleton_l
     np.testing.assert_allclose(Eg * 1e6, stone * np.real(r.factor(0.02)), rtol=2e-3)
     np.testing.assert_allclose(Es2, Es, rtol=1e-3)  # the skeleton's modulus, whatever the binder
     assert np.all(Pg < 1.0) and np.all(Ps < 1.0) and np.all(Es > 0)
+    # a parabolic skeleton (n_s = 0.4): at a soft binder its phase is 0.4 times the binder's
+    _, Pp, _ = ext.predict({**state, "n_s": 0.4}, soft)
+    np.testing.assert_allclose(Pp, 0.4 * 89.0, atol=0.5)
 
 
 def _planted(table, responses, state, noise: float, seed: int) -> pd.DataFrame:
@@ -111,7 +114,7 @@ def _planted(table, responses, state, noise: float, seed: int) -> pd.DataFrame:
 def test_a_planted_mix_is_recovered_within_fold_noise(table, responses, seed):
     """Measured values made by dem_extended with known constants (3 % log noise): every fold
     recovers the constants, and every held-out forecast is within the noise of the planted value."""
-    state = {"C_m": 20.0, "C_a": 0.3, "C_s": 0.02}
+    state = {"C_m": 20.0, "C_a": 0.3, "C_s": 0.5, "n_s": 0.3}
     planted = _planted(table, responses, state, 0.03, seed)
     truth = _planted(table, responses, state, 0.0, seed)
     model = dem.DemModel("dem_extended", responses, 4.0)
@@ -119,7 +122,7 @@ def test_a_planted_mix_is_recovered_within_fold_noise(table, responses, seed):
     rows, states = cross_validate(planted, [model], ids, mix_folds(MIXES), "raw")
     for s in states:
         for k, v in state.items():
-            assert s["state"][k] == pytest.approx(v, rel=0.15), (k, s["state"])
+            assert s["state"][k] == pytest.approx(v, rel=0.15, abs=0.05), (k, s["state"])
     merged = rows.merge(truth[["mix_id", "temperature_C", "frequency_Hz", "E_norm_MPa", "phase_deg"]])
     err = np.log(merged["E_pred_MPa"] / merged["E_norm_MPa"])
     assert np.sqrt(np.mean(err**2)) < 0.03 and np.abs(merged["phase_pred_deg"] - merged["phase_deg"]).max() < 1.0
@@ -128,7 +131,7 @@ def test_a_planted_mix_is_recovered_within_fold_noise(table, responses, seed):
 def test_a_held_out_mix_never_reaches_its_fold(table, responses):
     """Three times the held-out mix's |E*| (and 10 degrees more phase): its forecast by every model
     does not move; the forecasts of the other folds do."""
-    t = _planted(table, responses, {"C_m": 20.0, "C_a": 0.3, "C_s": 0.02}, 0.05, 3)
+    t = _planted(table, responses, {"C_m": 20.0, "C_a": 0.3, "C_s": 0.5, "n_s": 0.3}, 0.05, 3)
     models = [
         dem.DemModel("dem", responses, 4.0),
         dem.DemModel("dem_extended", responses, 4.0),
@@ -180,7 +183,7 @@ def test_a_mix_without_a_usable_sample_is_forecast_as_missing(table, responses):
     missing values and fit on the others; the scores count its cells as not computed."""
     from asphalt_nscd.forecast.validation import score
 
-    t = _planted(table, responses, {"C_m": 20.0, "C_a": 0.3, "C_s": 0.02}, 0.03, 5)
+    t = _planted(table, responses, {"C_m": 20.0, "C_a": 0.3, "C_s": 0.5, "n_s": 0.3}, 0.03, 5)
     gone = dict(responses, **{"209": [dem.Response.empty("209", 1, _sample(9))]})
     model = dem.DemModel("dem_extended", gone, 4.0)
     ids = pd.Series({m: m for m in MIXES})

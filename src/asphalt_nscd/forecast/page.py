@@ -16,8 +16,9 @@ from . import render
 
 #: physical range (low, high) of the discrete model's constants: a bond or a contact stiffer than the stone
 #: it joins (C_a, C_s above 1) is not physical; the mortar's modulus is a lower bound (Hashin-Shtrikman), so
-#: its bridge cannot be softer than it (C_m below 1)
-PHYSICAL = {"C_m": (1.0, np.inf), "C_a": (0.0, 1.0), "C_s": (0.0, 1.0)}
+#: its bridge cannot be softer than it (C_m below 1); the skeleton's exponent lies between an elastic
+#: contact (0) and one that follows the mortar (1)
+PHYSICAL = {"C_m": (1.0, np.inf), "C_a": (0.0, 1.0), "C_s": (0.0, 1.0), "n_s": (0.0, 1.0)}
 
 
 def _overall(scores, route, label, group="all"):
@@ -214,8 +215,8 @@ def _dem_section(scores, route, constants, errors, confidence, rows, matched) ->
         "constant and its phase angle is the binder's: far too soft and too viscous where the binder is soft, too "
         "stiff where it is glassy (the biases above). `dem_extended` adds the two load paths a mix has and rigid "
         "spheres in a mortar lack: the stones' own compliance in series with every bond (the glassy limit) and the "
-        "aggregate skeleton, elastic springs on the pairs in contact in the packed layer (the load path that does "
-        "not follow the binder).",
+        "aggregate skeleton, contacts on the pairs in contact in the packed layer whose stiffness follows the "
+        "mortar's only as its power n_s (a parabolic element: the load path that does not follow the binder).",
         "",
     ]
     if "dem_extended" in set(scores["label"]):
