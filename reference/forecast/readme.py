@@ -134,6 +134,26 @@ def main() -> int:
                 f"Seeds: the forecast |E*| of `dem_extended` from one seed's sample differs from the mean over "
                 f"the seeds by {m.mean():.1f} % on average over the mixes (largest mix {m.max():.1f} %).",
             ]
+    sk = _read("skeleton_exponent.csv")
+    if sk is not None:
+        L += [
+            "",
+            "## The skeleton's exponent",
+            "",
+            "`dem_extended` on the default run's samples with its skeleton elastic "
+            "(n_s held at 0) and parabolic (n_s fitted in each fold), held out (`skeleton_exponent.py`):",
+            "",
+            "| T (°C) | elastic: \\|E*\\| (%) | phase (°) | parabolic: \\|E*\\| (%) | phase (°) |",
+            "|---|---|---|---|---|",
+        ]
+        for T, g in sk.groupby(sk["temperature_C"].fillna(-999.0), sort=True):
+            e, p = (g[g["skeleton"] == k].iloc[0] for k in ("elastic", "parabolic"))
+            cells = [
+                _ci(r[value], r[f"{base}_ci_low"], r[f"{base}_ci_high"])
+                for r in (e, p)
+                for value, base in (("abs_logE_pct", "abs_logE"), ("abs_phase_deg", "abs_phase"))
+            ]
+            L.append(f"| {'all' if T == -999.0 else f'{T:.1f}'} | " + " | ".join(cells) + " |")
     sz = _read("size_study_summary.csv")
     if sz is not None:
         L += [

@@ -128,6 +128,22 @@ def test_a_planted_mix_is_recovered_within_fold_noise(table, responses, seed):
     assert np.sqrt(np.mean(err**2)) < 0.03 and np.abs(merged["phase_pred_deg"] - merged["phase_deg"]).max() < 1.0
 
 
+def test_a_held_skeleton_exponent_stays_and_costs_fit_on_a_parabolic_mix(table, responses):
+    """n_s held at 0 (the elastic skeleton) on data planted with n_s = 0.3: every fold keeps n_s = 0
+    and fits the phase worse than the fitted exponent does."""
+    planted = _planted(table, responses, {"C_m": 20.0, "C_a": 0.3, "C_s": 0.5, "n_s": 0.3}, 0.0, 1)
+    ids = pd.Series({m: m for m in MIXES})
+    out = {}
+    for held in (0.0, None):
+        model = dem.DemModel("dem_extended", responses, 4.0, skeleton_exponent=held)
+        rows, states = cross_validate(planted, [model], ids, mix_folds(MIXES), "raw")
+        if held is not None:
+            assert all(s["state"]["n_s"] == pytest.approx(0.0, abs=1e-9) for s in states)
+        merged = rows.merge(planted[["mix_id", "temperature_C", "frequency_Hz", "phase_deg"]])
+        out[held] = np.abs(merged["phase_pred_deg"] - merged["phase_deg"]).mean()
+    assert out[None] < 0.1 < out[0.0]
+
+
 def test_a_held_out_mix_never_reaches_its_fold(table, responses):
     """Three times the held-out mix's |E*| (and 10 degrees more phase): its forecast by every model
     does not move; the forecasts of the other folds do."""

@@ -221,14 +221,16 @@ class DemModel:
     name : one of :data:`MODELS`.
     responses : mix_id -> list of :class:`Response` (one per seed).
     cut_mm : the samples' PSD cut (the mortar's fine aggregate is what passes it).
+    skeleton_exponent : n_s held at this value (0: the elastic skeleton) instead of fitted.
     """
 
     coefficients = "recalibrated"
 
-    def __init__(self, name: str, responses: dict, cut_mm: float):
+    def __init__(self, name: str, responses: dict, cut_mm: float, skeleton_exponent: float | None = None):
         if name not in MODELS:
             raise InputError(f"DEM model {name!r}: expected one of {MODELS}")
         self.model, self.responses, self.cut_mm = name, responses, float(cut_mm)
+        self.skeleton_exponent = skeleton_exponent
 
     def available(self, table: pd.DataFrame) -> bool:
         """Whether some mix of ``table`` has a usable sample response (the others are forecast as
@@ -309,10 +311,15 @@ class DemModel:
             return np.concatenate([j.real, j.imag])
 
         lower, upper = [LN_BOUNDS[0]] * 3 + [N_BOUNDS[0]], [LN_BOUNDS[1]] * 3 + [N_BOUNDS[1]]
-        fits = [least_squares(resid, x0, jac=jac, bounds=(lower, upper)) for x0 in STARTS]
+        if self.skeleton_exponent is not None:  # n_s held: a bound pair of width 0 is not allowed, so 1e-12
+            n = float(self.skeleton_exponent)
+            lower[3], upper[3] = n, n + 1e-12
+        starts = [(*x0[:3], min(max(x0[3], lower[3]), upper[3])) for x0 in STARTS]
+        fits = [least_squares(resid, x0, jac=jac, bounds=(lower, upper)) for x0 in starts]
         best = min(fits, key=lambda f: f.cost)
         c = np.exp(best.x[:3])
         at_bound = np.isclose(best.x, lower, atol=1e-3) | np.isclose(best.x, upper, atol=1e-3)
+        at_bound[3] &= self.skeleton_exponent is None
         return {
             "C_m": float(c[0]),
             "C_a": float(c[1]),
