@@ -145,7 +145,14 @@ def test_level_for_goal_and_power_curves():
         for _ in range(4)
     ]
     pc = bench.power_curves(runs)["time_lag"]
-    assert pc["size_95"] == 0.2 and [r["detection"]["k"] for r in pc["curve"]] == [0, 0, 4, 4, 4]
+    assert [r["detection"]["k"] for r in pc["curve"]] == [0, 0, 4, 4, 4]
+    # 4 of 4 is a point estimate of 100 %, its one-sided 95 % lower bound 0.05^(1/4) = 47 %
+    assert pc["size_95_point"] == 0.2 and pc["size_95"] is None
+    assert pc["curve"][2]["detection_lower_95"] == pytest.approx(0.05**0.25)
+    # the power shown needs enough tables: 59 of 59 bound it above 95 %, 58 of 59 do not
+    assert bench.lower_bound(59, 59) > 0.95 > bench.lower_bound(58, 59)
+    assert bench.power_sizes([{"size": 0.3, "detection": {"k": 59, "n": 59, "rate": 1.0}}])["size_95"] == 0.3
+    assert bench.lower_bound(48, 50) == pytest.approx(0.879, abs=1e-3) and bench.lower_bound(0, 5) == 0.0
 
 
 def test_calibrated_alarms_recount_the_complete_procedure():
