@@ -1,17 +1,21 @@
 """The claims file: every number a reader sees, tied to the committed table it comes from.
 
-``reference/claims.yaml`` lists, per user-facing page (README.md, reference/*/README.md,
+``reference/claims/*.yaml`` (one file per page or folder, merged) list, per user-facing page (README.md, reference/*/README.md,
 docs/), the numbers that state a result: the sentence's text as written (``text``, matched
 with its whitespace collapsed), the committed tables it comes from (``tables``: a name for each
 path under the repository, read as a DataFrame, or a dict for ``.json``), a Python expression
 that recomputes the numbers from them (``expr``, evaluated with the tables' names, ``np``,
 ``pd`` and the helpers below; it returns one number per number of ``text``, in reading order,
 or per ``numbers`` when only some are claimed), the tolerance (``tol``, absolute, default half
-a unit of the last digit written; or ``rtol``), and the run that made the tables (``run``: a
+a unit of the last digit written; or ``rtol``; ``bound: upper`` for a number written as a bound
+that holds, "within 0.024 %": at or above the value, by less than a unit of its last digit), and
+the run that made the tables (``run``: a
 key of ``runs``, each with its date and command). Numbers of a page that state no result (an
 input, a setting, an equation number, the paper's own values) are listed under ``not_results``
-with the reason. Pages listed in ``covered`` must have every number of their prose (outside
-code) in a claim or in ``not_results``.
+with the reason; numbers that are dated records of a run whose raw output is not committed
+(a whole invocation's wall time, a measurement on an earlier commit named in the sentence) are
+listed under ``records`` with their run. Pages listed in ``covered`` must have every number of
+their prose (outside code) in a claim, ``not_results`` or ``records``.
 
     python reference/claims.py            # check every claim; list the numbers not covered
 
@@ -33,10 +37,10 @@ import pandas as pd
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-CLAIMS = ROOT / "reference" / "claims.yaml"
-#: a number as written: thousands with commas, decimals, exponents; a minus (hyphen or U+2212)
+CLAIMS = ROOT / "reference" / "claims"
+#: a number as written: thousands with commas, decimals, exponents; a sign (+, hyphen or U+2212)
 #: counts only where no word character or digit precedes it (1.05-1.32 is a range)
-NUMBER = re.compile(r"(?<![\w.,])(?:[−-](?=\d))?(?:\d{1,3}(?:,\d{3})+(?!\d)|\d+)(?:\.\d+)?(?:[eE][−-]?\d+)?(?![\w])")
+NUMBER = re.compile(r"(?<![\w.,])(?:[−+-](?=\d))?(?:\d{1,3}(?:,\d{3})+(?!\d)|\d+)(?:\.\d+)?(?:[eE][−-]?\d+)?(?![\w])")
 
 
 def collapse(text: str) -> str:
@@ -52,14 +56,14 @@ def prose(text: str) -> str:
         return re.sub(r"[^\n]", " ", m.group(0))
 
     text = re.sub(r"```.*?```", blank, text, flags=re.S)
-    text = re.sub(r"`[^`\n]*`", blank, text)
+    text = re.sub(r"`[^`]*`", blank, text)
     # dates (a claim's date is its run's) and version numbers (pyvisco 1.0.4) state no result
     return re.sub(r"\b\d{4}-\d{2}-\d{2}\b|\b\d+\.\d+\.\d+\b", blank, text)
 
 
 def parse(token: str) -> float:
     """The value of a number as written."""
-    return float(token.replace(",", "").replace("−", "-"))
+    return float(token.replace(",", "").replace("−", "-").lstrip("+"))
 
 
 def numbers_in(text: str) -> list[str]:
@@ -68,7 +72,7 @@ def numbers_in(text: str) -> list[str]:
 
 def half_unit(token: str) -> float:
     """Half a unit of the last digit written (4.91 -> 0.005, 9,695 -> 0.5, 1.5e-4 -> 5e-6)."""
-    t = token.replace(",", "").replace("−", "-").lstrip("-")
+    t = token.replace(",", "").replace("−", "-").lstrip("+-")
     mant, _, exp = t.lower().partition("e")
     decimals = len(mant.split(".")[1]) if "." in mant else 0
     return 0.5 * 10.0 ** (-decimals + (int(exp) if exp else 0))
@@ -115,8 +119,24 @@ class Result:
     pairs: list = field(default_factory=list)
 
 
+SECTIONS = ("covered", "claims", "not_results", "records")
+
+
 def load(path: Path = CLAIMS) -> dict:
-    return yaml.safe_load(path.read_text())
+    """The claims files of ``path`` (a directory of ``*.yaml``, or one file) merged: lists
+    concatenated, ``runs`` joined (a run defined twice is an error)."""
+    files = sorted(path.glob("*.yaml")) if path.is_dir() else [path]
+    out: dict = {k: [] for k in SECTIONS}
+    out["runs"] = {}
+    for f in files:
+        part = yaml.safe_load(f.read_text()) or {}
+        for k in SECTIONS:
+            out[k] += part.get(k) or []
+        for key, run in (part.get("runs") or {}).items():
+            if key in out["runs"]:
+                raise ValueError(f"{f.name}: run {key!r} defined twice")
+            out["runs"][key] = run
+    return out
 
 
 def evaluate(claim: dict, root: Path = ROOT, pages: dict | None = None, tables: dict | None = None) -> Result:
@@ -154,6 +174,11 @@ def evaluate(claim: dict, root: Path = ROOT, pages: dict | None = None, tables: 
         if "rtol" in claim:
             tol = max(tol if "tol" in claim else 0.0, claim["rtol"] * abs(g))
         pairs.append((w, g))
+        if claim.get("bound") == "upper":
+            ok = math.isfinite(g) and value - 2 * half_unit(w) * (1 + 1e-9) <= g <= value * (1 + 1e-12)
+            if not ok:
+                bad.append(f"{w} (table: {g:.6g}, an upper bound within a unit of its last digit)")
+            continue
         if not (math.isfinite(g) and abs(g - value) <= tol * (1 + 1e-9)):
             bad.append(f"{w} (table: {g:.6g}, tolerance {tol:.3g})")
     if bad:
@@ -180,7 +205,7 @@ def uncovered(data: dict) -> list[str]:
     """The numbers of the ``covered`` pages' prose that no claim or ``not_results`` entry covers
     ("page: line: number in context")."""
     spans: dict[str, list] = {}
-    for entry in list(data.get("claims") or []) + list(data.get("not_results") or []):
+    for entry in [e for k in ("claims", "not_results", "records") for e in data.get(k) or []]:
         spans.setdefault(entry["file"], []).append(collapse(entry["text"]))
     out = []
     for name in data.get("covered") or []:
