@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -187,3 +188,22 @@ def test_bench_help_names_every_truth_family(capsys):
     text = " ".join(capsys.readouterr().out.split())
     default = text.split("--families FAMILIES comma-separated")[1].split("--base-seed")[0]
     assert all(f in default for f in synthetic.FAMILIES), default
+
+
+def test_a_calibration_curtailed_at_the_tables_statistic_decides_as_the_whole_one():
+    """Run in turn and stopped once more than the calibration's share of bootstrap tables reach
+    the statistic decided on, a calibration gives the same decision as all its tables: at a
+    statistic that many tables reach it stops early with a level at most that statistic (no
+    alarm); at one that none reaches it runs every table and gives the whole calibration's level."""
+    from asphalt_nscd.diagnosis.calibration import calibrate
+
+    case = next(c for c in bench.plan(11, ["gmaxwell"], 1, 0, configuration="shipped") if c["kind"] == "clean")
+    table, _, test = bench.case_table(case)
+    full = calibrate(table, test=test, n_tables=20, seed=3, static=False)["artifacts"]
+    m = np.sort(full["null_min_p"])
+    assert full["n_run"] == 20 and not full["calibrated_level_bound"]
+    high = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[-1]))["artifacts"]
+    assert high["n_run"] < 20 and high["calibrated_level_bound"]
+    assert high["level"] <= m[-1] and not (m[-1] < high["level"])  # no alarm, as with every table
+    low = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[0]) / 2)["artifacts"]
+    assert low["n_run"] == 20 and low["calibrated_level"] == full["calibrated_level"] and low["level"] == full["level"]

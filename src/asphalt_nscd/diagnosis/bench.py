@@ -340,17 +340,22 @@ def family_wise(runs: list, families) -> dict:
 def _calibrated_level(args) -> dict:
     from .calibration import calibrate
 
-    case, alpha, n_tables = args
+    case, alpha, n_tables, decide = args
     table, _, test = case_table(case)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        # the decision needs the artifact procedure's level only, not the static-modulus test's
-        cal = calibrate(table, alpha=alpha, test=test, n_tables=n_tables, seed=case["seed"], static=False)
+        # the decision needs the artifact procedure's level only, not the static-modulus test's;
+        # curtailed at the table's own statistic: the same decision as all n_tables tables
+        cal = calibrate(
+            table, alpha=alpha, test=test, n_tables=n_tables, seed=case["seed"], static=False, decide=decide
+        )
     a = cal["artifacts"]
     return {
         "level": a["level"],
         "calibrated_level": a["calibrated_level"],
         "observed_min_p": a["observed_min_p"],
         "null_below": int(np.sum(np.asarray(a["null_min_p"]) <= a["observed_min_p"])),
+        "n_run": a["n_run"],
+        "level_bound": a["calibrated_level_bound"],
         "cpu_seconds": cal["cpu_seconds"],
     }
 
@@ -359,8 +364,9 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
     """The complete procedure's false alarms on the clean tables of a benchmark result: each
     clean table on which the nominal procedure names an artifact is calibrated on itself
     (:func:`asphalt_nscd.diagnosis.calibration.calibrate`, ``n_tables`` bootstrap tables
-    seeded by the table's seed) and counts as an alarm only if its ``min_p`` is below the
-    calibrated level. The calibrated level is never above the nominal one, so a table
+    seeded by the table's seed, run in turn until the decision is known: curtailed once more
+    than the calibration's share of them reach the table's ``min_p``) and counts as an alarm
+    only if its ``min_p`` is below the calibrated level. The calibrated level is never above the nominal one, so a table
     without a nominal alarm has none after calibration: the count is exact without
     calibrating those. Adds ``detected_calibrated`` (and ``calibrated_level`` where it was
     computed) to every clean run and ``calibration_tables`` to the result; recomputes
@@ -393,12 +399,14 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
                     f"{result['base_seed']}); was the result produced by another version?"
                 )
             todo.append((r, case))
-    outs = _map_cases(_calibrated_level, [(c, result["alpha"], int(n_tables)) for _, c in todo], jobs)
+    outs = _map_cases(_calibrated_level, [(c, result["alpha"], int(n_tables), r["min_p"]) for r, c in todo], jobs)
     for (r, _), out in zip(todo, outs):
         r["calibrated_level"] = out["level"]
         r["calibration_cpu_seconds"] = out["cpu_seconds"]
         r["calibration_min_p"] = out["observed_min_p"]  # the table's statistic, recomputed with its calibration
         r["calibration_null_below"] = out["null_below"]  # bootstrap tables whose statistic is <= it
+        r["calibration_tables_run"] = out["n_run"]  # fewer than n_tables: stopped once the decision was known
+        r["calibrated_level_is_bound"] = out["level_bound"]
         r["detected_calibrated"] = bool(r["min_p"] < out["level"])
     result["calibration_tables"] = int(n_tables)
     result["family_wise"] = family_wise(runs, result["families"])
