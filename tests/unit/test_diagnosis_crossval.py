@@ -555,3 +555,28 @@ def test_the_card_law_weighs_every_cell(seed):
         table, cv.Options(candidates=arrhenius, artifacts=False, card_fit="robust", card_shift="law")
     )
     assert robust.card_law is robust.law
+
+
+def test_the_levels_a_fold_did_not_see_are_drawn_given_its_errors():
+    """Held-out errors d = g - x contain the levels x of the lab's scatter that the fold's law
+    did not see: drawn given d, a scatter that explains all of d (a perfect law, g = 0) leaves
+    an error against the mix near 0, where drawn independently it would double; without any
+    scatter the draws are d itself."""
+    cells = pd.DataFrame({"T": np.repeat([0.0, 20.0], 4), "f": np.tile([1.0, 2.0, 5.0, 10.0], 2), "n": 3})
+    comp = {"cells": cells, "n_f": {0.0: 4, 20.0: 4}, "n_specimens": 3}
+    d = np.array([0.02, -0.03, 0.01, -0.02, 0.03, -0.01, 0.02, -0.02])
+    comp["lnE"] = {
+        "ms": {"specimen": 0.0, "specimen_temperature": 0.0, "cell": 3 * float(np.mean(d**2))},
+        "dof": {"specimen": 2, "specimen_temperature": 2, "cell": 10**6},
+    }
+    parts = scores.population_parts(comp, "lnE", n_sim=4000)
+    parts["T"] = cells["T"].to_numpy(float)
+    cols = np.arange(8)
+    given = np.mean(np.abs(scores.error_draws(d, parts, cols, "lofo")), axis=1)
+    independent = np.mean(np.abs(scores.error_draws(d, parts, cols, "")), axis=1)
+    assert np.median(given) < 0.2 * np.mean(np.abs(d)) < np.mean(np.abs(d)) < np.median(independent)
+    comp["lnE"]["ms"] = {k: 0.0 for k in comp["lnE"]["ms"]}
+    parts = scores.population_parts(comp, "lnE", n_sim=200)
+    parts["T"] = cells["T"].to_numpy(float)
+    for scheme in ("lofo", "loto", ""):
+        np.testing.assert_allclose(scores.error_draws(d, parts, cols, scheme), np.tile(d, (200, 1)), atol=1e-15)

@@ -26,7 +26,9 @@ Intervals (95 %) over the specimens, which are what the reference is sampled fro
   mean square is drawn from its scaled inverse chi-square (its uncertainty with its own
   degrees of freedom: the level term alone gives the t(n - 1) interval), then w
   (:func:`population_draws`); the interval is the 2.5 and 97.5 percentiles of
-  mean_c |d_c + w_c| over the cells scored. Its coverage, with the law refitted inside every
+  mean_c |d_c + w_c| over the cells scored. The levels a fold's law did not see at its held-out
+  cells (:data:`UNSEEN`) are already in its errors with the opposite sign: they are drawn given
+  the errors (:func:`error_draws`). The interval's coverage, with the law refitted inside every
   replicate, is measured by simulation from a table's fitted model
   (``reference/crossval/coverage.py``);
 * leave one specimen out (``loso``): the reference of a fold is the held-out specimen itself,
@@ -215,7 +217,7 @@ def population_parts(comp: dict, quantity: str, n_sim: int = N_SIMULATIONS, seed
     for k in range(temps.size):
         sel = col == k
         c[:, sel] -= c[:, sel].mean(axis=1, keepdims=True)
-    return {"a": a, "B": z[:, col], "var_B": var_T[:, col], "C": c, "var_C": var_C, "rng": rng}
+    return {"a": a, "B": z[:, col], "var_B": var_T[:, col], "C": c, "var_C": var_C}
 
 
 def population_draws(comp: dict, quantity: str, n_sim: int = N_SIMULATIONS, seed: int = 0) -> np.ndarray:
@@ -228,9 +230,11 @@ def population_draws(comp: dict, quantity: str, n_sim: int = N_SIMULATIONS, seed
 
 
 #: the levels of the lab's scatter a fold's law did not see at its held-out cells (their
-#: share of a held-out error is drawn given that error): lofo sees the specimens' level and
-#: their level per isotherm in the other frequencies, loto only their overall level
-UNSEEN = {"lofo": ("cell",), "loto": ("specimen_temperature", "cell")}
+#: share of a held-out error is drawn given that error): the held-out cell's own scatter, and
+#: the specimens' level per isotherm, which a shift law (one activation energy, or WLF's two
+#: constants) cannot follow from the isotherm's other frequencies (lofo) and which a held-out
+#: isotherm does not show at all (loto); the specimens' overall level is seen in every fold
+UNSEEN = {"lofo": ("specimen_temperature", "cell"), "loto": ("specimen_temperature", "cell")}
 
 
 def _given(d: np.ndarray, groups: np.ndarray, var: np.ndarray, rng) -> np.ndarray:
@@ -255,15 +259,18 @@ def error_draws(d: np.ndarray, parts: dict, cols: np.ndarray, scheme: str) -> np
     given ``d`` (:func:`_given`); in-sample and other rows: every level independently."""
     unseen = UNSEEN.get(scheme, ())
     d = np.asarray(d, float)
+    # draws of the conditional levels seeded by the cells themselves: a row's interval does not
+    # depend on which other rows were scored before it
+    rng = np.random.default_rng([len(scheme), *(int(c) for c in cols)])
     out = d[None, :] + parts["a"]
     if "specimen_temperature" in unseen:
         T = parts["T"][cols]
-        out = out + _given(d, T, parts["var_B"][:, cols], parts["rng"])
+        out = out + _given(d, T, parts["var_B"][:, cols], rng)
     else:
         out = out + parts["B"][:, cols]
     if "cell" in unseen:
         r = d - (_group_means(d, parts["T"][cols]) if "specimen_temperature" in unseen else 0.0)
-        out = out + _given(r, np.arange(d.size), parts["var_C"][:, cols], parts["rng"])
+        out = out + _given(r, np.arange(d.size), parts["var_C"][:, cols], rng)
     else:
         out = out + parts["C"][:, cols]
     return out
