@@ -12,7 +12,8 @@ that holds, "within 0.024 %": at or above the value, by less than a unit of its 
 the run that made the tables (``run``: a
 key of ``runs``, each with its date and command). Numbers of a page that state no result (an
 input, a setting, an equation number, the paper's own values) are listed under ``not_results``
-with the reason; numbers that are dated records of a run whose raw output is not committed
+with the reason (``text``, or a regular expression ``pattern`` for equation numbers and the
+like); numbers that are dated records of a run whose raw output is not committed
 (a whole invocation's wall time, a measurement on an earlier commit named in the sentence) are
 listed under ``records`` with their run. Pages listed in ``covered`` must have every number of
 their prose (outside code) in a claim, ``not_results`` or ``records``.
@@ -108,6 +109,8 @@ HELPERS = {"np": np, "pd": pd, "math": math, "pct": pct, "rng": rng, "one": one}
 def read_table(path: Path):
     if path.suffix == ".json":
         return json.loads(path.read_text())
+    if path.suffix == ".jsonl":
+        return pd.read_json(path, lines=True)
     return pd.read_csv(path)
 
 
@@ -206,7 +209,8 @@ def uncovered(data: dict) -> list[str]:
     ("page: line: number in context")."""
     spans: dict[str, list] = {}
     for entry in [e for k in ("claims", "not_results", "records") for e in data.get(k) or []]:
-        spans.setdefault(entry["file"], []).append(collapse(entry["text"]))
+        if "text" in entry:
+            spans.setdefault(entry["file"], []).append(collapse(entry["text"]))
     out = []
     for name in data.get("covered") or []:
         raw = (ROOT / name).read_text()
@@ -226,6 +230,10 @@ def uncovered(data: dict) -> list[str]:
                 prev_space = False
         page = "".join(flat)
         covered = np.zeros(len(raw) + 1, bool)
+        for entry in data.get("not_results") or []:
+            if entry["file"] == name and "pattern" in entry:
+                for m in re.finditer(entry["pattern"], raw):
+                    covered[m.start() : m.end()] = True
         for snippet in spans.get(name, []):
             start = page.find(snippet)
             while start >= 0:

@@ -225,11 +225,18 @@ def _few_specimens_lines(heads: list) -> list:
         "against the mix"
         for x in rows
     )
+    loso = any(x["scheme"] == "loso" and x["model"] == "extended_law" for x in heads)
     return [
         "",
         f"With {n} specimens the mix's level is known to {n - 1} degrees of freedom only, so the error "
         f"against the mix is bounded loosely ({parts}): {n} specimens cannot bound the |E*| error usefully; "
-        "the observed error against these specimens' means is what the table shows.",
+        "the observed error against these specimens' means is what the table shows."
+        + (
+            f" The leave-one-specimen-out interval rests on {n} held-out specimens ({n - 1} degrees of "
+            "freedom) and bounds the error for a new specimen no better."
+            if loso
+            else ""
+        ),
     ]
 
 
