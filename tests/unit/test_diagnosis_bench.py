@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -145,7 +146,14 @@ def test_level_for_goal_and_power_curves():
         for _ in range(4)
     ]
     pc = bench.power_curves(runs)["time_lag"]
-    assert pc["size_95"] == 0.2 and [r["detection"]["k"] for r in pc["curve"]] == [0, 0, 4, 4, 4]
+    assert [r["detection"]["k"] for r in pc["curve"]] == [0, 0, 4, 4, 4]
+    # 4 of 4 is a point estimate of 100 %, its one-sided 95 % lower bound 0.05^(1/4) = 47 %
+    assert pc["size_95_point"] == 0.2 and pc["size_95"] is None
+    assert pc["curve"][2]["detection_lower_95"] == pytest.approx(0.05**0.25)
+    # the power shown needs enough tables: 59 of 59 bound it above 95 %, 58 of 59 do not
+    assert bench.lower_bound(59, 59) > 0.95 > bench.lower_bound(58, 59)
+    assert bench.power_sizes([{"size": 0.3, "detection": {"k": 59, "n": 59, "rate": 1.0}}])["size_95"] == 0.3
+    assert bench.lower_bound(48, 50) == pytest.approx(0.879, abs=1e-3) and bench.lower_bound(0, 5) == 0.0
 
 
 def test_calibrated_alarms_recount_the_complete_procedure():
@@ -180,3 +188,22 @@ def test_bench_help_names_every_truth_family(capsys):
     text = " ".join(capsys.readouterr().out.split())
     default = text.split("--families FAMILIES comma-separated")[1].split("--base-seed")[0]
     assert all(f in default for f in synthetic.FAMILIES), default
+
+
+def test_a_calibration_curtailed_at_the_tables_statistic_decides_as_the_whole_one():
+    """Run in turn and stopped once more than the calibration's share of bootstrap tables reach
+    the statistic decided on, a calibration gives the same decision as all its tables: at a
+    statistic that many tables reach it stops early with a level at most that statistic (no
+    alarm); at one that none reaches it runs every table and gives the whole calibration's level."""
+    from asphalt_nscd.diagnosis.calibration import calibrate
+
+    case = next(c for c in bench.plan(11, ["gmaxwell"], 1, 0, configuration="shipped") if c["kind"] == "clean")
+    table, _, test = bench.case_table(case)
+    full = calibrate(table, test=test, n_tables=20, seed=3, static=False)["artifacts"]
+    m = np.sort(full["null_min_p"])
+    assert full["n_run"] == 20 and not full["calibrated_level_bound"]
+    high = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[-1]))["artifacts"]
+    assert high["n_run"] < 20 and high["calibrated_level_bound"]
+    assert high["level"] <= m[-1] and not (m[-1] < high["level"])  # no alarm, as with every table
+    low = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[0]) / 2)["artifacts"]
+    assert low["n_run"] == 20 and low["calibrated_level"] == full["calibrated_level"] and low["level"] == full["level"]

@@ -49,3 +49,25 @@ def test_summary_recovers_a_planted_trend():
     assert abs(f["nf_inf"] - 1.05) < 2 * f["nf_inf_se"] + 1e-3 and f["c"] == pytest.approx(2.0, rel=0.1)
     with pytest.raises(InputError):
         resolution_summary(pd.DataFrame())
+
+
+def test_no_limit_is_claimed_from_a_fit_the_data_reject():
+    """Levels that are not monotone in N (the paper-scale study's contact kinematics, committed
+    in reference/paper_scale/resolution.csv) reject NF_inf + c N^(-1/3) against the seeds'
+    scatter: no limit is stated; a planted trend keeps its accepted fit."""
+    from pathlib import Path
+
+    rows = pd.read_csv(Path(__file__).resolve().parents[2] / "reference" / "paper_scale" / "resolution.csv")
+    _, fits = resolution_summary(rows)
+    for _, f in fits.iterrows():
+        assert f["dof"] == 2 and f["chi2"] > 50 and f["p_value"] < 1e-10
+        assert not f["accepted"] and np.isnan(f["nf_inf"]) and np.isnan(f["nf_inf_se"])
+        assert np.isfinite(f["nf_inf_unaccepted"])
+    rng = np.random.default_rng(1)
+    planted = [
+        {"bond_kinematics": "contact", "level": f"n{n}", "n_spheres": n, "network_factor": 1 + n ** (-1 / 3) + e}
+        for n in (200, 1500, 9000, 40000)
+        for e in rng.normal(0, 0.01, 4)
+    ]
+    f = resolution_summary(pd.DataFrame(planted))[1].iloc[0]
+    assert f["accepted"] and f["p_value"] >= 0.05 and np.isfinite(f["nf_inf"])

@@ -21,7 +21,8 @@ can test is planted in it.
 
 Power curves (``power`` tables per size): the offset, the time lag and the uncorrected mass
 planted at a grid of sizes (:data:`POWER_SIZES`) on the families in turn; the detection rate
-per size and the smallest size detected with 95 % power.
+per size with its one-sided 95 % lower bound, the smallest size whose lower bound reaches 95 %
+(the power the tables show) and the smallest whose observed rate does (a point estimate).
 
 The level: the procedure runs at its nominal level alpha / m (the ceiling of the level
 calibrated on a table, :mod:`asphalt_nscd.diagnosis.calibration`, which can only be stricter);
@@ -43,6 +44,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from . import synthetic
 from .effects import ARTIFACTS, ArtifactSearch, effect_entries
@@ -338,13 +340,22 @@ def family_wise(runs: list, families) -> dict:
 def _calibrated_level(args) -> dict:
     from .calibration import calibrate
 
-    case, alpha, n_tables = args
+    case, alpha, n_tables, decide = args
     table, _, test = case_table(case)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        cal = calibrate(table, alpha=alpha, test=test, n_tables=n_tables, seed=case["seed"])
+        # the decision needs the artifact procedure's level only, not the static-modulus test's;
+        # curtailed at the table's own statistic: the same decision as all n_tables tables
+        cal = calibrate(
+            table, alpha=alpha, test=test, n_tables=n_tables, seed=case["seed"], static=False, decide=decide
+        )
+    a = cal["artifacts"]
     return {
-        "level": cal["artifacts"]["level"],
-        "calibrated_level": cal["artifacts"]["calibrated_level"],
+        "level": a["level"],
+        "calibrated_level": a["calibrated_level"],
+        "observed_min_p": a["observed_min_p"],
+        "null_below": int(np.sum(np.asarray(a["null_min_p"]) <= a["observed_min_p"])),
+        "n_run": a["n_run"],
+        "level_bound": a["calibrated_level_bound"],
         "cpu_seconds": cal["cpu_seconds"],
     }
 
@@ -353,8 +364,9 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
     """The complete procedure's false alarms on the clean tables of a benchmark result: each
     clean table on which the nominal procedure names an artifact is calibrated on itself
     (:func:`asphalt_nscd.diagnosis.calibration.calibrate`, ``n_tables`` bootstrap tables
-    seeded by the table's seed) and counts as an alarm only if its ``min_p`` is below the
-    calibrated level. The calibrated level is never above the nominal one, so a table
+    seeded by the table's seed, run in turn until the decision is known: curtailed once more
+    than the calibration's share of them reach the table's ``min_p``) and counts as an alarm
+    only if its ``min_p`` is below the calibrated level. The calibrated level is never above the nominal one, so a table
     without a nominal alarm has none after calibration: the count is exact without
     calibrating those. Adds ``detected_calibrated`` (and ``calibrated_level`` where it was
     computed) to every clean run and ``calibration_tables`` to the result; recomputes
@@ -387,10 +399,14 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
                     f"{result['base_seed']}); was the result produced by another version?"
                 )
             todo.append((r, case))
-    outs = _map_cases(_calibrated_level, [(c, result["alpha"], int(n_tables)) for _, c in todo], jobs)
+    outs = _map_cases(_calibrated_level, [(c, result["alpha"], int(n_tables), r["min_p"]) for r, c in todo], jobs)
     for (r, _), out in zip(todo, outs):
         r["calibrated_level"] = out["level"]
         r["calibration_cpu_seconds"] = out["cpu_seconds"]
+        r["calibration_min_p"] = out["observed_min_p"]  # the table's statistic, recomputed with its calibration
+        r["calibration_null_below"] = out["null_below"]  # bootstrap tables whose statistic is <= it
+        r["calibration_tables_run"] = out["n_run"]  # fewer than n_tables: stopped once the decision was known
+        r["calibrated_level_is_bound"] = out["level_bound"]
         r["detected_calibrated"] = bool(r["min_p"] < out["level"])
     result["calibration_tables"] = int(n_tables)
     result["family_wise"] = family_wise(runs, result["families"])
@@ -429,10 +445,31 @@ def level_for_goal(runs: list, families, goal: float = GOALS["false_alarm_rate"]
     return best
 
 
+def lower_bound(k: int, n: int, level: float = 0.95) -> float | None:
+    """One-sided exact (Clopper-Pearson) lower confidence bound of a proportion k/n at ``level``
+    (0 for k = 0; None for n = 0): the power a detection count shows at least."""
+    if n <= 0:
+        return None
+    if k <= 0:
+        return 0.0
+    return float(stats.beta.ppf(1.0 - level, k, n - k + 1))
+
+
+def power_sizes(rows: list) -> dict:
+    """The smallest sizes of a power curve (rows of :func:`power_curves`) that reach the goal:
+    ``size_95``, whose one-sided 95 % lower bound of the detection rate is >= 95 % (the power
+    the tables show), and ``size_95_point``, whose observed rate is >= 95 % (a point estimate:
+    48 of 50 has a lower bound of 88 %); None where no size does."""
+    goal = GOALS["detection_rate"]
+    shown = [r["size"] for r in rows if (lower_bound(r["detection"]["k"], r["detection"]["n"]) or 0.0) >= goal]
+    point = [r["size"] for r in rows if r["detection"]["rate"] is not None and r["detection"]["rate"] >= goal]
+    return {"size_95": min(shown) if shown else None, "size_95_point": min(point) if point else None}
+
+
 def power_curves(runs: list) -> dict:
     """Per artifact of the power cases: one row per planted size (``size``, detection and
-    estimate rates with 95 % intervals) and ``size_95``, the smallest size whose detection rate
-    is >= 95 % (None if none)."""
+    estimate rates with 95 % intervals and the one-sided 95 % lower bound of the detection
+    rate, ``detection_lower_95``) and the sizes of :func:`power_sizes`."""
     out = {}
     for name, (key, sizes) in POWER_SIZES.items():
         rs = [r for r in runs if r["kind"] == f"power:{name}"]
@@ -441,16 +478,17 @@ def power_curves(runs: list) -> dict:
         rows: list[dict[str, Any]] = []
         for size in sizes:
             at = [r for r in rs if r["power_size"] == size]
+            k = sum(name in r["detected"] for r in at)
             rows.append(
                 {
                     "size": size,
                     "size_key": key,
-                    "detection": _rate(sum(name in r["detected"] for r in at), len(at)),
+                    "detection": _rate(k, len(at)),
+                    "detection_lower_95": lower_bound(k, len(at)),
                     "estimate_within_tolerance": _rate(sum(r["estimate_ok"].get(name, False) for r in at), len(at)),
                 }
             )
-        ok = [r["size"] for r in rows if r["detection"]["rate"] is not None and r["detection"]["rate"] >= 0.95]
-        out[name] = {"size_key": key, "curve": rows, "size_95": min(ok) if ok else None}
+        out[name] = {"size_key": key, "curve": rows, **power_sizes(rows)}
     return out
 
 
@@ -678,8 +716,10 @@ def power_table(result: dict) -> pd.DataFrame:
                     "detection_rate": d["rate"],
                     "detection_ci_low": d["ci95"][0],
                     "detection_ci_high": d["ci95"][1],
+                    "detection_lower_95": r.get("detection_lower_95", lower_bound(d["k"], d["n"])),
                     "estimate_ok": e["k"],
                     "size_95": pc["size_95"],
+                    "size_95_point": pc.get("size_95_point"),
                 }
             )
     return pd.DataFrame(rows)

@@ -180,6 +180,8 @@ def calibrate(
     seed: int = 0,
     rate: float = FAMILYWISE_RATE,
     jobs: int = 1,
+    static: bool = True,
+    decide: float | None = None,
 ) -> dict:
     """Calibrate the artifact procedure and the static-modulus test on ``table`` (module
     docstring).
@@ -198,6 +200,16 @@ def calibrate(
         Family-wise false-alarm rate of the whole procedure, in (0, 1).
     jobs : int
         Worker processes.
+    static : bool
+        Calibrate the static-modulus test too (False: the artifact procedure only, e.g. the
+        detection benchmark's recount of its false alarms; ``static`` is then None).
+    decide : float, optional
+        A statistic to decide on (the table's own ``min_p``): the bootstrap tables are run in
+        turn and stopped once more than rate x B of them reach it (``min_p_b <= decide``): the
+        calibrated level is then at most ``decide``, so ``decide`` is no alarm whatever the other
+        tables give (curtailed sampling: the same decision as all B tables). ``null_min_p``
+        then holds the tables run, ``n_run`` their number and ``calibrated_level`` is the upper
+        bound the run tables give (``calibrated_level_bound``: True).
 
     Returns
     -------
@@ -224,11 +236,24 @@ def calibrate(
     model = clean_model(search, base)
     rng = np.random.default_rng([int(seed), 1])
     sims = [simulate(model, rng) for _ in range(int(n_tables))]
-    stat = _map(_artifact_stat, [(t, test, alpha, shift, limits, model.x0) for t in sims], jobs)
     group_rate = rate / GROUPS
+    tasks = [(t, test, alpha, shift, limits, model.x0) for t in sims]
+    curtailed = False
+    if decide is None:
+        stat = _map(_artifact_stat, tasks, jobs)
+    else:
+        stat, reach = [], 0
+        for task in tasks:
+            stat.append(_artifact_stat(task))
+            reach += stat[-1] <= decide
+            if reach > np.floor(group_rate * len(tasks)):
+                curtailed = len(stat) < len(tasks)
+                break
     m = np.asarray(stat, float)
     nominal = float(observed["nominal_level"])
-    c = critical_level(m, group_rate)
+    # with every table run, the (floor(rate B) + 1)-th smallest statistic; curtailed, the
+    # (floor(rate B) + 1)-th smallest of those run, an upper bound of it
+    c = float(np.sort(m)[int(np.floor(group_rate * len(tasks)))]) if curtailed else critical_level(m, group_rate)
     # out of sample: each half's level judged on the other half
     half = m.size // 2
     a, b = m[:half], m[half:]
@@ -237,18 +262,7 @@ def calibrate(
         + np.sum(a < min(critical_level(b, group_rate), nominal))
     )
     lo, hi = binomial_ci(alarms, m.size)
-    # the static modulus: tables of the liquid master curve
-    T_ref = search.T_screen
-    full = fit_master_curve(search.df, shift=shift, T_ref_C=T_ref, sigma=search.sigma)
-    liquid = fit_master_curve(search.df, shift=shift, T_ref_C=T_ref, static_modulus=False, sigma=search.sigma)
-    assert liquid.fitted is not None  # set by every fit
-    E_liq = liquid.fitted["E_norm_MPa_model"].to_numpy(float) * np.exp(
-        1j * np.radians(liquid.fitted["phase_deg_model"].to_numpy(float))
-    )
-    rng_s = np.random.default_rng([int(seed), 2])
-    sims_s = [simulate(model, rng_s, E=E_liq) for _ in range(int(n_tables))]
-    F = _map(_static_stat, [(t, shift, T_ref, full.x, liquid.x) for t in sims_s], jobs)
-    return {
+    out = {
         "n_tables": int(n_tables),
         "seed": int(seed),
         "familywise_rate": float(rate),
@@ -272,6 +286,8 @@ def calibrate(
             "binding": "calibrated" if c < nominal else "nominal",
             "observed_min_p": float(observed["min_p"]),
             "null_min_p": [float(v) for v in m],
+            "n_run": int(m.size),
+            "calibrated_level_bound": curtailed,
             "rate": {
                 "k": alarms,
                 "n": int(m.size),
@@ -280,13 +296,29 @@ def calibrate(
                 "method": "cross-fitted halves: each half's level judged on the other half",
             },
         },
-        "static": {
-            "level": float(group_rate),
-            "null_F": [float(v) for v in F],
-            "model": f"liquid 2S2P1D master curve (E00 = 0), {shift.upper()} shifts",
-        },
-        "cpu_seconds": _cpu() - c0,
+        "static": None,
     }
+    if not static:
+        out["cpu_seconds"] = _cpu() - c0
+        return out
+    # the static modulus: tables of the liquid master curve
+    T_ref = search.T_screen
+    full = fit_master_curve(search.df, shift=shift, T_ref_C=T_ref, sigma=search.sigma)
+    liquid = fit_master_curve(search.df, shift=shift, T_ref_C=T_ref, static_modulus=False, sigma=search.sigma)
+    assert liquid.fitted is not None  # set by every fit
+    E_liq = liquid.fitted["E_norm_MPa_model"].to_numpy(float) * np.exp(
+        1j * np.radians(liquid.fitted["phase_deg_model"].to_numpy(float))
+    )
+    rng_s = np.random.default_rng([int(seed), 2])
+    sims_s = [simulate(model, rng_s, E=E_liq) for _ in range(int(n_tables))]
+    F = _map(_static_stat, [(t, shift, T_ref, full.x, liquid.x) for t in sims_s], jobs)
+    out["static"] = {
+        "level": float(group_rate),
+        "null_F": [float(v) for v in F],
+        "model": f"liquid 2S2P1D master curve (E00 = 0), {shift.upper()} shifts",
+    }
+    out["cpu_seconds"] = _cpu() - c0
+    return out
 
 
 def _cpu() -> float:

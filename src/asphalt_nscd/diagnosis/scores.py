@@ -6,9 +6,8 @@ pooled over the temperatures (``temperature_C`` NaN):
 
 * **|E*| as a log ratio**: d_c = ln(E_pred,c) - mean_s ln(E_s,c) against the mean of the
   specimens' ln|E*| (the geometric replicate mean), in %: the signed mean ``bias_logE_pct``
-  = 100 mean_c d_c, and the absolute error against the population of specimens
-  ``abs_logE_pct`` (the median of its random-effect distribution below; against these
-  specimens' means, 100 mean_c |d_c|: ``abs_logE_vs_means_pct``);
+  = 100 mean_c d_c and the absolute error against the lab's means ``abs_logE_pct`` =
+  100 mean_c |d_c| (the observed error; ``abs_logE_vs_means_pct`` repeats it);
 * **Phi in degrees**: the same with Phi_pred - mean_s Phi_s (``bias_phase_deg``,
   ``abs_phase_deg``);
 * the paper's MRE (Table 4: | |E*|_p / |E*|_m - 1 |, | Phi_p - Phi_m | / Phi_m, against the
@@ -18,17 +17,24 @@ Intervals (95 %) over the specimens, which are what the reference is sampled fro
 
 * signed means: a t(n - 1) interval over the specimens, b_s = mean_c (pred_c - y_s,c) (the
   mean of the b_s is the bias on a balanced table);
-* absolute means: a random-effect model of the reference, y_s,c = mu_c + u_s + e_s,c
-  (specimen effect u ~ N(0, tau^2), residual e ~ N(0, sigma^2), both estimated from the
-  specimen-by-cell table); the error against the population means mu_c is distributed as
-  mean_c |d_c + k (u* + e*_c)| with u* ~ N(0, tau^2/n), e*_c ~ N(0, sigma^2/n) and
-  k = sqrt((n - 1) / chi2_{n-1}) for the uncertainty of the variances (so that n = 3 specimens
-  give t-like widths): its median is the point value, its 2.5 and 97.5 percentiles the
-  interval (the error against the sample means, smaller when the model sits within the
-  reference's own noise, is given beside);
+* absolute means: the interval of the error against the *mix*, the population of specimens
+  the lab's ones were drawn from, mean_c |pred_c - mu_c|. The lab's means differ from the
+  mix's by w_c = a + B_T + C_c, three levels of the specimens' scatter, each estimated from
+  the specimen-by-cell table with its own degrees of freedom (:func:`nested_components`): the
+  specimens' overall level a (n - 1 degrees of freedom), their level per isotherm B_T
+  ((n - 1)(n_T - 1)) and the cell-to-cell scatter C_c ((n - 1) n_T (n_f - 1)). Each level's
+  mean square is drawn from its scaled inverse chi-square (its uncertainty with its own
+  degrees of freedom: the level term alone gives the t(n - 1) interval), then w
+  (:func:`population_draws`); the interval is the 2.5 and 97.5 percentiles of
+  mean_c |d_c + w_c| over the cells scored. The levels a fold's law did not see at its held-out
+  cells (:data:`UNSEEN`) are already in its errors with the opposite sign: they are drawn given
+  the errors (:func:`error_draws`). The interval's coverage, with the law refitted inside every
+  replicate, is measured by simulation from a table's fitted model
+  (``reference/crossval/coverage.py``);
 * leave one specimen out (``loso``): the reference of a fold is the held-out specimen itself,
   so the fold's own mean error is the sample; signed and absolute means get t(n - 1)
-  intervals over the folds.
+  intervals over the folds (three specimens: two degrees of freedom, an interval that cannot
+  bound the error usefully).
 
 A bootstrap over 3 specimens has 10 distinct resamples and makes its "interval" the range of
 the single-specimen errors; it is not used (docs/choices.md, Diagnosis: held-out errors and
@@ -71,13 +77,20 @@ SUMMARY_COLUMNS = [
     "mre_E_norm_pct",
     "mre_phase_pct",
     "n_specimens",
+    "dof_specimen",
+    "dof_specimen_temperature",
+    "dof_cell",
     "interval",
     "noise_floor_E_norm_pct",
     "noise_floor_phase_pct",
 ]
 #: what the intervals are, per scheme kind
 INTERVALS = {
-    "specimens": "signed: t(n-1) over the specimens; absolute: random-effect model of the specimens",
+    "specimens": (
+        "signed: t(n-1) over the specimens; absolute: the observed error against the lab's means, "
+        "with the interval of the error against the mix (specimen, specimen-isotherm and cell levels, "
+        "each with its own degrees of freedom)"
+    ),
     "loso": "t(n-1) over the held-out specimens",
 }
 _KEYS = ["scheme", "kind", "model", "temperature_C", "extrapolation"]
@@ -121,48 +134,186 @@ def binomial_ci(k: int, n: int, level: float = 0.95) -> tuple[float | None, floa
     return float(ci.low), float(ci.high)
 
 
-def variance_components(Y: np.ndarray) -> tuple[float, float, int]:
-    """(tau^2, sigma^2, n) of a specimen-by-cell table ``Y`` (n_specimens, n_cells; NaN where
-    a specimen did not test a cell): the specimen effects' variance and the residual variance
-    of the additive model y = mu_c + u_s + e (moment estimates, tau^2 floored at 0)."""
-    Y = np.asarray(Y, float)
-    keep = np.isfinite(Y).any(axis=1)
-    Y = Y[keep]
-    n = Y.shape[0]
-    if n < 2:
-        return np.nan, np.nan, n
-    m = np.nanmean(Y, axis=0)
-    u = np.nanmean(Y - m, axis=1)
-    r = Y - m - u[:, None]
-    ok = np.isfinite(r)
-    n_c = max(int(np.isfinite(Y).any(axis=0).sum()), 1)
-    dof = max(ok.sum() - n_c - n + 1, 1)
-    sigma2 = float(np.nansum(r**2) / dof)
-    tau2 = float(max(float(np.var(u, ddof=1)) - sigma2 / n_c, 0.0))
-    return tau2, sigma2, n
+def nested_components(spec: pd.DataFrame) -> dict:
+    """The specimens' scatter about their cell means in three nested levels, per quantity
+    (``lnE``, ``phase`` of :func:`specimen_values`): mean squares ``ms`` and degrees of freedom
+    ``dof`` of the specimens' overall level (``specimen``), their level per isotherm
+    (``specimen_temperature``) and the cell-to-cell scatter (``cell``), from the deviations
+    r_s,c = y_s,c - mean_s y_s,c of the cells tested by >= 2 specimens (a balanced table of n
+    specimens, n_T isotherms and n_f frequencies: n - 1, (n - 1)(n_T - 1), (n - 1) n_T (n_f - 1)
+    degrees of freedom; expected mean squares n_T n_f s_u^2 + n_f s_v^2 + s_e^2,
+    n_f s_v^2 + s_e^2 and s_e^2). Also ``cells`` (DataFrame ``T, f, n``: the cells and their
+    specimens) and ``n_f`` ({T: cells of the isotherm}). A level without degrees of freedom has
+    ``ms`` nan."""
+    t = spec.reset_index()
+    n_c = t.groupby(["T", "f"])["specimen"].transform("size")
+    t = t[n_c >= 2].copy()
+    cells = t.groupby(["T", "f"]).size().rename("n").reset_index()
+    n_f = cells.groupby("T").size().to_dict()
+    out: dict = {"cells": cells, "n_f": n_f}
+    n_spec = t["specimen"].nunique()
+    for q in ("lnE", "phase"):
+        r = t[q] - t.groupby(["T", "f"])[q].transform("mean")
+        frame = t[["specimen", "T"]].assign(r=r.to_numpy())
+        g = frame.groupby(["specimen", "T"])["r"]
+        R = g.transform("mean")
+        e = frame["r"] - R
+        st = frame.assign(R=R).groupby(["specimen", "T"]).agg(R=("R", "first"), k=("r", "size")).reset_index()
+        Rs = st.groupby("specimen").apply(lambda x: np.average(x["R"], weights=x["k"]), include_groups=False)
+        K = st.groupby("specimen")["k"].sum()
+        st["Rs"] = st["specimen"].map(Rs)
+        dof = {
+            "specimen": n_spec - 1,
+            "specimen_temperature": int(st.groupby("specimen").size().sub(1).sum() - (len(n_f) - 1)),
+            "cell": int((st["k"] - 1).sum() - sum(v - 1 for v in n_f.values())),
+        }
+        ss = {
+            "specimen": float((K * Rs**2).sum()),
+            "specimen_temperature": float((st["k"] * (st["R"] - st["Rs"]) ** 2).sum()),
+            "cell": float((e**2).sum()),
+        }
+        out[q] = {
+            "ms": {k: (ss[k] / dof[k] if dof[k] > 0 else np.nan) for k in dof},
+            "dof": {k: max(int(v), 0) for k, v in dof.items()},
+        }
+    out["n_specimens"] = int(n_spec)
+    return out
 
 
-def abs_interval(
-    d: np.ndarray, Y: np.ndarray, n_sim: int = N_SIMULATIONS, seed: int = 0, level: float = 0.95
-) -> tuple[float, float, float]:
-    """(median, low, high) of the mean absolute error against the population means, from the
-    random-effect model of the reference (module docstring). ``d``: errors against the sample
-    means (n_cells,); ``Y``: the specimen-by-cell table (n_specimens, n_cells). NaNs with fewer
-    than 2 specimens."""
-    tau2, sigma2, n = variance_components(Y)
-    if n < 2 or not np.isfinite(sigma2):
-        return np.nan, np.nan, np.nan
+def population_parts(comp: dict, quantity: str, n_sim: int = N_SIMULATIONS, seed: int = 0) -> dict | None:
+    """The three levels of w_c, the lab's cell mean less the mix's (the population of
+    specimens), drawn at the cells of ``comp["cells"]`` in the units of ``quantity`` (ln|E*| or
+    deg): ``a`` (n_sim, 1) ~ N(0, MS_u / (n N)); ``B`` (n_sim, cells) the isotherm's term,
+    N(0, MS_v / (n n_f,T)) centred over the isotherms, and its variance ``var_B``; ``C``
+    (n_sim, cells) ~ N(0, MS_e / n_c) centred within the isotherm, and ``var_C``. Every mean
+    square is drawn as MS dof / chi2_dof, with its own degrees of freedom; a level without
+    degrees of freedom is 0. None with fewer than 2 specimens."""
+    cells = comp["cells"]
+    q = comp[quantity]
+    N = len(cells)
+    if comp["n_specimens"] < 2 or N == 0 or q["dof"]["specimen"] < 1:
+        return None
     rng = np.random.default_rng(seed)
-    k = np.sqrt((n - 1) / rng.chisquare(n - 1, n_sim))
-    u = rng.normal(0.0, np.sqrt(tau2 / n), n_sim)
-    e = rng.normal(0.0, np.sqrt(sigma2 / n), (n_sim, d.size))
-    a = np.mean(np.abs(d[None, :] + k[:, None] * (u[:, None] + e)), axis=1)
-    mid, lo, hi = np.percentile(a, [50.0, 50 * (1 - level), 50 * (1 + level)])
-    return float(mid), float(lo), float(hi)
+    n_bar = float(cells["n"].mean())
+
+    def ms(level):
+        dof = q["dof"][level]
+        m = q["ms"][level]
+        if dof < 1 or not np.isfinite(m):
+            return np.zeros(n_sim)
+        return m * dof / rng.chisquare(dof, n_sim)
+
+    T = cells["T"].to_numpy(float)
+    temps = np.unique(T)
+    col = np.searchsorted(temps, T)
+    nf = np.array([comp["n_f"][t] for t in temps], float)
+    m_u, m_v, m_e = ms("specimen"), ms("specimen_temperature"), ms("cell")
+    a = rng.normal(0.0, 1.0, (n_sim, 1)) * np.sqrt(m_u / (n_bar * N))[:, None]
+    var_T = m_v[:, None] / (n_bar * nf[None, :]) if temps.size > 1 else np.zeros((n_sim, temps.size))
+    z = rng.normal(0.0, 1.0, (n_sim, temps.size)) * np.sqrt(var_T)
+    z -= z.mean(axis=1, keepdims=True)
+    var_C = m_e[:, None] / cells["n"].to_numpy(float)[None, :]
+    c = rng.normal(0.0, 1.0, (n_sim, N)) * np.sqrt(var_C)
+    for k in range(temps.size):
+        sel = col == k
+        c[:, sel] -= c[:, sel].mean(axis=1, keepdims=True)
+    return {"a": a, "B": z[:, col], "var_B": var_T[:, col], "C": c, "var_C": var_C}
 
 
-def _specimen_scores(g: pd.DataFrame, spec: pd.DataFrame) -> dict:
-    """Scores of rows ``g`` (one group, computable rows) against the specimens' values."""
+def population_draws(comp: dict, quantity: str, n_sim: int = N_SIMULATIONS, seed: int = 0) -> np.ndarray:
+    """Draws (n_sim, cells of ``comp["cells"]``) of w_c = a + B_T + C_c (:func:`population_parts`);
+    nan with fewer than 2 specimens."""
+    parts = population_parts(comp, quantity, n_sim, seed)
+    if parts is None:
+        return np.full((n_sim, len(comp["cells"])), np.nan)
+    return parts["a"] + parts["B"] + parts["C"]
+
+
+#: the levels of the lab's scatter a fold's law did not see at its held-out cells (their
+#: share of a held-out error is drawn given that error): the held-out cell's own scatter, and
+#: the specimens' level per isotherm, which a shift law (one activation energy, or WLF's two
+#: constants) cannot follow from the isotherm's other frequencies (lofo) and which a held-out
+#: isotherm does not show at all (loto); the specimens' overall level is seen in every fold
+UNSEEN = {"lofo": ("specimen_temperature", "cell"), "loto": ("specimen_temperature", "cell")}
+
+
+def _given(d: np.ndarray, groups: np.ndarray, var: np.ndarray, rng) -> np.ndarray:
+    """Draws of a level's term x at the cells of ``d`` given the held-out errors d = g - x
+    (g the law's own error, independent of x): per group of cells sharing x, the normal
+    conditional x | mean_group(d) ~ N(-lam dbar, (1 - lam) var), lam = var / E[dbar^2]
+    (the share of the errors' second moment the level explains, at most 1); ``var``
+    (n_sim, cells) the level's drawn variance."""
+    u, inv = np.unique(groups, return_inverse=True)
+    dbar = np.array([d[inv == k].mean() for k in range(u.size)])
+    second = max(float(np.mean(dbar**2)), 1e-300)
+    v = np.stack([var[:, inv == k][:, 0] for k in range(u.size)], axis=1)  # (n_sim, groups)
+    lam = np.minimum(v / second, 1.0)
+    x = -lam * dbar[None, :] + np.sqrt((1.0 - lam) * v) * rng.normal(0.0, 1.0, v.shape)
+    return x[:, inv]
+
+
+def error_draws(d: np.ndarray, parts: dict, cols: np.ndarray, scheme: str) -> np.ndarray:
+    """Draws (n_sim, cells) of the errors against the mix, pred_c - mu_c = d_c + w_c, at the
+    cells ``cols`` (columns of ``parts``) of the errors ``d`` against the lab's means: the
+    levels the fold's law saw (:data:`UNSEEN`) drawn independently, the ones it did not see
+    given ``d`` (:func:`_given`); in-sample and other rows: every level independently."""
+    unseen = UNSEEN.get(scheme, ())
+    d = np.asarray(d, float)
+    # draws of the conditional levels seeded by the cells themselves: a row's interval does not
+    # depend on which other rows were scored before it
+    rng = np.random.default_rng([len(scheme), *(int(c) for c in cols)])
+    out = d[None, :] + parts["a"]
+    if "specimen_temperature" in unseen:
+        T = parts["T"][cols]
+        out = out + _given(d, T, parts["var_B"][:, cols], rng)
+    else:
+        out = out + parts["B"][:, cols]
+    if "cell" in unseen:
+        r = d - (_group_means(d, parts["T"][cols]) if "specimen_temperature" in unseen else 0.0)
+        out = out + _given(r, np.arange(d.size), parts["var_C"][:, cols], rng)
+    else:
+        out = out + parts["C"][:, cols]
+    return out
+
+
+def _group_means(x: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    u, inv = np.unique(groups, return_inverse=True)
+    return np.array([x[inv == k].mean() for k in range(u.size)])[inv]
+
+
+def abs_interval(e: np.ndarray, level: float = 0.95) -> tuple[float, float]:
+    """(low, high) of the mean absolute error against the mix, mean_c |e_c|, from the draws
+    ``e`` (n_sim, cells) of :func:`error_draws`; nan without draws."""
+    if e.size == 0 or not np.isfinite(e).all():
+        return np.nan, np.nan
+    a = np.mean(np.abs(e), axis=1)
+    lo, hi = np.percentile(a, [50 * (1 - level), 50 * (1 + level)])
+    return float(lo), float(hi)
+
+
+class _Population:
+    """The levels of :func:`population_parts` for both quantities of a table, by cell."""
+
+    def __init__(self, spec: pd.DataFrame, n_sim: int = N_SIMULATIONS, seed: int = 0):
+        self.comp = nested_components(spec)
+        cells = self.comp["cells"]
+        self.index = {(float(T), float(f)): i for i, (T, f) in enumerate(zip(cells["T"], cells["f"]))}
+        self.parts = {}
+        for k, q in enumerate(("lnE", "phase")):
+            p = population_parts(self.comp, q, n_sim, seed + k)
+            if p is not None:
+                p["T"] = cells["T"].to_numpy(float)
+            self.parts[q] = p
+
+    def columns(self, T, f) -> np.ndarray:
+        """Draw columns of the cells (T, f); -1 where a cell has < 2 specimens."""
+        return np.array([self.index.get((float(a), float(b)), -1) for a, b in zip(T, f)], int)
+
+
+def _specimen_scores(g: pd.DataFrame, spec: pd.DataFrame, pop: _Population, scheme: str = "") -> dict:
+    """Scores of rows ``g`` (one group, computable rows of ``scheme``; held-out rows condition
+    the levels their folds did not see) against the specimens' values, the absolute errors'
+    intervals from the draws ``pop``."""
     cells = pd.DataFrame(
         {
             "T": _round_T(g["cell_temperature_C"]),
@@ -180,21 +331,28 @@ def _specimen_scores(g: pd.DataFrame, spec: pd.DataFrame) -> dict:
             if (T, f) in sub.index:
                 YE[i, j], YP[i, j] = sub.loc[(T, f), "lnE"], sub.loc[(T, f), "phase"]
     out = {"n_specimens": int(np.isfinite(YE).any(axis=1).sum()), "interval": INTERVALS["specimens"]}
-    for q, pred, Y, scale in (("logE", cells["pE"].to_numpy(), YE, 100.0), ("phase", cells["pP"].to_numpy(), YP, 1.0)):
+    out.update({f"dof_{k}": v for k, v in pop.comp["lnE"]["dof"].items()})
+    cols = pop.columns(cells["T"], cells["f"])
+    for q, pred, Y, scale, key in (
+        ("logE", cells["pE"].to_numpy(), YE, 100.0, "lnE"),
+        ("phase", cells["pP"].to_numpy(), YP, 1.0, "phase"),
+    ):
         with np.errstate(invalid="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a cell no specimen tested: NaN, dropped below
             d = pred - np.nanmean(Y, axis=0)
             b_s = np.nanmean(pred[None, :] - Y, axis=1)
         keep = np.isfinite(d)
-        d, Y = d[keep], Y[:, keep]
+        d, c = d[keep], cols[keep]
         unit = "pct" if q == "logE" else "deg"
         lo, hi = t_interval(b_s)
-        a_mid, a_lo, a_hi = abs_interval(d, Y)
+        parts = pop.parts[key]
+        ok = parts is not None and (c >= 0).all()
+        a_lo, a_hi = abs_interval(error_draws(d, parts, c, scheme)) if ok else (np.nan, np.nan)
         observed = float(np.mean(np.abs(d)))
         out.update(
             {
                 f"bias_{q}_{unit}": scale * float(np.mean(d)),
-                f"abs_{q}_{unit}": scale * (a_mid if np.isfinite(a_mid) else observed),
+                f"abs_{q}_{unit}": scale * observed,
                 f"abs_{q}_vs_means_{unit}": scale * observed,
                 f"bias_{q}_ci95_low": scale * lo,
                 f"bias_{q}_ci95_high": scale * hi,
@@ -263,6 +421,7 @@ def summarize(rows: pd.DataFrame, table: pd.DataFrame | None = None) -> pd.DataF
     Without the measured ``table`` only the loso rows and the MREs get scores (the others
     need the specimens' values)."""
     spec = specimen_values(table) if table is not None else None
+    pop = _Population(spec) if spec is not None else None
     floor = noise_floor(table) if table is not None else None
     out = []
     rows = rows.assign(extrapolation=rows["extrapolation"].astype(bool), cell_temperature_C=rows["temperature_C"])
@@ -283,7 +442,8 @@ def summarize(rows: pd.DataFrame, table: pd.DataFrame | None = None) -> pd.DataF
                 if key[0] == "loso" and key[1] == "held_out":
                     r.update(_loso_scores(ok))
                 elif spec is not None:
-                    r.update(_specimen_scores(ok, spec))
+                    assert pop is not None  # made with spec
+                    r.update(_specimen_scores(ok, spec, pop, key[0] if key[1] == "held_out" else ""))
             if floor is not None:
                 f = (
                     floor

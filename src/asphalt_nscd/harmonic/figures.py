@@ -108,6 +108,10 @@ def plot_resolution(rows: pd.DataFrame, levels: pd.DataFrame, fits: pd.DataFrame
                 color="C1",
                 label=f"NF_inf = {f['nf_inf']:.3g} ± {f['nf_inf_se']:.2g}",
             )
+        elif np.isfinite(f.get("chi2", np.nan)):
+            ax.plot(
+                [], [], " ", label=f"no limit: NF_inf + c N^(-1/3) rejected (chi2 = {f['chi2']:.3g}, {f['dof']} dof)"
+            )
         ax.axhline(1.0, color="k", lw=0.8)
         ax.set_xscale("log")
         ax.set_xlabel("spheres in the sample")

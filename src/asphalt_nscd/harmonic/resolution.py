@@ -17,8 +17,11 @@ level, and fits per kinematics
 
 (weighted by the level means' standard errors; N^(-1/3) is the ratio of a sphere's size to
 the specimen's, the order of a surface or boundary-layer effect in a discretised continuum),
-with NF_inf's standard error. The fit is a description of the measured trend, not a proof of
-convergence: with four levels it is stated with its interval and the levels' spread.
+with its chi-square against those standard errors and its p-value. A limit NF_inf (with its
+standard error) is stated only where the data accept the fit (p >= :data:`FIT_ACCEPT_P`);
+where they reject it (levels that are not monotone in N, or scatter about the curve far beyond
+the seeds' own), no limit is claimed and ``nf_inf`` is nan. Even an accepted fit describes the
+measured trend; it does not prove convergence.
 """
 
 from __future__ import annotations
@@ -30,6 +33,9 @@ import pandas as pd
 
 from ..io import InputError
 from ..rheology.laws import POISSON_RATIO
+
+#: smallest chi-square p-value at which the fit NF(N) = NF_inf + c N^(-1/3) is accepted
+FIT_ACCEPT_P = 0.05
 
 
 def resolution_rows(
@@ -90,8 +96,10 @@ def resolution_summary(rows: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
         levels: bond_kinematics, level, n_samples, n_spheres_mean, network_factor_mean,
         network_factor_sd, network_factor_ci95_low/high (Student t over the seeds; nan for
         one seed), departure_from_1_pct (100 (mean - 1)).
-        fits: bond_kinematics, n_levels, nf_inf, nf_inf_se, c, exponent (-1/3), and the
-        prediction at the finest level; nan where fewer than 3 levels.
+        fits: bond_kinematics, n_levels, exponent (-1/3), chi2 (weighted by the level means'
+        standard errors), dof, p_value, accepted (p_value >= FIT_ACCEPT_P), nf_inf,
+        nf_inf_se, c and the prediction at the finest level (nan where the fit is rejected
+        or fewer than 3 levels), and the rejected fit's nf_inf_unaccepted (nan otherwise).
 
     Raises
     ------
@@ -127,11 +135,16 @@ def resolution_summary(rows: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
             "bond_kinematics": kin,
             "n_levels": len(g),
             "exponent": -1.0 / 3.0,
+            "chi2": math.nan,
+            "dof": max(len(g) - 2, 0),
+            "p_value": math.nan,
+            "accepted": False,
             "nf_inf": math.nan,
             "nf_inf_se": math.nan,
             "c": math.nan,
             "n_spheres_finest": float(g["n_spheres_mean"].max()),
             "nf_finest_fit": math.nan,
+            "nf_inf_unaccepted": math.nan,
         }
         if len(g) >= 3:
             x = g["n_spheres_mean"].to_numpy(float) ** (-1.0 / 3.0)
@@ -143,13 +156,20 @@ def resolution_summary(rows: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
             dof = len(g) - 2
             s2 = float(res[0] / dof) if len(res) and dof > 0 else 0.0
             cov = np.linalg.inv(A.T @ A) * max(s2, 1.0)  # never below the seeds' own scatter
-            fit.update(
-                {
-                    "nf_inf": float(coef[0]),
-                    "nf_inf_se": float(math.sqrt(cov[0, 0])),
-                    "c": float(coef[1]),
-                    "nf_finest_fit": float(coef[0] + coef[1] * x.min()),
-                }
-            )
+            chi2 = float(np.sum((A @ coef - y * w) ** 2))
+            p = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
+            accepted = bool(dof > 0 and p >= FIT_ACCEPT_P)
+            fit.update({"chi2": chi2, "p_value": p, "accepted": accepted})
+            if accepted:
+                fit.update(
+                    {
+                        "nf_inf": float(coef[0]),
+                        "nf_inf_se": float(math.sqrt(cov[0, 0])),
+                        "c": float(coef[1]),
+                        "nf_finest_fit": float(coef[0] + coef[1] * x.min()),
+                    }
+                )
+            else:
+                fit["nf_inf_unaccepted"] = float(coef[0])
         fits.append(fit)
     return levels, pd.DataFrame(fits)
