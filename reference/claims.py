@@ -103,7 +103,26 @@ def one(frame: pd.DataFrame, **where):
     return rows.iloc[0]
 
 
-HELPERS = {"np": np, "pd": pd, "math": math, "pct": pct, "rng": rng, "one": one}
+def tmean(values, level: float = 0.95) -> list[float]:
+    """[mean, low, high] of values with the t(n-1) interval of the mean (a paired difference
+    over mixes, "+4.8 points, -2.7 to +12.4")."""
+    from scipy import stats
+
+    v = np.asarray(list(values), float)
+    v = v[np.isfinite(v)]
+    h = stats.t.ppf(0.5 + level / 2, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size)
+    return [float(v.mean()), float(v.mean() - h), float(v.mean() + h)]
+
+
+def paired(per_mix: pd.DataFrame, a: str, b: str, column: str) -> list[float]:
+    """:func:`tmean` of the per-mix difference a - b of ``column`` (reference/forecast/*_per_mix.csv:
+    one row per model label and mix, every temperature together where temperature_C is empty)."""
+    e = per_mix[per_mix["temperature_C"].isna() & (per_mix["binder_route"] == "curve")]
+    w = e.pivot_table(index="mix_id", columns="label", values=column)
+    return tmean((w[a] - w[b]).dropna())
+
+
+HELPERS = {"np": np, "pd": pd, "math": math, "pct": pct, "rng": rng, "one": one, "tmean": tmean, "paired": paired}
 
 
 def read_table(path: Path):
