@@ -84,6 +84,8 @@ def main() -> int:
         "python reference/forecast/collect.py . --label reference -o reference/forecast  # 3.0 diameters, two seeds",
         "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
         "    --summary reference/forecast/size_study_summary.csv",
+        "python reference/forecast/time_domain.py . --constants reference/forecast/default_constants.csv \\",
+        "    -o reference/forecast/time_domain.csv",
         "python reference/forecast/readme.py",
         "```",
         "",
@@ -154,6 +156,28 @@ def main() -> int:
                 for value, base in (("abs_logE_pct", "abs_logE"), ("abs_phase_deg", "abs_phase"))
             ]
             L.append(f"| {'all' if T == -999.0 else f'{T:.1f}'} | " + " | ".join(cells) + " |")
+    td = _read("time_domain.csv")
+    if td is not None:
+        L += [
+            "",
+            "## The harmonic answer in the time domain",
+            "",
+            "`dem_extended`'s bonds (constants fitted on every mix of the default run, the mix's mortar at the "
+            "condition) stepped in time by the NSCD core as Maxwell elements, on the default run's smallest, median "
+            "and largest sample, at the table's two corners (`time_domain.py`): the time-domain |E*| and phase "
+            "against the harmonic solve of the same network with the spheres' inertia, and that solve against "
+            "the quasi-static response the forecast reads.",
+            "",
+            "| mix | spheres | T (°C) | f (Hz) | steps per cycle | \\|E*\\| (MPa) | time domain − harmonic: "
+            "\\|E*\\| (%) | phase (°) | inertia (%) | steps with a contact | CPU (s) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        L += [
+            f"| {r['mix_id']} | {r['n_spheres']} | {r['temperature_C']:.1f} | {r['frequency_Hz']:g} | "
+            f"{r['steps_per_cycle']} | {r['E_harmonic_MPa']:.0f} | {r['td_vs_harmonic_E_pct']:.2g} | "
+            f"{r['td_vs_harmonic_phase_deg']:.2g} | {r['inertia_E_pct']:.1g} | {r['n_nonlinear_steps']} | {r['cpu_s']:.0f} |"
+            for _, r in td.iterrows()
+        ]
     sz = _read("size_study_summary.csv")
     if sz is not None:
         L += [

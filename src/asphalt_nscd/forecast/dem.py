@@ -161,6 +161,28 @@ def skeleton_bonds(sample, tolerance: float | None = None) -> np.ndarray:
     return (b["delta0"] - grown) < tol
 
 
+def bond_geometry(sample) -> tuple[np.ndarray, np.ndarray]:
+    """(g, skeleton): each bond's geometric factor g_b = pi r_min^2 / (max(delta0, tol) + t_m) (m;
+    module docstring, tol the contact tolerance) and the (B,) bool mask of :func:`skeleton_bonds`.
+    A bond's normal stiffness is e_1 g_b (1 + zeta skeleton_b), N/m."""
+    from ..sample.prepare import CONTACT_TOLERANCE
+
+    film = np.maximum(sample.bonds["delta0"], CONTACT_TOLERANCE * float(sample.attrs["d_min_m"]))
+    return np.pi * sample.bonds["r_min"] ** 2 / (film + mortar_thickness(sample)), skeleton_bonds(sample)
+
+
+def bond_moduli(state: dict, e_mortar) -> tuple[np.ndarray, np.ndarray]:
+    """(e_1, zeta) of ``dem_extended`` (module docstring) for the constants ``state`` (``C_m, C_a,
+    C_s, n_s``; ``dem``: ``C_m`` alone) and the mortar's complex modulus ``e_mortar`` (Pa, array):
+    e_1 Pa complex, zeta = e_2 / e_1 complex."""
+    e = np.asarray(e_mortar, complex)
+    c_a, c_s, n_s = state.get("C_a", np.inf), state.get("C_s", 0.0), state.get("n_s", 0.0)
+    u = 1.0 / (state["C_m"] * e)
+    v = 0.0 if c_a == np.inf else 1.0 / (c_a * E_AGGREGATE_PA)
+    zeta = c_s * E_AGGREGATE_PA * np.exp(n_s * np.log(e / E_AGGREGATE_PA)) * (u + v)
+    return 1.0 / (u + v), zeta
+
+
 def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
     """The :class:`Response` of a prepared cube (module docstring).
 
@@ -170,14 +192,10 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
     from ..harmonic.network import network_from_sample
     from ..harmonic.solver import HarmonicSystem
 
-    from ..sample.prepare import CONTACT_TOLERANCE
-
     t0 = time.process_time()
     network = network_from_sample(sample)
     system = HarmonicSystem(network, head_rotation="clamped")
-    film = np.maximum(sample.bonds["delta0"], CONTACT_TOLERANCE * float(sample.attrs["d_min_m"]))
-    g = np.pi * sample.bonds["r_min"] ** 2 / (film + mortar_thickness(sample))
-    skel = skeleton_bonds(sample)
+    g, skel = bond_geometry(sample)
     gm = system.blocks(g, g * system.t_ratio)
     gs = system.blocks(g * skel, g * skel * system.t_ratio)
     a, b = gm["fp"][:, 2].toarray().ravel(), gs["fp"][:, 2].toarray().ravel()
@@ -202,6 +220,47 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         n_skeleton=int(skel.sum()),
         cpu_s=time.process_time() - t0,
     )
+
+
+def time_domain_check(
+    sample, e1: complex, zeta: complex, frequency_Hz: float, steps_per_cycle: int = 400, **kw
+) -> dict:
+    """The forecast's modulus of ``sample`` at one condition checked in the time domain: the bonds
+    e_1 g_b (1 + zeta skeleton_b) (:func:`bond_geometry`; tangential times the Eqs. 8-11 ratio)
+    stepped by the NSCD core (:func:`asphalt_nscd.harmonic.timedomain.uniaxial_time_domain_row`),
+    against the harmonic solve of the same network with the spheres' inertia (the time domain's
+    exact twin) and the quasi-static :class:`Response` the forecast uses.
+
+    e1 : complex Pa; zeta : complex; frequency_Hz : Hz; ``kw``: passed to the time-domain row.
+
+    Returns
+    -------
+    dict
+        ``E_time_domain_MPa, phase_time_domain_deg``, ``E_harmonic_MPa, phase_harmonic_deg``,
+        ``E_response_MPa, phase_response_deg`` (E* = F / (L u)), ``td_vs_harmonic_E_pct,
+        td_vs_harmonic_phase_deg``, ``inertia_E_pct`` (harmonic with inertia against the
+        quasi-static response), ``steps_per_cycle, n_steps, n_nonlinear_steps, cpu_s``.
+    """
+    from ..harmonic.network import network_from_sample
+    from ..harmonic.solver import HarmonicSystem
+    from ..harmonic.timedomain import uniaxial_time_domain_row
+
+    g, skel = bond_geometry(sample)
+    system = HarmonicSystem(network_from_sample(sample), head_rotation="clamped")
+    kn = e1 * g * (1.0 + zeta * skel)
+    td = uniaxial_time_domain_row(sample, kn, kn * system.t_ratio, frequency_Hz, steps_per_cycle=steps_per_cycle, **kw)
+    omega, side = 2.0 * np.pi * frequency_Hz, float(sample.attrs["h_m"])
+    harmonic = system.solve(kn, kn * system.t_ratio, omega, amplitude=1.0, inertia="full", axis=2).reaction[2]
+    quasi_static = e1 * sample_response(sample).factor(zeta) * side
+    out = {}
+    for name, k in (("time_domain", td["stiffness"]), ("harmonic", harmonic), ("response", quasi_static)):
+        out[f"E_{name}_MPa"] = float(abs(k) / side / 1e6)
+        out[f"phase_{name}_deg"] = float(np.degrees(np.angle(k)))
+    out["td_vs_harmonic_E_pct"] = 100.0 * (out["E_time_domain_MPa"] / out["E_harmonic_MPa"] - 1.0)
+    out["td_vs_harmonic_phase_deg"] = out["phase_time_domain_deg"] - out["phase_harmonic_deg"]
+    out["inertia_E_pct"] = 100.0 * (out["E_harmonic_MPa"] / out["E_response_MPa"] - 1.0)
+    out.update({"steps_per_cycle": steps_per_cycle, **{k: td[k] for k in ("n_steps", "n_nonlinear_steps", "cpu_s")}})
+    return out
 
 
 #: starting points (ln C_m, ln C_a, ln C_s, n_s) of the ``dem_extended`` least squares; on the shipped
@@ -262,17 +321,16 @@ class DemModel:
         out = np.full(n, np.nan + 0j)
         jac = np.zeros((n, 4), complex)
         c_m, c_a, c_s = np.exp(x[:3])
-        n_s = x[3]
+        state = {"C_m": c_m, "C_a": c_a, "C_s": c_s, "n_s": x[3]}
         for idx, e, responses in cells:
-            u = 1.0 / (c_m * e)
-            v = 0.0 if c_a == np.inf else 1.0 / (c_a * E_AGGREGATE_PA)
+            e1, zeta = bond_moduli(state, e)
             ratio = np.log(e / E_AGGREGATE_PA)
-            zeta = c_s * E_AGGREGATE_PA * np.exp(n_s * ratio) * (u + v)
             fs = [resp.factor_and_slope(zeta) for resp in responses]
-            out[idx] = -np.log(u + v) + np.mean([np.log(f) for f, _ in fs], axis=0)
+            out[idx] = np.log(e1) + np.mean([np.log(f) for f, _ in fs], axis=0)
             if slopes:
                 g = zeta * np.mean([d / f for f, d in fs], axis=0)  # d ln(factor) / d ln(zeta)
-                wu, wv = u / (u + v), v / (u + v)
+                wu = e1 / (c_m * e)  # the mortar's share of the bond's compliance, u / (u + v)
+                wv = 1.0 - wu
                 jac[idx] = np.column_stack([wu * (1.0 - g), wv * (1.0 - g), g, g * ratio])
         return (out, jac) if slopes else out
 
