@@ -32,7 +32,7 @@ import math
 import sys
 import time
 import zipfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -511,6 +511,7 @@ def periodic_start(
     continuous: bool = False,
     gravity=None,
     reference: dict | None = None,
+    system=None,
 ) -> tuple[dict, "periodic.PeriodicState | None"]:
     """:func:`start_test` with the periodic state it computed: (info, state; None without a
     periodic request).
@@ -528,19 +529,17 @@ def periodic_start(
     (reason, when it starts from rest). ``gravity``: the law-free gravity solution of ``sim``
     (:func:`asphalt_nscd.harmonic.periodic.gravity_unit`, e.g. from :func:`read_rig_state`), or
     None to compute it. ``reference``: the harmonic system's reference state (G and its ordering,
-    from :func:`read_rig_state`), or None to assemble them.
+    from :func:`read_rig_state`), or None to assemble them. ``system``: the
+    :func:`asphalt_nscd.harmonic.periodic.harmonic_system` of ``sim``, built before (then
+    ``reference`` is not read), or None to build it.
 
     Raises
     ------
     InputError for a ``reference`` computed on another network or with other options.
     """
     info: dict[str, Any] = {"start": "rest", "requested": settings.start}
-    system = None
-    if reference is not None:
-        try:
-            system = periodic.harmonic_system(sim, settings.head_rotation, settings.nu, reference)
-        except ValueError as exc:
-            raise InputError(f"rig state: {exc}; recompute it (asphalt-nscd rig-state) for this job") from None
+    if system is None and reference is not None:
+        system = _system_of(sim, settings, reference)
     if settings.start != "periodic":
         if settings.gravity and settings.mechanisms == "supported":
             sim.external_force = periodic.support_force(
@@ -560,16 +559,7 @@ def periodic_start(
         mechanisms=settings.mechanisms,
         gravity=gravity,
     )
-    info.update(
-        {
-            "solve_s": state.solve_s,
-            "solve_cpu_s": time.process_time() - cpu,
-            "force_ratio": state.force_ratio,
-            "gmres_iterations": state.gmres_iterations,
-            "laplace_real": state.laplace.real,
-            "laplace_imag": state.laplace.imag,
-        }
-    )
+    info.update(_solve_info(state, time.process_time() - cpu))
     if state.gravity is not None:
         info["gravity"] = state.gravity.info()
         if settings.mechanisms == "supported":
@@ -589,6 +579,19 @@ def periodic_start(
     return info, state
 
 
+def _solve_info(state: "periodic.PeriodicState", cpu_s: float) -> dict:
+    """The start info of a periodic ``state`` solved in ``cpu_s`` s of CPU time: solve_s (wall),
+    solve_cpu_s, force_ratio, gmres_iterations, laplace_real and laplace_imag (1/s)."""
+    return {
+        "solve_s": state.solve_s,
+        "solve_cpu_s": cpu_s,
+        "force_ratio": state.force_ratio,
+        "gmres_iterations": state.gmres_iterations,
+        "laplace_real": state.laplace.real,
+        "laplace_imag": state.laplace.imag,
+    }
+
+
 def time_domain_step(frequency_Hz: float, settings: TwoPBSettings) -> float | None:
     """Time step (s) of a job that steps in time under ``settings.time_domain_steps_per_cycle``
     (1 / (f N)), or None when the dt policy's applies (:func:`time_step`)."""
@@ -596,37 +599,191 @@ def time_domain_step(frequency_Hz: float, settings: TwoPBSettings) -> float | No
     return None if n is None else 1.0 / (frequency_Hz * n)
 
 
-def _set_up(
-    sample,
-    law,
-    frequency_Hz: float,
-    dt: float,
-    settings: TwoPBSettings,
-    continuous: bool,
-    held,
-    unit=None,
-    reference=None,
-):
-    """The simulation of a job at step ``dt`` in its initial state, with its linearity
-    certificate: (sim, motion, rest heights (N,) m, start info, periodic state or None, steps,
-    certificate or None). ``held``: the held-sphere mask of :func:`build_simulation`; ``unit``
-    and ``reference``: the gravity solution and the harmonic system's reference state of
-    :func:`periodic_start` (None: computed)."""
-    sim, motion = build_simulation(sample, law, frequency_Hz, dt, settings, held=held)
+@dataclass
+class Rig:
+    """What a job reads from its sample once and every later step shares.
+
+    sample : SampleData of the sample file (the only read of it in a job).
+    specimen : EN 12697-26 specimen of the sample (:func:`specimen_of`).
+    edges : (profile_bins + 1,) m, the height bins of the velocity profile between the plates.
+    counts : (profile_bins,) int, spheres per height bin at rest (the profile's divisor).
+    held : (N,) bool, the spheres the rig holds (:func:`hold`), None until held.
+    unit : the law-free gravity solution (:class:`asphalt_nscd.harmonic.periodic.GravityUnit`)
+        or None (not needed, or not yet computed).
+    reference : the harmonic system's reference state from a rig-state file, or None.
+    system : the :class:`asphalt_nscd.harmonic.solver.HarmonicSystem` of the job, built on its
+        first simulation and kept for a second one (None: none built, or none needed).
+    """
+
+    sample: Any
+    specimen: Any
+    edges: np.ndarray
+    counts: np.ndarray
+    held: np.ndarray | None = None
+    unit: Any = None
+    reference: dict | None = None
+    system: Any = None
+
+
+def read_rig(sample_path, settings: TwoPBSettings) -> Rig:
+    """The :class:`Rig` of a job: its sample read once, its specimen and profile bins.
+
+    Raises
+    ------
+    InputError if the sample file is missing or malformed.
+    """
+    from ..sample.store import read_sample
+
+    sample = read_sample(sample_path)
+    z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
+    edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
+    zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
+    counts = np.bincount(zbin, minlength=settings.profile_bins)
+    return Rig(sample=sample, specimen=specimen_of(sample), edges=edges, counts=counts)
+
+
+def hold(rig: Rig, sample_path, settings: TwoPBSettings, rig_state=None) -> Rig:
+    """``rig`` with the spheres it holds: read from the ``rig_state`` file with its gravity
+    solution and reference state (:func:`read_rig_state`), or computed
+    (:func:`asphalt_nscd.harmonic.solver.held_spheres`; the gravity solution then follows on
+    the first simulation, :func:`_with_system`).
+
+    Raises
+    ------
+    InputError for a rig-state file that is missing or computed for another sample or settings.
+    """
+    from ..harmonic import solver
+
+    if rig_state is not None:
+        held, unit, reference = read_rig_state(rig_state, sample_path, settings)
+        return replace(rig, held=held, unit=unit, reference=reference)
+    held = solver.held_spheres(rig.sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
+    return replace(rig, held=held)
+
+
+def _system_of(sim, settings: TwoPBSettings, reference: dict | None):
+    """:func:`asphalt_nscd.harmonic.periodic.harmonic_system` of ``sim`` under ``settings``.
+
+    Raises
+    ------
+    InputError for a ``reference`` computed on another network or with other options.
+    """
+    try:
+        return periodic.harmonic_system(sim, settings.head_rotation, settings.nu, reference)
+    except ValueError as exc:
+        if reference is None:
+            raise
+        raise InputError(f"rig state: {exc}; recompute it (asphalt-nscd rig-state) for this job") from None
+
+
+def _with_system(rig: Rig, sim, settings: TwoPBSettings) -> Rig:
+    """``rig`` with the harmonic system of ``sim`` and, for a periodic start under gravity, the
+    law-free gravity solution (:func:`asphalt_nscd.harmonic.periodic.gravity_unit`): built on a
+    job's first simulation; a later simulation of the job (another dt, the same network) keeps
+    both and only drops the system's shifted factors. No system when the start needs none
+    (a rest start without supported mechanisms under gravity, and no reference state).
+
+    Raises
+    ------
+    InputError for a reference state of another network or other options.
+    """
+    if rig.system is not None:
+        rig.system.drop_shifted_factors()
+        return rig
+    supported = settings.gravity and settings.mechanisms == "supported"
+    if rig.reference is None and settings.start != "periodic" and not supported:
+        return rig
+    system = _system_of(sim, settings, rig.reference)
+    unit = rig.unit
+    if unit is None and settings.gravity and settings.start == "periodic":
+        unit = periodic.gravity_unit(
+            sim, settings.head_rotation, settings.nu, system=system, mechanisms=settings.mechanisms
+        )
+    return replace(rig, system=system, unit=unit)
+
+
+@dataclass
+class JobStart:
+    """A job's simulation at its time step in its initial state, with its certificate.
+
+    rig : the job's :class:`Rig` (with its harmonic system once one is built).
+    sim, motion : the Simulation and its :class:`HeadMotion` (:func:`build_simulation`).
+    dt : time step, s. rest_z : (N,) m, the spheres' heights at rest.
+    info : the start info (:func:`periodic_start`; with ``certificate``, ``path``, ...).
+    state : the periodic state (:class:`asphalt_nscd.harmonic.periodic.PeriodicState`) or None.
+    n_steps : steps of the start's cycles (:func:`n_steps_of`).
+    certificate : :class:`asphalt_nscd.harmonic.orbit.Certificate` or None.
+    path : 'orbit' | 'time_domain' (:func:`choose_path`; '' until chosen).
+    """
+
+    rig: Rig
+    sim: Any
+    motion: HeadMotion
+    dt: float
+    rest_z: np.ndarray
+    info: dict
+    state: Any
+    n_steps: int
+    certificate: Any
+    path: str = ""
+
+
+def set_up(rig: Rig, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, continuous: bool) -> JobStart:
+    """The simulation of a job at step ``dt`` in its initial state (:func:`periodic_start`), with
+    its linearity certificate (:func:`asphalt_nscd.harmonic.orbit.certify`, for a periodic start
+    on the theta-method's state). ``rig``: held (:func:`hold`).
+
+    Raises
+    ------
+    InputError for a reference state of another network or other options.
+    """
+    sim, motion = build_simulation(rig.sample, law, frequency_Hz, dt, settings, held=rig.held)
     rest_z = sim.spheres.position[:, 2].copy()
-    start_info, state = periodic_start(
-        sim, law, frequency_Hz, settings, continuous=continuous, gravity=unit, reference=reference
+    rig = _with_system(rig, sim, settings)
+    info, state = periodic_start(
+        sim, law, frequency_Hz, settings, continuous=continuous, gravity=rig.unit, system=rig.system
     )
-    n_steps = n_steps_of(frequency_Hz, dt, settings, start_info["start"])
+    n_steps = n_steps_of(frequency_Hz, dt, settings, info["start"])
     cert = None
     if state is not None and state.phasors is not None and not continuous:
         from ..harmonic.orbit import certify
 
         cpu = time.process_time()
         cert = certify(sim, state, n_steps * dt)
-        start_info["certificate"] = cert.row()
-        start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
-    return sim, motion, rest_z, start_info, state, n_steps, cert
+        info["certificate"] = cert.row()
+        info["solve_cpu_s"] = info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
+    return JobStart(rig, sim, motion, dt, rest_z, info, state, n_steps, cert)
+
+
+def start_job(rig: Rig, law, frequency_Hz: float, settings: TwoPBSettings, continuous: bool, verify: bool) -> JobStart:
+    """Set a job up at its dt policy's step (:func:`time_step`), choose its path from the
+    certificate and settings (:func:`choose_path`), and set it up again at
+    ``time_domain_steps_per_cycle``'s step when it steps in time at another dt (both set-ups'
+    solve times counted; the first certificate kept as ``certificate_at_policy_dt``). The
+    info gets ``path`` and ``path_reason``.
+
+    Raises
+    ------
+    InputError for ``method: orbit`` on a job not certified linear, or a reference state of
+    another network.
+    """
+    job = set_up(rig, law, frequency_Hz, time_step(frequency_Hz, settings), settings, continuous)
+    path, why = choose_path(settings, job.info, job.certificate, verify)
+    dt_td = time_domain_step(frequency_Hz, settings)
+    if path == "time_domain" and dt_td is not None and dt_td != job.dt:  # stepped at its own converged dt
+        first = job.info
+        job = set_up(job.rig, law, frequency_Hz, dt_td, settings, continuous)
+        job.info["solve_s"] = job.info.get("solve_s", 0.0) + first.get("solve_s", 0.0)  # both set-ups count
+        job.info["solve_cpu_s"] = job.info.get("solve_cpu_s", 0.0) + first.get("solve_cpu_s", 0.0)
+        if first.get("certificate") is not None:
+            job.info["certificate_at_policy_dt"] = first["certificate"]
+        why += (
+            f"; stepped at {settings.time_domain_steps_per_cycle} steps per cycle (dt = {dt_td:.4g} s, "
+            "time_domain_steps_per_cycle)"
+        )
+    job.info.update({"path": path, "path_reason": why})
+    job.path = path
+    return job
 
 
 def choose_path(settings: TwoPBSettings, start_info: dict, certificate, verify: bool) -> tuple[str, str]:
@@ -709,6 +866,170 @@ def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
     )
 
 
+def orbit_result(job: JobStart, law, frequency_Hz: float, settings: TwoPBSettings, sample_path, meta, verify: bool):
+    """The record of a job on the orbit path, sampled on its periodic orbit (:func:`_orbit_arrays`),
+    or None for a job that steps in time. A verification job that starts periodic with a
+    certificate gets the orbit's reduced result (Eqs. 1-5, :func:`reduce_test`) in its info
+    (``orbit``: E_norm_MPa, phase_deg, certified). The sampling's CPU time is counted in the
+    info's ``solve_cpu_s``; the record's wall time is the solve's and the certificate's."""
+    info = job.info
+    if not (job.path == "orbit" or (verify and job.certificate is not None and info["start"] == "periodic")):
+        return None
+    cpu = time.process_time()
+    prof = _profile_steps(job.n_steps, 1.0 / (frequency_Hz * job.dt), settings.profile_instants)
+    arrays = _orbit_arrays(job.sim, job.state, job.rest_z, job.n_steps, prof, job.rig.edges, job.rig.counts)
+    info["solve_cpu_s"] = info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
+    args = (arrays, job.motion, job.rig, settings, job.dt, job.n_steps, job.sim, law, sample_path, meta)
+    if verify:
+        red = reduce_test(_record(*args, {**info, "path": "orbit"}, 0.0, 0.0, frequency_Hz), settings.window_cycles)
+        info["orbit"] = {
+            "E_norm_MPa": red["E_norm_MPa"],
+            "phase_deg": red["phase_deg"],
+            "certified": bool(job.certificate.holds),
+        }
+    if job.path != "orbit":
+        return None
+    wall = info.get("solve_s", 0.0) + (job.certificate.seconds if job.certificate else 0.0)
+    return _record(*args, info, wall, info.get("solve_cpu_s", 0.0), frequency_Hz)
+
+
+@dataclass
+class TimeDomainRun:
+    """A job that steps in time: its simulation, the per-step arrays it fills and its start info.
+
+    sim, motion : the Simulation (at its step index) and its :class:`HeadMotion`.
+    arrays : ``t``, ``plate_fx``, ``driver_fx`` and :data:`STAT_KEYS` (n_steps,), ``profile_vx``
+        (instants, bins), ``wall`` and ``cpu`` (1,) s spent before the steps left, and
+        ``start_info`` (the info as JSON): what a checkpoint stores.
+    info : the start info.
+    """
+
+    sim: Any
+    motion: HeadMotion
+    arrays: dict
+    info: dict
+
+
+@dataclass
+class JobFiles:
+    """Where a job writes: its record and, beside it, its checkpoint (``.ckpt.h5``) and arrays
+    (``.partial.npz``), with the run key a resumed run must match (sample, law, f, dt, settings)."""
+
+    output: Path
+    ckpt: Path
+    partial: Path
+    key: str
+
+
+def _fresh_run(job: JobStart, frequency_Hz: float, settings: TwoPBSettings) -> TimeDomainRun:
+    """The :class:`TimeDomainRun` of a job set up to step in time, its arrays zero."""
+    n_steps = job.n_steps
+    n_prof = len(_profile_steps(n_steps, 1.0 / (frequency_Hz * job.dt), settings.profile_instants))
+    arrays = {
+        "t": np.zeros(n_steps),
+        "plate_fx": np.zeros(n_steps),
+        "driver_fx": np.zeros(n_steps),
+        "profile_vx": np.zeros((n_prof, settings.profile_bins)),
+        "wall": np.array([job.info.get("solve_s", 0.0)]),
+        "cpu": np.array([job.info.get("solve_cpu_s", 0.0)]),
+        "start_info": np.array(json.dumps(job.info)),
+    }
+    for name in STAT_KEYS:
+        arrays[name] = np.zeros(n_steps)
+    return TimeDomainRun(job.sim, job.motion, arrays, job.info)
+
+
+def _resume(files: JobFiles, settings: TwoPBSettings, frequency_Hz: float) -> TimeDomainRun | None:
+    """The run of a checkpoint of the same run key, or None (no checkpoint, another key, or an
+    unreadable one: then set aside as ``*.unreadable`` with a warning, the job restarts)."""
+    from ..nscd import read_checkpoint
+
+    ckpt, partial = files.ckpt, files.partial
+    if not (ckpt.exists() and partial.exists()):
+        return None
+    try:
+        with np.load(partial, allow_pickle=False) as z:
+            arrays = {k: z[k].copy() for k in z.files}
+        if str(arrays.pop("key")) != files.key:
+            return None
+        motion = HeadMotion(settings.amplitude_m, frequency_Hz)
+        sim = read_checkpoint(ckpt, drivers=[None, motion])
+        info = json.loads(str(arrays["start_info"]))
+        print(f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True, file=sys.stderr)
+        return TimeDomainRun(sim, motion, arrays, info)
+    except (InputError, OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+        for unreadable in (ckpt, partial):
+            if unreadable.exists():
+                unreadable.replace(unreadable.with_name(unreadable.name + ".unreadable"))
+        logging.getLogger("asphalt_nscd").warning(
+            "%s: the checkpoint cannot be read (%s); moved aside as *.unreadable, the job restarts from its beginning",
+            ckpt,
+            str(exc).splitlines()[0] if str(exc) else type(exc).__name__,
+        )
+        return None
+
+
+def step_in_time(
+    run: TimeDomainRun,
+    rig: Rig,
+    settings: TwoPBSettings,
+    frequency_Hz: float,
+    files: JobFiles,
+    progress: bool = True,
+    stop_after: int | None = None,
+) -> tuple[float, float] | None:
+    """Step ``run`` to its last step, filling its arrays (the velocity profile binned by the
+    current heights over ``rig``'s bins, divided by its counts at rest) and checkpointing every
+    ``settings.checkpoint_every`` steps. Returns the run's (wall, CPU) time in s, or None once
+    ``stop_after`` steps are done in total (after a checkpoint)."""
+    from tqdm import tqdm
+
+    from ..nscd import write_checkpoint
+
+    sim, arrays = run.sim, run.arrays
+    n_steps = len(arrays["t"])
+    dt = float(sim.params.dt)  # the policy's, or time_domain_steps_per_cycle's (also on a resumed run)
+    prof_steps = _profile_steps(n_steps, 1.0 / (frequency_Hz * dt), settings.profile_instants)
+    prof_index = {int(s): n for n, s in enumerate(prof_steps)}
+    bar = tqdm(
+        total=n_steps,
+        initial=sim.step_index,
+        disable=not progress,
+        mininterval=5.0,
+        desc=f"2PB f={frequency_Hz:g} Hz dt={dt:.3g} s",
+        unit="step",
+    )
+    tic, cpu_tic = time.perf_counter(), time.process_time()
+    wall0, cpu0 = float(arrays["wall"][0]), float(arrays["cpu"][0])
+    for k in range(sim.step_index, n_steps):
+        check_termination()
+        st = sim.step()
+        arrays["t"][k] = st.time - 0.5 * dt
+        arrays["plate_fx"][k] = st.plate_force[1, 0]
+        arrays["driver_fx"][k] = st.driver_force[1, 0]
+        for name in STAT_KEYS:
+            arrays[name][k] = (st.solver == "linear") if name == "linear" else getattr(st, name)
+        if k in prof_index:
+            pos = np.clip(np.digitize(sim.spheres.position[:, 2], rig.edges) - 1, 0, settings.profile_bins - 1)
+            vx = np.bincount(pos, weights=sim.spheres.velocity[:, 0], minlength=settings.profile_bins)
+            arrays["profile_vx"][prof_index[k]] = vx / np.maximum(rig.counts, 1)
+        bar.update(1)
+        done = k + 1
+        every = bool(settings.checkpoint_every) and done % settings.checkpoint_every == 0 and done < n_steps
+        if every or (stop_after is not None and done == stop_after):
+            arrays["wall"][0] = wall0 + time.perf_counter() - tic
+            arrays["cpu"][0] = cpu0 + time.process_time() - cpu_tic
+            with atomic_path(files.partial) as tmp:
+                with open(tmp, "wb") as fh:
+                    np.savez(fh, key=np.array(files.key), **arrays)
+            write_checkpoint(sim, files.ckpt)
+            if stop_after is not None and done == stop_after:
+                bar.close()
+                return None
+    bar.close()
+    return wall0 + time.perf_counter() - tic, cpu0 + time.process_time() - cpu_tic
+
+
 def run_test(
     sample_path,
     law,
@@ -723,6 +1044,11 @@ def run_test(
     rig_state=None,
 ):
     """Run (or resume) the numerical 2PB test and write its record (HDF5) atomically.
+
+    The steps: the rig is read once (:func:`read_rig`); a checkpoint of the same run key is
+    resumed (:func:`_resume`); otherwise the rig holds its spheres (:func:`hold`), the job is
+    set up and its path chosen (:func:`start_job`), and the orbit's record is sampled
+    (:func:`orbit_result`) or the job steps in time from its start (:func:`step_in_time`).
 
     Parameters
     ----------
@@ -753,13 +1079,34 @@ def run_test(
     ------
     InputError if the sample file is missing or malformed.
     """
-    from ..nscd import read_checkpoint, write_checkpoint
-    from ..sample.store import read_sample
+    rig = read_rig(sample_path, settings)
+    files = _job_files(output, sample_path, law, frequency_Hz, settings, continuous_start, verify)
+    run = _resume(files, settings, frequency_Hz)
+    if run is None:
+        job = start_job(
+            hold(rig, sample_path, settings, rig_state), law, frequency_Hz, settings, continuous_start, verify
+        )
+        record = orbit_result(job, law, frequency_Hz, settings, sample_path, meta, verify)
+        if record is not None:
+            write_record(record, files.output)
+            return record
+        run = _fresh_run(job, frequency_Hz, settings)
+    times = step_in_time(run, rig, settings, frequency_Hz, files, progress, stop_after)
+    if times is None:
+        return None
+    dt, n_steps = float(run.sim.params.dt), len(run.arrays["t"])
+    args = (run.arrays, run.motion, rig, settings, dt, n_steps, run.sim, law, sample_path, meta, run.info)
+    record = _record(*args, *times, frequency_Hz)
+    write_record(record, files.output)
+    files.ckpt.unlink(missing_ok=True)
+    files.partial.unlink(missing_ok=True)
+    return record
 
+
+def _job_files(output, sample_path, law, frequency_Hz: float, settings: TwoPBSettings, continuous, verify) -> JobFiles:
+    """The :class:`JobFiles` of a job writing ``output``, the temporaries a killed writer left
+    beside them removed; the run key holds the dt policy's step (:func:`time_step`)."""
     output = Path(output)
-    sample = read_sample(sample_path)
-    dt = time_step(frequency_Hz, settings)
-    specimen = specimen_of(sample)
     ckpt = output.with_name(output.name + ".ckpt.h5")
     partial = output.with_name(output.name + ".partial.npz")
     for stale in (output, ckpt, partial):  # left by a writer killed outright
@@ -769,217 +1116,20 @@ def run_test(
             "sample": str(sample_path),
             "law": law.as_dict(),
             "f": frequency_Hz,
-            "dt": dt,
+            "dt": time_step(frequency_Hz, settings),
             "settings": asdict(settings),
-            "continuous_start": bool(continuous_start),
+            "continuous_start": bool(continuous),
             "verify": bool(verify),
         },
         sort_keys=True,
     )
-    per_period = 1.0 / (frequency_Hz * dt)
-    z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
-    edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
-
-    sim = None
-    if ckpt.exists() and partial.exists():
-        try:
-            with np.load(partial, allow_pickle=False) as z:
-                arrays = {k: z[k].copy() for k in z.files}
-            if str(arrays.pop("key")) == key:
-                motion = HeadMotion(settings.amplitude_m, frequency_Hz)
-                sim = read_checkpoint(ckpt, drivers=[None, motion])
-                start_info = json.loads(str(arrays["start_info"]))
-                print(
-                    f"resuming from {ckpt} at step {sim.step_index} of {len(arrays['t'])}", flush=True, file=sys.stderr
-                )
-        except (InputError, OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
-            # a checkpoint that cannot be read (corrupt, truncated): set aside, the job restarts
-            for unreadable in (ckpt, partial):
-                if unreadable.exists():
-                    unreadable.replace(unreadable.with_name(unreadable.name + ".unreadable"))
-            logging.getLogger("asphalt_nscd").warning(
-                "%s: the checkpoint cannot be read (%s); moved aside as *.unreadable, the job restarts from its "
-                "beginning",
-                ckpt,
-                str(exc).splitlines()[0] if str(exc) else type(exc).__name__,
-            )
-            sim = None
-    if sim is None:
-        if rig_state is not None:
-            held, unit, reference = read_rig_state(rig_state, sample_path, settings)
-        else:
-            from ..harmonic.solver import held_spheres
-
-            held = held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
-            unit = reference = None
-        sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-            sample, law, frequency_Hz, dt, settings, continuous_start, held, unit, reference
-        )
-        path, why = choose_path(settings, start_info, cert, verify)
-        dt_td = time_domain_step(frequency_Hz, settings)
-        if path == "time_domain" and dt_td is not None and dt_td != dt:  # stepped at its own converged dt
-            decided, spent = (
-                start_info.get("certificate"),
-                (start_info.get("solve_s", 0.0), start_info.get("solve_cpu_s", 0.0)),
-            )
-            dt = dt_td
-            sim, motion, rest_z, start_info, state, n_steps, cert = _set_up(
-                sample, law, frequency_Hz, dt, settings, continuous_start, held, unit, reference
-            )
-            start_info["solve_s"] = start_info.get("solve_s", 0.0) + spent[0]  # both set-ups count
-            start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + spent[1]
-            if decided is not None:
-                start_info["certificate_at_policy_dt"] = decided
-            why += (
-                f"; stepped at {settings.time_domain_steps_per_cycle} steps per cycle (dt = {dt:.4g} s, "
-                "time_domain_steps_per_cycle)"
-            )
-        per_period = 1.0 / (frequency_Hz * dt)
-        start_info.update({"path": path, "path_reason": why})
-        if path == "orbit" or (verify and cert is not None and start_info["start"] == "periodic"):
-            cpu = time.process_time()
-            prof = _profile_steps(n_steps, per_period, settings.profile_instants)
-            zbin0 = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
-            orbit_arrays = _orbit_arrays(
-                sim, state, rest_z, n_steps, prof, edges, np.bincount(zbin0, minlength=settings.profile_bins)
-            )
-            start_info["solve_cpu_s"] = start_info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
-            if verify:
-                rec = _record(
-                    orbit_arrays,
-                    motion,
-                    sample,
-                    specimen,
-                    settings,
-                    dt,
-                    n_steps,
-                    sim,
-                    law,
-                    sample_path,
-                    meta,
-                    {**start_info, "path": "orbit"},
-                    0.0,
-                    0.0,
-                    frequency_Hz,
-                )
-                red = reduce_test(rec, settings.window_cycles)
-                assert cert is not None  # a verification job comes here only with a certificate
-                start_info["orbit"] = {
-                    "E_norm_MPa": red["E_norm_MPa"],
-                    "phase_deg": red["phase_deg"],
-                    "certified": bool(cert.holds),
-                }
-        if path == "orbit":
-            wall = start_info.get("solve_s", 0.0) + (cert.seconds if cert else 0.0)
-            record = _record(
-                orbit_arrays,
-                motion,
-                sample,
-                specimen,
-                settings,
-                dt,
-                n_steps,
-                sim,
-                law,
-                sample_path,
-                meta,
-                start_info,
-                wall,
-                start_info.get("solve_cpu_s", 0.0),
-                frequency_Hz,
-            )
-            write_record(record, output)
-            return record
-        arrays = {
-            "t": np.zeros(n_steps),
-            "plate_fx": np.zeros(n_steps),
-            "driver_fx": np.zeros(n_steps),
-            "profile_vx": np.zeros(
-                (len(_profile_steps(n_steps, per_period, settings.profile_instants)), settings.profile_bins)
-            ),
-            "wall": np.array([start_info.get("solve_s", 0.0)]),
-            "cpu": np.array([start_info.get("solve_cpu_s", 0.0)]),
-            "start_info": np.array(json.dumps(start_info)),
-        }
-        for name in STAT_KEYS:
-            arrays[name] = np.zeros(n_steps)
-    n_steps = len(arrays["t"])
-    dt = float(sim.params.dt)  # the policy's, or time_domain_steps_per_cycle's (also on a resumed run)
-    per_period = 1.0 / (frequency_Hz * dt)
-    prof_steps = _profile_steps(n_steps, per_period, settings.profile_instants)
-    zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
-    counts = np.bincount(zbin, minlength=settings.profile_bins)
-    prof_index = {int(s): n for n, s in enumerate(prof_steps)}
-
-    from tqdm import tqdm
-
-    bar = tqdm(
-        total=n_steps,
-        initial=sim.step_index,
-        disable=not progress,
-        mininterval=5.0,
-        desc=f"2PB f={frequency_Hz:g} Hz dt={dt:.3g} s",
-        unit="step",
-    )
-    tic, cpu_tic = time.perf_counter(), time.process_time()
-    wall0, cpu0 = float(arrays["wall"][0]), float(arrays["cpu"][0])
-    start = sim.step_index
-    for k in range(start, n_steps):
-        check_termination()
-        st = sim.step()
-        arrays["t"][k] = st.time - 0.5 * dt
-        arrays["plate_fx"][k] = st.plate_force[1, 0]
-        arrays["driver_fx"][k] = st.driver_force[1, 0]
-        for name in STAT_KEYS:
-            arrays[name][k] = (st.solver == "linear") if name == "linear" else getattr(st, name)
-        if k in prof_index:
-            pos = np.clip(np.digitize(sim.spheres.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
-            vx = np.bincount(pos, weights=sim.spheres.velocity[:, 0], minlength=settings.profile_bins)
-            arrays["profile_vx"][prof_index[k]] = vx / np.maximum(counts, 1)
-        bar.update(1)
-        done = k + 1
-        periodic = bool(settings.checkpoint_every) and done % settings.checkpoint_every == 0 and done < n_steps
-        if periodic or (stop_after is not None and done == stop_after):
-            arrays["wall"][0] = wall0 + time.perf_counter() - tic
-            arrays["cpu"][0] = cpu0 + time.process_time() - cpu_tic
-            with atomic_path(partial) as tmp:
-                with open(tmp, "wb") as fh:
-                    np.savez(fh, key=np.array(key), **arrays)
-            write_checkpoint(sim, ckpt)
-            if stop_after is not None and done == stop_after:
-                bar.close()
-                return None
-    bar.close()
-    wall = wall0 + time.perf_counter() - tic
-    cpu = cpu0 + time.process_time() - cpu_tic
-    record = _record(
-        arrays,
-        motion,
-        sample,
-        specimen,
-        settings,
-        dt,
-        n_steps,
-        sim,
-        law,
-        sample_path,
-        meta,
-        start_info,
-        wall,
-        cpu,
-        frequency_Hz,
-    )
-    write_record(record, output)
-    ckpt.unlink(missing_ok=True)
-    partial.unlink(missing_ok=True)
-    return record
+    return JobFiles(output, ckpt, partial, key)
 
 
 def _record(
     arrays: dict,
     motion,
-    sample,
-    specimen,
+    rig: Rig,
     settings: TwoPBSettings,
     dt: float,
     n_steps: int,
@@ -993,15 +1143,13 @@ def _record(
     frequency_Hz: float,
 ) -> dict:
     """The record of :func:`run_test` from its per-step ``arrays`` (``t, plate_fx, driver_fx,
-    profile_vx`` and :data:`STAT_KEYS`), stepped in time or sampled on the orbit."""
+    profile_vx`` and :data:`STAT_KEYS`), stepped in time or sampled on the orbit, on ``rig``'s
+    sample, specimen and profile bins."""
     t = arrays["t"]
     x = motion.x(t)
+    sample, edges, counts = rig.sample, rig.edges, rig.counts
     m_head = float(sample.plate_mass[1])
     force_bonds = -arrays["plate_fx"] - m_head * motion.omega**2 * x
-    z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
-    edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
-    zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
-    counts = np.bincount(zbin, minlength=settings.profile_bins)
     prof_steps = _profile_steps(n_steps, 1.0 / (frequency_Hz * dt), settings.profile_instants)
     record = {
         "time_s": t,
@@ -1028,7 +1176,7 @@ def _record(
             "cpu_per_sphere_step_s": cpu / (n_steps * sim.spheres.n),
             "law": json.dumps(law.as_dict()),
             "settings": json.dumps(asdict(settings)),
-            "specimen": json.dumps(specimen.as_dict()),
+            "specimen": json.dumps(rig.specimen.as_dict()),
             "sample_file": str(sample_path),
             "head_mass_kg": m_head,
             "amplitude_m": settings.amplitude_m,

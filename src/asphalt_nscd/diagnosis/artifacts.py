@@ -314,7 +314,15 @@ def read(path) -> ArtifactRecord:
 
     Raises InputError naming the file and the missing or malformed key.
     """
-    obj = read_json(path, "master-curve JSON")
+    return record_from(read_json(path, "master-curve JSON"), path)
+
+
+def record_from(obj, path) -> ArtifactRecord:
+    """The :class:`ArtifactRecord` of the object ``obj`` of a master-curve JSON read from
+    ``path`` (:func:`asphalt_nscd.io.read_json`; the path names the file in errors).
+
+    Raises InputError naming the file and the missing or malformed key.
+    """
     try:
         m = obj["master_curve"]
         n = len(m["names"])

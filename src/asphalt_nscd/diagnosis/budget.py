@@ -137,7 +137,60 @@ def _by_T(frame: pd.DataFrame, col: str) -> dict:
 
 @dataclass
 class DiagnosisInputs:
-    """What :func:`diagnose` reads: its parameters, one field each (described there)."""
+    """What :func:`diagnose` reads: its parameters, one field each.
+
+    Attributes
+    ----------
+    measured : DataFrame
+        Validated measured table (``lab.measured.load_measured``).
+    search : ArtifactRecord
+        Artifact search and master curve of ``measured``
+        (:func:`asphalt_nscd.diagnosis.artifacts.read` of ``asphalt-nscd master-curve``):
+        noise, artifact entries, master curve (MPa), significance level and shift law.
+    corrected : DataFrame
+        The artifact-corrected table of that search (same rows as ``measured``).
+    laws : dict or None
+        The extended law per temperature {T degC: GeneralizedBurgers in MPa, MPa s} at every
+        measured temperature (:func:`asphalt_nscd.rheology.law_file.read_mpa` of the law file
+        of ``extend-law``, the one the extended simulation ran with). None: no extended law
+        (``law_failure`` says why); the paper's Burger's law per isotherm stands in, no gain.
+    simulated : DataFrame, optional
+        Time-domain (NSCD) results, reduced rows (``temperature_C, frequency_Hz,
+        E_norm_MPa, phase_deg``; a ``solver`` column with ``harmonic`` marks harmonic rows;
+        ``dt_s`` allows the time-integration test).
+    harmonic : DataFrame, optional
+        Harmonic-solver results of the numerical sample (same columns).
+    time_errors : DataFrame, optional
+        Time-integration phase errors ``frequency_Hz, dt_s, phase_error_deg``.
+    simulated_extended : DataFrame, optional
+        Results of the simulation rerun with the extended law (else the extended macro law
+        stands for it).
+    macro_params : DataFrame, optional
+        Burger's parameters the simulation was given (``temperature_C, Em_MPa, eta_m_MPa_s,
+        Ek_MPa, eta_k_MPa_s``); default: fitted here to the measured table (the baseline of
+        the budget, not an upstream step).
+    transfer : dict, optional
+        Network factor NF_s (dimensionless) per sample name of the extended simulation
+        (``harmonic-transfer`` JSONs): adds the ``law_only`` gain source, NF_s E*_law (mean
+        over the samples; module docstring).
+    crossval : DataFrame, optional
+        Rows of ``asphalt-nscd crossval`` (:func:`asphalt_nscd.diagnosis.inputs.read_crossval`,
+        lofo and/or loto): the gain table and the page give the held-out MRE beside the
+        in-sample one (:func:`heldout_report`).
+    law_info : dict, optional
+        ``selection`` and ``model`` of the law file (``extend-law``): the chosen settings and
+        their cross-validation curve, shown on the page.
+    law_failure : str, optional
+        Why there is no extended law (with ``laws`` None), quoted in the report.
+    cause_tolerances : dict, optional
+        ``network_factor`` and ``time_integration_deg`` (default :data:`causes.TOLERANCES`).
+    card : dict, optional
+        The material card's JSON (``export-law``: ``prony.json``): what it carries and loses,
+        and its errors against the measured means per temperature, for the page.
+    without_flagged : dict, optional
+        ``extend-law --without-flagged``'s JSON: the law without the rows beyond a
+        data-quality limit (compared with the selected law on the page), or its note.
+    """
 
     measured: pd.DataFrame
     search: ArtifactRecord
@@ -248,62 +301,12 @@ def diagnose(
     without_flagged: dict | None = None,
 ) -> tuple[dict, dict]:
     """Diagnose a measured table from what the earlier steps wrote (and optional simulation
-    results); nothing upstream is refitted here.
-
-    The stages, in order: :func:`cells_stage`, :func:`causes_stage`, :func:`budget_stage`,
-    :func:`law_stage`, :func:`extended_stage`, :func:`gains_stage`, :func:`report_stage`.
+    results); nothing upstream is refitted here: the stages of :func:`diagnosis_of`.
 
     Parameters
     ----------
-    measured : DataFrame
-        Validated measured table (``lab.measured.load_measured``).
-    search : ArtifactRecord
-        Artifact search and master curve of ``measured``
-        (:func:`asphalt_nscd.diagnosis.artifacts.read` of ``asphalt-nscd master-curve``):
-        noise, artifact entries, master curve (MPa), significance level and shift law.
-    corrected : DataFrame
-        The artifact-corrected table of that search (same rows as ``measured``).
-    laws : dict or None
-        The extended law per temperature {T degC: GeneralizedBurgers in MPa, MPa s} at every
-        measured temperature (:func:`asphalt_nscd.rheology.law_file.read_mpa` of the law file
-        of ``extend-law``, the one the extended simulation ran with). None: no extended law
-        (``law_failure`` says why); the paper's Burger's law per isotherm stands in, no gain.
-    simulated : DataFrame, optional
-        Time-domain (NSCD) results, reduced rows (``temperature_C, frequency_Hz,
-        E_norm_MPa, phase_deg``; a ``solver`` column with ``harmonic`` marks harmonic rows;
-        ``dt_s`` allows the time-integration test).
-    harmonic : DataFrame, optional
-        Harmonic-solver results of the numerical sample (same columns).
-    time_errors : DataFrame, optional
-        Time-integration phase errors ``frequency_Hz, dt_s, phase_error_deg``.
-    simulated_extended : DataFrame, optional
-        Results of the simulation rerun with the extended law (else the extended macro law
-        stands for it).
-    macro_params : DataFrame, optional
-        Burger's parameters the simulation was given (``temperature_C, Em_MPa, eta_m_MPa_s,
-        Ek_MPa, eta_k_MPa_s``); default: fitted here to the measured table (the baseline of
-        the budget, not an upstream step).
-    transfer : dict, optional
-        Network factor NF_s (dimensionless) per sample name of the extended simulation
-        (``harmonic-transfer`` JSONs): adds the ``law_only`` gain source, NF_s E*_law (mean
-        over the samples; module docstring).
-    crossval : DataFrame, optional
-        Rows of ``asphalt-nscd crossval`` (:func:`asphalt_nscd.diagnosis.inputs.read_crossval`,
-        lofo and/or loto): the gain table and the page give the held-out MRE beside the
-        in-sample one (:func:`heldout_report`).
-    law_info : dict, optional
-        ``selection`` and ``model`` of the law file (``extend-law``): the chosen settings and
-        their cross-validation curve, shown on the page.
-    law_failure : str, optional
-        Why there is no extended law (with ``laws`` None), quoted in the report.
-    cause_tolerances : dict, optional
-        ``network_factor`` and ``time_integration_deg`` (default :data:`causes.TOLERANCES`).
-    card : dict, optional
-        The material card's JSON (``export-law``: ``prony.json``): what it carries and loses,
-        and its errors against the measured means per temperature, for the page.
-    without_flagged : dict, optional
-        ``extend-law --without-flagged``'s JSON: the law without the rows beyond a
-        data-quality limit (compared with the selected law on the page), or its note.
+    measured, search, corrected, laws, simulated, ... : the fields of
+        :class:`DiagnosisInputs`, in its order (described there).
 
     Returns
     -------
@@ -336,6 +339,18 @@ def diagnose(
         card=card,
         without_flagged=without_flagged,
     )
+    return diagnosis_of(inputs)
+
+
+def diagnosis_of(inputs: DiagnosisInputs) -> tuple[dict, dict]:
+    """(report, extra) of :func:`diagnose` from its ``inputs``, by the stages in order:
+    :func:`cells_stage`, :func:`causes_stage`, :func:`budget_stage`, :func:`law_stage`,
+    :func:`extended_stage`, :func:`gains_stage`, :func:`report_stage`.
+
+    Raises
+    ------
+    InputError as :func:`diagnose`.
+    """
     cells = cells_stage(inputs)
     found = causes_stage(inputs, cells)
     budget = budget_stage(cells)
@@ -343,7 +358,8 @@ def diagnose(
     extended = extended_stage(inputs, cells, law)
     gains = gains_stage(cells, law, extended)
     report = report_stage(inputs, cells, found, budget, law, extended, gains)
-    return report, {"laws": law.laws, "corrected": corrected, "budget": budget.table, "master": search.master}
+    extra = {"laws": law.laws, "corrected": inputs.corrected, "budget": budget.table, "master": inputs.search.master}
+    return report, extra
 
 
 def cells_stage(inputs: DiagnosisInputs) -> Cells:
@@ -587,15 +603,7 @@ def report_stage(
         "causes": [e["name"] for e in found.named],
         "extended": extended_block(inputs.law_info, law, extended),
         "gain": gains.gain,
-        "gain_sources": {
-            **gains.sources,
-            "models": {
-                "nscd": {"before": "NSCD simulation (time domain, Burger's bond law)", "after": extended.nscd_after},
-                "macro": {"before": "macro Burger's model (Eqs. 27-29) per temperature", "after": law.model},
-                "law_only": {"before": cells.baseline_model, "after": gains.law_only_model},
-            },
-            "reference": {"before": "measured replicate means", "after": "artifact-corrected measured replicate means"},
-        },
+        "gain_sources": gain_sources_block(cells, law, extended, gains),
         "gain_nscd": gains.nscd,
         "gain_macro": gains.macro,
         "gain_law_only": gains.law_only,
@@ -609,13 +617,7 @@ def report_stage(
         "selection": search.selection,
         "units": dict(search.units) or {"modulus": "MPa", "temperature": "C"},
         "calibration": calibration_summary(search.calibration),
-        "findings": {
-            "artifact search master curve (2S2P1D of the corrected table)": search.findings,
-            "selected law": ((inputs.law_info or {}).get("model") or {}).get("findings") or [],
-            "law of the material card": []
-            if not inputs.card or inputs.card.get("is_selected_law", True)
-            else inputs.card.get("findings") or [],
-        },
+        "findings": findings_block(inputs),
         "material_card": card_block(inputs.card),
         "data_quality": search.quality,
         "law_without_flagged": without_flagged_text(inputs.without_flagged, law.laws, measured)
@@ -623,6 +625,31 @@ def report_stage(
         else None,
     }
     return json_safe(report)
+
+
+def gain_sources_block(cells: Cells, law: Law, extended: Extended, gains: Gains) -> dict:
+    """The ``gain_sources`` block: the sources of the primary gain (:class:`Gains`), the models
+    before and after of each gain source, and the references the gains are measured against."""
+    return {
+        **gains.sources,
+        "models": {
+            "nscd": {"before": "NSCD simulation (time domain, Burger's bond law)", "after": extended.nscd_after},
+            "macro": {"before": "macro Burger's model (Eqs. 27-29) per temperature", "after": law.model},
+            "law_only": {"before": cells.baseline_model, "after": gains.law_only_model},
+        },
+        "reference": {"before": "measured replicate means", "after": "artifact-corrected measured replicate means"},
+    }
+
+
+def findings_block(inputs: DiagnosisInputs) -> dict:
+    """The ``findings`` block: the notes of the artifact search's master curve, of the selected
+    law and of the material card's law (when the card's law is not the selected one)."""
+    card = inputs.card
+    return {
+        "artifact search master curve (2S2P1D of the corrected table)": inputs.search.findings,
+        "selected law": ((inputs.law_info or {}).get("model") or {}).get("findings") or [],
+        "law of the material card": [] if not card or card.get("is_selected_law", True) else card.get("findings") or [],
+    }
 
 
 def master_curve_block(search: ArtifactRecord, temps) -> dict:

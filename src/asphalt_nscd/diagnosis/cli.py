@@ -1110,11 +1110,13 @@ def _diagnose(args) -> int:
 
     measured = load_measured(args.measured, test=args.test)
     card = read_json(args.card, "material card JSON") if args.card is not None else None
+    master_json = read_json(args.master_curve, "master-curve JSON")  # each result read once
+    law_json = read_json(args.law_json, "law JSON")
     stamp = same_table(
         args.measured,
         [
-            (args.master_curve, read_json(args.master_curve, "master-curve JSON")),
-            (args.law_json, read_json(args.law_json, "law JSON")),
+            (args.master_curve, master_json),
+            (args.law_json, law_json),
             *([(args.card, card)] if card is not None else []),
         ],
     )
@@ -1126,10 +1128,10 @@ def _diagnose(args) -> int:
     temps = sorted(measured["temperature_C"].unique())
     report, extra = diagnose(
         measured,
-        artifacts.read(args.master_curve),
+        artifacts.record_from(master_json, args.master_curve),
         artifacts.read_corrected(args.corrected_table),
-        laws=law_file.read_mpa(args.law_json, temps),
-        law_info=law_file.read_info(args.law_json),
+        laws=law_file.laws_mpa(law_file.validate(law_json, args.law_json), temps, args.law_json),
+        law_info=law_file.info_of(law_json),
         simulated=inputs.read_simulated_many(args.simulated),
         harmonic=inputs.read_simulated_many(args.harmonic),
         time_errors=inputs.read_time_errors(args.time_integration, args.theta) if args.time_integration else None,

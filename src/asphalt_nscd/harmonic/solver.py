@@ -518,6 +518,12 @@ class HarmonicSystem:
         self._shifted[sigma] = lu
         return lu, sigma, False
 
+    def drop_shifted_factors(self) -> None:
+        """Forget the cached factors of G - sigma M (:meth:`shifted_factor`): the next solve with
+        inertia factorises afresh, as a new system of the same network would (a job that solves
+        at a second time step keeps its system, and its record does not depend on the first)."""
+        self._shifted.clear()
+
     def solve(
         self,
         kn,

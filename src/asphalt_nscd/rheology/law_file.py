@@ -146,7 +146,17 @@ def read_mpa(path, temperatures=None) -> dict:
 
     Raises InputError naming the file and the temperatures without a law.
     """
-    laws = {T: law.scaled(1e-6) for T, law in read(path).items()}
+    return laws_mpa(read(path), temperatures, path)
+
+
+def laws_mpa(laws: dict, temperatures=None, path="") -> dict:
+    """Laws per temperature ``laws`` ({T degC: GeneralizedBurgers in Pa, Pa s}, :func:`validate`)
+    in MPa and MPa s; with ``temperatures`` (degC), the laws at exactly those temperatures,
+    keyed by them.
+
+    Raises InputError naming ``path`` and the temperatures without a law.
+    """
+    laws = {T: law.scaled(1e-6) for T, law in laws.items()}
     if temperatures is None:
         return laws
     missing = [float(T) for T in temperatures if temperature_key(laws, T) is None]
@@ -159,7 +169,12 @@ def read_mpa(path, temperatures=None) -> dict:
 
 def read_info(path) -> dict:
     """``selection``, ``model`` and ``card`` objects of a law file (None where absent)."""
-    obj = read_json(path, "law JSON")
+    return info_of(read_json(path, "law JSON"))
+
+
+def info_of(obj) -> dict:
+    """``selection``, ``model`` and ``card`` objects of a law file's JSON object ``obj`` (None
+    where absent)."""
     return {k: obj.get(k) if isinstance(obj, dict) else None for k in ("selection", "model", "card")}
 
 
