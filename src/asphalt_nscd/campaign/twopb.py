@@ -472,6 +472,19 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     InputError if the head is free to rotate but has no positive finite inertia.
     """
     from ..harmonic import solver
+
+    if held is None:
+        held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
+    return _held_simulation(sample, held, law, frequency_Hz, dt, settings)
+
+
+def _held_simulation(sample, held: np.ndarray, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
+    """:func:`build_simulation` of ``sample`` holding the spheres of ``held`` (N,) bool.
+
+    Raises
+    ------
+    InputError if the head is free to rotate but has no positive finite inertia.
+    """
     from ..nscd import NSCDParameters
     from ..sample import rig
 
@@ -490,8 +503,6 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
         linear_tolerance=settings.linear_tolerance,
         fast_path_contacts=settings.fast_path_contacts,
     )
-    if held is None:
-        held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
     sim = rig.setup(sample, law, motion, params, settings.head_rotation, settings.nu, strength, held=held)
     return sim, motion
 
@@ -632,14 +643,17 @@ def read_rig(sample_path, settings: TwoPBSettings) -> Rig:
     ------
     InputError if the sample file is missing or malformed.
     """
-    from ..sample.store import read_sample
+    from ..lab.en12697 import Specimen2PB
+    from ..sample.store import read_sample, specimen_geometry_mm
 
     sample = read_sample(sample_path)
+    geometry = specimen_geometry_mm(sample)
+    specimen = Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **geometry)
     z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
     edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
     zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
     counts = np.bincount(zbin, minlength=settings.profile_bins)
-    return Rig(sample=sample, specimen=specimen_of(sample), edges=edges, counts=counts)
+    return Rig(sample=sample, specimen=specimen, edges=edges, counts=counts)
 
 
 def hold(rig: Rig, sample_path, settings: TwoPBSettings, rig_state=None) -> Rig:
@@ -737,7 +751,7 @@ def set_up(rig: Rig, law, frequency_Hz: float, dt: float, settings: TwoPBSetting
     ------
     InputError for a reference state of another network or other options.
     """
-    sim, motion = build_simulation(rig.sample, law, frequency_Hz, dt, settings, held=rig.held)
+    sim, motion = _held_simulation(rig.sample, rig.held, law, frequency_Hz, dt, settings)
     rest_z = sim.spheres.position[:, 2].copy()
     rig = _with_system(rig, sim, settings)
     info, state = periodic_start(
