@@ -58,6 +58,13 @@ class SampleData:
         """2/5 m r^2 (kg m^2), (N,)."""
         return 0.4 * self.mass * self.radius**2
 
+    @property
+    def head_size_m(self) -> tuple[float, float] | None:
+        """The head's footprint (b, e), m: the root attributes ``b_m, e_m``; None without them."""
+        if "b_m" in self.attrs and "e_m" in self.attrs:
+            return float(self.attrs["b_m"]), float(self.attrs["e_m"])
+        return None
+
 
 def subsample(sample: SampleData, keep) -> SampleData:
     """The sample with only the spheres of mask ``keep`` (N,) and the bonds between kept
