@@ -230,8 +230,9 @@ def harmonic_system(sim, head_rotation: str = "free", nu: float = POISSON_RATIO,
 
     p = sim.params
     head = head_rotation if p.bond_kinematics == "contact" else "clamped"
+    network = network_of(sim)
     return HarmonicSystem(
-        network_of(sim),
+        network,
         nu=nu,
         bond_kinematics=p.bond_kinematics,
         head_rotation=head,
