@@ -34,7 +34,7 @@ import time
 import zipfile
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -42,9 +42,6 @@ from ..io import InputError, atomic_path, check_termination, remove_stale_tempor
 from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
 from ..rheology.laws import POISSON_RATIO
 from ..harmonic import periodic
-
-if TYPE_CHECKING:
-    from ..lab.en12697 import Specimen2PB
 
 #: how a test starts: at rest, or in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`)
 START_MODES = ("rest", "periodic")
@@ -297,16 +294,6 @@ class HeadMotion:
 
     def x(self, t):
         return self.amplitude * np.sin(self.omega * np.asarray(t, float))
-
-
-def specimen_of(sample) -> Specimen2PB:
-    """EN 12697-26 specimen of a sample: the scaled geometry of the sample store
-    (:func:`asphalt_nscd.sample.store.specimen_geometry_mm`), M = sum of the sphere masses,
-    m = top-plate mass (kg)."""
-    from ..lab.en12697 import Specimen2PB
-    from ..sample.store import specimen_geometry_mm
-
-    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **specimen_geometry_mm(sample))
 
 
 def _file_sha256(path) -> str:
@@ -615,7 +602,7 @@ class Rig:
     """What a job reads from its sample once and every later step shares.
 
     sample : SampleData of the sample file (the only read of it in a job).
-    specimen : EN 12697-26 specimen of the sample (:func:`specimen_of`).
+    specimen : EN 12697-26 specimen of the sample (:func:`asphalt_nscd.sample.store.specimen_of`).
     edges : (profile_bins + 1,) m, the height bins of the velocity profile between the plates.
     counts : (profile_bins,) int, spheres per height bin at rest (the profile's divisor).
     held : (N,) bool, the spheres the rig holds (:func:`hold`), None until held.
@@ -643,12 +630,10 @@ def read_rig(sample_path, settings: TwoPBSettings) -> Rig:
     ------
     InputError if the sample file is missing or malformed.
     """
-    from ..lab.en12697 import Specimen2PB
-    from ..sample.store import read_sample, specimen_geometry_mm
+    from ..sample.store import read_sample, specimen_of
 
     sample = read_sample(sample_path)
-    geometry = specimen_geometry_mm(sample)
-    specimen = Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **geometry)
+    specimen = specimen_of(sample)
     z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
     edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
     zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
