@@ -216,8 +216,7 @@ def costs(jobs: pd.DataFrame) -> pd.DataFrame:
 
 
 def evidence(jobs: pd.DataFrame) -> pd.DataFrame:
-    from asphalt_nscd.campaign.twopb import specimen_of
-    from asphalt_nscd.sample.store import read_sample
+    from asphalt_nscd.sample.store import read_sample, specimen_of
 
     rows = []
     kpa = jobs[jobs["mode"] == "paper_kPa"]

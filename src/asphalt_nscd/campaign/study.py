@@ -343,7 +343,7 @@ def units_question(
     """
     from ..rheology.calibration import burgers_isotherm
     from ..rheology.laws import bond_scale
-    from .twopb import specimen_of
+    from ..sample.store import specimen_of
 
     spec = specimen_of(sample)
     gamma = spec.gamma_per_mm

@@ -34,7 +34,7 @@ import time
 import zipfile
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -42,9 +42,6 @@ from ..io import InputError, atomic_path, check_termination, remove_stale_tempor
 from ..nscd.state import BOND_KINEMATICS, HEAD_AMPLITUDE_M, HEAD_ROTATIONS, YIELD_STRESS
 from ..rheology.laws import POISSON_RATIO
 from ..harmonic import periodic
-
-if TYPE_CHECKING:
-    from ..lab.en12697 import Specimen2PB
 
 #: how a test starts: at rest, or in the periodic steady state (:mod:`asphalt_nscd.harmonic.periodic`)
 START_MODES = ("rest", "periodic")
@@ -299,16 +296,6 @@ class HeadMotion:
         return self.amplitude * np.sin(self.omega * np.asarray(t, float))
 
 
-def specimen_of(sample) -> Specimen2PB:
-    """EN 12697-26 specimen of a sample: the scaled geometry of the sample store
-    (:func:`asphalt_nscd.sample.store.specimen_geometry_mm`), M = sum of the sphere masses,
-    m = top-plate mass (kg)."""
-    from ..lab.en12697 import Specimen2PB
-    from ..sample.store import specimen_geometry_mm
-
-    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **specimen_geometry_mm(sample))
-
-
 def _file_sha256(path) -> str:
     import hashlib
 
@@ -472,6 +459,19 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
     InputError if the head is free to rotate but has no positive finite inertia.
     """
     from ..harmonic import solver
+
+    if held is None:
+        held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
+    return _held_simulation(sample, held, law, frequency_Hz, dt, settings)
+
+
+def _held_simulation(sample, held: np.ndarray, law, frequency_Hz: float, dt: float, settings: TwoPBSettings):
+    """:func:`build_simulation` of ``sample`` holding the spheres of ``held`` (N,) bool.
+
+    Raises
+    ------
+    InputError if the head is free to rotate but has no positive finite inertia.
+    """
     from ..nscd import NSCDParameters
     from ..sample import rig
 
@@ -490,8 +490,6 @@ def build_simulation(sample, law, frequency_Hz: float, dt: float, settings: TwoP
         linear_tolerance=settings.linear_tolerance,
         fast_path_contacts=settings.fast_path_contacts,
     )
-    if held is None:
-        held = solver.held_spheres(sample, settings.bond_kinematics, settings.head_rotation, settings.nu)
     sim = rig.setup(sample, law, motion, params, settings.head_rotation, settings.nu, strength, held=held)
     return sim, motion
 
@@ -604,7 +602,7 @@ class Rig:
     """What a job reads from its sample once and every later step shares.
 
     sample : SampleData of the sample file (the only read of it in a job).
-    specimen : EN 12697-26 specimen of the sample (:func:`specimen_of`).
+    specimen : EN 12697-26 specimen of the sample (:func:`asphalt_nscd.sample.store.specimen_of`).
     edges : (profile_bins + 1,) m, the height bins of the velocity profile between the plates.
     counts : (profile_bins,) int, spheres per height bin at rest (the profile's divisor).
     held : (N,) bool, the spheres the rig holds (:func:`hold`), None until held.
@@ -632,14 +630,15 @@ def read_rig(sample_path, settings: TwoPBSettings) -> Rig:
     ------
     InputError if the sample file is missing or malformed.
     """
-    from ..sample.store import read_sample
+    from ..sample.store import read_sample, specimen_of
 
     sample = read_sample(sample_path)
+    specimen = specimen_of(sample)
     z_bot, z_top = float(sample.plate_point[0, 2]), float(sample.plate_point[1, 2])
     edges = np.linspace(min(z_bot, z_top), max(z_bot, z_top), settings.profile_bins + 1)
     zbin = np.clip(np.digitize(sample.position[:, 2], edges) - 1, 0, settings.profile_bins - 1)
     counts = np.bincount(zbin, minlength=settings.profile_bins)
-    return Rig(sample=sample, specimen=specimen_of(sample), edges=edges, counts=counts)
+    return Rig(sample=sample, specimen=specimen, edges=edges, counts=counts)
 
 
 def hold(rig: Rig, sample_path, settings: TwoPBSettings, rig_state=None) -> Rig:
@@ -737,7 +736,7 @@ def set_up(rig: Rig, law, frequency_Hz: float, dt: float, settings: TwoPBSetting
     ------
     InputError for a reference state of another network or other options.
     """
-    sim, motion = build_simulation(rig.sample, law, frequency_Hz, dt, settings, held=rig.held)
+    sim, motion = _held_simulation(rig.sample, rig.held, law, frequency_Hz, dt, settings)
     rest_z = sim.spheres.position[:, 2].copy()
     rig = _with_system(rig, sim, settings)
     info, state = periodic_start(

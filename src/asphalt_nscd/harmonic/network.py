@@ -164,6 +164,7 @@ def network_from_arrays(
     plate_normal = plate_normal / np.linalg.norm(plate_normal, axis=1, keepdims=True)
     plate_mass = np.asarray(plate_mass, float).ravel()
     plate_point = np.zeros((2, 3)) if plate_point is None else np.asarray(plate_point, float).reshape(2, 3)
+    normal = bond_normals(position, plate_normal, i, j)
     contact = inertia = None
     if radius is not None:
         radius = np.asarray(radius, float).ravel()
@@ -181,7 +182,7 @@ def network_from_arrays(
         plate_normal=plate_normal,
         i=i,
         j=j,
-        normal=bond_normals(position, plate_normal, i, j),
+        normal=normal,
         scale=bond_scale(r_min, l0),
         name=name,
         radius=radius,
@@ -196,9 +197,6 @@ def network_from_sample(sample) -> BondNetwork:
     """The :class:`BondNetwork` of a sample read by the store (:class:`asphalt_nscd.sample.store.
     SampleData`, arrays checked there), named after it; the head size (b, e) is the root
     attributes ``b_m, e_m`` when present (module docstring)."""
-    from ..sample.rig import head_size_m
-
-    head = head_size_m(sample)
     return network_from_arrays(
         sample.position,
         sample.mass,
@@ -212,5 +210,5 @@ def network_from_sample(sample) -> BondNetwork:
         radius=sample.radius,
         rotational_inertia=sample.inertia,
         plate_point=sample.plate_point,
-        head_size_m=head,
+        head_size_m=sample.head_size_m,
     )

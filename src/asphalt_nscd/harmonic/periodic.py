@@ -230,8 +230,9 @@ def harmonic_system(sim, head_rotation: str = "free", nu: float = POISSON_RATIO,
 
     p = sim.params
     head = head_rotation if p.bond_kinematics == "contact" else "clamped"
+    network = network_of(sim)
     return HarmonicSystem(
-        network_of(sim),
+        network,
         nu=nu,
         bond_kinematics=p.bond_kinematics,
         head_rotation=head,
@@ -367,7 +368,6 @@ def gravity_unit(
         act = np.flatnonzero(system.active)
         rhs = np.zeros(system.n_free)
         rhs[: d * act.size].reshape(-1, d)[:, :3] = sph.mass[act, None] * g[None, :]
-        g0 = system._reference_blocks()["ff"]
         # zero modes of weakly held spheres (mechanisms), cluster by cluster (:func:`mechanism_support`):
         # their weight along the zero modes is cancelled by the support force (supported) or left out
         # of the load, the spheres' free fall (free); G is stiffened along them
@@ -382,6 +382,7 @@ def gravity_unit(
             extra_r.append(np.repeat(dofs, dofs.size))
             extra_c.append(np.tile(dofs, dofs.size))
             extra_v.append(scale * (V @ V.T).ravel())
+        g0 = system._reference_blocks()["ff"]
         a = g0
         if extra_v:
             a = (

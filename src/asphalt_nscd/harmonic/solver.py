@@ -827,8 +827,9 @@ def held_spheres(
     keep = np.ones(sample.radius.size, bool)
     while True:
         sub = subsample(sample, keep)
+        network = network_from_sample(sub)
         system = HarmonicSystem(
-            network_from_sample(sub),
+            network,
             nu=nu,
             bond_kinematics=bond_kinematics,
             head_rotation=head_rotation,

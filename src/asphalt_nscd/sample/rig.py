@@ -87,18 +87,11 @@ def head_inertia(mass: float, b_m: float, e_m: float, density_kg_m3: float = PLA
     )
 
 
-def head_size_m(sample) -> tuple[float, float] | None:
-    """The head's footprint (b, e), m, of a sample (:class:`asphalt_nscd.sample.store.SampleData`):
-    its root attributes ``b_m, e_m``; None without them."""
-    if "b_m" in sample.attrs and "e_m" in sample.attrs:
-        return float(sample.attrs["b_m"]), float(sample.attrs["e_m"])
-    return None
-
-
 def head_inertia_of(sample) -> np.ndarray:
     """Moments of inertia (3,) kg m^2 of a sample's head (module docstring): footprint
-    :func:`head_size_m`, else the x-y extent of the top-plate bonds' contact points."""
-    size = head_size_m(sample)
+    :attr:`asphalt_nscd.sample.store.SampleData.head_size_m`, else the x-y extent of the top-plate
+    bonds' contact points."""
+    size = sample.head_size_m
     if size is None:
         i, j = sample.bonds["i"], sample.bonds["j"]
         contact = contact_points(sample.position, sample.radius, sample.plate_normal, i, j, sample.bonds["l0"])

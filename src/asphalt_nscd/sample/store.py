@@ -16,10 +16,14 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..io import InputError, atomic_path, rebuild_hint
+
+if TYPE_CHECKING:
+    from ..lab.en12697 import Specimen2PB
 
 UNITS = {
     "spheres/position": "m",
@@ -57,6 +61,13 @@ class SampleData:
     def inertia(self) -> np.ndarray:
         """2/5 m r^2 (kg m^2), (N,)."""
         return 0.4 * self.mass * self.radius**2
+
+    @property
+    def head_size_m(self) -> tuple[float, float] | None:
+        """The head's footprint (b, e), m: the root attributes ``b_m, e_m``; None without them."""
+        if "b_m" in self.attrs and "e_m" in self.attrs:
+            return float(self.attrs["b_m"]), float(self.attrs["e_m"])
+        return None
 
 
 def subsample(sample: SampleData, keep) -> SampleData:
@@ -96,6 +107,15 @@ def specimen_geometry_mm(sample: SampleData) -> dict:
         key: float(sample.attrs[key.replace("_mm", "_m")]) * 1e3 if key.replace("_mm", "_m") in sample.attrs else value
         for key, value in STANDARD_SPECIMEN_MM.items()
     }
+
+
+def specimen_of(sample: SampleData) -> Specimen2PB:
+    """EN 12697-26 specimen of a sample (:class:`asphalt_nscd.lab.en12697.Specimen2PB`): the
+    scaled geometry of :func:`specimen_geometry_mm`, M = sum of the sphere masses, m = top-plate
+    mass (kg)."""
+    from ..lab.en12697 import Specimen2PB
+
+    return Specimen2PB(M_kg=float(sample.mass.sum()), m_kg=float(sample.plate_mass[1]), **specimen_geometry_mm(sample))
 
 
 def write_sample(path: str | Path, data: SampleData) -> None:
