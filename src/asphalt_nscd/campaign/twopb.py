@@ -735,7 +735,10 @@ def set_up(rig: Rig, law, frequency_Hz: float, dt: float, settings: TwoPBSetting
     Raises
     ------
     InputError for a reference state of another network or other options.
+    ValueError for a rig that is not held.
     """
+    if rig.held is None:
+        raise ValueError("set_up: the rig holds no spheres yet (hold it first)")
     sim, motion = _held_simulation(rig.sample, rig.held, law, frequency_Hz, dt, settings)
     rest_z = sim.spheres.position[:, 2].copy()
     rig = _with_system(rig, sim, settings)

@@ -346,8 +346,10 @@ def _specimen_scores(g: pd.DataFrame, spec: pd.DataFrame, pop: _Population, sche
         unit = "pct" if q == "logE" else "deg"
         lo, hi = t_interval(b_s)
         parts = pop.parts[key]
-        ok = parts is not None and (c >= 0).all()
-        a_lo, a_hi = abs_interval(error_draws(d, parts, c, scheme)) if ok else (np.nan, np.nan)
+        if parts is not None and (c >= 0).all():
+            a_lo, a_hi = abs_interval(error_draws(d, parts, c, scheme))
+        else:
+            a_lo, a_hi = np.nan, np.nan
         observed = float(np.mean(np.abs(d)))
         out.update(
             {
