@@ -559,12 +559,12 @@ def test_the_card_law_weighs_every_cell(seed):
 
 def test_the_levels_a_fold_did_not_see_are_drawn_given_its_errors():
     """Held-out errors d = g - x contain the levels x of the lab's scatter that the fold's law
-    did not see: drawn given d, a scatter that explains all of d (a perfect law, g = 0) leaves
-    an error against the mix near 0, where drawn independently it would double; without any
-    scatter the draws are d itself."""
+    did not see: drawn given d, a cell scatter that explains all of d (a perfect law, g = 0; d
+    centred within each isotherm, as the cell level is drawn) leaves an error against the mix
+    near 0, where drawn independently it would double; without any scatter the draws are d itself."""
     cells = pd.DataFrame({"T": np.repeat([0.0, 20.0], 4), "f": np.tile([1.0, 2.0, 5.0, 10.0], 2), "n": 3})
     comp = {"cells": cells, "n_f": {0.0: 4, 20.0: 4}, "n_specimens": 3}
-    d = np.array([0.02, -0.03, 0.01, -0.02, 0.03, -0.01, 0.02, -0.02])
+    d = np.array([0.02, -0.03, 0.01, 0.0, 0.03, -0.01, 0.0, -0.02])
     comp["lnE"] = {
         "ms": {"specimen": 0.0, "specimen_temperature": 0.0, "cell": 3 * float(np.mean(d**2))},
         "dof": {"specimen": 2, "specimen_temperature": 2, "cell": 10**6},

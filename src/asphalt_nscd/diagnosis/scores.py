@@ -36,9 +36,8 @@ Intervals (95 %) over the specimens, which are what the reference is sampled fro
   intervals over the folds (three specimens: two degrees of freedom, an interval that cannot
   bound the error usefully).
 
-A bootstrap over 3 specimens has 10 distinct resamples and makes its "interval" the range of
-the single-specimen errors; it is not used (docs/choices.md, Diagnosis: held-out errors and
-their intervals).
+A bootstrap over 3 specimens (10 distinct resamples: the range of the single-specimen errors)
+is not used (docs/choices.md, Diagnosis: held-out errors and their intervals).
 """
 
 from __future__ import annotations
@@ -159,12 +158,16 @@ def nested_components(spec: pd.DataFrame) -> dict:
         R = g.transform("mean")
         e = frame["r"] - R
         st = frame.assign(R=R).groupby(["specimen", "T"]).agg(R=("R", "first"), k=("r", "size")).reset_index()
-        Rs = st.groupby("specimen").apply(lambda x: np.average(x["R"], weights=x["k"]), include_groups=False)
+        Rs = (
+            st.groupby("specimen").apply(lambda x: np.average(x["R"], weights=x["k"]), include_groups=False)
+            if len(st)
+            else pd.Series(dtype=float)  # no cell tested by two specimens: no scatter to split
+        )
         K = st.groupby("specimen")["k"].sum()
         st["Rs"] = st["specimen"].map(Rs)
         dof = {
             "specimen": n_spec - 1,
-            "specimen_temperature": int(st.groupby("specimen").size().sub(1).sum() - (len(n_f) - 1)),
+            "specimen_temperature": int(st.groupby("specimen").size().sub(1).sum() - max(len(n_f) - 1, 0)),
             "cell": int((st["k"] - 1).sum() - sum(v - 1 for v in n_f.values())),
         }
         ss = {
