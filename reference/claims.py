@@ -122,7 +122,26 @@ def paired(per_mix: pd.DataFrame, a: str, b: str, column: str) -> list[float]:
     return tmean((w[a] - w[b]).dropna())
 
 
-HELPERS = {"np": np, "pd": pd, "math": math, "pct": pct, "rng": rng, "one": one, "tmean": tmean, "paired": paired}
+def lower95(k, n) -> float:
+    """The one-sided exact (Clopper-Pearson) 95 % lower bound of a proportion k/n, in % (a
+    detection count's power shown, "90/90 (>= 96.7 %)")."""
+    from scipy import stats
+
+    k, n = int(k), int(n)
+    return 0.0 if k <= 0 else 100.0 * float(stats.beta.ppf(0.05, k, n - k + 1))
+
+
+HELPERS = {
+    "np": np,
+    "pd": pd,
+    "math": math,
+    "pct": pct,
+    "rng": rng,
+    "one": one,
+    "tmean": tmean,
+    "paired": paired,
+    "lower95": lower95,
+}
 
 
 def read_table(path: Path):

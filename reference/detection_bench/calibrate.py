@@ -6,7 +6,7 @@ rate of 5 % over the two groups), so that the whole procedure's family-wise fals
 per truth family is counted. A table without a nominal alarm cannot raise one after
 calibration (the calibrated level is never above the nominal one).
 
-    python calibrate.py DIR DESIGN [--tables 200] [--power-only]
+    python calibrate.py DIR DESIGN [--tables 200] [--jobs 1] [--power-only]
 
 Reads ``DIR/<design>_summary.json`` and ``DIR/<design>_tables.csv.gz`` (written by
 ``collect.py``); writes ``DIR/<design>_calibrated.csv`` (one row per table with a nominal
@@ -15,7 +15,8 @@ tables were run (a calibration stops once its decision is known: more than its s
 reach the table's statistic; the level is then an upper bound) and how many reach the
 statistic, the decision, CPU seconds) and rewrites ``<design>.csv``,
 ``<design>_power.csv``, ``<design>_summary.json`` and the table rows with the calibrated
-decisions and the power's one-sided 95 % lower bounds. ``--power-only`` recomputes the power
+decisions and the power's one-sided 95 % lower bounds. Each table's calibration is kept in
+``DIR/<design>_calibration.jsonl`` as it ends: a stopped run resumes there. ``--power-only`` recomputes the power
 columns from the summary without calibrating.
 """
 
@@ -67,6 +68,7 @@ def main(argv=None) -> None:
     ap.add_argument("dir", type=Path)
     ap.add_argument("design", choices=sorted(bench.CONFIGURATIONS))
     ap.add_argument("--tables", type=int, default=200, help="bootstrap tables per calibration (default 200)")
+    ap.add_argument("--jobs", type=int, default=1, help="processes (default 1)")
     ap.add_argument("--power-only", action="store_true", help="recompute the power columns only")
     args = ap.parse_args(argv)
     d, conf = args.dir, args.design
@@ -80,7 +82,7 @@ def main(argv=None) -> None:
         result["alpha"] = summary["alpha"]
         result["runs"] = runs = clean_runs(tables)
         t0 = time.perf_counter()
-        bench.calibrate_alarms(result, n_tables=args.tables, jobs=1)
+        bench.calibrate_alarms(result, n_tables=args.tables, jobs=args.jobs, checkpoint=d / f"{conf}_calibration.jsonl")
         rows = [
             {
                 "family": r["family"],

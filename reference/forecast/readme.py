@@ -1,6 +1,7 @@
 """Write reference/forecast/README.md from the committed tables beside it (every number computed here).
 
-    python reference/forecast/readme.py
+    python reference/forecast/readme.py            # write README.md
+    python reference/forecast/readme.py --check    # exit 1 when README.md is not what the tables give
 
 Reads ``<label>_crossval.csv``, ``<label>_per_mix.csv``, ``<label>_costs.csv``, ``<label>_constants.csv``
 and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, and the size study's
@@ -9,6 +10,7 @@ and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, an
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -70,7 +72,8 @@ def costs(c: pd.DataFrame) -> list[str]:
     return lines
 
 
-def main() -> int:
+def render() -> str:
+    """The page's text, every number computed from the committed tables."""
     L = [
         "# The forecast from the binder: reference tables",
         "",
@@ -196,7 +199,22 @@ def main() -> int:
                 f"{r['factor_zeta0_mean']:.3f} | {r['factor_zeta0_cv_pct']:.1f} | {r['factor_zeta1_mean']:.3f} | "
                 f"{r['factor_zeta1_cv_pct']:.1f} | {r['pack_cpu_s']:.0f} |"
             )
-    (HERE / "README.md").write_text("\n".join(L) + "\n")
+    return "\n".join(L) + "\n"
+
+
+def main(argv=None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--check", action="store_true", help="compare README.md with the tables' page, write nothing")
+    args = ap.parse_args(argv)
+    page, text = HERE / "README.md", render()
+    if args.check:
+        if page.read_text() != text:
+            print(f"{page}: not what its tables give; rerun python reference/forecast/readme.py", file=sys.stderr)
+            return 1
+        return 0
+    page.write_text(text)
     return 0
 
 

@@ -130,3 +130,26 @@ def test_the_changelog_says_its_entries_are_history():
 
 def test_pandas_and_numpy_are_what_the_expressions_see():
     assert claims.HELPERS["np"] is np and claims.HELPERS["pd"] is pd
+
+
+def _forecast_readme_module():
+    spec = importlib.util.spec_from_file_location("forecast_readme", REPO / "reference" / "forecast" / "readme.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_forecast_page_is_what_its_tables_give_and_follows_a_changed_table(tmp_path, monkeypatch):
+    """reference/forecast/README.md is rendered from its folder's tables (readme.py): the
+    committed page equals the rendering, and a changed table changes the rendering."""
+    readme = _forecast_readme_module()
+    assert readme.main(["--check"]) == 0, "reference/forecast/README.md: rerun python reference/forecast/readme.py"
+    folder = tmp_path / "forecast"
+    shutil.copytree(REPO / "reference" / "forecast", folder)
+    monkeypatch.setattr(readme, "HERE", folder)
+    assert readme.render() == (REPO / "reference" / "forecast" / "README.md").read_text()
+    frame = pd.read_csv(folder / "default_crossval.csv")
+    frame["abs_logE_pct"] = 1.1 * frame["abs_logE_pct"] + 1.0
+    frame.to_csv(folder / "default_crossval.csv", index=False)
+    assert readme.main(["--check"]) == 1

@@ -182,6 +182,36 @@ def test_calibrated_alarms_recount_the_complete_procedure():
         bench.calibrate_alarms(result, n_tables=20)
 
 
+def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch):
+    """Each table's calibration is appended to the checkpoint as it ends; a rerun reads it back
+    instead of calibrating again (same decisions), and a table not in it is calibrated."""
+    import copy
+    import json
+
+    result = bench.run_bench(2, 0, base_seed=11, families=["gmaxwell"], configuration="shipped")
+    for r in result["runs"]:
+        r["detected"], r["min_p"] = ["time_lag"], 1e-30
+    fresh = copy.deepcopy(result)
+    ckpt = tmp_path / "calibration.jsonl"
+    bench.calibrate_alarms(result, n_tables=20, checkpoint=ckpt)
+    lines = [json.loads(x) for x in ckpt.read_text().splitlines()]
+    assert [(x["family"], x["index"]) for x in lines] == [("gmaxwell", r["index"]) for r in result["runs"]]
+    # the second table's line lost (a run stopped after the first): only that table is calibrated again
+    ckpt.write_text(json.dumps(lines[0]) + "\n")
+    calls = []
+    real = bench._calibrated_level
+    monkeypatch.setattr(bench, "_calibrated_level", lambda args: calls.append(args) or real(args))
+    bench.calibrate_alarms(fresh, n_tables=20, checkpoint=ckpt)
+    assert len(calls) == 1 and calls[0][0]["index"] == result["runs"][1]["index"]
+    for a, b in zip(result["runs"], fresh["runs"]):
+        assert a["calibrated_level"] == b["calibrated_level"] and a["detected_calibrated"] == b["detected_calibrated"]
+    assert len(ckpt.read_text().splitlines()) == 2
+    # another number of bootstrap tables does not read the checkpoint's calibrations
+    calls.clear()
+    bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=21, checkpoint=ckpt)
+    assert len(calls) == 2
+
+
 def test_bench_help_names_every_truth_family(capsys):
     with pytest.raises(SystemExit):
         main(["diagnose-bench", "--help"])

@@ -39,7 +39,9 @@ run exactly.
 
 from __future__ import annotations
 
+import json
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -360,7 +362,7 @@ def _calibrated_level(args) -> dict:
     }
 
 
-def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
+def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1, checkpoint: Path | None = None) -> dict:
     """The complete procedure's false alarms on the clean tables of a benchmark result: each
     clean table on which the nominal procedure names an artifact is calibrated on itself
     (:func:`asphalt_nscd.diagnosis.calibration.calibrate`, ``n_tables`` bootstrap tables
@@ -371,6 +373,10 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
     calibrating those. Adds ``detected_calibrated`` (and ``calibrated_level`` where it was
     computed) to every clean run and ``calibration_tables`` to the result; recomputes
     ``family_wise``. Returns ``result`` (changed in place).
+
+    ``checkpoint``: a JSON-lines file; each table's calibration is appended to it as it ends and
+    a table already there (same family, index, seed, ``n_tables`` and ``min_p``) is read back
+    instead of rerun, so a stopped calibration resumes where it stopped.
 
     Raises ValueError when a run's table cannot be regenerated from the result's plan."""
     runs = result["runs"]
@@ -399,7 +405,28 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
                     f"{result['base_seed']}); was the result produced by another version?"
                 )
             todo.append((r, case))
-    outs = _map_cases(_calibrated_level, [(c, result["alpha"], int(n_tables), r["min_p"]) for r, c in todo], jobs)
+    done = _read_checkpoint(checkpoint, int(n_tables))
+    key = lambda r: (r["family"], int(r["index"]), int(r["seed"]), float(r["min_p"]))  # noqa: E731
+    rest = [(r, c) for r, c in todo if key(r) not in done]
+    tasks = [(c, result["alpha"], int(n_tables), r["min_p"]) for r, c in rest]
+    for (r, _), out in zip(rest, _map_cases(_calibrated_level, tasks, jobs, lazy=True)):
+        done[key(r)] = out
+        if checkpoint is not None:
+            with open(checkpoint, "a") as fh:
+                fh.write(
+                    json.dumps(
+                        {
+                            "family": r["family"],
+                            "index": int(r["index"]),
+                            "seed": int(r["seed"]),
+                            "min_p": float(r["min_p"]),
+                            "n_tables": int(n_tables),
+                            "out": out,
+                        }
+                    )
+                    + "\n"
+                )
+    outs = [done[key(r)] for r, _ in todo]
     for (r, _), out in zip(todo, outs):
         r["calibrated_level"] = out["level"]
         r["calibration_cpu_seconds"] = out["cpu_seconds"]
@@ -413,13 +440,32 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1) -> dict:
     return result
 
 
-def _map_cases(fn, tasks: list, jobs: int) -> list:
+def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
+    """Calibrations already written to a :func:`calibrate_alarms` checkpoint, keyed by table."""
+    if path is None or not Path(path).exists():
+        return {}
+    done = {}
+    for line in Path(path).read_text().splitlines():
+        if not line.strip():
+            continue
+        rec = json.loads(line)
+        if int(rec["n_tables"]) == n_tables:
+            done[(rec["family"], int(rec["index"]), int(rec["seed"]), float(rec["min_p"]))] = rec["out"]
+    return done
+
+
+def _map_cases(fn, tasks: list, jobs: int, lazy: bool = False):
+    """``fn`` over ``tasks``, in ``jobs`` processes; ``lazy``: yield each result as it ends (in
+    order) rather than return the list."""
     if jobs > 1 and len(tasks) > 1:
         from concurrent.futures import ProcessPoolExecutor
 
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            return list(pool.map(fn, tasks))
-    return [fn(t) for t in tasks]
+        def run():
+            with ProcessPoolExecutor(max_workers=jobs) as pool:
+                yield from pool.map(fn, tasks)
+
+        return run() if lazy else list(run())
+    return (fn(t) for t in tasks) if lazy else [fn(t) for t in tasks]
 
 
 def level_for_goal(runs: list, families, goal: float = GOALS["false_alarm_rate"]) -> float | None:

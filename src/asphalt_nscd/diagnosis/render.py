@@ -731,9 +731,9 @@ def artifact_lines(report: dict) -> list[str]:
         "How far this holds, measured on synthetic tables of known truth (the detection benchmark, "
         "reference/detection_bench/ in the repository): where the screening model describes the truth, the "
         "procedure calibrated on each table rarely names an artifact on a clean table; where it does not, above "
-        "all for a generalized Maxwell spectrum, it names one on more than 5 % of clean uniaxial tables like "
-        "the shipped one even calibrated (a time lag or a temperature offset; on 2PB tables, at the nominal "
-        "level, mostly an uncorrected inertia), because the calibration draws the screening fit's misfit independently in "
+        "all for a generalized Maxwell spectrum, it names one on more than 5 % of clean tables even calibrated, "
+        "on uniaxial tables like the shipped one (a time lag or a temperature offset) and on 2PB tables like the "
+        "paper's (mostly an uncorrected inertia), because the calibration draws the screening fit's misfit independently in "
         "each cell while such a truth's misfit runs smoothly along frequency, as an artifact's signature does."
         + (
             f" So the artifact named here ({', '.join(named)}) may be the misfit of a spectrum the screening "
