@@ -41,7 +41,7 @@ from asphalt_nscd.campaign import study, twopb
 from asphalt_nscd.campaign.modes import table3_reading
 from asphalt_nscd.harmonic import periodic
 from asphalt_nscd.lab.en12697 import complex_modulus
-from asphalt_nscd.sample.store import read_sample
+from asphalt_nscd.sample.store import read_sample, specimen_of
 
 #: refinements of the job's dt at which the orbit is also computed
 REFINE = (10, 100)
@@ -81,7 +81,7 @@ def continuous(sample_path: str, law, f: float, settings, dt: float, rig_state=N
     sol = system.solve_law(
         law, f, amplitude=settings.amplitude_m, inertia="full", solver="reuse", laplace=1j * 2.0 * math.pi * f
     )
-    red = complex_modulus(sol.F0_N, settings.amplitude_m, sol.psi_deg, f, twopb.specimen_of(sample))
+    red = complex_modulus(sol.F0_N, settings.amplitude_m, sol.psi_deg, f, specimen_of(sample))
     return {"E": red["E_norm_MPa"], "phase": red["phase_deg"], "cpu_s": time.process_time() - cpu}
 
 
