@@ -125,10 +125,9 @@ def paired(per_mix: pd.DataFrame, a: str, b: str, column: str) -> list[float]:
 def lower95(k, n) -> float:
     """The one-sided exact (Clopper-Pearson) 95 % lower bound of a proportion k/n, in % (a
     detection count's power shown, "90/90 (>= 96.7 %)")."""
-    from scipy import stats
+    from asphalt_nscd.diagnosis.bench import lower_bound
 
-    k, n = int(k), int(n)
-    return 0.0 if k <= 0 else 100.0 * float(stats.beta.ppf(0.05, k, n - k + 1))
+    return 100.0 * lower_bound(int(k), int(n))
 
 
 HELPERS = {

@@ -128,4 +128,9 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from asphalt_nscd.io import InputError
+
+    try:
+        main()
+    except InputError as exc:
+        raise SystemExit(f"error: {exc}") from None

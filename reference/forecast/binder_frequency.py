@@ -23,13 +23,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from asphalt_nscd.forecast.binder import binder_ids
+from asphalt_nscd.forecast.binder import MEPDG_EXPONENT, MEPDG_OMEGA_RAD_S, binder_ids
 from asphalt_nscd.lab.matched import read_matched
 
 ROOT = Path(__file__).resolve().parents[2]
 TABLE = ROOT / "data" / "binder_mix" / "mixes_35.tsv"
-#: the MEPDG viscosity relation's exponent (eta = |G*|/10 (1/sin delta)^4.8628)
-MEPDG_EXPONENT = 4.8628
 #: the mix frequency value whose binder columns are checked
 AT = 10.0
 
@@ -39,7 +37,7 @@ def evidence(table: pd.DataFrame) -> pd.DataFrame:
     20 degC, at the rows whose frequency value is ``AT`` (module docstring)."""
     r = table[np.isclose(table["frequency_Hz"], AT) & (table["temperature_C"] > 20.0)]
     delta = np.radians(np.minimum(r["binder_delta_deg"], 89.99))
-    eta = r["binder_G_MPa"] * 1e6 / 10.0 * (1.0 / np.sin(delta)) ** MEPDG_EXPONENT
+    eta = r["binder_G_MPa"] * 1e6 / MEPDG_OMEGA_RAD_S * (1.0 / np.sin(delta)) ** MEPDG_EXPONENT
     ratio = np.log10(eta / r["binder_eta_Pa_s"])
     out = ratio.groupby(r["temperature_C"]).agg(["median", "size"]).reset_index()
     out.columns = ["temperature_C", "median_log10_ratio", "n_mixes"]

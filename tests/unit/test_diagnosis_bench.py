@@ -10,6 +10,7 @@ import pytest
 
 from asphalt_nscd.cli import main
 from asphalt_nscd.diagnosis import bench, synthetic
+from asphalt_nscd.io import InputError
 
 
 def test_exact_binomial_interval():
@@ -206,6 +207,23 @@ def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch
     for a, b in zip(result["runs"], fresh["runs"]):
         assert a["calibrated_level"] == b["calibrated_level"] and a["detected_calibrated"] == b["detected_calibrated"]
     assert len(ckpt.read_text().splitlines()) == 2
+    # a run killed while writing leaves its last line cut short: it is dropped and calibrated again
+    good = ckpt.read_text()
+    ckpt.write_text(good.splitlines()[0] + "\n" + good.splitlines()[1][:25])
+    calls.clear()
+    again = bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=20, checkpoint=ckpt)
+
+    def untimed(rec):
+        return {**rec, "out": {k: v for k, v in rec["out"].items() if k != "cpu_seconds"}}
+
+    rewritten = [untimed(json.loads(x)) for x in ckpt.read_text().splitlines()]
+    assert len(calls) == 1 and rewritten == [untimed(x) for x in lines]
+    assert [r["calibrated_level"] for r in again["runs"]] == [r["calibrated_level"] for r in result["runs"]]
+    # a broken line before the last is not a cut: refused with the file and line named
+    ckpt.write_text("not json\n" + good)
+    with pytest.raises(InputError, match="line 1 is not a calibration record"):
+        bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=20, checkpoint=ckpt)
+    ckpt.write_text(good)
     # another number of bootstrap tables does not read the checkpoint's calibrations
     calls.clear()
     bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=21, checkpoint=ckpt)

@@ -48,6 +48,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from ..io import InputError, atomic_path
 from . import synthetic
 from .effects import ARTIFACTS, ArtifactSearch, effect_entries
 from .scores import binomial_ci
@@ -406,27 +407,15 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1, checkpoin
                 )
             todo.append((r, case))
     done = _read_checkpoint(checkpoint, int(n_tables))
-    key = lambda r: (r["family"], int(r["index"]), int(r["seed"]), float(r["min_p"]))  # noqa: E731
-    rest = [(r, c) for r, c in todo if key(r) not in done]
+    rest = [(r, c) for r, c in todo if _checkpoint_key(r) not in done]
     tasks = [(c, result["alpha"], int(n_tables), r["min_p"]) for r, c in rest]
     for (r, _), out in zip(rest, _map_cases(_calibrated_level, tasks, jobs, lazy=True)):
-        done[key(r)] = out
+        done[_checkpoint_key(r)] = out
         if checkpoint is not None:
+            rec = {k: r[k] for k in ("family", "index", "seed", "min_p")}
             with open(checkpoint, "a") as fh:
-                fh.write(
-                    json.dumps(
-                        {
-                            "family": r["family"],
-                            "index": int(r["index"]),
-                            "seed": int(r["seed"]),
-                            "min_p": float(r["min_p"]),
-                            "n_tables": int(n_tables),
-                            "out": out,
-                        }
-                    )
-                    + "\n"
-                )
-    outs = [done[key(r)] for r, _ in todo]
+                fh.write(json.dumps({**rec, "n_tables": int(n_tables), "out": out}) + "\n")
+    outs = [done[_checkpoint_key(r)] for r, _ in todo]
     for (r, _), out in zip(todo, outs):
         r["calibrated_level"] = out["level"]
         r["calibration_cpu_seconds"] = out["cpu_seconds"]
@@ -440,18 +429,30 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1, checkpoin
     return result
 
 
+def _checkpoint_key(rec: dict) -> tuple:
+    """A clean table's key in a :func:`calibrate_alarms` checkpoint: family, index, seed, min_p."""
+    return (rec["family"], int(rec["index"]), int(rec["seed"]), float(rec["min_p"]))
+
+
 def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
-    """Calibrations already written to a :func:`calibrate_alarms` checkpoint, keyed by table."""
+    """Calibrations already written to a :func:`calibrate_alarms` checkpoint, keyed by table.
+    A last line cut short by a killed run is removed from the file (that table is calibrated
+    again); any other line that is not a record raises InputError naming the file and line."""
     if path is None or not Path(path).exists():
         return {}
-    done = {}
-    for line in Path(path).read_text().splitlines():
-        if not line.strip():
-            continue
-        rec = json.loads(line)
-        if int(rec["n_tables"]) == n_tables:
-            done[(rec["family"], int(rec["index"]), int(rec["seed"]), float(rec["min_p"]))] = rec["out"]
-    return done
+    lines = [x for x in Path(path).read_text().splitlines() if x.strip()]
+    records = []
+    for n, line in enumerate(lines):
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            if n < len(lines) - 1:
+                raise InputError(
+                    f"{path}: line {n + 1} is not a calibration record (JSON); remove the file to restart"
+                ) from None
+            with atomic_path(path) as tmp:
+                tmp.write_text("".join(x + "\n" for x in lines[:-1]))
+    return {_checkpoint_key(r): r["out"] for r in records if int(r["n_tables"]) == n_tables}
 
 
 def _map_cases(fn, tasks: list, jobs: int, lazy: bool = False):
