@@ -597,6 +597,24 @@ def time_domain_step(frequency_Hz: float, settings: TwoPBSettings) -> float | No
     return None if n is None else 1.0 / (frequency_Hz * n)
 
 
+@dataclass(frozen=True)
+class JobInputs:
+    """What a 2PB job is asked, as :func:`run_test` takes it (its parameters there).
+
+    sample_path : sample file. law : GeneralizedBurgers (Pa, Pa s). frequency_Hz : f, Hz.
+    settings : :class:`TwoPBSettings`. meta : extra record attributes, or None.
+    continuous_start : start from the continuous steady state. verify : a verification job.
+    """
+
+    sample_path: Any
+    law: Any
+    frequency_Hz: float
+    settings: TwoPBSettings
+    meta: dict | None = None
+    continuous_start: bool = False
+    verify: bool = False
+
+
 @dataclass
 class Rig:
     """What a job reads from its sample once and every later step shares.
@@ -727,7 +745,7 @@ class JobStart:
     path: str = ""
 
 
-def set_up(rig: Rig, law, frequency_Hz: float, dt: float, settings: TwoPBSettings, continuous: bool) -> JobStart:
+def set_up(rig: Rig, inputs: JobInputs, dt: float) -> JobStart:
     """The simulation of a job at step ``dt`` in its initial state (:func:`periodic_start`), with
     its linearity certificate (:func:`asphalt_nscd.harmonic.orbit.certify`, for a periodic start
     on the theta-method's state). ``rig``: held (:func:`hold`).
@@ -739,6 +757,7 @@ def set_up(rig: Rig, law, frequency_Hz: float, dt: float, settings: TwoPBSetting
     """
     if rig.held is None:
         raise ValueError("set_up: the rig holds no spheres yet (hold it first)")
+    law, frequency_Hz, settings, continuous = inputs.law, inputs.frequency_Hz, inputs.settings, inputs.continuous_start
     sim, motion = _held_simulation(rig.sample, rig.held, law, frequency_Hz, dt, settings)
     rest_z = sim.spheres.position[:, 2].copy()
     rig = _with_system(rig, sim, settings)
@@ -757,7 +776,7 @@ def set_up(rig: Rig, law, frequency_Hz: float, dt: float, settings: TwoPBSetting
     return JobStart(rig, sim, motion, dt, rest_z, info, state, n_steps, cert)
 
 
-def start_job(rig: Rig, law, frequency_Hz: float, settings: TwoPBSettings, continuous: bool, verify: bool) -> JobStart:
+def start_job(rig: Rig, inputs: JobInputs) -> JobStart:
     """Set a job up at its dt policy's step (:func:`time_step`), choose its path from the
     certificate and settings (:func:`choose_path`), and set it up again at
     ``time_domain_steps_per_cycle``'s step when it steps in time at another dt (both set-ups'
@@ -769,12 +788,13 @@ def start_job(rig: Rig, law, frequency_Hz: float, settings: TwoPBSettings, conti
     InputError for ``method: orbit`` on a job not certified linear, or a reference state of
     another network.
     """
-    job = set_up(rig, law, frequency_Hz, time_step(frequency_Hz, settings), settings, continuous)
-    path, why = choose_path(settings, job.info, job.certificate, verify)
+    frequency_Hz, settings = inputs.frequency_Hz, inputs.settings
+    job = set_up(rig, inputs, time_step(frequency_Hz, settings))
+    path, why = choose_path(settings, job.info, job.certificate, inputs.verify)
     dt_td = time_domain_step(frequency_Hz, settings)
     if path == "time_domain" and dt_td is not None and dt_td != job.dt:  # stepped at its own converged dt
         first = job.info
-        job = set_up(job.rig, law, frequency_Hz, dt_td, settings, continuous)
+        job = set_up(job.rig, inputs, dt_td)
         job.info["solve_s"] = job.info.get("solve_s", 0.0) + first.get("solve_s", 0.0)  # both set-ups count
         job.info["solve_cpu_s"] = job.info.get("solve_cpu_s", 0.0) + first.get("solve_cpu_s", 0.0)
         if first.get("certificate") is not None:
@@ -868,22 +888,22 @@ def _profile_steps(n_steps: int, steps_per_period: float, k: int) -> np.ndarray:
     )
 
 
-def orbit_result(job: JobStart, law, frequency_Hz: float, settings: TwoPBSettings, sample_path, meta, verify: bool):
+def orbit_result(job: JobStart, inputs: JobInputs):
     """The record of a job on the orbit path, sampled on its periodic orbit (:func:`_orbit_arrays`),
     or None for a job that steps in time. A verification job that starts periodic with a
     certificate gets the orbit's reduced result (Eqs. 1-5, :func:`reduce_test`) in its info
     (``orbit``: E_norm_MPa, phase_deg, certified). The sampling's CPU time is counted in the
     info's ``solve_cpu_s``; the record's wall time is the solve's and the certificate's."""
-    info = job.info
+    info, frequency_Hz, settings, verify = job.info, inputs.frequency_Hz, inputs.settings, inputs.verify
     if not (job.path == "orbit" or (verify and job.certificate is not None and info["start"] == "periodic")):
         return None
     cpu = time.process_time()
     prof = _profile_steps(job.n_steps, 1.0 / (frequency_Hz * job.dt), settings.profile_instants)
     arrays = _orbit_arrays(job.sim, job.state, job.rest_z, job.n_steps, prof, job.rig.edges, job.rig.counts)
     info["solve_cpu_s"] = info.get("solve_cpu_s", 0.0) + time.process_time() - cpu
-    args = (arrays, job.motion, job.rig, settings, job.dt, job.n_steps, job.sim, law, sample_path, meta)
     if verify:
-        red = reduce_test(_record(*args, {**info, "path": "orbit"}, 0.0, 0.0, frequency_Hz), settings.window_cycles)
+        record = _record(inputs, job.rig, job.sim, job.motion, arrays, {**info, "path": "orbit"}, (0.0, 0.0))
+        red = reduce_test(record, settings.window_cycles)
         info["orbit"] = {
             "E_norm_MPa": red["E_norm_MPa"],
             "phase_deg": red["phase_deg"],
@@ -892,7 +912,7 @@ def orbit_result(job: JobStart, law, frequency_Hz: float, settings: TwoPBSetting
     if job.path != "orbit":
         return None
     wall = info.get("solve_s", 0.0) + (job.certificate.seconds if job.certificate else 0.0)
-    return _record(*args, info, wall, info.get("solve_cpu_s", 0.0), frequency_Hz)
+    return _record(inputs, job.rig, job.sim, job.motion, arrays, info, (wall, info.get("solve_cpu_s", 0.0)))
 
 
 @dataclass
@@ -1081,14 +1101,13 @@ def run_test(
     ------
     InputError if the sample file is missing or malformed.
     """
+    inputs = JobInputs(sample_path, law, frequency_Hz, settings, meta, continuous_start, verify)
     rig = read_rig(sample_path, settings)
-    files = _job_files(output, sample_path, law, frequency_Hz, settings, continuous_start, verify)
+    files = _job_files(output, inputs)
     run = _resume(files, settings, frequency_Hz)
     if run is None:
-        job = start_job(
-            hold(rig, sample_path, settings, rig_state), law, frequency_Hz, settings, continuous_start, verify
-        )
-        record = orbit_result(job, law, frequency_Hz, settings, sample_path, meta, verify)
+        job = start_job(hold(rig, sample_path, settings, rig_state), inputs)
+        record = orbit_result(job, inputs)
         if record is not None:
             write_record(record, files.output)
             return record
@@ -1096,16 +1115,14 @@ def run_test(
     times = step_in_time(run, rig, settings, frequency_Hz, files, progress, stop_after)
     if times is None:
         return None
-    dt, n_steps = float(run.sim.params.dt), len(run.arrays["t"])
-    args = (run.arrays, run.motion, rig, settings, dt, n_steps, run.sim, law, sample_path, meta, run.info)
-    record = _record(*args, *times, frequency_Hz)
+    record = _record(inputs, rig, run.sim, run.motion, run.arrays, run.info, times)
     write_record(record, files.output)
     files.ckpt.unlink(missing_ok=True)
     files.partial.unlink(missing_ok=True)
     return record
 
 
-def _job_files(output, sample_path, law, frequency_Hz: float, settings: TwoPBSettings, continuous, verify) -> JobFiles:
+def _job_files(output, inputs: JobInputs) -> JobFiles:
     """The :class:`JobFiles` of a job writing ``output``, the temporaries a killed writer left
     beside them removed; the run key holds the dt policy's step (:func:`time_step`)."""
     output = Path(output)
@@ -1115,13 +1132,13 @@ def _job_files(output, sample_path, law, frequency_Hz: float, settings: TwoPBSet
         remove_stale_temporaries(stale)
     key = json.dumps(
         {
-            "sample": str(sample_path),
-            "law": law.as_dict(),
-            "f": frequency_Hz,
-            "dt": time_step(frequency_Hz, settings),
-            "settings": asdict(settings),
-            "continuous_start": bool(continuous),
-            "verify": bool(verify),
+            "sample": str(inputs.sample_path),
+            "law": inputs.law.as_dict(),
+            "f": inputs.frequency_Hz,
+            "dt": time_step(inputs.frequency_Hz, inputs.settings),
+            "settings": asdict(inputs.settings),
+            "continuous_start": bool(inputs.continuous_start),
+            "verify": bool(inputs.verify),
         },
         sort_keys=True,
     )
@@ -1129,24 +1146,15 @@ def _job_files(output, sample_path, law, frequency_Hz: float, settings: TwoPBSet
 
 
 def _record(
-    arrays: dict,
-    motion,
-    rig: Rig,
-    settings: TwoPBSettings,
-    dt: float,
-    n_steps: int,
-    sim,
-    law,
-    sample_path,
-    meta,
-    start_info: dict,
-    wall: float,
-    cpu: float,
-    frequency_Hz: float,
+    inputs: JobInputs, rig: Rig, sim, motion: HeadMotion, arrays: dict, start_info: dict, times: tuple[float, float]
 ) -> dict:
     """The record of :func:`run_test` from its per-step ``arrays`` (``t, plate_fx, driver_fx,
-    profile_vx`` and :data:`STAT_KEYS`), stepped in time or sampled on the orbit, on ``rig``'s
-    sample, specimen and profile bins."""
+    profile_vx`` and :data:`STAT_KEYS`, (n_steps,)), stepped in time or sampled on the orbit by
+    ``sim`` at its step, on ``rig``'s sample, specimen and profile bins; ``times``: the job's
+    (wall, CPU) time, s."""
+    settings, law, frequency_Hz = inputs.settings, inputs.law, inputs.frequency_Hz
+    dt, n_steps = float(sim.params.dt), len(arrays["t"])
+    wall, cpu = times
     t = arrays["t"]
     x = motion.x(t)
     sample, edges, counts = rig.sample, rig.edges, rig.counts
@@ -1166,7 +1174,7 @@ def _record(
             "count": counts,
         },
         "attrs": {
-            **(meta or {}),
+            **(inputs.meta or {}),
             "frequency_Hz": float(frequency_Hz),
             "dt_s": dt,
             "n_steps": n_steps,
@@ -1179,7 +1187,7 @@ def _record(
             "law": json.dumps(law.as_dict()),
             "settings": json.dumps(asdict(settings)),
             "specimen": json.dumps(rig.specimen.as_dict()),
-            "sample_file": str(sample_path),
+            "sample_file": str(inputs.sample_path),
             "head_mass_kg": m_head,
             "amplitude_m": settings.amplitude_m,
             "start": start_info["start"],

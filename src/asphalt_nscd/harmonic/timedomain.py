@@ -30,6 +30,7 @@ max(n_cycles periods, settle_factor x that bound), rounded up to whole cycles.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +38,43 @@ import numpy as np
 from ..io import InputError
 from ..nscd.state import HEAD_AMPLITUDE_M, HEAD_ROTATIONS
 from ..rheology.laws import POISSON_RATIO
+
+
+@dataclass
+class HeadSignals:
+    """What :func:`head_signals` records of a run, one value per step (n,).
+
+    time_s : mid-step times, s. reaction_N : the head bonds' reaction on the head along the
+    driven axis, N (minus ``StepStats.plate_force[1, axis]``). driver_N : the driver's force
+    along that axis, N (``StepStats.driver_force[1, axis]``). n_nonlinear : steps not solved on
+    the linear fast path (an active contact or a broken bond). wall_s, cpu_s : time of the steps, s.
+    """
+
+    time_s: np.ndarray
+    reaction_N: np.ndarray
+    driver_N: np.ndarray
+    n_nonlinear: int
+    wall_s: float
+    cpu_s: float
+
+
+def head_signals(sim, n_steps: int, axis: int) -> HeadSignals:
+    """Step the 2PB or uniaxial simulation ``sim`` (:class:`asphalt_nscd.nscd.Simulation`, head =
+    plate 1) ``n_steps`` times by the Moreau-Jean scheme and record its head signals along
+    ``axis`` (0: x, the 2PB's driven axis; 2: z, the uniaxial test's), forces read at mid-step."""
+    time_s, reaction, driver = np.empty(n_steps), np.empty(n_steps), np.empty(n_steps)
+    n_nonlinear = 0
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    dt = float(sim.params.dt)
+    for k in range(n_steps):
+        st = sim.step()
+        time_s[k] = st.time - 0.5 * dt
+        reaction[k] = -st.plate_force[1, axis]
+        driver[k] = st.driver_force[1, axis]
+        n_nonlinear += st.solver != "linear"
+    return HeadSignals(
+        time_s, reaction, driver, int(n_nonlinear), time.perf_counter() - wall0, time.process_time() - cpu0
+    )
 
 
 def relaxation_bound_s(law) -> float:
@@ -117,18 +155,8 @@ def time_domain_row(
         raise InputError(
             f"time-domain run of {n_steps} steps (f={frequency_Hz} Hz, dt={dt} s) exceeds max_steps={max_steps}"
         )
-    t = np.empty(n_steps)
-    force = np.empty(n_steps)
-    driver = np.empty(n_steps)
-    n_nlgs = 0
-    t0 = time.perf_counter()
-    for k in range(n_steps):
-        st = sim.step()
-        t[k] = st.time - 0.5 * dt
-        force[k] = -st.plate_force[1, 0]
-        driver[k] = st.driver_force[1, 0]
-        n_nlgs += st.solver != "linear"
-    wall = time.perf_counter() - t0
+    steps = head_signals(sim, n_steps, axis=0)
+    t, force, driver, wall = steps.time_s, steps.reaction_N, steps.driver_N, steps.wall_s
     specimen = Specimen2PB(M_kg=float(spheres.mass.sum()), m_kg=float(plate_mass[1]), **geometry_mm)
     x = amplitude * np.sin(omega * t)
     force = force - float(plate_mass[1]) * omega**2 * x  # + m a, a = -w^2 x exactly
@@ -145,7 +173,7 @@ def time_domain_row(
             "duration_s": float(duration),
             "wall_time_s": wall,
             "cpu_per_sphere_step_s": wall / (n_steps * spheres.n),
-            "n_nlgs_steps": int(n_nlgs),
+            "n_nlgs_steps": steps.n_nonlinear,
         }
     )
     return row
@@ -251,15 +279,8 @@ def uniaxial_time_domain_row(
         raise InputError(
             f"uniaxial time-domain run of {n_steps} steps (f={frequency_Hz} Hz) exceeds max_steps={max_steps}"
         )
-    t, force = np.empty(n_steps), np.empty(n_steps)
-    n_nonlinear = 0
-    t0 = time.process_time()
-    for k in range(n_steps):
-        st = sim.step()
-        t[k] = st.time - 0.5 * dt
-        force[k] = -st.plate_force[1, 2]
-        n_nonlinear += st.solver != "linear"
-    cpu = time.process_time() - t0
+    steps = head_signals(sim, n_steps, axis=2)
+    t, force = steps.time_s, steps.reaction_N
     last = t >= t[-1] - period + 0.5 * dt
     basis = np.column_stack([np.sin(omega * t[last]), np.cos(omega * t[last]), np.ones(last.sum()), t[last] - t[-1]])
     a, b, _, _ = np.linalg.lstsq(basis, force[last], rcond=None)[0]
@@ -268,6 +289,6 @@ def uniaxial_time_domain_row(
         "dt_s": dt,
         "n_steps": n_steps,
         "duration_s": float(n_periods * period),
-        "n_nonlinear_steps": int(n_nonlinear),
-        "cpu_s": cpu,
+        "n_nonlinear_steps": steps.n_nonlinear,
+        "cpu_s": steps.cpu_s,
     }
