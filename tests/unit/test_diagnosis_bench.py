@@ -223,6 +223,10 @@ def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch
     ckpt.write_text("not json\n" + good)
     with pytest.raises(InputError, match="line 1 is not a calibration record"):
         bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=20, checkpoint=ckpt)
+    # JSON that is not a record (a key missing) is refused the same way, not a KeyError
+    ckpt.write_text(good.splitlines()[0] + "\n" + json.dumps({"family": "gmaxwell"}) + "\n")
+    with pytest.raises(InputError, match="line 2 is not a calibration record .expected the keys"):
+        bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=20, checkpoint=ckpt)
     ckpt.write_text(good)
     # another number of bootstrap tables does not read the checkpoint's calibrations
     calls.clear()

@@ -412,7 +412,7 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1, checkpoin
     for (r, _), out in zip(rest, _map_cases(_calibrated_level, tasks, jobs, lazy=True)):
         done[_checkpoint_key(r)] = out
         if checkpoint is not None:
-            rec = {k: r[k] for k in ("family", "index", "seed", "min_p")}
+            rec = {k: r[k] for k in CHECKPOINT_KEY}
             with open(checkpoint, "a") as fh:
                 fh.write(json.dumps({**rec, "n_tables": int(n_tables), "out": out}) + "\n")
     outs = [done[_checkpoint_key(r)] for r, _ in todo]
@@ -429,9 +429,14 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1, checkpoin
     return result
 
 
+#: the fields that name a clean table in a :func:`calibrate_alarms` checkpoint
+CHECKPOINT_KEY = ("family", "index", "seed", "min_p")
+
+
 def _checkpoint_key(rec: dict) -> tuple:
-    """A clean table's key in a :func:`calibrate_alarms` checkpoint: family, index, seed, min_p."""
-    return (rec["family"], int(rec["index"]), int(rec["seed"]), float(rec["min_p"]))
+    """A clean table's key in a :func:`calibrate_alarms` checkpoint (:data:`CHECKPOINT_KEY`)."""
+    family, index, seed, min_p = (rec[k] for k in CHECKPOINT_KEY)
+    return (family, int(index), int(seed), float(min_p))
 
 
 def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
@@ -441,10 +446,10 @@ def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
     if path is None or not Path(path).exists():
         return {}
     lines = [x for x in Path(path).read_text().splitlines() if x.strip()]
-    records = []
+    done = {}
     for n, line in enumerate(lines):
         try:
-            records.append(json.loads(line))
+            rec = json.loads(line)
         except json.JSONDecodeError:
             if n < len(lines) - 1:
                 raise InputError(
@@ -452,7 +457,16 @@ def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
                 ) from None
             with atomic_path(path) as tmp:
                 tmp.write_text("".join(x + "\n" for x in lines[:-1]))
-    return {_checkpoint_key(r): r["out"] for r in records if int(r["n_tables"]) == n_tables}
+            break
+        want = (*CHECKPOINT_KEY, "n_tables", "out")
+        if not isinstance(rec, dict) or any(k not in rec for k in want):
+            raise InputError(
+                f"{path}: line {n + 1} is not a calibration record (expected the keys {', '.join(want)}); "
+                "remove the file to restart"
+            )
+        if int(rec["n_tables"]) == n_tables:
+            done[_checkpoint_key(rec)] = rec["out"]
+    return done
 
 
 def _map_cases(fn, tasks: list, jobs: int, lazy: bool = False):
