@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from asphalt_nscd.forecast.binder import MEPDG_EXPONENT, MEPDG_OMEGA_RAD_S, binder_ids
+from asphalt_nscd.forecast.binder import binder_ids, mepdg_viscosity_Pa_s
 from asphalt_nscd.lab.matched import read_matched
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,8 +36,7 @@ def evidence(table: pd.DataFrame) -> pd.DataFrame:
     """The median log10 ratio of the MEPDG viscosity to the table's, per temperature above
     20 degC, at the rows whose frequency value is ``AT`` (module docstring)."""
     r = table[np.isclose(table["frequency_Hz"], AT) & (table["temperature_C"] > 20.0)]
-    delta = np.radians(np.minimum(r["binder_delta_deg"], 89.99))
-    eta = r["binder_G_MPa"] * 1e6 / MEPDG_OMEGA_RAD_S * (1.0 / np.sin(delta)) ** MEPDG_EXPONENT
+    eta = mepdg_viscosity_Pa_s(r["binder_G_MPa"] * 1e6, np.minimum(r["binder_delta_deg"], 89.99))
     ratio = np.log10(eta / r["binder_eta_Pa_s"])
     out = ratio.groupby(r["temperature_C"]).agg(["median", "size"]).reset_index()
     out.columns = ["temperature_C", "median_log10_ratio", "n_mixes"]

@@ -470,5 +470,11 @@ def viscosity_Pa_s(curve: BinderCurve, temperature_C) -> np.ndarray:
     ndarray, same shape, Pa s.
     """
     f = MEPDG_OMEGA_RAD_S / (2.0 * np.pi)
-    G, d = curve.G_Pa(temperature_C, f), curve.delta_deg(temperature_C, f)
-    return G / MEPDG_OMEGA_RAD_S * (1.0 / np.sin(np.radians(d))) ** MEPDG_EXPONENT
+    return mepdg_viscosity_Pa_s(curve.G_Pa(temperature_C, f), curve.delta_deg(temperature_C, f))
+
+
+def mepdg_viscosity_Pa_s(G_Pa, delta_deg) -> np.ndarray:
+    """MEPDG Level 1 binder viscosity (NCHRP 1-37A) of a binder's |G*| (Pa) and phase angle
+    delta (degrees) at 10 rad/s: eta = |G*| / 10 (1 / sin delta)^4.8628, Pa s; arrays of one
+    shape (or broadcasting), returned in that shape."""
+    return G_Pa / MEPDG_OMEGA_RAD_S * (1.0 / np.sin(np.radians(delta_deg))) ** MEPDG_EXPONENT
