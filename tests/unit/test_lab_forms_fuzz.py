@@ -1,6 +1,7 @@
 """The readers of a mix's lab forms under random input (hypothesis, profile of tests/conftest.py):
 a valid DSR sweep, sieve analysis or volumetric report in random units, names and forms reads back
-as its truth; a malformed one ends in an InputError, never in another exception, never accepted."""
+as its truth; a malformed one ends in an InputError, never in another exception, never accepted; a
+mix file with any of its values replaced by junk is read (if still valid) or refused the same way."""
 
 from __future__ import annotations
 
@@ -185,3 +186,59 @@ def test_a_malformed_volumetric_report_ends_in_an_input_error(report, name):
     }[name]
     with pytest.raises(InputError, match=r"^mix\.yaml: key 'volumetrics"):
         convert(bad, "mix.yaml: key 'volumetrics'")
+
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "data" / "forecast_example"
+
+
+def _paths(obj, prefix=()):
+    """Every key path of a parsed mix file (containers and leaves)."""
+    yield prefix
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _paths(v, (*prefix, k))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _paths(v, (*prefix, i))
+
+
+_JUNK = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(10**6), 10**6),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=6),
+    st.lists(st.integers(), max_size=2),
+    st.dictionaries(st.text(max_size=3), st.integers(), max_size=2),
+)
+
+
+@given(st.data())
+def test_a_mix_file_with_any_value_replaced_is_read_or_refused_with_an_input_error(data):
+    import shutil
+
+    import yaml
+
+    from asphalt_nscd.lab.mix_input import read_mix_file
+
+    doc = yaml.safe_load((EXAMPLE / "mix_211.yaml").read_text())
+    paths = list(_paths(doc))
+    path = data.draw(st.sampled_from(paths[1:]))
+    junk = data.draw(_JUNK)
+    target = doc
+    for k in path[:-1]:
+        target = target[k]
+    target[path[-1]] = junk
+    with tempfile.TemporaryDirectory() as d:
+        for name in ("binder_211_dsr.csv", "binder_211_dsr.test.json", "sieve_211.csv"):
+            shutil.copy(EXAMPLE / name, Path(d) / name)
+        mix_file = Path(d) / "mix.yaml"
+        mix_file.write_text(yaml.safe_dump(doc))
+        try:
+            (mix,) = read_mix_file(mix_file)
+        except InputError as exc:
+            assert str(exc).startswith(str(mix_file)) and "\n" not in str(exc)
+            return
+    # accepted: the replacement left a valid mix (e.g. another valid number)
+    assert all(np.isfinite(v) for v in mix.witczak.values())
+    assert 0 < mix.volumetrics["Va_pct"] < 30 and 0 < mix.volumetrics["Vbeff_pct"] < 30
