@@ -368,9 +368,7 @@ def _crossval(args) -> int:
 
 
 def _labels(scores):
-    from .dem import MODELS as DEM_MODELS
-
-    return [m if m in DEM_MODELS else f"{m}_{c}" for m, c in zip(scores["model"], scores["coefficients"])]
+    return [m if m.startswith("dem") else f"{m}_{c}" for m, c in zip(scores["model"], scores["coefficients"])]
 
 
 def _predict(args) -> int:

@@ -169,3 +169,37 @@ def sample_settings(base: dict, mix: pd.Series, cut_mm: float, size_dmax: float,
     cfg["sample_mass_kg"] = 2650.0 * side**3 * 1e-9 * (1.0 - phase_volumes(mix, cut_mm)["mortar"])
     cfg["top_plate_mass_kg"] = 0.1 * cfg["sample_mass_kg"]
     return cfg, passing, phase_volumes(mix, cut_mm)["coarse"]
+
+
+#: Hveem surface-area factors, m^2/kg of aggregate per % passing (UFC 3-250-03, Table C-1; the Asphalt
+#: Institute's MS-2 factors / 100), by sieve opening (mm); the largest sieve's factor applies to 100 % passing
+SURFACE_AREA_FACTORS = {
+    4.75: 0.00409,
+    2.36: 0.00819,
+    1.18: 0.01639,
+    0.6: 0.02867,
+    0.3: 0.06144,
+    0.15: 0.12289,
+    0.075: 0.32771,
+}
+#: the largest sieve's factor, m^2/kg per % passing (applied to its 100 %)
+SURFACE_AREA_TOP = 0.00409
+#: bulk specific gravity of the aggregate where the table gives none (a typical siliceous or limestone aggregate)
+AGGREGATE_SPECIFIC_GRAVITY = 2.65
+
+
+def surface_area_m2_kg(mix: pd.Series) -> float:
+    """The aggregate's specific surface (m^2/kg) by Hveem's surface-area factors
+    (:data:`SURFACE_AREA_FACTORS`) on the mix's passing curve (:func:`passing_curve`)."""
+    passing = passing_curve(mix, tuple(SURFACE_AREA_FACTORS))
+    return SURFACE_AREA_TOP * 100.0 + sum(f * passing[float(d)] for d, f in SURFACE_AREA_FACTORS.items())
+
+
+def film_thickness_m(mix: pd.Series, specific_gravity: float = AGGREGATE_SPECIFIC_GRAVITY) -> float:
+    """The mix's average binder film thickness (m): the effective binder volume over the aggregate's
+    surface, T_F = V_be / (SA W) (Hveem; NCAT, "Asphalt film thickness debunked", Asphalt
+    Technology News, spring 2017), per unit volume of mix: V_be = Vbeff / 100, W = (1 - VMA / 100)
+    G_sb rho_w with G_sb = ``specific_gravity`` (the table gives none). Typical dense-graded
+    mixes: 6-13 um (Kandhal & Chakraborty 1996, TRR 1535)."""
+    v = phase_volumes(mix, 0.075)
+    return float(v["binder"] / (surface_area_m2_kg(mix) * v["aggregate"] * specific_gravity * 1000.0))

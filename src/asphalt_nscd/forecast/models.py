@@ -20,9 +20,7 @@ from ..io import InputError
 
 def label(model) -> str:
     """The model's name in tables: ``<formula>_<coefficients>`` or the DEM model's name."""
-    from .dem import MODELS as DEM_MODELS
-
-    return model.model if model.model in DEM_MODELS else f"{model.model}_{model.coefficients}"
+    return model.model if model.model.startswith("dem") else f"{model.model}_{model.coefficients}"
 
 
 def binder_points(matched: pd.DataFrame, binder_of_mix: pd.Series) -> pd.DataFrame:
@@ -82,10 +80,18 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
     from .dem import DemModel
     from .validation import COEFFICIENTS, Baseline
 
+    from .nested import Selected
+    from .physical import PhysicalDem
+
     models: list = [Baseline(m, c) for m in forecast_cfg.get("baselines", []) for c in COEFFICIENTS]
     if responses:
         dem = forecast_cfg.get("dem") or {}
-        models += [DemModel(name, responses, dem["cut_mm"]) for name in dem.get("models", [])]
+        legacy = [DemModel(name, responses, dem["cut_mm"]) for name in dem.get("models", [])]
+        ladder = [PhysicalDem(name, responses, dem["cut_mm"]) for name in dem.get("physical", [])]
+        models += legacy + ladder
+        if dem.get("selected") and ladder:
+            candidates = ladder + [m for m in legacy if m.model == "dem_extended"]
+            models.append(Selected("dem_selected", candidates, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1)))
     return models
 
 

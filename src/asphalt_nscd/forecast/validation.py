@@ -342,3 +342,63 @@ def score(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
                         row[f"max_{key}"] = float(np.nanmax(a)) if np.isfinite(a).any() else np.nan
                 out.append(row)
     return pd.DataFrame(out)[SCORE_COLUMNS]
+
+
+#: columns of :func:`error_split`
+SPLIT_COLUMNS = [
+    "model",
+    "coefficients",
+    "binder_route",
+    "n_mixes",
+    "total_pct",
+    "total_ci_low",
+    "total_ci_high",
+    "without_level_pct",
+    "without_level_ci_low",
+    "without_level_ci_high",
+    "without_temperature_pct",
+    "without_temperature_ci_low",
+    "without_temperature_ci_high",
+    "level_pct",
+    "temperature_pct",
+    "rest_pct",
+    "confidence",
+]
+
+
+def error_split(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
+    """Each model's held-out |E*| error split by oracle offsets into the mix's level, its
+    temperature dependence and the rest.
+
+    With e = 100 ln(E_pred / E_meas) per held-out cell: ``total`` is the mean over mixes of each
+    mix's mean |e|; ``without_level`` the same after subtracting each mix's own mean e (an oracle
+    that knew every mix's level); ``without_temperature`` after subtracting each (mix, temperature)
+    mean e (an oracle that also knew every isotherm's level). The parts are the differences:
+    ``level_pct`` = total - without_level, ``temperature_pct`` = without_level -
+    without_temperature, ``rest_pct`` = without_temperature (what remains inside an isotherm: its
+    frequency dependence). t intervals over mixes at ``confidence``. A model that forecasts each
+    mix's level better shrinks ``level_pct``; one that follows each mix's temperature dependence
+    better shrinks ``temperature_pct``.
+    """
+    from ..diagnosis.scores import t_interval
+
+    d = rows.assign(e=100.0 * np.log(rows["E_pred_MPa"] / rows["E_meas_MPa"]))
+    d = d[np.isfinite(d["e"])]
+    out = []
+    for (model, coef, route), g in d.groupby(["model", "coefficients", "binder_route"], sort=False):
+        g = g.assign(
+            level=g["e"] - g.groupby("mix_id")["e"].transform("mean"),
+            temp=g["e"] - g.groupby(["mix_id", "temperature_C"])["e"].transform("mean"),
+        )
+        row = {"model": model, "coefficients": coef, "binder_route": route, "confidence": confidence}
+        per_mix = g.groupby("mix_id")[["e", "level", "temp"]].agg(lambda v: float(np.mean(np.abs(v))))
+        row["n_mixes"] = int(len(per_mix))
+        for col, name in (("e", "total"), ("level", "without_level"), ("temp", "without_temperature")):
+            v = per_mix[col].to_numpy(float)
+            row[f"{name}_pct"] = float(v.mean())
+            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = t_interval(v, confidence) if v.size >= 2 else (np.nan, np.nan)
+        row["level_pct"] = row["total_pct"] - row["without_level_pct"]
+        row["temperature_pct"] = row["without_level_pct"] - row["without_temperature_pct"]
+        row["rest_pct"] = row["without_temperature_pct"]
+        out.append(row)
+    return pd.DataFrame(out, columns=SPLIT_COLUMNS)
