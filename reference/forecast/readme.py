@@ -4,8 +4,10 @@
     python reference/forecast/readme.py --check    # exit 1 when README.md is not what the tables give
 
 Reads ``<label>_crossval.csv``, ``<label>_per_mix.csv``, ``<label>_costs.csv``, ``<label>_constants.csv``
-and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, and the size study's
-``size_study_summary.csv``; a table that is missing leaves its section out.
+and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, the binder's reading and
+extrapolation tables (``binder_reading.csv`` with ``binder_reading_paired.csv``,
+``binder_extrapolation_summary.csv``, rendered by ``asphalt_nscd.forecast.binder_report``) and the size
+study's ``size_study_summary.csv``; a table that is missing leaves its section out.
 """
 
 from __future__ import annotations
@@ -72,6 +74,32 @@ def costs(c: pd.DataFrame) -> list[str]:
     return lines
 
 
+def binder_sections() -> list[str]:
+    """The binder's reading and extrapolation sections (their tables' scripts named under each heading)."""
+    from asphalt_nscd.forecast.binder_report import binder_reading_section, extrapolation_section
+
+    L: list[str] = []
+    reading, paired = _read("binder_reading.csv"), _read("binder_reading_paired.csv")
+    summary = _read("binder_extrapolation_summary.csv")
+    for sec, note in (
+        (
+            binder_reading_section(reading, paired) if reading is not None else [],
+            "The 35 mixes, leave one mix out, binder through its curve (`binder_reading.py`).",
+        ),
+        (
+            extrapolation_section(summary) if summary is not None else [],
+            "Every binder of the table under each variant (`binder_extrapolation.py`); held out by mix, leave one "
+            "mix out, with the binder read at the table's binder frequency, the extrapolated cells those of the "
+            "default curves.",
+        ),
+    ):
+        while sec and sec[-1] == "":
+            sec = sec[:-1]
+        if sec:
+            L += ["", *sec[:2], note, "", *sec[2:]]
+    return L
+
+
 def render() -> str:
     """The page's text, every number computed from the committed tables."""
     L = [
@@ -89,6 +117,11 @@ def render() -> str:
         "    --summary reference/forecast/size_study_summary.csv",
         "python reference/forecast/time_domain.py . --constants reference/forecast/default_constants.csv \\",
         "    -o reference/forecast/time_domain.csv",
+        "python reference/forecast/binder_reading.py -o reference/forecast/binder_reading.csv \\",
+        "    --paired reference/forecast/binder_reading_paired.csv",
+        "python reference/forecast/binder_extrapolation.py -o reference/forecast/binder_extrapolation.csv \\",
+        "    --isotherms reference/forecast/binder_extrapolation_isotherms.csv \\",
+        "    --summary reference/forecast/binder_extrapolation_summary.csv",
         "python reference/forecast/readme.py",
         "```",
         "",
@@ -139,6 +172,7 @@ def render() -> str:
                 f"Seeds: the forecast |E*| of `dem_extended` from one seed's sample differs from the mean over "
                 f"the seeds by {m.mean():.1f} % on average over the mixes (largest mix {m.max():.1f} %).",
             ]
+    L += binder_sections()
     sk = _read("skeleton_exponent.csv")
     if sk is not None:
         L += [

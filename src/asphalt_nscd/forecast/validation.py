@@ -17,7 +17,10 @@ Scores (per model, binder route, temperature and overall):
 
 Intervals: a t(n - 1) interval over the n mixes of the group (the mixes are the sampling
 unit; 35 mixes), on the per-mix means. Groups: every mix, mixes whose binder also serves a
-training mix of their fold (``binder_seen``) and mixes whose binder does not.
+training mix of their fold (``binder_seen``) and mixes whose binder does not; and the cells whose
+binder is read within (``binder_measured``) or outside (``binder_extrapolated``) the temperatures
+of the points its master curve was fitted on (:meth:`.binder.BinderCurve.extrapolated`; the same
+cells on both routes), each mix's mean over its cells of the group.
 
 The Witczak equations give |E*| only: their phase angle is the Booij-Thoone estimate
 (pi/2) d ln|E*| / d ln w of the forecast isotherm (Booij & Thoone 1982; :mod:`asphalt_nscd.rheology.kramers_kronig`),
@@ -51,6 +54,7 @@ ROW_COLUMNS = [
     "E_pred_MPa",
     "phase_pred_deg",
     "phase_source",
+    "binder_extrapolated",
 ]
 
 
@@ -160,13 +164,16 @@ def with_binder_route(table: pd.DataFrame, curves: dict, binder_of_mix: pd.Serie
     the published formulas read the binder as their calibration data gave it), and its MEPDG
     viscosity at each temperature (:mod:`.binder`). Columns ``binder_G_mix_MPa`` and
     ``binder_delta_mix_deg`` hold the binder at the mix's own frequency, which the discrete model
-    reads (the curve's; the raw values on the raw route).
+    reads (the curve's; the raw values on the raw route). Column ``binder_extrapolated`` (nullable
+    bool, both routes): the cell's temperature lies outside those of the points its binder's curve
+    was fitted on (:func:`binder_extrapolated`); missing for a binder without a curve on the raw route.
 
-    Raises InputError for an unknown route or a mix whose binder has no curve."""
+    Raises InputError for an unknown route or a mix whose binder has no curve (curve route)."""
     if route not in BINDER_ROUTES:
         raise InputError(f"binder route {route!r}: expected one of {BINDER_ROUTES}")
     out = table.copy()
     out["binder_G_mix_MPa"], out["binder_delta_mix_deg"] = out["binder_G_MPa"], out["binder_delta_deg"]
+    out["binder_extrapolated"] = binder_extrapolated(out, curves, binder_of_mix)
     if route == "raw":
         return out
     from .binder import viscosity_Pa_s
@@ -185,6 +192,21 @@ def with_binder_route(table: pd.DataFrame, curves: dict, binder_of_mix: pd.Serie
         out.loc[idx, "binder_delta_mix_deg"] = c.delta_deg(T, f)
         out.loc[idx, "binder_eta_Pa_s"] = viscosity_Pa_s(c, T)
     return out
+
+
+def binder_extrapolated(table: pd.DataFrame, curves: dict, binder_of_mix: pd.Series) -> pd.Series:
+    """Per row of ``table`` (columns ``mix_id``, ``temperature_C``): True where the master curve of
+    the mix's binder is read outside the temperatures of the points it was fitted on (below the
+    coldest or above the warmest: :meth:`.binder.BinderCurve.extrapolated`), False inside; <NA>
+    for a mix whose binder has no curve in ``curves``, or one that does not record its
+    temperatures. Series of pandas' nullable boolean dtype, index of ``table``. A definition by
+    temperature, hence the same for every frequency at which the curve is read."""
+    flag = pd.Series(pd.NA, index=table.index, dtype="boolean")
+    b = table["mix_id"].map(binder_of_mix)
+    for binder, idx in table.groupby(b).groups.items():
+        if binder in curves and curves[binder].temperatures_used_C:
+            flag.loc[idx] = curves[binder].extrapolated(table.loc[idx, "temperature_C"].to_numpy(float))
+    return flag
 
 
 def mix_folds(mixes, k: int | None = None, seed: int = 1) -> list[list[str]]:
@@ -262,6 +284,11 @@ def cross_validate(
                         "E_pred_MPa": E,
                         "phase_pred_deg": P,
                         "phase_source": source,
+                        "binder_extrapolated": (
+                            test["binder_extrapolated"].to_numpy()
+                            if "binder_extrapolated" in test
+                            else pd.array([pd.NA] * len(test), dtype="boolean")
+                        ),
                     }
                 )
             )
@@ -295,24 +322,36 @@ SCORE_COLUMNS = [
     "bias_phase_ci_high",
     "confidence",
 ]
-GROUPS = ("all", "binder_seen", "binder_unseen")
+GROUPS = ("all", "binder_seen", "binder_unseen", "binder_measured", "binder_extrapolated")
 
 
 def score(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
     """Held-out errors of :func:`cross_validate`'s rows per (model, coefficients, binder route,
     group, temperature) and overall (``temperature_C`` NaN), with t intervals over mixes
     (module docstring). Cells with a missing prediction are left out and counted by
-    ``n_cells``; a group of one mix has no interval (NaN)."""
+    ``n_cells``; a group of one mix has no interval (NaN). The groups ``binder_measured`` and
+    ``binder_extrapolated`` take the cells whose ``binder_extrapolated`` is known (rows without
+    that column have none)."""
     from ..diagnosis.scores import t_interval
 
     d = rows.assign(
         e=100.0 * np.log(rows["E_pred_MPa"] / rows["E_meas_MPa"]),
         p=rows["phase_pred_deg"] - rows["phase_meas_deg"],
     )
+    flag = d["binder_extrapolated"] if "binder_extrapolated" in d else pd.Series(pd.NA, index=d.index, dtype=object)
+    known = flag.notna().to_numpy()
+    extrapolated = np.zeros(len(d), bool)
+    extrapolated[known] = flag[known].astype(bool).to_numpy()
+    d = d.assign(_binder_measured=known & ~extrapolated, _binder_extrapolated=known & extrapolated)
     out = []
     for (model, coef, route), g in d.groupby(["model", "coefficients", "binder_route"], sort=False):
         for group in GROUPS:
-            sel = g if group == "all" else g[g["binder_seen"] == (group == "binder_seen")]
+            if group == "all":
+                sel = g
+            elif group in ("binder_measured", "binder_extrapolated"):
+                sel = g[g[f"_{group}"]]
+            else:
+                sel = g[g["binder_seen"] == (group == "binder_seen")]
             for T in [np.nan, *sorted(sel["temperature_C"].unique())]:
                 cells = sel if np.isnan(T) else sel[sel["temperature_C"] == T]
                 if cells.empty:
