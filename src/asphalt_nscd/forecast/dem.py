@@ -254,6 +254,7 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
     except np.linalg.LinAlgError:
         raise InputError(f"sample {sample.name}: the mortar network has a free mode (G_m not positive definite)")
     r_bond = sample.bonds["r_min"]
+    alpha0 = V.T @ a
     return Response(
         mix_id=str(mix_id),
         seed=int(seed),
@@ -270,10 +271,18 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         lam_f=lam_f,
         alpha_f=V_f.T @ a,
         beta_f=V_f.T @ gf["fp"][:, 2].toarray().ravel(),
-        chi_bridge=float(np.sum(g * g / r_bond) / np.sum(g)),
+        chi_bridge=float((gm["pp"][2, 2] - alpha0 @ alpha0) / _head_stiffness(system, r_bond)),
         skeleton_r15=float(np.sum(w * reff**1.5) / np.sum(w)) if np.any(skel) else np.nan,
         cpu_s=time.process_time() - t0,
     )
+
+
+def _head_stiffness(system, k) -> float:
+    """The head's stiffness (N/m, along the height) of the network with bond stiffnesses k (B,) N/m
+    (tangential k times the Eqs. 8-11 ratio): a real sparse solve."""
+    blk = system.blocks(k, k * system.t_ratio)
+    u = system.factorise(blk["ff"], "head stiffness").solve(-blk["fp"][:, 2].toarray().ravel())
+    return float(blk["pp"][2, 2] + (blk["pf"] @ u)[2])
 
 
 def contact_radius(sample) -> np.ndarray:

@@ -39,6 +39,7 @@ reported (``at_bound``).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,6 +101,14 @@ _S_NODES = 25
 JAMMED = 1.02
 
 
+@functools.lru_cache(maxsize=64)
+def _stone_weights(ln_E: float) -> np.ndarray:
+    """(len(E_STONE_GRID),) weights w with sum_i w_i y_i = the cubic spline through (ln E_i, y_i) at ln_E."""
+    from scipy.interpolate import CubicSpline
+
+    return CubicSpline(np.log(E_STONE_GRID), np.eye(E_STONE_GRID.size))(ln_E)
+
+
 class MixMortar:
     """One mix's mastic and mortar at its conditions, tabulated for any fine packing limit and stone.
 
@@ -145,23 +154,22 @@ class MixMortar:
         x = np.log(E_STONE_GRID)
         kg = np.stack([np.array(lnK), np.array(lnG)], axis=1)  # (E grid, 2, s, n)
         self._along_s = CubicSpline(s_grid, np.moveaxis(kg, 2, 0), axis=0)  # s -> (E grid, 2, n)
-        self._cap = CubicSpline(x, np.array(cap), axis=0)  # (E grid, 2, n): ln of the HS upper bounds of |K|, |G|
-        self._lnGm = CubicSpline(x, np.array(lnGm), axis=0)  # (E grid, n)
+        self._cap_nodes = np.array(cap)  # (E grid, 2, n): ln of the HS upper bounds of |K|, |G|
+        self._lnGm_nodes = np.array(lnGm)  # (E grid, n)
 
     def moduli(self, fine_packing: float, E_stone_Pa: float) -> tuple[np.ndarray, np.ndarray]:
         """(E*_mortar, G*_mastic): complex (n,) Pa at the packing limit and stone modulus given; a
         limit below :attr:`packing_floor` reads the mortar at the floor (:meth:`jammed` says so)."""
-        from scipy.interpolate import CubicSpline
-
         p = max(float(fine_packing), self.packing_floor)
         s = float(-p * np.log1p(-self.phi_fine / p))
         x = np.log(E_stone_Pa)
-        lnK, lnG = CubicSpline(np.log(E_STONE_GRID), self._along_s(min(s, self._s[-1])), axis=0)(x)
-        cK, cG = self._cap(x)
+        w = _stone_weights(float(x))  # the cubic spline in ln E_s as weights of the grid's values
+        lnK, lnG = np.tensordot(w, self._along_s(min(s, self._s[-1])), axes=1)
+        cK, cG = np.tensordot(w, self._cap_nodes, axes=1)
         lnK = np.where(lnK.real > cK, cK + 1j * lnK.imag, lnK)
         lnG = np.where(lnG.real > cG, cG + 1j * lnG.imag, lnG)
         K, G = np.exp(lnK), np.exp(lnG)
-        return 9.0 * K * G / (3.0 * K + G), np.exp(self._lnGm(x))
+        return 9.0 * K * G / (3.0 * K + G), np.exp(np.tensordot(w, self._lnGm_nodes, axes=1))
 
     def jammed(self, fine_packing: float) -> bool:
         """Whether the mix's fine aggregate is within 2 % of the packing limit (read at the floor)."""
