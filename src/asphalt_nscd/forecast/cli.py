@@ -5,6 +5,7 @@
 ``forecast-sample``    the mix's sample from its packing (cut, shrink to its volumetrics, bonds, stabilisation)
 ``forecast-response``  the sample's uniaxial response as a function of its bond moduli (:mod:`.dem`)
 ``forecast-crossval``  every model's held-out errors, mixes left out (:mod:`.validation`)
+``forecast-coverage``  prediction intervals from the held-out rows and their nested coverage (:mod:`.intervals`)
 ``forecast``           every model's forecast of the mixes whose |E*| and phase are empty
 ``forecast-page``      the page and its figures
 ``forecast-publish``   the complete run, with its manifest, in the table's folder
@@ -76,6 +77,7 @@ def register(subparsers) -> None:
     _add_publish(subparsers)
     _add_overlay(subparsers)
     _add_bench(subparsers)
+    _add_coverage(subparsers)
 
 
 def _register_chain(subparsers) -> None:
@@ -462,4 +464,45 @@ def _sample(args) -> int:
     write_outputs(result, args.output)
     if args.summary:
         write_json(result.summary, args.summary)
+    return 0
+
+
+def _add_coverage(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forecast-coverage",
+        help="prediction intervals of every forecast from the held-out rows, and their coverage with mixes left out",
+        description="From the held-out rows of forecast-crossval: the intervals of a new mix's |E*| and phase per "
+        "model, binder route and temperature (conformal, each mix weighing the same; asphalt_nscd.forecast.intervals) "
+        "and their nested coverage (each mix's interval calibrated on the other mixes only), with t intervals over "
+        "the mixes; with --forecast, the forecast table with its bounds.",
+    )
+    _add_config(p)
+    p.add_argument("rows", help="held-out rows of forecast-crossval (CSV)")
+    p.add_argument("-o", "--output", required=True, help="coverage per model, route, quantity and temperature (CSV)")
+    p.add_argument("--intervals", required=True, help="the intervals calibrated on every mix (CSV)")
+    p.add_argument("--level", type=float, default=None, help="nominal level of the intervals (default: 0.9)")
+    p.add_argument(
+        "--tails", choices=("equal", "symmetric"), default="equal", help="equal tails (default) or symmetric"
+    )
+    p.add_argument("--forecast", default=None, help="forecast.csv of forecast: add its bounds")
+    p.add_argument("--forecast-output", default=None, help="the forecast with E_low_MPa ... phase_high_deg (CSV)")
+    p.set_defaults(func=_coverage)
+
+
+def _coverage(args) -> int:
+    from ..io import InputError, read_csv, write_csv
+    from . import intervals
+
+    if (args.forecast is None) != (args.forecast_output is None):
+        raise InputError("forecast-coverage: --forecast and --forecast-output go together")
+    cfg = _config(args)["forecast"]
+    level = intervals.LEVEL if args.level is None else args.level
+    rows = read_csv(args.rows, dtype={"mix_id": str})
+    intervals.residuals(rows, args.rows)  # the columns checked, naming the file
+    write_csv(intervals.coverage(rows, level, args.tails, cfg["confidence"]), args.output)
+    calibrated = intervals.calibrate(rows, level, args.tails)
+    write_csv(calibrated, args.intervals)
+    if args.forecast:
+        forecast = read_csv(args.forecast, allow_empty=True, dtype={"mix_id": str})
+        write_csv(intervals.apply(forecast, calibrated, cfg["binder_routes"][0]), args.forecast_output)
     return 0

@@ -5,8 +5,9 @@ One place for what every forecast command reads: the matched table's binders as 
 responses of the mixes' samples (``forecast-response``), and the set of models a run scores
 (:func:`model_set`): each published formula with its published and recalibrated coefficients
 (:class:`.validation.Baseline`), then the discrete models (:class:`.dem.DemModel`) when their
-responses are given. Model labels (:func:`label`): ``hirsch_published``, ``hirsch_recalibrated``,
-..., ``dem``, ``dem_extended``.
+responses are given, then the learned yardstick (:class:`.learned.GradientBoosting`). Model labels
+(:func:`label`): ``hirsch_published``, ``hirsch_recalibrated``, ..., ``dem``, ``dem_extended``,
+``gradient_boosting_learned``.
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ def read_responses(paths) -> dict:
 
 def model_set(forecast_cfg: dict, responses: dict | None) -> list:
     """The models a run scores: every baseline of ``forecast.baselines`` with published and
-    recalibrated coefficients, then ``forecast.dem.models`` when ``responses`` are given."""
+    recalibrated coefficients, then ``forecast.dem.models`` when ``responses`` are given, then
+    the learned models of ``forecast.learned`` (:mod:`.learned`)."""
     from .dem import DemModel
     from .validation import COEFFICIENTS, Baseline
 
@@ -92,6 +94,11 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
         if dem.get("selected") and ladder:
             candidates = ladder + [m for m in legacy if m.model == "dem_extended"]
             models.append(Selected("dem_selected", candidates, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1)))
+    # the learned yardstick (forecast.learned): gradient-boosted trees on the formulas' inputs (:mod:`.learned`)
+    if forecast_cfg.get("learned"):
+        from .learned import MODELS as LEARNED
+
+        models += [LEARNED[name]() for name in forecast_cfg["learned"]]
     return models
 
 
