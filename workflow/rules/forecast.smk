@@ -103,6 +103,8 @@ rule forecast_crossval:
         rows=f"{plan.FORECAST}/crossval_rows.csv",
         scores=report(f"{plan.FORECAST}/crossval.csv", caption="../report/forecast_crossval.rst", category="Forecast"),
         constants=f"{plan.FORECAST}/crossval_constants.json",
+        split=f"{plan.FORECAST}/error_split.csv",
+        selection=f"{plan.FORECAST}/selection_log.csv",
     log:
         "logs/forecast/crossval.log",
     benchmark:
@@ -114,7 +116,7 @@ rule forecast_crossval:
     shell:
         'asphalt-nscd forecast-crossval --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched} --curves {input.curves}'
         " --responses {input.responses} -o {output.rows} --scores {output.scores} --constants {output.constants}"
-        " 2> {log}"
+        " --split {output.split} --selection {output.selection} --jobs {threads} 2> {log}"
 
 
 rule forecast_predict:

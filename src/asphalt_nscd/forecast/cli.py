@@ -119,6 +119,9 @@ def _register_chain(subparsers) -> None:
             c.add_argument("-o", "--output", required=True, help="held-out predictions, one row per cell and model")
             c.add_argument("--scores", required=True, help="errors per model, route, group and temperature (CSV)")
             c.add_argument("--constants", required=True, help="each fold's fitted coefficients and constants (JSON)")
+            c.add_argument("--split", required=True, help="each model's error split into level, temperature, rest (CSV)")
+            c.add_argument("--selection", required=True, help="every variant tried inside every fold (CSV)")
+            c.add_argument("--jobs", type=int, default=1, help="worker processes over the folds (same numbers)")
         else:
             c.add_argument("-o", "--output", required=True, help="forecast.csv: one row per mix, condition and model")
             c.add_argument("--scores", required=True, help="scores of forecast-crossval (the best model per table)")
@@ -346,25 +349,30 @@ def _response(args) -> int:
 
 
 def _crossval(args) -> int:
+    import pandas as pd
+
     from ..io import json_safe, write_csv, write_json
-    from .models import model_set, routed_tables
-    from .validation import cross_validate, mix_folds, score
+    from .models import headline_only, model_set, routed_tables
+    from .nested import selection_log
+    from .validation import cross_validate, error_split, mix_folds, score
 
     cfg, matched, binder_of_mix, curves, responses = _read_inputs(args)
     models = model_set(cfg, responses)
     measured = matched.dropna(subset=["E_norm_MPa"])["mix_id"].unique()
     folds = mix_folds(measured, cfg.get("folds"), cfg.get("seed", 1))
     frames, states = [], []
-    for route, table in routed_tables(matched, curves, binder_of_mix, cfg["binder_routes"]).items():
-        rows, st = cross_validate(table, [m for m in models if m.available(table)], binder_of_mix, folds, route)
+    for i, (route, table) in enumerate(routed_tables(matched, curves, binder_of_mix, cfg["binder_routes"]).items()):
+        # the physical ladder and the choice inside the fold on the headline route only (their cost)
+        use = [m for m in models if m.available(table) and (i == 0 or not headline_only(m))]
+        rows, st = cross_validate(table, use, binder_of_mix, folds, route, jobs=args.jobs)
         frames.append(rows)
         states += st
-    import pandas as pd
-
     rows = pd.concat(frames, ignore_index=True)
     rows.insert(4, "label", _labels(rows))
     write_csv(rows, args.output)
     write_csv(score(rows, cfg["confidence"]).assign(label=lambda s: _labels(s)), args.scores)
+    write_csv(error_split(rows, cfg["confidence"]).assign(label=lambda s: _labels(s)), args.split)
+    write_csv(selection_log(states), args.selection)
     write_json(json_safe({"folds": folds, "fits": states}), args.constants)
     return 0
 

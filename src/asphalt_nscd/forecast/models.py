@@ -102,6 +102,15 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
     return models
 
 
+def headline_only(model) -> bool:
+    """Whether a model is scored on the headline binder route only (the physical ladder and the
+    choice inside the fold: their nested fits are the run's largest cost)."""
+    from .nested import Selected
+    from .physical import PhysicalDem
+
+    return isinstance(model, (PhysicalDem, Selected))
+
+
 def routed_tables(matched: pd.DataFrame, curves: dict, binder_of_mix: pd.Series, routes) -> dict:
     """route -> the matched table with its binder columns as that route reads them
     (:func:`.validation.with_binder_route`)."""

@@ -245,10 +245,11 @@ class PhysicalDem:
             r = rows.iloc[idx]
             G = r["binder_G_mix_MPa"].to_numpy(float) * 1e6
             d = r["binder_delta_mix_deg"].to_numpy(float)
-            key = (mix_id, G.tobytes(), d.tobytes())
+            mix = r.iloc[0]
+            volumes = phase_volumes(mix, self.cut_mm)
+            key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())))
             if key not in self._mortar:
-                mix = r.iloc[0]
-                self._mortar[key] = (MixMortar(G, d, phase_volumes(mix, self.cut_mm)), film_thickness_m(mix))
+                self._mortar[key] = (MixMortar(G, d, volumes), film_thickness_m(mix))
             out.append((idx, *self._mortar[key], self.responses[mix_id]))
         return out
 

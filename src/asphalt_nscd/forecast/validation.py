@@ -224,7 +224,7 @@ def mix_folds(mixes, k: int | None = None, seed: int = 1) -> list[list[str]]:
 
 
 def cross_validate(
-    table: pd.DataFrame, models: list, binder_of_mix: pd.Series, folds: list[list[str]], route: str
+    table: pd.DataFrame, models: list, binder_of_mix: pd.Series, folds: list[list[str]], route: str, jobs: int = 1
 ) -> pd.DataFrame:
     """Held-out predictions of every model for the mixes of every fold.
 
@@ -236,6 +236,8 @@ def cross_validate(
         (:class:`Baseline`; the DEM models of :mod:`.dem` have the same two methods).
     binder_of_mix : binder id per mix_id. folds : held-out mixes per fold (:func:`mix_folds`).
     route : label of the binder route, written into the rows.
+    jobs : worker processes over the folds (the same numbers for any count: each fold is computed
+        alone and the results are gathered in fold order).
 
     Returns
     -------
@@ -247,24 +249,45 @@ def cross_validate(
     The fit of a fold sees the training mixes' rows only: a held-out mix's measured values are
     not in ``train`` (the leak test multiplies them and checks the forecast does not move).
     """
-    measured = table.dropna(subset=["E_norm_MPa", "phase_deg"])
+    global _JOB
+    _JOB = (table.dropna(subset=["E_norm_MPa", "phase_deg"]), models, binder_of_mix, folds, route)
+    if jobs > 1 and len(folds) > 1:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(min(jobs, len(folds)), mp_context=mp.get_context("fork")) as pool:
+            results = list(pool.map(_one_fold, range(len(folds))))
+    else:
+        results = [_one_fold(k) for k in range(len(folds))]
+    _JOB = None
+    frames = [f for fr, _ in results for f in fr]
+    states = [st for _, sts in results for st in sts]
+    if not frames:
+        raise InputError("forecast cross-validation: no mix with measured |E*| and phase to hold out")
+    return pd.concat(frames, ignore_index=True)[ROW_COLUMNS], states
+
+
+#: the arguments of the running :func:`cross_validate` (read by forked workers, not pickled)
+_JOB = None
+
+
+def _one_fold(k: int) -> tuple[list, list]:
+    """The rows and states of fold ``k`` of the running :func:`cross_validate`."""
+    from threadpoolctl import threadpool_limits
+
+    measured, models, binder_of_mix, folds, route = _JOB
+    held = folds[k]
+    train = measured[~measured["mix_id"].isin(held)]
+    test = measured[measured["mix_id"].isin(held)]
     frames, states = [], []
-    for k, held in enumerate(folds):
-        train = measured[~measured["mix_id"].isin(held)]
-        test = measured[measured["mix_id"].isin(held)]
-        if test.empty:
-            continue
-        seen = set(binder_of_mix.loc[train["mix_id"].unique()])
+    if test.empty:
+        return frames, states
+    seen = set(binder_of_mix.loc[train["mix_id"].unique()])
+    with threadpool_limits(1):  # BLAS threads on small least-squares problems only contend (docs/choices.md)
         for model in models:
             state = model.fit(train)
             states.append(
-                {
-                    "fold": k,
-                    "model": model.model,
-                    "coefficients": model.coefficients,
-                    "binder_route": route,
-                    "state": state,
-                }
+                {"fold": k, "model": model.model, "coefficients": model.coefficients, "binder_route": route, "state": state}
             )
             E, P, source = model.predict(state, test.drop(columns=["E_norm_MPa", "phase_deg"]))
             frames.append(
@@ -292,9 +315,7 @@ def cross_validate(
                     }
                 )
             )
-    if not frames:
-        raise InputError("forecast cross-validation: no mix with measured |E*| and phase to hold out")
-    return pd.concat(frames, ignore_index=True)[ROW_COLUMNS], states
+    return frames, states
 
 
 #: columns of :func:`score`
