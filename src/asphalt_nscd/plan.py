@@ -860,6 +860,14 @@ def forecast_dir(config: dict) -> str:
     return f"{FORECASTS}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{FORECASTS}/{table.stem}"
 
 
+def mix_dir(config: dict) -> str:
+    """``results/mixes/<folder>-<stem>``: the folder of the last complete forecast of the mix file
+    forecast.mix (make forecast MIX=...)."""
+    mix = Path(config["forecast"]["mix"])
+    folder = mix.resolve().parent.name
+    return f"results/mixes/{folder}-{mix.stem}" if folder else f"results/mixes/{mix.stem}"
+
+
 def forecast_sidecar(config: dict) -> list:
     """The sidecar ``<stem>.test.json`` of forecast.table when it exists (an input of the
     checkpoint, so that editing it reruns the chain)."""
@@ -868,10 +876,10 @@ def forecast_sidecar(config: dict) -> list:
     return [str(side)] if side.is_file() else []
 
 
-def forecast_mixes_option(config: dict) -> str:
-    """``--mixes ID...`` of forecast.mixes, or nothing (every mix)."""
-    mixes = config["forecast"].get("mixes")
-    return "" if not mixes else "--mixes " + " ".join(str(m) for m in mixes)
+def forecast_mixes_setting(config: dict) -> list:
+    """forecast.mixes as a list (empty: every mix): the checkpoint's parameter, so that changing the mixes
+    reruns it; the command reads the setting itself from the run's checked configuration."""
+    return [str(m) for m in (config["forecast"].get("mixes") or [])]
 
 
 def matched_mixes(path) -> list:

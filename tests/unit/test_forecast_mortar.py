@@ -76,8 +76,13 @@ def test_the_mortar_stays_inside_the_bounds_and_below_the_stone():
     (Kl, Gl), (Ku, Gu) = hashin_shtrikman(
         np.array([np.full(G.size, Kb), np.zeros(G.size), np.full(G.size, KS)]),
         np.array([G, np.zeros(G.size), np.full(G.size, GS)]),
-        np.array([np.full(G.size, vol["binder"] / total), np.full(G.size, vol["air"] / total),
-                  np.full(G.size, (vol["filler"] + vol["fine"]) / total)]),
+        np.array(
+            [
+                np.full(G.size, vol["binder"] / total),
+                np.full(G.size, vol["air"] / total),
+                np.full(G.size, (vol["filler"] + vol["fine"]) / total),
+            ]
+        ),
     )
     Gm = m["mortar"][1].real
     assert np.all(Gm >= Gl * (1 - 1e-9)) and np.all(Gm <= Gu * (1 + 1e-9))
@@ -87,7 +92,11 @@ def test_air_voids_soften_the_mortar():
     """More air (at the same binder, filler and fine aggregate) gives a softer mortar at every condition."""
     G, d = np.geomspace(1e3, 1e9, 12), np.linspace(80, 10, 12)
     E = [
-        np.abs(mortar.young(*mortar.mortar_moduli(G, d, {"binder": 0.11, "filler": 0.05, "air": a, "fine": 0.35})["mortar"]))
+        np.abs(
+            mortar.young(
+                *mortar.mortar_moduli(G, d, {"binder": 0.11, "filler": 0.05, "air": a, "fine": 0.35})["mortar"]
+            )
+        )
         for a in (0.02, 0.05, 0.09)
     ]
     assert np.all(E[0] > E[1]) and np.all(E[1] > E[2])

@@ -102,7 +102,12 @@ class Response:
         p1, lam, alpha, beta = self._pencil(skeleton)
         z = np.asarray(zeta, complex)
         flat = np.ascontiguousarray(z.ravel())
-        s = _schur_sum(flat, np.ascontiguousarray(lam, float), np.ascontiguousarray(alpha, float), np.ascontiguousarray(beta, float))
+        s = _schur_sum(
+            flat,
+            np.ascontiguousarray(lam, float),
+            np.ascontiguousarray(alpha, float),
+            np.ascontiguousarray(beta, float),
+        )
         return (self.p0 + z * p1 - s.reshape(z.shape)) / self.side_m
 
     def _pencil(self, skeleton: str):

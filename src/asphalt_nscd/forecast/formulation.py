@@ -56,17 +56,28 @@ TABLE_SIEVES = (
 
 def passing_points(mix: pd.Series) -> tuple[np.ndarray, np.ndarray]:
     """The measured points of a mix's cumulative gradation: sieve openings (mm, increasing)
-    and % passing, with 100 % at the top size (module docstring).
+    and % passing, with 100 % at the top size (module docstring); a mix with a ``gradation``
+    entry (a full sieve analysis, ``"<mm>:<% passing>;..."``, :func:`gradation_text`) gives
+    every sieve of that analysis instead of the table's four.
 
     Raises InputError when the points are not cumulative (passing falls as the sieve grows)."""
-    pts = {d: (100.0 - float(mix[c]) if retained else float(mix[c])) for d, c, retained in TABLE_SIEVES}
-    top = 25.0 if float(mix["rho34_pct"]) > 0 else 19.0
-    pts[top] = 100.0
+    text = mix.get("gradation") if hasattr(mix, "get") else None
+    if isinstance(text, str) and text.strip():
+        pts = {float(k): float(v) for k, v in (item.split(":") for item in text.split(";"))}
+    else:
+        pts = {d: (100.0 - float(mix[c]) if retained else float(mix[c])) for d, c, retained in TABLE_SIEVES}
+        top = 25.0 if float(mix["rho34_pct"]) > 0 else 19.0
+        pts[top] = 100.0
     d = np.array(sorted(pts))
     p = np.array([pts[k] for k in d])
     if np.any(np.diff(p) < 0) or p[0] <= 0:
         raise InputError(f"mix {mix.get('mix_id', '?')}: gradation points {dict(zip(d, p))} are not a cumulative curve")
     return d, p
+
+
+def gradation_text(openings_mm, passing_pct) -> str:
+    """A sieve analysis as the ``gradation`` entry of a mix (:func:`passing_points`): exact decimals."""
+    return ";".join(f"{float(d)!r}:{float(p)!r}" for d, p in zip(openings_mm, passing_pct))
 
 
 def passing_curve(mix: pd.Series, sieves=SIEVES_MM) -> dict[float, float]:

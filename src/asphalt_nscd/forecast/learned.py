@@ -280,6 +280,11 @@ def by_rows(table: pd.DataFrame, model, route: str, k: int | None = None, seed: 
                     "E_pred_MPa": E,
                     "phase_pred_deg": P,
                     "phase_source": source,
+                    "binder_extrapolated": (
+                        test["binder_extrapolated"].to_numpy()
+                        if "binder_extrapolated" in test
+                        else pd.array([pd.NA] * len(test), dtype="boolean")
+                    ),
                 }
             )
         )

@@ -163,7 +163,7 @@ def differential_scheme(Km, Gm, inclusions, phi_max=1.0, steps: int = 400):
         z = _zeta(K, G)
         dK = sum(wj * (Kj - K) * (K + 4.0 / 3.0 * G) / (Kj + 4.0 / 3.0 * G) for wj, Kj in zip(w, Ki))
         dG = sum(wj * (Gj - G) * (G + z) / (Gj + z) for wj, Gj in zip(w, Gi))
-        return np.array([-x[0] ** 2 * dK * pm, -x[1] ** 2 * dG * pm])  # d(1/K)/du, d(1/G)/du
+        return np.array([-(x[0] ** 2) * dK * pm, -(x[1] ** 2) * dG * pm])  # d(1/K)/du, d(1/G)/du
 
     x = np.array([np.broadcast_to(1.0 / Km, shape), np.broadcast_to(1.0 / Gm, shape)])
     for _ in range(steps):
@@ -245,7 +245,9 @@ def mortar_moduli(G_binder_Pa, delta_deg, volumes: dict, constituents: Constitue
     phi_a = volumes["air"] / (mastic + volumes["air"])
     phi_s = volumes["fine"] / (mastic + volumes["air"] + volumes["fine"])
     Kb = np.full(G.shape, complex(constituents.K_binder_Pa))
-    m = hs_cap(*differential_scheme(Kb, G, [Inclusion(Ks, Gs, phi_f)], constituents.filler_packing), (Kb, G), Ks, Gs, phi_f)
+    m = hs_cap(
+        *differential_scheme(Kb, G, [Inclusion(Ks, Gs, phi_f)], constituents.filler_packing), (Kb, G), Ks, Gs, phi_f
+    )
     p = differential_scheme(*m, [Inclusion(0.0, 0.0, phi_a)], 1.0)
     r = hs_cap(*differential_scheme(*p, [Inclusion(Ks, Gs, phi_s)], constituents.fine_packing), p, Ks, Gs, phi_s)
     return {"mastic": m, "porous_mastic": p, "mortar": r, "phi_filler": phi_f, "phi_air": phi_a, "phi_fine": phi_s}

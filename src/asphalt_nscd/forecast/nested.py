@@ -118,4 +118,6 @@ def selection_log(states: list) -> pd.DataFrame:
                     "inner_folds": s["inner_folds"],
                 }
             )
-    return pd.DataFrame(rows, columns=["fold", "model", "binder_route", "candidate", "inner_score", "chosen", "inner_folds"])
+    return pd.DataFrame(
+        rows, columns=["fold", "model", "binder_route", "candidate", "inner_score", "chosen", "inner_folds"]
+    )

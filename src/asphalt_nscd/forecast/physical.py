@@ -151,7 +151,6 @@ class MixMortar:
             lnG.append(np.array(rows_G))
             lnGm.append(np.log(m["mastic"][1]))
         self._s = s_grid
-        x = np.log(E_STONE_GRID)
         kg = np.stack([np.array(lnK), np.array(lnG)], axis=1)  # (E grid, 2, s, n)
         self._along_s = CubicSpline(s_grid, np.moveaxis(kg, 2, 0), axis=0)  # s -> (E grid, 2, n)
         self._cap_nodes = np.array(cap)  # (E grid, 2, n): ln of the HS upper bounds of |K|, |G|
@@ -221,7 +220,9 @@ class PhysicalDem:
         self.free = tuple(steps[name] if free is None else free)
         unknown = sorted(set(self.free) - set(CONSTANTS))
         if unknown:
-            raise InputError(f"physical DEM model {name!r}: unknown constants {unknown}; expected among {list(CONSTANTS)}")
+            raise InputError(
+                f"physical DEM model {name!r}: unknown constants {unknown}; expected among {list(CONSTANTS)}"
+            )
         self._mortar: dict = {}
 
     def available(self, table: pd.DataFrame) -> bool:
@@ -285,7 +286,13 @@ class PhysicalDem:
         if not self.free:
             c = self.constants(())
             r = self._log_modulus(cells, len(rows), c) - y
-            return {**c, "cost": float(np.sum(np.abs(r) ** 2) / 2), "n_rows": len(rows), "at_bound": [], "jammed": self._jammed(cells, c)}
+            return {
+                **c,
+                "cost": float(np.sum(np.abs(r) ** 2) / 2),
+                "n_rows": len(rows),
+                "at_bound": [],
+                "jammed": self._jammed(cells, c),
+            }
         lo = np.array([CONSTANTS[k].low for k in self.free])
         hi = np.array([CONSTANTS[k].high for k in self.free])
 
@@ -296,7 +303,9 @@ class PhysicalDem:
         starts = [lo + f * (hi - lo) for f in (0.5, 0.25, 0.75)]
         fits = [least_squares(resid, x0, bounds=(lo, hi), x_scale=hi - lo, diff_step=1e-4) for x0 in starts]
         best = min(fits, key=lambda f: f.cost)
-        at = np.isclose(best.x, lo, rtol=0, atol=1e-3 * (hi - lo)) | np.isclose(best.x, hi, rtol=0, atol=1e-3 * (hi - lo))
+        at = np.isclose(best.x, lo, rtol=0, atol=1e-3 * (hi - lo)) | np.isclose(
+            best.x, hi, rtol=0, atol=1e-3 * (hi - lo)
+        )
         c = self.constants(best.x)
         return {
             **c,

@@ -287,7 +287,13 @@ def _one_fold(k: int) -> tuple[list, list]:
         for model in models:
             state = model.fit(train)
             states.append(
-                {"fold": k, "model": model.model, "coefficients": model.coefficients, "binder_route": route, "state": state}
+                {
+                    "fold": k,
+                    "model": model.model,
+                    "coefficients": model.coefficients,
+                    "binder_route": route,
+                    "state": state,
+                }
             )
             E, P, source = model.predict(state, test.drop(columns=["E_norm_MPa", "phase_deg"]))
             frames.append(
@@ -456,7 +462,9 @@ def error_split(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
         for col, name in (("e", "total"), ("level", "without_level"), ("temp", "without_temperature")):
             v = per_mix[col].to_numpy(float)
             row[f"{name}_pct"] = float(v.mean())
-            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = t_interval(v, confidence) if v.size >= 2 else (np.nan, np.nan)
+            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = (
+                t_interval(v, confidence) if v.size >= 2 else (np.nan, np.nan)
+            )
         row["level_pct"] = row["total_pct"] - row["without_level_pct"]
         row["temperature_pct"] = row["without_level_pct"] - row["without_temperature_pct"]
         row["rest_pct"] = row["without_temperature_pct"]
