@@ -74,6 +74,70 @@ def costs(c: pd.DataFrame) -> list[str]:
     return lines
 
 
+def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
+    """The physical ladder's steps side by side with each step's paired gain over the one before."""
+    from scipy import stats
+
+    from asphalt_nscd.forecast.physical import STEPS
+
+    labels = set(scores["label"])
+    steps = [(n, free) for n, free in STEPS if n in labels]
+    if not steps or per_mix is None:
+        return []
+    s = scores[(scores["binder_route"] == ROUTE) & (scores["group"] == "all") & scores["temperature_C"].isna()]
+    s = s.set_index("label")
+    e = per_mix[(per_mix["binder_route"] == ROUTE) & per_mix["temperature_C"].isna()]
+    L = [
+        "",
+        "The discrete model by its number of constants (`asphalt_nscd.forecast.physical`; gain: paired difference "
+        "with the step before over the same mixes, negative is better):",
+        "",
+        "| model | constants fitted | \\|E*\\| (%) | phase (°) | gain \\|E*\\| (points) | gain phase (°) |",
+        "|---|---|---|---|---|---|",
+    ]
+    prev = None
+    for name, free in [*steps, ("dem_selected", ("chosen in each fold",))]:
+        if name not in s.index:
+            continue
+        r = s.loc[name]
+        gains = []
+        for col in ("e", "p"):
+            if prev is None or name == "dem_selected":
+                gains.append("–")
+                continue
+            w = e.pivot_table(index="mix_id", columns="label", values=col)
+            d = (w[name] - w[prev]).dropna().to_numpy()
+            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
+            gains.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
+        L.append(
+            f"| {name} | {len(free) if name != 'dem_selected' else '–'}: {', '.join(free) or 'none'} | "
+            f"{_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
+            f"{_ci(r['abs_phase_deg'], r['abs_phase_ci_low'], r['abs_phase_ci_high'])} | {gains[0]} | {gains[1]} |"
+        )
+        prev = name
+    return L
+
+
+def _extra_sections(label: str, scores: pd.DataFrame) -> list[str]:
+    """The run's choice inside the fold, error split, learned yardstick and intervals (as on its page)."""
+    from asphalt_nscd.forecast import page_dem
+
+    L: list[str] = []
+    selection, split = _read(f"{label}_selection_log.csv"), _read(f"{label}_error_split.csv")
+    coverage, rows = _read(f"{label}_interval_coverage.csv"), _read(f"{label}_learned_by_rows.csv")
+    for sec in (
+        page_dem.selection_section(selection),
+        page_dem.split_section(split[split["binder_route"] == ROUTE] if split is not None else None),
+        page_dem.learned_section(scores, rows, ROUTE),
+        page_dem.coverage_section(
+            coverage, ROUTE, ["hirsch_recalibrated", "dem_selected", "gradient_boosting_learned"]
+        ),
+    ):
+        if sec:
+            L += ["", *[ln.replace("## ", "### ", 1) if ln.startswith("## ") else ln for ln in sec]]
+    return L
+
+
 def binder_sections() -> list[str]:
     """The binder's reading and extrapolation sections (their tables' scripts named under each heading)."""
     from asphalt_nscd.forecast.binder_report import binder_reading_section, extrapolation_section
@@ -164,6 +228,8 @@ def render() -> str:
                 f"| {r['model']} | {r['constant']} | {r['all_mixes']:.4g} | {r['folds_min']:.4g} | {r['folds_max']:.4g} |"
                 for _, r in k.iterrows()
             ]
+        L += ladder(scores, per_mix)
+        L += _extra_sections(label, scores)
         sp = _read(f"{label}_seed_spread.csv")
         if sp is not None:
             m = sp.groupby("mix_id")["mean_abs_log_diff_pct"].mean()

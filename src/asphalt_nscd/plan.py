@@ -902,9 +902,10 @@ def forecast_responses(config: dict, matched) -> list:
 
 def forecast_settings(config: dict) -> dict:
     """What the forecast's chain commands read from the config (a change reruns them): the
-    forecast section without the seed list."""
+    forecast section without the seed list and without the mix file of new mixes (read by
+    forecast_mix alone)."""
     dem = {k: v for k, v in (config["forecast"].get("dem") or {}).items() if k != "seeds"}
-    return {**config["forecast"], "dem": dem}
+    return {**{k: v for k, v in config["forecast"].items() if k != "mix"}, "dem": dem}
 
 
 def forecast_sample_settings(config: dict) -> dict:

@@ -602,7 +602,8 @@ def _mix(args) -> int:
     out = Path(args.output)
     work = Path(args.work) if args.work else out.with_name(out.name + ".work")
     run_config = {**config, "forecast": {**config["forecast"], "dem": state["forecast"]["dem"]}}
-    responses = product.prepare_responses(table, run_config, work / "samples", progress=print)
+    discrete = any(f["model"].startswith("dem") for f in state["fits"])
+    responses = product.prepare_responses(table, run_config, work / "samples", progress=print) if discrete else {}
     forecast = product.forecast_mixes(state, training, table, responses)
     best = state["best_model"]
     if best not in set(forecast["model"]):

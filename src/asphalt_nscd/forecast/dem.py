@@ -9,7 +9,7 @@ Bond laws (replacing Eqs. 30-33, which calibrate bonds to the mix's own modulus)
 a mortar bridge: k = e_1(w) g_b, k_t = k / (2 (1 + nu)) (Eqs. 8-11), g_b = pi r_min^2 / (delta0 + t_m)
 (the gap left by the shrink to the mix's coarse-aggregate volume, at least the contact tolerance,
 plus the mix's mean mortar thickness t_m, :func:`mortar_thickness`); E*_mortar from the binder and
-the fines (:mod:`.mastic`).
+the fines (:mod:`.mortar`, :func:`.mortar.hs_lower_mortar_modulus`).
 
 * ``dem``: e_1 = C_m E*_mortar(w). One constant.
 * ``dem_extended`` adds what rigid spheres in a mortar lack: the stones' own compliance in series,
@@ -376,7 +376,7 @@ class DemModel:
     def _cells(self, rows: pd.DataFrame) -> list:
         """(row indices, E*_mortar (Pa), responses) per mix of ``rows``."""
         from .formulation import phase_volumes
-        from .mastic import mortar_modulus
+        from .mortar import hs_lower_mortar_modulus as mortar_modulus
 
         out = []
         for mix_id, idx in rows.groupby("mix_id", sort=False).indices.items():

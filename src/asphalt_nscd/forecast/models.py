@@ -21,7 +21,9 @@ from ..io import InputError
 
 def label(model) -> str:
     """The model's name in tables: ``<formula>_<coefficients>`` or the DEM model's name."""
-    return model.model if model.model.startswith("dem") else f"{model.model}_{model.coefficients}"
+    from .validation import model_label
+
+    return model_label(model)
 
 
 def binder_points(matched: pd.DataFrame, binder_of_mix: pd.Series) -> pd.DataFrame:

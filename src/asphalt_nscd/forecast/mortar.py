@@ -273,3 +273,24 @@ def hs_cap(K, G, matrix, Ks: float, Gs: float, phi: float):
     Ku, Gu = hs_upper(matrix, Ks, Gs, phi)
     K, G = np.asarray(K), np.asarray(G)
     return np.where(np.abs(K) > Ku, K * Ku / np.abs(K), K), np.where(np.abs(G) > Gu, G * Gu / np.abs(G), G)
+
+
+def rigid_inclusion_factor(phi) -> np.ndarray:
+    """G_eff / G_matrix of rigid spheres at volume fraction ``phi`` (0 <= phi < 1) in an
+    incompressible matrix by the Hashin-Shtrikman lower bound, which is also the Mori-Tanaka
+    estimate: 1 + (5/2) phi / (1 - phi) (dilute limit: Einstein's 1 + 2.5 phi). The mortar of the
+    legacy models ``dem`` and ``dem_extended`` (:func:`hs_lower_mortar_modulus`).
+
+    Raises ValueError for phi outside [0, 1)."""
+    phi = np.asarray(phi, float)
+    if np.any((phi < 0) | (phi >= 1)):
+        raise ValueError(f"inclusion volume fraction must be in [0, 1), got {phi}")
+    return 1.0 + 2.5 * phi / (1.0 - phi)
+
+
+def hs_lower_mortar_modulus(G_binder_Pa, delta_deg, phi_filler: float, phi_fine: float) -> np.ndarray:
+    """Complex Young's modulus E* (Pa) of the legacy models' mortar: 3 |G*| e^{i delta} times the
+    mastic's and the mortar's :func:`rigid_inclusion_factor` (a real factor: the mortar keeps the
+    binder's phase angle)."""
+    G = np.asarray(G_binder_Pa, float) * np.exp(1j * np.radians(np.asarray(delta_deg, float)))
+    return 3.0 * G * rigid_inclusion_factor(phi_filler) * rigid_inclusion_factor(phi_fine)

@@ -29,9 +29,9 @@ PHASE_WEIGHT_PCT_PER_DEG = 1.0
 
 def label_of(model) -> str:
     """A candidate's label: its model name, or ``<formula>_<coefficients>`` for a baseline."""
-    from .models import label
+    from .validation import model_label
 
-    return label(model)
+    return model_label(model)
 
 
 def inner_score(model, state, test: pd.DataFrame) -> float:

@@ -199,6 +199,10 @@ def bond_moduli(constants: dict, E_mortar, G_mastic, film_m: float, response) ->
     return e1, e2 / e1
 
 
+#: (mix, binder, volumes) -> (MixMortar, film thickness), built once per process
+_MORTARS: dict = {}
+
+
 class PhysicalDem:
     """A model of the ladder (:data:`STEPS`): the physical bond laws with ``free`` constants fitted.
 
@@ -223,7 +227,6 @@ class PhysicalDem:
             raise InputError(
                 f"physical DEM model {name!r}: unknown constants {unknown}; expected among {list(CONSTANTS)}"
             )
-        self._mortar: dict = {}
 
     def available(self, table: pd.DataFrame) -> bool:
         """Whether some mix of ``table`` has a usable sample response with its skeleton decomposition."""
@@ -249,9 +252,9 @@ class PhysicalDem:
             mix = r.iloc[0]
             volumes = phase_volumes(mix, self.cut_mm)
             key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())))
-            if key not in self._mortar:
-                self._mortar[key] = (MixMortar(G, d, volumes), film_thickness_m(mix))
-            out.append((idx, *self._mortar[key], self.responses[mix_id]))
+            if key not in _MORTARS:  # shared by every model of the process: the ladder's steps read the same mortar
+                _MORTARS[key] = (MixMortar(G, d, volumes), film_thickness_m(mix))
+            out.append((idx, *_MORTARS[key], self.responses[mix_id]))
         return out
 
     def constants(self, x) -> dict:

@@ -114,6 +114,11 @@ class Baseline:
         return E, booij_thoone_isotherms(rows, E), "booij_thoone"
 
 
+def model_label(model) -> str:
+    """A model's name in tables: a discrete model's own name (``dem...``), else ``<formula>_<coefficients>``."""
+    return model.model if model.model.startswith("dem") else f"{model.model}_{model.coefficients}"
+
+
 def _inputs_needed(model: str) -> tuple:
     return ("binder_eta_Pa_s",) if model == "witczak_1_37a" else ("binder_G_MPa", "binder_delta_deg")
 
