@@ -32,7 +32,7 @@ import pandas as pd
 
 from asphalt_nscd.forecast.dem import DemModel
 from asphalt_nscd.forecast.models import read_curves, read_responses
-from asphalt_nscd.forecast.physical import STEPS
+from asphalt_nscd.forecast.physical import ALL_STEPS as STEPS
 from asphalt_nscd.forecast.validation import binder_ids, with_binder_route
 from asphalt_nscd.io import read_csv, read_json, write_csv
 from asphalt_nscd.lab.matched import read_matched

@@ -78,7 +78,8 @@ def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
     """The physical ladder's steps side by side with each step's paired gain over the one before."""
     from scipy import stats
 
-    from asphalt_nscd.forecast.physical import STEPS
+    from asphalt_nscd.forecast.physical import ALL_STEPS as STEPS
+    from asphalt_nscd.forecast.physical import PREVIOUS
 
     labels = set(scores["label"])
     steps = [(n, free) for n, free in STEPS if n in labels]
@@ -95,14 +96,14 @@ def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
         "| model | constants fitted | \\|E*\\| (%) | phase (°) | gain \\|E*\\| (points) | gain phase (°) |",
         "|---|---|---|---|---|---|",
     ]
-    prev = None
     for name, free in [*steps, ("dem_selected", ("chosen in each fold",))]:
+        prev = PREVIOUS.get(name) if PREVIOUS.get(name) in s.index else None
         if name not in s.index:
             continue
         r = s.loc[name]
         gains = []
         for col in ("e", "p"):
-            if prev is None or name == "dem_selected":
+            if prev is None:
                 gains.append("–")
                 continue
             w = e.pivot_table(index="mix_id", columns="label", values=col)
@@ -114,7 +115,6 @@ def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
             f"{_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
             f"{_ci(r['abs_phase_deg'], r['abs_phase_ci_low'], r['abs_phase_ci_high'])} | {gains[0]} | {gains[1]} |"
         )
-        prev = name
     return L
 
 

@@ -12,7 +12,8 @@ import numpy as np
 import pandas as pd
 
 from . import render
-from .physical import CONSTANTS, STEPS
+from .physical import ALL_STEPS as STEPS
+from .physical import CONSTANTS, PREVIOUS
 
 #: the published formula a constant-free forecast is held against (the best published one on the shipped table)
 PUBLISHED_YARDSTICK = "witczak_1_40d_published"
@@ -71,12 +72,12 @@ def ladder_section(scores, rows, constants, route, confidence) -> list[str]:
         "thickness (squeeze film in series with the stones). Each further step frees one physical constant, "
         "fitted on the training mixes of every fold inside its documented range (`asphalt_nscd.forecast.physical`).",
         "",
-        "| model | constants fitted | \\|E*\\| error (%) | phase error (deg) | gain over the step before: \\|E*\\| (points) "
+        "| model | constants fitted | \\|E*\\| error (%) | phase error (deg) | gain over the step it adds to: \\|E*\\| (points) "
         "| phase (deg) | folds with a constant at a bound |",
         "|---|---|---|---|---|---|---|",
     ]
-    prev = None
     for name, free in steps:
+        prev = PREVIOUS.get(name) if PREVIOUS.get(name) in labels else None
         r = _overall(scores, route, name)
         c = _fold_constants(constants, name, route)
         n_bound = int((c["at_bound"] != "").sum()) if len(c) else 0
@@ -86,7 +87,6 @@ def ladder_section(scores, rows, constants, route, confidence) -> list[str]:
             f"| {name} | {len(free)}: {', '.join(free) or 'none'} | {_fmt(r)} | {_fmt(r, 'abs_phase')} | {gain_e} | "
             f"{gain_p} | {n_bound} of {len(c)} |"
         )
-        prev = name
     for name, what in (
         ("dem", "1: C_m (legacy)"),
         ("dem_extended", "4: C_m, C_a, C_s, n_s (legacy)"),
@@ -95,7 +95,14 @@ def ladder_section(scores, rows, constants, route, confidence) -> list[str]:
         r = _overall(scores, route, name)
         if r is not None:
             L.append(f"| {name} | {what} | {_fmt(r)} | {_fmt(r, 'abs_phase')} | – | – | – |")
-    L += ["", "Gains are paired differences over the same held-out mixes (negative: the step is better).", ""]
+    L += [
+        "",
+        "Gains are paired differences over the same held-out mixes against the step each adds constants to "
+        "(`dem_c1` to `dem_physical`, ..., `dem_p2` to `dem_physical`, `dem_p3` to `dem_p2`; negative: better). "
+        "`dem_c1` to `dem_c4` carry the skeleton through a mastic film, `dem_p2` and `dem_p3` as a parabolic "
+        "element.",
+        "",
+    ]
     L += _constants_table(constants, [n for n, _ in steps], route)
     L += _goals(scores, errors, route, confidence, constants)
     return L

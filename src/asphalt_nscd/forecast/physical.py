@@ -80,6 +80,14 @@ CONSTANTS = {
         "contact film / average film thickness: SEM films 0.5-2.4 um around fillers (Adv. Mater. Sci. Eng. "
         "2021, 8894970) to 1.3 x the formula's 9-13 um",
     ),
+    "skeleton_scale": Constant(
+        1.0,
+        0.0,
+        1.0,
+        "-",
+        "the parabolic skeleton's stiffness at the stone's modulus over the stone's (nothing stiffer than the "
+        "stone it joins: at most 1)",
+    ),
     "E_stone_Pa": Constant(
         55e9, 30e9, 90e9, "Pa", "AASHTO HB-17 rock moduli (Wang 2011, Tables 2.1-2.2): dolostone 29 to quartzite 66 GPa"
     ),
@@ -92,7 +100,16 @@ STEPS = (
     ("dem_c3", ("fine_packing", "skeleton_exponent", "film_factor")),
     ("dem_c4", ("fine_packing", "skeleton_exponent", "film_factor", "E_stone_Pa")),
 )
-STEP_NAMES = tuple(name for name, _ in STEPS)
+#: the parabolic skeleton's steps: the skeleton contacts as mortar-bridge geometry with
+#: e_2 = C_s E_s' (E*_mortar / E_s')^n (:func:`bond_moduli`, ``skeleton="parabolic"``)
+PARABOLIC_STEPS = (
+    ("dem_p2", ("skeleton_scale", "skeleton_exponent")),
+    ("dem_p3", ("fine_packing", "skeleton_scale", "skeleton_exponent")),
+)
+ALL_STEPS = STEPS + PARABOLIC_STEPS
+#: the step each step adds constants to (its gain is measured against it)
+PREVIOUS = {**{a: b for (b, _), (a, _) in zip(STEPS, STEPS[1:])}, "dem_p2": "dem_physical", "dem_p3": "dem_p2"}
+STEP_NAMES = tuple(name for name, _ in ALL_STEPS)
 #: grid of the stone modulus on which the mortar is tabulated (Pa; interpolated in ln E_s between)
 E_STONE_GRID = np.geomspace(CONSTANTS["E_stone_Pa"].low, CONSTANTS["E_stone_Pa"].high, 5)
 #: nodes of the crowding s = -phi_max ln(1 - phi / phi_max) at which the fine-aggregate stage is tabulated
@@ -175,7 +192,9 @@ class MixMortar:
         return bool(fine_packing < self.packing_floor)
 
 
-def bond_moduli(constants: dict, E_mortar, G_mastic, film_m: float, response) -> tuple[np.ndarray, np.ndarray]:
+def bond_moduli(
+    constants: dict, E_mortar, G_mastic, film_m: float, response, skeleton: str = "film"
+) -> tuple[np.ndarray, np.ndarray]:
     """(e_1, zeta) of one sample at its conditions (module docstring).
 
     constants : the values of :data:`CONSTANTS` (all of them). E_mortar, G_mastic : complex (n,)
@@ -187,6 +206,10 @@ def bond_moduli(constants: dict, E_mortar, G_mastic, film_m: float, response) ->
     nu = Constituents().nu_stone
     Es = constants["E_stone_Pa"] / (1.0 - nu**2)
     e1 = 1.0 / (1.0 / E_mortar + response.chi_bridge / Es)
+    if skeleton == "parabolic":  # per unit g_b, like a bridge: C_s E_s' (E*_mortar / E_s')^n
+        n = constants["skeleton_exponent"]
+        e2 = constants["skeleton_scale"] * Es * np.exp(n * np.log(E_mortar / Es))
+        return e1, e2 / e1
     if not np.isfinite(response.skeleton_r15):  # no skeleton contact in the sample
         return e1, np.zeros_like(e1)
     h = constants["film_factor"] * film_m
@@ -217,11 +240,13 @@ class PhysicalDem:
     coefficients = "physical"
 
     def __init__(self, name: str, responses: dict, cut_mm: float, free: tuple | None = None):
-        steps = dict(STEPS)
+        steps = dict(ALL_STEPS)
         if name not in steps and free is None:
             raise InputError(f"physical DEM model {name!r}: expected one of {STEP_NAMES}")
         self.model, self.responses, self.cut_mm = name, responses, float(cut_mm)
         self.free = tuple(steps[name] if free is None else free)
+        #: the skeleton law: the film (:data:`STEPS`) or the parabolic element (:data:`PARABOLIC_STEPS`)
+        self.skeleton = "parabolic" if name in dict(PARABOLIC_STEPS) else "film"
         unknown = sorted(set(self.free) - set(CONSTANTS))
         if unknown:
             raise InputError(
@@ -270,8 +295,9 @@ class PhysicalDem:
             Em, Gm = mortar.moduli(constants["fine_packing"], constants["E_stone_Pa"])
             logs = []
             for resp in responses:
-                e1, zeta = bond_moduli(constants, Em, Gm, film, resp)
-                logs.append(np.log(e1) + np.log(resp.factor(zeta, skeleton="film")))
+                e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton)
+                weights = "mortar" if self.skeleton == "parabolic" else "film"
+                logs.append(np.log(e1) + np.log(resp.factor(zeta, skeleton=weights)))
             out[idx] = np.mean(logs, axis=0)
         return out
 
