@@ -235,16 +235,19 @@ class PhysicalDem:
     responses : mix_id -> list of :class:`.dem.Response` (one per seed; with the film decomposition).
     cut_mm : the samples' PSD cut (the mortar's fine aggregate is what passes it).
     free : the constants to fit (default: the step's).
+    starts : starting points of the fit (1: the middle of every range; 3: also its quarter points).
     """
 
     coefficients = "physical"
 
-    def __init__(self, name: str, responses: dict, cut_mm: float, free: tuple | None = None):
+    def __init__(self, name: str, responses: dict, cut_mm: float, free: tuple | None = None, starts: int = 3):
         steps = dict(ALL_STEPS)
         if name not in steps and free is None:
             raise InputError(f"physical DEM model {name!r}: expected one of {STEP_NAMES}")
         self.model, self.responses, self.cut_mm = name, responses, float(cut_mm)
         self.free = tuple(steps[name] if free is None else free)
+        #: starts of the fit: 1 the middle of every range; 3 also its quarter points
+        self.starts = int(starts)
         #: the skeleton law: the film (:data:`STEPS`) or the parabolic element (:data:`PARABOLIC_STEPS`)
         self.skeleton = "parabolic" if name in dict(PARABOLIC_STEPS) else "film"
         unknown = sorted(set(self.free) - set(CONSTANTS))
@@ -329,7 +332,7 @@ class PhysicalDem:
             r = self._log_modulus(cells, len(rows), self.constants(x)) - y
             return np.concatenate([r.real, r.imag])
 
-        starts = [lo + f * (hi - lo) for f in (0.5, 0.25, 0.75)]
+        starts = [lo + f * (hi - lo) for f in (0.5, 0.25, 0.75)[: max(1, self.starts)]]
         fits = [least_squares(resid, x0, bounds=(lo, hi), x_scale=hi - lo, diff_step=1e-4) for x0 in starts]
         best = min(fits, key=lambda f: f.cost)
         at = np.isclose(best.x, lo, rtol=0, atol=1e-3 * (hi - lo)) | np.isclose(
