@@ -96,8 +96,8 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
         if dem.get("selected") and ladder:
             # inside the choice every candidate is fitted from the middle of its ranges (one start: its cost)
             inner = [PhysicalDem(m.model, responses, dem["cut_mm"], starts=1) for m in ladder]
-            candidates = inner + [m for m in legacy if m.model == "dem_extended"]
-            models.append(Selected("dem_selected", candidates, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1)))
+            # the legacy models (constants outside their physical ranges) are scored beside, not chosen from
+            models.append(Selected("dem_selected", inner, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1)))
     # the learned yardstick (forecast.learned): gradient-boosted trees on the formulas' inputs (:mod:`.learned`)
     if forecast_cfg.get("learned"):
         from .learned import MODELS as LEARNED

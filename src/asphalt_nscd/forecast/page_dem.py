@@ -147,6 +147,7 @@ def _goals(scores, errors, route, confidence, constants) -> list[str]:
         & (scores["group"] == "all")
         & scores["temperature_C"].isna()
         & scores["label"].str.startswith("dem")
+        & ~scores["label"].isin(["dem", "dem_extended"])
     ]
     hirsch = _overall(scores, route, "hirsch_recalibrated")
     if len(dems) and hirsch is not None:
@@ -154,13 +155,21 @@ def _goals(scores, errors, route, confidence, constants) -> list[str]:
         okE = best["abs_logE_pct"] <= hirsch["abs_logE_pct"]
         okP = best["abs_phase_deg"] <= hirsch["abs_phase_deg"]
         L.append(
-            f"- The best discrete model by |E*| ({best['label']}: {best['abs_logE_pct']:.1f} %, "
+            f"- The best discrete model with physically bounded constants, by |E*| ({best['label']}: {best['abs_logE_pct']:.1f} %, "
             f"{best['abs_phase_deg']:.1f}°) against recalibrated Hirsch ({hirsch['abs_logE_pct']:.1f} %, "
             f"{hirsch['abs_phase_deg']:.1f}°): {'met' if okE else 'not met'} in |E*| (paired "
             f"{_paired_text(errors, best['label'], 'hirsch_recalibrated', route, 'e', confidence)} points), "
             f"{'met' if okP else 'not met'} in phase (paired "
             f"{_paired_text(errors, best['label'], 'hirsch_recalibrated', route, 'p', confidence)} deg)."
         )
+        legacy = _overall(scores, route, "dem_extended")
+        if legacy is not None:
+            L.append(
+                f"- For comparison, the legacy `dem_extended` (four constants without physical bounds): "
+                f"{legacy['abs_logE_pct']:.1f} % and {legacy['abs_phase_deg']:.1f}° (paired with recalibrated Hirsch "
+                f"{_paired_text(errors, 'dem_extended', 'hirsch_recalibrated', route, 'e', confidence)} points, "
+                f"{_paired_text(errors, 'dem_extended', 'hirsch_recalibrated', route, 'p', confidence)} deg)."
+            )
     outside = 0
     total = 0
     for name, free in STEPS:
