@@ -127,7 +127,7 @@ def summary_page(
         "",
         "## The binder (its master curve from the sweeps)",
         "",
-        "| T (°C) | T (°F) | \\|G*\\| at 10 rad/s (kPa) | δ at 10 rad/s (°) | viscosity (Pa s) |",
+        "| T (°C) | T (°F) | \\|G*\\| at 10 rad/s (kPa) | δ at 10 rad/s (°) | MEPDG viscosity from the curve (Pa s) |",
         "|---|---|---|---|---|",
     ]
     for _, r in binder[binder["mix_id"] == mix_id].iterrows():
