@@ -115,3 +115,28 @@ def test_forecast_mix_publishes_the_designers_tables(trained, tmp_path):
         and (dest / "figures" / "211_master_curve.png").stat().st_size > 10_000
     )
     assert (dest / "manifest.json").is_file()
+
+
+def test_an_unbounded_interval_survives_the_state_and_is_said(trained, tmp_path):
+    """Too few training mixes for the level: the offsets are infinite; the state's JSON (no
+    infinity) reads them back as -inf/+inf, the Level 1 table shows 0 and inf, and the summary page
+    says the interval is unbounded."""
+    out, cfg = trained
+    state_dir = tmp_path / "trained"
+    rows = pd.read_csv(out / "rows.csv", dtype={"mix_id": str})
+    from asphalt_nscd.forecast import intervals
+
+    cal = intervals.calibrate(rows, level=0.9)  # seven mixes: a 90 % interval cannot be bounded
+    assert np.isinf(cal["dlogE_high_pct"].astype(float)).all()
+    state, training = product.read_state(out / "trained")
+    product.write_state(
+        state_dir, state["forecast"], training, state["fits"], state["best_model"], cal, state["binder_route"]
+    )
+    again, _ = product.read_state(state_dir)
+    rec = again["intervals"][0]
+    assert rec["dlogE_low_pct"] == -np.inf and rec["dlogE_high_pct"] == np.inf
+    dest = tmp_path / "published"
+    assert main(["forecast-mix", str(EXAMPLE), "--state", str(state_dir), *cfg, "-o", str(dest)]) == 0
+    level1 = pd.read_csv(dest / "level1_tables.csv", dtype={"mix_id": str})
+    assert np.isinf(level1["10 Hz high"]).all() and (level1["10 Hz low"] == 0).all()
+    assert "interval is unbounded" in (dest / "211.md").read_text()

@@ -83,7 +83,8 @@ def extrapolated_cells_section(scores: pd.DataFrame, route: str) -> list[str]:
     for T in sorted(c.loc[c["group"] == "all", "temperature_C"].dropna().unique()):
         a = _one(c, group="all", temperature_C=T)
         e = _one(c, group="binder_extrapolated", temperature_C=T)
-        counts.append(f"{T:.1f} °C: {0 if e is None else int(e['n_cells'])} of {int(a['n_cells'])}")
+        n_all = 0 if a is None else int(a["n_cells"])
+        counts.append(f"{T:.1f} °C: {0 if e is None else int(e['n_cells'])} of {n_all}")
     L += ["; ".join(counts) + ".", ""]
     L += [
         "| model | binder measured: mixes | \\|E*\\| error (%) | phase error (°) | binder extrapolated: mixes "

@@ -81,6 +81,14 @@ def summary_page(
         "interval calibrated on the training mixes left out.",
         "",
     ]
+    best_rows = f[f["model"] == best]
+    if "E_high_MPa" in best_rows and np.isinf(best_rows["E_high_MPa"].to_numpy(float)).any():
+        L += [
+            f"**The interval is unbounded** ({best}'s high bound reads inf): {len(state.get('training_mixes', []))} "
+            f"training mixes are too few to calibrate a {level} split-conformal interval (each tail needs "
+            "K/(K + 1) of the K mixes to reach its quantile).",
+            "",
+        ]
     if len(outside):
         L += ["**Outside the training mixes' ranges (the intervals are extrapolated):**", ""]
         for _, r in outside.iterrows():

@@ -113,7 +113,7 @@ class Inclusion:
     phi: object
 
 
-def differential_scheme(Km, Gm, inclusions, phi_max=1.0, steps: int = 400):
+def differential_scheme(Km, Gm, inclusions, phi_max=1.0, steps: int = 400) -> tuple[np.ndarray, np.ndarray]:
     """The packing-limited differential scheme (module docstring) for complex moduli.
 
     Integrated in the crowding variable u = -ln(1 - phi / phi_max) for the compliances 1/K and
@@ -267,7 +267,7 @@ def hs_upper(matrix, Ks: float, Gs: float, phi: float) -> tuple[np.ndarray, np.n
     return Ku, Gu
 
 
-def hs_cap(K, G, matrix, Ks: float, Gs: float, phi: float):
+def hs_cap(K, G, matrix, Ks: float, Gs: float, phi: float) -> tuple[np.ndarray, np.ndarray]:
     """(K, G) with each magnitude capped at :func:`hs_upper`, the phase angle of each modulus kept
     (module docstring). Complex arrays, Pa."""
     Ku, Gu = hs_upper(matrix, Ks, Gs, phi)

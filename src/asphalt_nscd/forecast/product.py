@@ -60,7 +60,9 @@ def ranges(train: pd.DataFrame) -> dict:
     has) and ``binder_log10_G_Pa``: ``{temperature: [low, high]}`` of log10 of the binder's |G*| at
     the mix's frequency over the training rows."""
     t = _with_volumetrics(train)
-    out = {c: [float(t[c].min()), float(t[c].max())] for c in RANGE_COLUMNS if c in t and t[c].notna().any()}
+    out: dict[str, object] = {
+        c: [float(t[c].min()), float(t[c].max())] for c in RANGE_COLUMNS if c in t and t[c].notna().any()
+    }
     g = np.log10(t["binder_G_mix_MPa"] * 1e6)
     out["binder_log10_G_Pa"] = {
         f"{T:.6g}": [float(v.min()), float(v.max())] for T, v in g.groupby(t["temperature_C"].round(6))
@@ -112,6 +114,12 @@ def read_state(directory) -> tuple[dict, pd.DataFrame]:
     for key in ("fits", "grid", "binder_frequency_ratio", "forecast", "ranges"):
         if key not in state:
             raise InputError(f"{d / STATE}: not a trained forecast state (no {key!r})")
+    # JSON has no infinity: an unbounded offset (too few calibration mixes for the level) is
+    # written as null and read back as -inf (low) or +inf (high)
+    for rec in state.get("intervals") or []:
+        for key, value in rec.items():
+            if value is None and key.endswith(("_low_pct", "_low_deg", "_high_pct", "_high_deg")):
+                rec[key] = -np.inf if "_low_" in key else np.inf
     return state, read_csv(d / TRAINING, dtype={"mix_id": str})
 
 

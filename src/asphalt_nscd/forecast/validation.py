@@ -273,18 +273,21 @@ def cross_validate(
 
 
 #: the arguments of the running :func:`cross_validate` (read by forked workers, not pickled)
-_JOB = None
+_JOB: tuple | None = None
 
 
 def _one_fold(k: int) -> tuple[list, list]:
     """The rows and states of fold ``k`` of the running :func:`cross_validate`."""
     from threadpoolctl import threadpool_limits
 
+    if _JOB is None:
+        raise RuntimeError("_one_fold runs only inside cross_validate")
     measured, models, binder_of_mix, folds, route = _JOB
     held = folds[k]
     train = measured[~measured["mix_id"].isin(held)]
     test = measured[measured["mix_id"].isin(held)]
-    frames, states = [], []
+    frames: list = []
+    states: list = []
     if test.empty:
         return frames, states
     seen = set(binder_of_mix.loc[train["mix_id"].unique()])
