@@ -266,8 +266,10 @@ def heldout_lines(report: dict) -> list:
         "against the mix, the population the specimens were drawn from (the lab's means differ from the "
         "mix's by the specimens' overall level, their level per isotherm and their cell-to-cell scatter, "
         "each estimated with its own degrees of freedom; the coverage of these intervals is measured by "
-        "simulation, reference/crossval/ in the repository). loso scores each specimen against itself, with "
-        "t(n-1) intervals over the held-out specimens. "
+        "simulation, reference/crossval/ in the repository). loso scores each specimen against itself: the "
+        "signed mean with its t(n-1) interval over the held-out specimens, the absolute mean with the interval "
+        "of a fold's error against a new specimen of the mix (a parametric bootstrap of the folds from the same "
+        "three levels, the overall one drawn with its own degrees of freedom). "
         f"Targets: absolute |E*| error <= {t['abs_logE_pct']:g} % and absolute Phi error <= "
         f"{t['abs_phase_deg']:g} deg ({t['applies_to']}), on the error against the mix: *met* when the "
         "interval lies below, *missed* when above, *undecided* when it straddles the target.",
@@ -752,10 +754,11 @@ def artifact_lines(report: dict) -> list[str]:
         "false-alarm rate of the whole procedure calibrated on each table, per family and design, and its power at "
         "the stated sizes). A truth the screening model cannot follow leaves a misfit that runs smoothly along "
         "frequency, as an artifact's signature does; the relaxation-spectrum null carries that misfit into its "
-        "tables, so it no longer passes for an artifact, and what no linear viscoelastic material gives (a phase "
-        "growing with the test frequency at a fixed |E*|, an E1 deficit growing with its square, an isotherm off "
-        "a smooth shift law) is what remains to be named. The price is power where both are present: a spectrum "
-        "can take up part of an artifact's signature."
+        "tables, so that misfit rarely passes for an artifact (a few clean generalized Maxwell tables in a hundred "
+        "still raise one, those the screening fit misses most), and what no linear viscoelastic material gives (a "
+        "phase growing with the test frequency at a fixed |E*|, an E1 deficit growing with its square, an isotherm "
+        "off a smooth shift law) is what remains to be named. The price is power where both are present: a "
+        "spectrum can take up part of an artifact's signature."
         + (f" The artifact named here ({', '.join(named)}) is below the level of both nulls." if named else ""),
     ]
     return lines
