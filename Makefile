@@ -34,14 +34,19 @@ table: setup
 	$(BIN)/asphalt-nscd own-table-config "$$TABLE" $${TEST:+--test "$$TEST"} -o $(TABLE_OVERLAY)
 	$(BIN)/snakemake own_table --cores $(CORES) --rerun-incomplete --configfile config/config.yaml config/table.yaml $(TABLE_OVERLAY)
 
-# A forecast from the binder: make forecast TABLE=path/to/matched_table.tsv (its sidecar <table>.test.json beside it);
-# every mix whose |E*| and phase cells are empty is forecast by every model fitted on the mixes that have them
-# (README, "A forecast from the binder"). The complete run is copied to results/forecasts/<folder>-<table>/.
+# A forecast from the binder.
+#   make forecast MIX=path/to/mix.yaml: new mixes (binder DSR sweeps, sieve analysis, volumetrics; data/README.md, "Mix
+#     files") forecast with the models trained on the shipped table (results/forecast/trained, made by make run, or
+#     here if missing); published in results/mixes/<folder>-<stem>/.
+#   make forecast TABLE=path/to/matched_table.tsv (its sidecar <table>.test.json beside it): every mix whose |E*| and
+#     phase cells are empty is forecast by every model fitted on the mixes that have them; published in
+#     results/forecasts/<folder>-<table>/.
+# (README, "Your mix, forecast".)
 FORECAST_OVERLAY := results/forecast_table.yaml
 forecast: setup
-	@test -n "$$TABLE" || { echo "usage: make forecast TABLE=path/to/matched_table.tsv" >&2; exit 2; }
-	$(BIN)/asphalt-nscd forecast-config "$$TABLE" -o $(FORECAST_OVERLAY)
-	$(BIN)/snakemake forecast_publish --cores $(CORES) --rerun-incomplete --configfile $(CONFIG) $(FORECAST_OVERLAY)
+	@test -n "$$TABLE$$MIX" || { echo "usage: make forecast MIX=path/to/mix.yaml | make forecast TABLE=path/to/matched_table.tsv" >&2; exit 2; }
+	$(BIN)/asphalt-nscd forecast-config $${MIX:+--mix "$$MIX"} $${TABLE:+--table "$$TABLE"} -o $(FORECAST_OVERLAY)
+	$(BIN)/snakemake $${MIX:+forecast_mix} $${TABLE:+forecast_publish} --cores $(CORES) --rerun-incomplete --configfile $(CONFIG) $(FORECAST_OVERLAY)
 
 report: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html

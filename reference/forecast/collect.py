@@ -11,8 +11,11 @@ RUN_DIR is the working directory of the run (it holds ``results/forecast/`` and
 * ``<label>_costs.csv``: the exact CPU (user + system, getrusage) of each mix's packing, sample and
   response, and of the chain's other commands, from the run's CPU records (the last record of
   each command line);
-* ``<label>_constants.csv``: the discrete model's constants fitted on every measured mix (route
+* ``<label>_constants.csv``: the discrete models' constants fitted on every measured mix (route
   curve) with those of every fold (smallest, largest);
+* ``<label>_error_split.csv``, ``<label>_selection_log.csv``, ``<label>_interval_coverage.csv``,
+  ``<label>_learned_by_rows.csv``: the run's error split, the variants tried inside every fold,
+  the prediction intervals' nested coverage and the learned model judged by mix and by rows;
 * ``<label>_seed_spread.csv`` (runs of several seeds): per mix and seed, the mean over the table's
   conditions of 100 |ln(E_seed / E_mean)|, |E*| of ``dem_extended`` at the fitted constants from one
   seed's sample against the geometric mean over the seeds.
@@ -29,6 +32,7 @@ import pandas as pd
 
 from asphalt_nscd.forecast.dem import DemModel
 from asphalt_nscd.forecast.models import read_curves, read_responses
+from asphalt_nscd.forecast.physical import ALL_STEPS as STEPS
 from asphalt_nscd.forecast.validation import binder_ids, with_binder_route
 from asphalt_nscd.io import read_csv, read_json, write_csv
 from asphalt_nscd.lab.matched import read_matched
@@ -62,6 +66,10 @@ def costs(run: Path) -> pd.DataFrame:
     return pd.DataFrame(rows).sort_values(["command", "mix_id", "seed"])
 
 
+#: the constants each step of the physical ladder fits
+PHYSICAL_FREE = dict(STEPS)
+
+
 def constants(run: Path) -> pd.DataFrame:
     final = read_json(run / "results" / "forecast" / "forecast_constants.json")
     folds = read_json(run / "results" / "forecast" / "crossval_constants.json")["fits"]
@@ -69,8 +77,9 @@ def constants(run: Path) -> pd.DataFrame:
     for fit in final["fits"]:
         if not fit["model"].startswith("dem"):
             continue
+        names = PHYSICAL_FREE.get(fit["model"], ())
         for k, v in fit["state"].items():
-            if not (k.startswith("C_") or k == "n_s"):
+            if not (k.startswith("C_") or k == "n_s" or k in names):
                 continue
             per = [f["state"][k] for f in folds if f["model"] == fit["model"] and f["binder_route"] == "curve"]
             rows.append(
@@ -126,6 +135,9 @@ def main(argv=None) -> int:
     write_csv(per_mix_errors(rows).round(6), a.output / f"{a.label}_per_mix.csv")
     write_csv(costs(a.run), a.output / f"{a.label}_costs.csv")
     write_csv(constants(a.run), a.output / f"{a.label}_constants.csv")
+    res = a.run / "results" / "forecast"
+    for name in ("error_split", "selection_log", "interval_coverage", "learned_by_rows"):
+        write_csv(read_csv(res / f"{name}.csv", allow_empty=True), a.output / f"{a.label}_{name}.csv")
     spread = seed_spread(a.run, a.cut_mm)
     if spread is not None:
         write_csv(spread, a.output / f"{a.label}_seed_spread.csv")

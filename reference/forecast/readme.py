@@ -4,8 +4,10 @@
     python reference/forecast/readme.py --check    # exit 1 when README.md is not what the tables give
 
 Reads ``<label>_crossval.csv``, ``<label>_per_mix.csv``, ``<label>_costs.csv``, ``<label>_constants.csv``
-and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, and the size study's
-``size_study_summary.csv``; a table that is missing leaves its section out.
+and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, the binder's reading and
+extrapolation tables (``binder_reading.csv`` with ``binder_reading_paired.csv``,
+``binder_extrapolation_summary.csv``, rendered by ``asphalt_nscd.forecast.binder_report``) and the size
+study's ``size_study_summary.csv``; a table that is missing leaves its section out.
 """
 
 from __future__ import annotations
@@ -72,6 +74,96 @@ def costs(c: pd.DataFrame) -> list[str]:
     return lines
 
 
+def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
+    """The physical ladder's steps side by side with each step's paired gain over the one before."""
+    from scipy import stats
+
+    from asphalt_nscd.forecast.physical import ALL_STEPS as STEPS
+    from asphalt_nscd.forecast.physical import PREVIOUS
+
+    labels = set(scores["label"])
+    steps = [(n, free) for n, free in STEPS if n in labels]
+    if not steps or per_mix is None:
+        return []
+    s = scores[(scores["binder_route"] == ROUTE) & (scores["group"] == "all") & scores["temperature_C"].isna()]
+    s = s.set_index("label")
+    e = per_mix[(per_mix["binder_route"] == ROUTE) & per_mix["temperature_C"].isna()]
+    L = [
+        "",
+        "The discrete model by its number of constants (`asphalt_nscd.forecast.physical`; gain: paired difference "
+        "with the step before over the same mixes, negative is better):",
+        "",
+        "| model | constants fitted | \\|E*\\| (%) | phase (°) | gain \\|E*\\| (points) | gain phase (°) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, free in [*steps, ("dem_selected", ("chosen in each fold",))]:
+        prev = PREVIOUS.get(name) if PREVIOUS.get(name) in s.index else None
+        if name not in s.index:
+            continue
+        r = s.loc[name]
+        gains = []
+        for col in ("e", "p"):
+            if prev is None:
+                gains.append("–")
+                continue
+            w = e.pivot_table(index="mix_id", columns="label", values=col)
+            d = (w[name] - w[prev]).dropna().to_numpy()
+            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
+            gains.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
+        L.append(
+            f"| {name} | {len(free) if name != 'dem_selected' else '–'}: {', '.join(free) or 'none'} | "
+            f"{_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
+            f"{_ci(r['abs_phase_deg'], r['abs_phase_ci_low'], r['abs_phase_ci_high'])} | {gains[0]} | {gains[1]} |"
+        )
+    return L
+
+
+def _extra_sections(label: str, scores: pd.DataFrame) -> list[str]:
+    """The run's choice inside the fold, error split, learned yardstick and intervals (as on its page)."""
+    from asphalt_nscd.forecast import page_dem
+
+    L: list[str] = []
+    selection, split = _read(f"{label}_selection_log.csv"), _read(f"{label}_error_split.csv")
+    coverage, rows = _read(f"{label}_interval_coverage.csv"), _read(f"{label}_learned_by_rows.csv")
+    for sec in (
+        page_dem.selection_section(selection),
+        page_dem.split_section(split[split["binder_route"] == ROUTE] if split is not None else None),
+        page_dem.learned_section(scores, rows, ROUTE),
+        page_dem.coverage_section(
+            coverage, ROUTE, ["hirsch_recalibrated", "dem_selected", "gradient_boosting_learned"]
+        ),
+    ):
+        if sec:
+            L += ["", *[ln.replace("## ", "### ", 1) if ln.startswith("## ") else ln for ln in sec]]
+    return L
+
+
+def binder_sections() -> list[str]:
+    """The binder's reading and extrapolation sections (their tables' scripts named under each heading)."""
+    from asphalt_nscd.forecast.binder_report import binder_reading_section, extrapolation_section
+
+    L: list[str] = []
+    reading, paired = _read("binder_reading.csv"), _read("binder_reading_paired.csv")
+    summary = _read("binder_extrapolation_summary.csv")
+    for sec, note in (
+        (
+            binder_reading_section(reading, paired) if reading is not None else [],
+            "The 35 mixes, leave one mix out, binder through its curve (`binder_reading.py`).",
+        ),
+        (
+            extrapolation_section(summary) if summary is not None else [],
+            "Every binder of the table under each variant (`binder_extrapolation.py`); held out by mix, leave one "
+            "mix out, with the binder read at the table's binder frequency, the extrapolated cells those of the "
+            "default curves.",
+        ),
+    ):
+        while sec and sec[-1] == "":
+            sec = sec[:-1]
+        if sec:
+            L += ["", *sec[:2], note, "", *sec[2:]]
+    return L
+
+
 def render() -> str:
     """The page's text, every number computed from the committed tables."""
     L = [
@@ -89,6 +181,11 @@ def render() -> str:
         "    --summary reference/forecast/size_study_summary.csv",
         "python reference/forecast/time_domain.py . --constants reference/forecast/default_constants.csv \\",
         "    -o reference/forecast/time_domain.csv",
+        "python reference/forecast/binder_reading.py -o reference/forecast/binder_reading.csv \\",
+        "    --paired reference/forecast/binder_reading_paired.csv",
+        "python reference/forecast/binder_extrapolation.py -o reference/forecast/binder_extrapolation.csv \\",
+        "    --isotherms reference/forecast/binder_extrapolation_isotherms.csv \\",
+        "    --summary reference/forecast/binder_extrapolation_summary.csv",
         "python reference/forecast/readme.py",
         "```",
         "",
@@ -131,6 +228,8 @@ def render() -> str:
                 f"| {r['model']} | {r['constant']} | {r['all_mixes']:.4g} | {r['folds_min']:.4g} | {r['folds_max']:.4g} |"
                 for _, r in k.iterrows()
             ]
+        L += ladder(scores, per_mix)
+        L += _extra_sections(label, scores)
         sp = _read(f"{label}_seed_spread.csv")
         if sp is not None:
             m = sp.groupby("mix_id")["mean_abs_log_diff_pct"].mean()
@@ -139,6 +238,7 @@ def render() -> str:
                 f"Seeds: the forecast |E*| of `dem_extended` from one seed's sample differs from the mean over "
                 f"the seeds by {m.mean():.1f} % on average over the mixes (largest mix {m.max():.1f} %).",
             ]
+    L += binder_sections()
     sk = _read("skeleton_exponent.csv")
     if sk is not None:
         L += [

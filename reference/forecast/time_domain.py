@@ -25,7 +25,7 @@ import pandas as pd
 
 from asphalt_nscd.forecast.dem import bond_moduli, time_domain_check
 from asphalt_nscd.forecast.formulation import phase_volumes
-from asphalt_nscd.forecast.mastic import mortar_modulus
+from asphalt_nscd.forecast.mortar import hs_lower_mortar_modulus as mortar_modulus
 from asphalt_nscd.forecast.models import read_curves
 from asphalt_nscd.forecast.validation import binder_ids, with_binder_route
 from asphalt_nscd.io import write_csv

@@ -860,6 +860,14 @@ def forecast_dir(config: dict) -> str:
     return f"{FORECASTS}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{FORECASTS}/{table.stem}"
 
 
+def mix_dir(config: dict) -> str:
+    """``results/mixes/<folder>-<stem>``: the folder of the last complete forecast of the mix file
+    forecast.mix (make forecast MIX=...)."""
+    mix = Path(config["forecast"]["mix"])
+    folder = mix.resolve().parent.name
+    return f"results/mixes/{folder}-{mix.stem}" if folder else f"results/mixes/{mix.stem}"
+
+
 def forecast_sidecar(config: dict) -> list:
     """The sidecar ``<stem>.test.json`` of forecast.table when it exists (an input of the
     checkpoint, so that editing it reruns the chain)."""
@@ -868,10 +876,10 @@ def forecast_sidecar(config: dict) -> list:
     return [str(side)] if side.is_file() else []
 
 
-def forecast_mixes_option(config: dict) -> str:
-    """``--mixes ID...`` of forecast.mixes, or nothing (every mix)."""
-    mixes = config["forecast"].get("mixes")
-    return "" if not mixes else "--mixes " + " ".join(str(m) for m in mixes)
+def forecast_mixes_setting(config: dict) -> list:
+    """forecast.mixes as a list (empty: every mix): the checkpoint's parameter, so that changing the mixes
+    reruns it; the command reads the setting itself from the run's checked configuration."""
+    return [str(m) for m in (config["forecast"].get("mixes") or [])]
 
 
 def matched_mixes(path) -> list:
@@ -894,9 +902,10 @@ def forecast_responses(config: dict, matched) -> list:
 
 def forecast_settings(config: dict) -> dict:
     """What the forecast's chain commands read from the config (a change reruns them): the
-    forecast section without the seed list."""
+    forecast section without the seed list and without the mix file of new mixes (read by
+    forecast_mix alone)."""
     dem = {k: v for k, v in (config["forecast"].get("dem") or {}).items() if k != "seeds"}
-    return {**config["forecast"], "dem": dem}
+    return {**{k: v for k, v in config["forecast"].items() if k != "mix"}, "dem": dem}
 
 
 def forecast_sample_settings(config: dict) -> dict:

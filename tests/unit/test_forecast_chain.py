@@ -40,15 +40,20 @@ def chain(tmp_path_factory):
     files = {k: str(out / v) for k, v in (("points", "points.csv"), ("curves", "curves.json"))}
     assert main(["forecast-binders", str(out / "matched.csv"), "-o", files["points"], "--curves", files["curves"]]) == 0
     common = ["--matched", str(out / "matched.csv"), "--curves", files["curves"], "--responses", *responses]
-    cv = [str(out / n) for n in ("rows.csv", "scores.csv", "constants.json")]
-    assert main(["forecast-crossval", *common, "-o", cv[0], "--scores", cv[1], "--constants", cv[2]]) == 0
+    cv = [str(out / n) for n in ("rows.csv", "scores.csv", "constants.json", "split.csv", "selection.csv", "lr.csv")]
+    extra = ["--split", cv[3], "--selection", cv[4], "--learned-rows", cv[5], "--jobs", "2"]
+    assert main(["forecast-crossval", *common, "-o", cv[0], "--scores", cv[1], "--constants", cv[2], *extra]) == 0
+    cov = [str(out / n) for n in ("coverage.csv", "intervals.csv")]
+    assert main(["forecast-coverage", cv[0], "-o", cov[0], "--intervals", cov[1]]) == 0
     fc = [str(out / n) for n in ("forecast.csv", "level1.csv", "sigmoid.csv", "fconstants.json")]
     args = ["--scores", cv[1], "-o", fc[0], "--level1", fc[1], "--sigmoid", fc[2], "--constants", fc[3]]
+    args += ["--intervals", cov[1], "--state", str(out / "trained")]
     assert main(["forecast", *common, *args]) == 0
     page = out / "page" / "forecast.md"
     pargs = ["--table-name", "six mixes", "--matched", str(out / "matched.csv"), "--points", files["points"]]
     pargs += ["--curves", files["curves"], "--rows", cv[0], "--scores", cv[1], "--constants", cv[2]]
     pargs += ["--forecast", fc[0], "--forecast-constants", fc[3], "-o", str(page)]
+    pargs += ["--split", cv[3], "--selection", cv[4], "--coverage", cov[0], "--learned-rows", cv[5]]
     assert main(["forecast-page", *pargs]) == 0
     return out
 
@@ -84,7 +89,10 @@ def test_the_emptied_mix_is_forecast_by_every_model_with_its_level1_tables(chain
 
 def test_the_page_says_which_model_is_best_and_how_the_binder_route_matters(chain):
     page = (chain / "page" / "forecast.md").read_text()
-    assert "## Which model forecasts best" in page and "Goal (no worse" in page
+    assert "## Which model forecasts best" in page and "**Goals.**" in page
+    assert "## The discrete model by its number of constants" in page and "| dem_physical | 0: none |" in page
+    assert "## Where the error lies" in page and "## The choice inside the fold" in page
+    assert "## Prediction intervals" in page and "## A data-driven yardstick" in page
     assert "## The binder through its master curve against the table's raw values" in page
     assert "## The binders' own data quality" in page and "left out: reasons" in page
     assert (chain / "page" / "figures" / "predicted_vs_measured.png").stat().st_size > 20_000

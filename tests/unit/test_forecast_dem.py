@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from asphalt_nscd.forecast import dem
-from asphalt_nscd.forecast.mastic import mortar_modulus, rigid_inclusion_factor
+from asphalt_nscd.forecast.mortar import hs_lower_mortar_modulus as mortar_modulus, rigid_inclusion_factor
 from asphalt_nscd.forecast.validation import Baseline, cross_validate, mix_folds, with_binder_route
 from asphalt_nscd.lab.matched import read_matched
 from asphalt_nscd.sample.lattice import lattice_sample

@@ -201,3 +201,84 @@ def test_the_matched_command_keeps_the_mixes_asked_for(tmp_path):
     table = read_matched(out)
     assert sorted(table["mix_id"].unique()) == ["193", "204"] and np.all(table.groupby("mix_id").size() == 30)
     assert main(["matched", str(TABLE), "-o", str(out), "--mixes", "193", "999"]) == 2
+
+
+def _plant(mix: str, column: int, value, rows=range(30)) -> str:
+    """The shipped file with ``value`` written in ``column`` of the given rows (0-29, file order)
+    of ``mix``."""
+    lines = _lines()
+    idx = [i for i, ln in enumerate(lines) if ln.startswith(f"{mix}\t")]
+    for k in rows:
+        cols = lines[idx[k]].split("\t")
+        cols[column] = value
+        lines[idx[k]] = "\t".join(cols)
+    return "\n".join(lines) + "\n"
+
+
+def _reversed_frequencies(mix: str) -> str:
+    lines = _lines()
+    idx = [i for i, ln in enumerate(lines) if ln.startswith(f"{mix}\t")]
+    for b in range(5):
+        block = idx[6 * b : 6 * b + 6]
+        for i, j in zip(block, block[::-1]):
+            lines[i] = _lines()[j]
+    return "\n".join(lines) + "\n"
+
+
+# columns of the file: ID, |E*|, φ, w, ρ3/4, ρ3/8, ρ4, ρ200, Pb, Va, Vbeff, PG_HIGH, PG_LOW, |G*|, δb, η
+@pytest.mark.parametrize(
+    "text,pattern",
+    [
+        (
+            _plant("211", 15, "1e300", range(6)),
+            r"line 422, column 'η': value 1e\+297 out of range; expected a binder viscosity in 0\.01-1e\+13 Pa s "
+            r"\(the value in Pa s, read as cP",
+        ),
+        (
+            _plant("193", 2, "0", [15]),
+            r"line 17, column 'φ': phase angle 0 deg of mix '193' at 21\.11 degC, 1 Hz jumps from its neighbours "
+            r"in the isotherm \(34\.3 deg at 0\.5 Hz, 24\.8 deg at 5 Hz\)",
+        ),
+        (_plant("193", 2, "0", [18]), r"line 20, column 'φ': phase angle 0 deg of mix '193' at 37\.78 degC, 25 Hz"),
+        (_plant("193", 2, "0.11", [15]), r"line 17, column 'φ': phase angle 6\.3 deg of mix '193'"),
+        (
+            _reversed_frequencies("211"),
+            r"lines 422-451, mix '211': its \|E\*\| falls with the frequency in 100% of its blocks: its frequencies "
+            r"are written in reverse order\?",
+        ),
+        (
+            _plant("211", 10, "18.5"),
+            r"line 422, column 'Vbeff': Vbeff 18\.5 % is more binder than Pb 6\.735 % can fill; expected Vbeff <= "
+            r"Pb Gmb/Gb <= 18\.18 % \(Gmb <= 2\.7, Gb >= 1",
+        ),
+    ],
+    ids=["viscosity 1e300 cP", "phase 0 inside", "phase 0 at an end", "phase / 5", "one mix reversed", "Vbeff > Pb"],
+)
+def test_planted_defects_are_refused_naming_file_row_and_column(tmp_path, text, pattern):
+    path = _write(tmp_path, text)
+    with pytest.raises(InputError, match=pattern) as err:
+        read_matched(path)
+    assert "mixes.tsv" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_shipped_table_passes_the_new_checks_without_a_word(caplog):
+    """No warning, and the margins of the new checks on the shipped values: viscosity within its
+    range, phases within a factor 2.1 of a neighbour, Vbeff/Pb <= 2.39 of the 2.7 bound."""
+    import logging
+
+    from asphalt_nscd.lab.matched import PHASE_JUMP_RATIO, VISCOSITY_RANGE_PA_S
+
+    with caplog.at_level(logging.WARNING, logger="asphalt_nscd"):
+        table = read_matched(TABLE)
+    assert table.attrs["warnings"] == [] and not [r for r in caplog.records if r.levelno >= logging.WARNING]
+    eta = table["binder_eta_Pa_s"]
+    assert VISCOSITY_RANGE_PA_S[0] < eta.min() and eta.max() < VISCOSITY_RANGE_PA_S[1] / 30
+    first = table.groupby("mix_id").first()
+    assert (first["Vbeff_pct"] / first["Pb_pct"]).max() < 2.4
+    worst = 0.0
+    for _, g in table.groupby(["mix_id", "temperature_C"]):
+        y = g.sort_values("frequency_Hz")["phase_deg"].to_numpy()
+        ratio = np.maximum(y[1:], y[:-1]) / np.minimum(y[1:], y[:-1])
+        nearest = np.minimum(np.append(ratio, np.inf), np.insert(ratio, 0, np.inf))
+        worst = max(worst, float(nearest.max()))
+    assert 2.0 < worst < PHASE_JUMP_RATIO / 1.4

@@ -547,3 +547,56 @@ def test_forecast_of_emptied_mixes_through_the_readme_command(smoke_run):
     assert len(level1) == 2 * 2 * 5 and {"0.1 Hz", "25 Hz"} <= set(level1.columns)
     page = (published / "forecast" / "forecast.md").read_text()
     assert "## Which model forecasts best" in page and "204, 236" in page
+
+
+def readme_mix_command() -> str:
+    """The command of the README's section "Your mix, forecast"."""
+    text = (REPO / "README.md").read_text()
+    section = text.split("## Your mix, forecast", 1)[1]
+    block = re.search(r"```(?:bash|sh)?\n(.*?)```", section, re.S)
+    assert block, "README: no code block under 'Your mix, forecast'"
+    lines = [ln.split("#")[0].strip() for ln in block.group(1).splitlines() if ln.split("#")[0].strip()]
+    assert len(lines) == 1 and "MIX=" in lines[0], lines
+    return lines[0]
+
+
+@pytest.mark.slow
+def test_a_mix_file_through_the_readme_command(smoke_run):
+    """The README's one-mix command on the smoke configuration's trained state: the example mix (a
+    shipped mix written as DSR sweeps in kPa and rad/s, a sieve analysis in US sieve names, Pb, Gmm
+    and Gmb) is forecast by every trained model, as the trained state forecasts the same mix read from
+    the matched table with the same sample (within 0.5 % and 0.05 deg), with its intervals, Level 1
+    tables, binder inputs and summary page, published with its manifest."""
+    from asphalt_nscd.forecast import product
+    from asphalt_nscd.forecast.models import read_curves, read_responses
+    from asphalt_nscd.forecast.validation import binder_ids, with_binder_route
+    from asphalt_nscd.lab.matched import read_matched
+
+    command = readme_mix_command().split()
+    env = newcomer_env()
+    run(command + [f"CONFIG={SMOKE}", *make_args(env)], smoke_run, env)
+    mix = Path(next(c for c in command if c.startswith("MIX=")).split("=", 1)[1])
+    published = smoke_run / "results" / "mixes" / f"{mix.parent.name}-{mix.stem}"
+    manifest = json.loads((published / "manifest.json").read_text())
+    assert {rel: content_sha256(published / rel) for rel in manifest["files"]} == manifest["files"]
+    lab = pd.read_csv(published / "forecast.csv", dtype={"mix_id": str})
+    results = smoke_run / "results" / "forecast"
+    state, training = product.read_state(results / "trained")
+    table = read_matched(results / "matched.csv")
+    routed = with_binder_route(
+        table[table["mix_id"] == "211"].assign(E_norm_MPa=np.nan, phase_deg=np.nan),
+        read_curves(results / "binder_curves.json"),
+        binder_ids(table),
+        "curve",
+    )
+    responses = read_responses(sorted((results / "responses").glob("211_s*.npz")))
+    ref = product.forecast_mixes(state, training, routed, responses)
+    m = lab.merge(ref, on=["mix_id", "temperature_C", "frequency_Hz", "model"], suffixes=("_lab", "_table"))
+    assert len(m) == len(ref) and {"dem_selected", "hirsch_recalibrated", "gradient_boosting_learned"} <= set(
+        m["model"]
+    )
+    assert np.max(np.abs(np.log(m["E_norm_MPa_lab"] / m["E_norm_MPa_table"]))) < 0.005
+    assert np.max(np.abs(m["phase_deg_lab"] - m["phase_deg_table"])) < 0.05
+    level1 = pd.read_csv(published / "level1_tables.csv", dtype={"mix_id": str})
+    assert {"psi", "MPa"} == set(level1["unit"]) and "25 Hz high" in level1
+    assert "Level 1" in (published / "211.md").read_text()

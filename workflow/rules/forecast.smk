@@ -17,9 +17,9 @@ checkpoint forecast_table:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        mixes=plan.forecast_mixes_option(config),
+        mixes=plan.forecast_mixes_setting(config),
     shell:
-        "asphalt-nscd matched {input.table:q} -o {output.matched} {params.mixes} 2> {log}"
+        'asphalt-nscd matched {input.table:q} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.matched} 2> {log}'
 
 
 rule forecast_binders:
@@ -103,6 +103,9 @@ rule forecast_crossval:
         rows=f"{plan.FORECAST}/crossval_rows.csv",
         scores=report(f"{plan.FORECAST}/crossval.csv", caption="../report/forecast_crossval.rst", category="Forecast"),
         constants=f"{plan.FORECAST}/crossval_constants.json",
+        split=f"{plan.FORECAST}/error_split.csv",
+        selection=f"{plan.FORECAST}/selection_log.csv",
+        learned_rows=f"{plan.FORECAST}/learned_by_rows.csv",
     log:
         "logs/forecast/crossval.log",
     benchmark:
@@ -114,7 +117,24 @@ rule forecast_crossval:
     shell:
         'asphalt-nscd forecast-crossval --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched} --curves {input.curves}'
         " --responses {input.responses} -o {output.rows} --scores {output.scores} --constants {output.constants}"
-        " 2> {log}"
+        " --split {output.split} --selection {output.selection} --learned-rows {output.learned_rows}"
+        " --jobs {threads} 2> {log}"
+
+
+rule forecast_coverage:
+    # prediction intervals calibrated on the held-out residuals, and their nested coverage (asphalt_nscd.forecast.intervals)
+    input:
+        rules.forecast_crossval.output.rows,
+    output:
+        coverage=f"{plan.FORECAST}/interval_coverage.csv",
+        intervals=f"{plan.FORECAST}/intervals.csv",
+    log:
+        "logs/forecast/coverage.log",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    shell:
+        'asphalt-nscd forecast-coverage {input} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.coverage}'
+        " --intervals {output.intervals} 2> {log}"
 
 
 rule forecast_predict:
@@ -122,12 +142,14 @@ rule forecast_predict:
         matched=plan.FORECAST_MATCHED,
         curves=rules.forecast_binders.output.curves,
         scores=rules.forecast_crossval.output.scores,
+        intervals=rules.forecast_coverage.output.intervals,
         responses=plan.forecast_responses_input(config, checkpoints),
     output:
         forecast=f"{plan.FORECAST}/forecast.csv",
         level1=f"{plan.FORECAST}/level1_tables.csv",
         sigmoid=f"{plan.FORECAST}/sigmoid_master_curves.csv",
         constants=f"{plan.FORECAST}/forecast_constants.json",
+        state=directory(f"{plan.FORECAST}/trained"),
     log:
         "logs/forecast/predict.log",
     conda:
@@ -137,7 +159,8 @@ rule forecast_predict:
     shell:
         'asphalt-nscd forecast --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched} --curves {input.curves}'
         " --responses {input.responses} --scores {input.scores} -o {output.forecast} --level1 {output.level1}"
-        " --sigmoid {output.sigmoid} --constants {output.constants} 2> {log}"
+        " --sigmoid {output.sigmoid} --constants {output.constants} --intervals {input.intervals}"
+        " --state {output.state} 2> {log}"
 
 
 rule forecast_page:
@@ -150,6 +173,10 @@ rule forecast_page:
         constants=rules.forecast_crossval.output.constants,
         forecast=rules.forecast_predict.output.forecast,
         forecast_constants=rules.forecast_predict.output.constants,
+        split=rules.forecast_crossval.output.split,
+        selection=rules.forecast_crossval.output.selection,
+        coverage=rules.forecast_coverage.output.coverage,
+        learned_rows=rules.forecast_crossval.output.learned_rows,
     output:
         page=report(f"{plan.FORECAST}/forecast.md", caption="../report/forecast_page.rst", category="Forecast"),
         predictions=report(
@@ -173,7 +200,8 @@ rule forecast_page:
         'asphalt-nscd forecast-page --config "$ASPHALT_NSCD_RUN_CONFIG" --table-name {params.name:q}'
         " --matched {input.matched} --points {input.points} --curves {input.curves} --rows {input.rows}"
         " --scores {input.scores} --constants {input.constants} --forecast {input.forecast}"
-        " --forecast-constants {input.forecast_constants} -o {output.page} 2> {log}"
+        " --forecast-constants {input.forecast_constants} --split {input.split} --selection {input.selection}"
+        " --coverage {input.coverage} --learned-rows {input.learned_rows} -o {output.page} 2> {log}"
 
 
 rule forecast_publish:
@@ -185,7 +213,11 @@ rule forecast_publish:
             plan.FORECAST_MATCHED,
             *rules.forecast_binders.output,
             *rules.forecast_crossval.output,
-            *rules.forecast_predict.output,
+            *rules.forecast_coverage.output,
+            rules.forecast_predict.output.forecast,
+            rules.forecast_predict.output.level1,
+            rules.forecast_predict.output.sigmoid,
+            rules.forecast_predict.output.constants,
             *rules.forecast_page.output,
         ],
     output:
@@ -196,3 +228,20 @@ rule forecast_publish:
         "../envs/asphalt-nscd.yaml"
     shell:
         "asphalt-nscd forecast-publish {input.files:q} --table {input.table:q} --root results -o {output:q} 2> {log}"
+
+
+rule forecast_mix:
+    # new mixes from a mix file (make forecast MIX=...), forecast with the models trained on forecast.table; the folder is
+    # published complete with manifest.json, the samples kept beside it in <folder>.work to resume
+    input:
+        mix=config["forecast"]["mix"] or [],
+        state=rules.forecast_predict.output.state,
+    output:
+        directory(plan.mix_dir(config)) if config["forecast"]["mix"] else [],
+    log:
+        "logs/forecast/mix.log",
+    conda:
+        "../envs/asphalt-nscd.yaml"
+    shell:
+        'asphalt-nscd forecast-mix {input.mix:q} --state {input.state:q} --config "$ASPHALT_NSCD_RUN_CONFIG"'
+        " -o {output:q} 2> {log}"

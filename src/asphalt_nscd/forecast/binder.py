@@ -24,17 +24,16 @@ Master curve (:func:`fit_binders`), on the passing points: CAM (Marasteanu & And
 w = 1 is Christensen & Anderson 1992, J. AAPT 61, with v = log 2 / R), w_r = 2 pi f aT (rad/s):
     |G*| = Gg [1 + (wc / w_r)^v]^(-w/v),        delta = 90 w / [1 + (w_r / wc)^v]
 with Gg = 1 GPa fixed (the usual binder value; the data stay below 0.1 Gg, so it is not
-identifiable) and 0.3 <= w <= 1; least squares on ln|G*| and 0.05 x delta (deg). Form checked on
-FHWA TFHRC-ABML/Pub_TRB_RuttingBinderPTF, scripts/Binder_FrequencySweep_Analysis.py.
+identifiable; ``glassy="fitted"`` fits it within :data:`GLASSY_BOUNDS_PA`) and 0.3 <= w <= 1; least
+squares on ln|G*| and 0.05 x delta (deg). Form checked on FHWA TFHRC-ABML/Pub_TRB_RuttingBinderPTF,
+scripts/Binder_FrequencySweep_Analysis.py. Read outside the temperatures of its points, a curve
+extrapolates (:meth:`BinderCurve.extrapolated`).
 Shift law, T_ref = 21.1 degC: ``viscosity`` (default; log aT = log10 eta(T) / eta(T_ref) on the
 binder's ASTM D2493 A-VTS line, log log eta(cP) = A + VTS log T_R, no free parameter), ``wlf``
 (:func:`~asphalt_nscd.rheology.shift.wlf_log_shift`, C2 in 50-400 K) or ``arrhenius``.
-Evidence, mixes_35.tsv binders (default checks): each passing temperature left out when 3 stay,
-rmse ln|G*| of the left-out isotherm: viscosity 0.35 (21 cases, 7 binders), Arrhenius 0.58 (18),
-WLF 0.56 (6: it needs 10 points); coldest left out 0.46, 0.74, 1.05; delta 3.4 deg for all.
-Ignoring ``kramers_kronig`` (42 cases, 16 binders): WLF 0.38, viscosity 0.42, Arrhenius 0.54.
-log10 aT(-10 degC) of the 16 curves: viscosity 3.9-4.9, Arrhenius 3.3-3.9, WLF 3.2-7.4. Hence
-the default: best with the default checks, and no free constant to extrapolate to -10 degC.
+The default was chosen on left-out isotherms of the mixes_35.tsv binders, where it is no worse
+than WLF or Arrhenius, and has no free constant to extrapolate to -10 degC; the comparison of the
+shift laws and glassy moduli, per isotherm and held out by mix: reference/forecast/binder_extrapolation.py.
 MEPDG Level 1 viscosity (NCHRP 1-37A): eta = |G*| / 10 (1 / sin delta)^4.8628 at 10 rad/s, |G*|
 in Pa: the result is in Pa s (its Newtonian limit is eta = |G*| / w), :func:`viscosity_Pa_s`.
 """
@@ -53,6 +52,13 @@ from ..rheology.shift import KELVIN, R_GAS, arrhenius_log_shift, wlf_log_shift
 
 #: glassy shear modulus of every binder, Pa (fixed)
 GLASSY_MODULUS_PA = 1e9
+#: how a curve takes its glassy modulus: fixed at GLASSY_MODULUS_PA, or fitted within GLASSY_BOUNDS_PA
+GLASSY_FORMS = ("fixed", "fitted")
+#: (low, high) of a fitted glassy modulus, Pa: a factor 3 either side of the 1 GPa that Christensen & Anderson
+#: (1992) found for the binders they tested (a chosen range: a fit at a bound is reported, not hidden)
+GLASSY_BOUNDS_PA = (0.3e9, 3e9)
+#: temperatures closer than this to the span of a curve's points are inside it, degC
+SPAN_TOL_C = 0.05
 #: |G*| at or below this is the source's floor, not a measurement, Pa
 G_FLOOR_PA = 100.0
 #: largest move of ln|G*| by the isotonic regression of an isotherm
@@ -284,6 +290,18 @@ class BinderCurve:
     n_left_out: int = 0
     temperatures_used_C: list = field(default_factory=list)
 
+    def extrapolated(self, temperature_C) -> np.ndarray:
+        """True where the curve is read outside the temperatures of the points it was fitted on
+        (below the coldest or above the warmest of ``temperatures_used_C``, by more than
+        :data:`SPAN_TOL_C`): there the curve is its shift law's extrapolation, not data. Bool
+        array of the shape of ``temperature_C`` (degC); ValueError for a curve that does not
+        record its temperatures."""
+        if not self.temperatures_used_C:
+            raise ValueError(f"binder {self.binder}: its curve does not record the temperatures it was fitted on")
+        T = np.asarray(temperature_C, float)
+        lo, hi = min(self.temperatures_used_C), max(self.temperatures_used_C)
+        return (T < lo - SPAN_TOL_C) | (T > hi + SPAN_TOL_C)
+
     def log_shift(self, temperature_C) -> np.ndarray:
         """log10 aT (> 0 below ``T_ref_C``) at ``temperature_C`` (degC, any shape); ValueError
         outside the WLF domain or for an unknown shift law."""
@@ -332,12 +350,15 @@ class BinderCurve:
         )
 
 
-def fit_curve(points: pd.DataFrame, *, shift: str = DEFAULT_SHIFT, T_ref_C: float = T_REF_C) -> BinderCurve:
+def fit_curve(
+    points: pd.DataFrame, *, shift: str = DEFAULT_SHIFT, T_ref_C: float = T_REF_C, glassy: str = "fixed"
+) -> BinderCurve:
     """CAM master curve of one binder, fitted on its points that passed the checks.
 
     Least squares (SciPy ``least_squares``, trf, from crossover frequencies 1, 1e3 and 1e6
     rad/s; the best kept) on ln|G*| and ``PHASE_WEIGHT_PER_DEG`` x delta (deg); bounds
-    -8 <= log10 wc <= 12, 0.02 <= v <= 1.5, 0.3 <= w <= 1 and :data:`SHIFT_BOUNDS`.
+    -8 <= log10 wc <= 12, 0.02 <= v <= 1.5, 0.3 <= w <= 1, :data:`SHIFT_BOUNDS` and, for a
+    fitted glassy modulus, :data:`GLASSY_BOUNDS_PA` (from 1 GPa).
 
     Parameters
     ----------
@@ -345,6 +366,7 @@ def fit_curve(points: pd.DataFrame, *, shift: str = DEFAULT_SHIFT, T_ref_C: floa
         without one every row is used). The viscosity shift reads ``eta_Pa_s`` of every row.
     shift : one of :data:`SHIFT_FORMS`.
     T_ref_C : reference temperature, degC.
+    glassy : one of :data:`GLASSY_FORMS`: Gg fixed at :data:`GLASSY_MODULUS_PA` or fitted.
 
     Returns
     -------
@@ -353,12 +375,15 @@ def fit_curve(points: pd.DataFrame, *, shift: str = DEFAULT_SHIFT, T_ref_C: floa
     Raises
     ------
     ValueError
-        naming the binder: several binders, an unknown shift law, fewer passing points than
-        twice the parameters (viscosity 6, Arrhenius 8, WLF 10) or at fewer than 2
-        temperatures, WLF with data below T_ref - C2_min, or no viscosity for the viscosity shift.
+        naming the binder: several binders, an unknown shift law or glassy form, fewer passing
+        points than twice the parameters (viscosity 6, Arrhenius 8, WLF 10; 2 more with Gg
+        fitted) or at fewer than 2 temperatures, WLF with data below T_ref - C2_min, or no
+        viscosity for the viscosity shift.
     """
     if shift not in SHIFT_FORMS:
         raise ValueError(f"shift law {shift!r}: expected one of {SHIFT_FORMS}")
+    if glassy not in GLASSY_FORMS:
+        raise ValueError(f"glassy modulus {glassy!r}: expected one of {GLASSY_FORMS}")
     binders = points["binder"].astype(str).unique()
     if binders.size != 1:
         raise ValueError(f"fit_curve: one binder expected, got {list(binders)}")
@@ -366,7 +391,8 @@ def fit_curve(points: pd.DataFrame, *, shift: str = DEFAULT_SHIFT, T_ref_C: floa
     used = points[points["passed"]] if "passed" in points else points
     T, f, G, d = (used[c].to_numpy(float) for c in ("temperature_C", "frequency_Hz", "G_Pa", "delta_deg"))
     names = _SHIFT_NAMES[shift]
-    n_par, n_T = 3 + len(names), np.unique(T).size
+    fit_gg = glassy == "fitted"
+    n_par, n_T = 3 + len(names) + fit_gg, np.unique(T).size
     if T.size < 2 * n_par or n_T < 2:
         raise ValueError(
             f"binder {binder}: {T.size} passing point(s) at {n_T} temperature(s); the {shift} master curve needs "
@@ -378,16 +404,18 @@ def fit_curve(points: pd.DataFrame, *, shift: str = DEFAULT_SHIFT, T_ref_C: floa
     fixed = a_vts(points) if shift == "viscosity" else {}
 
     def curve(x) -> BinderCurve:
-        params = {**fixed, **{n: float(v) for n, v in zip(names, x[3:])}}
-        return BinderCurve(binder, float(x[0]), float(x[1]), float(x[2]), shift, params, T_ref_C)
+        params = {**fixed, **{n: float(v) for n, v in zip(names, x[3 : 3 + len(names)])}}
+        Gg = 10.0 ** float(x[-1]) if fit_gg else GLASSY_MODULUS_PA
+        return BinderCurve(binder, float(x[0]), float(x[1]), float(x[2]), shift, params, T_ref_C, Gg)
 
     def resid(x) -> np.ndarray:
         c = curve(x)
         return np.concatenate([np.log(c.G_Pa(T, f) / G), PHASE_WEIGHT_PER_DEG * (c.delta_deg(T, f) - d)])
 
-    lower = [-8.0, 0.02, 0.3] + [SHIFT_BOUNDS[n][0] for n in names]
-    upper = [12.0, 1.5, 1.0] + [SHIFT_BOUNDS[n][1] for n in names]
-    tail = {"viscosity": [], "wlf": [15.0, 120.0], "arrhenius": [200e3]}[shift]
+    gg = [np.log10(GLASSY_BOUNDS_PA[0]), np.log10(GLASSY_BOUNDS_PA[1]), np.log10(GLASSY_MODULUS_PA)] if fit_gg else []
+    lower = [-8.0, 0.02, 0.3] + [SHIFT_BOUNDS[n][0] for n in names] + gg[:1]
+    upper = [12.0, 1.5, 1.0] + [SHIFT_BOUNDS[n][1] for n in names] + gg[1:2]
+    tail = {"viscosity": [], "wlf": [15.0, 120.0], "arrhenius": [200e3]}[shift] + gg[2:]
     fits = [
         least_squares(resid, [lw, 0.2, 0.95, *tail], bounds=(lower, upper), x_scale="jac") for lw in (0.0, 3.0, 6.0)
     ]
@@ -432,15 +460,19 @@ def fit_binders(
 FIT_LADDER = (("passed", ()), ("bounds_monotonic", ("bounds", "monotonic")), ("bounds", ("bounds",)))
 
 
-def fit_binder_ladder(points: pd.DataFrame, *, T_ref_C: float = T_REF_C) -> tuple[BinderCurve, str, str]:
+def fit_binder_ladder(
+    points: pd.DataFrame, *, T_ref_C: float = T_REF_C, shift: str | None = None, glassy: str = "fixed"
+) -> tuple[BinderCurve, str, str]:
     """The curve of one binder from :func:`check_points`'s rows: on the first rung of
     :data:`FIT_LADDER` whose points carry it, with the default shift law, or Arrhenius when the
-    binder has no viscosity. Returns (curve, rung, shift law).
+    binder has no viscosity (``shift`` None), or with ``shift`` on every rung; ``glassy`` as in
+    :func:`fit_curve`. Returns (curve, rung, shift law).
 
     Raises ValueError naming the binder when no rung carries a curve."""
-    eta = points.get("eta_Pa_s")
-    has_eta = eta is not None and points.loc[np.isfinite(eta.to_numpy(float)), "temperature_C"].nunique() >= 2
-    shift = DEFAULT_SHIFT if has_eta else "arrhenius"
+    if shift is None:
+        eta = points.get("eta_Pa_s")
+        has_eta = eta is not None and points.loc[np.isfinite(eta.to_numpy(float)), "temperature_C"].nunique() >= 2
+        shift = DEFAULT_SHIFT if has_eta else "arrhenius"
     errors = []
     for rung, reasons in FIT_LADDER:
         if rung == "passed":
@@ -449,7 +481,7 @@ def fit_binder_ladder(points: pd.DataFrame, *, T_ref_C: float = T_REF_C) -> tupl
             bad = points["reason"].str.split(";").apply(lambda r: any(x in reasons for x in r if x))
             use = points.assign(passed=~bad.to_numpy(bool))
         try:
-            return fit_curve(use, shift=shift, T_ref_C=T_ref_C), rung, shift
+            return fit_curve(use, shift=shift, T_ref_C=T_ref_C, glassy=glassy), rung, shift
         except ValueError as exc:
             errors.append(f"{rung}: {exc}")
     raise ValueError(f"binder {points['binder'].iloc[0]}: no master curve ({'; '.join(errors)})")

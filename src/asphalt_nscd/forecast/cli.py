@@ -5,6 +5,7 @@
 ``forecast-sample``    the mix's sample from its packing (cut, shrink to its volumetrics, bonds, stabilisation)
 ``forecast-response``  the sample's uniaxial response as a function of its bond moduli (:mod:`.dem`)
 ``forecast-crossval``  every model's held-out errors, mixes left out (:mod:`.validation`)
+``forecast-coverage``  prediction intervals from the held-out rows and their nested coverage (:mod:`.intervals`)
 ``forecast``           every model's forecast of the mixes whose |E*| and phase are empty
 ``forecast-page``      the page and its figures
 ``forecast-publish``   the complete run, with its manifest, in the table's folder
@@ -76,6 +77,8 @@ def register(subparsers) -> None:
     _add_publish(subparsers)
     _add_overlay(subparsers)
     _add_bench(subparsers)
+    _add_mix_forecast(subparsers)
+    _add_coverage(subparsers)
 
 
 def _register_chain(subparsers) -> None:
@@ -117,12 +120,24 @@ def _register_chain(subparsers) -> None:
             c.add_argument("-o", "--output", required=True, help="held-out predictions, one row per cell and model")
             c.add_argument("--scores", required=True, help="errors per model, route, group and temperature (CSV)")
             c.add_argument("--constants", required=True, help="each fold's fitted coefficients and constants (JSON)")
+            c.add_argument(
+                "--split", required=True, help="each model's error split into level, temperature, rest (CSV)"
+            )
+            c.add_argument("--selection", required=True, help="every variant tried inside every fold (CSV)")
+            c.add_argument("--jobs", type=int, default=1, help="worker processes over the folds (same numbers)")
+            c.add_argument(
+                "--learned-rows", required=True, help="the learned model judged by mix and by random rows (CSV)"
+            )
         else:
             c.add_argument("-o", "--output", required=True, help="forecast.csv: one row per mix, condition and model")
             c.add_argument("--scores", required=True, help="scores of forecast-crossval (the best model per table)")
             c.add_argument("--level1", required=True, help="Level 1 |E*| tables of the forecast mixes (CSV)")
             c.add_argument("--sigmoid", required=True, help="sigmoidal master curves of the forecast mixes (CSV)")
             c.add_argument("--constants", required=True, help="the coefficients fitted on every measured mix (JSON)")
+            c.add_argument("--intervals", default=None, help="prediction intervals of forecast-coverage (CSV)")
+            c.add_argument(
+                "--state", default=None, help="folder of the trained state to write (asphalt_nscd.forecast.product)"
+            )
 
 
 def _add_page(subparsers) -> None:
@@ -143,6 +158,10 @@ def _add_page(subparsers) -> None:
         ("constants", "fold constants of forecast-crossval"),
         ("forecast", "forecast.csv of forecast"),
         ("forecast-constants", "constants of forecast (its best model)"),
+        ("split", "error split of forecast-crossval"),
+        ("selection", "selection log of forecast-crossval"),
+        ("coverage", "interval coverage of forecast-coverage"),
+        ("learned-rows", "the learned model by mix and by random rows, of forecast-crossval"),
     ):
         p.add_argument(f"--{name}", required=True, help=what)
     p.add_argument("-o", "--output", required=True, help="the page (.md); figures in figures/ beside it")
@@ -186,6 +205,10 @@ def _page(args) -> int:
         route,
         cfg["confidence"],
         figures,
+        split=read_csv(args.split, allow_empty=True),
+        selection=read_csv(args.selection, allow_empty=True),
+        coverage=read_csv(args.coverage, allow_empty=True),
+        learned_rows=read_csv(args.learned_rows, allow_empty=True),
     )
     write_text(text, out)
     return 0
@@ -194,11 +217,14 @@ def _page(args) -> int:
 def _add_overlay(subparsers) -> None:
     p = subparsers.add_parser(
         "forecast-config",
-        help="the config overlay of make forecast: forecast.table set to a table (YAML)",
-        description="Write the YAML overlay that sets forecast.table (make forecast TABLE=...): the path reaches "
-        "the workflow through this file, so a path with spaces, quotes or non-ASCII characters works.",
+        help="the config overlay of make forecast: forecast.table or forecast.mix set to a file (YAML)",
+        description="Write the YAML overlay that sets forecast.table (make forecast TABLE=...) and/or forecast.mix "
+        "(make forecast MIX=...): the paths reach the workflow through this file, so a path with spaces, quotes or "
+        "non-ASCII characters works.",
     )
-    p.add_argument("table", help="the matched table (its sidecar <table stem>.test.json beside it)")
+    p.add_argument("table_arg", nargs="?", default=None, metavar="table", help="the matched table (as --table)")
+    p.add_argument("--table", default=None, help="the matched table (its sidecar <table stem>.test.json beside it)")
+    p.add_argument("--mix", default=None, help="a mix file of new mixes (YAML)")
     p.add_argument("-o", "--output", required=True, help="the overlay (YAML)")
     p.set_defaults(func=_overlay)
 
@@ -210,11 +236,21 @@ def _overlay(args) -> int:
 
     from ..io import InputError, write_text
 
-    if not Path(args.table).is_file():
-        raise InputError(f"TABLE={args.table}: file not found (expected a matched binder-mix table)")
+    table = args.table or args.table_arg
+    if not table and not args.mix:
+        raise InputError("forecast-config: give a matched table (TABLE=...) or a mix file (MIX=...)")
+    section = {}
+    if table:
+        if not Path(table).is_file():
+            raise InputError(f"TABLE={table}: file not found (expected a matched binder-mix table)")
+        section["table"] = str(table)
+    if args.mix:
+        if not Path(args.mix).is_file():
+            raise InputError(f"MIX={args.mix}: file not found (expected a mix file, YAML: data/README.md, 'Mix files')")
+        section["mix"] = str(args.mix)
     write_text(
-        "# written by make forecast (asphalt-nscd forecast-config): the table of this run\n"
-        + yaml.safe_dump({"forecast": {"table": str(args.table)}}, allow_unicode=True, sort_keys=False),
+        "# written by make forecast (asphalt-nscd forecast-config): the files of this run\n"
+        + yaml.safe_dump({"forecast": section}, allow_unicode=True, sort_keys=False),
         args.output,
     )
     return 0
@@ -344,40 +380,50 @@ def _response(args) -> int:
 
 
 def _crossval(args) -> int:
+    import pandas as pd
+
     from ..io import json_safe, write_csv, write_json
-    from .models import model_set, routed_tables
-    from .validation import cross_validate, mix_folds, score
+    from .models import headline_only, model_set, routed_tables
+    from .learned import COMPARE_COLUMNS, GradientBoosting, by_rows, compare
+    from .learned import NAME as LEARNED_NAME
+    from .nested import selection_log
+    from .validation import cross_validate, error_split, mix_folds, score
 
     cfg, matched, binder_of_mix, curves, responses = _read_inputs(args)
     models = model_set(cfg, responses)
     measured = matched.dropna(subset=["E_norm_MPa"])["mix_id"].unique()
     folds = mix_folds(measured, cfg.get("folds"), cfg.get("seed", 1))
-    frames, states = [], []
-    for route, table in routed_tables(matched, curves, binder_of_mix, cfg["binder_routes"]).items():
-        rows, st = cross_validate(table, [m for m in models if m.available(table)], binder_of_mix, folds, route)
+    frames, states, learned_rows = [], [], None
+    for i, (route, table) in enumerate(routed_tables(matched, curves, binder_of_mix, cfg["binder_routes"]).items()):
+        # the physical ladder and the choice inside the fold on the headline route only (their cost)
+        use = [m for m in models if m.available(table) and (i == 0 or not headline_only(m))]
+        rows, st = cross_validate(table, use, binder_of_mix, folds, route, jobs=args.jobs)
         frames.append(rows)
         states += st
-    import pandas as pd
-
+        learned = [m for m in use if m.model == LEARNED_NAME]
+        if i == 0 and learned:  # the same model judged by random rows, tuned by rows: how much better it would look
+            judged = by_rows(table, GradientBoosting(inner="rows"), route, k=min(10, len(table) // 2))
+            learned_rows = compare(rows[rows["model"] == LEARNED_NAME], judged, cfg["confidence"])
     rows = pd.concat(frames, ignore_index=True)
     rows.insert(4, "label", _labels(rows))
     write_csv(rows, args.output)
     write_csv(score(rows, cfg["confidence"]).assign(label=lambda s: _labels(s)), args.scores)
+    write_csv(error_split(rows, cfg["confidence"]).assign(label=lambda s: _labels(s)), args.split)
+    write_csv(selection_log(states), args.selection)
+    write_csv(learned_rows if learned_rows is not None else pd.DataFrame(columns=COMPARE_COLUMNS), args.learned_rows)
     write_json(json_safe({"folds": folds, "fits": states}), args.constants)
     return 0
 
 
 def _labels(scores):
-    from .dem import MODELS as DEM_MODELS
-
-    return [m if m in DEM_MODELS else f"{m}_{c}" for m, c in zip(scores["model"], scores["coefficients"])]
+    return [m if m.startswith("dem") else f"{m}_{c}" for m, c in zip(scores["model"], scores["coefficients"])]
 
 
 def _predict(args) -> int:
     import pandas as pd
 
     from ..io import json_safe, read_csv, write_csv, write_json
-    from . import level1
+    from . import intervals, level1, product
     from .models import label, model_set, routed_tables
 
     cfg, matched, binder_of_mix, curves, responses = _read_inputs(args)
@@ -406,12 +452,18 @@ def _predict(args) -> int:
         )
     columns = ["mix_id", "temperature_C", "frequency_Hz", "model", "E_norm_MPa", "phase_deg"]
     forecast = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=columns)
+    cal = read_csv(args.intervals) if args.intervals else None
+    if cal is not None and len(forecast):
+        forecast = intervals.apply(forecast, cal, route)
+        columns += ["E_low_MPa", "E_high_MPa", "phase_low_deg", "phase_high_deg"]
     best = level1.best_model(read_csv(args.scores), route)
     tables, sigmoids = level1.designer_tables(forecast, best)
     write_csv(forecast[columns], args.output)
     write_csv(tables, args.level1)
     write_csv(sigmoids, args.sigmoid)
     write_json(json_safe({"binder_route": route, "best_model": best, "fits": fits}), args.constants)
+    if args.state:
+        product.write_state(args.state, cfg, train, json_safe(fits), best, cal, route)
     return 0
 
 
@@ -464,4 +516,142 @@ def _sample(args) -> int:
     write_outputs(result, args.output)
     if args.summary:
         write_json(result.summary, args.summary)
+    return 0
+
+
+def _add_coverage(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forecast-coverage",
+        help="prediction intervals of every forecast from the held-out rows, and their coverage with mixes left out",
+        description="From the held-out rows of forecast-crossval: the intervals of a new mix's |E*| and phase per "
+        "model, binder route and temperature (conformal, each mix weighing the same; asphalt_nscd.forecast.intervals) "
+        "and their nested coverage (each mix's interval calibrated on the other mixes only), with t intervals over "
+        "the mixes; with --forecast, the forecast table with its bounds.",
+    )
+    _add_config(p)
+    p.add_argument("rows", help="held-out rows of forecast-crossval (CSV)")
+    p.add_argument("-o", "--output", required=True, help="coverage per model, route, quantity and temperature (CSV)")
+    p.add_argument("--intervals", required=True, help="the intervals calibrated on every mix (CSV)")
+    p.add_argument("--level", type=float, default=None, help="nominal level of the intervals (default: 0.9)")
+    p.add_argument(
+        "--tails", choices=("equal", "symmetric"), default="equal", help="equal tails (default) or symmetric"
+    )
+    p.add_argument("--forecast", default=None, help="forecast.csv of forecast: add its bounds")
+    p.add_argument("--forecast-output", default=None, help="the forecast with E_low_MPa ... phase_high_deg (CSV)")
+    p.set_defaults(func=_coverage)
+
+
+def _coverage(args) -> int:
+    from ..io import InputError, read_csv, write_csv
+    from . import intervals
+
+    if (args.forecast is None) != (args.forecast_output is None):
+        raise InputError("forecast-coverage: --forecast and --forecast-output go together")
+    cfg = _config(args)["forecast"]
+    level = intervals.LEVEL if args.level is None else args.level
+    rows = read_csv(args.rows, dtype={"mix_id": str})
+    intervals.residuals(rows, args.rows)  # the columns checked, naming the file
+    write_csv(intervals.coverage(rows, level, args.tails, cfg["confidence"]), args.output)
+    calibrated = intervals.calibrate(rows, level, args.tails)
+    write_csv(calibrated, args.intervals)
+    if args.forecast:
+        forecast = read_csv(args.forecast, allow_empty=True, dtype={"mix_id": str})
+        write_csv(intervals.apply(forecast, calibrated, cfg["binder_routes"][0]), args.forecast_output)
+    return 0
+
+
+def _add_mix_forecast(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forecast-mix",
+        help="forecast new mixes from a mix file (binder DSR sweeps, sieve analysis, volumetrics) with the trained state",
+        description="Read a mix file (asphalt_nscd.lab.mix_input), fit each binder's master curve on its sweeps, "
+        "prepare and solve each mix's sample, forecast it with every model of the trained state "
+        "(asphalt_nscd.forecast.product) with its prediction interval, name every input outside the training "
+        "mixes' ranges, and write the Level 1 tables, the AASHTO R 84 sigmoids, the binder inputs and a summary "
+        "page per mix; the folder is published complete, with manifest.json (a failed run keeps the last one).",
+    )
+    _add_config(p)
+    p.add_argument("mix_file", help="the mix file (YAML)")
+    p.add_argument("--state", required=True, help="folder of the trained state (results/forecast/trained)")
+    p.add_argument("--work", default=None, help="folder of the samples, kept to resume (default: <output>.work)")
+    p.add_argument("-o", "--output", required=True, help="the folder to publish to")
+    p.set_defaults(func=_mix)
+
+
+def _mix(args) -> int:
+    import logging
+    from datetime import datetime, timezone
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io import InputError, content_sha256, publish_directory, savefig, write_csv, write_text
+    from ..lab.mix_input import read_mix_file
+    from . import level1, mix_report, product
+
+    log = logging.getLogger("asphalt_nscd")
+    config = _config(args)
+    state, training = product.read_state(args.state)
+    mixes = read_mix_file(args.mix_file)
+    table, curves, points, binder_of_mix, warnings = product.new_mix_table(mixes, state)
+    for w in warnings + [w for m in mixes for w in m.warnings]:
+        log.warning("%s: %s", args.mix_file, w)
+    out = Path(args.output)
+    work = Path(args.work) if args.work else out.with_name(out.name + ".work")
+    run_config = {**config, "forecast": {**config["forecast"], "dem": state["forecast"]["dem"]}}
+    discrete = any(f["model"].startswith("dem") for f in state["fits"])
+    responses = product.prepare_responses(table, run_config, work / "samples", progress=print) if discrete else {}
+    forecast = product.forecast_mixes(state, training, table, responses)
+    best = state["best_model"]
+    if best not in set(forecast["model"]):
+        raise InputError(f"{args.mix_file}: the trained state's best model {best!r} could not forecast these mixes")
+    tables, sigmoids = level1.designer_tables(forecast, best)
+    binder = product.binder_inputs(curves, binder_of_mix, state["grid"]["temperatures_C"])
+    outside = product.extrapolation(state, table)
+    for _, r in outside.iterrows():
+        log.warning(
+            "%s: mix %s: %s = %.4g lies outside the training mixes' range %.4g to %.4g: its forecast is an "
+            "extrapolation (intervals marked extrapolated)",
+            args.mix_file,
+            r["mix_id"],
+            r["input"],
+            r["value"],
+            r["low"],
+            r["high"],
+        )
+    stage = work / "publish"
+    files = []
+    for frame, name in (
+        (forecast, "forecast.csv"),
+        (tables, "level1_tables.csv"),
+        (sigmoids, "sigmoid_master_curves.csv"),
+        (binder, "binder_inputs.csv"),
+        (points, "binder_points.csv"),
+        (outside, "extrapolation.csv"),
+    ):
+        write_csv(frame, stage / name)
+        files.append(stage / name)
+    for m in mixes:
+        sig = sigmoids[sigmoids["mix_id"] == m.mix_id].iloc[0]
+        fig = mix_report.master_curve_figure(m.mix_id, forecast, sig, training, best)
+        figure = f"figures/{m.mix_id}_master_curve.png"
+        savefig(fig, stage / figure)
+        plt.close(fig)
+        page = mix_report.summary_page(
+            m.mix_id, m, forecast, tables, sig, binder, outside[outside["mix_id"] == m.mix_id], state, figure
+        )
+        write_text(page, stage / f"{m.mix_id}.md")
+        files += [stage / figure, stage / f"{m.mix_id}.md"]
+    manifest = {
+        "mix_file": str(args.mix_file),
+        "mix_file_sha256": content_sha256(args.mix_file),
+        "trained_state_sha256": content_sha256(Path(args.state) / product.STATE),
+        "written_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "about": "the last complete forecast of this mix file (make forecast MIX=...); " + product.state_summary(state),
+    }
+    dest = publish_directory([str(f) for f in files], stage, out, manifest)
+    print(f"the forecast of {args.mix_file}: {dest}/ ({', '.join(m.mix_id + '.md' for m in mixes)}, manifest.json)")
     return 0

@@ -9,7 +9,7 @@ Bond laws (replacing Eqs. 30-33, which calibrate bonds to the mix's own modulus)
 a mortar bridge: k = e_1(w) g_b, k_t = k / (2 (1 + nu)) (Eqs. 8-11), g_b = pi r_min^2 / (delta0 + t_m)
 (the gap left by the shrink to the mix's coarse-aggregate volume, at least the contact tolerance,
 plus the mix's mean mortar thickness t_m, :func:`mortar_thickness`); E*_mortar from the binder and
-the fines (:mod:`.mastic`).
+the fines (:mod:`.mortar`, :func:`.mortar.hs_lower_mortar_modulus`).
 
 * ``dem``: e_1 = C_m E*_mortar(w). One constant.
 * ``dem_extended`` adds what rigid spheres in a mortar lack: the stones' own compliance in series,
@@ -35,10 +35,11 @@ training mixes (ln C_m in closed form for ``dem``); several seeds: geometric mea
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from numba import njit
 
 from ..io import InputError
 
@@ -66,6 +67,12 @@ class Response:
     n_spheres: int
     n_bonds: int
     n_skeleton: int
+    p1_f: float = np.nan
+    lam_f: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    alpha_f: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    beta_f: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    chi_bridge: float = np.nan
+    skeleton_r15: float = np.nan
     cpu_s: float = 0.0
 
     @classmethod
@@ -90,19 +97,37 @@ class Response:
     def usable(self) -> bool:
         return bool(np.isfinite(self.p0))
 
-    def factor(self, zeta) -> np.ndarray:
-        """E*_sample / (C_m E*_mortar) at each zeta (complex array): F(zeta) / L."""
-        z = np.asarray(zeta, complex)[..., None]
-        s = ((self.alpha + z * self.beta) ** 2 / (1.0 + z * self.lam)).sum(-1)
-        return (self.p0 + z[..., 0] * self.p1 - s) / self.side_m
+    def factor(self, zeta, skeleton: str = "mortar") -> np.ndarray:
+        """E*_sample / e_1 at each zeta (complex array): F(zeta) / L (``skeleton``: :meth:`factor_and_slope`)."""
+        p1, lam, alpha, beta = self._pencil(skeleton)
+        z = np.asarray(zeta, complex)
+        flat = np.ascontiguousarray(z.ravel())
+        s = _schur_sum(
+            flat,
+            np.ascontiguousarray(lam, float),
+            np.ascontiguousarray(alpha, float),
+            np.ascontiguousarray(beta, float),
+        )
+        return (self.p0 + z * p1 - s.reshape(z.shape)) / self.side_m
 
-    def factor_and_slope(self, zeta) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`factor` and its derivative with respect to zeta, at each zeta (complex arrays)."""
+    def _pencil(self, skeleton: str):
+        if skeleton == "mortar":
+            return self.p1, self.lam, self.alpha, self.beta
+        if skeleton == "film":
+            return self.p1_f, self.lam_f, self.alpha_f, self.beta_f
+        raise ValueError(f"skeleton weighting {skeleton!r}: expected 'mortar' or 'film'")
+
+    def factor_and_slope(self, zeta, skeleton: str = "mortar") -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`factor` and its derivative with respect to zeta, at each zeta (complex arrays).
+
+        ``skeleton``: ``mortar`` (the skeleton pairs weighted as mortar bridges, g_b; ``dem_extended``)
+        or ``film`` (weighted R_eff^2, the squeeze film of a contact: :mod:`.physical`)."""
+        p1, lam, alpha, beta = self._pencil(skeleton)
         z = np.asarray(zeta, complex)[..., None]
-        a = self.alpha + z * self.beta
-        d = 1.0 + z * self.lam
-        f = (self.p0 + z[..., 0] * self.p1 - (a**2 / d).sum(-1)) / self.side_m
-        slope = (self.p1 - ((2.0 * self.beta * a * d - self.lam * a**2) / d**2).sum(-1)) / self.side_m
+        a = alpha + z * beta
+        d = 1.0 + z * lam
+        f = (self.p0 + z[..., 0] * p1 - (a**2 / d).sum(-1)) / self.side_m
+        slope = (p1 - ((2.0 * beta * a * d - lam * a**2) / d**2).sum(-1)) / self.side_m
         return f, slope
 
     def save(self, path) -> None:
@@ -124,9 +149,32 @@ class Response:
         missing = sorted(set(cls.__dataclass_fields__) - set(kw))
         if missing:
             raise InputError(f"{path}: DEM response without {missing}")
-        scalars = {"mix_id": str, "seed": int, "side_m": float, "p0": float, "p1": float}
+        scalars = {"mix_id": str, "seed": int, "side_m": float, "p0": float, "p1": float, "p1_f": float}
         scalars |= {"n_spheres": int, "n_bonds": int, "n_skeleton": int, "cpu_s": float}
+        scalars |= {"chi_bridge": float, "skeleton_r15": float}
         return cls(**{k: (scalars[k](kw[k]) if k in scalars else kw[k]) for k in cls.__dataclass_fields__})
+
+
+@njit(cache=True)
+def _schur_sum(zeta, lam, alpha, beta):  # pragma: no cover - compiled
+    """sum_k (alpha_k + zeta beta_k)^2 / (1 + zeta lam_k) for each zeta: (m,) complex."""
+    out = np.empty(zeta.size, np.complex128)
+    for i in range(zeta.size):
+        zr, zi = zeta[i].real, zeta[i].imag
+        sr = 0.0
+        si = 0.0
+        for k in range(lam.size):
+            ar = alpha[k] + zr * beta[k]
+            ai = zi * beta[k]
+            nr = ar * ar - ai * ai  # (alpha + zeta beta)^2
+            ni = 2.0 * ar * ai
+            dr = 1.0 + zr * lam[k]
+            di = zi * lam[k]
+            inv = 1.0 / (dr * dr + di * di)
+            sr += (nr * dr + ni * di) * inv
+            si += (ni * dr - nr * di) * inv
+        out[i] = complex(sr, si)
+    return out
 
 
 def shrink_factor(sample) -> float:
@@ -202,10 +250,16 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
     if not np.any(a):
         raise InputError(f"sample {sample.name}: no bond reaches the head plate")
     A, B = gm["ff"].toarray(), gs["ff"].toarray()
+    reff = contact_radius(sample)
+    w = reff**2 * skel
+    gf = system.blocks(w, w * system.t_ratio)
     try:
         lam, V = sl.eigh(B, A, check_finite=False)
+        lam_f, V_f = sl.eigh(gf["ff"].toarray(), A, check_finite=False)
     except np.linalg.LinAlgError:
         raise InputError(f"sample {sample.name}: the mortar network has a free mode (G_m not positive definite)")
+    r_bond = sample.bonds["r_min"]
+    alpha0 = V.T @ a
     return Response(
         mix_id=str(mix_id),
         seed=int(seed),
@@ -218,8 +272,30 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         n_spheres=int(sample.radius.size),
         n_bonds=int(sample.bonds["i"].size),
         n_skeleton=int(skel.sum()),
+        p1_f=float(gf["pp"][2, 2]),
+        lam_f=lam_f,
+        alpha_f=V_f.T @ a,
+        beta_f=V_f.T @ gf["fp"][:, 2].toarray().ravel(),
+        chi_bridge=float((gm["pp"][2, 2] - alpha0 @ alpha0) / _head_stiffness(system, r_bond)),
+        skeleton_r15=float(np.sum(w * reff**1.5) / np.sum(w)) if np.any(skel) else np.nan,
         cpu_s=time.process_time() - t0,
     )
+
+
+def _head_stiffness(system, k) -> float:
+    """The head's stiffness (N/m, along the height) of the network with bond stiffnesses k (B,) N/m
+    (tangential k times the Eqs. 8-11 ratio): a real sparse solve."""
+    blk = system.blocks(k, k * system.t_ratio)
+    u = system.factorise(blk["ff"], "head stiffness").solve(-blk["fp"][:, 2].toarray().ravel())
+    return float(blk["pp"][2, 2] + (blk["pf"] @ u)[2])
+
+
+def contact_radius(sample) -> np.ndarray:
+    """(B,) m: each bond's effective radius R_eff = r_i r_j / (r_i + r_j) (a sphere-plate bond: r_i)."""
+    r = sample.radius
+    i, j = sample.bonds["i"], sample.bonds["j"]
+    rj = np.where(j >= 0, r[np.maximum(j, 0)], np.inf)
+    return 1.0 / (1.0 / r[i] + 1.0 / rj)
 
 
 def time_domain_check(
@@ -300,7 +376,7 @@ class DemModel:
     def _cells(self, rows: pd.DataFrame) -> list:
         """(row indices, E*_mortar (Pa), responses) per mix of ``rows``."""
         from .formulation import phase_volumes
-        from .mastic import mortar_modulus
+        from .mortar import hs_lower_mortar_modulus as mortar_modulus
 
         out = []
         for mix_id, idx in rows.groupby("mix_id", sort=False).indices.items():

@@ -56,17 +56,28 @@ TABLE_SIEVES = (
 
 def passing_points(mix: pd.Series) -> tuple[np.ndarray, np.ndarray]:
     """The measured points of a mix's cumulative gradation: sieve openings (mm, increasing)
-    and % passing, with 100 % at the top size (module docstring).
+    and % passing, with 100 % at the top size (module docstring); a mix with a ``gradation``
+    entry (a full sieve analysis, ``"<mm>:<% passing>;..."``, :func:`gradation_text`) gives
+    every sieve of that analysis instead of the table's four.
 
     Raises InputError when the points are not cumulative (passing falls as the sieve grows)."""
-    pts = {d: (100.0 - float(mix[c]) if retained else float(mix[c])) for d, c, retained in TABLE_SIEVES}
-    top = 25.0 if float(mix["rho34_pct"]) > 0 else 19.0
-    pts[top] = 100.0
+    text = mix.get("gradation") if hasattr(mix, "get") else None
+    if isinstance(text, str) and text.strip():
+        pts = {float(k): float(v) for k, v in (item.split(":") for item in text.split(";"))}
+    else:
+        pts = {d: (100.0 - float(mix[c]) if retained else float(mix[c])) for d, c, retained in TABLE_SIEVES}
+        top = 25.0 if float(mix["rho34_pct"]) > 0 else 19.0
+        pts[top] = 100.0
     d = np.array(sorted(pts))
     p = np.array([pts[k] for k in d])
     if np.any(np.diff(p) < 0) or p[0] <= 0:
         raise InputError(f"mix {mix.get('mix_id', '?')}: gradation points {dict(zip(d, p))} are not a cumulative curve")
     return d, p
+
+
+def gradation_text(openings_mm, passing_pct) -> str:
+    """A sieve analysis as the ``gradation`` entry of a mix (:func:`passing_points`): exact decimals."""
+    return ";".join(f"{float(d)!r}:{float(p)!r}" for d, p in zip(openings_mm, passing_pct))
 
 
 def passing_curve(mix: pd.Series, sieves=SIEVES_MM) -> dict[float, float]:
@@ -169,3 +180,37 @@ def sample_settings(base: dict, mix: pd.Series, cut_mm: float, size_dmax: float,
     cfg["sample_mass_kg"] = 2650.0 * side**3 * 1e-9 * (1.0 - phase_volumes(mix, cut_mm)["mortar"])
     cfg["top_plate_mass_kg"] = 0.1 * cfg["sample_mass_kg"]
     return cfg, passing, phase_volumes(mix, cut_mm)["coarse"]
+
+
+#: Hveem surface-area factors, m^2/kg of aggregate per % passing (UFC 3-250-03, Table C-1; the Asphalt
+#: Institute's MS-2 factors / 100), by sieve opening (mm); the largest sieve's factor applies to 100 % passing
+SURFACE_AREA_FACTORS = {
+    4.75: 0.00409,
+    2.36: 0.00819,
+    1.18: 0.01639,
+    0.6: 0.02867,
+    0.3: 0.06144,
+    0.15: 0.12289,
+    0.075: 0.32771,
+}
+#: the largest sieve's factor, m^2/kg per % passing (applied to its 100 %)
+SURFACE_AREA_TOP = 0.00409
+#: bulk specific gravity of the aggregate where the table gives none (a typical siliceous or limestone aggregate)
+AGGREGATE_SPECIFIC_GRAVITY = 2.65
+
+
+def surface_area_m2_kg(mix: pd.Series) -> float:
+    """The aggregate's specific surface (m^2/kg) by Hveem's surface-area factors
+    (:data:`SURFACE_AREA_FACTORS`) on the mix's passing curve (:func:`passing_curve`)."""
+    passing = passing_curve(mix, tuple(SURFACE_AREA_FACTORS))
+    return SURFACE_AREA_TOP * 100.0 + sum(f * passing[float(d)] for d, f in SURFACE_AREA_FACTORS.items())
+
+
+def film_thickness_m(mix: pd.Series, specific_gravity: float = AGGREGATE_SPECIFIC_GRAVITY) -> float:
+    """The mix's average binder film thickness (m): the effective binder volume over the aggregate's
+    surface, T_F = V_be / (SA W) (Hveem; NCAT, "Asphalt film thickness debunked", Asphalt
+    Technology News, spring 2017), per unit volume of mix: V_be = Vbeff / 100, W = (1 - VMA / 100)
+    G_sb rho_w with G_sb = ``specific_gravity`` (the table gives none). Typical dense-graded
+    mixes: 6-13 um (Kandhal & Chakraborty 1996, TRR 1535)."""
+    v = phase_volumes(mix, 0.075)
+    return float(v["binder"] / (surface_area_m2_kg(mix) * v["aggregate"] * specific_gravity * 1000.0))

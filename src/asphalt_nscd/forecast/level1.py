@@ -42,7 +42,8 @@ def designer_tables(forecast: pd.DataFrame, model: str) -> tuple[pd.DataFrame, p
     """(Level 1 tables, sigmoids) of every mix of ``forecast`` (columns of forecast.csv) by ``model``.
 
     Level 1 tables: columns ``mix_id, model, unit, temperature_F, temperature_C`` and one column
-    ``<f> Hz`` per frequency, one row per (mix, unit, temperature). Sigmoids: one row per mix,
+    ``<f> Hz`` per frequency (with ``<f> Hz low`` and ``<f> Hz high``, the prediction interval, when
+    ``forecast`` has ``E_low_MPa, E_high_MPa``), one row per (mix, unit, temperature). Sigmoids: one row per mix,
     the :data:`asphalt_nscd.rheology.sigmoid.PARAMETERS`, ``T_ref_C``, ``delta_psi``, ``rmse_log10``
     (NaN parameters for a mix with too few conditions to fit)."""
     from ..rheology.sigmoid import PARAMETERS, fit_sigmoid
@@ -50,10 +51,16 @@ def designer_tables(forecast: pd.DataFrame, model: str) -> tuple[pd.DataFrame, p
     rows = forecast[forecast["model"] == model]
     tables, sigmoids = [], []
     for mix, g in rows.groupby("mix_id", sort=False):
+        bounds = [("", "E_norm_MPa")] + ([(" low", "E_low_MPa"), (" high", "E_high_MPa")] if "E_low_MPa" in g else [])
         for unit, scale in (("psi", 1.0 / 6.894757293168361e-3), ("MPa", 1.0)):
-            wide = g.pivot_table(index="temperature_C", columns="frequency_Hz", values="E_norm_MPa") * scale
-            wide = wide.sort_index().sort_index(axis=1)
-            wide.columns = [f"{f:g} Hz" for f in wide.columns]
+            parts = []
+            for suffix, column in bounds:
+                w = g.pivot_table(index="temperature_C", columns="frequency_Hz", values=column) * scale
+                w = w.sort_index().sort_index(axis=1)
+                w.columns = [f"{f:g} Hz{suffix}" for f in w.columns]
+                parts.append(w)
+            wide = pd.concat(parts, axis=1)
+            wide = wide[sorted(wide.columns, key=lambda c: (float(c.split(" Hz")[0]), c))]
             wide.insert(0, "temperature_F", np.round(wide.index.to_numpy() * 1.8 + 32.0, 6))
             tables.append(wide.reset_index().assign(mix_id=mix, model=model, unit=unit))
         try:

@@ -5,8 +5,9 @@ One place for what every forecast command reads: the matched table's binders as 
 responses of the mixes' samples (``forecast-response``), and the set of models a run scores
 (:func:`model_set`): each published formula with its published and recalibrated coefficients
 (:class:`.validation.Baseline`), then the discrete models (:class:`.dem.DemModel`) when their
-responses are given. Model labels (:func:`label`): ``hirsch_published``, ``hirsch_recalibrated``,
-..., ``dem``, ``dem_extended``.
+responses are given, then the learned yardstick (:class:`.learned.GradientBoosting`). Model labels
+(:func:`label`): ``hirsch_published``, ``hirsch_recalibrated``, ..., ``dem``, ``dem_extended``,
+``gradient_boosting_learned``.
 """
 
 from __future__ import annotations
@@ -20,9 +21,9 @@ from ..io import InputError
 
 def label(model) -> str:
     """The model's name in tables: ``<formula>_<coefficients>`` or the DEM model's name."""
-    from .dem import MODELS as DEM_MODELS
+    from .validation import model_label
 
-    return model.model if model.model in DEM_MODELS else f"{model.model}_{model.coefficients}"
+    return model_label(model)
 
 
 def binder_points(matched: pd.DataFrame, binder_of_mix: pd.Series) -> pd.DataFrame:
@@ -78,15 +79,40 @@ def read_responses(paths) -> dict:
 
 def model_set(forecast_cfg: dict, responses: dict | None) -> list:
     """The models a run scores: every baseline of ``forecast.baselines`` with published and
-    recalibrated coefficients, then ``forecast.dem.models`` when ``responses`` are given."""
+    recalibrated coefficients, then ``forecast.dem.models`` when ``responses`` are given, then
+    the learned models of ``forecast.learned`` (:mod:`.learned`)."""
     from .dem import DemModel
     from .validation import COEFFICIENTS, Baseline
+
+    from .nested import Selected
+    from .physical import PhysicalDem
 
     models: list = [Baseline(m, c) for m in forecast_cfg.get("baselines", []) for c in COEFFICIENTS]
     if responses:
         dem = forecast_cfg.get("dem") or {}
-        models += [DemModel(name, responses, dem["cut_mm"]) for name in dem.get("models", [])]
+        legacy = [DemModel(name, responses, dem["cut_mm"]) for name in dem.get("models", [])]
+        ladder = [PhysicalDem(name, responses, dem["cut_mm"]) for name in dem.get("physical", [])]
+        models += legacy + ladder
+        if dem.get("selected") and ladder:
+            # inside the choice every candidate is fitted from the middle of its ranges (one start: its cost)
+            inner = [PhysicalDem(m.model, responses, dem["cut_mm"], starts=1) for m in ladder]
+            # the legacy models (constants outside their physical ranges) are scored beside, not chosen from
+            models.append(Selected("dem_selected", inner, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1)))
+    # the learned yardstick (forecast.learned): gradient-boosted trees on the formulas' inputs (:mod:`.learned`)
+    if forecast_cfg.get("learned"):
+        from .learned import MODELS as LEARNED
+
+        models += [LEARNED[name]() for name in forecast_cfg["learned"]]
     return models
+
+
+def headline_only(model) -> bool:
+    """Whether a model is scored on the headline binder route only (the physical ladder and the
+    choice inside the fold: their nested fits are the run's largest cost)."""
+    from .nested import Selected
+    from .physical import PhysicalDem
+
+    return isinstance(model, (PhysicalDem, Selected))
 
 
 def routed_tables(matched: pd.DataFrame, curves: dict, binder_of_mix: pd.Series, routes) -> dict:

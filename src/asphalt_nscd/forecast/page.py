@@ -82,8 +82,16 @@ def page(
     route: str,
     confidence: float,
     figures: dict,
+    split: pd.DataFrame | None = None,
+    selection: pd.DataFrame | None = None,
+    coverage: pd.DataFrame | None = None,
+    learned_rows: pd.DataFrame | None = None,
 ) -> str:
-    """The Markdown page (module docstring). ``figures``: name -> path relative to the page."""
+    """The Markdown page (module docstring). ``figures``: name -> path relative to the page;
+    ``split``, ``selection``, ``coverage``: the error split, the selection log and the intervals'
+    coverage (:mod:`.page_dem`)."""
+    from . import binder_report, page_dem
+
     measured = matched.dropna(subset=["E_norm_MPa"])["mix_id"].unique()
     todo = matched[matched["E_norm_MPa"].isna()]["mix_id"].unique()
     errors = render.per_mix_errors(rows)
@@ -119,7 +127,11 @@ def page(
             )
     base = _best_baseline(scores, route)
     dem_labels = [lab for lab in ("dem_extended", "dem") if lab in set(scores["label"])]
-    if base and dem_labels:
+    if (
+        base
+        and dem_labels
+        and not any(lab.startswith("dem_") and lab not in ("dem_extended",) for lab in set(scores["label"]))
+    ):
         top = dem_labels[0]
         b, t = _overall(scores, route, base), _overall(scores, route, top)
         goal_E = t["abs_logE_pct"] <= b["abs_logE_pct"]
@@ -139,10 +151,16 @@ def page(
     L += [f"![predicted against measured]({figures['predictions']})", ""]
     L += ["### |E*| error by temperature", "", render.temperature_table(scores, route, "abs_logE_pct", "%"), ""]
     L += ["### Phase error by temperature", "", render.temperature_table(scores, route, "abs_phase_deg", "deg"), ""]
+    L += page_dem.ladder_section(scores, rows, constants, route, confidence)
+    L += page_dem.selection_section(selection)
+    L += page_dem.split_section(split)
+    L += page_dem.learned_section(scores, learned_rows, route)
     L += _route_section(scores, route)
     L += _seen_section(scores, route)
     L += _dem_section(scores, route, constants, errors, confidence, rows, matched)
+    L += binder_report.extrapolated_cells_section(scores, route)
     L += _binder_section(points, figures)
+    L += page_dem.coverage_section(coverage, route)
     L += _forecast_section(forecast, best, todo)
     return "\n".join(L) + "\n"
 

@@ -17,7 +17,10 @@ Scores (per model, binder route, temperature and overall):
 
 Intervals: a t(n - 1) interval over the n mixes of the group (the mixes are the sampling
 unit; 35 mixes), on the per-mix means. Groups: every mix, mixes whose binder also serves a
-training mix of their fold (``binder_seen``) and mixes whose binder does not.
+training mix of their fold (``binder_seen``) and mixes whose binder does not; and the cells whose
+binder is read within (``binder_measured``) or outside (``binder_extrapolated``) the temperatures
+of the points its master curve was fitted on (:meth:`.binder.BinderCurve.extrapolated`; the same
+cells on both routes), each mix's mean over its cells of the group.
 
 The Witczak equations give |E*| only: their phase angle is the Booij-Thoone estimate
 (pi/2) d ln|E*| / d ln w of the forecast isotherm (Booij & Thoone 1982; :mod:`asphalt_nscd.rheology.kramers_kronig`),
@@ -51,6 +54,7 @@ ROW_COLUMNS = [
     "E_pred_MPa",
     "phase_pred_deg",
     "phase_source",
+    "binder_extrapolated",
 ]
 
 
@@ -110,6 +114,11 @@ class Baseline:
         return E, booij_thoone_isotherms(rows, E), "booij_thoone"
 
 
+def model_label(model) -> str:
+    """A model's name in tables: a discrete model's own name (``dem...``), else ``<formula>_<coefficients>``."""
+    return model.model if model.model.startswith("dem") else f"{model.model}_{model.coefficients}"
+
+
 def _inputs_needed(model: str) -> tuple:
     return ("binder_eta_Pa_s",) if model == "witczak_1_37a" else ("binder_G_MPa", "binder_delta_deg")
 
@@ -160,13 +169,16 @@ def with_binder_route(table: pd.DataFrame, curves: dict, binder_of_mix: pd.Serie
     the published formulas read the binder as their calibration data gave it), and its MEPDG
     viscosity at each temperature (:mod:`.binder`). Columns ``binder_G_mix_MPa`` and
     ``binder_delta_mix_deg`` hold the binder at the mix's own frequency, which the discrete model
-    reads (the curve's; the raw values on the raw route).
+    reads (the curve's; the raw values on the raw route). Column ``binder_extrapolated`` (nullable
+    bool, both routes): the cell's temperature lies outside those of the points its binder's curve
+    was fitted on (:func:`binder_extrapolated`); missing for a binder without a curve on the raw route.
 
-    Raises InputError for an unknown route or a mix whose binder has no curve."""
+    Raises InputError for an unknown route or a mix whose binder has no curve (curve route)."""
     if route not in BINDER_ROUTES:
         raise InputError(f"binder route {route!r}: expected one of {BINDER_ROUTES}")
     out = table.copy()
     out["binder_G_mix_MPa"], out["binder_delta_mix_deg"] = out["binder_G_MPa"], out["binder_delta_deg"]
+    out["binder_extrapolated"] = binder_extrapolated(out, curves, binder_of_mix)
     if route == "raw":
         return out
     from .binder import viscosity_Pa_s
@@ -187,6 +199,21 @@ def with_binder_route(table: pd.DataFrame, curves: dict, binder_of_mix: pd.Serie
     return out
 
 
+def binder_extrapolated(table: pd.DataFrame, curves: dict, binder_of_mix: pd.Series) -> pd.Series:
+    """Per row of ``table`` (columns ``mix_id``, ``temperature_C``): True where the master curve of
+    the mix's binder is read outside the temperatures of the points it was fitted on (below the
+    coldest or above the warmest: :meth:`.binder.BinderCurve.extrapolated`), False inside; <NA>
+    for a mix whose binder has no curve in ``curves``, or one that does not record its
+    temperatures. Series of pandas' nullable boolean dtype, index of ``table``. A definition by
+    temperature, hence the same for every frequency at which the curve is read."""
+    flag = pd.Series(pd.NA, index=table.index, dtype="boolean")
+    b = table["mix_id"].map(binder_of_mix)
+    for binder, idx in table.groupby(b).groups.items():
+        if binder in curves and curves[binder].temperatures_used_C:
+            flag.loc[idx] = curves[binder].extrapolated(table.loc[idx, "temperature_C"].to_numpy(float))
+    return flag
+
+
 def mix_folds(mixes, k: int | None = None, seed: int = 1) -> list[list[str]]:
     """Held-out mixes of each fold: one mix per fold (``k`` None), or ``k`` folds of a seeded
     shuffle of the mixes (sizes differing by at most one).
@@ -202,7 +229,7 @@ def mix_folds(mixes, k: int | None = None, seed: int = 1) -> list[list[str]]:
 
 
 def cross_validate(
-    table: pd.DataFrame, models: list, binder_of_mix: pd.Series, folds: list[list[str]], route: str
+    table: pd.DataFrame, models: list, binder_of_mix: pd.Series, folds: list[list[str]], route: str, jobs: int = 1
 ) -> pd.DataFrame:
     """Held-out predictions of every model for the mixes of every fold.
 
@@ -214,6 +241,8 @@ def cross_validate(
         (:class:`Baseline`; the DEM models of :mod:`.dem` have the same two methods).
     binder_of_mix : binder id per mix_id. folds : held-out mixes per fold (:func:`mix_folds`).
     route : label of the binder route, written into the rows.
+    jobs : worker processes over the folds (the same numbers for any count: each fold is computed
+        alone and the results are gathered in fold order).
 
     Returns
     -------
@@ -225,14 +254,41 @@ def cross_validate(
     The fit of a fold sees the training mixes' rows only: a held-out mix's measured values are
     not in ``train`` (the leak test multiplies them and checks the forecast does not move).
     """
-    measured = table.dropna(subset=["E_norm_MPa", "phase_deg"])
+    global _JOB
+    _JOB = (table.dropna(subset=["E_norm_MPa", "phase_deg"]), models, binder_of_mix, folds, route)
+    if jobs > 1 and len(folds) > 1:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(min(jobs, len(folds)), mp_context=mp.get_context("fork")) as pool:
+            results = list(pool.map(_one_fold, range(len(folds))))
+    else:
+        results = [_one_fold(k) for k in range(len(folds))]
+    _JOB = None
+    frames = [f for fr, _ in results for f in fr]
+    states = [st for _, sts in results for st in sts]
+    if not frames:
+        raise InputError("forecast cross-validation: no mix with measured |E*| and phase to hold out")
+    return pd.concat(frames, ignore_index=True)[ROW_COLUMNS], states
+
+
+#: the arguments of the running :func:`cross_validate` (read by forked workers, not pickled)
+_JOB = None
+
+
+def _one_fold(k: int) -> tuple[list, list]:
+    """The rows and states of fold ``k`` of the running :func:`cross_validate`."""
+    from threadpoolctl import threadpool_limits
+
+    measured, models, binder_of_mix, folds, route = _JOB
+    held = folds[k]
+    train = measured[~measured["mix_id"].isin(held)]
+    test = measured[measured["mix_id"].isin(held)]
     frames, states = [], []
-    for k, held in enumerate(folds):
-        train = measured[~measured["mix_id"].isin(held)]
-        test = measured[measured["mix_id"].isin(held)]
-        if test.empty:
-            continue
-        seen = set(binder_of_mix.loc[train["mix_id"].unique()])
+    if test.empty:
+        return frames, states
+    seen = set(binder_of_mix.loc[train["mix_id"].unique()])
+    with threadpool_limits(1):  # BLAS threads on small least-squares problems only contend (docs/choices.md)
         for model in models:
             state = model.fit(train)
             states.append(
@@ -262,12 +318,15 @@ def cross_validate(
                         "E_pred_MPa": E,
                         "phase_pred_deg": P,
                         "phase_source": source,
+                        "binder_extrapolated": (
+                            test["binder_extrapolated"].to_numpy()
+                            if "binder_extrapolated" in test
+                            else pd.array([pd.NA] * len(test), dtype="boolean")
+                        ),
                     }
                 )
             )
-    if not frames:
-        raise InputError("forecast cross-validation: no mix with measured |E*| and phase to hold out")
-    return pd.concat(frames, ignore_index=True)[ROW_COLUMNS], states
+    return frames, states
 
 
 #: columns of :func:`score`
@@ -295,24 +354,36 @@ SCORE_COLUMNS = [
     "bias_phase_ci_high",
     "confidence",
 ]
-GROUPS = ("all", "binder_seen", "binder_unseen")
+GROUPS = ("all", "binder_seen", "binder_unseen", "binder_measured", "binder_extrapolated")
 
 
 def score(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
     """Held-out errors of :func:`cross_validate`'s rows per (model, coefficients, binder route,
     group, temperature) and overall (``temperature_C`` NaN), with t intervals over mixes
     (module docstring). Cells with a missing prediction are left out and counted by
-    ``n_cells``; a group of one mix has no interval (NaN)."""
+    ``n_cells``; a group of one mix has no interval (NaN). The groups ``binder_measured`` and
+    ``binder_extrapolated`` take the cells whose ``binder_extrapolated`` is known (rows without
+    that column have none)."""
     from ..diagnosis.scores import t_interval
 
     d = rows.assign(
         e=100.0 * np.log(rows["E_pred_MPa"] / rows["E_meas_MPa"]),
         p=rows["phase_pred_deg"] - rows["phase_meas_deg"],
     )
+    flag = d["binder_extrapolated"] if "binder_extrapolated" in d else pd.Series(pd.NA, index=d.index, dtype=object)
+    known = flag.notna().to_numpy()
+    extrapolated = np.zeros(len(d), bool)
+    extrapolated[known] = flag[known].astype(bool).to_numpy()
+    d = d.assign(_binder_measured=known & ~extrapolated, _binder_extrapolated=known & extrapolated)
     out = []
     for (model, coef, route), g in d.groupby(["model", "coefficients", "binder_route"], sort=False):
         for group in GROUPS:
-            sel = g if group == "all" else g[g["binder_seen"] == (group == "binder_seen")]
+            if group == "all":
+                sel = g
+            elif group in ("binder_measured", "binder_extrapolated"):
+                sel = g[g[f"_{group}"]]
+            else:
+                sel = g[g["binder_seen"] == (group == "binder_seen")]
             for T in [np.nan, *sorted(sel["temperature_C"].unique())]:
                 cells = sel if np.isnan(T) else sel[sel["temperature_C"] == T]
                 if cells.empty:
@@ -342,3 +413,65 @@ def score(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
                         row[f"max_{key}"] = float(np.nanmax(a)) if np.isfinite(a).any() else np.nan
                 out.append(row)
     return pd.DataFrame(out)[SCORE_COLUMNS]
+
+
+#: columns of :func:`error_split`
+SPLIT_COLUMNS = [
+    "model",
+    "coefficients",
+    "binder_route",
+    "n_mixes",
+    "total_pct",
+    "total_ci_low",
+    "total_ci_high",
+    "without_level_pct",
+    "without_level_ci_low",
+    "without_level_ci_high",
+    "without_temperature_pct",
+    "without_temperature_ci_low",
+    "without_temperature_ci_high",
+    "level_pct",
+    "temperature_pct",
+    "rest_pct",
+    "confidence",
+]
+
+
+def error_split(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
+    """Each model's held-out |E*| error split by oracle offsets into the mix's level, its
+    temperature dependence and the rest.
+
+    With e = 100 ln(E_pred / E_meas) per held-out cell: ``total`` is the mean over mixes of each
+    mix's mean |e|; ``without_level`` the same after subtracting each mix's own mean e (an oracle
+    that knew every mix's level); ``without_temperature`` after subtracting each (mix, temperature)
+    mean e (an oracle that also knew every isotherm's level). The parts are the differences:
+    ``level_pct`` = total - without_level, ``temperature_pct`` = without_level -
+    without_temperature, ``rest_pct`` = without_temperature (what remains inside an isotherm: its
+    frequency dependence). t intervals over mixes at ``confidence``. A model that forecasts each
+    mix's level better shrinks ``level_pct``; one that follows each mix's temperature dependence
+    better shrinks ``temperature_pct``.
+    """
+    from ..diagnosis.scores import t_interval
+
+    d = rows.assign(e=100.0 * np.log(rows["E_pred_MPa"] / rows["E_meas_MPa"]))
+    d = d[np.isfinite(d["e"])]
+    out = []
+    for (model, coef, route), g in d.groupby(["model", "coefficients", "binder_route"], sort=False):
+        g = g.assign(
+            level=g["e"] - g.groupby("mix_id")["e"].transform("mean"),
+            temp=g["e"] - g.groupby(["mix_id", "temperature_C"])["e"].transform("mean"),
+        )
+        row = {"model": model, "coefficients": coef, "binder_route": route, "confidence": confidence}
+        per_mix = g.groupby("mix_id")[["e", "level", "temp"]].agg(lambda v: float(np.mean(np.abs(v))))
+        row["n_mixes"] = int(len(per_mix))
+        for col, name in (("e", "total"), ("level", "without_level"), ("temp", "without_temperature")):
+            v = per_mix[col].to_numpy(float)
+            row[f"{name}_pct"] = float(v.mean())
+            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = (
+                t_interval(v, confidence) if v.size >= 2 else (np.nan, np.nan)
+            )
+        row["level_pct"] = row["total_pct"] - row["without_level_pct"]
+        row["temperature_pct"] = row["without_level_pct"] - row["without_temperature_pct"]
+        row["rest_pct"] = row["without_temperature_pct"]
+        out.append(row)
+    return pd.DataFrame(out, columns=SPLIT_COLUMNS)

@@ -86,6 +86,13 @@ def register(subparsers) -> None:
     m.add_argument("--sidecar", type=Path, default=None, help="its sidecar (default: <table stem>.test.json beside it)")
     m.add_argument("-o", "--output", type=Path, required=True, help="the table in the project's columns (CSV)")
     m.add_argument("--mixes", nargs="+", default=None, help="keep only these mixes (default: every mix)")
+    m.add_argument(
+        "--config",
+        nargs="+",
+        metavar="FILE",
+        default=None,
+        help="workflow config files (YAML, merged as Snakemake merges them): their forecast.mixes, unless --mixes",
+    )
     m.set_defaults(func=_matched)
 
 
@@ -132,6 +139,11 @@ def _matched(args) -> int:
     from ..io import InputError
 
     table = read_matched(args.table, args.sidecar)
+    if args.mixes is None and args.config:
+        from .. import config
+
+        mixes = config.checked(args.config)["forecast"].get("mixes")
+        args.mixes = None if not mixes else [str(x) for x in mixes]
     if args.mixes:
         missing = sorted(set(args.mixes) - set(table["mix_id"]))
         if missing:

@@ -24,13 +24,16 @@ measured shift factors) is not read. Separators as for lab tables, suffix .csv, 
 
 Checks (:class:`asphalt_nscd.io.InputError` naming the file, the line and the column): a value
 that is not a number; a modulus or phase no mix or binder gives (mix: the lab tables' ranges;
-binder |G*| 1e-7 to 3,000 MPa, delta in (0, 90]); |E*| without its phase or the reverse; a
-formulation that changes within a mix; a gradation that is not cumulative; Va or Vbeff outside
-0-30 %, Pb outside 0-20 %; a mix whose rows do not fill the declared blocks; a repeated (mix,
-temperature, frequency); a mix id that cannot name a file; and a declared order the values
-contradict (a binder viscosity rising with temperature, or |E*| rising with temperature or
-falling with frequency in most blocks). The mix values also pass the lab tables' plausibility
-warnings (:func:`asphalt_nscd.lab.checks.check_values`).
+binder |G*| 1e-7 to 3,000 MPa, delta in (0, 90], viscosity :data:`VISCOSITY_RANGE_PA_S`); |E*|
+without its phase or the reverse; a formulation that changes within a mix; a gradation that is not
+cumulative; Va or Vbeff outside 0-30 %, Pb outside 0-20 %, a Vbeff that Pb cannot fill (Vbeff <= Pb
+Gmb/Gb with Gmb <= 2.7 and Gb >= 1.0, :mod:`.volumetrics`; the shipped mixes reach 2.39 Pb); a mix
+whose rows do not fill the declared blocks; a repeated (mix, temperature, frequency); a mix id that
+cannot name a file; a declared order the values contradict (a binder viscosity rising with
+temperature, |E*| rising with temperature or falling with frequency in most blocks of the table or
+of one mix); a mix phase angle that jumps from its isotherm's neighbours in frequency
+(:data:`PHASE_JUMP_RATIO`). The mix values also pass the lab tables' plausibility warnings
+(:func:`asphalt_nscd.lab.checks.check_values`).
 """
 
 from __future__ import annotations
@@ -116,6 +119,11 @@ PHASE_UNITS = {"deg": 1.0, "rad": 180.0 / math.pi}
 BINDER_FREQUENCY_UNITS = {"Hz": 1.0, "rad/s": 1.0 / (2.0 * math.pi)}
 #: Pa s per unit of viscosity
 VISCOSITY_UNITS = {"Pa s": 1.0, "cP": 1e-3, "P": 0.1}
+#: (low, high) of a binder's viscosity, Pa s: above 0.01 Pa s (binders at 135 degC: 0.1-3 Pa s, AASHTO M 320
+#: caps it at 3 Pa s, and the tests here stop at 100 degC); below ten times 1e12 Pa s, the viscosity that
+#: defines a glass transition (Angell 1995, Science 267): a binder in a complex-modulus test is a liquid
+#: above or near its glass transition (the shipped table's largest, A-VTS values at -10 degC: 3.1e11 Pa s)
+VISCOSITY_RANGE_PA_S = (1e-2, 1e13)
 #: a binder's |G*| (MPa): above a gel's 0.1 Pa, below a glassy binder's 3 GPa
 BINDER_G_RANGE_MPA = (1e-7, 3000.0)
 #: (low, high) of the volumetrics, % (a bituminous mix; refused outside)
@@ -364,6 +372,7 @@ def read_matched(path, sidecar=None) -> pd.DataFrame:
     _check_ranges(path, out, labels, fmt)
     _check_mixes(path, out, labels)
     _check_order_of_values(path, out, fmt)
+    _check_phase_jumps(path, out, labels)
     measured = out[np.isfinite(out["E_norm_MPa"].to_numpy())]
     warned = []
     if len(measured):
@@ -475,7 +484,13 @@ def _check_ranges(path, out: pd.DataFrame, labels: dict, fmt: MatchedFormat) -> 
         f"a binder phase angle in (0, 90] degrees (read as {fmt.binder_phase_unit})",
     )
     eta = out["binder_eta_Pa_s"].to_numpy(float)
-    check("binder_eta_Pa_s", np.isnan(eta) | (eta > 0), "a viscosity > 0")
+    lo, hi = VISCOSITY_RANGE_PA_S
+    check(
+        "binder_eta_Pa_s",
+        np.isnan(eta) | ((eta >= lo) & (eta <= hi)),
+        f"a binder viscosity in {lo:g}-{hi:g} Pa s (the value in Pa s, read as {fmt.viscosity_unit}; "
+        "asphalt_nscd.lab.matched.VISCOSITY_RANGE_PA_S)",
+    )
     for col, unit in (("phase_deg", fmt.phase_unit), ("binder_delta_deg", fmt.binder_phase_unit)):
         v = out[col].dropna().to_numpy(float)
         if v.size > 1 and v.max() < 1.6:
@@ -490,6 +505,18 @@ def _check_ranges(path, out: pd.DataFrame, labels: dict, fmt: MatchedFormat) -> 
     for col, (lo, hi) in VOLUMETRIC_RANGES.items():
         v = out[col].to_numpy(float)
         check(col, (v > lo) & (v < hi), f"a volume or mass percentage of a mix in ({lo:g}, {hi:g}) %")
+    from .volumetrics import GB_BOUND, GMB_BOUND, binder_volume_bound
+
+    Pb, Vbeff = out["Pb_pct"].to_numpy(float), out["Vbeff_pct"].to_numpy(float)
+    fill = binder_volume_bound(Pb)
+    bad = np.flatnonzero(Vbeff > fill)
+    if bad.size:
+        i = bad[0]
+        raise InputError(
+            f"{path}: line {int(out.index[i]) + 2}, column {labels.get('Vbeff_pct', 'Vbeff_pct')}: Vbeff {Vbeff[i]:g} % "
+            f"is more binder than Pb {Pb[i]:g} % can fill; expected Vbeff <= Pb Gmb/Gb <= {fill[i]:.4g} % (Gmb <= "
+            f"{GMB_BOUND:g}, Gb >= {GB_BOUND:g}: asphalt_nscd.lab.volumetrics)"
+        )
     r34, r38, r4, p200 = (out[c].to_numpy(float) for c in ("rho34_pct", "rho38_pct", "rho4_pct", "rho200_pct"))
     bad = np.flatnonzero(~((r34 <= r38) & (r38 <= r4) & (r4 <= 100.0 - p200)))
     if bad.size:
@@ -558,6 +585,68 @@ def _check_order_of_values(path, out: pd.DataFrame, fmt: MatchedFormat) -> None:
                 f"{np.mean(np.array(slopes) == wrong):.0%} of the blocks: the {what} are in the wrong order; "
                 f"check {origin}"
             )
+    _check_order_per_mix(path, out, origin)
+
+
+def _check_order_per_mix(path, out: pd.DataFrame, origin: str) -> None:
+    """Refuse a mix whose own blocks contradict the order: its |E*| (its binder's |G*| when it has no
+    |E*|) falling with the frequency in most of its temperature blocks, or rising with the
+    temperature in most of its frequency blocks (rows written in reverse order within its blocks).
+    The shipped table: 0 % of any mix's blocks with |E*|, at most 20 % with the binder's |G*|."""
+    for mix, g in out.groupby("mix_id", sort=False):
+        col = "E_norm_MPa" if g["E_norm_MPa"].notna().any() else "binder_G_MPa"
+        g = g.dropna(subset=[col])
+        for along, by, wrong, name in (
+            ("frequency_Hz", "temperature_C", -1, "falls with the frequency"),
+            ("temperature_C", "frequency_Hz", 1, "rises with the temperature"),
+        ):
+            slopes = []
+            for _, b in g.groupby(by, sort=False):
+                if b[along].nunique() >= 2:
+                    x = b[along].to_numpy(float)
+                    slopes.append(
+                        np.sign(np.polyfit(np.log(x) if along == "frequency_Hz" else x, np.log(b[col]), 1)[0])
+                    )
+            share = float(np.mean(np.array(slopes) == wrong)) if slopes else 0.0
+            if share > 0.5:
+                lines = f"{int(g.index.min()) + 2}-{int(g.index.max()) + 2}"
+                what = "frequencies" if along == "frequency_Hz" else "temperatures"
+                raise InputError(
+                    f"{path}: lines {lines}, mix {mix!r}: its {'|E*|' if col == 'E_norm_MPa' else 'binder |G*|'} "
+                    f"{name} in {share:.0%} of its blocks: its {what} are written in reverse order? check the mix's "
+                    f"rows against {origin}"
+                )
+
+
+#: a mix phase angle jumps from its isotherm when it differs from each neighbour in frequency by a ratio
+#: above PHASE_JUMP_RATIO and by more than PHASE_JUMP_DEG (AASHTO T 378's phase-uniformity limit). The shipped
+#: table's largest ratio to the nearer neighbour is 2.07 (mix 217, -10 degC, 25 Hz): 3 leaves half again in log
+PHASE_JUMP_RATIO = 3.0
+PHASE_JUMP_DEG = 3.0
+
+
+def _check_phase_jumps(path, out: pd.DataFrame, labels: dict) -> None:
+    """Refuse a measured mix phase angle that jumps from both its neighbours in frequency within
+    its isotherm (one neighbour at the ends): a ratio above :data:`PHASE_JUMP_RATIO` and a
+    difference above :data:`PHASE_JUMP_DEG` from each (a phase written 0, or off by a factor)."""
+    data = out.dropna(subset=["phase_deg"])
+    for (mix, T), g in data.groupby(["mix_id", "temperature_C"], sort=False):
+        g = g.sort_values("frequency_Hz")
+        y = g["phase_deg"].to_numpy(float)
+        if y.size < 3:
+            continue
+        for i in range(y.size):
+            nb = [y[j] for j in (i - 1, i + 1) if 0 <= j < y.size]
+            ratio = [max(y[i], v) / min(y[i], v) if min(y[i], v) > 0 else np.inf for v in nb]
+            if all(r > PHASE_JUMP_RATIO and abs(y[i] - v) > PHASE_JUMP_DEG for r, v in zip(ratio, nb)):
+                row = g.index[i]
+                f = g["frequency_Hz"].to_numpy(float)
+                near = ", ".join(f"{y[j]:.3g} deg at {f[j]:g} Hz" for j in (i - 1, i + 1) if 0 <= j < y.size)
+                raise InputError(
+                    f"{path}: line {int(row) + 2}, column {labels.get('phase_deg', 'phase_deg')}: phase angle "
+                    f"{y[i]:.3g} deg of mix {mix!r} at {T:.4g} degC, {f[i]:g} Hz jumps from its neighbours in the "
+                    f"isotherm ({near}): expected within a factor {PHASE_JUMP_RATIO:g} or {PHASE_JUMP_DEG:g} deg of one of them"
+                )
 
 
 def write_matched(frame: pd.DataFrame, path) -> None:

@@ -1,0 +1,359 @@
+"""The discrete forecast with bonds from physics: mortar bridges and skeleton contacts, no fitted factor.
+
+A mix's sample (:mod:`.formulation`, Section 3.2.1) is tested in uniaxial compression by the
+harmonic solver (:mod:`.dem`, :class:`.dem.Response`): every bond is a mortar bridge, and the
+pairs that touched in the vibrated packing are also skeleton contacts. Both laws come from the
+binder, the constituents and the mix's volumetrics:
+
+* **Mortar bridge** (every bond, geometric factor g_b = pi r_min^2 / (delta0 + t_m), :func:`.dem.bond_geometry`):
+  the mortar's complex Young's modulus E*_mortar (:mod:`.mortar`: filler in binder, air in mastic,
+  fine aggregate in porous mastic, by the packing-limited differential scheme) in series with the
+  two stones' elastic compliance under a bond of radius a_b = r_min (a rigid punch on each
+  half-space, Boussinesq: k = a E_s / (1 - nu_s^2) for the two in series):
+
+      1 / k_b = 1 / (g_b E*_mortar) + (1 - nu_s^2) / (a_b E_s)  ~=  (1 / g_b) [1 / E*_mortar + chi / E_s']
+
+  with chi the bonds' g_b-weighted mean of g_b / a_b (the series term taken uniform over the
+  bonds, so that the response stays a function of one modulus per class: :class:`.dem.Response`).
+* **Skeleton contact** (pairs in contact in the packing): two stones separated by a mastic film of
+  the mix's average film thickness h (:func:`.formulation.film_thickness_m`, times
+  ``film_factor``). The film squeezed between spheres of effective radius R (Reynolds'
+  lubrication, by the correspondence principle; Chan & Horn 1985, J. Chem. Phys. 83, 5311) has
+  k_film = 6 pi G*_mastic R^2 / h; the stones under the film's pressurized zone a_c = sqrt(2 R h)
+  add k_stone = a_c E_s'. In series, per unit R^2 (the class weight of the film decomposition):
+
+      e_2 = [h / (6 pi G*_mastic) + <R^1.5> / (E_s' sqrt(2 h))]^-1
+
+  cold, the stones carry the contact (elastic); warm, the film does (the mastic's phase).
+  ``skeleton_exponent`` n < 1 replaces the film by a parabolic element anchored at the stone's
+  stiffness, e_stone (e_film / e_stone)^n (Huet 1963): n = 1 is the film itself.
+
+E*_mix = e_1 F(zeta), zeta = e_2 / e_1 (:meth:`.dem.Response.factor`, ``skeleton="film"``).
+
+Constants (:data:`CONSTANTS`): every one has a documented physical range and a default inside it.
+``dem_physical`` takes the defaults: nothing is fitted on mixes. The ladder (:data:`STEPS`) frees
+them one at a time, each fitted on the training mixes of a fold inside its range (least squares
+of ln|E*| and the phase in radians, from several starts); a constant that ends at its bound is
+reported (``at_bound``).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..io import InputError
+
+
+@dataclass(frozen=True)
+class Constant:
+    """A physical constant of the discrete forecast: its default, documented range and source."""
+
+    default: float
+    low: float
+    high: float
+    unit: str
+    source: str
+
+
+#: the constants of the physical bond laws (:mod:`.mortar` gives the sources of the constituents')
+CONSTANTS = {
+    "fine_packing": Constant(
+        0.80,
+        0.634,
+        0.90,
+        "-",
+        "packing limit of the fine aggregate in the mortar: random close packing of equal spheres 0.634 "
+        "(Berryman 1983) to a graded sand's 0.9 (de Larrard 1999, compressible packing model)",
+    ),
+    "skeleton_exponent": Constant(
+        1.0, 0.0, 1.0, "-", "0 an elastic skeleton, 1 the mastic film itself (a parabolic element, Huet 1963)"
+    ),
+    "film_factor": Constant(
+        1.0,
+        0.05,
+        1.5,
+        "-",
+        "contact film / average film thickness: SEM films 0.5-2.4 um around fillers (Adv. Mater. Sci. Eng. "
+        "2021, 8894970) to 1.3 x the formula's 9-13 um",
+    ),
+    "skeleton_scale": Constant(
+        1.0,
+        0.0,
+        1.0,
+        "-",
+        "the parabolic skeleton's stiffness at the stone's modulus over the stone's (nothing stiffer than the "
+        "stone it joins: at most 1)",
+    ),
+    "E_stone_Pa": Constant(
+        55e9, 30e9, 90e9, "Pa", "AASHTO HB-17 rock moduli (Wang 2011, Tables 2.1-2.2): dolostone 29 to quartzite 66 GPa"
+    ),
+}
+#: the ladder: each model's name and the constants it fits (the others at their defaults)
+STEPS = (
+    ("dem_physical", ()),
+    ("dem_c1", ("fine_packing",)),
+    ("dem_c2", ("fine_packing", "skeleton_exponent")),
+    ("dem_c3", ("fine_packing", "skeleton_exponent", "film_factor")),
+    ("dem_c4", ("fine_packing", "skeleton_exponent", "film_factor", "E_stone_Pa")),
+)
+#: the parabolic skeleton's steps: the skeleton contacts as mortar-bridge geometry with
+#: e_2 = C_s E_s' (E*_mortar / E_s')^n (:func:`bond_moduli`, ``skeleton="parabolic"``)
+PARABOLIC_STEPS = (
+    ("dem_p2", ("skeleton_scale", "skeleton_exponent")),
+    ("dem_p3", ("fine_packing", "skeleton_scale", "skeleton_exponent")),
+)
+ALL_STEPS = STEPS + PARABOLIC_STEPS
+#: the step each step adds constants to (its gain is measured against it)
+PREVIOUS = {**{a: b for (b, _), (a, _) in zip(STEPS, STEPS[1:])}, "dem_p2": "dem_physical", "dem_p3": "dem_p2"}
+STEP_NAMES = tuple(name for name, _ in ALL_STEPS)
+#: grid of the stone modulus on which the mortar is tabulated (Pa; interpolated in ln E_s between)
+E_STONE_GRID = np.geomspace(CONSTANTS["E_stone_Pa"].low, CONSTANTS["E_stone_Pa"].high, 5)
+#: nodes of the crowding s = -phi_max ln(1 - phi / phi_max) at which the fine-aggregate stage is tabulated
+_S_NODES = 25
+#: a packing limit within this factor of the mix's fine fraction is read as this factor (the mortar jammed)
+JAMMED = 1.02
+
+
+@functools.lru_cache(maxsize=64)
+def _stone_weights(ln_E: float) -> np.ndarray:
+    """(len(E_STONE_GRID),) weights w with sum_i w_i y_i = the cubic spline through (ln E_i, y_i) at ln_E."""
+    from scipy.interpolate import CubicSpline
+
+    return CubicSpline(np.log(E_STONE_GRID), np.eye(E_STONE_GRID.size))(ln_E)
+
+
+class MixMortar:
+    """One mix's mastic and mortar at its conditions, tabulated for any fine packing limit and stone.
+
+    The last stage of :func:`.mortar.mortar_moduli` (fine aggregate in porous mastic) depends on the
+    packing limit phi_max only through the crowding s = -phi_max ln(1 - phi / phi_max): its
+    equations in s do not contain phi_max. So one integration in s per stone modulus of
+    :data:`E_STONE_GRID` serves every phi_max; :meth:`moduli` interpolates (cubic in s, cubic in
+    ln E_s, on ln of the complex moduli).
+
+    Parameters
+    ----------
+    G_binder_Pa, delta_deg : (n,) the binder at the mix's conditions (Pa, degrees).
+    volumes : the mix's phase volumes (:func:`.formulation.phase_volumes`).
+    """
+
+    def __init__(self, G_binder_Pa, delta_deg, volumes: dict):
+        from scipy.interpolate import CubicSpline
+
+        from .mortar import Constituents, Inclusion, differential_scheme, hs_upper, mortar_moduli
+
+        self.phi_fine = volumes["fine"] / (volumes["binder"] + volumes["filler"] + volumes["air"] + volumes["fine"])
+        #: the least packing limit this mix reads (a limit closer to its fraction is taken as this one: jammed)
+        self.packing_floor = max(CONSTANTS["fine_packing"].low, JAMMED * self.phi_fine)
+        s_max = float(-self.packing_floor * np.log1p(-self.phi_fine / self.packing_floor))
+        s_grid = np.linspace(0.0, s_max, _S_NODES)
+        lnK, lnG, lnGm, cap = [], [], [], []
+        for E_s in E_STONE_GRID:
+            c = Constituents(E_stone_Pa=float(E_s))
+            m = mortar_moduli(G_binder_Pa, delta_deg, {**volumes, "fine": 0.0}, c)
+            Ks, Gs = c.stone()
+            K, G = m["porous_mastic"]
+            Ku, Gu = hs_upper((K, G), Ks, Gs, self.phi_fine)
+            cap.append(np.log(np.abs(np.array([Ku, Gu]))))
+            rows_K, rows_G = [np.log(K)], [np.log(G)]
+            for ds in np.diff(s_grid):  # at phi_max = 1 the crowding u is s: each step continues from the last
+                K, G = differential_scheme(K, G, [Inclusion(Ks, Gs, -np.expm1(-ds))], 1.0, steps=12)
+                rows_K.append(np.log(K))
+                rows_G.append(np.log(G))
+            lnK.append(np.array(rows_K))
+            lnG.append(np.array(rows_G))
+            lnGm.append(np.log(m["mastic"][1]))
+        self._s = s_grid
+        kg = np.stack([np.array(lnK), np.array(lnG)], axis=1)  # (E grid, 2, s, n)
+        self._along_s = CubicSpline(s_grid, np.moveaxis(kg, 2, 0), axis=0)  # s -> (E grid, 2, n)
+        self._cap_nodes = np.array(cap)  # (E grid, 2, n): ln of the HS upper bounds of |K|, |G|
+        self._lnGm_nodes = np.array(lnGm)  # (E grid, n)
+
+    def moduli(self, fine_packing: float, E_stone_Pa: float) -> tuple[np.ndarray, np.ndarray]:
+        """(E*_mortar, G*_mastic): complex (n,) Pa at the packing limit and stone modulus given; a
+        limit below :attr:`packing_floor` reads the mortar at the floor (:meth:`jammed` says so)."""
+        p = max(float(fine_packing), self.packing_floor)
+        s = float(-p * np.log1p(-self.phi_fine / p))
+        x = np.log(E_stone_Pa)
+        w = _stone_weights(float(x))  # the cubic spline in ln E_s as weights of the grid's values
+        lnK, lnG = np.tensordot(w, self._along_s(min(s, self._s[-1])), axes=1)
+        cK, cG = np.tensordot(w, self._cap_nodes, axes=1)
+        lnK = np.where(lnK.real > cK, cK + 1j * lnK.imag, lnK)
+        lnG = np.where(lnG.real > cG, cG + 1j * lnG.imag, lnG)
+        K, G = np.exp(lnK), np.exp(lnG)
+        return 9.0 * K * G / (3.0 * K + G), np.exp(np.tensordot(w, self._lnGm_nodes, axes=1))
+
+    def jammed(self, fine_packing: float) -> bool:
+        """Whether the mix's fine aggregate is within 2 % of the packing limit (read at the floor)."""
+        return bool(fine_packing < self.packing_floor)
+
+
+def bond_moduli(
+    constants: dict, E_mortar, G_mastic, film_m: float, response, skeleton: str = "film"
+) -> tuple[np.ndarray, np.ndarray]:
+    """(e_1, zeta) of one sample at its conditions (module docstring).
+
+    constants : the values of :data:`CONSTANTS` (all of them). E_mortar, G_mastic : complex (n,)
+    Pa (:meth:`MixMortar.moduli`). film_m : the mix's average film thickness (m). response :
+    the sample's :class:`.dem.Response` (``chi_bridge``, ``skeleton_r15``).
+    Returns e_1 (Pa, complex (n,)) and zeta = e_2 / e_1 (m^-1 x m, complex (n,))."""
+    from .mortar import Constituents
+
+    nu = Constituents().nu_stone
+    Es = constants["E_stone_Pa"] / (1.0 - nu**2)
+    e1 = 1.0 / (1.0 / E_mortar + response.chi_bridge / Es)
+    if skeleton == "parabolic":  # per unit g_b, like a bridge: C_s E_s' (E*_mortar / E_s')^n
+        n = constants["skeleton_exponent"]
+        e2 = constants["skeleton_scale"] * Es * np.exp(n * np.log(E_mortar / Es))
+        return e1, e2 / e1
+    if not np.isfinite(response.skeleton_r15):  # no skeleton contact in the sample
+        return e1, np.zeros_like(e1)
+    h = constants["film_factor"] * film_m
+    e_film = 6.0 * np.pi * G_mastic / h
+    e_stone = Es * np.sqrt(2.0 * h) / response.skeleton_r15
+    n = constants["skeleton_exponent"]
+    if n != 1.0:
+        e_film = e_stone * np.exp(n * np.log(e_film / e_stone))
+    e2 = 1.0 / (1.0 / e_film + 1.0 / e_stone)
+    return e1, e2 / e1
+
+
+#: (mix, binder, volumes) -> (MixMortar, film thickness), built once per process
+_MORTARS: dict = {}
+
+
+class PhysicalDem:
+    """A model of the ladder (:data:`STEPS`): the physical bond laws with ``free`` constants fitted.
+
+    Parameters
+    ----------
+    name : one of :data:`STEP_NAMES`.
+    responses : mix_id -> list of :class:`.dem.Response` (one per seed; with the film decomposition).
+    cut_mm : the samples' PSD cut (the mortar's fine aggregate is what passes it).
+    free : the constants to fit (default: the step's).
+    starts : starting points of the fit (1: the middle of every range; 3: also its quarter points).
+    """
+
+    coefficients = "physical"
+
+    def __init__(self, name: str, responses: dict, cut_mm: float, free: tuple | None = None, starts: int = 3):
+        steps = dict(ALL_STEPS)
+        if name not in steps and free is None:
+            raise InputError(f"physical DEM model {name!r}: expected one of {STEP_NAMES}")
+        self.model, self.responses, self.cut_mm = name, responses, float(cut_mm)
+        self.free = tuple(steps[name] if free is None else free)
+        #: starts of the fit: 1 the middle of every range; 3 also its quarter points
+        self.starts = int(starts)
+        #: the skeleton law: the film (:data:`STEPS`) or the parabolic element (:data:`PARABOLIC_STEPS`)
+        self.skeleton = "parabolic" if name in dict(PARABOLIC_STEPS) else "film"
+        unknown = sorted(set(self.free) - set(CONSTANTS))
+        if unknown:
+            raise InputError(
+                f"physical DEM model {name!r}: unknown constants {unknown}; expected among {list(CONSTANTS)}"
+            )
+
+    def available(self, table: pd.DataFrame) -> bool:
+        """Whether some mix of ``table`` has a usable sample response with its skeleton decomposition."""
+        return bool(self._usable() & set(table["mix_id"]))
+
+    def _usable(self) -> set:
+        return {m for m, rs in self.responses.items() if all(r.usable and r.lam_f.size for r in rs)}
+
+    def _cells(self, rows: pd.DataFrame) -> list:
+        """(row indices, MixMortar, film thickness, responses) per usable mix of ``rows``."""
+        from .formulation import film_thickness_m, phase_volumes
+
+        out = []
+        usable = self._usable()
+        for mix_id, idx in rows.groupby("mix_id", sort=False).indices.items():
+            if mix_id not in self.responses:
+                raise InputError(f"DEM model: no sample response for mix {mix_id!r}")
+            if mix_id not in usable:
+                continue
+            r = rows.iloc[idx]
+            G = r["binder_G_mix_MPa"].to_numpy(float) * 1e6
+            d = r["binder_delta_mix_deg"].to_numpy(float)
+            mix = r.iloc[0]
+            volumes = phase_volumes(mix, self.cut_mm)
+            key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())))
+            if key not in _MORTARS:  # shared by every model of the process: the ladder's steps read the same mortar
+                _MORTARS[key] = (MixMortar(G, d, volumes), film_thickness_m(mix))
+            out.append((idx, *_MORTARS[key], self.responses[mix_id]))
+        return out
+
+    def constants(self, x) -> dict:
+        """All constants: the defaults with the free ones set to ``x`` (in :attr:`free` order)."""
+        c = {k: v.default for k, v in CONSTANTS.items()}
+        c.update(dict(zip(self.free, map(float, x))))
+        return c
+
+    def _log_modulus(self, cells: list, n: int, constants: dict) -> np.ndarray:
+        """ln E*_sample (Pa, complex) of every row (NaN where a mix has no usable sample)."""
+        out = np.full(n, np.nan + 0j)
+        for idx, mortar, film, responses in cells:
+            Em, Gm = mortar.moduli(constants["fine_packing"], constants["E_stone_Pa"])
+            logs = []
+            for resp in responses:
+                e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton)
+                weights = "mortar" if self.skeleton == "parabolic" else "film"
+                logs.append(np.log(e1) + np.log(resp.factor(zeta, skeleton=weights)))
+            out[idx] = np.mean(logs, axis=0)
+        return out
+
+    def fit(self, train: pd.DataFrame) -> dict:
+        """The constants of a fold (module docstring): the free ones fitted on ``train`` inside their
+        ranges from the range's midpoint and both quarter points of every constant, the best kept;
+        ``cost`` (in-sample), ``n_rows``, ``at_bound`` (names of constants at a bound), ``jammed``
+        (training mixes read at their packing floor)."""
+        from scipy.optimize import least_squares
+
+        rows = train.dropna(subset=["E_norm_MPa", "phase_deg"])
+        rows = rows[rows["mix_id"].isin(self._usable())].reset_index(drop=True)
+        y = np.log(rows["E_norm_MPa"].to_numpy(float) * 1e6) + 1j * np.radians(rows["phase_deg"].to_numpy(float))
+        cells = self._cells(rows)
+        if not self.free:
+            c = self.constants(())
+            r = self._log_modulus(cells, len(rows), c) - y
+            return {
+                **c,
+                "cost": float(np.sum(np.abs(r) ** 2) / 2),
+                "n_rows": len(rows),
+                "at_bound": [],
+                "jammed": self._jammed(cells, c),
+            }
+        lo = np.array([CONSTANTS[k].low for k in self.free])
+        hi = np.array([CONSTANTS[k].high for k in self.free])
+
+        def resid(x):
+            r = self._log_modulus(cells, len(rows), self.constants(x)) - y
+            return np.concatenate([r.real, r.imag])
+
+        starts = [lo + f * (hi - lo) for f in (0.5, 0.25, 0.75)[: max(1, self.starts)]]
+        fits = [least_squares(resid, x0, bounds=(lo, hi), x_scale=hi - lo, diff_step=1e-4) for x0 in starts]
+        best = min(fits, key=lambda f: f.cost)
+        at = np.isclose(best.x, lo, rtol=0, atol=1e-3 * (hi - lo)) | np.isclose(
+            best.x, hi, rtol=0, atol=1e-3 * (hi - lo)
+        )
+        c = self.constants(best.x)
+        return {
+            **c,
+            "cost": float(best.cost),
+            "n_rows": len(rows),
+            "at_bound": [k for k, a in zip(self.free, at) if a],
+            "starts_agree": bool(max(f.cost for f in fits) - best.cost <= 1e-6 * max(best.cost, 1e-12)),
+            "jammed": self._jammed(cells, c),
+        }
+
+    @staticmethod
+    def _jammed(cells, constants) -> list:
+        return sorted({str(c[3][0].mix_id) for c in cells if c[1].jammed(constants["fine_packing"])})
+
+    def predict(self, state: dict, rows: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, str]:
+        """(|E*| MPa, phase deg, "model") of ``rows`` with the fold's constants ``state``."""
+        c = {k: float(state[k]) for k in CONSTANTS}
+        lf = self._log_modulus(self._cells(rows), len(rows), c)
+        return np.exp(lf.real) / 1e6, np.degrees(lf.imag), "model"

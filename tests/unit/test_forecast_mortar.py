@@ -1,0 +1,139 @@
+"""The mortar's micromechanics against its limits: the Krieger-Dougherty closed form, the dilute
+(Einstein, Eshelby) limit, the Hashin-Shtrikman bounds, the stone as the upper limit, air voids
+softening it, and the integration against an independent stiff integrator."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from asphalt_nscd.forecast import mortar
+from asphalt_nscd.forecast.mortar import Constituents, Inclusion, differential_scheme, hashin_shtrikman
+
+KS, GS = mortar.shear_bulk(55e9, 0.2)
+
+
+@pytest.mark.parametrize("phi, phi_max", [(0.1, 1.0), (0.3, 1.0), (0.5, 0.64), (0.6, 0.64), (0.7, 0.8)])
+def test_rigid_spheres_in_an_incompressible_matrix_follow_krieger_dougherty(phi, phi_max):
+    """G / G_m = (1 - phi / phi_max)^(-2.5 phi_max) (Krieger & Dougherty 1959) for rigid spheres
+    in an incompressible matrix: the scheme's closed form, to 1e-8."""
+    K, G = differential_scheme(1e15, 1.0, [Inclusion(1e22, 1e22, phi)], phi_max)
+    assert G.real == pytest.approx((1.0 - phi / phi_max) ** (-2.5 * phi_max), rel=1e-8)
+    assert abs(G.imag) < 1e-12
+
+
+@pytest.mark.parametrize("ratio", [1e-3, 0.3, 3.0, 1e3])
+def test_the_dilute_limit_is_eshelbys(ratio):
+    """At phi -> 0 the estimate's slope is Eshelby's dilute one (Einstein's 2.5 for rigid spheres
+    in an incompressible matrix), for soft and stiff inclusions: error O(phi^2)."""
+    Km, Gm = 3e9, 1e9 + 2e8j
+    Ki, Gi = ratio * 3e9, ratio * 1e9
+    for phi in (1e-3, 5e-4):
+        K, G = differential_scheme(Km, Gm, [Inclusion(Ki, Gi, phi)], 0.7)
+        Kd, Gd = mortar.dilute(Km, Gm, Ki, Gi, phi)
+        assert abs(G - Gd) / abs(Gd - Gm) < 5 * phi
+        assert abs(K - Kd) / abs(Kd - Km) < 5 * phi
+
+
+@pytest.mark.parametrize("contrast", [1.5, 20.0, 1e3, 1e6])
+def test_norris_scheme_lies_inside_the_hashin_shtrikman_bounds(contrast):
+    """phi_max = 1 (Norris 1985) is a realizable composite: inside the bounds at every fraction,
+    for soft and stiff inclusions (elastic phases)."""
+    Kb, Gb = 3e9 / contrast, 1e9 / contrast
+    for phi in np.linspace(0.02, 0.9, 12):
+        K, G = differential_scheme(Kb, Gb, [Inclusion(KS, GS, phi)], 1.0)
+        (Kl, Gl), (Ku, Gu) = hashin_shtrikman(np.array([Kb, KS]), np.array([Gb, GS]), np.array([1 - phi, phi]))
+        assert Gl * (1 - 1e-9) <= G.real <= Gu * (1 + 1e-9)
+        assert Kl * (1 - 1e-9) <= K.real <= Ku * (1 + 1e-9)
+
+
+def test_hashin_shtrikman_limits():
+    """Equal phases give the phase; a void phase gives a zero lower bound; the bounds bracket the
+    Voigt-Reuss-free two-phase values and coincide at the pure phases."""
+    (Kl, Gl), (Ku, Gu) = hashin_shtrikman(np.array([2.0, 2.0]), np.array([1.0, 1.0]), np.array([0.3, 0.7]))
+    assert (Kl, Gl, Ku, Gu) == pytest.approx((2.0, 1.0, 2.0, 1.0))
+    (Kl, Gl), (Ku, Gu) = hashin_shtrikman(np.array([0.0, KS]), np.array([0.0, GS]), np.array([0.2, 0.8]))
+    assert Kl == 0.0 and Gl == 0.0 and 0 < Gu < GS
+    (Kl, Gl), (Ku, Gu) = hashin_shtrikman(np.array([1e9, KS]), np.array([3e8, GS]), np.array([0.0, 1.0]))
+    assert Gl == pytest.approx(GS) and Gu == pytest.approx(GS)
+
+
+def test_the_mortar_stays_inside_the_bounds_and_below_the_stone():
+    """The mortar of a mix (filler, air, fine aggregate near its packing limit), for a binder from
+    glassy to fluid: its |E*| below the stone's E at every condition, and in the elastic case
+    (a real binder) between the Hashin-Shtrikman bounds of its phases (the cap acts near packing)."""
+    c = Constituents(fine_packing=0.72)
+    vol = {"binder": 0.11, "filler": 0.05, "air": 0.07, "fine": 0.40}
+    G = np.geomspace(1e2, 1.2e9, 40)
+    for delta in (0.0, 30.0, 85.0):
+        m = mortar.mortar_moduli(G, np.full(G.size, delta), vol, c)
+        E = mortar.young(*m["mortar"])
+        assert np.all(np.abs(E) <= c.E_stone_Pa * (1 + 1e-12))
+        assert np.all(np.diff(np.abs(E)) > 0)
+    m = mortar.mortar_moduli(G, np.zeros(G.size), vol, c)
+    Kb = c.K_binder_Pa
+    total = sum(vol.values())
+    (Kl, Gl), (Ku, Gu) = hashin_shtrikman(
+        np.array([np.full(G.size, Kb), np.zeros(G.size), np.full(G.size, KS)]),
+        np.array([G, np.zeros(G.size), np.full(G.size, GS)]),
+        np.array(
+            [
+                np.full(G.size, vol["binder"] / total),
+                np.full(G.size, vol["air"] / total),
+                np.full(G.size, (vol["filler"] + vol["fine"]) / total),
+            ]
+        ),
+    )
+    Gm = m["mortar"][1].real
+    assert np.all(Gm >= Gl * (1 - 1e-9)) and np.all(Gm <= Gu * (1 + 1e-9))
+
+
+def test_air_voids_soften_the_mortar():
+    """More air (at the same binder, filler and fine aggregate) gives a softer mortar at every condition."""
+    G, d = np.geomspace(1e3, 1e9, 12), np.linspace(80, 10, 12)
+    E = [
+        np.abs(
+            mortar.young(
+                *mortar.mortar_moduli(G, d, {"binder": 0.11, "filler": 0.05, "air": a, "fine": 0.35})["mortar"]
+            )
+        )
+        for a in (0.02, 0.05, 0.09)
+    ]
+    assert np.all(E[0] > E[1]) and np.all(E[1] > E[2])
+
+
+def test_the_integration_matches_an_independent_stiff_integrator():
+    """The Runge-Kutta integration in compliances against SciPy's implicit Radau on the moduli
+    themselves (voids in a nearly incompressible binder: the stiff case), to 1e-7."""
+    from scipy.integrate import solve_ivp
+
+    Kb, Gb = 3e9 + 0j, 1e4 * np.exp(1j * np.radians(80.0))
+    for Ki, Gi, phi, pm in ((0.0, 0.0, 0.25, 1.0), (KS, GS, 0.6, 0.75)):
+        K, G = differential_scheme(Kb, Gb, [Inclusion(Ki, Gi, phi)], pm)
+
+        def rate(_, y):
+            k, g = complex(y[0], y[1]), complex(y[2], y[3])
+            z = g * (9 * k + 8 * g) / (6 * (k + 2 * g))
+            dk = (Ki - k) * (k + 4 * g / 3) / (Ki + 4 * g / 3) * pm
+            dg = (Gi - g) * (g + z) / (Gi + z) * pm
+            return [dk.real, dk.imag, dg.real, dg.imag]
+
+        scale = np.array([1e9, 1e9, 1e4, 1e4])
+        sol = solve_ivp(
+            lambda t, y: np.array(rate(t, y * scale)) / scale,
+            (0, -np.log1p(-phi / pm)),
+            np.array([Kb.real, Kb.imag, Gb.real, Gb.imag]) / scale,
+            method="Radau",
+            rtol=1e-11,
+            atol=1e-14,
+        )
+        y = sol.y[:, -1] * scale
+        assert complex(y[2], y[3]) == pytest.approx(G, rel=1e-7)
+        assert complex(y[0], y[1]) == pytest.approx(K, rel=1e-6)
+
+
+def test_a_fraction_at_its_packing_limit_is_refused():
+    with pytest.raises(ValueError, match="packing limit"):
+        differential_scheme(3e9, 1e9, [Inclusion(KS, GS, 0.7)], 0.7)
+    assert Constituents().outside_ranges() == []
+    assert Constituents(E_stone_Pa=4.2e9).outside_ranges() == ["E_stone_Pa"]
