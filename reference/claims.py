@@ -130,6 +130,14 @@ def lower95(k, n) -> float:
     return 100.0 * lower_bound(int(k), int(n))
 
 
+def upper95(k, n) -> float:
+    """The one-sided exact (Clopper-Pearson) 95 % upper bound of a proportion k/n, in % (a
+    false-alarm count's bound, "3/100 (<= 7.6 %)")."""
+    from asphalt_nscd.diagnosis.bench import upper_bound
+
+    return 100.0 * upper_bound(int(k), int(n))
+
+
 HELPERS = {
     "np": np,
     "pd": pd,
@@ -140,6 +148,7 @@ HELPERS = {
     "tmean": tmean,
     "paired": paired,
     "lower95": lower95,
+    "upper95": upper95,
 }
 
 

@@ -243,19 +243,49 @@ def test_bench_help_names_every_truth_family(capsys):
 
 
 def test_a_calibration_curtailed_at_the_tables_statistic_decides_as_the_whole_one():
-    """Run in turn and stopped once more than the calibration's share of bootstrap tables reach
-    the statistic decided on, a calibration gives the same decision as all its tables: at a
-    statistic that many tables reach it stops early with a level at most that statistic (no
-    alarm); at one that none reaches it runs every table and gives the whole calibration's level."""
+    """Run in turn (one table of each null) and stopped once more than the calibration's share of
+    one null's bootstrap tables reach the statistic decided on, a calibration gives the same
+    decision as all its tables: at a statistic that many tables reach it stops early with a level
+    at most that statistic (no alarm); at one that none reaches it runs every table of both nulls
+    and gives the whole calibration's level, the smaller of the nulls'."""
     from asphalt_nscd.diagnosis.calibration import calibrate
 
     case = next(c for c in bench.plan(11, ["gmaxwell"], 1, 0, configuration="shipped") if c["kind"] == "clean")
     table, _, test = bench.case_table(case)
     full = calibrate(table, test=test, n_tables=20, seed=3, static=False)["artifacts"]
-    m = np.sort(full["null_min_p"])
-    assert full["n_run"] == 20 and not full["calibrated_level_bound"]
+    nulls = full["nulls"]
+    assert set(nulls) == {"2s2p1d", "maxwell"} and not full["calibrated_level_bound"]
+    assert all(v["n_run"] == 20 for v in nulls.values()) and full["n_run"] == 40
+    # the more conservative null binds
+    assert full["calibrated_level"] == min(v["calibrated_level"] for v in nulls.values())
+    assert full["null_min_p"] == nulls[full["binding_null"]]["null_min_p"]
+    m = np.sort(np.concatenate([v["null_min_p"] for v in nulls.values()]))
     high = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[-1]))["artifacts"]
-    assert high["n_run"] < 20 and high["calibrated_level_bound"]
+    assert high["n_run"] < 40 and high["calibrated_level_bound"]
     assert high["level"] <= m[-1] and not (m[-1] < high["level"])  # no alarm, as with every table
     low = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[0]) / 2)["artifacts"]
-    assert low["n_run"] == 20 and low["calibrated_level"] == full["calibrated_level"] and low["level"] == full["level"]
+    assert low["n_run"] == 40 and low["calibrated_level"] == full["calibrated_level"] and low["level"] == full["level"]
+
+
+def test_planted_tables_are_recounted_at_their_calibrated_level():
+    """A planted table of the stated size, calibrated on itself (both nulls), is searched again
+    at its calibrated level: what it names then is a subset of what the nominal level named (Holm
+    at a lower level), a 0.3 ms time lag (p-value far below any calibrated level) is still named,
+    and the recount is tabulated with its one-sided 95 % lower bound; artifacts not asked for
+    are not recounted. A false-alarm count carries its one-sided upper bound (0 of 100: 2.95 %)."""
+    result = bench.run_bench(0, 1, base_seed=11, families=["wlf"], configuration="shipped")
+    bench.calibrate_alarms(result, n_tables=20, planted=1, artifacts=("time_lag",))
+    lag = [r for r in result["runs"] if r["kind"] == "time_lag"]
+    other = [r for r in result["runs"] if r["kind"] == "temperature_offset"]
+    assert len(lag) == 1 and "time_lag" in lag[0]["detected"]
+    assert 0.0 < lag[0]["calibrated_level"] <= lag[0]["level"]
+    assert set(lag[0]["detected_calibrated"]) <= set(lag[0]["detected"]) and "time_lag" in lag[0]["detected_calibrated"]
+    assert all("detected_calibrated" not in r for r in other)
+    d = result["detection_calibrated"]["time_lag"]["wlf"]
+    assert d["calibrated"]["k"] == d["nominal"]["k"] == 1 and d["calibrated_lower_95"] == pytest.approx(0.05)
+    table = bench.bench_table(result)
+    row = table[(table["artifact"] == "time_lag, calibrated on the table") & (table["family"] == "wlf")].iloc[0]
+    assert row["detected"] == 1 and row["n_planted"] == 1
+    assert bench.upper_bound(0, 100) == pytest.approx(1 - 0.05 ** (1 / 100)) and bench.upper_bound(3, 3) == 1.0
+    # one-sided at 95 %: between the rate and the two-sided interval's upper end (97.5 % one-sided)
+    assert 0.03 < bench.upper_bound(3, 100) < bench.binomial_ci(3, 100)[1] and bench.upper_bound(0, 0) is None

@@ -529,3 +529,107 @@ def test_residuals_of_many_parameter_vectors_are_each_vectors_residuals_to_the_b
         assert rows.shape == (6, 2 * len(table))
         for x, row in zip(X, rows):
             assert np.array_equal(row, prob.residuals(x)), prob.shift
+
+
+def _prony_table(seed: int) -> tuple:
+    """A table of the AASHTO T 342 design (3 specimens) whose truth is a generalized Maxwell
+    series drawn afresh (a positive spectrum over 12 decades, WLF shifts), with specimen factors
+    and point noise: (table, declared test)."""
+    rng = np.random.default_rng(seed)
+    temps, freqs = synthetic.SCHEDULES["aashto_t342"]
+    rho = 10.0 ** np.linspace(-7.0, 5.0, 25)
+    w = np.exp(-0.5 * ((np.log10(rho) + 1.0) / 2.5) ** 2 + rng.normal(0.0, 0.3, rho.size))
+    E0, E00 = rng.uniform(25e3, 40e3), rng.uniform(50.0, 200.0)
+    C1, C2 = rng.uniform(20.0, 30.0), rng.uniform(140.0, 200.0)
+    rows = []
+    for s in range(3):
+        c, p0 = rng.normal(0.0, 0.03), rng.normal(0.0, 0.1)
+        for T in temps:
+            aT = 10.0 ** (-C1 * (T - 21.0) / (C2 + T - 21.0))
+            for f in freqs:
+                iwr = 1j * 2 * np.pi * f * aT * rho
+                E = (E00 + (E0 - E00) * np.sum(w / w.sum() * iwr / (1 + iwr))) * np.exp(c + 1j * np.radians(p0))
+                rows.append(
+                    {
+                        "specimen": f"S{s + 1}",
+                        "temperature_C": T,
+                        "frequency_Hz": f,
+                        "E_norm_MPa": abs(E) * np.exp(rng.normal(0.0, 0.01)),
+                        "phase_deg": np.degrees(np.angle(E)) + rng.normal(0.0, 0.2),
+                    }
+                )
+    test = from_dict({"test": "uniaxial_cylinder", "diameter_mm": None, "height_mm": None}, "x")
+    return pd.DataFrame(rows), test
+
+
+@pytest.mark.parametrize("seed", [101, 202, 303])
+def test_the_relaxation_spectrum_null_follows_a_linear_viscoelastic_table_and_not_a_time_lag(seed):
+    """The relaxation-spectrum null (a generalized Maxwell master curve with a smooth shift law,
+    fitted to the table) describes a clean table of any positive spectrum to its noise (reduced
+    chi-square near 1, where the 2S2P1D screening model need not), and a table with a planted
+    time lag it does not: a phase growing with the test frequency at a fixed |E*| is no linear
+    viscoelastic material's, so on a table the screening model follows its mean carries far
+    less of the lag than the table does."""
+    from asphalt_nscd.diagnosis import calibration as cal
+
+    table, test = _prony_table(seed)
+    search = ArtifactSearch(table, test=test)
+    with np.errstate(all="ignore"):
+        base = search.fit([])
+        clean = cal.clean_model(search, base)
+        null = cal.maxwell_model(search, base, clean)
+    assert null.info["chi2_per_dof"] < 1.6
+    assert null.info["terms_per_decade"] in cal.MAXWELL_DENSITIES and null.info["positive_terms"] >= 3
+    err = np.log(np.abs(null.E)) - np.log(table["E_norm_MPa"].to_numpy())
+    assert np.sqrt(np.mean(err**2)) < 0.02
+    lagged, _ = synthetic.generate(
+        seed,
+        ["time_lag"],
+        schedule="aashto_t342",
+        n_specimens=3,
+        magnitudes={"time_lag": {"time_lag_ms": 0.3}},
+        test_order=False,
+    )
+    search = ArtifactSearch(lagged, test=test)
+    with np.errstate(all="ignore"):
+        observed = search.run()
+        null = cal.maxwell_model(search, observed["base"], cal.clean_model(search, observed["base"]))
+        mean = null.rows.assign(E_norm_MPa=np.abs(null.E), phase_deg=np.degrees(np.angle(null.E)))
+        p_mean = ArtifactSearch(mean, test=test).run()["tests"]["time_lag"]["p"]
+    assert observed["min_p"] < 1e-20 and p_mean > 1e6 * observed["min_p"]
+
+
+def test_the_relaxation_spectrum_columns_and_weights_are_a_maxwell_series():
+    """A Maxwell element of relaxation time rho has E*(w) = E iw rho / (1 + iw rho): at w rho = 1
+    its modulus is E / sqrt(2) and its phase 45 deg, at w rho >> 1 it tends to E with a phase
+    1 / (w rho) rad; the static column is 1. The non-negative weights fitted to a series drawn on
+    the grid give it back, and the grid spans the reduced band widened by the margin at each end
+    at the stated density."""
+    from asphalt_nscd.diagnosis import calibration as cal
+
+    C = cal.maxwell_columns(np.array([1.0, 1e4]), np.array([1.0]))
+    assert C.shape == (2, 2) and np.all(C[:, 0] == 1.0)
+    assert abs(C[0, 1]) == pytest.approx(1 / np.sqrt(2)) and np.degrees(np.angle(C[0, 1])) == pytest.approx(45.0)
+    assert abs(C[1, 1]) == pytest.approx(1.0, abs=1e-8) and np.angle(C[1, 1]) == pytest.approx(1e-4, rel=1e-6)
+    omega = 2 * np.pi * np.logspace(-4.0, 3.0, 40)
+    rho = cal.relaxation_grid(omega, 1.5)
+    assert rho[0] == pytest.approx(10**-2 / omega.max()) and rho[-1] == pytest.approx(10**2 / omega.min())
+    assert (rho.size - 1) / np.log10(rho[-1] / rho[0]) == pytest.approx(1.5, rel=0.05)
+    rng = np.random.default_rng(3)
+    x = np.where(rng.random(rho.size + 1) < 0.6, rng.uniform(50.0, 3000.0, rho.size + 1), 0.0)
+    Cg = cal.maxwell_columns(omega, rho)
+    w = cal.maxwell_weights(Cg, Cg @ x, (0.01, 0.2))
+    assert np.all(w >= 0.0)
+    np.testing.assert_allclose(Cg @ w, Cg @ x, rtol=1e-6)
+
+
+def test_calibrated_p_values_of_several_nulls_take_the_largest():
+    """With two nulls the calibrated p-value of a statistic is the larger of the two nulls'
+    (1 + #{m_b <= p}) / (B + 1); a calibration written with one null reads as one list."""
+    from asphalt_nscd.diagnosis import calibration as cal
+
+    a, b = [0.1, 0.2, 0.3], [0.01, 0.02, 0.5]
+    assert fx.adjusted_p(0.15, [a, b]) == pytest.approx(3 / 4) and fx.adjusted_p(0.15, a) == pytest.approx(2 / 4)
+    two = {"artifacts": {"null_min_p": a, "nulls": {"2s2p1d": {"null_min_p": a}, "maxwell": {"null_min_p": b}}}}
+    assert cal.null_statistics(two) == [a, b]
+    assert cal.null_statistics({"artifacts": {"null_min_p": a}}) == [a] and cal.null_statistics(None) is None

@@ -224,7 +224,9 @@ def record(analysis: dict, alpha: float, shift: str, T_ref_C: float | None) -> A
     """The :class:`ArtifactRecord` of an :func:`analyse` result run with these settings."""
     search, result = analysis["search"], analysis["result"]
     cal = analysis.get("calibration")
-    null = cal["artifacts"]["null_min_p"] if cal is not None else None
+    from .calibration import null_statistics
+
+    null = null_statistics(cal)
     names = [c.name for c in result["selected"]]
     selection = {
         "family_size": int(result["family_size"]),

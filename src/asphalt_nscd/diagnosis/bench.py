@@ -267,13 +267,14 @@ def case_table(case: dict) -> tuple:
     return table, truth, from_dict(test, "synthetic")
 
 
-def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
-    """Generate one table of a case and diagnose its artifacts; the outcome."""
+def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25, level: float | None = None) -> dict:
+    """Generate one table of a case and diagnose its artifacts; the outcome. ``level``: the
+    first step's level calibrated on the table (default the nominal alpha / m)."""
     table, truth, test = case_table(case)
     t0 = time.process_time()
     search = ArtifactSearch(table, alpha=alpha, test=test)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        result = search.run()
+        result = search.run(level=level)
     if result["offset"] is not None and result["offset"].get("detected"):
         search.consistent_correction(result)  # the report's consistency check of an offset
     entries = {e["name"]: e for e in effect_entries(search, result)}
@@ -308,8 +309,16 @@ def run_case(case: dict, alpha: float = 1e-3, tolerance: float = 0.25) -> dict:
 
 
 def _rate(k: int, n: int) -> dict:
+    """A count k of n: its rate, exact 95 % interval and one-sided 95 % bounds."""
     lo, hi = binomial_ci(k, n)
-    return {"k": int(k), "n": int(n), "rate": (k / n) if n else None, "ci95": [lo, hi]}
+    return {
+        "k": int(k),
+        "n": int(n),
+        "rate": (k / n) if n else None,
+        "ci95": [lo, hi],
+        "lower_95": lower_bound(k, n),
+        "upper_95": upper_bound(k, n),
+    }
 
 
 def family_wise(runs: list, families) -> dict:
@@ -352,42 +361,61 @@ def _calibrated_level(args) -> dict:
             table, alpha=alpha, test=test, n_tables=n_tables, seed=case["seed"], static=False, decide=decide
         )
     a = cal["artifacts"]
+    nulls = a["nulls"]
     return {
         "level": a["level"],
         "calibrated_level": a["calibrated_level"],
+        "binding_null": a["binding_null"],
         "observed_min_p": a["observed_min_p"],
-        "null_below": int(np.sum(np.asarray(a["null_min_p"]) <= a["observed_min_p"])),
-        "n_run": a["n_run"],
+        "null_levels": {k: v["calibrated_level"] for k, v in nulls.items()},
+        "null_below": {k: int(np.sum(np.asarray(v["null_min_p"]) <= a["observed_min_p"])) for k, v in nulls.items()},
+        "n_run": {k: v["n_run"] for k, v in nulls.items()},
+        "null_models": {k: v["model"] for k, v in nulls.items()},
         "level_bound": a["calibrated_level_bound"],
         "cpu_seconds": cal["cpu_seconds"],
     }
 
 
-def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1, checkpoint: Path | None = None) -> dict:
-    """The complete procedure's false alarms on the clean tables of a benchmark result: each
-    clean table on which the nominal procedure names an artifact is calibrated on itself
-    (:func:`asphalt_nscd.diagnosis.calibration.calibrate`, ``n_tables`` bootstrap tables
-    seeded by the table's seed, run in turn until the decision is known: curtailed once more
-    than the calibration's share of them reach the table's ``min_p``) and counts as an alarm
-    only if its ``min_p`` is below the calibrated level. The calibrated level is never above the nominal one, so a table
-    without a nominal alarm has none after calibration: the count is exact without
-    calibrating those. Adds ``detected_calibrated`` (and ``calibrated_level`` where it was
-    computed) to every clean run and ``calibration_tables`` to the result; recomputes
-    ``family_wise``. Returns ``result`` (changed in place).
+def calibrate_alarms(
+    result: dict,
+    n_tables: int = 200,
+    jobs: int = 1,
+    checkpoint: Path | None = None,
+    planted: int = 0,
+    artifacts=ARTIFACTS,
+) -> dict:
+    """The complete procedure's false alarms on the clean tables of a benchmark result, and its
+    detections on planted ones: each table on which the nominal procedure names an artifact is
+    calibrated on itself (:func:`asphalt_nscd.diagnosis.calibration.calibrate`, ``n_tables``
+    bootstrap tables of each null seeded by the table's seed, run in turn until the decision is
+    known: curtailed once more than the calibration's share of one null's reach the table's
+    ``min_p``). The calibrated level is never above the nominal one, so a table without a
+    nominal alarm has none after calibration: the counts are exact without calibrating those.
+
+    Clean tables: an alarm stays only if its ``min_p`` is below the calibrated level
+    (``detected_calibrated``, bool). Planted tables at the stated size (``planted``: the first
+    ``planted`` of each family and artifact; 0: none): a curtailed calibration names nothing;
+    otherwise the search is run again at the calibrated level and ``detected_calibrated`` lists
+    what it names (Holm's later steps and the offset test at their levels); ``artifacts``: the
+    planted artifacts recounted (default all). Adds
+    ``calibrated_level`` where it was computed, ``calibration_tables`` and ``planted_calibrated``
+    to the result; recomputes ``family_wise`` and adds ``detection_calibrated``
+    (:func:`detection_calibrated`). Returns ``result`` (changed in place).
 
     ``checkpoint``: a JSON-lines file; each table's calibration is appended to it as it ends and
-    a table already there (same family, index, seed, ``n_tables`` and ``min_p``) is read back
-    instead of rerun, so a stopped calibration resumes where it stopped.
+    a table already there (same family, kind, index, seed, ``n_tables``, nulls and ``min_p``)
+    is read back instead of rerun, so a stopped calibration resumes where it stopped.
 
     Raises ValueError when a run's table cannot be regenerated from the result's plan."""
     runs = result["runs"]
+    n_planted = int(result.get("n_planted_per_family_and_artifact", 0)) if planted else 0
     cases = {
         (c["family"], c["kind"], c["index"]): c
         for c in plan(
             result["base_seed"],
             result["families"],
             result["n_clean_per_family"],
-            0,
+            n_planted,
             result["effect_scale"],
             result["configuration"],
             0,
@@ -395,48 +423,99 @@ def calibrate_alarms(result: dict, n_tables: int = 200, jobs: int = 1, checkpoin
     }
     todo = []
     for r in runs:
-        if r["kind"] != "clean":
+        if r["kind"] == "clean":
+            r["detected_calibrated"] = False
+        elif r["kind"] in artifacts and r["index"] < planted:
+            r["detected_calibrated"] = []
+        else:
             continue
-        r["detected_calibrated"] = False
         if r["detected"]:
             case = cases.get((r["family"], r["kind"], r["index"]))
             if case is None or case["seed"] != r["seed"]:
                 raise ValueError(
-                    f"clean table {r['family']} #{r['index']}: not in the result's plan (base seed "
+                    f"{r['kind']} table {r['family']} #{r['index']}: not in the result's plan (base seed "
                     f"{result['base_seed']}); was the result produced by another version?"
                 )
             todo.append((r, case))
     done = _read_checkpoint(checkpoint, int(n_tables))
     rest = [(r, c) for r, c in todo if _checkpoint_key(r) not in done]
     tasks = [(c, result["alpha"], int(n_tables), r["min_p"]) for r, c in rest]
-    for (r, _), out in zip(rest, _map_cases(_calibrated_level, tasks, jobs, lazy=True)):
+    for (r, c), out in zip(rest, _map_cases(_calibrated_level, tasks, jobs, lazy=True)):
+        if r["kind"] != "clean":
+            out["detected"] = _named_at(c, result["alpha"], out)
         done[_checkpoint_key(r)] = out
         if checkpoint is not None:
             rec = {k: r[k] for k in CHECKPOINT_KEY}
             with open(checkpoint, "a") as fh:
-                fh.write(json.dumps({**rec, "n_tables": int(n_tables), "out": out}) + "\n")
-    outs = [done[_checkpoint_key(r)] for r, _ in todo]
-    for (r, _), out in zip(todo, outs):
+                fh.write(json.dumps({**rec, "n_tables": int(n_tables), "nulls": _nulls_tag(), "out": out}) + "\n")
+    for r, _ in todo:
+        out = done[_checkpoint_key(r)]
         r["calibrated_level"] = out["level"]
         r["calibration_cpu_seconds"] = out["cpu_seconds"]
         r["calibration_min_p"] = out["observed_min_p"]  # the table's statistic, recomputed with its calibration
-        r["calibration_null_below"] = out["null_below"]  # bootstrap tables whose statistic is <= it
-        r["calibration_tables_run"] = out["n_run"]  # fewer than n_tables: stopped once the decision was known
+        r["calibration_null_below"] = out["null_below"]  # per null: bootstrap tables whose statistic is <= it
+        r["calibration_tables_run"] = out["n_run"]  # per null; fewer than n_tables: stopped once decided
+        r["calibration_null_levels"] = out["null_levels"]
+        r["calibration_binding_null"] = out["binding_null"]
         r["calibrated_level_is_bound"] = out["level_bound"]
-        r["detected_calibrated"] = bool(r["min_p"] < out["level"])
+        if r["kind"] == "clean":
+            r["detected_calibrated"] = bool(r["min_p"] < out["level"])
+        else:
+            r["detected_calibrated"] = list(out["detected"])
     result["calibration_tables"] = int(n_tables)
+    result["planted_calibrated"] = int(planted)
     result["family_wise"] = family_wise(runs, result["families"])
+    result["detection_calibrated"] = detection_calibrated(runs, result["families"])
     return result
 
 
-#: the fields that name a clean table in a :func:`calibrate_alarms` checkpoint
-CHECKPOINT_KEY = ("family", "index", "seed", "min_p")
+def _named_at(case: dict, alpha: float, out: dict) -> list:
+    """What the search names on a case's table at the level of a calibration ``out`` (none when
+    the calibration stopped early: its level is then at most the table's statistic)."""
+    if out["level_bound"]:
+        return []
+    return run_case(case, alpha, level=out["level"])["detected"]
+
+
+def detection_calibrated(runs: list, families) -> dict:
+    """Per artifact, family and pooled (``all``): the planted tables whose detection was
+    recounted with the calibrated level (:func:`calibrate_alarms`), named at the nominal level
+    and after calibration, with the one-sided 95 % lower bound of the calibrated rate."""
+    out: dict[str, dict] = {}
+    for name in ARTIFACTS:
+        rs = [r for r in runs if r["kind"] == name and "detected_calibrated" in r]
+        if not rs:
+            continue
+        out[name] = {}
+        for fam in list(families) + ["all"]:
+            g = [r for r in rs if fam == "all" or r["family"] == fam]
+            if not g:
+                continue
+            k = sum(name in r["detected_calibrated"] for r in g)
+            out[name][fam] = {
+                "nominal": _rate(sum(name in r["detected"] for r in g), len(g)),
+                "calibrated": _rate(k, len(g)),
+                "calibrated_lower_95": lower_bound(k, len(g)),
+            }
+    return out
+
+
+#: the fields that name a table in a :func:`calibrate_alarms` checkpoint
+CHECKPOINT_KEY = ("family", "kind", "index", "seed", "min_p")
 
 
 def _checkpoint_key(rec: dict) -> tuple:
-    """A clean table's key in a :func:`calibrate_alarms` checkpoint (:data:`CHECKPOINT_KEY`)."""
-    family, index, seed, min_p = (rec[k] for k in CHECKPOINT_KEY)
-    return (family, int(index), int(seed), float(min_p))
+    """A table's key in a :func:`calibrate_alarms` checkpoint (:data:`CHECKPOINT_KEY`)."""
+    family, kind, index, seed, min_p = (rec[k] for k in CHECKPOINT_KEY)
+    return (family, kind, int(index), int(seed), float(min_p))
+
+
+def _nulls_tag() -> list:
+    """The calibration's nulls, recorded with each checkpoint line (a line of other nulls is
+    not read back)."""
+    from .calibration import NULLS
+
+    return list(NULLS)
 
 
 def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
@@ -464,7 +543,7 @@ def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
                 f"{path}: line {n + 1} is not a calibration record (expected the keys {', '.join(want)}); "
                 "remove the file to restart"
             )
-        if int(rec["n_tables"]) == n_tables:
+        if int(rec["n_tables"]) == n_tables and rec.get("nulls") == _nulls_tag():
             done[_checkpoint_key(rec)] = rec["out"]
     return done
 
@@ -514,6 +593,16 @@ def lower_bound(k: int, n: int, level: float = 0.95) -> float | None:
     if k <= 0:
         return 0.0
     return float(stats.beta.ppf(1.0 - level, k, n - k + 1))
+
+
+def upper_bound(k: int, n: int, level: float = 0.95) -> float | None:
+    """One-sided exact (Clopper-Pearson) upper confidence bound of a proportion k/n at ``level``
+    (1 for k = n; None for n = 0): the false-alarm rate a count bounds at most."""
+    if n <= 0:
+        return None
+    if k >= n:
+        return 1.0
+    return float(stats.beta.ppf(level, k + 1, n - k))
 
 
 def power_sizes(rows: list) -> dict:
@@ -694,9 +783,12 @@ def run_bench(
 
 def bench_table(result: dict) -> pd.DataFrame:
     """One row per artifact and family (and ``all``): configuration, effect size, detection
-    and false-alarm counts, rates and 95 % intervals; the family-wise false alarms as artifact
-    ``any`` (at the nominal level) and ``any, calibrated on the table`` (the complete
-    procedure, :func:`calibrate_alarms`, where it was run)."""
+    and false-alarm counts, rates, 95 % intervals and one-sided 95 % bounds (a detection rate's
+    lower, a false-alarm rate's upper); the family-wise false alarms as artifact ``any`` (at the
+    nominal level) and ``any, calibrated on the table`` (the complete procedure,
+    :func:`calibrate_alarms`, where it was run), and the detections recounted with the
+    calibrated level as ``<artifact>, calibrated on the table`` (with ``detected_nominal``:
+    those tables' detections at the nominal level)."""
     rows = []
     conf = result.get("configuration", "random")
     for fam, v in result["family_wise"].items():
@@ -712,6 +804,7 @@ def bench_table(result: dict) -> pd.DataFrame:
                 "false_alarm_rate": fa["rate"],
                 "false_alarm_ci_low": fa["ci95"][0],
                 "false_alarm_ci_high": fa["ci95"][1],
+                "false_alarm_upper_95": upper_bound(fa["k"], fa["n"]),
             }
         )
         if "false_alarm_any_calibrated" in v:
@@ -727,6 +820,26 @@ def bench_table(result: dict) -> pd.DataFrame:
                     "false_alarm_rate": fa["rate"],
                     "false_alarm_ci_low": fa["ci95"][0],
                     "false_alarm_ci_high": fa["ci95"][1],
+                    "false_alarm_upper_95": upper_bound(fa["k"], fa["n"]),
+                }
+            )
+    for name, per in result.get("detection_calibrated", {}).items():
+        size = "; ".join(f"{k} = {v:g}" for k, v in result["effect_sizes"][name].items())
+        for fam, r in per.items():
+            d = r["calibrated"]
+            rows.append(
+                {
+                    "configuration": conf,
+                    "artifact": f"{name}, calibrated on the table",
+                    "family": fam,
+                    "effect_size": size,
+                    "n_planted": d["n"],
+                    "detected": d["k"],
+                    "detection_rate": d["rate"],
+                    "detection_ci_low": d["ci95"][0],
+                    "detection_ci_high": d["ci95"][1],
+                    "detection_lower_95": r["calibrated_lower_95"],
+                    "detected_nominal": r["nominal"]["k"],
                 }
             )
     for name, per in result["summary"].items():
@@ -746,11 +859,13 @@ def bench_table(result: dict) -> pd.DataFrame:
                     "detection_rate": d["rate"],
                     "detection_ci_low": d["ci95"][0],
                     "detection_ci_high": d["ci95"][1],
+                    "detection_lower_95": lower_bound(d["k"], d["n"]),
                     "n_clean": fa["n"],
                     "false_alarms": fa["k"],
                     "false_alarm_rate": fa["rate"],
                     "false_alarm_ci_low": fa["ci95"][0],
                     "false_alarm_ci_high": fa["ci95"][1],
+                    "false_alarm_upper_95": upper_bound(fa["k"], fa["n"]),
                     "n_other_planted": x["n"],
                     "cross_talk": x["k"],
                     "cross_talk_rate": x["rate"],

@@ -785,7 +785,12 @@ def calibration_summary(calibration: dict | None) -> dict | None:
         "familywise_rate": calibration["familywise_rate"],
         "groups": calibration["groups"],
         "clean_model": calibration["clean_model"],
-        "artifacts": {k: v for k, v in a.items() if k != "null_min_p"},
+        "artifacts": {
+            **{k: v for k, v in a.items() if k not in ("null_min_p", "nulls")},
+            "nulls": {
+                name: {k: v for k, v in n.items() if k != "null_min_p"} for name, n in (a.get("nulls") or {}).items()
+            },
+        },
         "static": {"level": calibration["static"]["level"], "model": calibration["static"]["model"]},
     }
 

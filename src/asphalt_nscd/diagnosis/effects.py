@@ -1113,12 +1113,13 @@ def _evidence(name: str, est: dict, F: float, p: float, search: ArtifactSearch, 
 def adjusted_p(p, null_min_p) -> float | None:
     """Westfall-Young single-step min-P adjusted p-value of a nominal ``p``: the fraction
     (1 + #{b: m_b <= p}) / (B + 1) of the procedure's statistic m_b on B tables of the
-    table's own fitted clean model (:mod:`asphalt_nscd.diagnosis.calibration`); None without
-    a calibration or a p-value."""
+    table's own fitted clean model (:mod:`asphalt_nscd.diagnosis.calibration`); with several
+    nulls (a list of such lists, :func:`asphalt_nscd.diagnosis.calibration.null_statistics`),
+    the largest over them. None without a calibration or a p-value."""
     if p is None or null_min_p is None or not np.isfinite(p):
         return None
-    m = np.asarray(null_min_p, float)
-    return float((1 + np.sum(m <= p)) / (m.size + 1))
+    nulls = [np.asarray(m, float) for m in null_min_p] if np.ndim(null_min_p[0]) else [np.asarray(null_min_p, float)]
+    return float(max((1 + np.sum(m <= p)) / (m.size + 1) for m in nulls))
 
 
 def effect_entries(search: ArtifactSearch, result: dict, null_min_p=None) -> list:

@@ -90,7 +90,11 @@ INTERVALS = {
         "with the interval of the error against the mix (specimen, specimen-isotherm and cell levels, "
         "each with its own degrees of freedom)"
     ),
-    "loso": "t(n-1) over the held-out specimens",
+    "loso": (
+        "signed: t(n-1) over the held-out specimens; absolute: the expected error of each fold's law against "
+        "a new specimen of the mix, by a parametric bootstrap of the folds from the specimens' levels of scatter"
+    ),
+    "loso_t": "t(n-1) over the held-out specimens",
 }
 _KEYS = ["scheme", "kind", "model", "temperature_C", "extrapolation"]
 
@@ -368,17 +372,172 @@ def _specimen_scores(g: pd.DataFrame, spec: pd.DataFrame, pop: _Population, sche
     return out
 
 
-def _loso_scores(g: pd.DataFrame) -> dict:
-    """Scores of leave-one-specimen-out rows: each fold's reference is its own specimen."""
+def level_variances(comp: dict, quantity: str, n_sim: int = 0, seed: int = 0) -> dict | None:
+    """The variances of a specimen's three levels of deviation from the mix, from the mean
+    squares of :func:`nested_components` (expected mean squares n_T n_f s_u^2 + n_f s_v^2 +
+    s_e^2, n_f s_v^2 + s_e^2 and s_e^2; n_f the mean cells per isotherm; each floored at 0):
+    ``specimen`` (s_u^2), ``specimen_temperature`` (s_v^2), ``cell`` (s_e^2). With ``n_sim`` > 0
+    the specimen level, whose mean square has only n - 1 degrees of freedom (2 with 3
+    specimens), is drawn as MS_u dof / chi2_dof (seeded by ``seed``), as :func:`population_parts`
+    draws it: ``specimen`` is then an array of shape (n_sim,); the other two levels, with many
+    more degrees of freedom, keep their estimates. None with fewer than 2 specimens or without
+    the cell level."""
+    q = comp[quantity]
+    ms = q["ms"]
+    if comp["n_specimens"] < 2 or not np.isfinite(ms["cell"]) or not comp["n_f"]:
+        return None
+    n_T = len(comp["n_f"])
+    n_f = float(np.mean(list(comp["n_f"].values())))
+    m_u = ms["specimen"] if np.isfinite(ms["specimen"]) else 0.0
+    m_v = ms["specimen_temperature"] if np.isfinite(ms["specimen_temperature"]) else ms["cell"]
+    dof_u = q["dof"]["specimen"]
+    if n_sim > 0 and dof_u >= 1:
+        m_u = m_u * dof_u / np.random.default_rng([seed, 13]).chisquare(dof_u, n_sim)
+    return {
+        "specimen": np.maximum(m_u - m_v, 0.0) / (n_T * n_f),
+        "specimen_temperature": max(m_v - ms["cell"], 0.0) / n_f,
+        "cell": float(ms["cell"]),
+    }
+
+
+def folded_normal_mean(g, var) -> np.ndarray:
+    """E|g - x| for x ~ N(0, var), elementwise (broadcast shapes): s sqrt(2/pi) exp(-g^2 / 2 s^2)
+    + g (1 - 2 Phi(-g / s)), s = sqrt(var); |g| where var = 0 (the mean of a folded normal)."""
+    g = np.asarray(g, float)
+    s = np.sqrt(np.maximum(np.asarray(var, float), 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = g / s
+        out = s * np.sqrt(2.0 / np.pi) * np.exp(-0.5 * z**2) + g * (1.0 - 2.0 * stats.norm.cdf(-z))
+    return np.where(s > 0, out, np.abs(g))
+
+
+def loso_abs_interval(
+    pred: np.ndarray,
+    observed: np.ndarray,
+    train_mean: np.ndarray,
+    fold: np.ndarray,
+    T: np.ndarray,
+    levels: dict | None,
+    level: float = 0.95,
+    n_sim: int = N_SIMULATIONS,
+) -> tuple[float, float]:
+    """Interval of a leave-one-specimen-out absolute error, the mean over the folds of a fold's
+    expected error against a new specimen of the mix, mean_c E|pred_c - y_new,c|.
+
+    Each fold's observed error against its held-out specimen, A_k = mean_c |pred_k,c - y_k,c|,
+    estimates its fold's expectation T_k without bias (the fold's law did not see that
+    specimen); but a specimen's deviation from the mix is shared by its cells (its level, and
+    its level per isotherm), so A_k is skewed, and the folds' errors are not independent (each
+    specimen is held out by one fold and trains the others), so three of them do not show their
+    spread. The interval is model-based, a parametric bootstrap of the folds (Efron & Tibshirani
+    1993, *An introduction to the bootstrap*, ch. 6): each fold's law is its training specimens'
+    mean plus its own departure from it, eps_k,c = pred_k,c - (mean of the training specimens'
+    values, ``train_mean``); new specimens x*_1..n are drawn from the table's levels of scatter
+    (``levels``, :func:`level_variances`: a specimen's level, drawn with its own n - 1 degrees of
+    freedom, its level per isotherm, its cells' scatter); each fold then predicts mean_{j != k} x*_j + eps_k, its error
+    against its own held-out x*_k is A*_k and its expectation against a new specimen is
+    T*_k = mean_c E|pred*_k,c - x_new| (a folded normal's mean, :func:`folded_normal_mean`). The
+    ratio R* = mean_k A*_k / mean_k T*_k does not depend on the scale of the scatter, only on
+    its levels' proportions (the specimen level's drawn); the interval is mean_k A_k divided by
+    its 97.5 and 2.5 percentiles. ``pred``, ``observed`` (the held-out
+    specimen's value), ``train_mean``, ``fold``, ``T``: shape (rows,); (nan, nan) without levels
+    or on folds that do not score the same cells."""
+    if levels is None or not len(pred):
+        return np.nan, np.nan
+    pred, observed, train_mean = (np.asarray(x, float) for x in (pred, observed, train_mean))
+    folds = np.unique(fold)
+    n = folds.size
+    if n < 2 or not np.isfinite(train_mean).all():
+        return np.nan, np.nan
+    rng = np.random.default_rng([len(pred), n, 7])
+    temps, t_idx = np.unique(np.round(np.asarray(T, float), 6), return_inverse=True)
+    sel = [np.flatnonzero(fold == k) for k in folds]
+    if len({s.size for s in sel}) != 1:  # the folds score different cells: not a balanced table
+        return np.nan, np.nan
+    cells = sel[0]
+    if not all(
+        np.array_equal(np.round(np.asarray(T, float)[s], 6), np.round(np.asarray(T, float)[cells], 6)) for s in sel
+    ):
+        return np.nan, np.nan
+    # a level drawn per simulation (shape (n_sim,)) broadcasts over the folds and cells
+    s_u, s_v, s_e = (
+        np.sqrt(np.asarray(levels[k], float)).reshape((-1, 1, 1) if np.ndim(levels[k]) else ())
+        for k in ("specimen", "specimen_temperature", "cell")
+    )
+    ti = t_idx[cells]
+    # new specimens (n_sim, n, cells): level, level per isotherm, cell scatter
+    x = (
+        rng.normal(0.0, 1.0, (n_sim, n, 1)) * s_u
+        + (rng.normal(0.0, 1.0, (n_sim, n, temps.size)) * s_v)[:, :, ti]
+        + rng.normal(0.0, 1.0, (n_sim, n, cells.size)) * s_e
+    )
+    eps = np.stack([pred[s] - train_mean[s] for s in sel])  # (n, cells)
+    total = x.sum(axis=1, keepdims=True)
+    pred_star = (total - x) / (n - 1) + eps[None, :, :]
+    drawn = np.mean(np.abs(pred_star - x), axis=(1, 2))
+    expected = np.mean(folded_normal_mean(pred_star, (s_u**2 + s_v**2 + s_e**2)), axis=(1, 2))
+    estimate = float(np.mean([np.mean(np.abs(pred[s] - observed[s])) for s in sel]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo, hi = np.percentile(drawn / expected, [50 * (1 - level), 50 * (1 + level)])
+    return estimate / float(hi), estimate / float(lo)
+
+
+def _training_means(spec: pd.DataFrame, fold: np.ndarray, T: np.ndarray, f: np.ndarray) -> dict:
+    """Per row (a held-out specimen ``fold`` at the cell (T, f)): the mean of the other
+    specimens' values at that cell (``lnE``, ``phase``; nan where none tested it)."""
+    t = spec.reset_index()
+    out = {}
+    for q in ("lnE", "phase"):
+        total = t.groupby(["T", "f"])[q].sum()
+        count = t.groupby(["T", "f"])[q].size()
+        own = t.set_index(["specimen", "T", "f"])[q]
+        keys = pd.MultiIndex.from_arrays([T, f])
+        mine = own.reindex(pd.MultiIndex.from_arrays([np.asarray(fold, str), T, f])).to_numpy(float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[q] = (total.reindex(keys).to_numpy(float) - mine) / (count.reindex(keys).to_numpy(float) - 1)
+    return out
+
+
+def _loso_scores(g: pd.DataFrame, spec: pd.DataFrame | None = None, pop: _Population | None = None) -> dict:
+    """Scores of leave-one-specimen-out rows: each fold's reference is its own specimen. The
+    signed means get a t(n - 1) interval over the folds; the absolute means the model-based
+    interval of :func:`loso_abs_interval` (with the table's specimens ``spec`` and their levels
+    of scatter ``pop``; without them, or on folds that do not score the same cells, a t(n - 1)
+    interval over the folds)."""
     eE = np.log(g["E_norm_MPa_predicted"].to_numpy(float) / g["E_norm_MPa_measured"].to_numpy(float))
     eP = g["phase_deg_predicted"].to_numpy(float) - g["phase_deg_measured"].to_numpy(float)
     fold = g["fold"].astype(str).to_numpy()
-    out = {"n_specimens": int(np.unique(fold).size), "interval": INTERVALS["loso"]}
+    model_based = spec is not None and pop is not None
+    out = {"n_specimens": int(np.unique(fold).size), "interval": INTERVALS["loso" if model_based else "loso_t"]}
+    if model_based:
+        assert spec is not None and pop is not None
+        T = _round_T(g["cell_temperature_C"] if "cell_temperature_C" in g else g["temperature_C"])
+        f = g["frequency_Hz"].to_numpy(float)
+        train = _training_means(spec, fold, T, f)
+        reference = {
+            "logE": (
+                np.log(g["E_norm_MPa_predicted"].to_numpy(float)),
+                np.log(g["E_norm_MPa_measured"].to_numpy(float)),
+                train["lnE"],
+            ),
+            "phase": (
+                g["phase_deg_predicted"].to_numpy(float),
+                g["phase_deg_measured"].to_numpy(float),
+                train["phase"],
+            ),
+        }
     for q, e, scale, unit in (("logE", eE, 100.0, "pct"), ("phase", eP, 1.0, "deg")):
         per = pd.DataFrame({"fold": fold, "e": e, "a": np.abs(e)}).groupby("fold").mean()
         lo, hi = t_interval(per["e"])
-        a_lo, a_hi = t_interval(per["a"])
-        a_lo = max(a_lo, 0.0) if np.isfinite(a_lo) else a_lo  # an absolute error is >= 0
+        a_lo, a_hi = np.nan, np.nan
+        if model_based:
+            pred, obs, train_q = reference[q]
+            levels = level_variances(pop.comp, "lnE" if q == "logE" else "phase", N_SIMULATIONS, len(g))
+            a_lo, a_hi = loso_abs_interval(pred, obs, train_q, fold, T, levels)
+        if not (np.isfinite(a_lo) and np.isfinite(a_hi)):
+            out["interval"] = INTERVALS["loso_t"]
+            a_lo, a_hi = t_interval(per["a"])
+            a_lo = max(a_lo, 0.0) if np.isfinite(a_lo) else a_lo  # an absolute error is >= 0
         out.update(
             {
                 f"bias_{q}_{unit}": scale * float(e.mean()),
@@ -445,7 +604,7 @@ def summarize(rows: pd.DataFrame, table: pd.DataFrame | None = None) -> pd.DataF
             )
             if len(ok):
                 if key[0] == "loso" and key[1] == "held_out":
-                    r.update(_loso_scores(ok))
+                    r.update(_loso_scores(ok, spec, pop))
                 elif spec is not None:
                     assert pop is not None  # made with spec
                     r.update(_specimen_scores(ok, spec, pop, key[0] if key[1] == "held_out" else ""))
