@@ -54,8 +54,13 @@ report: setup
 dry-run: setup
 	$(BIN)/snakemake -n --configfile $(CONFIG)
 
+# The suite on one worker process per core (pytest-xdist): each test module on one worker, so that its
+# module fixtures are built once; the modules of the slow tests (the smoke run of the workflow) start first
+# (tests/conftest.py), the others share the remaining workers in the order they are collected.
+# `make test PYTEST_ARGS=` runs it in one process.
+PYTEST_ARGS ?= -n $(CORES) --dist loadscope --no-loadscope-reorder
 test: setup
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 bench: setup
 	$(BIN)/asphalt-nscd bench --case bonded --n 2000 -o results/bench/bonded.json

@@ -3,16 +3,27 @@
 # One rule file per package it drives (workflow/rules/<stage>.smk, in the order of asphalt_nscd.STAGES).
 # Threads and resources live in the workflow profiles: profiles/default (loaded automatically, a 2-core
 # workstation) and profiles/slurm (`--workflow-profile profiles/slurm`).
+import os
 import sys
 import time
+from pathlib import Path
 
 from snakemake.utils import min_version, validate
 
+import asphalt_nscd
 from asphalt_nscd import STAGES
 from asphalt_nscd import config as config_files
 from asphalt_nscd import plan
 
 min_version("9.0")
+
+# One BLAS and one OpenMP thread per job unless the user's environment sets a count: the jobs run side by
+# side, one per core, and the libraries' own threads would contend for the same cores (docs/choices.md,
+# "Threads of the libraries"). Set before any job starts; every job's process inherits it.
+os.environ.update(plan.thread_environment(os.environ))
+# The package's byte code, written once for the jobs of the run (each would otherwise compile its sources
+# where PYTHONDONTWRITEBYTECODE is set): a cache, no result depends on it.
+plan.byte_compile(Path(asphalt_nscd.__file__).parent)
 
 # the start of this run: the rule logs written since hold its errors and warnings (printed below)
 RUN_START = time.time()

@@ -159,6 +159,38 @@ def job_environment(python_executable: str, basedir: str, path: str, workdir: st
     }
 
 
+#: Thread counts of the BLAS and OpenMP libraries that every job gets unless the user's environment sets them
+#: (:func:`thread_environment`; docs/choices.md, "Threads of the libraries").
+LIBRARY_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def thread_environment(environ) -> dict:
+    """The library thread counts a job gets: 1 for each variable of :data:`LIBRARY_THREAD_VARIABLES`
+    that ``environ`` (a mapping, e.g. ``os.environ``) leaves unset or empty; a value the user set is kept
+    (not returned). A workflow runs one job per core, and each of OpenBLAS's and OpenMP's own threads
+    then contends for the same cores (docs/choices.md, "Threads of the libraries"). Numba's threads are
+    not among them: a threaded NSCD command gets its count from NUMBA_NUM_THREADS and ``--threads``."""
+    return {name: "1" for name in LIBRARY_THREAD_VARIABLES if not environ.get(name)}
+
+
+def byte_compile(package_dir) -> bool:
+    """Write the byte code of every module under ``package_dir`` (``__pycache__``, as ``python -m
+    compileall``) where it is missing or older than its source, so that the jobs of a run load it instead
+    of compiling the package's sources each: an interpreter with PYTHONDONTWRITEBYTECODE set (or a
+    read-only checkout) never writes it itself, and every job then compiles about 300 modules again.
+    Returns False, changing nothing, where the directory is not writable (a package installed read-only);
+    the byte code is a cache: its absence changes no result."""
+    import compileall
+
+    package_dir = Path(package_dir)
+    if not os.access(package_dir, os.W_OK):
+        return False
+    try:
+        return bool(compileall.compile_dir(package_dir, quiet=2, workers=1))
+    except OSError:
+        return False
+
+
 def section_schemas(config: dict, schema_dir) -> dict:
     """Config section -> its JSON schema file (``{schema_dir}/{section}.schema.yaml``), for the
     sections that have one."""

@@ -8,6 +8,7 @@ rule files (smoke: 16 run_2pb jobs, default: 184, paper: 576)."""
 from __future__ import annotations
 
 import copy
+import os
 import inspect
 from collections import Counter
 from pathlib import Path
@@ -492,6 +493,41 @@ def test_environment_and_schemas(tmp_path):
     schemas = plan.section_schemas(cfg, SCHEMAS)
     assert {"campaign", "diagnosis", "harmonic", "sample"} <= set(schemas)
     assert all(Path(p).is_file() for p in schemas.values())
+
+
+def test_jobs_get_one_library_thread_unless_the_user_sets_a_count():
+    assert plan.thread_environment({}) == {v: "1" for v in plan.LIBRARY_THREAD_VARIABLES}
+    assert set(plan.LIBRARY_THREAD_VARIABLES) == {"OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"}
+    # a count the user set is kept; an empty value counts as unset
+    assert plan.thread_environment({"OMP_NUM_THREADS": "4", "MKL_NUM_THREADS": ""}) == {
+        "OPENBLAS_NUM_THREADS": "1",
+        "MKL_NUM_THREADS": "1",
+    }
+    # the Snakefile sets them in the environment its jobs inherit, before any job starts
+    text = (Path(__file__).resolve().parents[2] / "Snakefile").read_text()
+    assert "os.environ.update(plan.thread_environment(os.environ))" in text
+    assert text.index("thread_environment") < text.index("include:")
+
+
+def test_byte_compile_writes_the_byte_code_once(tmp_path):
+    import importlib.util
+
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("X = 1\n")
+    (pkg / "sub" / "b.py").write_text("Y = 2\n")
+    assert plan.byte_compile(pkg)
+    for src in (pkg / "a.py", pkg / "sub" / "b.py"):
+        assert Path(importlib.util.cache_from_source(str(src))).is_file()
+    first = Path(importlib.util.cache_from_source(str(pkg / "a.py"))).stat().st_mtime_ns
+    assert plan.byte_compile(pkg)  # up to date: nothing rewritten
+    assert Path(importlib.util.cache_from_source(str(pkg / "a.py"))).stat().st_mtime_ns == first
+    pkg.chmod(0o500)
+    try:
+        writable = os.access(pkg, os.W_OK)  # root writes anyway
+        assert plan.byte_compile(pkg) is writable
+    finally:
+        pkg.chmod(0o700)
 
 
 def test_every_public_function_is_documented():

@@ -39,21 +39,27 @@ tuples of arrays passed to the kernels), _jit.py, state.py, checkpoint.py, verif
 CLI: ``asphalt-nscd verify -o verify.json``, ``asphalt-nscd bench --case bonded|granular``.
 """
 
-from .checkpoint import read_checkpoint, write_checkpoint
-from .moreau_jean import Simulation
-from .state import (
-    DRIVEN,
-    FIXED,
-    FREE,
-    YIELD_STRESS,
-    Bonds,
-    NSCDParameters,
-    Plate,
-    Plates,
-    Spheres,
-    StepStats,
-    local_frames,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the names below, imported on first use (__getattr__)
+    from .checkpoint import read_checkpoint, write_checkpoint
+    from .moreau_jean import Simulation
+    from .state import (
+        DRIVEN,
+        FIXED,
+        FREE,
+        YIELD_STRESS,
+        Bonds,
+        NSCDParameters,
+        Plate,
+        Plates,
+        Spheres,
+        StepStats,
+        local_frames,
+    )
 
 __all__ = [
     "Simulation",
@@ -71,3 +77,26 @@ __all__ = [
     "DRIVEN",
     "YIELD_STRESS",
 ]
+
+#: public name -> the module defining it. The package imports a module when one of its names is first
+#: used (PEP 562): a command that only builds the parser, or reads a constant of :mod:`.state`, does not
+#: load the compiled kernels (numba, about 0.3 s of CPU per process; docs/choices.md, "Start-up of a job").
+_WHERE = {name: ".state" for name in __all__}
+_WHERE.update(Simulation=".moreau_jean", read_checkpoint=".checkpoint", write_checkpoint=".checkpoint")
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name], __name__), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule used as an attribute (nscd.detection)
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

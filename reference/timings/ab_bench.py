@@ -1,0 +1,184 @@
+"""Before/after benchmark of where people wait: one invocation runs the same work with the code of two
+commits, one after the other on this machine, and writes the CPU and wall time of each and their ratios
+(JSON). Speed on a shared machine depends on the hour; a ratio measured in one run does much less.
+
+    .venv/bin/python reference/timings/ab_bench.py tests --before BASE -o results/bench/ab_tests.json
+    .venv/bin/python reference/timings/ab_bench.py run --before BASE -o results/bench/ab_run.json
+    .venv/bin/python reference/timings/ab_bench.py prepare --before BASE -o results/bench/ab_prepare.json
+
+Cases (``make bench`` runs them on small selections; the options name larger ones):
+
+* ``tests``: the test modules ``--tests`` (default :data:`TESTS`) as each commit's ``make test`` runs
+  them: ``python -m pytest`` with the options of its Makefile's ``PYTEST_ARGS`` (none before they
+  existed), in a checkout of the commit.
+* ``run``: ``snakemake --cores 2`` on ``--configfile`` (default the smoke configuration) and the targets
+  ``--targets`` (default :data:`RUN_TARGETS`: the 2PB rows of one sample's measured and extended modes
+  and what they need) in a fresh working directory per commit.
+* ``prepare``: ``asphalt-nscd prepare-bench`` of one seed on ``--configfile`` (default
+  config/paper.yaml) with each commit's code; the record holds each sample's statistics (spheres,
+  porosity, coordination number, bonds) beside the times.
+
+Each commit is checked out with ``git worktree add --detach`` into a temporary directory (removed at the
+end) and runs on this interpreter's environment with its own sources first (``PYTHONPATH``). CPU is the
+user + system time of the command and of every process it waited for (``getrusage``). ``--after`` is a
+commit or ``worktree`` (the working tree as it is, uncommitted changes included; the default).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import os
+import platform
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+#: test modules of the ``tests`` case by default: a few seconds to a minute each, from the parts the
+#: speed-ups touch (library threads, byte code, the sample preparation, the campaign)
+TESTS = [
+    "tests/unit/test_chain_robustness.py",
+    "tests/unit/test_sample_prepare.py",
+    "tests/unit/test_campaign_twopb.py",
+    "tests/unit/test_harmonic_solver.py",
+]
+#: targets of the ``run`` case by default (config/smoke.yaml): the sample, the law, the measured and
+#: extended 2PB rows of one sample and their isotherm tables
+RUN_TARGETS = [
+    "results/campaign/measured/table4_measured.csv",
+    "results/campaign/extended/table4_extended.csv",
+]
+
+
+def cpu_children() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def timed(cmd: list[str], cwd: Path, env: dict, log: Path) -> dict:
+    """Run ``cmd``; its wall time, CPU (its processes and those they waited for), exit status."""
+    c0, t0 = cpu_children(), time.perf_counter()
+    with open(log, "w") as fh:
+        proc = subprocess.run(cmd, cwd=cwd, env=env, stdout=fh, stderr=subprocess.STDOUT)
+    return {
+        "command": " ".join(cmd),
+        "returncode": proc.returncode,
+        "wall_s": round(time.perf_counter() - t0, 2),
+        "cpu_s": round(cpu_children() - c0, 2),
+        "load_average_1min_end": round(os.getloadavg()[0], 2),
+    }
+
+
+@contextlib.contextmanager
+def checkout(rev: str, root: Path):
+    """The source tree of ``rev`` (a commit; 'worktree': this working tree as it is)."""
+    if rev == "worktree":
+        yield REPO
+        return
+    path = root / f"tree-{rev[:12]}"
+    subprocess.run(["git", "worktree", "add", "--detach", "-q", str(path), rev], cwd=REPO, check=True)
+    try:
+        yield path
+    finally:
+        subprocess.run(["git", "worktree", "remove", "--force", str(path)], cwd=REPO, check=False)
+
+
+def environment(tree: Path) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(tree / "src"), env.get("PYTHONPATH", "")]))
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    return env
+
+
+def pytest_args(tree: Path) -> list[str]:
+    """The pytest options of ``make test`` in ``tree``: its Makefile's ``PYTEST_ARGS`` (none if unset)."""
+    m = re.search(r"^PYTEST_ARGS\s*\?=\s*(.*)$", (tree / "Makefile").read_text(), flags=re.M)
+    return m.group(1).split() if m else []
+
+
+def run_case(case: str, tree: Path, work: Path, log: Path, args) -> dict:
+    """Run ``case`` with the code of ``tree`` in the fresh directory ``work``; its output to ``log``."""
+    env = environment(tree)
+    work.mkdir(parents=True, exist_ok=True)
+    if case == "tests":
+        cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *pytest_args(tree), *args.tests]
+        return timed(cmd, tree, env, log)
+    if case == "run":
+        for name in ("data", "config"):
+            (work / name).symlink_to(tree / name)
+        cmd = [sys.executable, "-m", "snakemake", "-s", str(tree / "Snakefile"), "--directory", str(work)]
+        cmd += ["--cores", "2", "--configfile", *args.configfile, *args.targets]
+        rec = timed(cmd, work, env, log)
+        cpu_log = work / "benchmarks" / "process_cpu.jsonl"
+        if cpu_log.exists():
+            jobs = [json.loads(line) for line in cpu_log.read_text().splitlines() if line.strip()]
+            rec["jobs"] = len(jobs)
+            rec["jobs_cpu_s"] = round(sum(j["user_s"] + j["system_s"] for j in jobs), 2)
+        return rec
+    if case == "prepare":
+        for name in ("data", "config"):
+            (work / name).symlink_to(tree / name)
+        out = work / "prepare.json"
+        cmd = [str(Path(sys.executable).parent / "asphalt-nscd"), "prepare-bench", "--config", *args.configfile]
+        cmd += ["--seed", str(args.seed), "-o", str(out), "--summary", str(work / "summary.json")]
+        rec = timed(cmd, work, env, log)
+        if out.exists():
+            bench = json.loads(out.read_text())
+            rec["phases_cpu_s"] = {k: round(v["cpu_s"], 2) for k, v in bench["phases"].items()}
+            rec["sample"] = bench["sample"]
+        return rec
+    raise SystemExit(f"unknown case {case!r}")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("case", choices=["tests", "run", "prepare"])
+    ap.add_argument("--before", required=True, help="commit of the 'before' code")
+    ap.add_argument("--after", default="worktree", help="commit of the 'after' code, or worktree (default)")
+    ap.add_argument("--tests", nargs="+", default=TESTS, help="tests case: test files or node ids")
+    ap.add_argument("--configfile", nargs="+", help="run and prepare cases: configuration files")
+    ap.add_argument("--targets", nargs="+", default=RUN_TARGETS, help="run case: Snakemake targets")
+    ap.add_argument("--seed", type=int, default=1, help="prepare case: the seed")
+    ap.add_argument("--order", choices=["before-first", "after-first"], default="before-first")
+    ap.add_argument("-o", "--output", required=True, help="JSON record")
+    args = ap.parse_args(argv)
+    if args.configfile is None:
+        args.configfile = ["config/smoke.yaml"] if args.case == "run" else ["config/paper.yaml"]
+    revs = {"before": args.before, "after": args.after}
+    order = ["before", "after"] if args.order == "before-first" else ["after", "before"]
+    root = Path(tempfile.mkdtemp(prefix="ab_bench_"))
+    Path(args.output).parent.mkdir(parents=True, exist_ok=True)
+    record: dict = {"case": args.case, "date": time.strftime("%Y-%m-%d %H:%M:%S"), "machine": platform.node()}
+    record["cores"] = os.cpu_count()
+    record["load_average_1min_start"] = round(os.getloadavg()[0], 2)
+    try:
+        for side in order:
+            with checkout(revs[side], root) as tree:
+                head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=tree, capture_output=True, text=True)
+                log = Path(args.output).with_suffix(f".{side}.log")
+                rec = run_case(args.case, tree, root / side, log, args)
+                rec["log"] = str(log)
+                rec["commit"] = head.stdout.strip() + (" + working tree" if revs[side] == "worktree" else "")
+                record[side] = rec
+                print(f"{side}: {json.dumps(rec)}", file=sys.stderr)
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+    b, a = record["before"], record["after"]
+    record["cpu_ratio_before_over_after"] = round(b["cpu_s"] / a["cpu_s"], 3) if a["cpu_s"] else None
+    record["wall_ratio_before_over_after"] = round(b["wall_s"] / a["wall_s"], 3) if a["wall_s"] else None
+    Path(args.output).write_text(json.dumps(record, indent=2) + "\n")
+    if b["returncode"] or a["returncode"]:
+        raise SystemExit(
+            f"a side failed (exit {b['returncode']} before, {a['returncode']} after): {b['log']}, {a['log']}"
+        )
+
+
+if __name__ == "__main__":
+    main()
