@@ -457,7 +457,7 @@ def calibrate(
                 curtailed = b + 1 < B
                 break
     nominal = float(observed["nominal_level"])
-    per_null = {}
+    per_null: dict[str, dict] = {}
     for name, m in models.items():
         v = np.asarray(stat[name], float)
         if curtailed:  # the (k_max + 1)-th smallest of the tables run bounds the level from above
@@ -477,18 +477,18 @@ def calibrate(
     binding = min(per_null, key=lambda n: per_null[n]["calibrated_level"])
     c = per_null[binding]["calibrated_level"]
     # out of sample: each half's level (the smaller over the nulls) judged on the other half, per null
-    halves = {}
+    halves: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for name in models:
-        v = np.asarray(stat[name], float)
-        halves[name] = (v[: v.size // 2], v[v.size // 2 :])
+        w = np.asarray(stat[name], float)
+        halves[name] = (w[: w.size // 2], w[w.size // 2 :])
 
     def half_level(i: int) -> float:
         return min([critical_level(h[i], group_rate) for h in halves.values()] + [nominal])
 
-    rates = {}
-    for name, (a, b) in halves.items():
-        k = int(np.sum(b < half_level(0)) + np.sum(a < half_level(1)))
-        n = a.size + b.size
+    rates: dict[str, dict] = {}
+    for name, (first, second) in halves.items():
+        k = int(np.sum(second < half_level(0)) + np.sum(first < half_level(1)))
+        n = first.size + second.size
         lo, hi = binomial_ci(k, n)
         rates[name] = {"k": k, "n": n, "rate": k / n if n else None, "ci95": [lo, hi]}
     worst = max(rates, key=lambda n: rates[n]["rate"] or 0.0)

@@ -530,7 +530,7 @@ def _loso_scores(g: pd.DataFrame, spec: pd.DataFrame | None = None, pop: _Popula
         per = pd.DataFrame({"fold": fold, "e": e, "a": np.abs(e)}).groupby("fold").mean()
         lo, hi = t_interval(per["e"])
         a_lo, a_hi = np.nan, np.nan
-        if model_based:
+        if model_based and pop is not None:
             pred, obs, train_q = reference[q]
             levels = level_variances(pop.comp, "lnE" if q == "logE" else "phase", N_SIMULATIONS, len(g))
             a_lo, a_hi = loso_abs_interval(pred, obs, train_q, fold, T, levels)
