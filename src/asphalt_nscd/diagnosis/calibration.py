@@ -1,57 +1,39 @@
 """Error control of the whole artifact procedure, calibrated on the table itself.
 
-The artifact procedure (:class:`asphalt_nscd.diagnosis.effects.ArtifactSearch`: the
-identifiability check, every candidate, the forward steps under Holm, the temperature-offset
-test) names an artifact if and only if its statistic ``min_p`` (the smallest first-step
-p-value among candidates of the right sign and practical size, and the offset test's) is below
-the first step's level. Its nominal level alpha / m holds only where the F-tests' assumptions
-hold; a table that the screening model fits worse than its replicate scatter allows (a reduced
-chi-square above 1) makes every nominal p-value too small, and where the screening model
-cannot follow the material its misfit runs smoothly along frequency and temperature, as an
-artifact's signature does. So the level is calibrated on the table itself (Westfall & Young
-1993, *Resampling-based multiple testing*, the single-step min-P procedure), by parametric
-bootstraps of two fitted clean models of the table (two nulls; Davison & Hinkley 1997,
-*Bootstrap methods and their application*, section 4.2), and the more conservative level is used:
+The artifact procedure (:class:`asphalt_nscd.diagnosis.effects.ArtifactSearch`) names an
+artifact if and only if its statistic ``min_p`` (the smallest first-step p-value among
+candidates of the right sign and practical size, and the offset test's) is below the first
+step's level. Its nominal level alpha / m holds only where the F-tests' assumptions hold: a
+table the screening model fits worse than its replicate scatter allows makes every nominal
+p-value too small, and where the screening model cannot follow the material its misfit runs
+smoothly along frequency and temperature, as an artifact's signature does. So the level is
+calibrated on the table (Westfall & Young 1993, the single-step min-P procedure) by parametric
+bootstraps of two fitted clean models of it (Davison & Hinkley 1997, section 4.2), and the more
+conservative level is used:
 
-* **the screening null** (``2s2p1d``): the screening fit of the table (2S2P1D master curve,
-  vertical factor per isotherm, specimen factors and phase offsets as fitted) with the free
-  shifts replaced by the smooth shift law through them (no temperature offset) and no artifact;
-* **the relaxation-spectrum null** (``maxwell``, :func:`maxwell_model`): a generalized
-  Maxwell (Prony) master curve, any positive relaxation spectrum on a log-spaced grid of
-  relaxation times (non-negative least squares), with the search's smooth shift law, a vertical
-  factor per isotherm and the specimen factors, fitted jointly to the table (variable
-  projection: the spectrum by NNLS inside a least-squares fit of the others). Every linear
-  viscoelastic, thermorheologically simple material has such a spectrum (Tschoegl 1989, *The
-  phenomenological theory of linear viscoelastic behavior*, ch. 3; Park & Schapery 1999,
-  Int. J. Solids Struct. 36, 1653-1675), so this null follows the smooth misfit of a table the
-  2S2P1D screening model cannot follow, *as it is*: its simulated tables carry that misfit,
-  correlated along frequency and temperature, and the procedure's statistic on them is as small
-  as the misfit makes it. What no such material gives is not in it: a phase that grows with the
-  test frequency at a fixed |E*| (time lag), an E1 deficit growing with the test frequency's
-  square (inertia), an isotherm off the smooth shift law (offset), a dependence on strain or
-  on the test order. The grid has :data:`MAXWELL_DENSITIES` terms per decade over the table's
-  reduced band widened by :data:`MAXWELL_MARGIN_DECADES` at each end; the density with the
-  smallest Bayesian information criterion is used;
-* **their noise**: the replicate (point) scatter of ln|E*| and Phi, plus a misfit shared by
-  the specimens of a cell, normal with the variance the null's own fit leaves in the cell
-  means beyond the point scatter (its cell misfit);
+* **the screening null** (``2s2p1d``): the screening fit (2S2P1D master curve, vertical factor
+  per isotherm, specimen factors and phase offsets) with the smooth shift law and no artifact;
+* **the relaxation-spectrum null** (``maxwell``, :func:`maxwell_model`): a generalized Maxwell
+  master curve with any non-negative spectrum on a log-spaced grid (NNLS inside a least-squares
+  fit of the shift law, vertical and specimen factors; :data:`MAXWELL_DENSITIES` terms per
+  decade, widened by :data:`MAXWELL_MARGIN_DECADES`, the density of smallest BIC). Every linear
+  viscoelastic, thermorheologically simple material has such a spectrum (Tschoegl 1989, ch. 3),
+  so its tables carry the screening model's smooth misfit as it is; what no such material gives
+  (time lag, inertia, an isotherm off the shift law, strain or test-order dependence) is not in it;
+* **their noise**: the replicate scatter of ln|E*| and Phi plus a misfit shared by a cell's
+  specimens (the variance the null's own fit leaves in the cell means beyond the point scatter);
 * **the table's design**: the same rows, specimens, strains and test order.
 
-On B tables of each null (seeded) the whole procedure runs and gives min_p_b. A null's
-calibrated level is the largest c with #{b : min_p_b < c} <= rate x B (rate: the family-wise
-false-alarm rate, config ``diagnosis.calibration.familywise_rate``); the procedure uses the
-smaller of the two nulls' levels and the nominal alpha / m (the nominal level, whose
-false-alarm rates the detection benchmark measures, stays a ceiling). The rate it gives is
-measured out of sample by cross-fitting (each half's level judged on the other half, under
-each null), with its Clopper-Pearson interval; a named artifact's calibrated p-value is the
-larger over the nulls of (1 + #{min_p_b <= p}) / (B + 1)
-(:func:`asphalt_nscd.diagnosis.effects.adjusted_p`).
+On B seeded tables of each null the whole procedure gives min_p_b; a null's calibrated level is
+the largest c with #{b : min_p_b < c} <= rate x B (config ``diagnosis.calibration.familywise_rate``);
+the procedure uses the smallest of the two nulls' levels and the nominal alpha / m. The rate is
+measured out of sample by cross-fitting (each half's level judged on the other half, under each
+null) with its Clopper-Pearson interval; a named artifact's calibrated p-value is the larger over
+the nulls of (1 + #{min_p_b <= p}) / (B + 1) (:func:`asphalt_nscd.diagnosis.effects.adjusted_p`).
 
-The static-modulus test (the master curve with E00 free against E00 = 0, in
-:mod:`asphalt_nscd.diagnosis.causes`) is calibrated on tables of the table's liquid master
-curve (E00 = 0, shift law of the search) with the screening null's noise: its p-value is
-(1 + #{F_b >= F}) / (B + 1). The family is the two groups, artifacts and static modulus, each
-at half the family-wise rate (Bonferroni).
+The static-modulus test (:mod:`asphalt_nscd.diagnosis.causes`) is calibrated on tables of the
+liquid master curve (E00 = 0) with the screening null's noise, p = (1 + #{F_b >= F}) / (B + 1).
+The family is the two groups, artifacts and static modulus, each at half the family-wise rate.
 
 Choices and their measurements: docs/choices.md, Diagnosis: error control on the table itself.
 """
