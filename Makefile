@@ -57,8 +57,8 @@ dry-run: setup
 # The suite on one worker process per core (pytest-xdist): each test module on one worker, so that its
 # module fixtures are built once; the modules of the slow tests (the smoke run of the workflow) start first
 # (tests/conftest.py), the others share the remaining workers in the order they are collected.
-# `make test PYTEST_ARGS=` runs it in one process.
-PYTEST_ARGS ?= -n $(CORES) --dist loadscope --no-loadscope-reorder
+# `make test PYTEST_ARGS=` runs it in one process; --durations=20 prints the slowest twenty tests.
+PYTEST_ARGS ?= -n $(CORES) --dist loadscope --no-loadscope-reorder --durations=20
 test: setup
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 

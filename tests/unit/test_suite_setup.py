@@ -81,7 +81,14 @@ def test_make_test_runs_one_worker_per_core_with_whole_modules():
     makefile = (REPO / "Makefile").read_text()
     args = re.search(r"^PYTEST_ARGS \?= (.*)$", makefile, re.M)
     assert args, "Makefile: no PYTEST_ARGS"
-    assert args.group(1).split() == ["-n", "$(CORES)", "--dist", "loadscope", "--no-loadscope-reorder"]
+    assert args.group(1).split() == [
+        "-n",
+        "$(CORES)",
+        "--dist",
+        "loadscope",
+        "--no-loadscope-reorder",
+        "--durations=20",
+    ]
     assert re.search(r"^test: setup\n\t\$\(BIN\)/python -m pytest \$\(PYTEST_ARGS\)$", makefile, re.M)
     locked = (REPO / "requirements.lock").read_text().splitlines()
     assert any(line.startswith("pytest-xdist==") for line in locked)
