@@ -17,36 +17,49 @@ REPO = Path(__file__).resolve().parents[2]
 THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def test_a_test_process_runs_one_blas_and_openmp_thread_unless_told_otherwise():
-    import numpy  # noqa: F401  (loads OpenBLAS)
-    from threadpoolctl import threadpool_info
-
-    assert all(os.environ.get(name) for name in THREADS)
-    if all(os.environ[name] == "1" for name in THREADS):
-        pools = [p for p in threadpool_info() if p["user_api"] in ("blas", "openmp")]
-        assert pools, "no BLAS pool loaded"
-        assert {p["num_threads"] for p in pools} == {1}, pools
-
-
-def test_a_count_set_by_the_user_is_kept(tmp_path):
-    """conftest.py sets the counts only where the environment leaves them unset."""
+def _run_probe(tmp_path, body: str, env: dict) -> subprocess.CompletedProcess:
+    """Run ``body`` as a test module in a fresh pytest process under the suite's conftest.py."""
     probe = tmp_path / "test_probe.py"
-    probe.write_text(
-        "import os\n\ndef test_counts():\n"
-        "    assert os.environ['OMP_NUM_THREADS'] == '3'\n"
-        "    assert os.environ['OPENBLAS_NUM_THREADS'] == '1'\n"
-    )
+    probe.write_text(body)
     for name in ("conftest.py", "suite_order.py"):
         (tmp_path / name).write_text((REPO / "tests" / name).read_text())
-    env = {k: v for k, v in os.environ.items() if k not in THREADS}
-    env["OMP_NUM_THREADS"] = "3"
-    proc = subprocess.run(
+    return subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist", str(probe)],
         cwd=tmp_path,
         env=env,
         capture_output=True,
         text=True,
     )
+
+
+def test_a_test_process_runs_one_blas_and_openmp_thread_unless_told_otherwise(tmp_path):
+    """In a fresh test process whose environment sets no count, conftest.py sets each to 1 and the
+    BLAS and OpenMP pools numpy loads run one thread. (A fresh process: in the suite's own workers a
+    threaded NSCD test may have set numba's OpenMP pool to its own count before, as it should.)"""
+    body = (
+        "import os\n\ndef test_counts():\n"
+        "    import numpy\n"
+        "    from threadpoolctl import threadpool_info\n"
+        f"    assert all(os.environ[name] == '1' for name in {THREADS!r})\n"
+        "    pools = [p for p in threadpool_info() if p['user_api'] in ('blas', 'openmp')]\n"
+        "    assert pools, 'no BLAS pool loaded'\n"
+        "    assert {p['num_threads'] for p in pools} == {1}, pools\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in THREADS}
+    proc = _run_probe(tmp_path, body, env)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+
+
+def test_a_count_set_by_the_user_is_kept(tmp_path):
+    """conftest.py sets the counts only where the environment leaves them unset."""
+    body = (
+        "import os\n\ndef test_counts():\n"
+        "    assert os.environ['OMP_NUM_THREADS'] == '3'\n"
+        "    assert os.environ['OPENBLAS_NUM_THREADS'] == '1'\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in THREADS}
+    env["OMP_NUM_THREADS"] = "3"
+    proc = _run_probe(tmp_path, body, env)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
 
 
