@@ -9,7 +9,7 @@ RUN_DIR is the working directory of the run (it holds ``results/forecast/`` and
 * ``<label>_per_mix.csv``: each mix's mean held-out errors per model, route and temperature (the
   paired comparisons of the page, :func:`asphalt_nscd.forecast.render.per_mix_errors`);
 * ``<label>_costs.csv``: the exact CPU (user + system, getrusage) of each mix's packing, sample and
-  response, and of the chain's other commands, from the run's CPU records (the last record of
+  response (per sample variant: ``variant``, empty for the base sample), and of the chain's other commands, from the run's CPU records (the last record of
   each command line);
 * ``<label>_constants.csv``: the discrete models' constants fitted on every measured mix (route
   curve) with those of every fold (smallest, largest);
@@ -54,16 +54,19 @@ def costs(run: Path) -> pd.DataFrame:
     for argv, r in last.items():
         mix = argv[argv.index("--mix") + 1] if "--mix" in argv else ""
         seed = argv[argv.index("--seed") + 1] if "--seed" in argv else ""
+        # a sample variant's files live in results/forecast/variants/<name>/ ("": the base sample)
+        variant = next((a.split("/variants/")[1].split("/")[0] for a in argv if "/variants/" in a), "")
         rows.append(
             {
                 "command": argv[0],
+                "variant": variant,
                 "mix_id": mix,
                 "seed": seed,
                 "cpu_s": r["user_s"] + r["system_s"],
                 "max_rss_mb": r["max_rss_mb"],
             }
         )
-    return pd.DataFrame(rows).sort_values(["command", "mix_id", "seed"])
+    return pd.DataFrame(rows).sort_values(["command", "variant", "mix_id", "seed"])
 
 
 #: the constants each step of the physical ladder fits

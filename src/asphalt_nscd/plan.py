@@ -880,6 +880,8 @@ def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str
 FORECAST = "results/forecast"
 #: the matched table in the project's columns (checkpoint forecast_table)
 FORECAST_MATCHED = f"{FORECAST}/matched.csv"
+#: the folder of a forecast sample's files: the forecast's own (the base sample) or variants/<name> (a variant)
+FORECAST_WHERE = re.escape(FORECAST) + r"(/variants/cut[0-9.]+_x[0-9.]+)?"
 #: where the last complete forecast of each table is published (rule forecast_publish)
 FORECASTS = "results/forecasts"
 
@@ -923,13 +925,34 @@ def matched_mixes(path) -> list:
         return list(dict.fromkeys(row["mix_id"] for row in csv.DictReader(fh)))
 
 
+def forecast_variant(config: dict, where: str) -> dict:
+    """The sample variant of a forecast sample folder (:data:`FORECAST_WHERE`): ``name`` ("" for the
+    base sample), ``cut_mm``, ``size_dmax``. Raises InputError for a variant the config does not list."""
+    from .forecast.formulation import sample_variants
+    from .io import InputError
+
+    dem = config["forecast"].get("dem") or {}
+    if where == FORECAST:
+        return {"name": "", "cut_mm": float(dem["cut_mm"]), "size_dmax": float(dem["size_dmax"])}
+    name = where.rsplit("/", 1)[-1]
+    variants = sample_variants(dem)
+    if name not in variants:
+        raise InputError(f"{where}: sample variant {name!r} not in forecast.dem.variants {list(variants)}")
+    cut, size = variants[name]
+    return {"name": name, "cut_mm": cut, "size_dmax": size}
+
+
 def forecast_responses(config: dict, matched) -> list:
-    """The DEM response file of every (mix, seed) of the matched table, or none when
-    forecast.dem.models is empty."""
+    """The DEM response file of every (mix, seed) of the matched table, on the base sample and on each
+    sample variant of forecast.dem.variants, or none when forecast.dem.models is empty."""
+    from .forecast.formulation import sample_variants
+
     dem = config["forecast"].get("dem") or {}
     if not dem.get("models"):
         return []
-    return [f"{FORECAST}/responses/{m}_s{s}.npz" for m in matched_mixes(matched) for s in dem.get("seeds", [1])]
+    roots = [FORECAST] + [f"{FORECAST}/variants/{name}" for name in sample_variants(dem)]
+    mixes = matched_mixes(matched)
+    return [f"{root}/responses/{m}_s{s}.npz" for root in roots for m in mixes for s in dem.get("seeds", [1])]
 
 
 def forecast_settings(config: dict) -> dict:
@@ -940,12 +963,18 @@ def forecast_settings(config: dict) -> dict:
     return {**{k: v for k, v in config["forecast"].items() if k != "mix"}, "dem": dem}
 
 
-def forecast_sample_settings(config: dict) -> dict:
-    """What a mix's preparation reads from the config (a change reruns it, and only it): the cut, the
-    cube's size and the layer (forecast.dem), and the sample section the dynamics come from."""
+def forecast_sample_settings(config: dict, where: str = FORECAST) -> dict:
+    """What a mix's preparation in the folder ``where`` reads from the config (a change reruns it, and
+    only it): its variant's cut and cube size, the layer (forecast.dem), and the sample section the
+    dynamics come from."""
     dem = config["forecast"].get("dem") or {}
+    variant = forecast_variant(config, where)
     return {
-        "dem": {k: dem.get(k) for k in ("cut_mm", "size_dmax", "layer_over_side")},
+        "dem": {
+            "cut_mm": float(variant["cut_mm"]),
+            "size_dmax": float(variant["size_dmax"]),
+            "layer_over_side": dem.get("layer_over_side"),
+        },
         "sample": {k: v for k, v in config["sample"].items() if k != "seeds"},
     }
 

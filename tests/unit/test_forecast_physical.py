@@ -148,3 +148,59 @@ def test_the_choice_is_made_inside_the_fold(responses, table):
     assert np.allclose(a["E_pred_MPa"], b["E_pred_MPa"], rtol=1e-12)
     log = selection_log(states)
     assert len(log) == len(folds) * 2 and log.groupby("fold")["chosen"].sum().eq(1).all()
+
+
+def test_the_sample_variant_is_chosen_inside_the_fold(responses, table):
+    """Measured values planted by dem_c2 on a variant's samples (other packings of twice the spheres, another
+    bond geometry): dem_selected, offered the ladder on the base samples and on the variant's, chooses
+    a step on the variant in every fold and forecasts the held-out mix to 1e-3; the log labels the
+    variant's candidates ``<step>@<variant>``."""
+    from asphalt_nscd.forecast.models import model_set
+
+    variant = {}
+    for k, m in enumerate(MIXES):
+        r = dem.sample_response(_sample(k + 10, n=80), m, 1)
+        r.variant = "cut4_x2"
+        variant[m] = [r]
+    truth = physical.PhysicalDem("dem_c2", variant, 4.0, variant="cut4_x2")
+    E, P, _ = truth.predict({**truth.constants((0.78, 0.35)), "at_bound": []}, table)
+    planted = table.assign(E_norm_MPa=E, phase_deg=P)
+    cfg = {
+        "baselines": [],
+        "dem": {
+            "models": [],
+            "physical": ["dem_physical", "dem_c2"],
+            "selected": True,
+            "inner_folds": 3,
+            "cut_mm": 4.0,
+            "size_dmax": 2.5,
+            "variants": [{"cut_mm": 4.0, "size_dmax": 2.0}],
+        },
+    }
+    both = {m: responses[m] + variant[m] for m in MIXES}
+    selected = [m for m in model_set(cfg, both) if isinstance(m, Selected)]
+    assert len(selected) == 1 and len(selected[0].candidates) == 4
+    rows, states = cross_validate(planted, selected, pd.Series({m: m for m in MIXES}), mix_folds(MIXES), "raw")
+    assert all(st["state"]["chosen"] == "dem_c2@cut4_x2" for st in states)
+    assert np.allclose(rows["E_pred_MPa"], rows["E_meas_MPa"], rtol=1e-3)
+    log = selection_log(states)
+    assert set(log["candidate"]) == {"dem_physical", "dem_c2", "dem_physical@cut4_x2", "dem_c2@cut4_x2"}
+
+
+def test_an_unconfigured_sample_variant_is_refused(responses):
+    """Responses of a variant the config does not list are refused, naming it; a variant that repeats
+    the base sample is refused."""
+    from asphalt_nscd.forecast.formulation import sample_variants
+    from asphalt_nscd.forecast.models import model_set
+    from asphalt_nscd.io import InputError
+
+    r = dem.sample_response(_sample(0), "193", 1)
+    r.variant = "cut8_x3"
+    cfg = {"baselines": [], "dem": {"models": ["dem"], "physical": [], "cut_mm": 4.0, "size_dmax": 2.5}}
+    with pytest.raises(InputError, match="cut8_x3"):
+        model_set(cfg, {"193": responses["193"] + [r]})
+    with pytest.raises(InputError, match="repeats the base"):
+        sample_variants({"cut_mm": 4.0, "size_dmax": 2.5, "variants": [{"cut_mm": 4, "size_dmax": 2.5}]})
+    assert sample_variants({"cut_mm": 4.0, "size_dmax": 2.5, "variants": [{"cut_mm": 6.3, "size_dmax": 2}]}) == {
+        "cut6.3_x2": (6.3, 2.0)
+    }

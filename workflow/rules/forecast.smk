@@ -39,59 +39,70 @@ rule forecast_binders:
 
 
 rule forecast_pack:
-    # the costly part of a mix's sample: its gradation above the cut deposited and vibrated (Section 3.2.1)
+    # the costly part of a mix's sample: its gradation above the cut deposited and vibrated (Section 3.2.1);
+    # {where} is the forecast's folder for the base sample, its variants/<cut..._x...> folder for a variant
     input:
         plan.FORECAST_MATCHED,
     output:
-        f"{plan.FORECAST}/samples/{{mix}}_s{{seed}}.npz",
+        "{where}/samples/{mix}_s{seed}.npz",
     log:
-        "logs/forecast/pack_{mix}_s{seed}.log",
+        "logs/{where}/pack_{mix}_s{seed}.log",
     benchmark:
-        "benchmarks/forecast/pack_{mix}_s{seed}.tsv"
+        "benchmarks/{where}/pack_{mix}_s{seed}.tsv"
     wildcard_constraints:
         seed=r"\d+",
+        where=plan.FORECAST_WHERE,
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        settings=plan.forecast_sample_settings(config),
+        settings=lambda w: plan.forecast_sample_settings(config, w.where),
+        variant=lambda w: plan.forecast_variant(config, w.where),
     shell:
         'asphalt-nscd forecast-pack --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input} --mix {wildcards.mix}'
-        " --seed {wildcards.seed} -o {output} 2> {log}"
+        " --seed {wildcards.seed} --cut-mm {params.variant[cut_mm]} --size-dmax {params.variant[size_dmax]}"
+        " -o {output} 2> {log}"
 
 
 rule forecast_sample:
     input:
         matched=plan.FORECAST_MATCHED,
-        packing=f"{plan.FORECAST}/samples/{{mix}}_s{{seed}}.npz",
+        packing="{where}/samples/{mix}_s{seed}.npz",
     output:
-        h5=f"{plan.FORECAST}/samples/{{mix}}_s{{seed}}.h5",
-        summary=f"{plan.FORECAST}/samples/{{mix}}_s{{seed}}_summary.json",
+        h5="{where}/samples/{mix}_s{seed}.h5",
+        summary="{where}/samples/{mix}_s{seed}_summary.json",
     log:
-        "logs/forecast/sample_{mix}_s{seed}.log",
+        "logs/{where}/sample_{mix}_s{seed}.log",
     wildcard_constraints:
         seed=r"\d+",
+        where=plan.FORECAST_WHERE,
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        settings=plan.forecast_sample_settings(config),
+        settings=lambda w: plan.forecast_sample_settings(config, w.where),
+        variant=lambda w: plan.forecast_variant(config, w.where),
     shell:
         'asphalt-nscd forecast-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input.matched}'
-        " --mix {wildcards.mix} --packing {input.packing} -o {output.h5} --summary {output.summary} 2> {log}"
+        " --mix {wildcards.mix} --cut-mm {params.variant[cut_mm]} --size-dmax {params.variant[size_dmax]}"
+        " --packing {input.packing} -o {output.h5} --summary {output.summary} 2> {log}"
 
 
 rule forecast_response:
     input:
-        f"{plan.FORECAST}/samples/{{mix}}_s{{seed}}.h5",
+        "{where}/samples/{mix}_s{seed}.h5",
     output:
-        f"{plan.FORECAST}/responses/{{mix}}_s{{seed}}.npz",
+        "{where}/responses/{mix}_s{seed}.npz",
     log:
-        "logs/forecast/response_{mix}_s{seed}.log",
+        "logs/{where}/response_{mix}_s{seed}.log",
     wildcard_constraints:
         seed=r"\d+",
+        where=plan.FORECAST_WHERE,
     conda:
         "../envs/asphalt-nscd.yaml"
+    params:
+        variant=lambda w: plan.forecast_variant(config, w.where),
     shell:
-        "asphalt-nscd forecast-response {input} --mix {wildcards.mix} --seed {wildcards.seed} -o {output} 2> {log}"
+        "asphalt-nscd forecast-response {input} --mix {wildcards.mix} --seed {wildcards.seed}"
+        " --variant '{params.variant[name]}' -o {output} 2> {log}"
 
 
 rule forecast_crossval:

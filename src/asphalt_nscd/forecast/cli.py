@@ -103,6 +103,9 @@ def _register_chain(subparsers) -> None:
     r.add_argument("sample", help="sample file of forecast-sample (.h5)")
     r.add_argument("--mix", required=True, help="mix_id of the sample")
     r.add_argument("--seed", type=int, required=True, help="its preparation seed")
+    r.add_argument(
+        "--variant", default="", help="the sample variant it was prepared at, cut<mm>_x<size> (default: the base)"
+    )
     r.add_argument("-o", "--output", required=True, help="response file (.npz)")
     r.set_defaults(func=_response)
 
@@ -375,6 +378,7 @@ def _response(args) -> int:
     except InputError as exc:  # a sample that carries no load: the discrete models cannot forecast this mix
         logging.getLogger("asphalt_nscd").warning("mix %s: no discrete forecast (%s)", args.mix, exc)
         response = Response.empty(args.mix, args.seed, sample)
+    response.variant = str(args.variant)
     response.save(args.output)
     return 0
 

@@ -74,6 +74,8 @@ class Response:
     chi_bridge: float = np.nan
     skeleton_r15: float = np.nan
     cpu_s: float = 0.0
+    #: the sample variant (:func:`.formulation.variant_name`); "" for the base sample
+    variant: str = ""
 
     @classmethod
     def empty(cls, mix_id: str, seed: int, sample) -> "Response":
@@ -146,12 +148,13 @@ class Response:
                 kw = {k: data[k] for k in data.files}
         except (OSError, ValueError) as exc:
             raise InputError(f"{path}: not a DEM response file of 'forecast-response' ({exc})") from None
+        kw.setdefault("variant", "")  # written before sample variants existed: the base sample
         missing = sorted(set(cls.__dataclass_fields__) - set(kw))
         if missing:
             raise InputError(f"{path}: DEM response without {missing}")
         scalars = {"mix_id": str, "seed": int, "side_m": float, "p0": float, "p1": float, "p1_f": float}
         scalars |= {"n_spheres": int, "n_bonds": int, "n_skeleton": int, "cpu_s": float}
-        scalars |= {"chi_bridge": float, "skeleton_r15": float}
+        scalars |= {"chi_bridge": float, "skeleton_r15": float, "variant": str}
         return cls(**{k: (scalars[k](kw[k]) if k in scalars else kw[k]) for k in cls.__dataclass_fields__})
 
 

@@ -31,6 +31,13 @@ of that footprint with a layer ``layer_over_side`` times the side, the trapezoid
 cutting the cube (B = b = e = h) at the layer's mid-height. Spheres then shrink to the mix's
 coarse-aggregate volume fraction, or at least by the paper's 10 % of their volume
 (:func:`asphalt_nscd.sample.prepare.finish`).
+
+Sample variants (:func:`sample_variants`)
+-----------------------------------------
+The cut and the cube's size are modelling choices, not properties of the mix: the configured
+pair (``forecast.dem.cut_mm``, ``size_dmax``) is the base sample, and ``forecast.dem.variants``
+lists further pairs, each named ``cut<cut>_x<size>`` (:func:`variant_name`) and prepared for
+every mix, so that the choice among them is made inside each fold (:mod:`.nested`).
 """
 
 from __future__ import annotations
@@ -52,6 +59,32 @@ TABLE_SIEVES = (
     (4.75, "rho4_pct", True),
     (0.075, "rho200_pct", False),
 )
+
+
+def variant_name(cut_mm: float, size_dmax: float) -> str:
+    """The name of a sample variant: ``cut<cut_mm>_x<size_dmax>``, e.g. ``cut6.3_x2.5``."""
+    return f"cut{float(cut_mm):g}_x{float(size_dmax):g}"
+
+
+def sample_variants(dem: dict) -> dict[str, tuple[float, float]]:
+    """name -> (cut_mm, size_dmax) of the further sample variants of ``forecast.dem`` (its
+    ``variants`` list; the base pair ``cut_mm, size_dmax`` is not among them).
+
+    Raises InputError when a variant lacks ``cut_mm`` or ``size_dmax`` or repeats the base or another."""
+    base = variant_name(dem["cut_mm"], dem["size_dmax"])
+    out: dict[str, tuple[float, float]] = {}
+    for i, v in enumerate(dem.get("variants") or []):
+        try:
+            cut, size = float(v["cut_mm"]), float(v["size_dmax"])
+        except (KeyError, TypeError, ValueError):
+            raise InputError(
+                f"forecast.dem.variants[{i}]: expected {{cut_mm: mm, size_dmax: ratio}}, got {v!r}"
+            ) from None
+        name = variant_name(cut, size)
+        if name == base or name in out:
+            raise InputError(f"forecast.dem.variants[{i}]: {name} repeats the base sample or another variant")
+        out[name] = (cut, size)
+    return out
 
 
 def passing_points(mix: pd.Series) -> tuple[np.ndarray, np.ndarray]:

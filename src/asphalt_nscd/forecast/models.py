@@ -67,7 +67,7 @@ def read_curves(path) -> dict:
 
 
 def read_responses(paths) -> dict:
-    """mix_id -> list of :class:`.dem.Response` (one per seed) from response files."""
+    """mix_id -> list of :class:`.dem.Response` (one per seed and sample variant) from response files."""
     from .dem import Response
 
     out: dict[str, list] = {}
@@ -77,10 +77,25 @@ def read_responses(paths) -> dict:
     return out
 
 
+def by_variant(responses: dict) -> dict:
+    """variant -> (mix_id -> responses of that sample variant): "" the base sample, else
+    :func:`.formulation.variant_name` (:attr:`.dem.Response.variant`)."""
+    out: dict = {}
+    for mix, rs in responses.items():
+        for r in rs:
+            out.setdefault(r.variant, {}).setdefault(mix, []).append(r)
+    return out
+
+
 def model_set(forecast_cfg: dict, responses: dict | None) -> list:
     """The models a run scores: every baseline of ``forecast.baselines`` with published and
     recalibrated coefficients, then ``forecast.dem.models`` when ``responses`` are given, then
-    the learned models of ``forecast.learned`` (:mod:`.learned`)."""
+    the learned models of ``forecast.learned`` (:mod:`.learned`).
+
+    The discrete models read the base sample's responses; ``dem_selected`` chooses among the
+    ladder on the base sample and on every sample variant of ``forecast.dem.variants``
+    (:func:`.formulation.sample_variants`) whose responses are given, labelled
+    ``<step>@<variant>``. Raises InputError when a response's variant is not configured."""
     from .dem import DemModel
     from .validation import COEFFICIENTS, Baseline
 
@@ -89,13 +104,27 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
 
     models: list = [Baseline(m, c) for m in forecast_cfg.get("baselines", []) for c in COEFFICIENTS]
     if responses:
+        from .formulation import sample_variants
+
         dem = forecast_cfg.get("dem") or {}
-        legacy = [DemModel(name, responses, dem["cut_mm"]) for name in dem.get("models", [])]
-        ladder = [PhysicalDem(name, responses, dem["cut_mm"]) for name in dem.get("physical", [])]
+        split = by_variant(responses)
+        configured = sample_variants(dem)
+        unknown = sorted(set(split) - set(configured) - {""})
+        if unknown:
+            raise InputError(
+                f"DEM responses of sample variants {unknown} not in forecast.dem.variants {list(configured)}"
+            )
+        base = split.get("", {})
+        legacy = [DemModel(name, base, dem["cut_mm"]) for name in dem.get("models", [])]
+        ladder = [PhysicalDem(name, base, dem["cut_mm"]) for name in dem.get("physical", [])]
         models += legacy + ladder
         if dem.get("selected") and ladder:
-            # inside the choice every candidate is fitted from the middle of its ranges (one start: its cost)
-            inner = [PhysicalDem(m.model, responses, dem["cut_mm"], starts=1) for m in ladder]
+            # inside the choice every candidate is fitted from the middle of its ranges (one start: its cost),
+            # on the base sample and on every variant prepared
+            inner = [PhysicalDem(m.model, base, dem["cut_mm"], starts=1) for m in ladder]
+            for name, (cut, _) in configured.items():
+                if name in split:
+                    inner += [PhysicalDem(m.model, split[name], cut, starts=1, variant=name) for m in ladder]
             # the legacy models (constants outside their physical ranges) are scored beside, not chosen from
             models.append(Selected("dem_selected", inner, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1)))
     # the learned yardstick (forecast.learned): gradient-boosted trees on the formulas' inputs (:mod:`.learned`)

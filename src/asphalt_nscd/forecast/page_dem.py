@@ -243,8 +243,10 @@ def selection_section(selection: pd.DataFrame) -> list[str]:
         f"`dem_selected` picks, in each of its {int(selection['fold'].nunique())} folds, the candidate with the least "
         f"inner held-out score ({int(selection['inner_folds'].iloc[0])} inner folds of the training mixes; score = "
         "mean |100 ln(E_pred/E_meas)| + mean |phase error| in degrees, per inner mix) and refits it on all the "
-        "training mixes; the held-out mix never reaches the choice. Every variant tried and its inner score, fold "
-        "by fold: `selection_log.csv`.",
+        "training mixes; the held-out mix never reaches the choice. The candidates are the ladder's steps on the "
+        "base sample and on each sample variant: `<step>@cut<c>_x<s>` is the step on every mix's sample cut at c mm "
+        "in a cube of s largest diameters, a step without suffix the base sample (`forecast.dem.cut_mm`, "
+        "`size_dmax`). Every variant tried and its inner score, fold by fold: `selection_log.csv`.",
         "",
         "| candidate | folds chosen | mean inner score |",
         "|---|---|---|",

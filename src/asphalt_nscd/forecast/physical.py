@@ -236,15 +236,24 @@ class PhysicalDem:
     cut_mm : the samples' PSD cut (the mortar's fine aggregate is what passes it).
     free : the constants to fit (default: the step's).
     starts : starting points of the fit (1: the middle of every range; 3: also its quarter points).
+    variant : the sample variant of ``responses`` (:func:`.formulation.variant_name`; "" the base sample).
     """
 
     coefficients = "physical"
 
-    def __init__(self, name: str, responses: dict, cut_mm: float, free: tuple | None = None, starts: int = 3):
+    def __init__(
+        self,
+        name: str,
+        responses: dict,
+        cut_mm: float,
+        free: tuple | None = None,
+        starts: int = 3,
+        variant: str = "",
+    ):
         steps = dict(ALL_STEPS)
         if name not in steps and free is None:
             raise InputError(f"physical DEM model {name!r}: expected one of {STEP_NAMES}")
-        self.model, self.responses, self.cut_mm = name, responses, float(cut_mm)
+        self.model, self.responses, self.cut_mm, self.variant = name, responses, float(cut_mm), str(variant)
         self.free = tuple(steps[name] if free is None else free)
         #: starts of the fit: 1 the middle of every range; 3 also its quarter points
         self.starts = int(starts)

@@ -219,8 +219,10 @@ def extrapolation(state: dict, table: pd.DataFrame) -> pd.DataFrame:
 
 def prepare_responses(table: pd.DataFrame, config: dict, workdir, progress=print) -> dict:
     """The discrete model's sample response of every mix of ``table`` for every seed of
-    ``forecast.dem.seeds``: packing, sample and response (Section 3.2.1 and :mod:`.dem`), each
-    written to ``workdir`` and read back when it exists (a stopped run resumes)."""
+    ``forecast.dem.seeds``, on the base sample and on every variant of ``forecast.dem.variants``
+    (:func:`.formulation.sample_variants`): packing, sample and response (Section 3.2.1 and
+    :mod:`.dem`), each written to ``workdir`` (a variant's to its own subfolder) and read back when
+    it exists (a stopped run resumes). Returns mix_id -> responses (:func:`.models.read_responses`)."""
     from ..sample import settings
     from ..sample.prepare import finish, load_packing, pack, save_packing
     from . import formulation
@@ -228,31 +230,34 @@ def prepare_responses(table: pd.DataFrame, config: dict, workdir, progress=print
 
     dem = config["forecast"]["dem"]
     base = settings.merge(settings.DEFAULTS, config.get("sample") or {})
-    work = Path(workdir)
-    work.mkdir(parents=True, exist_ok=True)
+    variants = {"": (float(dem["cut_mm"]), float(dem["size_dmax"]))} | formulation.sample_variants(dem)
     out: dict = {}
-    for mix, g in table.groupby("mix_id", sort=False):
-        row = g.iloc[0]
-        cfg, passing, coarse = formulation.sample_settings(
-            base, row, float(dem["cut_mm"]), float(dem["size_dmax"]), float(dem["layer_over_side"])
-        )
-        for seed in dem.get("seeds", [1]):
-            rpath = work / f"{mix}_s{seed}_response.npz"
-            if not rpath.is_file():
-                ppath = work / f"{mix}_s{seed}_packing.npz"
-                if not ppath.is_file():
-                    progress(f"mix {mix}, seed {seed}: packing its sample")
-                    save_packing(ppath, pack(cfg, int(seed), passing))
-                progress(f"mix {mix}, seed {seed}: its sample and response")
-                result = finish(load_packing(ppath), cfg, int(seed), solid_fraction=coarse)
-                result.sample.attrs["mix_id"] = str(mix)
-                try:
-                    resp = sample_response(result.sample, str(mix), int(seed))
-                except InputError as exc:
-                    progress(f"warning: mix {mix}: no discrete forecast ({exc})")
-                    resp = Response.empty(str(mix), int(seed), result.sample)
-                resp.save(rpath)
-            out.setdefault(str(mix), []).append(Response.load(rpath))
+    for variant, (cut, size) in variants.items():
+        work = Path(workdir) / variant
+        work.mkdir(parents=True, exist_ok=True)
+        where = f" ({variant})" if variant else ""
+        for mix, g in table.groupby("mix_id", sort=False):
+            cfg, passing, coarse = formulation.sample_settings(
+                base, g.iloc[0], cut, size, float(dem["layer_over_side"])
+            )
+            for seed in dem.get("seeds", [1]):
+                rpath = work / f"{mix}_s{seed}_response.npz"
+                if not rpath.is_file():
+                    ppath = work / f"{mix}_s{seed}_packing.npz"
+                    if not ppath.is_file():
+                        progress(f"mix {mix}, seed {seed}{where}: packing its sample")
+                        save_packing(ppath, pack(cfg, int(seed), passing))
+                    progress(f"mix {mix}, seed {seed}{where}: its sample and response")
+                    result = finish(load_packing(ppath), cfg, int(seed), solid_fraction=coarse)
+                    result.sample.attrs["mix_id"] = str(mix)
+                    try:
+                        resp = sample_response(result.sample, str(mix), int(seed))
+                    except InputError as exc:
+                        progress(f"warning: mix {mix}{where}: no discrete forecast ({exc})")
+                        resp = Response.empty(str(mix), int(seed), result.sample)
+                    resp.variant = variant
+                    resp.save(rpath)
+                out.setdefault(str(mix), []).append(Response.load(rpath))
     return out
 
 

@@ -115,8 +115,12 @@ class Baseline:
 
 
 def model_label(model) -> str:
-    """A model's name in tables: a discrete model's own name (``dem...``), else ``<formula>_<coefficients>``."""
-    return model.model if model.model.startswith("dem") else f"{model.model}_{model.coefficients}"
+    """A model's name in tables: a discrete model's own name (``dem...``, with ``@<variant>`` on a sample
+    variant's: ``dem_p2@cut6.3_x2.5``), else ``<formula>_<coefficients>``."""
+    if model.model.startswith("dem"):
+        variant = getattr(model, "variant", "")
+        return f"{model.model}@{variant}" if variant else model.model
+    return f"{model.model}_{model.coefficients}"
 
 
 def _inputs_needed(model: str) -> tuple:
