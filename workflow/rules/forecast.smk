@@ -56,10 +56,9 @@ rule forecast_pack:
         "../envs/asphalt-nscd.yaml"
     params:
         settings=lambda w: plan.forecast_sample_settings(config, w.where),
-        variant=lambda w: plan.forecast_variant(config, w.where),
     shell:
         'asphalt-nscd forecast-pack --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input} --mix {wildcards.mix}'
-        " --seed {wildcards.seed} --cut-mm {params.variant[cut_mm]} --size-dmax {params.variant[size_dmax]}"
+        " --seed {wildcards.seed} --cut-mm {params.settings[dem][cut_mm]} --size-dmax {params.settings[dem][size_dmax]}"
         " -o {output} 2> {log}"
 
 
@@ -79,10 +78,9 @@ rule forecast_sample:
         "../envs/asphalt-nscd.yaml"
     params:
         settings=lambda w: plan.forecast_sample_settings(config, w.where),
-        variant=lambda w: plan.forecast_variant(config, w.where),
     shell:
         'asphalt-nscd forecast-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input.matched}'
-        " --mix {wildcards.mix} --cut-mm {params.variant[cut_mm]} --size-dmax {params.variant[size_dmax]}"
+        " --mix {wildcards.mix} --cut-mm {params.settings[dem][cut_mm]} --size-dmax {params.settings[dem][size_dmax]}"
         " --packing {input.packing} -o {output.h5} --summary {output.summary} 2> {log}"
 
 
@@ -99,10 +97,10 @@ rule forecast_response:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        variant=lambda w: plan.forecast_variant(config, w.where),
+        variant=lambda w: plan.forecast_variant(config, w.where)["name"],
     shell:
         "asphalt-nscd forecast-response {input} --mix {wildcards.mix} --seed {wildcards.seed}"
-        " --variant '{params.variant[name]}' -o {output} 2> {log}"
+        " --variant "{params.variant}" -o {output} 2> {log}"
 
 
 rule forecast_crossval:
