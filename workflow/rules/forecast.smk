@@ -100,7 +100,7 @@ rule forecast_response:
         variant=lambda w: plan.forecast_variant(config, w.where)["name"],
     shell:
         "asphalt-nscd forecast-response {input} --mix {wildcards.mix} --seed {wildcards.seed}"
-        " --variant "{params.variant}" -o {output} 2> {log}"
+        " --variant '{params.variant}' -o {output} 2> {log}"
 
 
 rule forecast_crossval:
