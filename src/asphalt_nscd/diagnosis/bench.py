@@ -781,6 +781,32 @@ def run_bench(
     return result
 
 
+def _false_alarm_columns(fa: dict) -> dict:
+    """The false-alarm columns of a bench row from a count record ``{n, k, rate, ci95}``: tables,
+    alarms, rate, its 95 % interval and its one-sided 95 % upper bound (:func:`upper_bound`)."""
+    return {
+        "n_clean": fa["n"],
+        "false_alarms": fa["k"],
+        "false_alarm_rate": fa["rate"],
+        "false_alarm_ci_low": fa["ci95"][0],
+        "false_alarm_ci_high": fa["ci95"][1],
+        "false_alarm_upper_95": upper_bound(fa["k"], fa["n"]),
+    }
+
+
+def _detection_columns(d: dict, lower_95: float) -> dict:
+    """The detection columns of a bench row from a count record ``{n, k, rate, ci95}`` and its
+    one-sided 95 % lower bound."""
+    return {
+        "n_planted": d["n"],
+        "detected": d["k"],
+        "detection_rate": d["rate"],
+        "detection_ci_low": d["ci95"][0],
+        "detection_ci_high": d["ci95"][1],
+        "detection_lower_95": lower_95,
+    }
+
+
 def bench_table(result: dict) -> pd.DataFrame:
     """One row per artifact and family (and ``all``): configuration, effect size, detection
     and false-alarm counts, rates, 95 % intervals and one-sided 95 % bounds (a detection rate's
@@ -799,12 +825,7 @@ def bench_table(result: dict) -> pd.DataFrame:
                 "artifact": "any",
                 "family": fam,
                 "effect_size": "",
-                "n_clean": fa["n"],
-                "false_alarms": fa["k"],
-                "false_alarm_rate": fa["rate"],
-                "false_alarm_ci_low": fa["ci95"][0],
-                "false_alarm_ci_high": fa["ci95"][1],
-                "false_alarm_upper_95": upper_bound(fa["k"], fa["n"]),
+                **_false_alarm_columns(fa),
             }
         )
         if "false_alarm_any_calibrated" in v:
@@ -815,12 +836,7 @@ def bench_table(result: dict) -> pd.DataFrame:
                     "artifact": "any, calibrated on the table",
                     "family": fam,
                     "effect_size": "",
-                    "n_clean": fa["n"],
-                    "false_alarms": fa["k"],
-                    "false_alarm_rate": fa["rate"],
-                    "false_alarm_ci_low": fa["ci95"][0],
-                    "false_alarm_ci_high": fa["ci95"][1],
-                    "false_alarm_upper_95": upper_bound(fa["k"], fa["n"]),
+                    **_false_alarm_columns(fa),
                 }
             )
     for name, per in result.get("detection_calibrated", {}).items():
@@ -833,12 +849,7 @@ def bench_table(result: dict) -> pd.DataFrame:
                     "artifact": f"{name}, calibrated on the table",
                     "family": fam,
                     "effect_size": size,
-                    "n_planted": d["n"],
-                    "detected": d["k"],
-                    "detection_rate": d["rate"],
-                    "detection_ci_low": d["ci95"][0],
-                    "detection_ci_high": d["ci95"][1],
-                    "detection_lower_95": r["calibrated_lower_95"],
+                    **_detection_columns(d, r["calibrated_lower_95"]),
                     "detected_nominal": r["nominal"]["k"],
                 }
             )
@@ -854,18 +865,8 @@ def bench_table(result: dict) -> pd.DataFrame:
                     "artifact": name,
                     "family": fam,
                     "effect_size": size,
-                    "n_planted": d["n"],
-                    "detected": d["k"],
-                    "detection_rate": d["rate"],
-                    "detection_ci_low": d["ci95"][0],
-                    "detection_ci_high": d["ci95"][1],
-                    "detection_lower_95": lower_bound(d["k"], d["n"]),
-                    "n_clean": fa["n"],
-                    "false_alarms": fa["k"],
-                    "false_alarm_rate": fa["rate"],
-                    "false_alarm_ci_low": fa["ci95"][0],
-                    "false_alarm_ci_high": fa["ci95"][1],
-                    "false_alarm_upper_95": upper_bound(fa["k"], fa["n"]),
+                    **_detection_columns(d, lower_bound(d["k"], d["n"])),
+                    **_false_alarm_columns(fa),
                     "n_other_planted": x["n"],
                     "cross_talk": x["k"],
                     "cross_talk_rate": x["rate"],
