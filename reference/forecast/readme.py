@@ -7,7 +7,7 @@ Reads ``<label>_crossval.csv``, ``<label>_per_mix.csv``, ``<label>_costs.csv``, 
 and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, the binder's reading and
 extrapolation tables (``binder_reading.csv`` with ``binder_reading_paired.csv``,
 ``binder_extrapolation_summary.csv``, rendered by ``asphalt_nscd.forecast.binder_report``) and the size
-study's ``size_study_summary.csv``; a table that is missing leaves its section out.
+study's ``size_study_summary.csv`` and the sample variants' cost ``variant_cost.csv``; a table that is missing leaves its section out.
 """
 
 from __future__ import annotations
@@ -60,15 +60,20 @@ def paired(per_mix: pd.DataFrame, a: str, b: str) -> list[str]:
 
 
 def costs(c: pd.DataFrame) -> list[str]:
-    g = c.groupby("command")["cpu_s"]
+    c = c.assign(variant=c["variant"].fillna("")) if "variant" in c else c.assign(variant="")
+    g = c.groupby(["command", "variant"])["cpu_s"]
     per_mix = c[c["command"].isin(["forecast-pack", "forecast-sample", "forecast-response"])]
     n = per_mix["mix_id"].nunique()
-    lines = ["| command | jobs | CPU total (s) | per job: mean (s) | largest (s) |", "|---|---|---|---|---|"]
-    for cmd, v in g:
-        lines.append(f"| {cmd} | {v.size} | {v.sum():.0f} | {v.mean():.1f} | {v.max():.1f} |")
+    lines = [
+        "| command | sample | jobs | CPU total (s) | per job: mean (s) | largest (s) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for (cmd, variant), v in g:
+        sample = variant or ("base" if cmd in ("forecast-pack", "forecast-sample", "forecast-response") else "")
+        lines.append(f"| {cmd} | {sample} | {v.size} | {v.sum():.0f} | {v.mean():.1f} | {v.max():.1f} |")
     lines += [
         "",
-        f"Per mix (packing, sample and response over its seeds): {per_mix['cpu_s'].sum() / n:.0f} s; "
+        f"Per mix (packing, sample and response over its seeds and samples): {per_mix['cpu_s'].sum() / n:.0f} s; "
         f"the whole chain {c['cpu_s'].sum():.0f} s of CPU.",
     ]
     return lines
@@ -179,6 +184,8 @@ def render() -> str:
         "python reference/forecast/collect.py . --label reference -o reference/forecast  # 3.0 diameters, two seeds",
         "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
         "    --summary reference/forecast/size_study_summary.csv",
+        "python reference/forecast/variant_cost.py --mix 193 --variant 4:2.5 --variant 6.3:2.5 --variant 4:2 \\",
+        "    --variant 2:2 -o reference/forecast/variant_cost.csv",
         "python reference/forecast/time_domain.py . --constants reference/forecast/default_constants.csv \\",
         "    -o reference/forecast/time_domain.csv",
         "python reference/forecast/binder_reading.py -o reference/forecast/binder_reading.csv \\",
@@ -281,6 +288,27 @@ def render() -> str:
             f"{r['td_vs_harmonic_phase_deg']:.2g} | {r['inertia_E_pct']:.1g} | {r['n_nonlinear_steps']} | {r['cpu_s']:.0f} |"
             for _, r in td.iterrows()
         ]
+    vc = _read("variant_cost.csv")
+    if vc is not None:
+        L += [
+            "",
+            "## Sample variants",
+            "",
+            "One mix's sample at each cut and cube size, prepared and solved one process at a time "
+            "(`variant_cost.py`; CPU of the command, its peak memory): the response's dense generalized "
+            "eigen-decomposition grows as the cube of the spheres, so the default run's variants stop at "
+            "the 4 mm cut.",
+            "",
+            "| sample | spheres | packing CPU (s) | sample CPU (s) | response CPU (s) | response memory (MB) |",
+            "|---|---|---|---|---|---|",
+        ]
+        for name, g in vc.groupby("variant", sort=False):
+            step = g.set_index("step")
+            L.append(
+                f"| {name} (mix {g['mix_id'].iloc[0]}) | {step.loc['forecast-sample', 'n_spheres']:.0f} | "
+                f"{step.loc['forecast-pack', 'cpu_s']:.1f} | {step.loc['forecast-sample', 'cpu_s']:.1f} | "
+                f"{step.loc['forecast-response', 'cpu_s']:.1f} | {step.loc['forecast-response', 'max_rss_mb']:.0f} |"
+            )
     sz = _read("size_study_summary.csv")
     if sz is not None:
         L += [

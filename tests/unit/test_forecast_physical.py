@@ -189,7 +189,8 @@ def test_the_sample_variant_is_chosen_inside_the_fold(responses, table):
 
 def test_an_unconfigured_sample_variant_is_refused(responses):
     """Responses of a variant the config does not list are refused, naming it; a variant that repeats
-    the base sample is refused."""
+    the base sample is refused; a choice whose variant's responses are not given is refused at
+    forecast time, naming it."""
     from asphalt_nscd.forecast.formulation import sample_variants
     from asphalt_nscd.forecast.models import model_set
     from asphalt_nscd.io import InputError
@@ -204,3 +205,6 @@ def test_an_unconfigured_sample_variant_is_refused(responses):
     assert sample_variants({"cut_mm": 4.0, "size_dmax": 2.5, "variants": [{"cut_mm": 6.3, "size_dmax": 2}]}) == {
         "cut6.3_x2": (6.3, 2.0)
     }
+    base_only = Selected("dem_selected", [physical.PhysicalDem("dem_c2", responses, 4.0)])
+    with pytest.raises(InputError, match="dem_c2@cut4_x2"):
+        base_only.predict({"chosen": "dem_c2@cut4_x2", "state": {}}, pd.DataFrame())

@@ -589,7 +589,8 @@ def test_a_mix_file_through_the_readme_command(smoke_run):
         binder_ids(table),
         "curve",
     )
-    responses = read_responses(sorted((results / "responses").glob("211_s*.npz")))
+    # the base sample's response and every sample variant's (results/forecast/variants/<name>/responses/)
+    responses = read_responses(sorted(results.glob("**/responses/211_s*.npz")))
     ref = product.forecast_mixes(state, training, routed, responses)
     m = lab.merge(ref, on=["mix_id", "temperature_C", "frequency_Hz", "model"], suffixes=("_lab", "_table"))
     assert len(m) == len(ref) and {"dem_selected", "hirsch_recalibrated", "gradient_boosting_learned"} <= set(

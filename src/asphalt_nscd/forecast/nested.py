@@ -92,8 +92,16 @@ class Selected:
         return {"chosen": chosen, "state": model.fit(measured), "inner": scores, "inner_folds": k}
 
     def predict(self, state: dict, rows: pd.DataFrame):
-        """The chosen candidate's forecast of ``rows`` with its refitted state."""
-        model = next(c for c in self.candidates if label_of(c) == state["chosen"])
+        """The chosen candidate's forecast of ``rows`` with its refitted state.
+
+        Raises InputError when the chosen candidate is not among this model's candidates (e.g. its
+        sample variant's responses were not given)."""
+        model = next((c for c in self.candidates if label_of(c) == state["chosen"]), None)
+        if model is None:
+            raise InputError(
+                f"{self.model}: its chosen candidate {state['chosen']!r} is not among "
+                f"{[label_of(c) for c in self.candidates]} (are that sample variant's responses given?)"
+            )
         return model.predict(state["state"], rows)
 
 
