@@ -55,7 +55,10 @@ def costs(run: Path) -> pd.DataFrame:
         mix = argv[argv.index("--mix") + 1] if "--mix" in argv else ""
         seed = argv[argv.index("--seed") + 1] if "--seed" in argv else ""
         # a sample variant's files live in results/forecast/variants/<name>/ ("": the base sample)
-        variant = next((a.split("/variants/")[1].split("/")[0] for a in argv if "/variants/" in a), "")
+        one_sample = argv[0] in ("forecast-pack", "forecast-sample", "forecast-response")
+        variant = (
+            next((a.split("/variants/")[1].split("/")[0] for a in argv if "/variants/" in a), "") if one_sample else ""
+        )
         rows.append(
             {
                 "command": argv[0],
