@@ -38,37 +38,53 @@ from asphalt_nscd.io import read_csv, read_json, write_csv
 from asphalt_nscd.lab.matched import read_matched
 
 
+#: the commands that prepare one mix's sample (their cost does not depend on the rest of the configuration)
+ONE_SAMPLE = ("forecast-pack", "forecast-sample", "forecast-response")
+
+
+def _cost_key(argv: list) -> tuple:
+    """(command, sample variant, mix, seed) of a command line: a sample variant's files live in
+    results/forecast/variants/<name>/ ("" the base sample)."""
+    mix = argv[argv.index("--mix") + 1] if "--mix" in argv else ""
+    seed = argv[argv.index("--seed") + 1] if "--seed" in argv else ""
+    variant = ""
+    if argv[0] in ONE_SAMPLE:
+        variant = next((a.split("/variants/")[1].split("/")[0] for a in argv if "/variants/" in a), "")
+    return argv[0], variant, mix, seed
+
+
 def costs(run: Path) -> pd.DataFrame:
     """CPU of the run's last complete forecast: the commands given the configuration of its last
-    successful ``forecast-crossval`` (or no configuration), the last record of each command line."""
+    successful ``forecast-crossval`` (or no configuration), the last record of each (command, sample
+    variant, mix, seed). A mix's preparation that the run reused from an earlier run (a
+    configuration whose change does not touch it) is taken from that run's last record, marked
+    ``earlier_run``."""
     records = [json.loads(line) for line in (run / "benchmarks" / "process_cpu.jsonl").read_text().splitlines()]
     records = [r for r in records if r["argv"] and r["status"] == 0]
     final = [r["argv"] for r in records if r["argv"][0] == "forecast-crossval"][-1]
     config = final[final.index("--config") + 1]
-    last = {}
+    last, earlier = {}, {}
     for r in records:
         a = r["argv"]
-        if (a[0].startswith("forecast") or a[0] == "matched") and ("--config" not in a or config in a):
-            last[tuple(a)] = r
-    rows = []
-    for argv, r in last.items():
-        mix = argv[argv.index("--mix") + 1] if "--mix" in argv else ""
-        seed = argv[argv.index("--seed") + 1] if "--seed" in argv else ""
-        # a sample variant's files live in results/forecast/variants/<name>/ ("": the base sample)
-        one_sample = argv[0] in ("forecast-pack", "forecast-sample", "forecast-response")
-        variant = (
-            next((a.split("/variants/")[1].split("/")[0] for a in argv if "/variants/" in a), "") if one_sample else ""
-        )
-        rows.append(
-            {
-                "command": argv[0],
-                "variant": variant,
-                "mix_id": mix,
-                "seed": seed,
-                "cpu_s": r["user_s"] + r["system_s"],
-                "max_rss_mb": r["max_rss_mb"],
-            }
-        )
+        if not (a[0].startswith("forecast") or a[0] == "matched"):
+            continue
+        if "--config" not in a or config in a:
+            last[_cost_key(a)] = r
+        elif a[0] in ONE_SAMPLE:
+            earlier[_cost_key(a)] = r
+    reused = {k: r for k, r in earlier.items() if k not in last}
+    rows = [
+        {
+            "command": k[0],
+            "variant": k[1],
+            "mix_id": k[2],
+            "seed": k[3],
+            "cpu_s": r["user_s"] + r["system_s"],
+            "max_rss_mb": r["max_rss_mb"],
+            "earlier_run": k in reused,
+        }
+        for k, r in (*last.items(), *reused.items())
+    ]
     return pd.DataFrame(rows).sort_values(["command", "variant", "mix_id", "seed"])
 
 

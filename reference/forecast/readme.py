@@ -61,6 +61,8 @@ def paired(per_mix: pd.DataFrame, a: str, b: str) -> list[str]:
 
 def costs(c: pd.DataFrame) -> list[str]:
     c = c.assign(variant=c["variant"].fillna("")) if "variant" in c else c.assign(variant="")
+    if "earlier_run" in c:  # preparations the run reused from an earlier run of the same samples
+        c = c.assign(variant=c["variant"].where(~c["earlier_run"].astype(bool), c["variant"] + "*"))
     g = c.groupby(["command", "variant"])["cpu_s"]
     per_mix = c[c["command"].isin(["forecast-pack", "forecast-sample", "forecast-response"])]
     n = per_mix["mix_id"].nunique()
@@ -69,13 +71,22 @@ def costs(c: pd.DataFrame) -> list[str]:
         "|---|---|---|---|---|---|",
     ]
     for (cmd, variant), v in g:
-        sample = variant or ("base" if cmd in ("forecast-pack", "forecast-sample", "forecast-response") else "")
+        sample = variant.replace("*", "") or (
+            "base" if cmd in ("forecast-pack", "forecast-sample", "forecast-response") else ""
+        )
+        sample += " (earlier run)" if variant.endswith("*") else ""
         lines.append(f"| {cmd} | {sample} | {v.size} | {v.sum():.0f} | {v.mean():.1f} | {v.max():.1f} |")
     lines += [
         "",
         f"Per mix (packing, sample and response over its seeds and samples): {per_mix['cpu_s'].sum() / n:.0f} s; "
         f"the whole chain {c['cpu_s'].sum():.0f} s of CPU.",
     ]
+    if c["variant"].str.endswith("*").any():
+        lines += [
+            "",
+            "(earlier run): preparations whose samples the run's configuration left unchanged, reused from the "
+            "earlier run that prepared them, with that run's records.",
+        ]
     return lines
 
 
