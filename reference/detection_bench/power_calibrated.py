@@ -7,7 +7,7 @@ chosen sizes, each calibrated on itself as the workflow calibrates a table.
 Reads ``DIR/<design>_summary.json`` and ``DIR/<design>_tables.csv.gz`` (``collect.py``); the
 power-curve tables (kind ``power:<artifact>``) are regenerated from the summary's plan
 (:func:`asphalt_nscd.diagnosis.bench.plan`, its base seed), the first ``--per-size`` of each size
-(they cycle over the truth families). A table the nominal procedure names the artifact on is
+(they cycle over the truth families; ``--per-size`` one count or one per size). A table the nominal procedure names the artifact on is
 calibrated on itself (:func:`asphalt_nscd.diagnosis.bench.calibrate_alarms`'s step: both nulls,
 ``--tables`` bootstrap tables of each, curtailed once decided) and searched again at the
 calibrated level; a table without a nominal detection has none after calibration. Writes
@@ -34,7 +34,11 @@ def main(argv=None) -> int:
     ap.add_argument("design", choices=sorted(bench.CONFIGURATIONS))
     ap.add_argument("--artifact", required=True, choices=sorted(bench.POWER_SIZES))
     ap.add_argument("--sizes", required=True, help="sizes of the power curve, comma-separated (its size key's unit)")
-    ap.add_argument("--per-size", type=int, default=10, help="planted tables per size (default 10)")
+    ap.add_argument(
+        "--per-size",
+        default="10",
+        help="planted tables per size: one count, or one per size, comma-separated (default 10)",
+    )
     ap.add_argument("--tables", type=int, default=200, help="bootstrap tables per calibration (default 200)")
     ap.add_argument("--jobs", type=int, default=1, help="processes (default 1)")
     args = ap.parse_args(argv)
@@ -42,6 +46,10 @@ def main(argv=None) -> int:
     summary = json.loads((d / f"{conf}_summary.json").read_text())
     tables = pd.read_csv(d / f"{conf}_tables.csv.gz")
     sizes = [float(s) for s in args.sizes.split(",")]
+    counts = [int(n) for n in str(args.per_size).split(",")]
+    if len(counts) not in (1, len(sizes)):
+        raise SystemExit(f"--per-size: one count or one per size ({len(sizes)}), got {args.per_size}")
+    per_size = dict(zip(sizes, counts * len(sizes) if len(counts) == 1 else counts))
     kind = f"power:{args.artifact}"
     cases = bench.plan(
         summary["base_seed"],
@@ -52,7 +60,9 @@ def main(argv=None) -> int:
         conf,
         int(summary["power_tables_per_size"]),
     )
-    chosen = [c for c in cases if c["kind"] == kind and c["power_size"] in sizes and c["index"] < args.per_size]
+    chosen = [
+        c for c in cases if c["kind"] == kind and c["power_size"] in sizes and c["index"] < per_size[c["power_size"]]
+    ]
     missing = sorted(set(sizes) - {c["power_size"] for c in chosen})
     if missing:
         raise SystemExit(
@@ -64,8 +74,17 @@ def main(argv=None) -> int:
     checkpoint = d / f"{conf}_power_calibration.jsonl"
     done = {}
     if checkpoint.exists():
-        for line in checkpoint.read_text().splitlines():
-            rec = json.loads(line)
+        lines = checkpoint.read_text().splitlines()
+        for n, line in enumerate(lines):
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                if n < len(lines) - 1:
+                    raise SystemExit(
+                        f"{checkpoint}: line {n + 1} is not a record; remove the file to restart"
+                    ) from None
+                checkpoint.write_text("".join(x + "\n" for x in lines[:-1]))  # cut short by a killed run
+                break
             if rec["n_tables"] == args.tables:
                 done[(rec["power_size"], rec["index"], rec["seed"])] = rec
     rows = []
