@@ -794,7 +794,7 @@ def _false_alarm_columns(fa: dict) -> dict:
     }
 
 
-def _detection_columns(d: dict, lower_95: float) -> dict:
+def _detection_columns(d: dict, lower_95: float | None) -> dict:
     """The detection columns of a bench row from a count record ``{n, k, rate, ci95}`` and its
     one-sided 95 % lower bound."""
     return {
