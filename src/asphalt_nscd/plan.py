@@ -979,6 +979,26 @@ def forecast_sample_settings(config: dict, where: str = FORECAST) -> dict:
     }
 
 
+def forecast_sample_param(config: dict):
+    """The params function of a forecast preparation rule: :func:`forecast_sample_settings` of the
+    job's folder (wildcard ``where``)."""
+
+    def settings(wildcards):
+        return forecast_sample_settings(config, wildcards.where)
+
+    return settings
+
+
+def forecast_variant_param(config: dict):
+    """The params function of the forecast response rule: the name of the job's sample variant
+    ("" for the base sample; :func:`forecast_variant` of wildcard ``where``)."""
+
+    def variant(wildcards):
+        return forecast_variant(config, wildcards.where)["name"]
+
+    return variant
+
+
 def forecast_responses_input(config: dict, checkpoints):
     """The input function of the forecast's chain rules: :func:`forecast_responses` of the matched
     table, which exists once checkpoint forecast_table has run (``checkpoints``: the Snakefile's)."""

@@ -635,3 +635,33 @@ def test_console_messages_of_this_run_once_each_and_both_kinds_printed_on_error(
     snakefile = (Path(__file__).resolve().parents[2] / "Snakefile").read_text()
     onerror = re.search(r"^onerror:\n((?:    .*\n)+)", snakefile, re.M).group(1)
     assert '"warning"' in onerror and '"error"' in onerror
+
+
+def test_a_forecast_sample_folder_names_its_variant_and_its_settings(tmp_path):
+    """The base folder is the configured sample, a variants/<name> folder the listed variant; an
+    unlisted one is refused; the responses cover every mix on every sample; the params functions
+    read the job's folder."""
+    import re
+
+    from asphalt_nscd.io import InputError
+
+    dem = {"models": ["dem"], "cut_mm": 4.0, "size_dmax": 2.5, "layer_over_side": 1.3}
+    config = {"forecast": {"dem": {**dem, "variants": [{"cut_mm": 6.3, "size_dmax": 2.5}]}}, "sample": {"seeds": [1]}}
+    variant = f"{plan.FORECAST}/variants/cut6.3_x2.5"
+    assert plan.forecast_variant(config, plan.FORECAST) == {"name": "", "cut_mm": 4.0, "size_dmax": 2.5}
+    assert plan.forecast_variant(config, variant) == {"name": "cut6.3_x2.5", "cut_mm": 6.3, "size_dmax": 2.5}
+    with pytest.raises(InputError, match="cut2_x2"):
+        plan.forecast_variant(config, f"{plan.FORECAST}/variants/cut2_x2")
+    for where in (plan.FORECAST, variant):
+        assert re.fullmatch(plan.FORECAST_WHERE, where)
+    assert not re.fullmatch(plan.FORECAST_WHERE, "results/other")
+    assert plan.forecast_sample_param(config)(SimpleNamespace(where=variant))["dem"]["cut_mm"] == 6.3
+    assert plan.forecast_variant_param(config)(SimpleNamespace(where=plan.FORECAST)) == ""
+    matched = tmp_path / "matched.csv"
+    matched.write_text("mix_id,x\n193,1\n193,2\n211,1\n")
+    assert plan.forecast_responses(config, matched) == [
+        f"{plan.FORECAST}/responses/193_s1.npz",
+        f"{plan.FORECAST}/responses/211_s1.npz",
+        f"{variant}/responses/193_s1.npz",
+        f"{variant}/responses/211_s1.npz",
+    ]

@@ -55,7 +55,7 @@ rule forecast_pack:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        settings=lambda w: plan.forecast_sample_settings(config, w.where),
+        settings=plan.forecast_sample_param(config),
     shell:
         'asphalt-nscd forecast-pack --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input} --mix {wildcards.mix}'
         " --seed {wildcards.seed} --cut-mm {params.settings[dem][cut_mm]} --size-dmax {params.settings[dem][size_dmax]}"
@@ -77,7 +77,7 @@ rule forecast_sample:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        settings=lambda w: plan.forecast_sample_settings(config, w.where),
+        settings=plan.forecast_sample_param(config),
     shell:
         'asphalt-nscd forecast-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input.matched}'
         " --mix {wildcards.mix} --cut-mm {params.settings[dem][cut_mm]} --size-dmax {params.settings[dem][size_dmax]}"
@@ -97,7 +97,7 @@ rule forecast_response:
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
-        variant=lambda w: plan.forecast_variant(config, w.where)["name"],
+        variant=plan.forecast_variant_param(config),
     shell:
         "asphalt-nscd forecast-response {input} --mix {wildcards.mix} --seed {wildcards.seed}"
         " --variant '{params.variant}' -o {output} 2> {log}"
