@@ -25,7 +25,7 @@ from pathlib import Path
 import pandas as pd
 
 from asphalt_nscd.diagnosis import bench
-from asphalt_nscd.io import write_csv
+from asphalt_nscd.io import read_json_lines, write_csv
 
 
 def main(argv=None) -> int:
@@ -72,21 +72,11 @@ def main(argv=None) -> int:
         (r["kind"], float(r["power_size"]), int(r["index"])): r for _, r in tables.iterrows() if r["kind"] == kind
     }
     checkpoint = d / f"{conf}_power_calibration.jsonl"
-    done = {}
-    if checkpoint.exists():
-        lines = checkpoint.read_text().splitlines()
-        for n, line in enumerate(lines):
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                if n < len(lines) - 1:
-                    raise SystemExit(
-                        f"{checkpoint}: line {n + 1} is not a record; remove the file to restart"
-                    ) from None
-                checkpoint.write_text("".join(x + "\n" for x in lines[:-1]))  # cut short by a killed run
-                break
-            if rec["n_tables"] == args.tables:
-                done[(rec["power_size"], rec["index"], rec["seed"])] = rec
+    done = {
+        (rec["power_size"], rec["index"], rec["seed"]): rec
+        for rec in read_json_lines(checkpoint, "power record", ("power_size", "index", "seed", "n_tables"))
+        if rec["n_tables"] == args.tables
+    }
     rows = []
     for c in chosen:
         ref = committed[(kind, c["power_size"], c["index"])]

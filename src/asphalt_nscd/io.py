@@ -188,6 +188,40 @@ def read_json(path: str | os.PathLike, what: str = "JSON file"):
         raise InputError(f"{path}: not valid JSON ({exc}); {rebuild_hint(path)}") from None
 
 
+def read_json_lines(path: str | os.PathLike, what: str, keys=()) -> list[dict]:
+    """The records of a JSON-lines checkpoint (one JSON object per line, appended as work ends),
+    ``[]`` when the file does not exist. A last line cut short by a killed run is removed from
+    the file (atomically; its work is done again).
+
+    Raises
+    ------
+    InputError
+        naming the file and line of any other line that is not a JSON object holding ``keys``
+        (``what`` names the record), with the remedy: remove the file to restart.
+    """
+    path = Path(path)
+    if not path.exists():
+        return []
+    lines = [x for x in path.read_text(encoding="utf-8").splitlines() if x.strip()]
+    records = []
+    for n, line in enumerate(lines):
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            if n < len(lines) - 1:
+                raise InputError(f"{path}: line {n + 1} is not a {what} (JSON); remove the file to restart") from None
+            with atomic_path(path) as tmp:
+                tmp.write_text("".join(x + "\n" for x in lines[:-1]), encoding="utf-8")
+            break
+        if not isinstance(rec, dict) or any(k not in rec for k in keys):
+            raise InputError(
+                f"{path}: line {n + 1} is not a {what} (expected the keys {', '.join(keys)}); "
+                "remove the file to restart"
+            )
+        records.append(rec)
+    return records
+
+
 def write_csv(frame, path: str | os.PathLike, **kwargs) -> None:
     """Write a pandas DataFrame to CSV atomically (no index unless asked)."""
     kwargs.setdefault("index", False)

@@ -249,3 +249,19 @@ def test_a_command_runs_one_blas_thread_unless_the_user_sets_a_count():
         check=True,
     )
     assert out.stdout.strip() == "3"
+
+
+def test_json_lines_checkpoint_drops_a_cut_last_line_and_refuses_a_bad_one(tmp_path):
+    from asphalt_nscd.io import InputError, read_json_lines
+
+    path = tmp_path / "done.jsonl"
+    assert read_json_lines(path, "record", ("a",)) == []
+    path.write_text('{"a": 1}\n{"a": 2}\n{"a": ')  # the last line cut by a killed run
+    assert read_json_lines(path, "record", ("a",)) == [{"a": 1}, {"a": 2}]
+    assert path.read_text() == '{"a": 1}\n{"a": 2}\n'  # removed from the file: appending goes on cleanly
+    path.write_text('{"a": 1}\nnot json\n{"a": 3}\n')
+    with pytest.raises(InputError, match=r"done\.jsonl: line 2 is not a record \(JSON\); remove the file"):
+        read_json_lines(path, "record", ("a",))
+    path.write_text('{"a": 1}\n{"b": 2}\n')
+    with pytest.raises(InputError, match=r"line 2 is not a record \(expected the keys a\)"):
+        read_json_lines(path, "record", ("a",))

@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pandas as pd
 import pytest
@@ -64,13 +65,17 @@ def command(sample: Path, out: Path) -> list[str]:
 
 
 def checkpoint_step(out: Path) -> int:
-    """Steps covered by the partial arrays next to the record (0 if none yet)."""
-    partial = out.with_name(out.name + ".partial.npz")
-    if not partial.exists():
+    """Steps a rerun would resume from: the solver checkpoint's step (``<out>.ckpt.h5``), bounded
+    by the steps the partial arrays beside it cover (``<out>.partial.npz``, written first); 0
+    while either is missing or being renamed into place."""
+    partial, ckpt = out.with_name(out.name + ".partial.npz"), out.with_name(out.name + ".ckpt.h5")
+    if not (partial.exists() and ckpt.exists()):
         return 0
     try:
         with np.load(partial) as z:
-            return int(np.count_nonzero(z["t"]))
+            covered = int(np.count_nonzero(z["t"]))
+        with h5py.File(ckpt, "r") as f:
+            return min(covered, int(f.attrs["step_index"]))
     except (OSError, ValueError, KeyError):  # being renamed into place
         return 0
 

@@ -455,7 +455,8 @@ def cancel_orphans(cluster: Cluster, run_id: str) -> None:
 
 def cancel_part_way(cluster: Cluster, work: Path, proc: subprocess.Popen, log: Path, skip: set[str]) -> Cancelled:
     """``scancel`` a running run_2pb job (its record not in ``skip``) once its first checkpoint
-    exists; if the job finished before the cancel landed, try the next one."""
+    exists; if the job finished before the cancel landed, or the cancel left no complete
+    checkpoint, try the next one. ``step`` is the step the files left on disk resume from."""
     tried: set[str] = set()  # Snakemake job ids: a retried job (a new SLURM id) is not picked again
 
     def candidate():
@@ -478,8 +479,10 @@ def cancel_part_way(cluster: Cluster, work: Path, proc: subprocess.Popen, log: P
         while (state := cluster.states()[job.slurm_id][0]) in ACTIVE:
             assert time.monotonic() < deadline, f"SLURM job {job.slurm_id} still {state} after scancel"
             time.sleep(0.2)
-        if state == "CANCELLED" and not (work / job.record).exists():
-            return job
+        # a cancel that landed while the first checkpoint was being written leaves nothing to resume
+        step = checkpoint_step(work / job.record)
+        if state == "CANCELLED" and not (work / job.record).exists() and step >= CHECKPOINT_EVERY:
+            return Cancelled(job.jobid, job.record, job.slurm_id, step)
 
 
 @pytest.fixture(scope="module")

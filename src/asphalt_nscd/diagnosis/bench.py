@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from ..io import InputError, atomic_path
+from ..io import read_json_lines
 from . import synthetic
 from .effects import ARTIFACTS, ArtifactSearch, effect_entries
 from .scores import binomial_ci
@@ -519,33 +519,17 @@ def _nulls_tag() -> list:
 
 
 def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
-    """Calibrations already written to a :func:`calibrate_alarms` checkpoint, keyed by table.
-    A last line cut short by a killed run is removed from the file (that table is calibrated
-    again); any other line that is not a record raises InputError naming the file and line."""
-    if path is None or not Path(path).exists():
+    """Calibrations already written to a :func:`calibrate_alarms` checkpoint, keyed by table
+    (:func:`asphalt_nscd.io.read_json_lines`: a last line cut short by a killed run is removed,
+    that table calibrated again; any other line that is not a record raises InputError)."""
+    if path is None:
         return {}
-    lines = [x for x in Path(path).read_text().splitlines() if x.strip()]
-    done = {}
-    for n, line in enumerate(lines):
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            if n < len(lines) - 1:
-                raise InputError(
-                    f"{path}: line {n + 1} is not a calibration record (JSON); remove the file to restart"
-                ) from None
-            with atomic_path(path) as tmp:
-                tmp.write_text("".join(x + "\n" for x in lines[:-1]))
-            break
-        want = (*CHECKPOINT_KEY, "n_tables", "out")
-        if not isinstance(rec, dict) or any(k not in rec for k in want):
-            raise InputError(
-                f"{path}: line {n + 1} is not a calibration record (expected the keys {', '.join(want)}); "
-                "remove the file to restart"
-            )
-        if int(rec["n_tables"]) == n_tables and rec.get("nulls") == _nulls_tag():
-            done[_checkpoint_key(rec)] = rec["out"]
-    return done
+    want = (*CHECKPOINT_KEY, "n_tables", "out")
+    return {
+        _checkpoint_key(rec): rec["out"]
+        for rec in read_json_lines(path, "calibration record", want)
+        if int(rec["n_tables"]) == n_tables and rec.get("nulls") == _nulls_tag()
+    }
 
 
 def _map_cases(fn, tasks: list, jobs: int, lazy: bool = False):
