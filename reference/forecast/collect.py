@@ -16,6 +16,9 @@ RUN_DIR is the working directory of the run (it holds ``results/forecast/`` and
 * ``<label>_error_split.csv``, ``<label>_selection_log.csv``, ``<label>_interval_coverage.csv``,
   ``<label>_learned_by_rows.csv``: the run's error split, the variants tried inside every fold,
   the prediction intervals' nested coverage and the learned model judged by mix and by rows;
+* with ``--models M ...`` only ``<label>_crossval.csv``, ``<label>_per_mix.csv`` (those models' rows)
+  and ``<label>_selection_log.csv``: a run kept to compare one model across settings (e.g. the
+  rule of ``dem_selected``'s choice, ``forecast.dem.selection_rule``);
 * ``<label>_seed_spread.csv`` (runs of several seeds): per mix and seed, the mean over the table's
   conditions of 100 |ln(E_seed / E_mean)|, |E*| of ``dem_extended`` at the fitted constants from one
   seed's sample against the geometric mean over the seeds.
@@ -147,14 +150,26 @@ def main(argv=None) -> int:
     p.add_argument("run", type=Path)
     p.add_argument("--label", required=True)
     p.add_argument("--cut-mm", type=float, default=4.0, help="the run's forecast.dem.cut_mm")
+    p.add_argument("--models", nargs="+", help="keep only these models' scores (and the selection log)")
     p.add_argument("-o", "--output", type=Path, required=True)
     a = p.parse_args(argv)
     a.output.mkdir(parents=True, exist_ok=True)
     from asphalt_nscd.forecast.render import per_mix_errors
 
-    write_csv(read_csv(a.run / "results" / "forecast" / "crossval.csv"), a.output / f"{a.label}_crossval.csv")
+    scores = read_csv(a.run / "results" / "forecast" / "crossval.csv")
     rows = read_csv(a.run / "results" / "forecast" / "crossval_rows.csv", dtype={"mix_id": str})
-    write_csv(per_mix_errors(rows).round(6), a.output / f"{a.label}_per_mix.csv")
+    per_mix = per_mix_errors(rows).round(6)
+    if a.models:
+        scores, per_mix = scores[scores["label"].isin(a.models)], per_mix[per_mix["label"].isin(a.models)]
+        missing = sorted(set(a.models) - set(scores["label"]))
+        if missing:
+            raise SystemExit(f"{a.run}/results/forecast/crossval.csv: no scores of {missing}")
+    write_csv(scores, a.output / f"{a.label}_crossval.csv")
+    write_csv(per_mix, a.output / f"{a.label}_per_mix.csv")
+    if a.models:
+        selection = read_csv(a.run / "results" / "forecast" / "selection_log.csv", allow_empty=True)
+        write_csv(selection, a.output / f"{a.label}_selection_log.csv")
+        return 0
     write_csv(costs(a.run), a.output / f"{a.label}_costs.csv")
     write_csv(constants(a.run), a.output / f"{a.label}_constants.csv")
     res = a.run / "results" / "forecast"

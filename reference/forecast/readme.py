@@ -134,6 +134,61 @@ def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
     return L
 
 
+#: runs kept to compare dem_selected's rule of choice: (label, rule) beside the default run's own
+RULE_RUNS = (("rule_best", "best"),)
+
+
+def rule_section(scores: pd.DataFrame, per_mix: pd.DataFrame | None, selection: pd.DataFrame | None) -> list[str]:
+    """``dem_selected`` under each rule of its choice (``forecast.dem.selection_rule``): the default
+    run's rule and the kept runs of :data:`RULE_RUNS`, held out, with the paired difference over
+    the mixes and how often each run chose a sample variant or another step."""
+    from scipy import stats
+
+    if per_mix is None or selection is None or "rule" not in selection:
+        return []
+    runs = [("default", str(selection["rule"].iloc[0]), scores, per_mix, selection)]
+    for label, rule in RULE_RUNS:
+        sc, pm, sel = _read(f"{label}_crossval.csv"), _read(f"{label}_per_mix.csv"), _read(f"{label}_selection_log.csv")
+        if sc is not None and pm is not None and sel is not None:
+            runs.append((label, rule, sc, pm, sel))
+    if len(runs) < 2:
+        return []
+    L = [
+        "",
+        "### The rule of the choice",
+        "",
+        "`dem_selected` under each rule of `forecast.dem.selection_rule` (the same samples and candidates; "
+        "difference: paired over the mixes against this run's rule, negative is better):",
+        "",
+        "| rule | \\|E*\\| (%) | phase (°) | difference \\|E*\\| (points) | difference phase (°) | folds on a sample variant | steps chosen |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    base_pm = per_mix[(per_mix["binder_route"] == ROUTE) & per_mix["temperature_C"].isna()]
+    base_pm = base_pm[base_pm["label"] == "dem_selected"].set_index("mix_id")
+    for label, rule, sc, pm, sel in runs:
+        r = sc[(sc["binder_route"] == ROUTE) & (sc["group"] == "all") & sc["temperature_C"].isna()]
+        r = r[r["label"] == "dem_selected"].iloc[0]
+        e = pm[(pm["binder_route"] == ROUTE) & pm["temperature_C"].isna() & (pm["label"] == "dem_selected")]
+        e = e.set_index("mix_id")
+        diffs = []
+        for col in ("e", "p"):
+            if label == "default":
+                diffs.append("–")
+                continue
+            d = (e[col] - base_pm[col]).dropna().to_numpy()
+            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
+            diffs.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
+        chosen = sel[sel["chosen"].astype(bool) & (sel["binder_route"] == ROUTE)]
+        on_variant = int(chosen["candidate"].str.contains("@").sum())
+        steps = chosen["candidate"].str.split("@").str[0].value_counts()
+        L.append(
+            f"| {rule} ({label} tables) | {_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
+            f"{_ci(r['abs_phase_deg'], r['abs_phase_ci_low'], r['abs_phase_ci_high'])} | {diffs[0]} | {diffs[1]} | "
+            f"{on_variant} of {len(chosen)} | {', '.join(f'{k} {v}' for k, v in steps.items())} |"
+        )
+    return L
+
+
 def _extra_sections(label: str, scores: pd.DataFrame) -> list[str]:
     """The run's choice inside the fold, error split, learned yardstick and intervals (as on its page)."""
     from asphalt_nscd.forecast import page_dem
@@ -191,6 +246,8 @@ def render() -> str:
         "```bash",
         "make run                                                     # default: 2.5 largest diameters, one seed",
         "python reference/forecast/collect.py . --label default -o reference/forecast",
+        ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_rule_best.yaml",
+        "python reference/forecast/collect.py . --label rule_best --models dem_selected -o reference/forecast",
         ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_reference.yaml",
         "python reference/forecast/collect.py . --label reference -o reference/forecast  # 3.0 diameters, two seeds",
         "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
@@ -248,6 +305,8 @@ def render() -> str:
             ]
         L += ladder(scores, per_mix)
         L += _extra_sections(label, scores)
+        if label == "default":
+            L += rule_section(scores, per_mix, _read("default_selection_log.csv"))
         sp = _read(f"{label}_seed_spread.csv")
         if sp is not None:
             m = sp.groupby("mix_id")["mean_abs_log_diff_pct"].mean()

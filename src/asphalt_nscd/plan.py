@@ -220,6 +220,25 @@ def reject_resource_keys(config: dict) -> None:
             )
 
 
+def check_values(config: dict) -> None:
+    """The checks of a merged configuration its JSON schemas cannot express, made when the
+    workflow loads so that a refusal is one line before any job: no former resource key
+    (:func:`reject_resource_keys`), and the forecast's sample variants well formed and distinct
+    from the base sample and from each other (:func:`asphalt_nscd.forecast.formulation.sample_variants`).
+
+    Raises
+    ------
+    InputError
+        naming the key (``forecast.dem.variants[i]``, a resource key) and what was expected.
+    """
+    from .forecast.formulation import sample_variants
+
+    reject_resource_keys(config)
+    dem = (config.get("forecast") or {}).get("dem") or {}
+    if dem.get("variants"):
+        sample_variants(dem)
+
+
 def from_wildcards(func, config: dict):
     """The Snakemake input or params function of a plain function of this module: called with
     a job's ``wildcards``, it returns ``func(config, ...)`` with every parameter of ``func``

@@ -150,7 +150,8 @@ def test_the_choice_is_made_inside_the_fold(responses, table):
     assert len(log) == len(folds) * 2 and log.groupby("fold")["chosen"].sum().eq(1).all()
 
 
-def test_the_sample_variant_is_chosen_inside_the_fold(responses, table):
+@pytest.mark.parametrize("rule", ["best", "one_se"])
+def test_the_sample_variant_is_chosen_inside_the_fold(responses, table, rule):
     """Measured values planted by dem_c2 on a variant's samples (other packings of twice the spheres, another
     bond geometry): dem_selected, offered the ladder on the base samples and on the variant's, chooses
     a step on the variant in every fold and forecasts the held-out mix to 1e-3; the log labels the
@@ -172,6 +173,7 @@ def test_the_sample_variant_is_chosen_inside_the_fold(responses, table):
             "physical": ["dem_physical", "dem_c2"],
             "selected": True,
             "inner_folds": 3,
+            "selection_rule": rule,
             "cut_mm": 4.0,
             "size_dmax": 2.5,
             "variants": [{"cut_mm": 4.0, "size_dmax": 2.0}],
@@ -179,12 +181,60 @@ def test_the_sample_variant_is_chosen_inside_the_fold(responses, table):
     }
     both = {m: responses[m] + variant[m] for m in MIXES}
     selected = [m for m in model_set(cfg, both) if isinstance(m, Selected)]
-    assert len(selected) == 1 and len(selected[0].candidates) == 4
+    assert len(selected) == 1 and len(selected[0].candidates) == 4 and selected[0].rule == rule
     rows, states = cross_validate(planted, selected, pd.Series({m: m for m in MIXES}), mix_folds(MIXES), "raw")
     assert all(st["state"]["chosen"] == "dem_c2@cut4_x2" for st in states)
     assert np.allclose(rows["E_pred_MPa"], rows["E_meas_MPa"], rtol=1e-3)
     log = selection_log(states)
     assert set(log["candidate"]) == {"dem_physical", "dem_c2", "dem_physical@cut4_x2", "dem_c2@cut4_x2"}
+    assert (log["rule"] == rule).all()
+
+
+def _per_mix(mean: float, spread: float, n: int = 30, seed: int = 0) -> pd.Series:
+    """Per-mix inner scores of mean ``mean`` exactly, around it by +-``spread`` (a seeded draw)."""
+    x = np.random.default_rng(seed).normal(0.0, 1.0, n)
+    x = (x - x.mean()) / x.std(ddof=1)
+    return pd.Series(mean + spread * x, index=[f"m{i}" for i in range(n)])
+
+
+def test_one_standard_error_rule_takes_the_simplest_candidate_within_one_se():
+    """The rule's arithmetic on constructed per-mix scores: the paired excess of each candidate over
+    the best, its standard error SD/sqrt(n); the simplest qualifying candidate is taken, the best
+    when nothing simpler is within one standard error."""
+    from asphalt_nscd.forecast.nested import complexity, one_se_choice
+
+    n = 30
+    best = _per_mix(40.0, 5.0, n, seed=1)
+    # a simpler candidate 0.5 worse on average, its per-mix excess spread 10 (SE = 10/sqrt(30) = 1.83): within
+    near = best + _per_mix(0.5, 10.0, n, seed=2)
+    # a simpler candidate 3 worse, excess spread 2 (SE 0.37): clearly worse
+    far = best + _per_mix(3.0, 2.0, n, seed=3)
+    scores = {"c4": 40.0, "c1": float(near.mean()), "physical": float(far.mean())}
+    per_mix = {"c4": best, "c1": near, "physical": far}
+    order = {"c4": (4, 0), "c1": (1, 0), "physical": (0, 0)}
+    chosen, se = one_se_choice(scores, per_mix, order)
+    assert chosen == "c1"
+    assert (
+        se["c4"] == 0.0
+        and se["c1"] == pytest.approx(10.0 / np.sqrt(n))
+        and se["physical"] == pytest.approx(2.0 / np.sqrt(n))
+    )
+    # the same near candidate made 3 worse at the same spread falls outside the band: the best is kept
+    scores["c1"], per_mix["c1"] = 43.0 + 0.0, best + _per_mix(3.0, 10.0, n, seed=2)
+    assert one_se_choice(scores, per_mix, order)[0] == "c4"
+    # equal complexity: the base sample before the variant, then the least score
+    pm = {"p2@cut4_x2": best, "p2": best + _per_mix(0.1, 5.0, n, seed=4)}
+    tie = {k: float(v.mean()) for k, v in pm.items()}
+    assert one_se_choice(tie, pm, {"p2": (2, 0), "p2@cut4_x2": (2, 1)})[0] == "p2"
+    m = physical.PhysicalDem("dem_p2", {}, 4.0, variant="cut4_x2")
+    assert complexity(m) == (len(m.free), 1) and complexity(physical.PhysicalDem("dem_physical", {}, 4.0)) == (0, 0)
+
+
+def test_an_unknown_selection_rule_is_refused():
+    from asphalt_nscd.io import InputError
+
+    with pytest.raises(InputError, match="rule 'lowest'; expected one of"):
+        Selected("dem_selected", [physical.PhysicalDem("dem_c2", {}, 4.0)], rule="lowest")
 
 
 def test_an_unconfigured_sample_variant_is_refused(responses):

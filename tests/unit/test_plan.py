@@ -565,6 +565,30 @@ def test_former_resource_keys_are_rejected_with_their_new_place(named_config):
             plan.reject_resource_keys(old)
 
 
+@pytest.mark.parametrize("overlay", sorted(p.stem for p in (REPO / "config").glob("*.yaml") if p.stem != "config"))
+def test_every_shipped_overlay_passes_the_schemas_and_the_value_checks(overlay):
+    """Each overlay of config/ (merged on config/config.yaml as Snakemake merges it) is accepted."""
+    plan.check_values(load_config(overlay))
+
+
+def test_config_values_no_schema_expresses_are_checked(named_config):
+    _, cfg = named_config
+    plan.check_values(cfg)  # the repository's configs pass
+    dem = cfg["forecast"].get("dem") or {}
+    bad = copy.deepcopy(cfg)
+    bad["forecast"]["dem"] = {**dem, "variants": [{"cut_mm": 6.3, "size_dmax": 2.0}, {"cut_mm": 6.3, "size_dmax": 2.0}]}
+    with pytest.raises(InputError, match=r"forecast\.dem\.variants\[1\]: cut6\.3_x2 repeats"):
+        plan.check_values(bad)
+    bad["forecast"]["dem"]["variants"] = [{"cut_mm": 6.3}]
+    with pytest.raises(InputError, match=r"forecast\.dem\.variants\[0\]: expected"):
+        plan.check_values(bad)
+    bad["forecast"]["dem"]["variants"] = [{"cut_mm": dem.get("cut_mm", 4.0), "size_dmax": dem.get("size_dmax", 2.5)}]
+    bad["forecast"]["dem"].setdefault("cut_mm", 4.0)
+    bad["forecast"]["dem"].setdefault("size_dmax", 2.5)
+    with pytest.raises(InputError, match=r"repeats the base sample"):
+        plan.check_values(bad)
+
+
 def test_bench_family_schema_lists_every_truth_family():
     """The config schema accepts exactly the truth families the detection benchmark knows."""
     import yaml

@@ -71,3 +71,23 @@ def test_invalid_config_is_rejected_with_the_key_named(tmp_path):
     )
     assert proc.returncode != 0
     assert "scale" in proc.stderr + proc.stdout
+
+
+def test_a_sample_variant_repeating_the_base_is_refused_at_load(tmp_path):
+    """A forecast sample variant equal to the base sample (a check no schema expresses) stops
+    the workflow when it loads, naming the key, before any job is planned."""
+    import yaml
+
+    workdir = _workdir(tmp_path)
+    dem = yaml.safe_load((REPO / "config" / "config.yaml").read_text())["forecast"]["dem"]
+    bad = tmp_path / "bad.yaml"
+    repeat = {"cut_mm": dem["cut_mm"], "size_dmax": dem["size_dmax"]}
+    bad.write_text(yaml.safe_dump({"forecast": {"dem": {"variants": [repeat]}}}))
+    env = dict(os.environ)
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "-n"]
+    proc = subprocess.run([*cmd, "--configfile", str(bad)], capture_output=True, text=True, env=env, timeout=300)
+    out = proc.stderr + proc.stdout
+    assert proc.returncode != 0
+    assert "forecast.dem.variants[0]" in out and "repeats the base sample" in out, out[-3000:]
+    assert "Job stats" not in out and "Traceback (most recent call last)" not in out, out[-3000:]

@@ -18,8 +18,9 @@ from asphalt_nscd import plan
 os.environ.update(plan.job_environment(sys.executable, workflow.basedir, os.environ.get("PATH", ""), os.getcwd()))
 
 # Threads and runtimes are resources of the workflow profiles (profiles/default, profiles/slurm):
-# a config that still sets one of the former keys stops here with the key's new place.
-plan.reject_resource_keys(config)
+# a config that still sets one of the former keys stops here with the key's new place, as does
+# a forecast sample variant that repeats the base sample or another (checks no schema expresses).
+plan.check_values(config)
 for _section, _schema in plan.section_schemas(config, Path(workflow.basedir) / "workflow" / "schemas").items():
     validate(config[_section], _schema)
 

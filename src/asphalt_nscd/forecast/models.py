@@ -126,7 +126,8 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
                 if name in split:
                     inner += [PhysicalDem(m.model, split[name], cut, starts=1, variant=name) for m in ladder]
             # the legacy models (constants outside their physical ranges) are scored beside, not chosen from
-            models.append(Selected("dem_selected", inner, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1)))
+            rule = dem.get("selection_rule", "best")
+            models.append(Selected("dem_selected", inner, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1), rule))
     # the learned yardstick (forecast.learned): gradient-boosted trees on the formulas' inputs (:mod:`.learned`)
     if forecast_cfg.get("learned"):
         from .learned import MODELS as LEARNED

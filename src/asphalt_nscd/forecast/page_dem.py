@@ -237,11 +237,19 @@ def selection_section(selection: pd.DataFrame) -> list[str]:
     g = selection.groupby("candidate").agg(
         chosen=("chosen", "sum"), folds=("fold", "nunique"), inner=("inner_score", "mean")
     )
+    rule = str(selection["rule"].iloc[0]) if "rule" in selection else "best"
+    how = (
+        "the simplest candidate (fewest constants fitted, then the base sample before a variant) whose excess over "
+        "the least inner held-out score is within one standard error of that excess, paired over the inner mixes "
+        "(the one-standard-error rule)"
+        if rule == "one_se"
+        else "the candidate with the least inner held-out score"
+    )
     L = [
         "## The choice inside the fold",
         "",
-        f"`dem_selected` picks, in each of its {int(selection['fold'].nunique())} folds, the candidate with the least "
-        f"inner held-out score ({int(selection['inner_folds'].iloc[0])} inner folds of the training mixes; score = "
+        f"`dem_selected` picks, in each of its {int(selection['fold'].nunique())} folds, {how} "
+        f"({int(selection['inner_folds'].iloc[0])} inner folds of the training mixes; score = "
         "mean |100 ln(E_pred/E_meas)| + mean |phase error| in degrees, per inner mix) and refits it on all the "
         "training mixes; the held-out mix never reaches the choice. The candidates are the ladder's steps on the "
         "base sample and on each sample variant: `<step>@cut<c>_x<s>` is the step on every mix's sample cut at c mm "
