@@ -61,7 +61,7 @@ def costs(run: Path) -> pd.DataFrame:
     successful ``forecast-crossval`` (or no configuration), the last record of each (command, sample
     variant, mix, seed). A mix's preparation that the run reused from an earlier run (a
     configuration whose change does not touch it) is taken from that run's last record, marked
-    ``earlier_run``."""
+    ``earlier_run``; the preparations of a sample variant the last cross-validation did not read are left out."""
     records = [json.loads(line) for line in (run / "benchmarks" / "process_cpu.jsonl").read_text().splitlines()]
     records = [r for r in records if r["argv"] and r["status"] == 0]
     final = [r["argv"] for r in records if r["argv"][0] == "forecast-crossval"][-1]
@@ -76,6 +76,10 @@ def costs(run: Path) -> pd.DataFrame:
         elif a[0] in ONE_SAMPLE:
             earlier[_cost_key(a)] = r
     reused = {k: r for k, r in earlier.items() if k not in last}
+    # only the samples the final cross-validation read (its --responses): a variant the configuration dropped is not its cost
+    used = {""} | {a.split("/variants/")[1].split("/")[0] for a in final if "/variants/" in a}
+    last = {k: r for k, r in last.items() if k[0] not in ONE_SAMPLE or k[1] in used}
+    reused = {k: r for k, r in reused.items() if k[1] in used}
     rows = [
         {
             "command": k[0],

@@ -60,7 +60,11 @@ def paired(per_mix: pd.DataFrame, a: str, b: str) -> list[str]:
 
 
 def costs(c: pd.DataFrame) -> list[str]:
-    c = c.assign(variant=c["variant"].fillna("")) if "variant" in c else c.assign(variant="")
+    c = (
+        c.assign(variant=c["variant"].astype(object).where(c["variant"].notna(), ""))
+        if "variant" in c
+        else c.assign(variant="")
+    )
     if "earlier_run" in c:  # preparations the run reused from an earlier run of the same samples
         c = c.assign(variant=c["variant"].where(~c["earlier_run"].astype(bool), c["variant"] + "*"))
     g = c.groupby(["command", "variant"])["cpu_s"]
@@ -134,38 +138,42 @@ def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
     return L
 
 
-#: runs kept to compare dem_selected's rule of choice: (label, rule) beside the default run's own
-RULE_RUNS = (("rule_best", "best"),)
+#: runs kept to compare dem_selected's choice (label, its configuration) beside the default run's own
+CHOICE_RUNS = (
+    ("variants", "with the sample variants (config/forecast_variants.yaml)"),
+    ("rule_best", "with the sample variants, by the least inner score (config/forecast_rule_best.yaml after it)"),
+)
 
 
-def rule_section(scores: pd.DataFrame, per_mix: pd.DataFrame | None, selection: pd.DataFrame | None) -> list[str]:
-    """``dem_selected`` under each rule of its choice (``forecast.dem.selection_rule``): the default
-    run's rule and the kept runs of :data:`RULE_RUNS`, held out, with the paired difference over
-    the mixes and how often each run chose a sample variant or another step."""
+def choice_section(scores: pd.DataFrame, per_mix: pd.DataFrame | None, selection: pd.DataFrame | None) -> list[str]:
+    """``dem_selected`` under the default run's choice and under the kept runs of :data:`CHOICE_RUNS`
+    (the same base samples; a sample variant's candidates added, another rule of the choice), held
+    out, with the paired difference over the mixes and what each run chose."""
     from scipy import stats
 
     if per_mix is None or selection is None or "rule" not in selection:
         return []
-    runs = [("default", str(selection["rule"].iloc[0]), scores, per_mix, selection)]
-    for label, rule in RULE_RUNS:
+    runs = [("default", "the default configuration", scores, per_mix, selection)]
+    for label, what in CHOICE_RUNS:
         sc, pm, sel = _read(f"{label}_crossval.csv"), _read(f"{label}_per_mix.csv"), _read(f"{label}_selection_log.csv")
         if sc is not None and pm is not None and sel is not None:
-            runs.append((label, rule, sc, pm, sel))
+            runs.append((label, what, sc, pm, sel))
     if len(runs) < 2:
         return []
     L = [
         "",
-        "### The rule of the choice",
+        "### The choice compared",
         "",
-        "`dem_selected` under each rule of `forecast.dem.selection_rule` (the same samples and candidates; "
-        "difference: paired over the mixes against this run's rule, negative is better):",
+        "`dem_selected` in the default run and in the kept runs of the same base samples "
+        "(`forecast.dem.variants`, `forecast.dem.selection_rule`; difference: paired over the mixes against the "
+        "default run, negative is better):",
         "",
-        "| rule | \\|E*\\| (%) | phase (°) | difference \\|E*\\| (points) | difference phase (°) | folds on a sample variant | steps chosen |",
-        "|---|---|---|---|---|---|---|",
+        "| run | rule | \\|E*\\| (%) | phase (°) | difference \\|E*\\| (points) | difference phase (°) | folds on a sample variant | steps chosen |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     base_pm = per_mix[(per_mix["binder_route"] == ROUTE) & per_mix["temperature_C"].isna()]
     base_pm = base_pm[base_pm["label"] == "dem_selected"].set_index("mix_id")
-    for label, rule, sc, pm, sel in runs:
+    for label, what, sc, pm, sel in runs:
         r = sc[(sc["binder_route"] == ROUTE) & (sc["group"] == "all") & sc["temperature_C"].isna()]
         r = r[r["label"] == "dem_selected"].iloc[0]
         e = pm[(pm["binder_route"] == ROUTE) & pm["temperature_C"].isna() & (pm["label"] == "dem_selected")]
@@ -179,10 +187,11 @@ def rule_section(scores: pd.DataFrame, per_mix: pd.DataFrame | None, selection: 
             h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
             diffs.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
         chosen = sel[sel["chosen"].astype(bool) & (sel["binder_route"] == ROUTE)]
+        rule = str(sel["rule"].iloc[0]) if "rule" in sel else "best"
         on_variant = int(chosen["candidate"].str.contains("@").sum())
         steps = chosen["candidate"].str.split("@").str[0].value_counts()
         L.append(
-            f"| {rule} ({label} tables) | {_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
+            f"| {what} (`{label}_*`) | {rule} | {_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
             f"{_ci(r['abs_phase_deg'], r['abs_phase_ci_low'], r['abs_phase_ci_high'])} | {diffs[0]} | {diffs[1]} | "
             f"{on_variant} of {len(chosen)} | {', '.join(f'{k} {v}' for k, v in steps.items())} |"
         )
@@ -246,7 +255,10 @@ def render() -> str:
         "```bash",
         "make run                                                     # default: 2.5 largest diameters, one seed",
         "python reference/forecast/collect.py . --label default -o reference/forecast",
-        ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_rule_best.yaml",
+        ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_variants.yaml",
+        "python reference/forecast/collect.py . --label variants --models dem_selected -o reference/forecast",
+        ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_variants.yaml \\",
+        "    config/forecast_rule_best.yaml",
         "python reference/forecast/collect.py . --label rule_best --models dem_selected -o reference/forecast",
         ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_reference.yaml",
         "python reference/forecast/collect.py . --label reference -o reference/forecast  # 3.0 diameters, two seeds",
@@ -306,7 +318,7 @@ def render() -> str:
         L += ladder(scores, per_mix)
         L += _extra_sections(label, scores)
         if label == "default":
-            L += rule_section(scores, per_mix, _read("default_selection_log.csv"))
+            L += choice_section(scores, per_mix, _read("default_selection_log.csv"))
         sp = _read(f"{label}_seed_spread.csv")
         if sp is not None:
             m = sp.groupby("mix_id")["mean_abs_log_diff_pct"].mean()
@@ -366,8 +378,8 @@ def render() -> str:
             "",
             "One mix's sample at each cut and cube size, prepared and solved one process at a time "
             "(`variant_cost.py`; CPU of the command, its peak memory): the response's dense generalized "
-            "eigen-decomposition grows as the cube of the spheres, so the default run's variants stop at "
-            "the 4 mm cut.",
+            "eigen-decomposition grows as the cube of the spheres, so the variants of "
+            "`config/forecast_variants.yaml` stop at the 4 mm cut.",
             "",
             "| sample | spheres | packing CPU (s) | sample CPU (s) | response CPU (s) | response memory (MB) |",
             "|---|---|---|---|---|---|",
