@@ -58,9 +58,8 @@ def mix_scores(model, state, test: pd.DataFrame) -> pd.Series:
     return per_mix.groupby("mix")["s"].mean()
 
 
-def inner_score(model, state, test: pd.DataFrame) -> float:
-    """The inner score (module docstring) of a fitted candidate on held-out rows with measured values."""
-    per_mix = mix_scores(model, state, test)
+def inner_score(per_mix: pd.Series) -> float:
+    """The inner score (module docstring) of per-mix scores (:func:`mix_scores`); inf when no mix is scored."""
     return float(per_mix.mean()) if per_mix.notna().any() else np.inf
 
 
@@ -137,7 +136,7 @@ class Selected:
                 inner_test = measured[measured["mix_id"].isin(held)]
                 m = mix_scores(cand, cand.fit(inner_train), inner_test)
                 mixes_scored.append(m)
-                per_fold.append((float(m.mean()) if m.notna().any() else np.inf, len(held)))
+                per_fold.append((inner_score(m), len(held)))
             s, n = np.array(per_fold).T
             scores[label_of(cand)] = float(np.sum(s * n) / np.sum(n))
             per_mix[label_of(cand)] = pd.concat(mixes_scored)
