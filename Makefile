@@ -40,7 +40,7 @@ table: setup
 #     here if missing); published in results/mixes/<folder>-<stem>/.
 #   make forecast TABLE=path/to/matched_table.tsv (its sidecar <table>.test.json beside it): every mix whose |E*| and
 #     phase cells are empty is forecast by every model fitted on the mixes that have them; published in
-#     results/forecasts/<folder>-<table>/.
+#     results/forecasts/<folder>-<table>/ (worked in <folder>-<table>.work/: make run's results/forecast stays as it is).
 # (README, "Your mix, forecast".)
 FORECAST_OVERLAY := results/forecast_table.yaml
 forecast: setup

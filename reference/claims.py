@@ -106,12 +106,11 @@ def one(frame: pd.DataFrame, **where):
 def tmean(values, level: float = 0.95) -> list[float]:
     """[mean, low, high] of values with the t(n-1) interval of the mean (a paired difference
     over mixes, "+4.8 points, -2.7 to +12.4")."""
-    from scipy import stats
+    from asphalt_nscd.diagnosis.scores import t_interval
 
     v = np.asarray(list(values), float)
     v = v[np.isfinite(v)]
-    h = stats.t.ppf(0.5 + level / 2, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size)
-    return [float(v.mean()), float(v.mean() - h), float(v.mean() + h)]
+    return [float(v.mean()), *t_interval(v, level)]
 
 
 def paired(per_mix: pd.DataFrame, a: str, b: str, column: str) -> list[float]:

@@ -31,6 +31,14 @@ def _ci(v, lo, hi, d=1) -> str:
     return f"{v:.{d}f} [{lo:.{d}f}, {hi:.{d}f}]"
 
 
+def _mean_ci(d, digits=1) -> str:
+    """A paired difference over the mixes: its mean with the t(n - 1) 95 % interval."""
+    from asphalt_nscd.diagnosis.scores import t_interval
+
+    v = np.asarray(d, float)
+    return _ci(v.mean(), *t_interval(v), d=digits)
+
+
 def headline(scores: pd.DataFrame) -> list[str]:
     s = scores[(scores["binder_route"] == ROUTE) & (scores["group"] == "all") & scores["temperature_C"].isna()]
     lines = ["| model | mean abs 100 ln(E_f/E_m) (%) | mean abs phase error (°) | largest (%) |", "|---|---|---|---|"]
@@ -43,8 +51,6 @@ def headline(scores: pd.DataFrame) -> list[str]:
 
 
 def paired(per_mix: pd.DataFrame, a: str, b: str) -> list[str]:
-    from scipy import stats
-
     e = per_mix[per_mix["binder_route"] == ROUTE]
     lines = [f"| T (°C) | {a} − {b}: \\|E*\\| (%) | phase (°) |", "|---|---|---|"]
     for T in [np.nan, *sorted(e["temperature_C"].dropna().unique())]:
@@ -52,9 +58,7 @@ def paired(per_mix: pd.DataFrame, a: str, b: str) -> list[str]:
         cells = []
         for col in ("e", "p"):
             w = sel.pivot_table(index="mix_id", columns="label", values=col)
-            d = (w[a] - w[b]).dropna().to_numpy()
-            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
-            cells.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
+            cells.append(_mean_ci((w[a] - w[b]).dropna()))
         lines.append(f"| {'all' if np.isnan(T) else f'{T:.1f}'} | " + " | ".join(cells) + " |")
     return lines
 
@@ -96,8 +100,6 @@ def costs(c: pd.DataFrame) -> list[str]:
 
 def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
     """The physical ladder's steps side by side with each step's paired gain over the one before."""
-    from scipy import stats
-
     from asphalt_nscd.forecast.physical import ALL_STEPS as STEPS
     from asphalt_nscd.forecast.physical import PREVIOUS
 
@@ -127,9 +129,7 @@ def ladder(scores: pd.DataFrame, per_mix: pd.DataFrame | None) -> list[str]:
                 gains.append("–")
                 continue
             w = e.pivot_table(index="mix_id", columns="label", values=col)
-            d = (w[name] - w[prev]).dropna().to_numpy()
-            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
-            gains.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
+            gains.append(_mean_ci((w[name] - w[prev]).dropna()))
         L.append(
             f"| {name} | {len(free) if name != 'dem_selected' else '–'}: {', '.join(free) or 'none'} | "
             f"{_ci(r['abs_logE_pct'], r['abs_logE_ci_low'], r['abs_logE_ci_high'])} | "
@@ -149,8 +149,6 @@ def choice_section(scores: pd.DataFrame, per_mix: pd.DataFrame | None, selection
     """``dem_selected`` under the default run's choice and under the kept runs of :data:`CHOICE_RUNS`
     (the same base samples; a sample variant's candidates added, another rule of the choice), held
     out, with the paired difference over the mixes and what each run chose."""
-    from scipy import stats
-
     if per_mix is None or selection is None or "rule" not in selection:
         return []
     runs = [("default", "the default configuration", scores, per_mix, selection)]
@@ -183,9 +181,7 @@ def choice_section(scores: pd.DataFrame, per_mix: pd.DataFrame | None, selection
             if label == "default":
                 diffs.append("–")
                 continue
-            d = (e[col] - base_pm[col]).dropna().to_numpy()
-            h = stats.t.ppf(0.975, d.size - 1) * d.std(ddof=1) / np.sqrt(d.size)
-            diffs.append(_ci(d.mean(), d.mean() - h, d.mean() + h))
+            diffs.append(_mean_ci((e[col] - base_pm[col]).dropna()))
         chosen = sel[sel["chosen"].astype(bool) & (sel["binder_route"] == ROUTE)]
         rule = str(sel["rule"].iloc[0]) if "rule" in sel else "best"
         on_variant = int(chosen["candidate"].str.contains("@").sum())
@@ -198,12 +194,12 @@ def choice_section(scores: pd.DataFrame, per_mix: pd.DataFrame | None, selection
     return L
 
 
-def _extra_sections(label: str, scores: pd.DataFrame) -> list[str]:
+def _extra_sections(label: str, scores: pd.DataFrame, selection: pd.DataFrame | None) -> list[str]:
     """The run's choice inside the fold, error split, learned yardstick and intervals (as on its page)."""
     from asphalt_nscd.forecast import page_dem
 
     L: list[str] = []
-    selection, split = _read(f"{label}_selection_log.csv"), _read(f"{label}_error_split.csv")
+    split = _read(f"{label}_error_split.csv")
     coverage, rows = _read(f"{label}_interval_coverage.csv"), _read(f"{label}_learned_by_rows.csv")
     for sec in (
         page_dem.selection_section(selection),
@@ -316,9 +312,10 @@ def render() -> str:
                 for _, r in k.iterrows()
             ]
         L += ladder(scores, per_mix)
-        L += _extra_sections(label, scores)
+        selection = _read(f"{label}_selection_log.csv")
+        L += _extra_sections(label, scores, selection)
         if label == "default":
-            L += choice_section(scores, per_mix, _read("default_selection_log.csv"))
+            L += choice_section(scores, per_mix, selection)
         sp = _read(f"{label}_seed_spread.csv")
         if sp is not None:
             m = sp.groupby("mix_id")["mean_abs_log_diff_pct"].mean()

@@ -895,14 +895,41 @@ def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str
 
 
 # forecast: a mix's |E*| and phase from its binder, gradation and volumetrics (workflow/rules/forecast.smk)
-#: the working area of the forecast chain
+#: the working area of the forecast chain of make run (forecast.work_dir's default)
 FORECAST = "results/forecast"
-#: the matched table in the project's columns (checkpoint forecast_table)
-FORECAST_MATCHED = f"{FORECAST}/matched.csv"
-#: the folder of a forecast sample's files: the forecast's own (the base sample) or variants/<name> (a variant)
-FORECAST_WHERE = re.escape(FORECAST) + r"(/variants/cut[0-9.]+_x[0-9.]+)?"
 #: where the last complete forecast of each table is published (rule forecast_publish)
 FORECASTS = "results/forecasts"
+
+
+def forecast_root(config: dict) -> str:
+    """The forecast chain's working folder: forecast.work_dir (:data:`FORECAST` when unset). make forecast
+    TABLE=... sets it to ``results/forecasts/<folder>-<stem>.work/forecast`` (:func:`forecast_work_dir`), so
+    that a table's forecast leaves make run's own chain, and the models a mix file is forecast with, as they are."""
+    return str((config.get("forecast") or {}).get("work_dir") or FORECAST)
+
+
+def forecast_work_dir(table) -> str:
+    """The working folder of make forecast TABLE=``table``: ``<its published folder>.work/forecast``
+    (:func:`forecast_dir`), beside the folder its complete run is published to."""
+    return f"{forecast_dir({'forecast': {'table': str(table)}})}.work/forecast"
+
+
+def forecast_publish_root(wildcards, input) -> str:
+    """The params function of rule forecast_publish: the folder its files' paths are kept relative to, the
+    parent of the working folder (its first file, the matched table, lies in it): ``forecast/...`` in the
+    published folder for every working folder."""
+    return str(Path(input.files[0]).parent.parent)
+
+
+def forecast_matched(config: dict) -> str:
+    """The matched table in the project's columns (checkpoint forecast_table), in :func:`forecast_root`."""
+    return f"{forecast_root(config)}/matched.csv"
+
+
+def forecast_where(config: dict) -> str:
+    """The wildcard constraint of a forecast sample's folder: :func:`forecast_root` (the base sample) or
+    its variants/<name> (a variant)."""
+    return re.escape(forecast_root(config)) + r"(/variants/cut[0-9.]+_x[0-9.]+)?"
 
 
 def forecast_dir(config: dict) -> str:
@@ -945,13 +972,13 @@ def matched_mixes(path) -> list:
 
 
 def forecast_variant(config: dict, where: str) -> dict:
-    """The sample variant of a forecast sample folder (:data:`FORECAST_WHERE`): ``name`` ("" for the
+    """The sample variant of a forecast sample folder (:func:`forecast_where`): ``name`` ("" for the
     base sample), ``cut_mm``, ``size_dmax``. Raises InputError for a variant the config does not list."""
     from .forecast.formulation import sample_variants
     from .io import InputError
 
     dem = config["forecast"].get("dem") or {}
-    if where == FORECAST:
+    if where == forecast_root(config):
         return {"name": "", "cut_mm": float(dem["cut_mm"]), "size_dmax": float(dem["size_dmax"])}
     name = where.rsplit("/", 1)[-1]
     variants = sample_variants(dem)
@@ -969,25 +996,26 @@ def forecast_responses(config: dict, matched) -> list:
     dem = config["forecast"].get("dem") or {}
     if not dem.get("models"):
         return []
-    roots = [FORECAST] + [f"{FORECAST}/variants/{name}" for name in sample_variants(dem)]
+    root = forecast_root(config)
+    roots = [root] + [f"{root}/variants/{name}" for name in sample_variants(dem)]
     mixes = matched_mixes(matched)
     return [f"{root}/responses/{m}_s{s}.npz" for root in roots for m in mixes for s in dem.get("seeds", [1])]
 
 
 def forecast_settings(config: dict) -> dict:
     """What the forecast's chain commands read from the config (a change reruns them): the
-    forecast section without the seed list and without the mix file of new mixes (read by
-    forecast_mix alone)."""
+    forecast section without the seed list, without the mix file of new mixes (read by forecast_mix
+    alone) and without the working folder (the outputs' paths already name it)."""
     dem = {k: v for k, v in (config["forecast"].get("dem") or {}).items() if k != "seeds"}
-    return {**{k: v for k, v in config["forecast"].items() if k != "mix"}, "dem": dem}
+    return {**{k: v for k, v in config["forecast"].items() if k not in ("mix", "work_dir")}, "dem": dem}
 
 
-def forecast_sample_settings(config: dict, where: str = FORECAST) -> dict:
+def forecast_sample_settings(config: dict, where: str | None = None) -> dict:
     """What a mix's preparation in the folder ``where`` reads from the config (a change reruns it, and
     only it): its variant's cut and cube size, the layer (forecast.dem), and the sample section the
     dynamics come from."""
     dem = config["forecast"].get("dem") or {}
-    variant = forecast_variant(config, where)
+    variant = forecast_variant(config, forecast_root(config) if where is None else where)
     return {
         "dem": {
             "cut_mm": float(variant["cut_mm"]),

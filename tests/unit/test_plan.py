@@ -677,8 +677,8 @@ def test_a_forecast_sample_folder_names_its_variant_and_its_settings(tmp_path):
     with pytest.raises(InputError, match="cut2_x2"):
         plan.forecast_variant(config, f"{plan.FORECAST}/variants/cut2_x2")
     for where in (plan.FORECAST, variant):
-        assert re.fullmatch(plan.FORECAST_WHERE, where)
-    assert not re.fullmatch(plan.FORECAST_WHERE, "results/other")
+        assert re.fullmatch(plan.forecast_where(config), where)
+    assert not re.fullmatch(plan.forecast_where(config), "results/other")
     assert plan.forecast_sample_param(config)(SimpleNamespace(where=variant))["dem"]["cut_mm"] == 6.3
     assert plan.forecast_variant_param(config)(SimpleNamespace(where=plan.FORECAST)) == ""
     matched = tmp_path / "matched.csv"
@@ -689,3 +689,43 @@ def test_a_forecast_sample_folder_names_its_variant_and_its_settings(tmp_path):
         f"{variant}/responses/193_s1.npz",
         f"{variant}/responses/211_s1.npz",
     ]
+
+
+def test_a_tables_forecast_works_in_its_own_folder(tmp_path):
+    """make forecast TABLE=... (the overlay of forecast-config) moves the whole chain, its matched table,
+    samples of every variant and responses, into <the table's published folder>.work/forecast: make run's
+    results/forecast (and the models a mix file is forecast with) stay as they are; the chain's settings
+    param does not change with the folder (no rerun of make run's chain); an unset folder is make run's."""
+    import re
+
+    import yaml
+
+    from asphalt_nscd.cli import main
+
+    table = tmp_path / "lab dép" / "mixes.tsv"
+    table.parent.mkdir()
+    table.write_text("mix_id\n")
+    overlay = tmp_path / "overlay.yaml"
+    assert main(["forecast-config", "--table", str(table), "-o", str(overlay)]) == 0
+    section = yaml.safe_load(overlay.read_text())["forecast"]
+    root = "results/forecasts/lab dép-mixes.work/forecast"
+    assert section == {"table": str(table), "work_dir": root}
+    assert plan.forecast_dir({"forecast": section}) == "results/forecasts/lab dép-mixes"
+    dem = {"models": ["dem"], "cut_mm": 4.0, "size_dmax": 2.5, "variants": [{"cut_mm": 6.3, "size_dmax": 2.5}]}
+    config = {"forecast": {**section, "dem": dem}, "sample": {"seeds": [1]}}
+    assert plan.forecast_root(config) == root and plan.forecast_matched(config) == f"{root}/matched.csv"
+    assert re.fullmatch(plan.forecast_where(config), f"{root}/variants/cut6.3_x2.5")
+    assert not re.fullmatch(plan.forecast_where(config), plan.FORECAST)
+    assert plan.forecast_variant(config, root)["name"] == ""
+    matched = tmp_path / "matched.csv"
+    matched.write_text("mix_id,x\n193,1\n")
+    assert plan.forecast_responses(config, matched) == [
+        f"{root}/responses/193_s1.npz",
+        f"{root}/variants/cut6.3_x2.5/responses/193_s1.npz",
+    ]
+    files = SimpleNamespace(files=[f"{root}/matched.csv", f"{root}/crossval.csv"])
+    assert plan.forecast_publish_root(None, files) == "results/forecasts/lab dép-mixes.work"
+    assert plan.forecast_publish_root(None, SimpleNamespace(files=[f"{plan.FORECAST}/matched.csv"])) == "results"
+    default = {"forecast": {"table": str(table), "work_dir": None, "dem": dem}, "sample": {"seeds": [1]}}
+    assert plan.forecast_root(default) == plan.FORECAST
+    assert plan.forecast_settings(config) == plan.forecast_settings(default)

@@ -5,13 +5,19 @@ from pathlib import Path
 
 from asphalt_nscd import plan
 
+# the chain's working folder: results/forecast for make run, results/forecasts/<folder>-<table>.work/forecast for
+# make forecast TABLE=... (forecast.work_dir), so that a table's forecast leaves make run's chain as it is
+FORECAST = plan.forecast_root(config)
+MATCHED = plan.forecast_matched(config)
+WHERE = plan.forecast_where(config)
+
 
 checkpoint forecast_table:
     input:
         table=config["forecast"]["table"],
         sidecar=plan.forecast_sidecar(config),
     output:
-        matched=plan.FORECAST_MATCHED,
+        matched=MATCHED,
     log:
         "logs/forecast/table.log",
     conda:
@@ -19,30 +25,28 @@ checkpoint forecast_table:
     params:
         mixes=plan.forecast_mixes_setting(config),
     shell:
-        'asphalt-nscd matched {input.table:q} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.matched} 2> {log}'
+        'asphalt-nscd matched {input.table:q} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.matched:q} 2> {log:q}'
 
 
 rule forecast_binders:
     input:
-        plan.FORECAST_MATCHED,
+        MATCHED,
     output:
-        points=report(
-            f"{plan.FORECAST}/binder_points.csv", caption="../report/forecast_binders.rst", category="Forecast"
-        ),
-        curves=f"{plan.FORECAST}/binder_curves.json",
+        points=report(f"{FORECAST}/binder_points.csv", caption="../report/forecast_binders.rst", category="Forecast"),
+        curves=f"{FORECAST}/binder_curves.json",
     log:
         "logs/forecast/binders.log",
     conda:
         "../envs/asphalt-nscd.yaml"
     shell:
-        "asphalt-nscd forecast-binders {input} -o {output.points} --curves {output.curves} 2> {log}"
+        "asphalt-nscd forecast-binders {input:q} -o {output.points:q} --curves {output.curves:q} 2> {log:q}"
 
 
 rule forecast_pack:
     # the costly part of a mix's sample: its gradation above the cut deposited and vibrated (Section 3.2.1);
     # {where} is the forecast's folder for the base sample, its variants/<cut..._x...> folder for a variant
     input:
-        plan.FORECAST_MATCHED,
+        MATCHED,
     output:
         "{where}/samples/{mix}_s{seed}.npz",
     log:
@@ -51,20 +55,20 @@ rule forecast_pack:
         "benchmarks/{where}/pack_{mix}_s{seed}.tsv"
     wildcard_constraints:
         seed=r"\d+",
-        where=plan.FORECAST_WHERE,
+        where=WHERE,
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
         settings=plan.forecast_sample_param(config),
     shell:
-        'asphalt-nscd forecast-pack --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input} --mix {wildcards.mix}'
+        'asphalt-nscd forecast-pack --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input:q} --mix {wildcards.mix}'
         " --seed {wildcards.seed} --cut-mm {params.settings[dem][cut_mm]} --size-dmax {params.settings[dem][size_dmax]}"
-        " -o {output} 2> {log}"
+        " -o {output:q} 2> {log:q}"
 
 
 rule forecast_sample:
     input:
-        matched=plan.FORECAST_MATCHED,
+        matched=MATCHED,
         packing="{where}/samples/{mix}_s{seed}.npz",
     output:
         h5="{where}/samples/{mix}_s{seed}.h5",
@@ -73,15 +77,15 @@ rule forecast_sample:
         "logs/{where}/sample_{mix}_s{seed}.log",
     wildcard_constraints:
         seed=r"\d+",
-        where=plan.FORECAST_WHERE,
+        where=WHERE,
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
         settings=plan.forecast_sample_param(config),
     shell:
-        'asphalt-nscd forecast-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input.matched}'
+        'asphalt-nscd forecast-sample --config "$ASPHALT_NSCD_RUN_CONFIG" --table {input.matched:q}'
         " --mix {wildcards.mix} --cut-mm {params.settings[dem][cut_mm]} --size-dmax {params.settings[dem][size_dmax]}"
-        " --packing {input.packing} -o {output.h5} --summary {output.summary} 2> {log}"
+        " --packing {input.packing:q} -o {output.h5:q} --summary {output.summary:q} 2> {log:q}"
 
 
 rule forecast_response:
@@ -93,28 +97,28 @@ rule forecast_response:
         "logs/{where}/response_{mix}_s{seed}.log",
     wildcard_constraints:
         seed=r"\d+",
-        where=plan.FORECAST_WHERE,
+        where=WHERE,
     conda:
         "../envs/asphalt-nscd.yaml"
     params:
         variant=plan.forecast_variant_param(config),
     shell:
-        "asphalt-nscd forecast-response {input} --mix {wildcards.mix} --seed {wildcards.seed}"
-        " --variant '{params.variant}' -o {output} 2> {log}"
+        "asphalt-nscd forecast-response {input:q} --mix {wildcards.mix} --seed {wildcards.seed}"
+        " --variant '{params.variant}' -o {output:q} 2> {log:q}"
 
 
 rule forecast_crossval:
     input:
-        matched=plan.FORECAST_MATCHED,
+        matched=MATCHED,
         curves=rules.forecast_binders.output.curves,
         responses=plan.forecast_responses_input(config, checkpoints),
     output:
-        rows=f"{plan.FORECAST}/crossval_rows.csv",
-        scores=report(f"{plan.FORECAST}/crossval.csv", caption="../report/forecast_crossval.rst", category="Forecast"),
-        constants=f"{plan.FORECAST}/crossval_constants.json",
-        split=f"{plan.FORECAST}/error_split.csv",
-        selection=f"{plan.FORECAST}/selection_log.csv",
-        learned_rows=f"{plan.FORECAST}/learned_by_rows.csv",
+        rows=f"{FORECAST}/crossval_rows.csv",
+        scores=report(f"{FORECAST}/crossval.csv", caption="../report/forecast_crossval.rst", category="Forecast"),
+        constants=f"{FORECAST}/crossval_constants.json",
+        split=f"{FORECAST}/error_split.csv",
+        selection=f"{FORECAST}/selection_log.csv",
+        learned_rows=f"{FORECAST}/learned_by_rows.csv",
     log:
         "logs/forecast/crossval.log",
     benchmark:
@@ -124,10 +128,10 @@ rule forecast_crossval:
     params:
         settings=plan.forecast_settings(config),
     shell:
-        'asphalt-nscd forecast-crossval --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched} --curves {input.curves}'
-        " --responses {input.responses} -o {output.rows} --scores {output.scores} --constants {output.constants}"
-        " --split {output.split} --selection {output.selection} --learned-rows {output.learned_rows}"
-        " --jobs {threads} 2> {log}"
+        'asphalt-nscd forecast-crossval --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched:q} --curves {input.curves:q}'
+        " --responses {input.responses:q} -o {output.rows:q} --scores {output.scores:q} --constants {output.constants:q}"
+        " --split {output.split:q} --selection {output.selection:q} --learned-rows {output.learned_rows:q}"
+        " --jobs {threads} 2> {log:q}"
 
 
 rule forecast_coverage:
@@ -135,30 +139,30 @@ rule forecast_coverage:
     input:
         rules.forecast_crossval.output.rows,
     output:
-        coverage=f"{plan.FORECAST}/interval_coverage.csv",
-        intervals=f"{plan.FORECAST}/intervals.csv",
+        coverage=f"{FORECAST}/interval_coverage.csv",
+        intervals=f"{FORECAST}/intervals.csv",
     log:
         "logs/forecast/coverage.log",
     conda:
         "../envs/asphalt-nscd.yaml"
     shell:
-        'asphalt-nscd forecast-coverage {input} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.coverage}'
-        " --intervals {output.intervals} 2> {log}"
+        'asphalt-nscd forecast-coverage {input:q} --config "$ASPHALT_NSCD_RUN_CONFIG" -o {output.coverage:q}'
+        " --intervals {output.intervals:q} 2> {log:q}"
 
 
 rule forecast_predict:
     input:
-        matched=plan.FORECAST_MATCHED,
+        matched=MATCHED,
         curves=rules.forecast_binders.output.curves,
         scores=rules.forecast_crossval.output.scores,
         intervals=rules.forecast_coverage.output.intervals,
         responses=plan.forecast_responses_input(config, checkpoints),
     output:
-        forecast=f"{plan.FORECAST}/forecast.csv",
-        level1=f"{plan.FORECAST}/level1_tables.csv",
-        sigmoid=f"{plan.FORECAST}/sigmoid_master_curves.csv",
-        constants=f"{plan.FORECAST}/forecast_constants.json",
-        state=directory(f"{plan.FORECAST}/trained"),
+        forecast=f"{FORECAST}/forecast.csv",
+        level1=f"{FORECAST}/level1_tables.csv",
+        sigmoid=f"{FORECAST}/sigmoid_master_curves.csv",
+        constants=f"{FORECAST}/forecast_constants.json",
+        state=directory(f"{FORECAST}/trained"),
     log:
         "logs/forecast/predict.log",
     conda:
@@ -166,15 +170,15 @@ rule forecast_predict:
     params:
         settings=plan.forecast_settings(config),
     shell:
-        'asphalt-nscd forecast --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched} --curves {input.curves}'
-        " --responses {input.responses} --scores {input.scores} -o {output.forecast} --level1 {output.level1}"
-        " --sigmoid {output.sigmoid} --constants {output.constants} --intervals {input.intervals}"
-        " --state {output.state} 2> {log}"
+        'asphalt-nscd forecast --config "$ASPHALT_NSCD_RUN_CONFIG" --matched {input.matched:q} --curves {input.curves:q}'
+        " --responses {input.responses:q} --scores {input.scores:q} -o {output.forecast:q} --level1 {output.level1:q}"
+        " --sigmoid {output.sigmoid:q} --constants {output.constants:q} --intervals {input.intervals:q}"
+        " --state {output.state:q} 2> {log:q}"
 
 
 rule forecast_page:
     input:
-        matched=plan.FORECAST_MATCHED,
+        matched=MATCHED,
         points=rules.forecast_binders.output.points,
         curves=rules.forecast_binders.output.curves,
         rows=rules.forecast_crossval.output.rows,
@@ -187,14 +191,14 @@ rule forecast_page:
         coverage=rules.forecast_coverage.output.coverage,
         learned_rows=rules.forecast_crossval.output.learned_rows,
     output:
-        page=report(f"{plan.FORECAST}/forecast.md", caption="../report/forecast_page.rst", category="Forecast"),
+        page=report(f"{FORECAST}/forecast.md", caption="../report/forecast_page.rst", category="Forecast"),
         predictions=report(
-            f"{plan.FORECAST}/figures/predicted_vs_measured.png",
+            f"{FORECAST}/figures/predicted_vs_measured.png",
             caption="../report/forecast_predictions.rst",
             category="Forecast",
         ),
         binders=report(
-            f"{plan.FORECAST}/figures/binder_master_curves.png",
+            f"{FORECAST}/figures/binder_master_curves.png",
             caption="../report/forecast_binder_curves.rst",
             category="Forecast",
         ),
@@ -207,19 +211,20 @@ rule forecast_page:
         name=Path(config["forecast"]["table"]).name,
     shell:
         'asphalt-nscd forecast-page --config "$ASPHALT_NSCD_RUN_CONFIG" --table-name {params.name:q}'
-        " --matched {input.matched} --points {input.points} --curves {input.curves} --rows {input.rows}"
-        " --scores {input.scores} --constants {input.constants} --forecast {input.forecast}"
-        " --forecast-constants {input.forecast_constants} --split {input.split} --selection {input.selection}"
-        " --coverage {input.coverage} --learned-rows {input.learned_rows} -o {output.page} 2> {log}"
+        " --matched {input.matched:q} --points {input.points:q} --curves {input.curves:q} --rows {input.rows:q}"
+        " --scores {input.scores:q} --constants {input.constants:q} --forecast {input.forecast:q}"
+        " --forecast-constants {input.forecast_constants:q} --split {input.split:q} --selection {input.selection:q}"
+        " --coverage {input.coverage:q} --learned-rows {input.learned_rows:q} -o {output.page:q} 2> {log:q}"
 
 
 rule forecast_publish:
-    # the last rule: the complete run copied into results/forecasts/<folder>-<table>/ with manifest.json, in place
+    # the last rule: the complete run copied into results/forecasts/<folder>-<table>/ (its paths relative to the parent of
+    # the working folder: forecast/...) with manifest.json, in place
     # only once every step has succeeded (a failed or stopped run leaves the folder as the last complete one made it)
     input:
         table=config["forecast"]["table"],
         files=[
-            plan.FORECAST_MATCHED,
+            MATCHED,
             *rules.forecast_binders.output,
             *rules.forecast_crossval.output,
             *rules.forecast_coverage.output,
@@ -235,8 +240,10 @@ rule forecast_publish:
         "logs/forecast/publish.log",
     conda:
         "../envs/asphalt-nscd.yaml"
+    params:
+        root=plan.forecast_publish_root,
     shell:
-        "asphalt-nscd forecast-publish {input.files:q} --table {input.table:q} --root results -o {output:q} 2> {log}"
+        "asphalt-nscd forecast-publish {input.files:q} --table {input.table:q} --root {params.root:q} -o {output:q} 2> {log:q}"
 
 
 rule forecast_mix:
@@ -253,4 +260,4 @@ rule forecast_mix:
         "../envs/asphalt-nscd.yaml"
     shell:
         'asphalt-nscd forecast-mix {input.mix:q} --state {input.state:q} --config "$ASPHALT_NSCD_RUN_CONFIG"'
-        " -o {output:q} 2> {log}"
+        " -o {output:q} 2> {log:q}"

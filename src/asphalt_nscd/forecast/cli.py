@@ -221,9 +221,10 @@ def _add_overlay(subparsers) -> None:
     p = subparsers.add_parser(
         "forecast-config",
         help="the config overlay of make forecast: forecast.table or forecast.mix set to a file (YAML)",
-        description="Write the YAML overlay that sets forecast.table (make forecast TABLE=...) and/or forecast.mix "
-        "(make forecast MIX=...): the paths reach the workflow through this file, so a path with spaces, quotes or "
-        "non-ASCII characters works.",
+        description="Write the YAML overlay that sets forecast.table (make forecast TABLE=...; with it the chain's "
+        "working folder forecast.work_dir, results/forecasts/<folder>-<table>.work/forecast, so that make run's own "
+        "results/forecast stays as it is) and/or forecast.mix (make forecast MIX=...): the paths reach the workflow "
+        "through this file, so a path with spaces, quotes or non-ASCII characters works.",
     )
     p.add_argument("table_arg", nargs="?", default=None, metavar="table", help="the matched table (as --table)")
     p.add_argument("--table", default=None, help="the matched table (its sidecar <table stem>.test.json beside it)")
@@ -237,6 +238,7 @@ def _overlay(args) -> int:
 
     import yaml
 
+    from .. import plan
     from ..io import InputError, write_text
 
     table = args.table or args.table_arg
@@ -247,6 +249,7 @@ def _overlay(args) -> int:
         if not Path(table).is_file():
             raise InputError(f"TABLE={table}: file not found (expected a matched binder-mix table)")
         section["table"] = str(table)
+        section["work_dir"] = plan.forecast_work_dir(table)  # make run's own chain (results/forecast) left alone
     if args.mix:
         if not Path(args.mix).is_file():
             raise InputError(f"MIX={args.mix}: file not found (expected a mix file, YAML: data/README.md, 'Mix files')")
