@@ -7,7 +7,8 @@ Reads ``<label>_crossval.csv``, ``<label>_per_mix.csv``, ``<label>_costs.csv``, 
 and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, the binder's reading and
 extrapolation tables (``binder_reading.csv`` with ``binder_reading_paired.csv``,
 ``binder_extrapolation_summary.csv``, rendered by ``asphalt_nscd.forecast.binder_report``) and the size
-study's ``size_study_summary.csv`` and the sample variants' cost ``variant_cost.csv``; a table that is missing leaves its section out.
+study's ``size_study_summary.csv``, the candidate physics ``physics_probe.csv`` and the sample variants' cost
+``variant_cost.csv``; a table that is missing leaves its section out.
 """
 
 from __future__ import annotations
@@ -214,6 +215,50 @@ def _extra_sections(label: str, scores: pd.DataFrame, selection: pd.DataFrame | 
     return L
 
 
+def physics_section(pp: pd.DataFrame | None) -> list[str]:
+    """``dem_physical`` (nothing fitted) under the candidate physics of its bond laws (``physics_probe.py``)."""
+    if pp is None:
+        return []
+    L = [
+        "",
+        "## Candidate physics of dem_physical",
+        "",
+        "`dem_physical` fits nothing on mixes; here it forecasts every mix of the default run's samples with the air "
+        "voids in the mastic (the default) or added to the mortar at the fine aggregate's scale "
+        "(`forecast.dem.air_phase`), and with the skeleton contacts also touching as Hertz contacts of the stones at "
+        "the test's strain amplitude (`forecast.dem.contact_strain`, in parallel with their mastic films; none: "
+        "the default) (`physics_probe.py`; 95 % t intervals over the mixes; bias: mean signed error per "
+        "temperature). The variants are compared on the mixes they are scored on; the last row chooses the "
+        "variant for each mix left out on the other mixes only.",
+        "",
+    ]
+    temps = " / ".join(f"{T:.1f}" for T in sorted(pp["temperature_C"].dropna().unique()))
+    L += [
+        f"| air voids in | contact strain | \\|E*\\| (%) | phase (°) | bias \\|E*\\| (%) at {temps} °C | bias phase (°) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for (air, strain), g in pp.groupby(["air_phase", pp["contact_strain"].fillna(0.0)], sort=False):
+        a = g[g["temperature_C"].isna()].iloc[0]
+        per_T = g[g["temperature_C"].notna()].sort_values("temperature_C")
+        bias_e = " / ".join(f"{v:+.0f}" for v in per_T["bias_logE_pct"])
+        bias_p = " / ".join(f"{v:+.1f}" for v in per_T["bias_phase_deg"])
+        chosen_row = air == "chosen in the fold"
+        L.append(
+            f"| {air} | {'–' if chosen_row else (f'{strain:g}' if strain else 'none')} | "
+            f"{_ci(a['abs_logE_pct'], a['abs_logE_pct_ci_low'], a['abs_logE_pct_ci_high'])} | "
+            f"{_ci(a['abs_phase_deg'], a['abs_phase_deg_ci_low'], a['abs_phase_deg_ci_high'])} | {bias_e} | {bias_p} |"
+        )
+    chosen = pp.loc[pp["air_phase"] == "chosen in the fold", "chosen"].dropna()
+    if len(chosen):
+        L += [
+            "",
+            f"Chosen in the fold (variant: mixes): {chosen.iloc[0]}. The largest strain tried, "
+            f"{pp['contact_strain'].max():g}, is the top of the range AASHTO T 342 allows (50–150 microstrain): "
+            "a choice at its bound.",
+        ]
+    return L
+
+
 def binder_sections() -> list[str]:
     """The binder's reading and extrapolation sections (their tables' scripts named under each heading)."""
     from asphalt_nscd.forecast.binder_report import binder_reading_section, extrapolation_section
@@ -260,6 +305,7 @@ def render() -> str:
         "python reference/forecast/collect.py . --label reference -o reference/forecast  # 3.0 diameters, two seeds",
         "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
         "    --summary reference/forecast/size_study_summary.csv",
+        "python reference/forecast/physics_probe.py . -o reference/forecast/physics_probe.csv",
         "python reference/forecast/variant_cost.py --mix 193 --variant 4:2.5 --variant 6.3:2.5 --variant 4:2 \\",
         "    --variant 2:2 -o reference/forecast/variant_cost.csv",
         "python reference/forecast/time_domain.py . --constants reference/forecast/default_constants.csv \\",
@@ -367,6 +413,7 @@ def render() -> str:
             f"{r['td_vs_harmonic_phase_deg']:.2g} | {r['inertia_E_pct']:.1g} | {r['n_nonlinear_steps']} | {r['cpu_s']:.0f} |"
             for _, r in td.iterrows()
         ]
+    L += physics_section(_read("physics_probe.csv"))
     vc = _read("variant_cost.csv")
     if vc is not None:
         L += [

@@ -901,6 +901,10 @@ FORECAST = "results/forecast"
 FORECASTS = "results/forecasts"
 
 
+#: what a forecast response file holds (a param of rule forecast_response: a response written before it is rewritten)
+FORECAST_RESPONSE_CONTENTS = "pencils of the bridges and the skeleton, series and Hertz contact geometry"
+
+
 def forecast_root(config: dict) -> str:
     """The forecast chain's working folder: forecast.work_dir (:data:`FORECAST` when unset). make forecast
     TABLE=... sets it to ``results/forecasts/<folder>-<stem>.work/forecast`` (:func:`forecast_work_dir`), so

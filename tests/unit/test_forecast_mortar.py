@@ -137,3 +137,25 @@ def test_a_fraction_at_its_packing_limit_is_refused():
         differential_scheme(3e9, 1e9, [Inclusion(KS, GS, 0.7)], 0.7)
     assert Constituents().outside_ranges() == []
     assert Constituents(E_stone_Pa=4.2e9).outside_ranges() == ["E_stone_Pa"]
+
+
+def test_air_in_the_mortar_is_the_dense_mortar_made_porous():
+    """air_phase="mortar": without air it is the default mortar exactly (the same stages); with air it is
+    the dense mortar (fine aggregate in the dense mastic, inside its Hashin-Shtrikman bounds, below the stone)
+    softened by the voids at every condition, more air softer; an unknown phase is refused."""
+    c = Constituents(fine_packing=0.80)
+    G, d = np.geomspace(1e3, 1e9, 12), np.linspace(80, 10, 12)
+    vol = {"binder": 0.11, "filler": 0.05, "air": 0.0, "fine": 0.40}
+    a = mortar.mortar_moduli(G, d, vol, c, "mastic")["mortar"]
+    b = mortar.mortar_moduli(G, d, vol, c, "mortar")["mortar"]
+    np.testing.assert_allclose(b, a, rtol=1e-12)
+    dense = mortar.young(*b)
+    E = []
+    for air in (0.03, 0.06):
+        m = mortar.mortar_moduli(G, d, {**vol, "air": air}, c, "mortar")
+        assert m["phi_air"] == pytest.approx(air / (0.56 + air)) and m["phi_fine"] == pytest.approx(0.40 / 0.56)
+        np.testing.assert_allclose(m["porous_mastic"], m["mastic"], rtol=0)
+        E.append(np.abs(mortar.young(*m["mortar"])))
+    assert np.all(np.abs(dense) > E[0]) and np.all(E[0] > E[1]) and np.all(E[1] < c.E_stone_Pa)
+    with pytest.raises(ValueError, match="air_phase"):
+        mortar.mortar_moduli(G, d, vol, c, "binder")

@@ -103,10 +103,12 @@ def test_a_planted_mix_is_recovered(responses, table):
         assert st["state"]["skeleton_exponent"] == pytest.approx(0.35, abs=1e-3)
 
 
-def test_more_air_voids_make_the_forecast_softer(responses, table):
+@pytest.mark.parametrize("air_phase, strain", [("mastic", None), ("mortar", None), ("mortar", 1e-4)])
+def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain):
     """At the same sample, binder and effective binder, more air voids (a larger VMA) soften every
-    condition's forecast (the mortar's voids and a thicker film)."""
-    model = physical.PhysicalDem("dem_physical", responses, 4.0)
+    condition's forecast (the mortar's voids and a thicker film), wherever the voids enter and with
+    the Hertz contacts too."""
+    model = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase=air_phase, contact_strain=strain)
     state = model.fit(table)
     rows = table[table["mix_id"] == "209"]
     E = [model.predict(state, rows.assign(Va_pct=va))[0] for va in (3.0, 5.0, 8.0)]
@@ -258,3 +260,64 @@ def test_an_unconfigured_sample_variant_is_refused(responses):
     base_only = Selected("dem_selected", [physical.PhysicalDem("dem_c2", responses, 4.0)])
     with pytest.raises(InputError, match="dem_c2@cut4_x2"):
         base_only.predict({"chosen": "dem_c2@cut4_x2", "state": {}}, pd.DataFrame())
+
+
+def test_the_tabulated_mortar_with_air_in_the_mortar_is_the_direct_one(table):
+    """MixMortar(air_phase="mortar") at a packing limit and stone modulus on its grids gives the
+    direct mortar_moduli(air_phase="mortar") (the air added after the fine stage at every query), and
+    its voids soften it against the dense mortar."""
+    from asphalt_nscd.forecast.mortar import Constituents, mortar_moduli, young
+
+    rows = table[table["mix_id"] == "211"]
+    v = phase_volumes(rows.iloc[0], 4.0)
+    G, d = rows["binder_G_mix_MPa"].to_numpy() * 1e6, rows["binder_delta_mix_deg"].to_numpy()
+    mm = physical.MixMortar(G, d, v, air_phase="mortar")
+    E_stone = float(physical.E_STONE_GRID[2])
+    Em, Gm = mm.moduli(0.8, E_stone)
+    direct = mortar_moduli(G, d, v, Constituents(E_stone_Pa=E_stone, fine_packing=0.8), "mortar")
+    np.testing.assert_allclose(Em, young(*direct["mortar"]), rtol=2e-3)
+    np.testing.assert_allclose(Gm, direct["mastic"][1], rtol=1e-9)
+    dense = physical.MixMortar(G, d, {**v, "air": 0.0}, air_phase="mortar").moduli(0.8, E_stone)[0]
+    assert np.all(np.abs(Em) < np.abs(dense))
+
+
+def test_hertz_contacts_follow_hertz_and_stiffen_the_warm_forecast(responses, table):
+    """The Hertz term is (6 E*^2 R N)^(1/3) per contact (computed here from a force N and radius R
+    directly), grows as the strain^(1/3); in the forecast the fixed point holds (E = e_1 F(zeta + e_H(|E|)
+    / e_1)), the Hertz contacts stiffen every condition and lower the warm phase angle (an elastic
+    path beside the films); a response without their geometry is refused; a strain outside (0, 0.01) too."""
+    from asphalt_nscd.forecast.mortar import Constituents
+
+    r = responses["211"][0]
+    assert np.isfinite(r.skeleton_v_over_l) and np.isfinite(r.skeleton_r53) and r.n_skeleton > 0
+    Es = 55e9 / (1 - Constituents().nu_stone ** 2)
+    E = np.array([1e8, 1e10])
+    k = physical.hertz_contact(E, 1e-4, r, Es)
+    N = E * 1e-4 * r.skeleton_v_over_l
+    R = r.skeleton_r53**0.6  # the radius whose R^(5/3) is the mean
+    np.testing.assert_allclose(k * R**2, (6 * (Es / 2) ** 2 * R * N) ** (1 / 3), rtol=1e-12)
+    np.testing.assert_allclose(physical.hertz_contact(E, 8e-4, r, Es), 2 * k, rtol=1e-12)
+    plain = physical.PhysicalDem("dem_physical", responses, 4.0)
+    hertz = physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=1e-4)
+    rows = table[table["mix_id"] == "211"]
+    E0, P0, _ = plain.predict(plain.fit(table), rows)
+    E1, P1, _ = hertz.predict(hertz.fit(table), rows)
+    assert np.all(E1 > E0)
+    warm = rows["temperature_C"].to_numpy() > 50
+    assert np.all(P1[warm] < P0[warm])
+    c = hertz.constants(())
+    mm, film = hertz._cells(rows)[0][1:3]
+    Em, Gm = mm.moduli(c["fine_packing"], c["E_stone_Pa"])
+    e1, zeta = physical.bond_moduli(c, Em, Gm, film, r)
+    E = E1 * 1e6 * np.exp(1j * np.radians(P1))
+    again = e1 * r.factor(zeta + physical.hertz_contact(np.abs(E), 1e-4, r, Es) / e1, skeleton="film")
+    np.testing.assert_allclose(again, E, rtol=1e-6)
+    import dataclasses
+
+    from asphalt_nscd.io import InputError
+
+    old = {"211": [dataclasses.replace(r, skeleton_v_over_l=np.nan)]}
+    with pytest.raises(InputError, match="rerun forecast-response"):
+        physical.PhysicalDem("dem_physical", old, 4.0, contact_strain=1e-4).predict(plain.fit(table), rows)
+    with pytest.raises(InputError, match="contact strain"):
+        physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=0.05)

@@ -102,6 +102,7 @@ rule forecast_response:
         "../envs/asphalt-nscd.yaml"
     params:
         variant=plan.forecast_variant_param(config),
+        contents=plan.FORECAST_RESPONSE_CONTENTS,
     shell:
         "asphalt-nscd forecast-response {input:q} --mix {wildcards.mix} --seed {wildcards.seed}"
         " --variant '{params.variant}' -o {output:q} 2> {log:q}"

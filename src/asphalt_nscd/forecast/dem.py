@@ -73,6 +73,11 @@ class Response:
     beta_f: np.ndarray = field(default_factory=lambda: np.zeros(0))
     chi_bridge: float = np.nan
     skeleton_r15: float = np.nan
+    #: V / sum of the skeleton contacts' branch lengths (m^2): a stress sigma gives them the mean normal force
+    #: sigma V / sum(l) (Love-Weber: sigma_kk V = sum_c N_c l_c); NaN without skeleton contacts
+    skeleton_v_over_l: float = np.nan
+    #: <R_eff^(5/3)> over the skeleton contacts, weighted as the film decomposition (R_eff^2), m^(5/3)
+    skeleton_r53: float = np.nan
     cpu_s: float = 0.0
     #: the sample variant (:func:`.formulation.variant_name`); "" for the base sample
     variant: str = ""
@@ -149,12 +154,15 @@ class Response:
         except (OSError, ValueError) as exc:
             raise InputError(f"{path}: not a DEM response file of 'forecast-response' ({exc})") from None
         kw.setdefault("variant", "")  # written before sample variants existed: the base sample
+        for name in ("skeleton_v_over_l", "skeleton_r53"):  # written before the Hertz contacts: unknown
+            kw.setdefault(name, np.nan)
         missing = sorted(set(cls.__dataclass_fields__) - set(kw))
         if missing:
             raise InputError(f"{path}: DEM response without {missing}")
         scalars = {"mix_id": str, "seed": int, "side_m": float, "p0": float, "p1": float, "p1_f": float}
         scalars |= {"n_spheres": int, "n_bonds": int, "n_skeleton": int, "cpu_s": float}
         scalars |= {"chi_bridge": float, "skeleton_r15": float, "variant": str}
+        scalars |= {"skeleton_v_over_l": float, "skeleton_r53": float}
         return cls(**{k: (scalars[k](kw[k]) if k in scalars else kw[k]) for k in cls.__dataclass_fields__})
 
 
@@ -263,6 +271,9 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         raise InputError(f"sample {sample.name}: the mortar network has a free mode (G_m not positive definite)")
     r_bond = sample.bonds["r_min"]
     alpha0 = V.T @ a
+    i, j = sample.bonds["i"], sample.bonds["j"]
+    branch = sample.radius[i] + np.where(j >= 0, sample.radius[np.maximum(j, 0)], 0.0)  # a wall contact: r_i
+    volume = float(sample.attrs["B_m"] * sample.attrs["e_m"] * sample.attrs["h_m"])
     return Response(
         mix_id=str(mix_id),
         seed=int(seed),
@@ -281,6 +292,8 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         beta_f=V_f.T @ gf["fp"][:, 2].toarray().ravel(),
         chi_bridge=float((gm["pp"][2, 2] - alpha0 @ alpha0) / _head_stiffness(system, r_bond)),
         skeleton_r15=float(np.sum(w * reff**1.5) / np.sum(w)) if np.any(skel) else np.nan,
+        skeleton_v_over_l=float(volume / np.sum(branch[skel])) if np.any(skel) else np.nan,
+        skeleton_r53=float(np.sum(w * reff ** (5.0 / 3.0)) / np.sum(w)) if np.any(skel) else np.nan,
         cpu_s=time.process_time() - t0,
     )
 

@@ -13,6 +13,7 @@ responses are given, then the learned yardstick (:class:`.learned.GradientBoosti
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -116,15 +117,20 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
             )
         base = split.get("", {})
         legacy = [DemModel(name, base, dem["cut_mm"]) for name in dem.get("models", [])]
-        ladder = [PhysicalDem(name, base, dem["cut_mm"]) for name in dem.get("physical", [])]
+        # the bond laws' physics options (forecast.dem.air_phase, forecast.dem.contact_strain)
+        physics: dict[str, Any] = {
+            "air_phase": dem.get("air_phase") or "mastic",
+            "contact_strain": dem.get("contact_strain"),
+        }
+        ladder = [PhysicalDem(name, base, dem["cut_mm"], **physics) for name in dem.get("physical", [])]
         models += legacy + ladder
         if dem.get("selected") and ladder:
             # inside the choice every candidate is fitted from the middle of its ranges (one start: its cost),
             # on the base sample and on every variant prepared
-            inner = [PhysicalDem(m.model, base, dem["cut_mm"], starts=1) for m in ladder]
+            inner = [PhysicalDem(m.model, base, dem["cut_mm"], starts=1, **physics) for m in ladder]
             for name, (cut, _) in configured.items():
                 if name in split:
-                    inner += [PhysicalDem(m.model, split[name], cut, starts=1, variant=name) for m in ladder]
+                    inner += [PhysicalDem(m.model, split[name], cut, starts=1, variant=name, **physics) for m in ladder]
             # the legacy models (constants outside their physical ranges) are scored beside, not chosen from
             rule = dem.get("selection_rule", "best")
             models.append(Selected("dem_selected", inner, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1), rule))

@@ -3,6 +3,10 @@
 Phases (volume fractions: :func:`asphalt_nscd.forecast.formulation.phase_volumes`): binder +
 filler (below 0.075 mm) = mastic; mastic + air voids = porous mastic; porous mastic + fine
 aggregate (0.075 mm to the PSD cut) = mortar, the matrix between the discrete model's spheres.
+Where the air voids sit is a choice (``air_phase``): ``mastic`` (above, the default) homogenizes
+them with the filler, ``mortar`` adds them last, to the mortar of dense mastic and fine aggregate
+(a compacted mix's voids, 0.1 mm to a few mm, are the size of its fine aggregate, not of its
+filler: a homogenization at the mastic's scale presumes a separation of scales they do not have).
 Every phase is isotropic and linear viscoelastic; by the elastic-viscoelastic correspondence
 principle (Hashin 1965, J. Appl. Mech. 32, 630-636) an elastic estimate written for complex
 bulk and shear moduli K*, G* gives the composite's complex moduli at one frequency and
@@ -215,7 +219,13 @@ class Constituents:
         return [k for k, (lo, hi) in self.RANGES.items() if not lo <= getattr(self, k) <= hi]
 
 
-def mortar_moduli(G_binder_Pa, delta_deg, volumes: dict, constituents: Constituents = Constituents()) -> dict:
+#: where the air voids enter the mortar (module docstring)
+AIR_PHASES = ("mastic", "mortar")
+
+
+def mortar_moduli(
+    G_binder_Pa, delta_deg, volumes: dict, constituents: Constituents = Constituents(), air_phase: str = "mastic"
+) -> dict:
     """The complex moduli of the mastic, the porous mastic and the mortar (module docstring).
 
     Parameters
@@ -225,29 +235,40 @@ def mortar_moduli(G_binder_Pa, delta_deg, volumes: dict, constituents: Constitue
     volumes : the mix's phase volumes (:func:`asphalt_nscd.forecast.formulation.phase_volumes`:
         ``binder, filler, fine, air``, fractions of the mix).
     constituents : the physical constants (:class:`Constituents`).
+    air_phase : ``mastic`` (air in the mastic, then the fine aggregate) or ``mortar`` (the fine
+        aggregate in the dense mastic, then the air in that mortar; ``porous_mastic`` is then the
+        mastic itself).
 
     Returns
     -------
     dict of (K, G) complex arrays (Pa) under ``mastic``, ``porous_mastic``, ``mortar``, and the
-    inclusion fractions used: ``phi_filler`` (filler in mastic), ``phi_air`` (air in porous
-    mastic), ``phi_fine`` (fine aggregate in mortar).
+    inclusion fractions used: ``phi_filler`` (filler in mastic), ``phi_air`` (air in the porous
+    mastic, or in the mortar), ``phi_fine`` (fine aggregate in its matrix).
 
     Raises
     ------
     ValueError
         if an inclusion fraction reaches its packing limit (the mix's fine aggregate or filler
-        would be packed denser than the limit allows).
+        would be packed denser than the limit allows), or for an unknown ``air_phase``.
     """
+    if air_phase not in AIR_PHASES:
+        raise ValueError(f"air_phase {air_phase!r}: expected one of {AIR_PHASES}")
     G = np.asarray(G_binder_Pa, float) * np.exp(1j * np.radians(np.asarray(delta_deg, float)))
     Ks, Gs = constituents.stone()
     mastic = volumes["binder"] + volumes["filler"]
     phi_f = volumes["filler"] / mastic
-    phi_a = volumes["air"] / (mastic + volumes["air"])
-    phi_s = volumes["fine"] / (mastic + volumes["air"] + volumes["fine"])
     Kb = np.full(G.shape, complex(constituents.K_binder_Pa))
     m = hs_cap(
         *differential_scheme(Kb, G, [Inclusion(Ks, Gs, phi_f)], constituents.filler_packing), (Kb, G), Ks, Gs, phi_f
     )
+    if air_phase == "mortar":
+        phi_s = volumes["fine"] / (mastic + volumes["fine"])
+        phi_a = volumes["air"] / (mastic + volumes["fine"] + volumes["air"])
+        d = hs_cap(*differential_scheme(*m, [Inclusion(Ks, Gs, phi_s)], constituents.fine_packing), m, Ks, Gs, phi_s)
+        r = differential_scheme(*d, [Inclusion(0.0, 0.0, phi_a)], 1.0)
+        return {"mastic": m, "porous_mastic": m, "mortar": r, "phi_filler": phi_f, "phi_air": phi_a, "phi_fine": phi_s}
+    phi_a = volumes["air"] / (mastic + volumes["air"])
+    phi_s = volumes["fine"] / (mastic + volumes["air"] + volumes["fine"])
     p = differential_scheme(*m, [Inclusion(0.0, 0.0, phi_a)], 1.0)
     r = hs_cap(*differential_scheme(*p, [Inclusion(Ks, Gs, phi_s)], constituents.fine_packing), p, Ks, Gs, phi_s)
     return {"mastic": m, "porous_mastic": p, "mortar": r, "phi_filler": phi_f, "phi_air": phi_a, "phi_fine": phi_s}

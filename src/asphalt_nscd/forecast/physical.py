@@ -139,14 +139,25 @@ class MixMortar:
     ----------
     G_binder_Pa, delta_deg : (n,) the binder at the mix's conditions (Pa, degrees).
     volumes : the mix's phase volumes (:func:`.formulation.phase_volumes`).
+    air_phase : where the air voids enter (:data:`.mortar.AIR_PHASES`): ``mastic`` (the fine aggregate
+        then goes into porous mastic) or ``mortar`` (into dense mastic, the air added to the mortar
+        at every query, after the fine stage's cap).
     """
 
-    def __init__(self, G_binder_Pa, delta_deg, volumes: dict):
+    def __init__(self, G_binder_Pa, delta_deg, volumes: dict, air_phase: str = "mastic"):
         from scipy.interpolate import CubicSpline
 
         from .mortar import Constituents, Inclusion, differential_scheme, hs_upper, mortar_moduli
 
-        self.phi_fine = volumes["fine"] / (volumes["binder"] + volumes["filler"] + volumes["air"] + volumes["fine"])
+        self.air_phase = air_phase
+        air_in_matrix = volumes["air"] if air_phase == "mastic" else 0.0
+        self.phi_fine = volumes["fine"] / (volumes["binder"] + volumes["filler"] + air_in_matrix + volumes["fine"])
+        #: the air's fraction of the mortar, added at every query (``air_phase="mortar"``; 0 otherwise)
+        self.phi_air_mortar = (
+            0.0
+            if air_phase == "mastic"
+            else volumes["air"] / (volumes["binder"] + volumes["filler"] + volumes["air"] + volumes["fine"])
+        )
         #: the least packing limit this mix reads (a limit closer to its fraction is taken as this one: jammed)
         self.packing_floor = max(CONSTANTS["fine_packing"].low, JAMMED * self.phi_fine)
         s_max = float(-self.packing_floor * np.log1p(-self.phi_fine / self.packing_floor))
@@ -154,7 +165,7 @@ class MixMortar:
         lnK, lnG, lnGm, cap = [], [], [], []
         for E_s in E_STONE_GRID:
             c = Constituents(E_stone_Pa=float(E_s))
-            m = mortar_moduli(G_binder_Pa, delta_deg, {**volumes, "fine": 0.0}, c)
+            m = mortar_moduli(G_binder_Pa, delta_deg, {**volumes, "fine": 0.0}, c, air_phase)
             Ks, Gs = c.stone()
             K, G = m["porous_mastic"]
             Ku, Gu = hs_upper((K, G), Ks, Gs, self.phi_fine)
@@ -185,6 +196,10 @@ class MixMortar:
         lnK = np.where(lnK.real > cK, cK + 1j * lnK.imag, lnK)
         lnG = np.where(lnG.real > cG, cG + 1j * lnG.imag, lnG)
         K, G = np.exp(lnK), np.exp(lnG)
+        if self.phi_air_mortar > 0.0:
+            from .mortar import Inclusion, differential_scheme
+
+            K, G = differential_scheme(K, G, [Inclusion(0.0, 0.0, self.phi_air_mortar)], 1.0, steps=12)
         return 9.0 * K * G / (3.0 * K + G), np.exp(np.tensordot(w, self._lnGm_nodes, axes=1))
 
     def jammed(self, fine_packing: float) -> bool:
@@ -222,7 +237,34 @@ def bond_moduli(
     return e1, e2 / e1
 
 
-#: (mix, binder, volumes) -> (MixMortar, film thickness), built once per process
+def hertz_contact(E_mix_abs, strain: float, response, E_stone_prime: float) -> np.ndarray:
+    """The skeleton contacts' Hertz stiffness per unit R^2 (Pa/m, real (n,)) at the test's stress.
+
+    Two equal stones in elastic contact under a normal force N have k = (6 E*^2 R N)^(1/3) (Hertz
+    1882; Johnson 1985, Contact Mechanics, Eq. 4.23 differentiated), E* = E_s' / 2 the contact
+    modulus of two stones of plane-strain modulus E_s' = E_s / (1 - nu_s^2), R the contact's
+    effective radius. N is the mean force the test's stress sigma = |E*_mix| strain gives the
+    skeleton contacts (Love-Weber: N = sigma V / sum l, :attr:`.dem.Response.skeleton_v_over_l`);
+    per unit R^2 with R^(-5/3) taken as 1 / <R^(5/3)> over the contacts (``skeleton_r53``).
+
+    E_mix_abs : (n,) |E*| of the sample (Pa). strain : the test's axial strain amplitude (-).
+    Raises InputError if the response predates these contacts (its scalars are NaN)."""
+    if not (np.isfinite(response.skeleton_v_over_l) and np.isfinite(response.skeleton_r53)):
+        raise InputError(
+            f"DEM response of mix {response.mix_id} (seed {response.seed}): no skeleton contact geometry "
+            "(written before the Hertz contacts); delete it and rerun forecast-response"
+        )
+    N = np.asarray(E_mix_abs, float) * float(strain) * response.skeleton_v_over_l
+    return (6.0 * (0.5 * E_stone_prime) ** 2 * N) ** (1.0 / 3.0) / response.skeleton_r53
+
+
+#: iterations of the Hertz contacts' fixed point (their force follows the sample's own modulus)
+HERTZ_ITERATIONS = 60
+#: its tolerance on ln|E*|
+HERTZ_TOLERANCE = 1e-9
+
+
+#: (mix, binder, volumes, air phase) -> (MixMortar, film thickness), built once per process
 _MORTARS: dict = {}
 
 
@@ -237,6 +279,10 @@ class PhysicalDem:
     free : the constants to fit (default: the step's).
     starts : starting points of the fit (1: the middle of every range; 3: also its quarter points).
     variant : the sample variant of ``responses`` (:func:`.formulation.variant_name`; "" the base sample).
+    air_phase : where the air voids enter the mortar (:data:`.mortar.AIR_PHASES`).
+    contact_strain : the test's axial strain amplitude at which the skeleton contacts also touch as
+        Hertz contacts of the stones (:func:`hertz_contact`, in parallel with their mastic film;
+        the film skeleton only); None: no Hertz contact.
     """
 
     coefficients = "physical"
@@ -249,7 +295,11 @@ class PhysicalDem:
         free: tuple | None = None,
         starts: int = 3,
         variant: str = "",
+        air_phase: str = "mastic",
+        contact_strain: float | None = None,
     ):
+        from .mortar import AIR_PHASES
+
         steps = dict(ALL_STEPS)
         if name not in steps and free is None:
             raise InputError(f"physical DEM model {name!r}: expected one of {STEP_NAMES}")
@@ -259,6 +309,12 @@ class PhysicalDem:
         self.starts = int(starts)
         #: the skeleton law: the film (:data:`STEPS`) or the parabolic element (:data:`PARABOLIC_STEPS`)
         self.skeleton = "parabolic" if name in dict(PARABOLIC_STEPS) else "film"
+        if air_phase not in AIR_PHASES:
+            raise InputError(f"physical DEM model {name!r}: air phase {air_phase!r}; expected one of {AIR_PHASES}")
+        if contact_strain is not None and not 0.0 < float(contact_strain) < 0.01:
+            raise InputError(f"physical DEM model {name!r}: contact strain {contact_strain}; expected in (0, 0.01)")
+        self.air_phase = str(air_phase)
+        self.contact_strain = None if contact_strain is None else float(contact_strain)
         unknown = sorted(set(self.free) - set(CONSTANTS))
         if unknown:
             raise InputError(
@@ -288,9 +344,9 @@ class PhysicalDem:
             d = r["binder_delta_mix_deg"].to_numpy(float)
             mix = r.iloc[0]
             volumes = phase_volumes(mix, self.cut_mm)
-            key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())))
+            key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())), self.air_phase)
             if key not in _MORTARS:  # shared by every model of the process: the ladder's steps read the same mortar
-                _MORTARS[key] = (MixMortar(G, d, volumes), film_thickness_m(mix))
+                _MORTARS[key] = (MixMortar(G, d, volumes, self.air_phase), film_thickness_m(mix))
             out.append((idx, *_MORTARS[key], self.responses[mix_id]))
         return out
 
@@ -309,9 +365,29 @@ class PhysicalDem:
             for resp in responses:
                 e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton)
                 weights = "mortar" if self.skeleton == "parabolic" else "film"
-                logs.append(np.log(e1) + np.log(resp.factor(zeta, skeleton=weights)))
+                E = e1 * resp.factor(zeta, skeleton=weights)
+                if self.contact_strain is not None and self.skeleton == "film":
+                    E = self._with_hertz(E, e1, zeta, resp, constants)
+                logs.append(np.log(E))
             out[idx] = np.mean(logs, axis=0)
         return out
+
+    def _with_hertz(self, E, e1, zeta, resp, constants: dict) -> np.ndarray:
+        """E*_sample (Pa, complex (n,)) with the Hertz contacts in parallel with the films: the fixed
+        point of E = e_1 F(zeta + e_H(|E|) / e_1) (:func:`hertz_contact`; a contraction: e_H grows as
+        |E|^(1/3)). Raises InputError if it does not converge."""
+        from .mortar import Constituents
+
+        nu = Constituents().nu_stone
+        Es = constants["E_stone_Pa"] / (1.0 - nu**2)
+        strain = float(self.contact_strain or 0.0)
+        for _ in range(HERTZ_ITERATIONS):
+            new = e1 * resp.factor(zeta + hertz_contact(np.abs(E), strain, resp, Es) / e1, skeleton="film")
+            done = np.max(np.abs(np.log(np.abs(new / E)))) < HERTZ_TOLERANCE
+            E = new
+            if done:
+                return E
+        raise InputError(f"mix {resp.mix_id}: the Hertz contacts' fixed point did not converge")
 
     def fit(self, train: pd.DataFrame) -> dict:
         """The constants of a fold (module docstring): the free ones fitted on ``train`` inside their
