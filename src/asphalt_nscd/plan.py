@@ -897,8 +897,6 @@ def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str
 # forecast: a mix's |E*| and phase from its binder, gradation and volumetrics (workflow/rules/forecast.smk)
 #: the working area of the forecast chain of make run (forecast.work_dir's default)
 FORECAST = "results/forecast"
-#: where the last complete forecast of each table is published (rule forecast_publish)
-FORECASTS = "results/forecasts"
 
 
 #: what a forecast response file holds (a param of rule forecast_response: a response written before it is rewritten)
@@ -907,15 +905,9 @@ FORECAST_RESPONSE_CONTENTS = "pencils of the bridges and the skeleton, series an
 
 def forecast_root(config: dict) -> str:
     """The forecast chain's working folder: forecast.work_dir (:data:`FORECAST` when unset). make forecast
-    TABLE=... sets it to ``results/forecasts/<folder>-<stem>.work/forecast`` (:func:`forecast_work_dir`), so
+    TABLE=... sets it to ``results/forecasts/<folder>-<stem>.work/forecast`` (:func:`.forecast.product.table_work_dir`), so
     that a table's forecast leaves make run's own chain, and the models a mix file is forecast with, as they are."""
     return str((config.get("forecast") or {}).get("work_dir") or FORECAST)
-
-
-def forecast_work_dir(table) -> str:
-    """The working folder of make forecast TABLE=``table``: ``<its published folder>.work/forecast``
-    (:func:`forecast_dir`), beside the folder its complete run is published to."""
-    return f"{forecast_dir({'forecast': {'table': str(table)}})}.work/forecast"
 
 
 def forecast_publish_root(wildcards, input) -> str:
@@ -938,10 +930,10 @@ def forecast_where(config: dict) -> str:
 
 def forecast_dir(config: dict) -> str:
     """``results/forecasts/<folder>-<stem>``: the folder of the last complete forecast of
-    forecast.table (:func:`own_table_dir`'s rule)."""
-    table = Path(config["forecast"]["table"])
-    folder = table.resolve().parent.name
-    return f"{FORECASTS}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{FORECASTS}/{table.stem}"
+    forecast.table (:func:`.forecast.product.table_folder`)."""
+    from .forecast.product import table_folder
+
+    return table_folder(config["forecast"]["table"])
 
 
 def mix_dir(config: dict) -> str:

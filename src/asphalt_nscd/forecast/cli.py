@@ -238,8 +238,8 @@ def _overlay(args) -> int:
 
     import yaml
 
-    from .. import plan
     from ..io import InputError, write_text
+    from .product import table_work_dir
 
     table = args.table or args.table_arg
     if not table and not args.mix:
@@ -249,7 +249,7 @@ def _overlay(args) -> int:
         if not Path(table).is_file():
             raise InputError(f"TABLE={table}: file not found (expected a matched binder-mix table)")
         section["table"] = str(table)
-        section["work_dir"] = plan.forecast_work_dir(table)  # make run's own chain (results/forecast) left alone
+        section["work_dir"] = table_work_dir(table)  # make run's own chain (results/forecast) left alone
     if args.mix:
         if not Path(args.mix).is_file():
             raise InputError(f"MIX={args.mix}: file not found (expected a mix file, YAML: data/README.md, 'Mix files')")

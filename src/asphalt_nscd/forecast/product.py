@@ -48,6 +48,25 @@ RANGE_COLUMNS = {
 }
 
 
+#: where the last complete forecast of each table is published (rule forecast_publish)
+FORECASTS = "results/forecasts"
+
+
+def table_folder(table) -> str:
+    """``results/forecasts/<folder>-<stem>``: the folder of the last complete forecast of the matched
+    table ``table`` (its folder's name and its stem; ``<stem>`` alone for a table in the working folder)."""
+    table = Path(table)
+    folder = table.resolve().parent.name
+    return f"{FORECASTS}/{folder}-{table.stem}" if folder and table.parent != Path(".") else f"{FORECASTS}/{table.stem}"
+
+
+def table_work_dir(table) -> str:
+    """The forecast chain's working folder for make forecast TABLE=``table`` (forecast.work_dir):
+    ``<its published folder>.work/forecast``, beside the folder its complete run is published to, so that
+    make run's own chain (results/forecast) stays as it is."""
+    return f"{table_folder(table)}.work/forecast"
+
+
 def _with_volumetrics(table: pd.DataFrame) -> pd.DataFrame:
     return table.assign(
         VMA_pct=table["Va_pct"] + table["Vbeff_pct"],
