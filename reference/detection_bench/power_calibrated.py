@@ -13,7 +13,8 @@ calibrated on itself (:func:`asphalt_nscd.diagnosis.bench.calibrate_alarms`'s st
 calibrated level; a table without a nominal detection has none after calibration. Writes
 ``DIR/<design>_power_calibrated.csv``: per size, tables, nominal and calibrated detections, the
 calibrated rate and its one-sided 95 % lower bound; each table's calibration is kept in
-``DIR/<design>_power_calibration.jsonl`` as it ends (a stopped run resumes).
+``DIR/<design>_power_calibration.jsonl`` as it ends (a stopped run resumes; a line of another
+number of tables or level rule is not read back).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from pathlib import Path
 import pandas as pd
 
 from asphalt_nscd.diagnosis import bench
+from asphalt_nscd.diagnosis.calibration import LEVEL_RULE
 from asphalt_nscd.io import read_json_lines, write_csv
 
 
@@ -75,7 +77,7 @@ def main(argv=None) -> int:
     done = {
         (rec["power_size"], rec["index"], rec["seed"]): rec
         for rec in read_json_lines(checkpoint, "power record", ("power_size", "index", "seed", "n_tables"))
-        if rec["n_tables"] == args.tables
+        if rec["n_tables"] == args.tables and rec.get("level_rule") == LEVEL_RULE
     }
     rows = []
     for c in chosen:
@@ -91,6 +93,7 @@ def main(argv=None) -> int:
                 "seed": c["seed"],
                 "family": c["family"],
                 "n_tables": args.tables,
+                "level_rule": LEVEL_RULE,
                 "min_p": nominal["min_p"],
                 "nominal": nominal["detected"],
             }

@@ -166,8 +166,8 @@ def test_calibrated_alarms_recount_the_complete_procedure():
     # pretend the first table raised a nominal alarm, at two statistics around its calibrated level
     runs[0]["detected"], runs[0]["min_p"] = ["time_lag"], 1e-30
     runs[1]["detected"], runs[1]["min_p"] = ["temperature_offset"], runs[1]["level"] * 0.999
-    bench.calibrate_alarms(result, n_tables=20)
-    assert result["calibration_tables"] == 20
+    bench.calibrate_alarms(result, n_tables=40)
+    assert result["calibration_tables"] == 40
     for r in runs[:2]:
         assert 0.0 < r["calibrated_level"] <= r["level"]
         assert r["detected_calibrated"] == (r["min_p"] < r["calibrated_level"])
@@ -180,7 +180,7 @@ def test_calibrated_alarms_recount_the_complete_procedure():
     assert "any, calibrated on the table" in set(table["artifact"])
     runs[0]["seed"] += 1
     with pytest.raises(ValueError, match="not in the result's plan"):
-        bench.calibrate_alarms(result, n_tables=20)
+        bench.calibrate_alarms(result, n_tables=40)
 
 
 def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch):
@@ -194,7 +194,7 @@ def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch
         r["detected"], r["min_p"] = ["time_lag"], 1e-30
     fresh = copy.deepcopy(result)
     ckpt = tmp_path / "calibration.jsonl"
-    bench.calibrate_alarms(result, n_tables=20, checkpoint=ckpt)
+    bench.calibrate_alarms(result, n_tables=40, checkpoint=ckpt)
     lines = [json.loads(x) for x in ckpt.read_text().splitlines()]
     assert [(x["family"], x["index"]) for x in lines] == [("gmaxwell", r["index"]) for r in result["runs"]]
     # the second table's line lost (a run stopped after the first): only that table is calibrated again
@@ -202,7 +202,7 @@ def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch
     calls = []
     real = bench._calibrated_level
     monkeypatch.setattr(bench, "_calibrated_level", lambda args: calls.append(args) or real(args))
-    bench.calibrate_alarms(fresh, n_tables=20, checkpoint=ckpt)
+    bench.calibrate_alarms(fresh, n_tables=40, checkpoint=ckpt)
     assert len(calls) == 1 and calls[0][0]["index"] == result["runs"][1]["index"]
     for a, b in zip(result["runs"], fresh["runs"]):
         assert a["calibrated_level"] == b["calibrated_level"] and a["detected_calibrated"] == b["detected_calibrated"]
@@ -211,7 +211,7 @@ def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch
     good = ckpt.read_text()
     ckpt.write_text(good.splitlines()[0] + "\n" + good.splitlines()[1][:25])
     calls.clear()
-    again = bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=20, checkpoint=ckpt)
+    again = bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=40, checkpoint=ckpt)
 
     def untimed(rec):
         return {**rec, "out": {k: v for k, v in rec["out"].items() if k != "cpu_seconds"}}
@@ -222,15 +222,20 @@ def test_a_stopped_calibration_resumes_from_its_checkpoint(tmp_path, monkeypatch
     # a broken line before the last is not a cut: refused with the file and line named
     ckpt.write_text("not json\n" + good)
     with pytest.raises(InputError, match="line 1 is not a calibration record"):
-        bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=20, checkpoint=ckpt)
+        bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=40, checkpoint=ckpt)
     # JSON that is not a record (a key missing) is refused the same way, not a KeyError
     ckpt.write_text(good.splitlines()[0] + "\n" + json.dumps({"family": "gmaxwell"}) + "\n")
     with pytest.raises(InputError, match="line 2 is not a calibration record .expected the keys"):
-        bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=20, checkpoint=ckpt)
+        bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=40, checkpoint=ckpt)
     ckpt.write_text(good)
     # another number of bootstrap tables does not read the checkpoint's calibrations
     calls.clear()
-    bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=21, checkpoint=ckpt)
+    bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=41, checkpoint=ckpt)
+    assert len(calls) == 2
+    # nor do lines computed under another rule of the calibrated level
+    ckpt.write_text("".join(json.dumps({**json.loads(x), "level_rule": "older"}) + "\n" for x in good.splitlines()))
+    calls.clear()
+    bench.calibrate_alarms(copy.deepcopy(fresh), n_tables=40, checkpoint=ckpt)
     assert len(calls) == 2
 
 
@@ -243,8 +248,8 @@ def test_bench_help_names_every_truth_family(capsys):
 
 
 def test_a_calibration_curtailed_at_the_tables_statistic_decides_as_the_whole_one():
-    """Run in turn (one table of each null) and stopped once more than the calibration's share of
-    one null's bootstrap tables reach the statistic decided on, a calibration gives the same
+    """Run in turn (one table of each null) and stopped once k = floor(rate (B + 1)) of one null's
+    bootstrap tables reach the statistic decided on, a calibration gives the same
     decision as all its tables: at a statistic that many tables reach it stops early with a level
     at most that statistic (no alarm); at one that none reaches it runs every table of both nulls
     and gives the whole calibration's level, the smaller of the nulls'."""
@@ -252,19 +257,19 @@ def test_a_calibration_curtailed_at_the_tables_statistic_decides_as_the_whole_on
 
     case = next(c for c in bench.plan(11, ["gmaxwell"], 1, 0, configuration="shipped") if c["kind"] == "clean")
     table, _, test = bench.case_table(case)
-    full = calibrate(table, test=test, n_tables=20, seed=3, static=False)["artifacts"]
+    full = calibrate(table, test=test, n_tables=40, seed=3, static=False)["artifacts"]
     nulls = full["nulls"]
     assert set(nulls) == {"2s2p1d", "maxwell"} and not full["calibrated_level_bound"]
-    assert all(v["n_run"] == 20 for v in nulls.values()) and full["n_run"] == 40
+    assert all(v["n_run"] == 40 for v in nulls.values()) and full["n_run"] == 80
     # the more conservative null binds
     assert full["calibrated_level"] == min(v["calibrated_level"] for v in nulls.values())
     assert full["null_min_p"] == nulls[full["binding_null"]]["null_min_p"]
     m = np.sort(np.concatenate([v["null_min_p"] for v in nulls.values()]))
-    high = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[-1]))["artifacts"]
-    assert high["n_run"] < 40 and high["calibrated_level_bound"]
+    high = calibrate(table, test=test, n_tables=40, seed=3, static=False, decide=float(m[-1]))["artifacts"]
+    assert high["n_run"] < 80 and high["calibrated_level_bound"]
     assert high["level"] <= m[-1] and not (m[-1] < high["level"])  # no alarm, as with every table
-    low = calibrate(table, test=test, n_tables=20, seed=3, static=False, decide=float(m[0]) / 2)["artifacts"]
-    assert low["n_run"] == 40 and low["calibrated_level"] == full["calibrated_level"] and low["level"] == full["level"]
+    low = calibrate(table, test=test, n_tables=40, seed=3, static=False, decide=float(m[0]) / 2)["artifacts"]
+    assert low["n_run"] == 80 and low["calibrated_level"] == full["calibrated_level"] and low["level"] == full["level"]
 
 
 def test_planted_tables_are_recounted_at_their_calibrated_level():
@@ -274,7 +279,7 @@ def test_planted_tables_are_recounted_at_their_calibrated_level():
     and the recount is tabulated with its one-sided 95 % lower bound; artifacts not asked for
     are not recounted. A false-alarm count carries its one-sided upper bound (0 of 100: 2.95 %)."""
     result = bench.run_bench(0, 1, base_seed=11, families=["wlf"], configuration="shipped")
-    bench.calibrate_alarms(result, n_tables=20, planted=1, artifacts=("time_lag",))
+    bench.calibrate_alarms(result, n_tables=40, planted=1, artifacts=("time_lag",))
     lag = [r for r in result["runs"] if r["kind"] == "time_lag"]
     other = [r for r in result["runs"] if r["kind"] == "temperature_offset"]
     assert len(lag) == 1 and "time_lag" in lag[0]["detected"]

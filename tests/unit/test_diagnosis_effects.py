@@ -413,21 +413,28 @@ def test_offset_with_four_isotherms_cannot_be_told_from_a_bend_of_the_shift_law(
 
 def test_calibration_levels_are_seeded_and_control_the_rate_on_the_tables_own_null():
     """The calibration reruns the whole procedure on tables of the table's fitted clean model:
-    the same seed gives the same numbers; its level is the (floor(rate B) + 1)-th smallest
-    statistic; the procedure at min(level, nominal) names an artifact on at most rate x B of
-    those tables; calibrated p-values count the tables at least as extreme."""
+    the same seed gives the same numbers; its level is the k-th smallest statistic, k =
+    floor(rate (B + 1)) (none with fewer than 1 / rate - 1 tables), which names exactly the
+    statistics whose calibrated p-value (1 + #{m_b <= p}) / (B + 1) is at most the rate;
+    calibrated p-values count the tables at least as extreme."""
     from asphalt_nscd.diagnosis import calibration as cal
 
     table, truth = synthetic.generate(9, [], schedule="aashto_t342", n_specimens=3, family="sigmoidal")
     test = from_dict(truth["test"], "x")
-    a = cal.calibrate(table, test=test, n_tables=24, seed=4)
-    b = cal.calibrate(table, test=test, n_tables=24, seed=4)
+    # a family-wise rate of 0.2 (0.1 per group): 24 tables give a level, the k = 2nd smallest
+    a = cal.calibrate(table, test=test, n_tables=24, seed=4, rate=0.2)
+    b = cal.calibrate(table, test=test, n_tables=24, seed=4, rate=0.2)
     assert a["artifacts"]["null_min_p"] == b["artifacts"]["null_min_p"] and a["static"] == b["static"]
     m = np.sort(a["artifacts"]["null_min_p"])
     c = a["artifacts"]["calibrated_level"]
-    assert c == m[int(np.floor(0.025 * m.size))] and np.sum(m < c) <= 0.025 * m.size
+    assert c == m[1] and np.sum(m < c) == 1
     assert a["artifacts"]["level"] == min(c, a["artifacts"]["nominal_level"])
-    assert cal.critical_level([0.3, 0.1, 0.2, 0.4], 0.25) == 0.2 and cal.critical_level([0.5], 0.99) == 0.5
+    # at the default rate 0.05, 24 tables could name nothing (floor(0.025 x 25) = 0): refused
+    assert cal.min_tables() == 39
+    with pytest.raises(ValueError, match="n_tables must be >= 39"):
+        cal.calibrate(table, test=test, n_tables=38, seed=4)
+    assert cal.critical_level([0.3, 0.1, 0.2, 0.4], 0.25) == 0.1 and cal.critical_level([0.5], 0.99) == 0.5
+    assert cal.critical_level([0.3, 0.1, 0.2], 0.2) == 0.0 and cal.level_rank(0.025, 200) == 5
     assert fx.adjusted_p(0.15, [0.1, 0.2, 0.3]) == pytest.approx(2 / 4) and fx.adjusted_p(None, [0.1]) is None
     assert cal.static_p(10.0, {"static": {"null_F": [1.0, 20.0, 3.0]}}) == pytest.approx(2 / 4)
     cm = a["clean_model"]
@@ -440,6 +447,23 @@ def test_calibration_levels_are_seeded_and_control_the_rate_on_the_tables_own_nu
 
     with pytest.raises(InputError, match="calibrate-search"):
         artifacts.analyse(table, alpha=1e-2, test=test, calibration=a)
+
+
+@pytest.mark.parametrize("B, rate", [(200, 0.025), (199, 0.025), (39, 0.025), (100, 0.05), (57, 0.1)])
+def test_calibrated_level_is_an_exact_monte_carlo_test(B, rate):
+    """Exchangeability: of B + 1 tables of a null, each judged against the other B, exactly
+    k = floor(rate (B + 1)) are named, a rate k / (B + 1) <= rate (the earlier rule, the
+    (floor(rate B) + 1)-th smallest, named one more: 6 of 201 at 0.025); a statistic is named
+    exactly when its calibrated p-value (1 + #{m_b <= p}) / (B + 1) is at most the rate."""
+    from asphalt_nscd.diagnosis import calibration as cal
+
+    for seed in range(3):
+        x = np.random.default_rng(seed).uniform(size=B + 1)
+        named = [x[i] < cal.critical_level(np.delete(x, i), rate) for i in range(B + 1)]
+        assert sum(named) == int(np.floor(rate * (B + 1) + 1e-9)) and sum(named) <= rate * (B + 1)
+        for i in range(0, B + 1, 7):
+            null = np.delete(x, i)
+            assert named[i] == (fx.adjusted_p(x[i], null) <= rate + 1e-12)
 
 
 def test_cell_misfit_is_the_cell_means_scatter_beyond_the_point_noise():

@@ -114,7 +114,7 @@ def chain(tmp_path, table):
                 str(d["m.test.json"]),
                 *SEARCH,
                 "--tables",
-                "20",
+                "40",
                 "--seed",
                 "0",
                 "-o",

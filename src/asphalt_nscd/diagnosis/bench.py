@@ -50,6 +50,7 @@ from scipy import stats
 
 from ..io import read_json_lines
 from . import synthetic
+from .calibration import LEVEL_RULE
 from .effects import ARTIFACTS, ArtifactSearch, effect_entries
 from .scores import binomial_ci
 
@@ -447,7 +448,8 @@ def calibrate_alarms(
         if checkpoint is not None:
             rec = {k: r[k] for k in CHECKPOINT_KEY}
             with open(checkpoint, "a") as fh:
-                fh.write(json.dumps({**rec, "n_tables": int(n_tables), "nulls": _nulls_tag(), "out": out}) + "\n")
+                line = {**rec, "n_tables": int(n_tables), "nulls": _nulls_tag(), "level_rule": LEVEL_RULE, "out": out}
+                fh.write(json.dumps(line) + "\n")
     for r, _ in todo:
         out = done[_checkpoint_key(r)]
         r["calibrated_level"] = out["level"]
@@ -519,8 +521,9 @@ def _nulls_tag() -> list:
 
 
 def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
-    """Calibrations already written to a :func:`calibrate_alarms` checkpoint, keyed by table
-    (:func:`asphalt_nscd.io.read_json_lines`: a last line cut short by a killed run is removed,
+    """Calibrations already written to a :func:`calibrate_alarms` checkpoint with the same
+    number of tables, nulls and level rule (:data:`asphalt_nscd.diagnosis.calibration.LEVEL_RULE`),
+    keyed by table (:func:`asphalt_nscd.io.read_json_lines`: a last line cut short by a killed run is removed,
     that table calibrated again; any other line that is not a record raises InputError)."""
     if path is None:
         return {}
@@ -528,7 +531,7 @@ def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
     return {
         _checkpoint_key(rec): rec["out"]
         for rec in read_json_lines(path, "calibration record", want)
-        if int(rec["n_tables"]) == n_tables and rec.get("nulls") == _nulls_tag()
+        if int(rec["n_tables"]) == n_tables and rec.get("nulls") == _nulls_tag() and rec.get("level_rule") == LEVEL_RULE
     }
 
 

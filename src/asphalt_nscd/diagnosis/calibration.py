@@ -25,8 +25,12 @@ conservative level is used:
 * **the table's design**: the same rows, specimens, strains and test order.
 
 On B seeded tables of each null the whole procedure gives min_p_b; a null's calibrated level is
-the largest c with #{b : min_p_b < c} <= rate x B (config ``diagnosis.calibration.familywise_rate``);
-the procedure uses the smallest of the two nulls' levels and the nominal alpha / m. The rate is
+its k-th smallest min_p_b, k = floor(rate (B + 1)) (config ``diagnosis.calibration.familywise_rate``):
+the Monte Carlo test (Davison & Hinkley 1997, section 4.2.1), which names an artifact if and only
+if the calibrated p-value (1 + #{min_p_b <= p}) / (B + 1) is at most the rate, so that a table of
+the null is named with probability k / (B + 1) <= rate (with fewer than 1 / rate - 1 tables k = 0
+and nothing could be named: :func:`min_tables` refuses them); the procedure uses the smaller of the
+two nulls' levels and the nominal alpha / m. The rate is
 measured out of sample by cross-fitting (each half's level judged on the other half, under each
 null) with its Clopper-Pearson interval; a named artifact's calibrated p-value is the larger over
 the nulls of (1 + #{min_p_b <= p}) / (B + 1) (:func:`asphalt_nscd.diagnosis.effects.adjusted_p`).
@@ -59,6 +63,9 @@ GROUPS = 2
 #: the nulls of the artifact procedure's calibration (module docstring), in the order their
 #: tables are run; each null's tables are drawn from the generator ``default_rng([seed, k])``
 NULLS = {"2s2p1d": 1, "maxwell": 3}
+#: the rule of the calibrated level (:func:`critical_level`), recorded with every benchmark
+#: checkpoint line so that a line computed under another rule is not read back
+LEVEL_RULE = "k-th smallest, k = floor(rate (B + 1))"
 #: terms per decade of relaxation time tried for the relaxation-spectrum null (the smallest BIC is used)
 MAXWELL_DENSITIES = (1.0, 1.5, 2.0)
 #: decades of relaxation time beyond the table's reduced band at each end of the spectrum's grid
@@ -314,12 +321,31 @@ def simulate(model: CleanModel, rng: np.random.Generator, E=None) -> pd.DataFram
     return out
 
 
+def level_rank(rate: float, n_tables: int) -> int:
+    """k = floor(rate (B + 1)), the rank of the null statistic that is the calibrated level of a
+    Monte Carlo test at ``rate`` on B = ``n_tables`` tables (module docstring; 0: none can be
+    named)."""
+    return int(np.floor(rate * (int(n_tables) + 1) + 1e-9))
+
+
+def min_tables(rate: float = FAMILYWISE_RATE) -> int:
+    """The fewest bootstrap tables per null with which the artifact procedure, at its share
+    rate / GROUPS of the family-wise ``rate``, can name anything (:func:`level_rank` >= 1:
+    B >= GROUPS / rate - 1; 39 at the default 0.05), and at least 20."""
+    return max(20, int(np.ceil(GROUPS / rate - 1.0 - 1e-9)))
+
+
 def critical_level(min_p, rate: float) -> float:
-    """The largest c with #{min_p_b < c} <= rate x B (the (floor(rate B) + 1)-th smallest
-    statistic; 1 when rate B >= B)."""
+    """The calibrated level of the B statistics ``min_p`` of a null's tables at ``rate``: their
+    k-th smallest, k = :func:`level_rank` (a new table of the null has p < level with probability
+    k / (B + 1) <= rate, and p < level exactly when (1 + #{min_p_b <= p}) / (B + 1) <= rate, the
+    calibrated p-value of :func:`asphalt_nscd.diagnosis.effects.adjusted_p`); 0 when k = 0 (too
+    few tables for the rate: nothing is named); 1 when k > B."""
     m = np.sort(np.asarray(min_p, float))
-    k = int(np.floor(rate * m.size))
-    return float(m[k]) if k < m.size else 1.0
+    k = level_rank(rate, m.size)
+    if k == 0:
+        return 0.0
+    return float(m[k - 1]) if k <= m.size else 1.0
 
 
 def _artifact_stat(args) -> float:
@@ -382,7 +408,7 @@ def calibrate(
         detection benchmark's recount of its false alarms; ``static`` is then None).
     decide : float, optional
         A statistic to decide on (the table's own ``min_p``): the nulls' bootstrap tables are
-        run in turn (one of each null) and stopped once more than rate x B of one null's reach
+        run in turn (one of each null) and stopped once k (:func:`level_rank`) of one null's reach
         it (``min_p_b <= decide``): the calibrated level is then at most ``decide``, so ``decide``
         is no alarm whatever the other tables give (curtailed sampling: the same decision as
         all B tables of both nulls). The nulls' ``null_min_p`` then hold the tables run,
@@ -403,12 +429,16 @@ def calibrate(
     Raises
     ------
     ValueError
-        on n_tables < 20 or a rate outside (0, 1).
+        on a rate outside (0, 1), or fewer tables than :func:`min_tables` (with which nothing
+        could be named).
     """
-    if int(n_tables) < 20:
-        raise ValueError(f"n_tables must be >= 20, got {n_tables}")
     if not 0.0 < rate < 1.0:
         raise ValueError(f"rate must lie in (0, 1), got {rate}")
+    if int(n_tables) < min_tables(rate):
+        raise ValueError(
+            f"n_tables must be >= {min_tables(rate)} to hold a family-wise rate of {rate:g} "
+            f"({rate / GROUPS:g} per group), got {n_tables}"
+        )
     c0 = _cpu()
     search = ArtifactSearch(table, alpha=alpha, shift=shift, test=test, limits=limits)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -418,7 +448,7 @@ def calibrate(
         models = {"2s2p1d": model, "maxwell": maxwell_model(search, base, model)}
     group_rate = rate / GROUPS
     B = int(n_tables)
-    k_max = int(np.floor(group_rate * B))
+    k = level_rank(group_rate, B)
     tasks = {}
     for name, m in models.items():
         rng = np.random.default_rng([int(seed), NULLS[name]])
@@ -435,15 +465,15 @@ def calibrate(
         for b in range(B):
             for name in models:
                 stat[name].append(_artifact_stat(tasks[name][b]))
-            if any(np.sum(np.asarray(stat[n]) <= decide) > k_max for n in models):
+            if any(np.sum(np.asarray(stat[n]) <= decide) >= k for n in models):
                 curtailed = b + 1 < B
                 break
     nominal = float(observed["nominal_level"])
     per_null: dict[str, dict] = {}
     for name, m in models.items():
         v = np.asarray(stat[name], float)
-        if curtailed:  # the (k_max + 1)-th smallest of the tables run bounds the level from above
-            c = float(np.sort(v)[k_max]) if v.size > k_max else 1.0
+        if curtailed:  # the k-th smallest of the tables run bounds the level from above
+            c = float(np.sort(v)[k - 1])
         else:
             c = critical_level(v, group_rate)
         per_null[name] = {

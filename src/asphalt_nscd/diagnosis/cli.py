@@ -330,7 +330,12 @@ def _add_calibrate_search(subparsers) -> None:
         default=None,
         help="test-geometry JSON of the measured table (default: the sidecar <measured stem>.test.json next to it)",
     )
-    p.add_argument("--tables", type=int, default=200, help="bootstrap tables (default 200, at least 20)")
+    p.add_argument(
+        "--tables",
+        type=int,
+        default=200,
+        help="bootstrap tables (default 200; at least 2 / rate - 1, 39 at the default rate)",
+    )
     p.add_argument(
         "--seed",
         type=int,
@@ -860,12 +865,16 @@ def law_options(args):
 def _calibrate_search(args) -> int:
     from ..io import InputError, write_json
     from ..lab.measured import load_measured
-    from .calibration import calibrate
+    from .calibration import calibrate, min_tables
 
-    if args.tables < 20:
-        raise InputError(f"--tables: expected >= 20, got {args.tables}")
     if not 0.0 < args.familywise_rate < 1.0:
         raise InputError(f"--familywise-rate: expected a rate in (0, 1), got {args.familywise_rate}")
+    if args.tables < min_tables(args.familywise_rate):
+        raise InputError(
+            f"--tables (config diagnosis.calibration.tables): expected >= {min_tables(args.familywise_rate)} "
+            "bootstrap tables per null to hold a "
+            f"family-wise rate of {args.familywise_rate:g} (fewer cannot name any artifact), got {args.tables}"
+        )
     if args.jobs < 1:
         raise InputError(f"--jobs: expected >= 1, got {args.jobs}")
     from .artifacts import check_design
@@ -1212,8 +1221,10 @@ def _bench(args) -> int:
         raise InputError(f"--families: unknown {unknown}; expected some of {list(synthetic.FAMILIES)}")
     if args.power < 0:
         raise InputError(f"--power: expected >= 0, got {args.power}")
-    if args.calibration_tables != 0 and args.calibration_tables < 20:
-        raise InputError(f"--calibration-tables: expected 0 or >= 20, got {args.calibration_tables}")
+    from .calibration import min_tables
+
+    if args.calibration_tables != 0 and args.calibration_tables < min_tables():
+        raise InputError(f"--calibration-tables: expected 0 or >= {min_tables()}, got {args.calibration_tables}")
     result = run_bench(
         args.clean,
         args.planted,

@@ -207,6 +207,15 @@ class MixMortar:
         return bool(fine_packing < self.packing_floor)
 
 
+def plane_strain_stone(constants: dict) -> float:
+    """E_s' = E_s / (1 - nu_s^2) (Pa) of the stones, from ``constants["E_stone_Pa"]`` and the
+    aggregate's Poisson's ratio (:class:`.mortar.Constituents`)."""
+    from .mortar import Constituents
+
+    nu = Constituents().nu_stone
+    return constants["E_stone_Pa"] / (1.0 - nu**2)
+
+
 def bond_moduli(
     constants: dict, E_mortar, G_mastic, film_m: float, response, skeleton: str = "film"
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -216,10 +225,7 @@ def bond_moduli(
     Pa (:meth:`MixMortar.moduli`). film_m : the mix's average film thickness (m). response :
     the sample's :class:`.dem.Response` (``chi_bridge``, ``skeleton_r15``).
     Returns e_1 (Pa, complex (n,)) and zeta = e_2 / e_1 (m^-1 x m, complex (n,))."""
-    from .mortar import Constituents
-
-    nu = Constituents().nu_stone
-    Es = constants["E_stone_Pa"] / (1.0 - nu**2)
+    Es = plane_strain_stone(constants)
     e1 = 1.0 / (1.0 / E_mortar + response.chi_bridge / Es)
     if skeleton == "parabolic":  # per unit g_b, like a bridge: C_s E_s' (E*_mortar / E_s')^n
         n = constants["skeleton_exponent"]
@@ -376,10 +382,7 @@ class PhysicalDem:
         """E*_sample (Pa, complex (n,)) with the Hertz contacts in parallel with the films: the fixed
         point of E = e_1 F(zeta + e_H(|E|) / e_1) (:func:`hertz_contact`; a contraction: e_H grows as
         |E|^(1/3)). Raises InputError if it does not converge."""
-        from .mortar import Constituents
-
-        nu = Constituents().nu_stone
-        Es = constants["E_stone_Pa"] / (1.0 - nu**2)
+        Es = plane_strain_stone(constants)
         strain = float(self.contact_strain or 0.0)
         for _ in range(HERTZ_ITERATIONS):
             new = e1 * resp.factor(zeta + hertz_contact(np.abs(E), strain, resp, Es) / e1, skeleton="film")
