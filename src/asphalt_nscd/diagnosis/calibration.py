@@ -25,15 +25,12 @@ conservative level is used:
 * **the table's design**: the same rows, specimens, strains and test order.
 
 On B seeded tables of each null the whole procedure gives min_p_b; a null's calibrated level is
-its k-th smallest min_p_b, k = floor(rate (B + 1)) (config ``diagnosis.calibration.familywise_rate``):
-the Monte Carlo test (Davison & Hinkley 1997, section 4.2.1), which names an artifact if and only
-if the calibrated p-value (1 + #{min_p_b <= p}) / (B + 1) is at most the rate, so that a table of
-the null is named with probability k / (B + 1) <= rate (with fewer than 1 / rate - 1 tables k = 0
-and nothing could be named: :func:`min_tables` refuses them); the procedure uses the smaller of the
-two nulls' levels and the nominal alpha / m. The rate is
-measured out of sample by cross-fitting (each half's level judged on the other half, under each
-null) with its Clopper-Pearson interval; a named artifact's calibrated p-value is the larger over
-the nulls of (1 + #{min_p_b <= p}) / (B + 1) (:func:`asphalt_nscd.diagnosis.effects.adjusted_p`).
+its k-th smallest min_p_b, k = floor(rate (B + 1)) (config ``diagnosis.calibration.familywise_rate``),
+a Monte Carlo test (Davison & Hinkley 1997, 4.2.1): a table of the null is named with probability
+k / (B + 1) <= rate, exactly when its calibrated p-value (1 + #{min_p_b <= p}) / (B + 1), the larger
+over the nulls (:func:`asphalt_nscd.diagnosis.effects.adjusted_p`), is at most the rate; too few
+tables for k >= 1 are refused (:func:`min_tables`). The procedure uses the smaller of the nulls'
+levels and alpha / m; its rate is measured out of sample by cross-fitted halves (Clopper-Pearson).
 
 The static-modulus test (:mod:`asphalt_nscd.diagnosis.causes`) is calibrated on tables of the
 liquid master curve (E00 = 0) with the screening null's noise, p = (1 + #{F_b >= F}) / (B + 1).
