@@ -33,7 +33,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from asphalt_nscd.diagnosis import bench
+from asphalt_nscd.diagnosis import bench, calibration
 
 
 def _list(v) -> list:
@@ -108,6 +108,10 @@ def main(argv=None) -> None:
     ap.add_argument("--jobs", type=int, default=1, help="processes (default 1)")
     ap.add_argument("--power-only", action="store_true", help="recompute the power columns only")
     args = ap.parse_args(argv)
+    if args.tables < calibration.min_tables():
+        ap.error(
+            f"--tables: at least {calibration.min_tables()} bootstrap tables (fewer can name nothing), got {args.tables}"
+        )
     d, conf = args.dir, args.design
     summary = json.loads((d / f"{conf}_summary.json").read_text())
     tables = pd.read_csv(d / f"{conf}_tables.csv.gz")

@@ -25,8 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from asphalt_nscd.diagnosis import bench
-from asphalt_nscd.diagnosis.calibration import LEVEL_RULE
+from asphalt_nscd.diagnosis import bench, calibration
 from asphalt_nscd.io import read_json_lines, write_csv
 
 
@@ -44,6 +43,10 @@ def main(argv=None) -> int:
     ap.add_argument("--tables", type=int, default=200, help="bootstrap tables per calibration (default 200)")
     ap.add_argument("--jobs", type=int, default=1, help="processes (default 1)")
     args = ap.parse_args(argv)
+    if args.tables < calibration.min_tables():
+        ap.error(
+            f"--tables: at least {calibration.min_tables()} bootstrap tables (fewer can name nothing), got {args.tables}"
+        )
     d, conf = args.dir, args.design
     summary = json.loads((d / f"{conf}_summary.json").read_text())
     tables = pd.read_csv(d / f"{conf}_tables.csv.gz")
@@ -77,7 +80,7 @@ def main(argv=None) -> int:
     done = {
         (rec["power_size"], rec["index"], rec["seed"]): rec
         for rec in read_json_lines(checkpoint, "power record", ("power_size", "index", "seed", "n_tables"))
-        if rec["n_tables"] == args.tables and rec.get("level_rule") == LEVEL_RULE
+        if bench.is_current(rec, args.tables)
     }
     rows = []
     for c in chosen:
@@ -92,8 +95,7 @@ def main(argv=None) -> int:
                 "index": c["index"],
                 "seed": c["seed"],
                 "family": c["family"],
-                "n_tables": args.tables,
-                "level_rule": LEVEL_RULE,
+                **bench.checkpoint_tag(args.tables),
                 "min_p": nominal["min_p"],
                 "nominal": nominal["detected"],
             }

@@ -423,12 +423,21 @@ def test_calibration_levels_are_seeded_and_control_the_rate_on_the_tables_own_nu
     test = from_dict(truth["test"], "x")
     # a family-wise rate of 0.2 (0.1 per group): 24 tables give a level, the k = 2nd smallest
     a = cal.calibrate(table, test=test, n_tables=24, seed=4, rate=0.2)
-    b = cal.calibrate(table, test=test, n_tables=24, seed=4, rate=0.2)
-    assert a["artifacts"]["null_min_p"] == b["artifacts"]["null_min_p"] and a["static"] == b["static"]
+    # the same seed again, curtailed at a statistic every table reaches (k = 2 of each null run): the
+    # same first tables of each null and the same static null (every table of a full calibration is
+    # compared between two runs of the whole workflow, tests/workflow/test_readme.py)
+    b = cal.calibrate(table, test=test, n_tables=24, seed=4, rate=0.2, decide=1.0)
+    assert b["artifacts"]["calibrated_level_bound"] and b["static"] == a["static"]
+    assert b["clean_model"] == a["clean_model"]
+    for name, null in a["artifacts"]["nulls"].items():
+        assert b["artifacts"]["nulls"][name]["n_run"] == 2
+        assert b["artifacts"]["nulls"][name]["null_min_p"] == null["null_min_p"][:2]
     m = np.sort(a["artifacts"]["null_min_p"])
     c = a["artifacts"]["calibrated_level"]
     assert c == m[1] and np.sum(m < c) == 1
     assert a["artifacts"]["level"] == min(c, a["artifacts"]["nominal_level"])
+    assert a["artifacts"]["exact_rate"] == pytest.approx(2 / 25)
+    assert a["artifacts"]["rate"]["half_tables"] == 12 and a["artifacts"]["rate"]["rate"] is not None
     # at the default rate 0.05, 24 tables could name nothing (floor(0.025 x 25) = 0): refused
     assert cal.min_tables() == 39
     with pytest.raises(ValueError, match="n_tables must be >= 39"):
@@ -464,6 +473,41 @@ def test_calibrated_level_is_an_exact_monte_carlo_test(B, rate):
         for i in range(0, B + 1, 7):
             null = np.delete(x, i)
             assert named[i] == (fx.adjusted_p(x[i], null) <= rate + 1e-12)
+
+
+def test_cross_fitted_rate_is_reported_only_where_a_half_can_set_a_level():
+    """Each half's level judged on the other half; with halves too few to set a level of their
+    own (20 tables per half at 0.025) the rate would be a vacuous 0 and is not reported, and the
+    page says why."""
+    from asphalt_nscd.diagnosis import calibration as cal
+    from asphalt_nscd.diagnosis.render import _calibration_rate_sentence
+
+    rng = np.random.default_rng(5)
+    stat = {"2s2p1d": rng.uniform(size=200), "maxwell": rng.uniform(size=200)}
+    r = cal.cross_fitted_rate(stat, 0.025, nominal=1.0)
+    assert r["half_tables"] == 100 and cal.level_rank(0.025, 100) == 2
+    # by hand: each half's level is the smaller of the nulls' 2nd smallest; count the other half below it
+    halves = {n: (v[:100], v[100:]) for n, v in stat.items()}
+    lev = [min(np.sort(h[i])[1] for h in halves.values()) for i in (0, 1)]
+    for n, (a, b) in halves.items():
+        k = int(np.sum(b < lev[0]) + np.sum(a < lev[1]))
+        assert r["per_null"][n]["k"] == k and r["per_null"][n]["rate"] == k / 200
+        lo, hi = r["per_null"][n]["ci95"]
+        assert lo <= k / 200 <= hi
+    assert r["rate"] == max(v["rate"] for v in r["per_null"].values())
+    # a nominal level below every statistic names nothing out of sample
+    assert cal.cross_fitted_rate(stat, 0.025, nominal=0.0)["k"] == 0
+    small = cal.cross_fitted_rate({n: v[:40] for n, v in stat.items()}, 0.025, nominal=1.0)
+    assert small["half_tables"] == 20 and small["rate"] is None and small["k"] is None
+    assert small["half_min_tables"] == 39 and cal.cross_fitted_rate(stat, 0.1, 1.0)["half_min_tables"] == 9
+    assert cal.level_rank(0.025, 39) == 1 and cal.level_rank(0.025, 38) == 0
+    art = {"rate": small, "exact_rate": 1 / 41}
+    text = _calibration_rate_sentence(art, {"n_tables": 40})
+    assert "No out-of-sample rate: halves of 20 tables" in text and "at least 39 each" in text
+    assert "at most 2.44 %" in text
+    art = {"rate": r, "exact_rate": 5 / 201}
+    text = _calibration_rate_sentence(art, {"n_tables": 200})
+    assert f"named an artifact on {r['k']} of 200 clean tables" in text and "at most 2.49 %" in text
 
 
 def test_cell_misfit_is_the_cell_means_scatter_beyond_the_point_noise():

@@ -448,7 +448,7 @@ def calibrate_alarms(
         if checkpoint is not None:
             rec = {k: r[k] for k in CHECKPOINT_KEY}
             with open(checkpoint, "a") as fh:
-                line = {**rec, "n_tables": int(n_tables), "nulls": _nulls_tag(), "level_rule": LEVEL_RULE, "out": out}
+                line = {**rec, **checkpoint_tag(n_tables), "out": out}
                 fh.write(json.dumps(line) + "\n")
     for r, _ in todo:
         out = done[_checkpoint_key(r)]
@@ -520,6 +520,19 @@ def _nulls_tag() -> list:
     return list(NULLS)
 
 
+def checkpoint_tag(n_tables: int) -> dict:
+    """What a calibration checkpoint line records of how it was calibrated: the number of tables
+    per null, the nulls and the level rule (:data:`asphalt_nscd.diagnosis.calibration.LEVEL_RULE`);
+    a line read back must carry the same (:func:`is_current`)."""
+    return {"n_tables": int(n_tables), "nulls": _nulls_tag(), "level_rule": LEVEL_RULE}
+
+
+def is_current(rec: dict, n_tables: int) -> bool:
+    """Whether a checkpoint line was calibrated as a run of ``n_tables`` tables is now
+    (:func:`checkpoint_tag`)."""
+    return all(rec.get(k) == v for k, v in checkpoint_tag(n_tables).items())
+
+
 def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
     """Calibrations already written to a :func:`calibrate_alarms` checkpoint with the same
     number of tables, nulls and level rule (:data:`asphalt_nscd.diagnosis.calibration.LEVEL_RULE`),
@@ -531,7 +544,7 @@ def _read_checkpoint(path: Path | None, n_tables: int) -> dict:
     return {
         _checkpoint_key(rec): rec["out"]
         for rec in read_json_lines(path, "calibration record", want)
-        if int(rec["n_tables"]) == n_tables and rec.get("nulls") == _nulls_tag() and rec.get("level_rule") == LEVEL_RULE
+        if is_current(rec, n_tables)
     }
 
 

@@ -30,7 +30,8 @@ a Monte Carlo test (Davison & Hinkley 1997, 4.2.1): a table of the null is named
 k / (B + 1) <= rate, exactly when its calibrated p-value (1 + #{min_p_b <= p}) / (B + 1), the larger
 over the nulls (:func:`asphalt_nscd.diagnosis.effects.adjusted_p`), is at most the rate; too few
 tables for k >= 1 are refused (:func:`min_tables`). The procedure uses the smaller of the nulls'
-levels and alpha / m; its rate is measured out of sample by cross-fitted halves (Clopper-Pearson).
+levels and alpha / m; its rate is measured out of sample by cross-fitted halves (Clopper-Pearson),
+when each half has the tables to set a level of its own.
 
 The static-modulus test (:mod:`asphalt_nscd.diagnosis.causes`) is calibrated on tables of the
 liquid master curve (E00 = 0) with the screening null's noise, p = (1 + #{F_b >= F}) / (B + 1).
@@ -345,6 +346,58 @@ def critical_level(min_p, rate: float) -> float:
     return float(m[k - 1]) if k <= m.size else 1.0
 
 
+def cross_fitted_rate(stat: dict, group_rate: float, nominal: float) -> dict:
+    """The calibrated level's false-alarm rate out of sample: the B statistics of each null split
+    in halves, each half's level (the smaller over the nulls' :func:`critical_level` and the
+    ``nominal`` one) judged on the other half, per null (Clopper-Pearson 95 % interval).
+
+    Parameters
+    ----------
+    stat : dict
+        Per null, its tables' statistics min_p_b, shape (B,).
+    group_rate : float
+        The artifacts' share of the family-wise rate.
+    nominal : float
+        The nominal level alpha / m.
+
+    Returns
+    -------
+    dict: ``k, n, rate, ci95`` under the null where the rate is largest, ``null``, ``per_null``
+    (each null's ``k, n, rate, ci95``), ``method``, ``half_tables`` (the smaller half) and
+    ``half_min_tables`` (the fewest with :func:`level_rank` >= 1). When a half is fewer (it names
+    nothing by construction, a vacuous rate of 0), ``k``, ``rate`` and ``ci95`` are None.
+    """
+    halves = {}
+    for name, v in stat.items():
+        w = np.asarray(v, float)
+        halves[name] = (w[: w.size // 2], w[w.size // 2 :])
+    half_tables = min(min(h[0].size, h[1].size) for h in halves.values())
+    need = int(np.ceil(1.0 / group_rate - 1.0 - 1e-9))  # the fewest tables with level_rank >= 1
+    can_name = half_tables >= need
+
+    def half_level(i: int) -> float:
+        return min([critical_level(h[i], group_rate) for h in halves.values()] + [nominal])
+
+    rates: dict[str, dict] = {}
+    for name, (first, second) in halves.items():
+        n = first.size + second.size
+        if not can_name or n == 0:
+            rates[name] = {"k": None, "n": n, "rate": None, "ci95": None}
+            continue
+        k = int(np.sum(second < half_level(0)) + np.sum(first < half_level(1)))
+        lo, hi = binomial_ci(k, n)
+        rates[name] = {"k": k, "n": n, "rate": k / n, "ci95": [lo, hi]}
+    worst = max(rates, key=lambda n: rates[n]["rate"] or 0.0)
+    return {
+        **rates[worst],
+        "null": worst,
+        "per_null": rates,
+        "method": "cross-fitted halves: each half's level judged on the other half, under each null",
+        "half_tables": int(half_tables),
+        "half_min_tables": need,
+    }
+
+
 def _artifact_stat(args) -> float:
     table, test, alpha, shift, limits, x0 = args
     search = ArtifactSearch(table, alpha=alpha, shift=shift, test=test, limits=limits)
@@ -420,8 +473,11 @@ def calibrate(
     ``level`` = min(c, nominal), ``binding_null``, ``nulls`` (per null of :data:`NULLS`: its
     ``calibrated_level``, ``null_min_p`` (B values), ``n_run`` and ``model``, what it is and its
     cell misfit), ``null_min_p`` (the binding null's), the cross-fitted ``rate`` with its 95 %
-    interval (under the null where it is largest; ``per_null``)), ``static`` (``null_F`` (B
-    values) and the level), ``cpu_seconds``.
+    interval (under the null where it is largest; ``per_null``; ``k``, ``rate`` and ``ci95``
+    None when a half of the tables is too few to set its own level, fewer than
+    ``half_min_tables``), ``exact_rate`` k / (B + 1), the probability that the level names a
+    table of a null (exchangeability)), ``static`` (``null_F`` (B values) and the level),
+    ``cpu_seconds``.
 
     Raises
     ------
@@ -485,22 +541,7 @@ def calibrate(
         }
     binding = min(per_null, key=lambda n: per_null[n]["calibrated_level"])
     c = per_null[binding]["calibrated_level"]
-    # out of sample: each half's level (the smaller over the nulls) judged on the other half, per null
-    halves: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    for name in models:
-        w = np.asarray(stat[name], float)
-        halves[name] = (w[: w.size // 2], w[w.size // 2 :])
-
-    def half_level(i: int) -> float:
-        return min([critical_level(h[i], group_rate) for h in halves.values()] + [nominal])
-
-    rates: dict[str, dict] = {}
-    for name, (first, second) in halves.items():
-        k = int(np.sum(second < half_level(0)) + np.sum(first < half_level(1)))
-        n = first.size + second.size
-        lo, hi = binomial_ci(k, n)
-        rates[name] = {"k": k, "n": n, "rate": k / n if n else None, "ci95": [lo, hi]}
-    worst = max(rates, key=lambda n: rates[n]["rate"] or 0.0)
+    rate_out = cross_fitted_rate(stat, group_rate, nominal)
     out = {
         "n_tables": B,
         "seed": int(seed),
@@ -529,12 +570,9 @@ def calibrate(
             "nulls": per_null,
             "n_run": int(sum(p["n_run"] for p in per_null.values())),
             "calibrated_level_bound": curtailed,
-            "rate": {
-                **rates[worst],
-                "null": worst,
-                "per_null": rates,
-                "method": "cross-fitted halves: each half's level judged on the other half, under each null",
-            },
+            "rate": rate_out,
+            # by exchangeability, a table of a null is named at its level with probability k / (B + 1)
+            "exact_rate": k / (B + 1),
         },
         "static": None,
     }

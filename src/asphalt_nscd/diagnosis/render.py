@@ -692,7 +692,6 @@ def artifact_lines(report: dict) -> list[str]:
     ]
     if cal is not None:
         a, cm = cal["artifacts"], cal["clean_model"]
-        rate = a["rate"]
         lines[-1] += (
             f" Calibration: the whole procedure rerun on {cal['n_tables']} tables simulated from each of two "
             f"fitted clean models of this table (its design; seed {cal['seed']}): its screening fit with "
@@ -717,12 +716,8 @@ def artifact_lines(report: dict) -> list[str]:
             f". The level holding the family-wise false-alarm rate at "
             f"{cal['familywise_rate'] / cal['groups']:g} (the artifacts' share of {cal['familywise_rate']:g}) is "
             f"{a['calibrated_level']:.3g}" + (f" (the smaller of the nulls': {levels})" if levels else "") + "; "
-            f"nominal {a['nominal_level']:.3g}; used {a['level']:.3g} ({a['binding']}). Out of sample "
-            f"(cross-fitted halves) the procedure at that level named an artifact on {rate['k']} of {rate['n']} "
-            f"clean tables ({100 * rate['rate']:.1f} %, 95 % interval {100 * rate['ci95'][0]:.1f}-"
-            f"{100 * rate['ci95'][1]:.1f} %"
-            + (f", under the {rate['null']} null, where it is largest" if "null" in rate else "")
-            + ")."
+            f"nominal {a['nominal_level']:.3g}; used {a['level']:.3g} ({a['binding']})."
+            + _calibration_rate_sentence(a, cal)
         )
     elif sel:
         lines[-1] += f" No calibration was given: the nominal level {sel.get('level', float('nan')):.3g} is used."
@@ -926,3 +921,28 @@ def crossval_figure(rows: pd.DataFrame, law, path, model: str = "extended_law") 
     fig.suptitle(f"{model.replace('_', ' ')}: measured, in-sample and held-out ({scheme}) isotherms")
     savefig(fig, path)
     plt.close(fig)
+
+
+def _calibration_rate_sentence(a: dict, cal: dict) -> str:
+    """The calibrated level's false-alarm rate: exact by exchangeability, and out of sample by
+    cross-fitted halves when each half has the tables to set a level of its own."""
+    rate = a["rate"]
+    out = ""
+    if "exact_rate" in a:
+        out += (
+            f" A table of a null is named at the level with probability at most {100 * a['exact_rate']:.2f} % "
+            f"(k / (B + 1) with B = {cal['n_tables']}: exact, the tables being exchangeable)."
+        )
+    if rate.get("rate") is None:
+        return out + (
+            f" No out-of-sample rate: halves of {rate['half_tables']} tables cannot set a "
+            f"level of their own at this rate (at least {rate['half_min_tables']} each; "
+            "diagnosis.calibration.tables)."
+        )
+    return out + (
+        f" Out of sample (cross-fitted halves) the procedure at that level named an artifact on {rate['k']} of "
+        f"{rate['n']} clean tables ({100 * rate['rate']:.1f} %, 95 % interval {100 * rate['ci95'][0]:.1f}-"
+        f"{100 * rate['ci95'][1]:.1f} %"
+        + (f", under the {rate['null']} null, where it is largest" if "null" in rate else "")
+        + ")."
+    )
