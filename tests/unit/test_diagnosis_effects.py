@@ -440,6 +440,10 @@ def test_calibration_levels_are_seeded_and_control_the_rate_on_the_tables_own_nu
     assert a["artifacts"]["rate"]["half_tables"] == 12 and a["artifacts"]["rate"]["rate"] is not None
     # at the default rate 0.05, 24 tables could name nothing (floor(0.025 x 25) = 0): refused
     assert cal.min_tables() == 39
+    # the fewest tables with level_rank >= 1, at each rate just above and at the boundary
+    for rate in (0.025, 0.1, 0.01, 0.3):
+        b = cal.fewest_tables(rate)
+        assert cal.level_rank(rate, b) >= 1 and cal.level_rank(rate, b - 1) == 0
     with pytest.raises(ValueError, match="n_tables must be >= 39"):
         cal.calibrate(table, test=test, n_tables=38, seed=4)
     assert cal.critical_level([0.3, 0.1, 0.2, 0.4], 0.25) == 0.1 and cal.critical_level([0.5], 0.99) == 0.5

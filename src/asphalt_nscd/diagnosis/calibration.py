@@ -326,11 +326,17 @@ def level_rank(rate: float, n_tables: int) -> int:
     return int(np.floor(rate * (int(n_tables) + 1) + 1e-9))
 
 
+def fewest_tables(rate: float) -> int:
+    """The fewest tables B with :func:`level_rank` (``rate``, B) >= 1, the fewest on which a
+    Monte Carlo level at ``rate`` can name anything: B >= 1 / rate - 1."""
+    return int(np.ceil(1.0 / rate - 1.0 - 1e-9))
+
+
 def min_tables(rate: float = FAMILYWISE_RATE) -> int:
     """The fewest bootstrap tables per null with which the artifact procedure, at its share
-    rate / GROUPS of the family-wise ``rate``, can name anything (:func:`level_rank` >= 1:
+    rate / GROUPS of the family-wise ``rate``, can name anything (:func:`fewest_tables`:
     B >= GROUPS / rate - 1; 39 at the default 0.05), and at least 20."""
-    return max(20, int(np.ceil(GROUPS / rate - 1.0 - 1e-9)))
+    return max(20, fewest_tables(rate / GROUPS))
 
 
 def critical_level(min_p, rate: float) -> float:
@@ -372,11 +378,10 @@ def cross_fitted_rate(stat: dict, group_rate: float, nominal: float) -> dict:
         w = np.asarray(v, float)
         halves[name] = (w[: w.size // 2], w[w.size // 2 :])
     half_tables = min(min(h[0].size, h[1].size) for h in halves.values())
-    need = int(np.ceil(1.0 / group_rate - 1.0 - 1e-9))  # the fewest tables with level_rank >= 1
+    need = fewest_tables(group_rate)
     can_name = half_tables >= need
-
-    def half_level(i: int) -> float:
-        return min([critical_level(h[i], group_rate) for h in halves.values()] + [nominal])
+    # each half's level: the smaller over the nulls' calibrated levels and the nominal one
+    level = [min([critical_level(h[i], group_rate) for h in halves.values()] + [nominal]) for i in (0, 1)]
 
     rates: dict[str, dict] = {}
     for name, (first, second) in halves.items():
@@ -384,7 +389,7 @@ def cross_fitted_rate(stat: dict, group_rate: float, nominal: float) -> dict:
         if not can_name or n == 0:
             rates[name] = {"k": None, "n": n, "rate": None, "ci95": None}
             continue
-        k = int(np.sum(second < half_level(0)) + np.sum(first < half_level(1)))
+        k = int(np.sum(second < level[0]) + np.sum(first < level[1]))
         lo, hi = binomial_ci(k, n)
         rates[name] = {"k": k, "n": n, "rate": k / n, "ci95": [lo, hi]}
     worst = max(rates, key=lambda n: rates[n]["rate"] or 0.0)
