@@ -582,6 +582,29 @@ def test_the_levels_a_fold_did_not_see_are_drawn_given_its_errors():
         np.testing.assert_allclose(scores.error_draws(d, parts, cols, scheme), np.tile(d, (200, 1)), atol=1e-15)
 
 
+def test_an_isotherms_own_deviation_does_not_lower_its_share_of_the_lab_level():
+    """Three held-out isotherms, the law exact (g = 0) and the lab's level at one of them far
+    (x = -0.08 in ln|E*|, 2.7 times its standard deviation 0.03; the others 0.005): drawn given the
+    errors with the law's error variance estimated from the *other* isotherms, that isotherm's
+    error against the mix is mostly attributed to the lab's level (a fraction of |dbar| left);
+    with the moment of every isotherm, its own deviation inflates it and more than half stays.
+    With one isotherm both are the same draw."""
+    T = np.repeat([4.0, 21.0, 37.0], 3)
+    d = np.repeat([0.08, 0.005, -0.005], 3)
+    var = np.full((4000, T.size), 0.03**2)
+    logo = scores._given(d, T, var, np.random.default_rng(1), own=False)
+    pooled = scores._given(d, T, var, np.random.default_rng(1), own=True)
+    far = T == 4.0
+    left_logo = np.median(np.abs(d[far][0] + logo[:, far][:, 0]))
+    left_pooled = np.median(np.abs(d[far][0] + pooled[:, far][:, 0]))
+    assert left_logo < 0.25 * 0.08 and left_pooled > 0.5 * 0.08
+    one = T == 21.0
+    np.testing.assert_allclose(
+        scores._given(d[one], T[one], var[:, one], np.random.default_rng(2), own=False),
+        scores._given(d[one], T[one], var[:, one], np.random.default_rng(2), own=True),
+    )
+
+
 def test_the_leave_one_specimen_out_interval_covers_a_new_specimens_error():
     """The interval of a leave-one-specimen-out absolute error (the mean over the folds of the
     expected error of each fold's law against a new specimen of the mix) covers that error in

@@ -244,17 +244,30 @@ def population_draws(comp: dict, quantity: str, n_sim: int = N_SIMULATIONS, seed
 UNSEEN = {"lofo": ("specimen_temperature", "cell"), "loto": ("specimen_temperature", "cell")}
 
 
-def _given(d: np.ndarray, groups: np.ndarray, var: np.ndarray, rng) -> np.ndarray:
+def _given(d: np.ndarray, groups: np.ndarray, var: np.ndarray, rng, own: bool = True) -> np.ndarray:
     """Draws of a level's term x at the cells of ``d`` given the held-out errors d = g - x
     (g the law's own error, independent of x): per group of cells sharing x, the normal
     conditional x | mean_group(d) ~ N(-lam dbar, (1 - lam) var), lam = var / E[dbar^2]
     (the share of the errors' second moment the level explains, at most 1); ``var``
-    (n_sim, cells) the level's drawn variance."""
+    (n_sim, cells) the level's drawn variance.
+
+    E[dbar^2] = var + s^2, s^2 the variance of the law's own error g over the groups. With
+    ``own`` (the cell level) it is the mean of dbar^2 over every group. Without (the isotherm
+    level, three or so held-out isotherms), s^2 is estimated from the *other* groups, the mean of
+    their dbar^2 less their drawn variance (at least 0), so that one group's own large deviation,
+    which is as likely the lab's level at that isotherm as the law's error, does not lower its own
+    lam (empirical Bayes with the prior variance estimated leave-one-group-out); with one group,
+    as with ``own``."""
     u, inv = np.unique(groups, return_inverse=True)
     dbar = np.array([d[inv == k].mean() for k in range(u.size)])
-    second = max(float(np.mean(dbar**2)), 1e-300)
     v = np.stack([var[:, inv == k][:, 0] for k in range(u.size)], axis=1)  # (n_sim, groups)
-    lam = np.minimum(v / second, 1.0)
+    if own or u.size < 2:
+        lam = np.minimum(v / max(float(np.mean(dbar**2)), 1e-300), 1.0)
+    else:
+        sq = dbar**2
+        others = (sq.sum() - sq) / (u.size - 1)  # (groups,)
+        v_others = (v.sum(axis=1, keepdims=True) - v) / (u.size - 1)  # (n_sim, groups)
+        lam = v / np.maximum(v + np.maximum(others[None, :] - v_others, 0.0), 1e-300)
     x = -lam * dbar[None, :] + np.sqrt((1.0 - lam) * v) * rng.normal(0.0, 1.0, v.shape)
     return x[:, inv]
 
@@ -272,7 +285,7 @@ def error_draws(d: np.ndarray, parts: dict, cols: np.ndarray, scheme: str) -> np
     out = d[None, :] + parts["a"]
     if "specimen_temperature" in unseen:
         T = parts["T"][cols]
-        out = out + _given(d, T, parts["var_B"][:, cols], rng)
+        out = out + _given(d, T, parts["var_B"][:, cols], rng, own=False)
     else:
         out = out + parts["B"][:, cols]
     if "cell" in unseen:
