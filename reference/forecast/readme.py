@@ -224,20 +224,27 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
         "## Candidate physics of dem_physical",
         "",
         "`dem_physical` fits nothing on mixes; here it forecasts every mix of the default run's samples with the air "
-        "voids in the mastic (the default) or added to the mortar at the fine aggregate's scale "
-        "(`forecast.dem.air_phase`), and with the skeleton contacts also touching as Hertz contacts of the stones at "
+        "voids in the mastic (the default), added to the mortar at the fine aggregate's scale, or in pockets between "
+        "the stones, the bridges dense and their section reduced by the pockets' share of the matrix "
+        "(`forecast.dem.air_phase`), with the skeleton contacts also touching as Hertz contacts of the stones at "
         "the test's strain amplitude (`forecast.dem.contact_strain`, in parallel with their mastic films; none: "
-        "the default) (`physics_probe.py`; 95 % t intervals over the mixes; bias: mean signed error per "
-        "temperature). The variants are compared on the mixes they are scored on; the last row chooses the "
-        "variant for each mix left out on the other mixes only.",
+        "the default), and with the mortar bridges free or confined, layers bonded to their stones whose bulk "
+        "modulus props them up as the binder softens (`forecast.dem.bridge_confinement`) (`physics_probe.py`; "
+        "95 % t intervals over the mixes; bias: mean signed error per temperature). The variants are compared on "
+        "the mixes they are scored on; the last row chooses the variant for each mix left out on the other mixes "
+        "only.",
         "",
     ]
     temps = " / ".join(f"{T:.1f}" for T in sorted(pp["temperature_C"].dropna().unique()))
     L += [
-        f"| air voids in | contact strain | \\|E*\\| (%) | phase (°) | bias \\|E*\\| (%) at {temps} °C | bias phase (°) |",
-        "|---|---|---|---|---|---|",
+        f"| air voids in | contact strain | bridges | \\|E*\\| (%) | phase (°) | bias \\|E*\\| (%) at {temps} °C "
+        "| bias phase (°) |",
+        "|---|---|---|---|---|---|---|",
     ]
-    for (air, strain), g in pp.groupby(["air_phase", pp["contact_strain"].fillna(0.0)], sort=False):
+    if "confinement" not in pp:  # a table written before the confined bridges
+        pp = pp.assign(confinement=False)
+    pp = pp.assign(bridges=np.where(pp["confinement"].astype(str) == "True", "confined", "free"))
+    for (air, strain, bridges), g in pp.groupby(["air_phase", pp["contact_strain"].fillna(0.0), "bridges"], sort=False):
         a = g[g["temperature_C"].isna()].iloc[0]
         per_T = g[g["temperature_C"].notna()].sort_values("temperature_C")
         bias_e = " / ".join(f"{v:+.0f}" for v in per_T["bias_logE_pct"])
@@ -245,6 +252,7 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
         chosen_row = air == "chosen in the fold"
         L.append(
             f"| {air} | {'–' if chosen_row else (f'{strain:g}' if strain else 'none')} | "
+            f"{'–' if chosen_row else bridges} | "
             f"{_ci(a['abs_logE_pct'], a['abs_logE_pct_ci_low'], a['abs_logE_pct_ci_high'])} | "
             f"{_ci(a['abs_phase_deg'], a['abs_phase_deg_ci_low'], a['abs_phase_deg_ci_high'])} | {bias_e} | {bias_p} |"
         )
@@ -254,8 +262,70 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
             "",
             f"Chosen in the fold (variant: mixes): {chosen.iloc[0]}. The largest strain tried, "
             f"{pp['contact_strain'].max():g}, is the top of the range AASHTO T 342 allows (50–150 microstrain): "
-            "a choice at its bound.",
+            "a choice of it is a choice at its bound.",
         ]
+    return L
+
+
+def physics_ladder_section(scores, per_mix, p_scores, p_per_mix, costs, p_costs) -> list[str]:
+    """The ladder in the default run and in the kept run with every candidate physics on
+    (``config/forecast_physics.yaml``, ``physics_*``): each step held out, the paired difference over
+    the mixes, and the CPU of the folds' fits in both runs."""
+    from asphalt_nscd.forecast.physical import STEP_NAMES
+
+    if any(t is None for t in (scores, per_mix, p_scores, p_per_mix)):
+        return []
+    L = [
+        "",
+        "## The ladder under the candidate physics",
+        "",
+        "Every step of the ladder in the default run and in a kept run of the same samples with the air voids in "
+        "pockets, the Hertz contacts at strain 0.00015 and confined bridges (`config/forecast_physics.yaml`, "
+        "`physics_*`), each held out by mix with its constants fitted in every fold (difference: paired over the "
+        "mixes, physics run minus default run, negative is better):",
+        "",
+        "| model | \\|E*\\| default (%) | \\|E*\\| physics (%) | difference (points) | phase default (°) "
+        "| phase physics (°) | difference (°) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+
+    def overall(sc, name):
+        r = sc[(sc["binder_route"] == ROUTE) & (sc["group"] == "all") & sc["temperature_C"].isna()]
+        r = r[r["label"] == name]
+        return None if r.empty else r.iloc[0]
+
+    def errors(pm, name):
+        e = pm[(pm["binder_route"] == ROUTE) & pm["temperature_C"].isna() & (pm["label"] == name)]
+        return e.set_index("mix_id")
+
+    for name in [*STEP_NAMES, "dem_selected"]:
+        a, b = overall(scores, name), overall(p_scores, name)
+        if a is None or b is None:
+            continue
+        ea, eb = errors(per_mix, name), errors(p_per_mix, name)
+        L.append(
+            f"| {name} | {_ci(a['abs_logE_pct'], a['abs_logE_ci_low'], a['abs_logE_ci_high'])} | "
+            f"{_ci(b['abs_logE_pct'], b['abs_logE_ci_low'], b['abs_logE_ci_high'])} | "
+            f"{_mean_ci((eb['e'] - ea['e']).dropna())} | "
+            f"{_ci(a['abs_phase_deg'], a['abs_phase_ci_low'], a['abs_phase_ci_high'])} | "
+            f"{_ci(b['abs_phase_deg'], b['abs_phase_ci_low'], b['abs_phase_ci_high'])} | "
+            f"{_mean_ci((eb['p'] - ea['p']).dropna())} |"
+        )
+    if costs is not None and p_costs is not None:
+        cpu = [c.loc[c["command"] == "forecast-crossval", "cpu_s"].sum() for c in (costs, p_costs)]
+        L += [
+            "",
+            f"The folds' fits (`forecast-crossval`) took {cpu[1]:.0f} s of CPU with the candidate physics against "
+            f"{cpu[0]:.0f} s in the default run ({cpu[1] / cpu[0]:.1f} times): the Hertz contacts' fixed point is "
+            "solved at every evaluation of every fit.",
+        ]
+    L += [
+        "",
+        "Read: the film skeleton's steps gain from the candidate physics wherever the difference's interval lies "
+        "below zero; the parabolic steps take their skeleton's stiffness and exponent from the training mixes and "
+        "the physics leaves them where they were, and `dem_selected` does not improve. The default configuration "
+        "keeps the options off.",
+    ]
     return L
 
 
@@ -290,7 +360,7 @@ def render() -> str:
     L = [
         "# The forecast from the binder: reference tables",
         "",
-        "Committed tables of two runs of the forecast on the 35 shipped mixes (`data/binder_mix/`), written by "
+        "Committed tables of the forecast's runs on the 35 shipped mixes (`data/binder_mix/`), written by "
         "`reference/forecast/collect.py`, and this page by `reference/forecast/readme.py` from them.",
         "",
         "```bash",
@@ -306,6 +376,9 @@ def render() -> str:
         "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
         "    --summary reference/forecast/size_study_summary.csv",
         "python reference/forecast/physics_probe.py . -o reference/forecast/physics_probe.csv",
+        ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_physics.yaml",
+        "python reference/forecast/collect.py . --label physics --models dem_physical dem_c1 dem_c2 dem_c3 dem_c4 \\",
+        "    dem_p2 dem_p3 dem_selected -o reference/forecast  # and physics_costs.csv from a run without --models",
         "python reference/forecast/variant_cost.py --mix 193 --variant 4:2.5 --variant 6.3:2.5 --variant 4:2 \\",
         "    --variant 2:2 -o reference/forecast/variant_cost.csv",
         "python reference/forecast/time_domain.py . --constants reference/forecast/default_constants.csv \\",
@@ -414,6 +487,14 @@ def render() -> str:
             for _, r in td.iterrows()
         ]
     L += physics_section(_read("physics_probe.csv"))
+    L += physics_ladder_section(
+        _read("default_crossval.csv"),
+        _read("default_per_mix.csv"),
+        _read("physics_crossval.csv"),
+        _read("physics_per_mix.csv"),
+        _read("default_costs.csv"),
+        _read("physics_costs.csv"),
+    )
     vc = _read("variant_cost.csv")
     if vc is not None:
         L += [

@@ -900,7 +900,9 @@ FORECAST = "results/forecast"
 
 
 #: what a forecast response file holds (a param of rule forecast_response: a response written before it is rewritten)
-FORECAST_RESPONSE_CONTENTS = "pencils of the bridges and the skeleton, series and Hertz contact geometry"
+FORECAST_RESPONSE_CONTENTS = (
+    "pencils of the bridges and the skeleton, series and Hertz contact geometry, bridge shape factors"
+)
 
 
 def forecast_root(config: dict) -> str:

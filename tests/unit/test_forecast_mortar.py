@@ -159,3 +159,28 @@ def test_air_in_the_mortar_is_the_dense_mortar_made_porous():
     assert np.all(np.abs(dense) > E[0]) and np.all(E[0] > E[1]) and np.all(E[1] < c.E_stone_Pa)
     with pytest.raises(ValueError, match="air_phase"):
         mortar.mortar_moduli(G, d, vol, c, "binder")
+
+
+def test_the_confined_layer_meets_its_limits():
+    """confined_modulus: a layer of vanishing shape factor is free (E); an incompressible one follows
+    Gent and Lindley's E (1 + 2 S^2); a wide compressible one tends to E + K; it grows with S; a warm
+    (nearly incompressible) viscoelastic layer keeps its phase angle; a negative S is refused."""
+    from asphalt_nscd.forecast.mortar import confined_modulus, young
+
+    S = np.array([0.0, 0.1, 0.5, 1.0, 2.0, 4.0])
+    K, G = 1e15, 1e6  # nu -> 1/2
+    np.testing.assert_allclose(confined_modulus(K, G, S).real / young(K, G), 1 + 2 * S**2, rtol=1e-5)
+    Kc, Gc = 3e9, 1.2e9  # a glassy binder, nu about 0.33
+    Ec = confined_modulus(Kc, Gc, S).real
+    assert Ec[0] == pytest.approx(young(Kc, Gc), rel=1e-12)
+    assert np.all(np.diff(Ec) > 0)
+    assert confined_modulus(Kc, Gc, 1e4).real == pytest.approx(young(Kc, Gc) + Kc, rel=1e-3)
+    assert Ec[-1] < young(Kc, Gc) + Kc
+    # a glassy layer stiffens far less than a warm one at the same shape factor
+    assert Ec[3] / young(Kc, Gc) < 2.0 < confined_modulus(3e9, 1e5, 1.0).real / young(3e9, 1e5)
+    Gw = 1e5 * np.exp(1j * np.radians(70.0))
+    Ew = confined_modulus(3e9, Gw, 1.5)
+    assert np.degrees(np.angle(Ew)) == pytest.approx(70.0, abs=0.1)
+    assert abs(Ew) == pytest.approx(abs(young(3e9, Gw)) * (1 + 2 * 1.5**2), rel=1e-3)
+    with pytest.raises(ValueError, match="shape factor"):
+        confined_modulus(Kc, Gc, -0.1)

@@ -103,12 +103,17 @@ def test_a_planted_mix_is_recovered(responses, table):
         assert st["state"]["skeleton_exponent"] == pytest.approx(0.35, abs=1e-3)
 
 
-@pytest.mark.parametrize("air_phase, strain", [("mastic", None), ("mortar", None), ("mortar", 1e-4)])
-def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain):
+@pytest.mark.parametrize(
+    "air_phase, strain, confined",
+    [("mastic", None, False), ("mortar", None, False), ("mortar", 1e-4, False), ("pockets", None, True)],
+)
+def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain, confined):
     """At the same sample, binder and effective binder, more air voids (a larger VMA) soften every
-    condition's forecast (the mortar's voids and a thicker film), wherever the voids enter and with
-    the Hertz contacts too."""
-    model = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase=air_phase, contact_strain=strain)
+    condition's forecast (the mortar's voids or the bridges' section, and a thicker film), wherever the
+    voids enter, with the Hertz contacts and with confined bridges too."""
+    model = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, air_phase=air_phase, contact_strain=strain, confinement=confined
+    )
     state = model.fit(table)
     rows = table[table["mix_id"] == "209"]
     E = [model.predict(state, rows.assign(Va_pct=va))[0] for va in (3.0, 5.0, 8.0)]
@@ -321,3 +326,58 @@ def test_hertz_contacts_follow_hertz_and_stiffen_the_warm_forecast(responses, ta
         physical.PhysicalDem("dem_physical", old, 4.0, contact_strain=1e-4).predict(plain.fit(table), rows)
     with pytest.raises(InputError, match="contact strain"):
         physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=0.05)
+
+
+def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(responses, table):
+    """The sample's bond shape factors are r_min / (2 h) of each bond (h its bond_geometry length); the
+    condensed nodes keep their g_b-weighted mean; the confined bridge is the g_b-weighted mean of each
+    bond's confined modulus (computed here bond by bond); it stiffens every condition; with dense
+    bridges (the air in pockets) the warm, nearly incompressible mortar stiffens most; more air voids
+    still soften the forecast; a response without shape factors is refused."""
+    import dataclasses
+
+    from asphalt_nscd.forecast.mortar import confined_modulus
+    from asphalt_nscd.io import InputError
+
+    r = responses["211"][0]
+    s = _sample(MIXES.index("211"))
+    g, _ = dem.bond_geometry(s)
+    np.testing.assert_allclose(r.bridge_shape, s.bonds["r_min"] / (2 * np.pi * s.bonds["r_min"] ** 2 / g))
+    nodes, w = physical.shape_nodes(r)
+    assert w.sum() == pytest.approx(1.0) and np.sum(w * nodes) == pytest.approx(np.average(r.bridge_shape, weights=g))
+    K, G = np.array([3e9 + 0j, 3e9]), np.array([1e9 + 1e8j, 2e4 + 5e4j])
+    direct = (g[:, None] * confined_modulus(K[None], G[None], r.bridge_shape[:, None])).sum(0) / g.sum()
+    np.testing.assert_allclose(physical.confined_bridge(K, G, r), direct, rtol=1e-3)
+    rows = table[table["mix_id"] == "211"]
+    T = rows["temperature_C"].to_numpy()
+    for air in ("mastic", "pockets"):
+        free = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase=air)
+        confined = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase=air, confinement=True)
+        gain = np.log(confined.predict(confined.fit(table), rows)[0] / free.predict(free.fit(table), rows)[0])
+        assert np.all(gain > 0)
+    # the dense mortar's bridges: 1 + 2 S^2 warm (nu -> 1/2) against a modest gain cold
+    mm = confined._cells(rows)[0][1]
+    (K, G), _ = mm.bulk_shear(0.8, 55e9)
+    ratio = np.abs(physical.confined_bridge(K, G, r) / (9 * K * G / (3 * K + G)))
+    assert ratio[T > 50].mean() > 2 * ratio[T < 0].mean()
+    state = confined.fit(table)
+    E = [confined.predict(state, rows.assign(Va_pct=va))[0] for va in (3.0, 5.0, 8.0)]
+    assert np.all(E[0] > E[1]) and np.all(E[1] > E[2])
+    old = {"211": [dataclasses.replace(r, bridge_shape=np.zeros(0), bridge_weight=np.zeros(0))]}
+    with pytest.raises(InputError, match="rerun forecast-response"):
+        physical.PhysicalDem("dem_physical", old, 4.0, confinement=True).predict(state, rows)
+
+
+def test_the_page_states_the_physics_the_ladder_ran_with(responses, table):
+    """Every fit records its bond laws' options, and the page's ladder section says which ran."""
+    from asphalt_nscd.forecast.page_dem import physics_line
+
+    model = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase="pockets", confinement=True)
+    state = model.fit(table)
+    assert (state["air_phase"], state["contact_strain"], state["confinement"]) == ("pockets", None, True)
+    line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": state}]}))
+    assert "air voids in the pockets" in line and "confined" in line and "films only" in line
+    hertz = physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=1e-4).fit(table)
+    line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": hertz}]}))
+    assert "air voids in the mastic" in line and "Hertz contacts at strain 0.0001" in line and "bridges free" in line
+    assert physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": {}}]}) == []

@@ -117,10 +117,11 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
             )
         base = split.get("", {})
         legacy = [DemModel(name, base, dem["cut_mm"]) for name in dem.get("models", [])]
-        # the bond laws' physics options (forecast.dem.air_phase, forecast.dem.contact_strain)
+        # the bond laws' physics options (forecast.dem.air_phase, contact_strain, bridge_confinement)
         physics: dict[str, Any] = {
             "air_phase": dem.get("air_phase") or "mastic",
             "contact_strain": dem.get("contact_strain"),
+            "confinement": bool(dem.get("bridge_confinement", False)),
         }
         ladder = [PhysicalDem(name, base, dem["cut_mm"], **physics) for name in dem.get("physical", [])]
         models += legacy + ladder

@@ -3,10 +3,10 @@
 Phases (volume fractions: :func:`asphalt_nscd.forecast.formulation.phase_volumes`): binder +
 filler (below 0.075 mm) = mastic; mastic + air voids = porous mastic; porous mastic + fine
 aggregate (0.075 mm to the PSD cut) = mortar, the matrix between the discrete model's spheres.
-Where the air voids sit is a choice (``air_phase``): ``mastic`` (above, the default) homogenizes
-them with the filler, ``mortar`` adds them last, to the mortar of dense mastic and fine aggregate
-(a compacted mix's voids, 0.1 mm to a few mm, are the size of its fine aggregate, not of its
-filler: a homogenization at the mastic's scale presumes a separation of scales they do not have).
+Where the air voids sit is a choice (``air_phase``): ``mastic`` (the default) homogenizes them
+with the filler; ``mortar`` adds them last, to the mortar of dense mastic and fine aggregate (voids
+of 0.1 mm to a few mm are the size of the fine aggregate, not of the filler); ``pockets`` leaves
+the mortar dense, the voids between the coarse stones (:mod:`asphalt_nscd.forecast.physical`).
 Every phase is isotropic and linear viscoelastic; by the elastic-viscoelastic correspondence
 principle (Hashin 1965, J. Appl. Mech. 32, 630-636) an elastic estimate written for complex
 bulk and shear moduli K*, G* gives the composite's complex moduli at one frequency and
@@ -220,7 +220,7 @@ class Constituents:
 
 
 #: where the air voids enter the mortar (module docstring)
-AIR_PHASES = ("mastic", "mortar")
+AIR_PHASES = ("mastic", "mortar", "pockets")
 
 
 def mortar_moduli(
@@ -237,7 +237,7 @@ def mortar_moduli(
     constituents : the physical constants (:class:`Constituents`).
     air_phase : ``mastic`` (air in the mastic, then the fine aggregate) or ``mortar`` (the fine
         aggregate in the dense mastic, then the air in that mortar; ``porous_mastic`` is then the
-        mastic itself).
+        mastic itself) or ``pockets`` (no air in the mortar: ``mortar`` with the air left out).
 
     Returns
     -------
@@ -253,6 +253,8 @@ def mortar_moduli(
     """
     if air_phase not in AIR_PHASES:
         raise ValueError(f"air_phase {air_phase!r}: expected one of {AIR_PHASES}")
+    if air_phase == "pockets":
+        volumes, air_phase = {**volumes, "air": 0.0}, "mortar"
     G = np.asarray(G_binder_Pa, float) * np.exp(1j * np.radians(np.asarray(delta_deg, float)))
     Ks, Gs = constituents.stone()
     mastic = volumes["binder"] + volumes["filler"]
@@ -315,3 +317,38 @@ def hs_lower_mortar_modulus(G_binder_Pa, delta_deg, phi_filler: float, phi_fine:
     binder's phase angle)."""
     G = np.asarray(G_binder_Pa, float) * np.exp(1j * np.radians(np.asarray(delta_deg, float)))
     return 3.0 * G * rigid_inclusion_factor(phi_filler) * rigid_inclusion_factor(phi_fine)
+
+
+def confined_modulus(K, G, shape) -> np.ndarray:
+    """The apparent compression modulus E_c of a bonded layer of mortar between two stones.
+
+    A layer of radius a and thickness h bonded to rigid faces cannot bulge freely: its pressure
+    builds up from the free edge inwards, and the thinner the layer, the more of its load the
+    bulk modulus carries. With the shape factor S = a / (2 h) (loaded area over free lateral area),
+    the pressure solution of a thin compressible circular layer (Gent 2001, Engineering with Rubber,
+    2nd ed., ch. 8; Kelly & Konstantinidis 2011, Mechanics of Rubber Bearings for Seismic and
+    Vibration Isolation, ch. 3), plus the layer's own Young's modulus E for its unconfined stretch
+    (as in Gent & Lindley 1959, Proc. Inst. Mech. Eng. 173, 111: E_c = E (1 + 2 S^2)), is
+
+        E_c = E + K [1 - 2 I_1(x) / (x I_0(x))],   x = 2 S sqrt(12 G / K)
+
+    Limits (tested): S -> 0 gives E; an incompressible layer (K >> G) gives E (1 + 2 S^2), Gent and
+    Lindley's; a wide compressible layer (x -> infinity) gives E + K. By the correspondence principle
+    K and G may be complex (Pa): cold, the binder's G is a fair part of K and the layer stiffens
+    little; warm, |G*| << K and the bulk modulus props the layer up.
+
+    K, G : complex or real arrays of one shape (Pa). shape : S (-), broadcast against them.
+    Returns E_c (complex, the broadcast shape, Pa). Raises ValueError for a negative shape factor.
+    """
+    from scipy.special import ive
+
+    S = np.asarray(shape, float)
+    if np.any(S < 0):
+        raise ValueError("confined_modulus: the shape factor S = a / (2 h) must be >= 0")
+    K, G = np.asarray(K, complex), np.asarray(G, complex)
+    x = 2.0 * S * np.sqrt(12.0 * G / K)
+    small = np.abs(x) < 1e-3
+    xs = np.where(small, 1.0, x)
+    # 1 - 2 I1 / (x I0), even in x (either root serves); its series x^2/8 - x^4/96 where x is small
+    lateral = np.where(small, x**2 / 8.0 - x**4 / 96.0, 1.0 - 2.0 * ive(1, xs) / (xs * ive(0, xs)))
+    return young(K, G) + K * lateral

@@ -103,9 +103,26 @@ def ladder_section(scores, rows, constants, route, confidence) -> list[str]:
         "element.",
         "",
     ]
+    L += physics_line(constants)
     L += _constants_table(constants, [n for n, _ in steps], route)
     L += _goals(scores, errors, route, confidence, constants)
     return L
+
+
+def physics_line(constants: dict) -> list[str]:
+    """The physics options the ladder ran with, from its fits' records (none: a record without them)."""
+    for fit in constants.get("fits", []):
+        st = fit.get("state") or {}
+        if fit["model"] in dict(STEPS) and "air_phase" in st:
+            strain = st.get("contact_strain")
+            return [
+                f"Physics options of this run: air voids in the {st['air_phase']} (`forecast.dem.air_phase`), "
+                f"skeleton contacts {'also as Hertz contacts at strain ' + format(strain, 'g') if strain else 'through their films only'} "
+                f"(`contact_strain`), mortar bridges {'confined by their stones' if st.get('confinement') else 'free'} "
+                "(`bridge_confinement`).",
+                "",
+            ]
+    return []
 
 
 def _constants_table(constants, names, route) -> list[str]:

@@ -15,6 +15,8 @@ binder, the constituents and the mix's volumetrics:
 
   with chi the bonds' g_b-weighted mean of g_b / a_b (the series term taken uniform over the
   bonds, so that the response stays a function of one modulus per class: :class:`.dem.Response`).
+  Options: ``confinement`` (bridges as layers bonded to their stones, :func:`confined_bridge`) and
+  the air in ``pockets`` (dense bridges, the pockets' share of the matrix off their section).
 * **Skeleton contact** (pairs in contact in the packing): two stones separated by a mastic film of
   the mix's average film thickness h (:func:`.formulation.film_thickness_m`, times
   ``film_factor``). The film squeezed between spheres of effective radius R (Reynolds'
@@ -141,10 +143,17 @@ class MixMortar:
     volumes : the mix's phase volumes (:func:`.formulation.phase_volumes`).
     air_phase : where the air voids enter (:data:`.mortar.AIR_PHASES`): ``mastic`` (the fine aggregate
         then goes into porous mastic) or ``mortar`` (into dense mastic, the air added to the mortar
-        at every query, after the fine stage's cap).
+        at every query, after the fine stage's cap) or ``pockets`` (a dense mortar, the air's share
+        of the matrix, :attr:`pockets`, taken off the bridges' section by :class:`PhysicalDem`).
     """
 
     def __init__(self, G_binder_Pa, delta_deg, volumes: dict, air_phase: str = "mastic"):
+        #: the air pockets' share of the matrix, taken off the bridges' section (``air_phase="pockets"``; else 0)
+        self.pockets = 0.0
+        if air_phase == "pockets":
+            matrix = volumes["binder"] + volumes["filler"] + volumes["fine"] + volumes["air"]
+            self.pockets = volumes["air"] / matrix
+            volumes = {**volumes, "air": 0.0}
         from scipy.interpolate import CubicSpline
 
         from .mortar import Constituents, Inclusion, differential_scheme, hs_upper, mortar_moduli
@@ -155,7 +164,7 @@ class MixMortar:
         #: the air's fraction of the mortar, added at every query (``air_phase="mortar"``; 0 otherwise)
         self.phi_air_mortar = (
             0.0
-            if air_phase == "mastic"
+            if air_phase != "mortar"
             else volumes["air"] / (volumes["binder"] + volumes["filler"] + volumes["air"] + volumes["fine"])
         )
         #: the least packing limit this mix reads (a limit closer to its fraction is taken as this one: jammed)
@@ -187,6 +196,11 @@ class MixMortar:
     def moduli(self, fine_packing: float, E_stone_Pa: float) -> tuple[np.ndarray, np.ndarray]:
         """(E*_mortar, G*_mastic): complex (n,) Pa at the packing limit and stone modulus given; a
         limit below :attr:`packing_floor` reads the mortar at the floor (:meth:`jammed` says so)."""
+        (K, G), Gm = self.bulk_shear(fine_packing, E_stone_Pa)
+        return 9.0 * K * G / (3.0 * K + G), Gm
+
+    def bulk_shear(self, fine_packing: float, E_stone_Pa: float) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+        """((K*, G*) of the mortar, G*_mastic): complex (n,) Pa, as :meth:`moduli`."""
         p = max(float(fine_packing), self.packing_floor)
         s = float(-p * np.log1p(-self.phi_fine / p))
         x = np.log(E_stone_Pa)
@@ -200,7 +214,7 @@ class MixMortar:
             from .mortar import Inclusion, differential_scheme
 
             K, G = differential_scheme(K, G, [Inclusion(0.0, 0.0, self.phi_air_mortar)], 1.0, steps=12)
-        return 9.0 * K * G / (3.0 * K + G), np.exp(np.tensordot(w, self._lnGm_nodes, axes=1))
+        return (K, G), np.exp(np.tensordot(w, self._lnGm_nodes, axes=1))
 
     def jammed(self, fine_packing: float) -> bool:
         """Whether the mix's fine aggregate is within 2 % of the packing limit (read at the floor)."""
@@ -217,16 +231,17 @@ def plane_strain_stone(constants: dict) -> float:
 
 
 def bond_moduli(
-    constants: dict, E_mortar, G_mastic, film_m: float, response, skeleton: str = "film"
+    constants: dict, E_mortar, G_mastic, film_m: float, response, skeleton: str = "film", E_bridge=None
 ) -> tuple[np.ndarray, np.ndarray]:
     """(e_1, zeta) of one sample at its conditions (module docstring).
 
     constants : the values of :data:`CONSTANTS` (all of them). E_mortar, G_mastic : complex (n,)
     Pa (:meth:`MixMortar.moduli`). film_m : the mix's average film thickness (m). response :
-    the sample's :class:`.dem.Response` (``chi_bridge``, ``skeleton_r15``).
+    the sample's :class:`.dem.Response` (``chi_bridge``, ``skeleton_r15``). E_bridge : the bridges'
+    modulus (complex (n,) Pa; :func:`confined_bridge`), E_mortar when None (a free bridge).
     Returns e_1 (Pa, complex (n,)) and zeta = e_2 / e_1 (m^-1 x m, complex (n,))."""
     Es = plane_strain_stone(constants)
-    e1 = 1.0 / (1.0 / E_mortar + response.chi_bridge / Es)
+    e1 = 1.0 / (1.0 / (E_mortar if E_bridge is None else E_bridge) + response.chi_bridge / Es)
     if skeleton == "parabolic":  # per unit g_b, like a bridge: C_s E_s' (E*_mortar / E_s')^n
         n = constants["skeleton_exponent"]
         e2 = constants["skeleton_scale"] * Es * np.exp(n * np.log(E_mortar / Es))
@@ -241,6 +256,41 @@ def bond_moduli(
         e_film = e_stone * np.exp(n * np.log(e_film / e_stone))
     e2 = 1.0 / (1.0 / e_film + 1.0 / e_stone)
     return e1, e2 / e1
+
+
+#: bins of ln S over which a sample's bond shape factors are condensed (:func:`shape_nodes`)
+SHAPE_BINS = 48
+
+
+def shape_nodes(response) -> tuple[np.ndarray, np.ndarray]:
+    """(S nodes, weights): the sample's bond shape factors (:attr:`.dem.Response.bridge_shape`) condensed
+    into :data:`SHAPE_BINS` bins of ln S, each node its bin's g_b-weighted mean S and weight its share of
+    sum g_b (the weights sum to 1). Raises InputError if the response predates the shape factors."""
+    S, g = np.asarray(response.bridge_shape, float), np.asarray(response.bridge_weight, float)
+    if S.size == 0 or S.size != g.size or not np.all(np.isfinite(S)) or np.any(S <= 0):
+        raise InputError(
+            f"DEM response of mix {response.mix_id} (seed {response.seed}): no bond shape factors "
+            "(written before the confined bridges); delete it and rerun forecast-response"
+        )
+    edges = np.linspace(np.log(S.min()), np.log(S.max()) + 1e-12, SHAPE_BINS + 1)
+    k = np.clip(np.searchsorted(edges, np.log(S), side="right") - 1, 0, SHAPE_BINS - 1)
+    w = np.bincount(k, weights=g, minlength=SHAPE_BINS)
+    keep = w > 0
+    nodes = np.bincount(k, weights=g * S, minlength=SHAPE_BINS)[keep] / w[keep]
+    return nodes, w[keep] / w.sum()
+
+
+def confined_bridge(K, G, response) -> np.ndarray:
+    """The bridges' modulus with their confinement: sum_b g_b E_c(S_b) / sum_b g_b (complex (n,) Pa), E_c of
+    :func:`.mortar.confined_modulus` with the mortar's (K*, G*) (n,) and each bond's shape factor S_b. The
+    mean over the bonds weighted by g_b is the modulus that gives the bonds' summed stiffness (a Voigt
+    mean: exact where every bond stretches alike, an upper estimate otherwise); the tangential stiffness
+    follows the normal one by the Eqs. 8-11 ratio, as for a free bridge."""
+    from .mortar import confined_modulus
+
+    nodes, w = shape_nodes(response)
+    Ec = confined_modulus(np.asarray(K)[None, :], np.asarray(G)[None, :], nodes[:, None])
+    return w @ Ec
 
 
 def hertz_contact(E_mix_abs, strain: float, response, E_stone_prime: float) -> np.ndarray:
@@ -289,6 +339,8 @@ class PhysicalDem:
     contact_strain : the test's axial strain amplitude at which the skeleton contacts also touch as
         Hertz contacts of the stones (:func:`hertz_contact`, in parallel with their mastic film;
         the film skeleton only); None: no Hertz contact.
+    confinement : the mortar bridges as layers bonded to their stones, stiffened by their bulk
+        modulus (:func:`confined_bridge`); False: free bridges of the mortar's Young's modulus.
     """
 
     coefficients = "physical"
@@ -303,6 +355,7 @@ class PhysicalDem:
         variant: str = "",
         air_phase: str = "mastic",
         contact_strain: float | None = None,
+        confinement: bool = False,
     ):
         from .mortar import AIR_PHASES
 
@@ -321,6 +374,7 @@ class PhysicalDem:
             raise InputError(f"physical DEM model {name!r}: contact strain {contact_strain}; expected in (0, 0.01)")
         self.air_phase = str(air_phase)
         self.contact_strain = None if contact_strain is None else float(contact_strain)
+        self.confinement = bool(confinement)
         unknown = sorted(set(self.free) - set(CONSTANTS))
         if unknown:
             raise InputError(
@@ -366,10 +420,12 @@ class PhysicalDem:
         """ln E*_sample (Pa, complex) of every row (NaN where a mix has no usable sample)."""
         out = np.full(n, np.nan + 0j)
         for idx, mortar, film, responses in cells:
-            Em, Gm = mortar.moduli(constants["fine_packing"], constants["E_stone_Pa"])
+            (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"])
+            Em = 9.0 * K * G / (3.0 * K + G)
             logs = []
             for resp in responses:
-                e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton)
+                Eb = (confined_bridge(K, G, resp) if self.confinement else Em) * (1.0 - mortar.pockets)
+                e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton, E_bridge=Eb)
                 weights = "mortar" if self.skeleton == "parabolic" else "film"
                 E = e1 * resp.factor(zeta, skeleton=weights)
                 if self.contact_strain is not None and self.skeleton == "film":
@@ -412,6 +468,7 @@ class PhysicalDem:
                 "n_rows": len(rows),
                 "at_bound": [],
                 "jammed": self._jammed(cells, c),
+                **self.physics(),
             }
         lo = np.array([CONSTANTS[k].low for k in self.free])
         hi = np.array([CONSTANTS[k].high for k in self.free])
@@ -434,7 +491,12 @@ class PhysicalDem:
             "at_bound": [k for k, a in zip(self.free, at) if a],
             "starts_agree": bool(max(f.cost for f in fits) - best.cost <= 1e-6 * max(best.cost, 1e-12)),
             "jammed": self._jammed(cells, c),
+            **self.physics(),
         }
+
+    def physics(self) -> dict:
+        """The bond laws' physics options this model ran with (recorded in every fit, stated on the page)."""
+        return {"air_phase": self.air_phase, "contact_strain": self.contact_strain, "confinement": self.confinement}
 
     @staticmethod
     def _jammed(cells, constants) -> list:
