@@ -336,7 +336,7 @@ def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(respo
     still soften the forecast; a response without shape factors is refused."""
     import dataclasses
 
-    from asphalt_nscd.forecast.mortar import confined_modulus
+    from asphalt_nscd.forecast.mortar import confined_modulus, young
     from asphalt_nscd.io import InputError
 
     r = responses["211"][0]
@@ -347,7 +347,7 @@ def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(respo
     assert w.sum() == pytest.approx(1.0) and np.sum(w * nodes) == pytest.approx(np.average(r.bridge_shape, weights=g))
     K, G = np.array([3e9 + 0j, 3e9]), np.array([1e9 + 1e8j, 2e4 + 5e4j])
     direct = (g[:, None] * confined_modulus(K[None], G[None], r.bridge_shape[:, None])).sum(0) / g.sum()
-    np.testing.assert_allclose(physical.confined_bridge(K, G, r), direct, rtol=1e-3)
+    np.testing.assert_allclose(physical.confined_bridge(K, G, physical.shape_nodes(r)), direct, rtol=1e-3)
     rows = table[table["mix_id"] == "211"]
     T = rows["temperature_C"].to_numpy()
     for air in ("mastic", "pockets"):
@@ -358,7 +358,7 @@ def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(respo
     # the dense mortar's bridges: 1 + 2 S^2 warm (nu -> 1/2) against a modest gain cold
     mm = confined._cells(rows)[0][1]
     (K, G), _ = mm.bulk_shear(0.8, 55e9)
-    ratio = np.abs(physical.confined_bridge(K, G, r) / (9 * K * G / (3 * K + G)))
+    ratio = np.abs(physical.confined_bridge(K, G, physical.shape_nodes(r)) / young(K, G))
     assert ratio[T > 50].mean() > 2 * ratio[T < 0].mean()
     state = confined.fit(table)
     E = [confined.predict(state, rows.assign(Va_pct=va))[0] for va in (3.0, 5.0, 8.0)]

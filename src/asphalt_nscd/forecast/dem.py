@@ -78,8 +78,9 @@ class Response:
     skeleton_v_over_l: float = np.nan
     #: <R_eff^(5/3)> over the skeleton contacts, weighted as the film decomposition (R_eff^2), m^(5/3)
     skeleton_r53: float = np.nan
-    #: (B,) each bond's shape factor S_b = r_min / (2 (delta0 + t_m)) as a mortar layer (:func:`bridge_shape`);
-    #: empty in a response written before the confined bridges
+    #: (B,) each bond's shape factor as a layer of mortar bonded to its two stones, S_b = a / (2 h) = g_b / (2 pi a)
+    #: (a = r_min the bond's radius, h its length, :func:`bond_geometry`): the loaded area pi a^2 over the free
+    #: lateral area 2 pi a h (:func:`.mortar.confined_modulus`); empty in a response written before the confined bridges
     bridge_shape: np.ndarray = field(default_factory=lambda: np.zeros(0))
     #: (B,) each bond's geometric factor g_b (m; :func:`bond_geometry`), the weight of its shape factor
     bridge_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -237,16 +238,6 @@ def bond_geometry(sample) -> tuple[np.ndarray, np.ndarray]:
     return np.pi * sample.bonds["r_min"] ** 2 / (film + mortar_thickness(sample)), skeleton_bonds(sample)
 
 
-def bridge_shape(sample) -> np.ndarray:
-    """(B,) each bond's shape factor as a layer of mortar bonded to its two stones, S_b = a / (2 h) with
-    a = r_min the bond's radius and h = max(delta0, tol) + t_m its length (:func:`bond_geometry`): the
-    loaded area pi a^2 over the free lateral area 2 pi a h (:func:`.mortar.confined_modulus`)."""
-    from ..sample.prepare import CONTACT_TOLERANCE
-
-    film = np.maximum(sample.bonds["delta0"], CONTACT_TOLERANCE * float(sample.attrs["d_min_m"]))
-    return sample.bonds["r_min"] / (2.0 * (film + mortar_thickness(sample)))
-
-
 def bond_moduli(state: dict, e_mortar) -> tuple[np.ndarray, np.ndarray]:
     """(e_1, zeta) of ``dem_extended`` (module docstring) for the constants ``state`` (``C_m, C_a,
     C_s, n_s``; ``dem``: ``C_m`` alone) and the mortar's complex modulus ``e_mortar`` (Pa, array):
@@ -311,7 +302,7 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         skeleton_r15=float(np.sum(w * reff**1.5) / np.sum(w)) if np.any(skel) else np.nan,
         skeleton_v_over_l=float(volume / np.sum(branch[skel])) if np.any(skel) else np.nan,
         skeleton_r53=float(np.sum(w * reff ** (5.0 / 3.0)) / np.sum(w)) if np.any(skel) else np.nan,
-        bridge_shape=bridge_shape(sample),
+        bridge_shape=g / (2.0 * np.pi * r_bond),  # S_b = a / (2 h) = g_b / (2 pi a), a = r_min, g_b = pi a^2 / h
         bridge_weight=np.asarray(g, float),
         cpu_s=time.process_time() - t0,
     )

@@ -196,8 +196,10 @@ class MixMortar:
     def moduli(self, fine_packing: float, E_stone_Pa: float) -> tuple[np.ndarray, np.ndarray]:
         """(E*_mortar, G*_mastic): complex (n,) Pa at the packing limit and stone modulus given; a
         limit below :attr:`packing_floor` reads the mortar at the floor (:meth:`jammed` says so)."""
+        from .mortar import young
+
         (K, G), Gm = self.bulk_shear(fine_packing, E_stone_Pa)
-        return 9.0 * K * G / (3.0 * K + G), Gm
+        return young(K, G), Gm
 
     def bulk_shear(self, fine_packing: float, E_stone_Pa: float) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
         """((K*, G*) of the mortar, G*_mastic): complex (n,) Pa, as :meth:`moduli`."""
@@ -280,15 +282,16 @@ def shape_nodes(response) -> tuple[np.ndarray, np.ndarray]:
     return nodes, w[keep] / w.sum()
 
 
-def confined_bridge(K, G, response) -> np.ndarray:
+def confined_bridge(K, G, shapes: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """The bridges' modulus with their confinement: sum_b g_b E_c(S_b) / sum_b g_b (complex (n,) Pa), E_c of
-    :func:`.mortar.confined_modulus` with the mortar's (K*, G*) (n,) and each bond's shape factor S_b. The
+    :func:`.mortar.confined_modulus` with the mortar's (K*, G*) (n,) and each bond's shape factor S_b, the
+    bonds condensed in ``shapes`` = :func:`shape_nodes` of the sample's response (computed once per fit). The
     mean over the bonds weighted by g_b is the modulus that gives the bonds' summed stiffness (a Voigt
     mean: exact where every bond stretches alike, an upper estimate otherwise); the tangential stiffness
     follows the normal one by the Eqs. 8-11 ratio, as for a free bridge."""
     from .mortar import confined_modulus
 
-    nodes, w = shape_nodes(response)
+    nodes, w = shapes
     Ec = confined_modulus(np.asarray(K)[None, :], np.asarray(G)[None, :], nodes[:, None])
     return w @ Ec
 
@@ -389,7 +392,8 @@ class PhysicalDem:
         return {m for m, rs in self.responses.items() if all(r.usable and r.lam_f.size for r in rs)}
 
     def _cells(self, rows: pd.DataFrame) -> list:
-        """(row indices, MixMortar, film thickness, responses) per usable mix of ``rows``."""
+        """(row indices, MixMortar, film thickness, responses, shapes) per usable mix of ``rows``; shapes:
+        each response's :func:`shape_nodes` with confined bridges, else None for each."""
         from .formulation import film_thickness_m, phase_volumes
 
         out = []
@@ -407,7 +411,9 @@ class PhysicalDem:
             key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())), self.air_phase)
             if key not in _MORTARS:  # shared by every model of the process: the ladder's steps read the same mortar
                 _MORTARS[key] = (MixMortar(G, d, volumes, self.air_phase), film_thickness_m(mix))
-            out.append((idx, *_MORTARS[key], self.responses[mix_id]))
+            responses = self.responses[mix_id]
+            shapes = [shape_nodes(r) if self.confinement else None for r in responses]
+            out.append((idx, *_MORTARS[key], responses, shapes))
         return out
 
     def constants(self, x) -> dict:
@@ -419,12 +425,14 @@ class PhysicalDem:
     def _log_modulus(self, cells: list, n: int, constants: dict) -> np.ndarray:
         """ln E*_sample (Pa, complex) of every row (NaN where a mix has no usable sample)."""
         out = np.full(n, np.nan + 0j)
-        for idx, mortar, film, responses in cells:
+        from .mortar import young
+
+        for idx, mortar, film, responses, shapes in cells:
             (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"])
-            Em = 9.0 * K * G / (3.0 * K + G)
+            Em = young(K, G)
             logs = []
-            for resp in responses:
-                Eb = (confined_bridge(K, G, resp) if self.confinement else Em) * (1.0 - mortar.pockets)
+            for resp, shape in zip(responses, shapes):
+                Eb = (Em if shape is None else confined_bridge(K, G, shape)) * (1.0 - mortar.pockets)
                 e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton, E_bridge=Eb)
                 weights = "mortar" if self.skeleton == "parabolic" else "film"
                 E = e1 * resp.factor(zeta, skeleton=weights)
