@@ -253,7 +253,8 @@ def _given(d: np.ndarray, groups: np.ndarray, var: np.ndarray, rng, own: bool = 
 
     E[dbar^2] = var + s^2, s^2 the variance of the law's own error g over the groups. With
     ``own`` (the cell level) it is the mean of dbar^2 over every group. Without (the isotherm
-    level, three or so held-out isotherms), s^2 is estimated from the *other* groups, the mean of
+    level: one group per isotherm of the scored cells, the three interpolated ones in the shipped
+    design of five), s^2 is estimated from the *other* groups, the mean of
     their dbar^2 less their drawn variance (at least 0), so that one group's own large deviation,
     which is as likely the lab's level at that isotherm as the law's error, does not lower its own
     lam (empirical Bayes with the prior variance estimated leave-one-group-out); with one group,
