@@ -16,8 +16,8 @@ RUN_DIR is the working directory of the run (it holds ``results/forecast/`` and
 * ``<label>_error_split.csv``, ``<label>_selection_log.csv``, ``<label>_interval_coverage.csv``,
   ``<label>_learned_by_rows.csv``: the run's error split, the variants tried inside every fold,
   the prediction intervals' nested coverage and the learned model judged by mix and by rows;
-* with ``--models M ...`` only ``<label>_crossval.csv``, ``<label>_per_mix.csv`` (those models' rows)
-  and ``<label>_selection_log.csv``: a run kept to compare one model across settings (e.g. the
+* with ``--models M ...`` only ``<label>_crossval.csv``, ``<label>_per_mix.csv`` (those models' rows),
+  ``<label>_selection_log.csv`` and, where the run has CPU records, ``<label>_costs.csv``: a run kept to compare one model across settings (e.g. the
   rule of ``dem_selected``'s choice, ``forecast.dem.selection_rule``);
 * ``<label>_seed_spread.csv`` (runs of several seeds): per mix and seed, the mean over the table's
   conditions of 100 |ln(E_seed / E_mean)|, |E*| of ``dem_extended`` at the fitted constants from one
@@ -173,6 +173,8 @@ def main(argv=None) -> int:
     if a.models:
         selection = read_csv(a.run / "results" / "forecast" / "selection_log.csv", allow_empty=True)
         write_csv(selection, a.output / f"{a.label}_selection_log.csv")
+        if (a.run / "benchmarks" / "process_cpu.jsonl").is_file():  # the CPU of what the kept run ran
+            write_csv(costs(a.run), a.output / f"{a.label}_costs.csv")
         return 0
     write_csv(costs(a.run), a.output / f"{a.label}_costs.csv")
     write_csv(constants(a.run), a.output / f"{a.label}_constants.csv")

@@ -1,6 +1,7 @@
 """dem_physical, which fits nothing on mixes, under the candidate physics of its bond laws: where the
 air voids enter the mortar, whether the skeleton contacts also touch as Hertz contacts of the stones,
-and whether the mortar bridges are confined layers bonded to their stones.
+whether their patches keep the size the compactor pressed them to, and whether the mortar bridges are
+confined layers bonded to their stones.
 
     python reference/forecast/physics_probe.py RUN -o reference/forecast/physics_probe.csv
 
@@ -8,8 +9,8 @@ and whether the mortar bridges are confined layers bonded to their stones.
 binder curves and the responses of the base samples (written by this version of ``forecast-response``:
 the Hertz contacts read their skeleton geometry). For every variant (``air_phase`` of
 ``asphalt_nscd.forecast.mortar``; ``contact_strain`` of ``asphalt_nscd.forecast.physical.hertz_contact``,
-the test's strain amplitude, AASHTO T 342's 50-150 microstrain; ``confinement`` of
-``asphalt_nscd.forecast.physical.confined_bridge``) it forecasts every mix, binder through
+the test's strain amplitude, AASHTO T 342's 50-150 microstrain; ``compaction_pressure`` of the same function,
+AASHTO T 312's 600 kPa; ``confinement`` of ``asphalt_nscd.forecast.physical.confined_bridge``) it forecasts every mix, binder through
 its curve, and writes per variant and temperature (empty: all) the mean over the mixes of each mix's
 mean absolute 100 ln(E_f / E_m) and phase error, with t(n - 1) 95 % intervals over the mixes, and
 the mean signed errors (bias). Nothing is fitted, so no mix informs its own forecast; but the
@@ -34,21 +35,29 @@ from asphalt_nscd.forecast.validation import binder_ids
 from asphalt_nscd.io import write_csv
 from asphalt_nscd.lab.matched import read_matched
 
-#: (air_phase, contact_strain, confinement) of each variant; the first is the default configuration's dem_physical
+#: the gyratory compactor's vertical pressure, Pa (AASHTO T 312)
+T312_PA = 6e5
+#: (air_phase, contact_strain, confinement, compaction_pressure) of each variant; the first is the default
+#: configuration's dem_physical
 VARIANTS = (
-    ("mastic", None, False),
-    ("mortar", None, False),
-    ("mastic", 1e-4, False),
-    ("mortar", 5e-5, False),
-    ("mortar", 1e-4, False),
-    ("mortar", 1.5e-4, False),
-    ("pockets", None, False),
-    ("mastic", None, True),
-    ("mortar", None, True),
-    ("pockets", None, True),
-    ("mortar", 1e-4, True),
-    ("pockets", 1e-4, True),
-    ("pockets", 1.5e-4, True),
+    ("mastic", None, False, None),
+    ("mortar", None, False, None),
+    ("mastic", 1e-4, False, None),
+    ("mortar", 5e-5, False, None),
+    ("mortar", 1e-4, False, None),
+    ("mortar", 1.5e-4, False, None),
+    ("pockets", None, False, None),
+    ("mastic", None, True, None),
+    ("mortar", None, True, None),
+    ("pockets", None, True, None),
+    ("mortar", 1e-4, True, None),
+    ("pockets", 1e-4, True, None),
+    ("pockets", 1.5e-4, True, None),
+    ("mastic", None, False, T312_PA),
+    ("pockets", None, False, T312_PA),
+    ("mortar", None, True, T312_PA),
+    ("pockets", None, True, T312_PA),
+    ("pockets", 1.5e-4, True, T312_PA),
 )
 
 
@@ -60,29 +69,39 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
     table = table.dropna(subset=["E_norm_MPa", "phase_deg"]).reset_index(drop=True)
     responses = read_responses(sorted((f / "responses").glob("*.npz")))
     errors = {}
-    for air, strain, confined in VARIANTS:
+    for air, strain, confined, pressure in VARIANTS:
         model = PhysicalDem(
-            "dem_physical", responses, cut_mm, air_phase=air, contact_strain=strain, confinement=confined
+            "dem_physical",
+            responses,
+            cut_mm,
+            air_phase=air,
+            contact_strain=strain,
+            confinement=confined,
+            compaction_pressure=pressure,
         )
         E, P, _ = model.predict(model.fit(table), table)
         t = table.assign(e=100 * np.log(E / table["E_norm_MPa"]), p=P - table["phase_deg"]).dropna(subset=["e"])
-        errors[(air, strain, confined)] = t
+        errors[(air, strain, confined, pressure)] = t
     # the choice inside the fold: each mix forecast by the variant best on the other mixes
     score = pd.DataFrame({k: t.groupby("mix_id")["e"].apply(lambda x: np.mean(np.abs(x))) for k, t in errors.items()})
     chosen = {m: (score.drop(index=m).mean().idxmin()) for m in score.index}
     pick = pd.concat([errors[k][errors[k]["mix_id"] == m] for m, k in chosen.items()])
     counts = pd.Series(
-        [f"{a} {s if s is not None else 'none'}{' confined' if c else ''}" for a, s, c in chosen.values()]
+        [
+            f"{a} {s if s is not None else 'none'}{' confined' if c else ''}{f' compacted {p / 1e3:g} kPa' if p else ''}"
+            for a, s, c, p in chosen.values()
+        ]
     ).value_counts()
     rows = []
-    for (air, strain, confined), t in [*errors.items(), (("chosen in the fold", None, None), pick)]:
+    for (air, strain, confined, pressure), t in [*errors.items(), (("chosen in the fold", None, None, None), pick)]:
         for T in [np.nan, *sorted(t["temperature_C"].unique())]:
             sel = t if np.isnan(T) else t[t["temperature_C"] == T]
             per_mix = sel.groupby("mix_id").agg(
                 ae=("e", lambda x: np.mean(np.abs(x))), ap=("p", lambda x: np.mean(np.abs(x))), be=("e", "mean")
             )
             per_mix["bp"] = sel.groupby("mix_id")["p"].mean()
-            row = {"air_phase": air, "contact_strain": strain, "confinement": confined, "temperature_C": T}
+            row = {"air_phase": air, "contact_strain": strain, "confinement": confined}
+            row |= {"compaction_pressure_Pa": pressure, "temperature_C": T}
             row["n_mixes"] = len(per_mix)
             row["chosen"] = "; ".join(f"{k}: {v}" for k, v in counts.items()) if air == "chosen in the fold" else ""
             for col, name in (

@@ -228,8 +228,10 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
         "the stones, the bridges dense and their section reduced by the pockets' share of the matrix "
         "(`forecast.dem.air_phase`), with the skeleton contacts also touching as Hertz contacts of the stones at "
         "the test's strain amplitude (`forecast.dem.contact_strain`, in parallel with their mastic films; none: "
-        "the default), and with the mortar bridges free or confined, layers bonded to their stones whose bulk "
-        "modulus props them up as the binder softens (`forecast.dem.bridge_confinement`) (`physics_probe.py`; "
+        "the default), their patches kept at the size the compactor's 600 kPa pressed them to (AASHTO T 312; "
+        "`forecast.dem.compaction_pressure_Pa`), and with the mortar bridges free or confined, layers bonded to their "
+        "stones whose bulk modulus props them up as the binder softens (`forecast.dem.bridge_confinement`) "
+        "(`physics_probe.py`; "
         "95 % t intervals over the mixes; bias: mean signed error per temperature). The variants are compared on "
         "the mixes they are scored on; the last row chooses the variant for each mix left out on the other mixes "
         "only.",
@@ -237,14 +239,17 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
     ]
     temps = " / ".join(f"{T:.1f}" for T in sorted(pp["temperature_C"].dropna().unique()))
     L += [
-        f"| air voids in | contact strain | bridges | \\|E*\\| (%) | phase (°) | bias \\|E*\\| (%) at {temps} °C "
-        "| bias phase (°) |",
-        "|---|---|---|---|---|---|---|",
+        f"| air voids in | contact strain | compaction (kPa) | bridges | \\|E*\\| (%) | phase (°) "
+        f"| bias \\|E*\\| (%) at {temps} °C | bias phase (°) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     if "confinement" not in pp:  # a table written before the confined bridges
         pp = pp.assign(confinement=False)
+    if "compaction_pressure_Pa" not in pp:  # a table written before the compaction's patches
+        pp = pp.assign(compaction_pressure_Pa=np.nan)
     pp = pp.assign(bridges=np.where(pp["confinement"].astype(str) == "True", "confined", "free"))
-    for (air, strain, bridges), g in pp.groupby(["air_phase", pp["contact_strain"].fillna(0.0), "bridges"], sort=False):
+    keys = ["air_phase", pp["contact_strain"].fillna(0.0), pp["compaction_pressure_Pa"].fillna(0.0), "bridges"]
+    for (air, strain, pressure, bridges), g in pp.groupby(keys, sort=False):
         a = g[g["temperature_C"].isna()].iloc[0]
         per_T = g[g["temperature_C"].notna()].sort_values("temperature_C")
         bias_e = " / ".join(f"{v:+.0f}" for v in per_T["bias_logE_pct"])
@@ -252,6 +257,7 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
         chosen_row = air == "chosen in the fold"
         L.append(
             f"| {air} | {'–' if chosen_row else (f'{strain:g}' if strain else 'none')} | "
+            f"{'–' if chosen_row else (f'{pressure / 1e3:g}' if pressure else 'none')} | "
             f"{'–' if chosen_row else bridges} | "
             f"{_ci(a['abs_logE_pct'], a['abs_logE_pct_ci_low'], a['abs_logE_pct_ci_high'])} | "
             f"{_ci(a['abs_phase_deg'], a['abs_phase_deg_ci_low'], a['abs_phase_deg_ci_high'])} | {bias_e} | {bias_p} |"
@@ -280,7 +286,8 @@ def physics_ladder_section(scores, per_mix, p_scores, p_per_mix, costs, p_costs)
         "## The ladder under the candidate physics",
         "",
         "Every step of the ladder in the default run and in a kept run of the same samples with the air voids in "
-        "pockets, the Hertz contacts at strain 0.00015 and confined bridges (`config/forecast_physics.yaml`, "
+        "pockets, confined bridges and the skeleton contacts' patches pressed by the compactor's 600 kPa "
+        "(`config/forecast_physics.yaml`, "
         "`physics_*`), each held out by mix with its constants fitted in every fold (difference: paired over the "
         "mixes, physics run minus default run, negative is better):",
         "",
@@ -316,8 +323,9 @@ def physics_ladder_section(scores, per_mix, p_scores, p_per_mix, costs, p_costs)
         L += [
             "",
             f"The folds' fits (`forecast-crossval`) took {cpu[1]:.0f} s of CPU with the candidate physics against "
-            f"{cpu[0]:.0f} s in the default run ({cpu[1] / cpu[0]:.1f} times): the Hertz contacts' fixed point is "
-            "solved at every evaluation of every fit.",
+            f"{cpu[0]:.0f} s in the default run ({cpu[1] / cpu[0]:.1f} times; runs of different days on this shared "
+            "machine): every evaluation of every fit computes the confined bridges' modulus, a mean over each "
+            "sample's bond shapes.",
         ]
     L += [
         "",
@@ -378,7 +386,7 @@ def render() -> str:
         "python reference/forecast/physics_probe.py . -o reference/forecast/physics_probe.csv",
         ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_physics.yaml",
         "python reference/forecast/collect.py . --label physics --models dem_physical dem_c1 dem_c2 dem_c3 dem_c4 \\",
-        "    dem_p2 dem_p3 dem_selected -o reference/forecast  # and physics_costs.csv from a run without --models",
+        "    dem_p2 dem_p3 dem_selected -o reference/forecast  # with physics_costs.csv from the run's CPU records",
         "python reference/forecast/variant_cost.py --mix 193 --variant 4:2.5 --variant 6.3:2.5 --variant 4:2 \\",
         "    --variant 2:2 -o reference/forecast/variant_cost.csv",
         "python reference/forecast/time_domain.py . --constants reference/forecast/default_constants.csv \\",

@@ -104,15 +104,27 @@ def test_a_planted_mix_is_recovered(responses, table):
 
 
 @pytest.mark.parametrize(
-    "air_phase, strain, confined",
-    [("mastic", None, False), ("mortar", None, False), ("mortar", 1e-4, False), ("pockets", None, True)],
+    "air_phase, strain, confined, pressure",
+    [
+        ("mastic", None, False, None),
+        ("mortar", None, False, None),
+        ("mortar", 1e-4, False, None),
+        ("pockets", None, True, None),
+        ("pockets", None, True, 6e5),
+    ],
 )
-def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain, confined):
+def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain, confined, pressure):
     """At the same sample, binder and effective binder, more air voids (a larger VMA) soften every
     condition's forecast (the mortar's voids or the bridges' section, and a thicker film), wherever the
-    voids enter, with the Hertz contacts and with confined bridges too."""
+    voids enter, with the Hertz contacts, with confined bridges and with the compaction's patches too."""
     model = physical.PhysicalDem(
-        "dem_physical", responses, 4.0, air_phase=air_phase, contact_strain=strain, confinement=confined
+        "dem_physical",
+        responses,
+        4.0,
+        air_phase=air_phase,
+        contact_strain=strain,
+        confinement=confined,
+        compaction_pressure=pressure,
     )
     state = model.fit(table)
     rows = table[table["mix_id"] == "209"]
@@ -328,6 +340,50 @@ def test_hertz_contacts_follow_hertz_and_stiffen_the_warm_forecast(responses, ta
         physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=0.05)
 
 
+def test_compaction_patches_are_flat_punches_that_stiffen_the_warm_forecast(responses, table):
+    """A contact pressed by the compactor keeps the patch of that load: its stiffness is the flat
+    punch's 2 a E* with a the Hertz radius under the compaction's mean contact force (Love-Weber), the
+    same whatever the sample's modulus while the test's stress stays below the pressure, the test's
+    own Hertz contact above it; it grows as the pressure's cube root; the forecast gains most warm,
+    where the binder carries least, and its warm phase falls (an elastic skeleton); refused out of range."""
+    from asphalt_nscd.forecast.mortar import Constituents
+    from asphalt_nscd.io import InputError
+
+    r = responses["211"][0]
+    Es = 55e9 / (1 - Constituents().nu_stone ** 2)
+    Estar, p = Es / 2, 6e5
+    N = p * r.skeleton_v_over_l
+    R = r.skeleton_r53**0.6  # the radius whose R^(5/3) is the mean
+    a = (3 * N * R / (4 * Estar)) ** (1 / 3)  # Hertz: the patch's radius under N
+    soft, stiff = np.array([1e7, 1e8]), np.array([2e10, 3e10])
+    k = physical.hertz_contact(soft, 1e-4, r, Es, pressure=p)
+    np.testing.assert_allclose(k * R**2, 2 * a * Estar, rtol=1e-12)  # the flat punch, one value for both moduli
+    np.testing.assert_allclose(physical.hertz_contact(soft, 0.0, r, Es, pressure=8 * p), 2 * k, rtol=1e-12)
+    np.testing.assert_allclose(  # a test stress above the pressure: the test's own Hertz contact
+        physical.hertz_contact(stiff, 1e-4, r, Es, pressure=p), physical.hertz_contact(stiff, 1e-4, r, Es), rtol=1e-12
+    )
+    rows = table[table["mix_id"] == "211"]
+    T = rows["temperature_C"].to_numpy()
+    plain = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase="pockets", confinement=True)
+    pressed = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, air_phase="pockets", confinement=True, compaction_pressure=p
+    )
+    E0, P0, _ = plain.predict(plain.fit(table), rows)
+    state = pressed.fit(table)
+    assert state["compaction_pressure"] == p
+    E1, P1, _ = pressed.predict(state, rows)
+    gain = np.log(E1 / E0)
+    assert np.all(gain > 0) and gain[T > 50].mean() > 3 * gain[T < 0].mean()
+    assert np.all(P1[T > 50] < P0[T > 50])
+    harder = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, air_phase="pockets", confinement=True, compaction_pressure=4 * p
+    )
+    assert np.all(harder.predict(harder.fit(table), rows)[0] > E1)
+    for bad in (0.0, -1.0, 2e8):
+        with pytest.raises(InputError, match="compaction pressure"):
+            physical.PhysicalDem("dem_physical", responses, 4.0, compaction_pressure=bad)
+
+
 def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(responses, table):
     """The sample's bond shape factors are r_min / (2 h) of each bond (h its bond_geometry length); the
     condensed nodes keep their g_b-weighted mean; the confined bridge is the g_b-weighted mean of each
@@ -380,4 +436,7 @@ def test_the_page_states_the_physics_the_ladder_ran_with(responses, table):
     hertz = physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=1e-4).fit(table)
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": hertz}]}))
     assert "air voids in the mastic" in line and "Hertz contacts at strain 0.0001" in line and "bridges free" in line
+    pressed = physical.PhysicalDem("dem_physical", responses, 4.0, compaction_pressure=6e5).fit(table)
+    line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": pressed}]}))
+    assert "stone contacts whose patches pressed by the compaction at 600 kPa" in line and "films only" not in line
     assert physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": {}}]}) == []

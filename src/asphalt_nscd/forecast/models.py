@@ -117,11 +117,13 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
             )
         base = split.get("", {})
         legacy = [DemModel(name, base, dem["cut_mm"]) for name in dem.get("models", [])]
-        # the bond laws' physics options (forecast.dem.air_phase, contact_strain, bridge_confinement)
+        # the bond laws' physics options (forecast.dem.air_phase, contact_strain, bridge_confinement,
+        # compaction_pressure_Pa)
         physics: dict[str, Any] = {
             "air_phase": dem.get("air_phase") or "mastic",
             "contact_strain": dem.get("contact_strain"),
             "confinement": bool(dem.get("bridge_confinement", False)),
+            "compaction_pressure": dem.get("compaction_pressure_Pa"),
         }
         ladder = [PhysicalDem(name, base, dem["cut_mm"], **physics) for name in dem.get("physical", [])]
         models += legacy + ladder

@@ -114,11 +114,17 @@ def physics_line(constants: dict) -> list[str]:
     for fit in constants.get("fits", []):
         st = fit.get("state") or {}
         if fit["model"] in dict(STEPS) and "air_phase" in st:
-            strain = st.get("contact_strain")
+            strain, pc = st.get("contact_strain"), st.get("compaction_pressure")
+            contacts = [f"also as Hertz contacts at strain {strain:g} (`contact_strain`)"] if strain else []
+            if pc:
+                contacts.append(
+                    f"{'their' if strain else 'also as stone contacts whose'} patches pressed by the "
+                    f"compaction at {pc / 1e3:g} kPa (`compaction_pressure_Pa`)"
+                )
             return [
                 f"Physics options of this run: air voids in the {st['air_phase']} (`forecast.dem.air_phase`), "
-                f"skeleton contacts {'also as Hertz contacts at strain ' + format(strain, 'g') if strain else 'through their films only'} "
-                f"(`contact_strain`), mortar bridges {'confined by their stones' if st.get('confinement') else 'free'} "
+                f"skeleton contacts {', '.join(contacts) or 'through their films only (`contact_strain`)'}, "
+                f"mortar bridges {'confined by their stones' if st.get('confinement') else 'free'} "
                 "(`bridge_confinement`).",
                 "",
             ]

@@ -296,7 +296,7 @@ def confined_bridge(K, G, shapes: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     return w @ Ec
 
 
-def hertz_contact(E_mix_abs, strain: float, response, E_stone_prime: float) -> np.ndarray:
+def hertz_contact(E_mix_abs, strain: float, response, E_stone_prime: float, pressure: float = 0.0) -> np.ndarray:
     """The skeleton contacts' Hertz stiffness per unit R^2 (Pa/m, real (n,)) at the test's stress.
 
     Two equal stones in elastic contact under a normal force N have k = (6 E*^2 R N)^(1/3) (Hertz
@@ -306,14 +306,21 @@ def hertz_contact(E_mix_abs, strain: float, response, E_stone_prime: float) -> n
     skeleton contacts (Love-Weber: N = sigma V / sum l, :attr:`.dem.Response.skeleton_v_over_l`);
     per unit R^2 with R^(-5/3) taken as 1 / <R^(5/3)> over the contacts (``skeleton_r53``).
 
+    With a compaction ``pressure`` p_c the stress is max(sigma, p_c): the contacts' patches were
+    pressed by the compactor's p_c (AASHTO T 312's 600 kPa) and the binder holds them pressed, so
+    under a smaller load a patch keeps the radius a_c of that load and its stiffness 2 a_c E*, the
+    flat punch's (Sneddon 1965, Int. J. Eng. Sci. 3, 47; the unloading stiffness of a contact loaded past the
+    test's load, Thornton 1997, J. Appl. Mech. 64, 383), a stiffness the temperature does not change.
+
     E_mix_abs : (n,) |E*| of the sample (Pa). strain : the test's axial strain amplitude (-).
+    pressure : the compaction pressure (Pa; 0: none).
     Raises InputError if the response predates these contacts (its scalars are NaN)."""
     if not (np.isfinite(response.skeleton_v_over_l) and np.isfinite(response.skeleton_r53)):
         raise InputError(
             f"DEM response of mix {response.mix_id} (seed {response.seed}): no skeleton contact geometry "
             "(written before the Hertz contacts); delete it and rerun forecast-response"
         )
-    N = np.asarray(E_mix_abs, float) * float(strain) * response.skeleton_v_over_l
+    N = np.maximum(np.asarray(E_mix_abs, float) * float(strain), float(pressure)) * response.skeleton_v_over_l
     return (6.0 * (0.5 * E_stone_prime) ** 2 * N) ** (1.0 / 3.0) / response.skeleton_r53
 
 
@@ -344,6 +351,9 @@ class PhysicalDem:
         the film skeleton only); None: no Hertz contact.
     confinement : the mortar bridges as layers bonded to their stones, stiffened by their bulk
         modulus (:func:`confined_bridge`); False: free bridges of the mortar's Young's modulus.
+    compaction_pressure : the compactor's pressure (Pa) that pressed the skeleton contacts' patches
+        (:func:`hertz_contact`, the film skeleton only; with ``contact_strain`` the larger of the two
+        stresses); None: no compaction patch.
     """
 
     coefficients = "physical"
@@ -359,6 +369,7 @@ class PhysicalDem:
         air_phase: str = "mastic",
         contact_strain: float | None = None,
         confinement: bool = False,
+        compaction_pressure: float | None = None,
     ):
         from .mortar import AIR_PHASES
 
@@ -378,6 +389,11 @@ class PhysicalDem:
         self.air_phase = str(air_phase)
         self.contact_strain = None if contact_strain is None else float(contact_strain)
         self.confinement = bool(confinement)
+        if compaction_pressure is not None and not 0.0 < float(compaction_pressure) < 1e8:
+            raise InputError(
+                f"physical DEM model {name!r}: compaction pressure {compaction_pressure} Pa; expected in (0, 1e8)"
+            )
+        self.compaction_pressure = None if compaction_pressure is None else float(compaction_pressure)
         unknown = sorted(set(self.free) - set(CONSTANTS))
         if unknown:
             raise InputError(
@@ -436,8 +452,11 @@ class PhysicalDem:
                 e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton, E_bridge=Eb)
                 weights = "mortar" if self.skeleton == "parabolic" else "film"
                 E = e1 * resp.factor(zeta, skeleton=weights)
-                if self.contact_strain is not None and self.skeleton == "film":
+                if self.skeleton == "film" and self.contact_strain is not None:
                     E = self._with_hertz(E, e1, zeta, resp, constants)
+                elif self.skeleton == "film" and self.compaction_pressure is not None:  # a fixed stiffness
+                    eh = hertz_contact(np.abs(E), 0.0, resp, plane_strain_stone(constants), self.compaction_pressure)
+                    E = e1 * resp.factor(zeta + eh / e1, skeleton="film")
                 logs.append(np.log(E))
             out[idx] = np.mean(logs, axis=0)
         return out
@@ -449,7 +468,8 @@ class PhysicalDem:
         Es = plane_strain_stone(constants)
         strain = float(self.contact_strain or 0.0)
         for _ in range(HERTZ_ITERATIONS):
-            new = e1 * resp.factor(zeta + hertz_contact(np.abs(E), strain, resp, Es) / e1, skeleton="film")
+            eh = hertz_contact(np.abs(E), strain, resp, Es, self.compaction_pressure or 0.0)
+            new = e1 * resp.factor(zeta + eh / e1, skeleton="film")
             done = np.max(np.abs(np.log(np.abs(new / E)))) < HERTZ_TOLERANCE
             E = new
             if done:
@@ -504,7 +524,12 @@ class PhysicalDem:
 
     def physics(self) -> dict:
         """The bond laws' physics options this model ran with (recorded in every fit, stated on the page)."""
-        return {"air_phase": self.air_phase, "contact_strain": self.contact_strain, "confinement": self.confinement}
+        return {
+            "air_phase": self.air_phase,
+            "contact_strain": self.contact_strain,
+            "confinement": self.confinement,
+            "compaction_pressure": self.compaction_pressure,
+        }
 
     @staticmethod
     def _jammed(cells, constants) -> list:
