@@ -28,15 +28,15 @@ binder, the constituents and the mix's volumetrics:
 
   cold, the stones carry the contact (elastic); warm, the film does (the mastic's phase).
   ``skeleton_exponent`` n < 1 replaces the film by a parabolic element anchored at the stone's
-  stiffness, e_stone (e_film / e_stone)^n (Huet 1963): n = 1 is the film itself.
+  stiffness, e_stone (e_film / e_stone)^n (Huet 1963): n = 1 is the film itself. Options, in parallel
+  with the film: Hertz contacts of the stones, their patches kept from the compaction (:func:`hertz_contact`).
 
 E*_mix = e_1 F(zeta), zeta = e_2 / e_1 (:meth:`.dem.Response.factor`, ``skeleton="film"``).
 
 Constants (:data:`CONSTANTS`): every one has a documented physical range and a default inside it.
-``dem_physical`` takes the defaults: nothing is fitted on mixes. The ladder (:data:`STEPS`) frees
-them one at a time, each fitted on the training mixes of a fold inside its range (least squares
-of ln|E*| and the phase in radians, from several starts); a constant that ends at its bound is
-reported (``at_bound``).
+``dem_physical`` takes the defaults: nothing is fitted on mixes. The ladder (:data:`STEPS`) frees them one
+at a time, each fitted on the training mixes of a fold inside its range (least squares of ln|E*| and the
+phase in radians, from several starts); a constant that ends at its bound is reported (``at_bound``).
 """
 
 from __future__ import annotations
