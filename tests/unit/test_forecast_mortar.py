@@ -161,6 +161,28 @@ def test_air_in_the_mortar_is_the_dense_mortar_made_porous():
         mortar.mortar_moduli(G, d, vol, c, "binder")
 
 
+@pytest.mark.parametrize("air_phase", ["mastic", "mortar", "pockets"])
+def test_a_grid_of_stones_at_once_is_each_stone_alone(air_phase):
+    """mortar_moduli with the stones along a first axis (stone_Pa of shape (m, 1)) gives, row by row,
+    the moduli of each stone computed alone (the same operations element by element: equal to 1e-14);
+    a stage with nothing to add returns its matrix unchanged."""
+    G, d = np.geomspace(1e3, 1e9, 9), np.linspace(80, 10, 9)
+    vol = {"binder": 0.11, "filler": 0.05, "air": 0.04, "fine": 0.38}
+    E = np.array([30e9, 55e9, 90e9])
+    Ks, Gs = mortar.shear_bulk(E, 0.2)
+    grid = mortar.mortar_moduli(
+        G[None, :], d[None, :], vol, Constituents(), air_phase, stone_Pa=(Ks[:, None], Gs[:, None])
+    )
+    for i, e in enumerate(E):
+        alone = mortar.mortar_moduli(G, d, vol, Constituents(E_stone_Pa=float(e)), air_phase)
+        for key in ("mastic", "porous_mastic", "mortar"):
+            assert grid[key][0].shape == (3, 9)
+            np.testing.assert_allclose(grid[key][0][i], alone[key][0], rtol=1e-14)
+            np.testing.assert_allclose(grid[key][1][i], alone[key][1], rtol=1e-14)
+    K, G0 = differential_scheme(np.full(4, 3e9 + 0j), np.full(4, 1e6 + 2e5j), [Inclusion(0.0, 0.0, 0.0)], 1.0)
+    assert np.all(K == 3e9 + 0j) and np.all(G0 == 1e6 + 2e5j)
+
+
 def test_the_confined_layer_meets_its_limits():
     """confined_modulus: a layer of vanishing shape factor is free (E); an incompressible one follows
     Gent and Lindley's E (1 + 2 S^2); a wide compressible one tends to E + K; it grows with S; a warm

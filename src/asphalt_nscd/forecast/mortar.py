@@ -157,6 +157,8 @@ def differential_scheme(Km, Gm, inclusions, phi_max=1.0, steps: int = 400) -> tu
         raise ValueError(f"inclusion fraction {np.max(total):.4g} at or above its packing limit {np.min(pm):.4g}")
     if not (np.all(np.isfinite(Km)) and np.all(np.isfinite(Gm)) and np.all(Km != 0) and np.all(Gm != 0)):
         raise ValueError("matrix moduli must be finite and non-zero")
+    if not np.any(total):  # nothing to add: the matrix itself (the integration would not move)
+        return np.broadcast_to(Km, shape).copy(), np.broadcast_to(Gm, shape).copy()
     w = [np.divide(p, total, out=np.zeros(shape), where=total > 0) for p in phis]
     Ki = [np.asarray(i.K, complex) for i in inclusions]
     Gi = [np.asarray(i.G, complex) for i in inclusions]
@@ -224,7 +226,12 @@ AIR_PHASES = ("mastic", "mortar", "pockets")
 
 
 def mortar_moduli(
-    G_binder_Pa, delta_deg, volumes: dict, constituents: Constituents = Constituents(), air_phase: str = "mastic"
+    G_binder_Pa,
+    delta_deg,
+    volumes: dict,
+    constituents: Constituents = Constituents(),
+    air_phase: str = "mastic",
+    stone_Pa: tuple | None = None,
 ) -> dict:
     """The complex moduli of the mastic, the porous mastic and the mortar (module docstring).
 
@@ -238,6 +245,9 @@ def mortar_moduli(
     air_phase : ``mastic`` (air in the mastic, then the fine aggregate) or ``mortar`` (the fine
         aggregate in the dense mastic, then the air in that mortar; ``porous_mastic`` is then the
         mastic itself) or ``pockets`` (no air in the mortar: ``mortar`` with the air left out).
+    stone_Pa : the stone's (K_s, G_s) in Pa, arrays broadcasting with the conditions (several
+        stones at once: shape (m, 1) against the conditions' (n,) gives (m, n) moduli); default
+        ``constituents.stone()``.
 
     Returns
     -------
@@ -256,9 +266,10 @@ def mortar_moduli(
     if air_phase == "pockets":
         volumes, air_phase = {**volumes, "air": 0.0}, "mortar"
     G = np.asarray(G_binder_Pa, float) * np.exp(1j * np.radians(np.asarray(delta_deg, float)))
-    Ks, Gs = constituents.stone()
+    Ks, Gs = constituents.stone() if stone_Pa is None else stone_Pa
     mastic = volumes["binder"] + volumes["filler"]
     phi_f = volumes["filler"] / mastic
+    G = np.broadcast_to(G, np.broadcast(G, Ks, Gs).shape)
     Kb = np.full(G.shape, complex(constituents.K_binder_Pa))
     m = hs_cap(
         *differential_scheme(Kb, G, [Inclusion(Ks, Gs, phi_f)], constituents.filler_packing), (Kb, G), Ks, Gs, phi_f
@@ -276,21 +287,21 @@ def mortar_moduli(
     return {"mastic": m, "porous_mastic": p, "mortar": r, "phi_filler": phi_f, "phi_air": phi_a, "phi_fine": phi_s}
 
 
-def hs_upper(matrix, Ks: float, Gs: float, phi: float) -> tuple[np.ndarray, np.ndarray]:
+def hs_upper(matrix, Ks, Gs, phi: float) -> tuple[np.ndarray, np.ndarray]:
     """The Hashin-Shtrikman upper bounds (Pa) on the bulk and shear moduli of a two-phase composite of
-    the matrix's magnitudes (|K_m|, |G_m|: a pair of arrays) and the stone (Ks, Gs) at stone
-    fraction ``phi``."""
+    the matrix's magnitudes (|K_m|, |G_m|: a pair of arrays) and the stone (Ks, Gs: scalars or arrays
+    broadcasting with the matrix) at stone fraction ``phi``."""
     Km, Gm = (np.abs(np.asarray(a)) for a in matrix)
-    shape = np.broadcast(Km, Gm).shape
+    shape = np.broadcast(Km, Gm, Ks, Gs).shape
     (_, _), (Ku, Gu) = hashin_shtrikman(
-        np.array([np.broadcast_to(Km, shape), np.full(shape, Ks)]),
-        np.array([np.broadcast_to(Gm, shape), np.full(shape, Gs)]),
+        np.array([np.broadcast_to(Km, shape), np.broadcast_to(np.asarray(Ks, float), shape)]),
+        np.array([np.broadcast_to(Gm, shape), np.broadcast_to(np.asarray(Gs, float), shape)]),
         np.array([np.full(shape, 1.0 - phi), np.full(shape, phi)]),
     )
     return Ku, Gu
 
 
-def hs_cap(K, G, matrix, Ks: float, Gs: float, phi: float) -> tuple[np.ndarray, np.ndarray]:
+def hs_cap(K, G, matrix, Ks, Gs, phi: float) -> tuple[np.ndarray, np.ndarray]:
     """(K, G) with each magnitude capped at :func:`hs_upper`, the phase angle of each modulus kept
     (module docstring). Complex arrays, Pa."""
     Ku, Gu = hs_upper(matrix, Ks, Gs, phi)

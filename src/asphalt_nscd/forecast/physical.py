@@ -156,7 +156,7 @@ class MixMortar:
             volumes = {**volumes, "air": 0.0}
         from scipy.interpolate import CubicSpline
 
-        from .mortar import Constituents, Inclusion, differential_scheme, hs_upper, mortar_moduli
+        from .mortar import Constituents, Inclusion, differential_scheme, hs_upper, mortar_moduli, shear_bulk
 
         self.air_phase = air_phase
         air_in_matrix = volumes["air"] if air_phase == "mastic" else 0.0
@@ -171,27 +171,22 @@ class MixMortar:
         self.packing_floor = max(CONSTANTS["fine_packing"].low, JAMMED * self.phi_fine)
         s_max = float(-self.packing_floor * np.log1p(-self.phi_fine / self.packing_floor))
         s_grid = np.linspace(0.0, s_max, _S_NODES)
-        lnK, lnG, lnGm, cap = [], [], [], []
-        for E_s in E_STONE_GRID:
-            c = Constituents(E_stone_Pa=float(E_s))
-            m = mortar_moduli(G_binder_Pa, delta_deg, {**volumes, "fine": 0.0}, c, air_phase)
-            Ks, Gs = c.stone()
-            K, G = m["porous_mastic"]
-            Ku, Gu = hs_upper((K, G), Ks, Gs, self.phi_fine)
-            cap.append(np.log(np.abs(np.array([Ku, Gu]))))
-            rows_K, rows_G = [np.log(K)], [np.log(G)]
-            for ds in np.diff(s_grid):  # at phi_max = 1 the crowding u is s: each step continues from the last
-                K, G = differential_scheme(K, G, [Inclusion(Ks, Gs, -np.expm1(-ds))], 1.0, steps=12)
-                rows_K.append(np.log(K))
-                rows_G.append(np.log(G))
-            lnK.append(np.array(rows_K))
-            lnG.append(np.array(rows_G))
-            lnGm.append(np.log(m["mastic"][1]))
+        # every stone of the grid at once: the stones along the first axis, (E grid, 1) against (n,)
+        Ks, Gs = (a[:, None] for a in shear_bulk(E_STONE_GRID, Constituents().nu_stone))
+        G_b, d_b = np.asarray(G_binder_Pa, float)[None, :], np.asarray(delta_deg, float)[None, :]
+        m = mortar_moduli(G_b, d_b, {**volumes, "fine": 0.0}, Constituents(), air_phase, stone_Pa=(Ks, Gs))
+        K, G = m["porous_mastic"]
+        Ku, Gu = hs_upper((K, G), Ks, Gs, self.phi_fine)
+        rows_K, rows_G = [np.log(K)], [np.log(G)]
+        for ds in np.diff(s_grid):  # at phi_max = 1 the crowding u is s: each step continues from the last
+            K, G = differential_scheme(K, G, [Inclusion(Ks, Gs, -np.expm1(-ds))], 1.0, steps=12)
+            rows_K.append(np.log(K))
+            rows_G.append(np.log(G))
         self._s = s_grid
-        kg = np.stack([np.array(lnK), np.array(lnG)], axis=1)  # (E grid, 2, s, n)
-        self._along_s = CubicSpline(s_grid, np.moveaxis(kg, 2, 0), axis=0)  # s -> (E grid, 2, n)
-        self._cap_nodes = np.array(cap)  # (E grid, 2, n): ln of the HS upper bounds of |K|, |G|
-        self._lnGm_nodes = np.array(lnGm)  # (E grid, n)
+        kg = np.stack([np.array(rows_K), np.array(rows_G)], axis=2)  # (s, E grid, 2, n)
+        self._along_s = CubicSpline(s_grid, kg, axis=0)  # s -> (E grid, 2, n)
+        self._cap_nodes = np.log(np.abs(np.stack([Ku, Gu], axis=1)))  # (E grid, 2, n): ln of the HS upper bounds
+        self._lnGm_nodes = np.log(m["mastic"][1])  # (E grid, n)
 
     def moduli(self, fine_packing: float, E_stone_Pa: float) -> tuple[np.ndarray, np.ndarray]:
         """(E*_mortar, G*_mastic): complex (n,) Pa at the packing limit and stone modulus given; a
@@ -452,24 +447,26 @@ class PhysicalDem:
                 e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton, E_bridge=Eb)
                 weights = "mortar" if self.skeleton == "parabolic" else "film"
                 E = e1 * resp.factor(zeta, skeleton=weights)
-                if self.skeleton == "film" and self.contact_strain is not None:
+                touching = self.contact_strain is not None or self.compaction_pressure is not None
+                if self.skeleton == "film" and touching:
                     E = self._with_hertz(E, e1, zeta, resp, constants)
-                elif self.skeleton == "film" and self.compaction_pressure is not None:  # a fixed stiffness
-                    eh = hertz_contact(np.abs(E), 0.0, resp, plane_strain_stone(constants), self.compaction_pressure)
-                    E = e1 * resp.factor(zeta + eh / e1, skeleton="film")
                 logs.append(np.log(E))
             out[idx] = np.mean(logs, axis=0)
         return out
 
     def _with_hertz(self, E, e1, zeta, resp, constants: dict) -> np.ndarray:
-        """E*_sample (Pa, complex (n,)) with the Hertz contacts in parallel with the films: the fixed
-        point of E = e_1 F(zeta + e_H(|E|) / e_1) (:func:`hertz_contact`; a contraction: e_H grows as
-        |E|^(1/3)). Raises InputError if it does not converge."""
+        """E*_sample (Pa, complex (n,)) with the Hertz contacts or the compaction's patches in parallel
+        with the films: E = e_1 F(zeta + e_H / e_1) (:func:`hertz_contact`). With the test's strain e_H
+        follows |E| and this is the fixed point (a contraction: e_H grows as |E|^(1/3)); with the
+        patches alone e_H is fixed and one evaluation is the answer. Raises InputError if the fixed
+        point does not converge."""
         Es = plane_strain_stone(constants)
         strain = float(self.contact_strain or 0.0)
         for _ in range(HERTZ_ITERATIONS):
             eh = hertz_contact(np.abs(E), strain, resp, Es, self.compaction_pressure or 0.0)
             new = e1 * resp.factor(zeta + eh / e1, skeleton="film")
+            if not strain:  # the patches' stiffness does not follow the sample's modulus
+                return new
             done = np.max(np.abs(np.log(np.abs(new / E)))) < HERTZ_TOLERANCE
             E = new
             if done:
