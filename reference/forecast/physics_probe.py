@@ -30,7 +30,7 @@ import pandas as pd
 
 from asphalt_nscd.diagnosis.scores import t_interval
 from asphalt_nscd.forecast.models import read_curves, read_responses, routed_tables
-from asphalt_nscd.forecast.physical import PhysicalDem
+from asphalt_nscd.forecast.physical import BondPhysics, PhysicalDem
 from asphalt_nscd.forecast.validation import binder_ids
 from asphalt_nscd.io import write_csv
 from asphalt_nscd.lab.matched import read_matched
@@ -74,10 +74,7 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
             "dem_physical",
             responses,
             cut_mm,
-            air_phase=air,
-            contact_strain=strain,
-            confinement=confined,
-            compaction_pressure=pressure,
+            physics=BondPhysics(air, strain, confined, pressure),
         )
         E, P, _ = model.predict(model.fit(table), table)
         t = table.assign(e=100 * np.log(E / table["E_norm_MPa"]), p=P - table["phase_deg"]).dropna(subset=["e"])

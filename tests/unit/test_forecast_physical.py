@@ -121,10 +121,7 @@ def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, st
         "dem_physical",
         responses,
         4.0,
-        air_phase=air_phase,
-        contact_strain=strain,
-        confinement=confined,
-        compaction_pressure=pressure,
+        physics=physical.BondPhysics(air_phase, strain, confined, pressure),
     )
     state = model.fit(table)
     rows = table[table["mix_id"] == "209"]
@@ -315,7 +312,7 @@ def test_hertz_contacts_follow_hertz_and_stiffen_the_warm_forecast(responses, ta
     np.testing.assert_allclose(k * R**2, (6 * (Es / 2) ** 2 * R * N) ** (1 / 3), rtol=1e-12)
     np.testing.assert_allclose(physical.hertz_contact(E, 8e-4, r, Es), 2 * k, rtol=1e-12)
     plain = physical.PhysicalDem("dem_physical", responses, 4.0)
-    hertz = physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=1e-4)
+    hertz = physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics(contact_strain=1e-4))
     rows = table[table["mix_id"] == "211"]
     E0, P0, _ = plain.predict(plain.fit(table), rows)
     E1, P1, _ = hertz.predict(hertz.fit(table), rows)
@@ -335,9 +332,34 @@ def test_hertz_contacts_follow_hertz_and_stiffen_the_warm_forecast(responses, ta
 
     old = {"211": [dataclasses.replace(r, skeleton_v_over_l=np.nan)]}
     with pytest.raises(InputError, match="rerun forecast-response"):
-        physical.PhysicalDem("dem_physical", old, 4.0, contact_strain=1e-4).predict(plain.fit(table), rows)
+        physical.PhysicalDem("dem_physical", old, 4.0, physics=physical.BondPhysics(contact_strain=1e-4)).predict(
+            plain.fit(table), rows
+        )
     with pytest.raises(InputError, match="contact strain"):
-        physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=0.05)
+        physical.BondPhysics(contact_strain=0.05)
+
+
+def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_ranges():
+    """forecast.dem's physics keys reach the options under their names (absent keys off), every fit
+    records them, and an option outside its range is refused naming it."""
+    from asphalt_nscd.io import InputError
+
+    assert physical.BondPhysics.from_config({}) == physical.BondPhysics("mastic", None, False, None)
+    options = physical.BondPhysics.from_config(
+        {"air_phase": "pockets", "contact_strain": 1e-4, "bridge_confinement": True, "compaction_pressure_Pa": 6e5}
+    )
+    assert options == physical.BondPhysics("pockets", 1e-4, True, 6e5) and options.touching
+    assert physical.BondPhysics(compaction_pressure=6e5).touching and not physical.BondPhysics().touching
+    model = physical.PhysicalDem("dem_physical", {}, 4.0, physics=options)
+    assert model.physics() == {
+        "air_phase": "pockets",
+        "contact_strain": 1e-4,
+        "confinement": True,
+        "compaction_pressure": 6e5,
+    }
+    for bad, key in (({"air_phase": "binder"}, "air phase"), ({"contact_strain": 0.0}, "contact strain")):
+        with pytest.raises(InputError, match=key):
+            physical.BondPhysics.from_config(bad)
 
 
 def test_compaction_patches_are_flat_punches_that_stiffen_the_warm_forecast(responses, table):
@@ -364,9 +386,11 @@ def test_compaction_patches_are_flat_punches_that_stiffen_the_warm_forecast(resp
     )
     rows = table[table["mix_id"] == "211"]
     T = rows["temperature_C"].to_numpy()
-    plain = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase="pockets", confinement=True)
+    plain = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics(air_phase="pockets", confinement=True)
+    )
     pressed = physical.PhysicalDem(
-        "dem_physical", responses, 4.0, air_phase="pockets", confinement=True, compaction_pressure=p
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics("pockets", None, True, p)
     )
     E0, P0, _ = plain.predict(plain.fit(table), rows)
     state = pressed.fit(table)
@@ -376,12 +400,12 @@ def test_compaction_patches_are_flat_punches_that_stiffen_the_warm_forecast(resp
     assert np.all(gain > 0) and gain[T > 50].mean() > 3 * gain[T < 0].mean()
     assert np.all(P1[T > 50] < P0[T > 50])
     harder = physical.PhysicalDem(
-        "dem_physical", responses, 4.0, air_phase="pockets", confinement=True, compaction_pressure=4 * p
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics("pockets", None, True, 4 * p)
     )
     assert np.all(harder.predict(harder.fit(table), rows)[0] > E1)
     for bad in (0.0, -1.0, 2e8):
         with pytest.raises(InputError, match="compaction pressure"):
-            physical.PhysicalDem("dem_physical", responses, 4.0, compaction_pressure=bad)
+            physical.BondPhysics(compaction_pressure=bad)
 
 
 def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(responses, table):
@@ -407,8 +431,10 @@ def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(respo
     rows = table[table["mix_id"] == "211"]
     T = rows["temperature_C"].to_numpy()
     for air in ("mastic", "pockets"):
-        free = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase=air)
-        confined = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase=air, confinement=True)
+        free = physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics(air_phase=air))
+        confined = physical.PhysicalDem(
+            "dem_physical", responses, 4.0, physics=physical.BondPhysics(air_phase=air, confinement=True)
+        )
         gain = np.log(confined.predict(confined.fit(table), rows)[0] / free.predict(free.fit(table), rows)[0])
         assert np.all(gain > 0)
     # the dense mortar's bridges: 1 + 2 S^2 warm (nu -> 1/2) against a modest gain cold
@@ -421,22 +447,30 @@ def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(respo
     assert np.all(E[0] > E[1]) and np.all(E[1] > E[2])
     old = {"211": [dataclasses.replace(r, bridge_shape=np.zeros(0), bridge_weight=np.zeros(0))]}
     with pytest.raises(InputError, match="rerun forecast-response"):
-        physical.PhysicalDem("dem_physical", old, 4.0, confinement=True).predict(state, rows)
+        physical.PhysicalDem("dem_physical", old, 4.0, physics=physical.BondPhysics(confinement=True)).predict(
+            state, rows
+        )
 
 
 def test_the_page_states_the_physics_the_ladder_ran_with(responses, table):
     """Every fit records its bond laws' options, and the page's ladder section says which ran."""
     from asphalt_nscd.forecast.page_dem import physics_line
 
-    model = physical.PhysicalDem("dem_physical", responses, 4.0, air_phase="pockets", confinement=True)
+    model = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics(air_phase="pockets", confinement=True)
+    )
     state = model.fit(table)
     assert (state["air_phase"], state["contact_strain"], state["confinement"]) == ("pockets", None, True)
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": state}]}))
     assert "air voids in the pockets" in line and "confined" in line and "films only" in line
-    hertz = physical.PhysicalDem("dem_physical", responses, 4.0, contact_strain=1e-4).fit(table)
+    hertz = physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics(contact_strain=1e-4)).fit(
+        table
+    )
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": hertz}]}))
     assert "air voids in the mastic" in line and "Hertz contacts at strain 0.0001" in line and "bridges free" in line
-    pressed = physical.PhysicalDem("dem_physical", responses, 4.0, compaction_pressure=6e5).fit(table)
+    pressed = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics(compaction_pressure=6e5)
+    ).fit(table)
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": pressed}]}))
     assert "stone contacts whose patches pressed by the compaction at 600 kPa" in line and "films only" not in line
     assert physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": {}}]}) == []

@@ -13,7 +13,6 @@ responses are given, then the learned yardstick (:class:`.learned.GradientBoosti
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 
@@ -101,7 +100,7 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
     from .validation import COEFFICIENTS, Baseline
 
     from .nested import Selected
-    from .physical import PhysicalDem
+    from .physical import BondPhysics, PhysicalDem
 
     models: list = [Baseline(m, c) for m in forecast_cfg.get("baselines", []) for c in COEFFICIENTS]
     if responses:
@@ -117,23 +116,18 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
             )
         base = split.get("", {})
         legacy = [DemModel(name, base, dem["cut_mm"]) for name in dem.get("models", [])]
-        # the bond laws' physics options (forecast.dem.air_phase, contact_strain, bridge_confinement,
-        # compaction_pressure_Pa)
-        physics: dict[str, Any] = {
-            "air_phase": dem.get("air_phase") or "mastic",
-            "contact_strain": dem.get("contact_strain"),
-            "confinement": bool(dem.get("bridge_confinement", False)),
-            "compaction_pressure": dem.get("compaction_pressure_Pa"),
-        }
-        ladder = [PhysicalDem(name, base, dem["cut_mm"], **physics) for name in dem.get("physical", [])]
+        physics = BondPhysics.from_config(dem)
+        ladder = [PhysicalDem(name, base, dem["cut_mm"], physics=physics) for name in dem.get("physical", [])]
         models += legacy + ladder
         if dem.get("selected") and ladder:
             # inside the choice every candidate is fitted from the middle of its ranges (one start: its cost),
             # on the base sample and on every variant prepared
-            inner = [PhysicalDem(m.model, base, dem["cut_mm"], starts=1, **physics) for m in ladder]
+            inner = [PhysicalDem(m.model, base, dem["cut_mm"], starts=1, physics=physics) for m in ladder]
             for name, (cut, _) in configured.items():
                 if name in split:
-                    inner += [PhysicalDem(m.model, split[name], cut, starts=1, variant=name, **physics) for m in ladder]
+                    inner += [
+                        PhysicalDem(m.model, split[name], cut, starts=1, variant=name, physics=physics) for m in ladder
+                    ]
             # the legacy models (constants outside their physical ranges) are scored beside, not chosen from
             rule = dem.get("selection_rule", "best")
             models.append(Selected("dem_selected", inner, dem.get("inner_folds", 5), forecast_cfg.get("seed", 1), rule))

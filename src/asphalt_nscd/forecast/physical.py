@@ -41,6 +41,7 @@ phase in radians, from several starts); a constant that ends at its bound is rep
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 
@@ -329,6 +330,56 @@ HERTZ_TOLERANCE = 1e-9
 _MORTARS: dict = {}
 
 
+@dataclass(frozen=True)
+class BondPhysics:
+    """The bond laws' physics options (recorded in every fit, stated on the page).
+
+    air_phase : where the air voids enter the mortar (:data:`.mortar.AIR_PHASES`).
+    contact_strain : the test's axial strain amplitude at which the skeleton contacts also touch as
+        Hertz contacts of the stones (:func:`hertz_contact`, in parallel with their mastic film;
+        the film skeleton only), in (0, 0.01); None: no Hertz contact.
+    confinement : the mortar bridges as layers bonded to their stones, stiffened by their bulk
+        modulus (:func:`confined_bridge`); False: free bridges of the mortar's Young's modulus.
+    compaction_pressure : the compactor's pressure (Pa, in (0, 1e8)) that pressed the skeleton
+        contacts' patches (:func:`hertz_contact`, the film skeleton only; with ``contact_strain``
+        the larger of the two stresses); None: no compaction patch.
+
+    Raises InputError for an option outside its range.
+    """
+
+    air_phase: str = "mastic"
+    contact_strain: float | None = None
+    confinement: bool = False
+    compaction_pressure: float | None = None
+
+    def __post_init__(self):
+        from .mortar import AIR_PHASES
+
+        if self.air_phase not in AIR_PHASES:
+            raise InputError(f"bond physics: air phase {self.air_phase!r}; expected one of {AIR_PHASES}")
+        if self.contact_strain is not None and not 0.0 < float(self.contact_strain) < 0.01:
+            raise InputError(f"bond physics: contact strain {self.contact_strain}; expected in (0, 0.01)")
+        if self.compaction_pressure is not None and not 0.0 < float(self.compaction_pressure) < 1e8:
+            raise InputError(f"bond physics: compaction pressure {self.compaction_pressure} Pa; expected in (0, 1e8)")
+
+    @classmethod
+    def from_config(cls, dem: dict) -> "BondPhysics":
+        """The options of the ``forecast.dem`` section (``air_phase``, ``contact_strain``,
+        ``bridge_confinement``, ``compaction_pressure_Pa``; absent keys at their defaults)."""
+        strain, pressure = dem.get("contact_strain"), dem.get("compaction_pressure_Pa")
+        return cls(
+            air_phase=str(dem.get("air_phase") or "mastic"),
+            contact_strain=None if strain is None else float(strain),
+            confinement=bool(dem.get("bridge_confinement", False)),
+            compaction_pressure=None if pressure is None else float(pressure),
+        )
+
+    @property
+    def touching(self) -> bool:
+        """Whether the skeleton contacts touch (Hertz contacts or the compaction's patches)."""
+        return self.contact_strain is not None or self.compaction_pressure is not None
+
+
 class PhysicalDem:
     """A model of the ladder (:data:`STEPS`): the physical bond laws with ``free`` constants fitted.
 
@@ -340,15 +391,7 @@ class PhysicalDem:
     free : the constants to fit (default: the step's).
     starts : starting points of the fit (1: the middle of every range; 3: also its quarter points).
     variant : the sample variant of ``responses`` (:func:`.formulation.variant_name`; "" the base sample).
-    air_phase : where the air voids enter the mortar (:data:`.mortar.AIR_PHASES`).
-    contact_strain : the test's axial strain amplitude at which the skeleton contacts also touch as
-        Hertz contacts of the stones (:func:`hertz_contact`, in parallel with their mastic film;
-        the film skeleton only); None: no Hertz contact.
-    confinement : the mortar bridges as layers bonded to their stones, stiffened by their bulk
-        modulus (:func:`confined_bridge`); False: free bridges of the mortar's Young's modulus.
-    compaction_pressure : the compactor's pressure (Pa) that pressed the skeleton contacts' patches
-        (:func:`hertz_contact`, the film skeleton only; with ``contact_strain`` the larger of the two
-        stresses); None: no compaction patch.
+    physics : the bond laws' physics options (:class:`BondPhysics`; default: none).
     """
 
     coefficients = "physical"
@@ -361,13 +404,8 @@ class PhysicalDem:
         free: tuple | None = None,
         starts: int = 3,
         variant: str = "",
-        air_phase: str = "mastic",
-        contact_strain: float | None = None,
-        confinement: bool = False,
-        compaction_pressure: float | None = None,
+        physics: BondPhysics = BondPhysics(),
     ):
-        from .mortar import AIR_PHASES
-
         steps = dict(ALL_STEPS)
         if name not in steps and free is None:
             raise InputError(f"physical DEM model {name!r}: expected one of {STEP_NAMES}")
@@ -377,18 +415,7 @@ class PhysicalDem:
         self.starts = int(starts)
         #: the skeleton law: the film (:data:`STEPS`) or the parabolic element (:data:`PARABOLIC_STEPS`)
         self.skeleton = "parabolic" if name in dict(PARABOLIC_STEPS) else "film"
-        if air_phase not in AIR_PHASES:
-            raise InputError(f"physical DEM model {name!r}: air phase {air_phase!r}; expected one of {AIR_PHASES}")
-        if contact_strain is not None and not 0.0 < float(contact_strain) < 0.01:
-            raise InputError(f"physical DEM model {name!r}: contact strain {contact_strain}; expected in (0, 0.01)")
-        self.air_phase = str(air_phase)
-        self.contact_strain = None if contact_strain is None else float(contact_strain)
-        self.confinement = bool(confinement)
-        if compaction_pressure is not None and not 0.0 < float(compaction_pressure) < 1e8:
-            raise InputError(
-                f"physical DEM model {name!r}: compaction pressure {compaction_pressure} Pa; expected in (0, 1e8)"
-            )
-        self.compaction_pressure = None if compaction_pressure is None else float(compaction_pressure)
+        self.bond_physics = physics
         unknown = sorted(set(self.free) - set(CONSTANTS))
         if unknown:
             raise InputError(
@@ -419,11 +446,11 @@ class PhysicalDem:
             d = r["binder_delta_mix_deg"].to_numpy(float)
             mix = r.iloc[0]
             volumes = phase_volumes(mix, self.cut_mm)
-            key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())), self.air_phase)
+            key = (mix_id, G.tobytes(), d.tobytes(), tuple(sorted(volumes.items())), self.bond_physics.air_phase)
             if key not in _MORTARS:  # shared by every model of the process: the ladder's steps read the same mortar
-                _MORTARS[key] = (MixMortar(G, d, volumes, self.air_phase), film_thickness_m(mix))
+                _MORTARS[key] = (MixMortar(G, d, volumes, self.bond_physics.air_phase), film_thickness_m(mix))
             responses = self.responses[mix_id]
-            shapes = [shape_nodes(r) if self.confinement else None for r in responses]
+            shapes = [shape_nodes(r) if self.bond_physics.confinement else None for r in responses]
             out.append((idx, *_MORTARS[key], responses, shapes))
         return out
 
@@ -447,8 +474,7 @@ class PhysicalDem:
                 e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton, E_bridge=Eb)
                 weights = "mortar" if self.skeleton == "parabolic" else "film"
                 E = e1 * resp.factor(zeta, skeleton=weights)
-                touching = self.contact_strain is not None or self.compaction_pressure is not None
-                if self.skeleton == "film" and touching:
+                if self.skeleton == "film" and self.bond_physics.touching:
                     E = self._with_hertz(E, e1, zeta, resp, constants)
                 logs.append(np.log(E))
             out[idx] = np.mean(logs, axis=0)
@@ -461,9 +487,9 @@ class PhysicalDem:
         patches alone e_H is fixed and one evaluation is the answer. Raises InputError if the fixed
         point does not converge."""
         Es = plane_strain_stone(constants)
-        strain = float(self.contact_strain or 0.0)
+        strain = float(self.bond_physics.contact_strain or 0.0)
         for _ in range(HERTZ_ITERATIONS):
-            eh = hertz_contact(np.abs(E), strain, resp, Es, self.compaction_pressure or 0.0)
+            eh = hertz_contact(np.abs(E), strain, resp, Es, self.bond_physics.compaction_pressure or 0.0)
             new = e1 * resp.factor(zeta + eh / e1, skeleton="film")
             if not strain:  # the patches' stiffness does not follow the sample's modulus
                 return new
@@ -521,12 +547,7 @@ class PhysicalDem:
 
     def physics(self) -> dict:
         """The bond laws' physics options this model ran with (recorded in every fit, stated on the page)."""
-        return {
-            "air_phase": self.air_phase,
-            "contact_strain": self.contact_strain,
-            "confinement": self.confinement,
-            "compaction_pressure": self.compaction_pressure,
-        }
+        return dataclasses.asdict(self.bond_physics)
 
     @staticmethod
     def _jammed(cells, constants) -> list:
