@@ -13,9 +13,12 @@ seed, each scored on the same kept replicates (the folds refitted once, the loso
 The interval (``asphalt_nscd.diagnosis.scores.loso_abs_interval``) is the observed error over the
 percentiles of a simulated ratio whose spread depends on the proportions of the specimens' three
 levels of scatter; the specimen level's mean square has 2 degrees of freedom with 3 specimens, so
-how it is drawn sets the width. Variants (each a replacement of ``scores.level_variances``):
+how it is drawn sets the width. Variants (a replacement of ``scores.level_variances``, the percentiles
+nominal, or the calibrated rule):
 
-* ``current``: the specimen level's mean square drawn as MS dof / chi2_dof (the shipped rule);
+* ``calibrated``: the levels at their estimates, the percentiles calibrated by a second bootstrap level
+  (prepivoting, ``scores.LOSO_CALIBRATION``; the shipped rule);
+* ``drawn``: the specimen level's mean square drawn as MS dof / chi2_dof (the rule shipped before);
 * ``plug_in``: every level at its estimate;
 * ``sampling``: the specimen level's mean square drawn as MS chi2_dof / dof (its sampling law);
 * ``gpq``: every mean square drawn as MS dof / chi2_dof and the levels their differences, the
@@ -86,8 +89,11 @@ def gpq(comp: dict, quantity: str, n_sim: int = 0, seed: int = 0):
     }
 
 
+CALIBRATION = scores.LOSO_CALIBRATION
+
 VARIANTS = {
-    "current": (SHIPPED, "the specimen level's mean square drawn as MS dof / chi2_dof (shipped)"),
+    "calibrated": (None, "the levels at their estimates, the percentiles calibrated by prepivoting (shipped)"),
+    "drawn": (SHIPPED, "the specimen level's mean square drawn as MS dof / chi2_dof (shipped before)"),
     "plug_in": (plug_in, "every level at its estimate"),
     "sampling": (sampling, "the specimen level's mean square drawn as MS chi2_dof / dof"),
     "gpq": (gpq, "every mean square drawn as MS dof / chi2_dof, the levels their differences (Weerahandi 1993)"),
@@ -96,11 +102,12 @@ VARIANTS = {
 
 @contextlib.contextmanager
 def _rule(func):
-    scores.level_variances = func
+    if func is not None:  # a draw of the levels at the nominal percentiles
+        scores.level_variances, scores.LOSO_CALIBRATION = func, None
     try:
         yield
     finally:
-        scores.level_variances = SHIPPED
+        scores.level_variances, scores.LOSO_CALIBRATION = SHIPPED, CALIBRATION
 
 
 def main(argv=None) -> int:
@@ -108,6 +115,7 @@ def main(argv=None) -> int:
     ap.add_argument("measured")
     ap.add_argument("kept", nargs="+", help="pickles of coverage.py --keep")
     ap.add_argument("--seed", type=int, required=True, help="the seed the kept replicates were drawn with")
+    ap.add_argument("--variants", nargs="+", choices=list(VARIANTS), help="score only these (default: all)")
     ap.add_argument("-o", "--output", required=True)
     a = ap.parse_args(argv)
     model = coverage.FittedModel(pd.read_csv(a.measured))
@@ -116,7 +124,10 @@ def main(argv=None) -> int:
         with open(path, "rb") as fh:
             kept.update(pickle.load(fh))
     out = []
+    only = a.variants or list(VARIANTS)
     for name, (func, description) in VARIANTS.items():
+        if name not in only:
+            continue
         rows = []
         with _rule(func):
             for i, (table, folds) in sorted(kept.items()):

@@ -635,12 +635,67 @@ def test_the_leave_one_specimen_out_interval_covers_a_new_specimens_error():
             spec = pd.DataFrame({"specimen": fold, "T": np.tile(T, 3), "f": np.tile(f, 3), "lnE": y.ravel()})
             spec["phase"] = spec["lnE"]
             comp = scores.nested_components(spec.set_index(["specimen", "T", "f"]))
-            levels = scores.level_variances(comp, "lnE", 1000, seed=len(inside))
+            levels = scores.level_variances(comp, "lnE")
+            # a coarser calibration than the scores' (LOSO_CALIBRATION, whose coverage reference/crossval measures)
             lo, hi = scores.loso_abs_interval(
-                pred.ravel(), y.ravel(), train.ravel(), fold, np.tile(T, 3), levels, n_sim=1000
+                pred.ravel(), y.ravel(), train.ravel(), fold, np.tile(T, 3), levels, n_sim=1000, calibration=(100, 100)
             )
             assert lo <= np.mean(np.abs(pred - y)) <= hi
             inside.append(lo <= truth <= hi)
         assert 0.88 <= np.mean(inside) <= 0.99, ((s_u, s_v, s_e), np.mean(inside))
+    with pytest.raises(ValueError, match="not drawn"):  # the calibration takes the levels at their estimates
+        scores.loso_abs_interval(
+            pred.ravel(), y.ravel(), train.ravel(), fold, np.tile(T, 3), scores.level_variances(comp, "lnE", 10)
+        )
     assert scores.folded_normal_mean(np.array([0.3, -0.3]), 0.0).tolist() == [0.3, 0.3]
+
+
+def test_the_calibrations_levels_are_the_tables_mean_squares():
+    """The second bootstrap level of the loso interval estimates each simulated table's levels as
+    the table's own are estimated: on a balanced table of specimens the vectorised mean squares
+    equal nested_components' through level_variances, several tables at once."""
+    rng = np.random.default_rng(7)
+    temps, freqs = [-10.0, 4.0, 21.0, 37.0], [0.1, 1.0, 10.0, 25.0, 5.0]
+    T = np.repeat(temps, len(freqs))
+    f = np.tile(freqs, len(temps))
+    ti = np.searchsorted(temps, T)
+    x = (
+        rng.normal(0.0, 0.1, (6, 3, 1))
+        + rng.normal(0.0, 0.05, (6, 3, len(temps)))[:, :, ti]
+        + rng.normal(0.0, 0.02, (6, 3, T.size))
+    )
+    got = scores._balanced_levels(x, ti, len(temps))
+    assert got.shape == (6, 3)
+    for b in range(6):
+        spec = pd.DataFrame(
+            {
+                "specimen": np.repeat(["A", "B", "C"], T.size),
+                "T": np.tile(T, 3),
+                "f": np.tile(f, 3),
+                "lnE": x[b].ravel(),
+            }
+        )
+        spec["phase"] = spec["lnE"]
+        levels = scores.level_variances(scores.nested_components(spec.set_index(["specimen", "T", "f"])), "lnE")
+        want = [levels["specimen"], levels["specimen_temperature"], levels["cell"]]
+        np.testing.assert_allclose(got[b], want, rtol=1e-10, atol=1e-15)
+    # the simulated folds' expected error is the folded normal's mean, written with erf for speed
+    z = (rng.normal(size=(5, 3, 1)), rng.normal(size=(5, 3, len(temps)))[:, :, ti], rng.normal(size=(5, 3, T.size)))
+    s2 = np.array([0.01, 0.002, 0.0004])
+    eps = rng.normal(0.0, 0.05, (3, T.size))
+    drawn, expected, sims = scores._loso_ratio(z, s2, eps)
+    p = (sims.sum(axis=1, keepdims=True) - sims) / 2 + eps
+    np.testing.assert_allclose(drawn, np.mean(np.abs(p - sims), axis=(1, 2)), rtol=1e-12)
+    np.testing.assert_allclose(expected, np.mean(scores.folded_normal_mean(p, s2.sum()), axis=(1, 2)), rtol=1e-12)
     assert float(scores.folded_normal_mean(0.0, 1.0)) == pytest.approx(np.sqrt(2 / np.pi))
+
+
+def test_the_committed_loso_coverage_is_of_the_shipped_calibration():
+    """reference/crossval/loso_evaluation.csv measures the coverage of the calibrated loso interval
+    at the scores' calibration sizes: a change of LOSO_CALIBRATION needs that measurement again."""
+    from pathlib import Path
+
+    e = pd.read_csv(Path(__file__).resolve().parents[2] / "reference" / "crossval" / "loso_evaluation.csv")
+    row = e[e["rule"] == "calibrated"].iloc[0]
+    assert (int(row["calibration_tables"]), int(row["calibration_draws"])) == scores.LOSO_CALIBRATION
+    assert e.loc[e["rule"] == "calibrated", "replicates"].min() >= 1000

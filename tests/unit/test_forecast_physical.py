@@ -357,9 +357,15 @@ def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_rang
         "confinement": True,
         "compaction_pressure": 6e5,
     }
-    for bad, key in (({"air_phase": "binder"}, "air phase"), ({"contact_strain": 0.0}, "contact strain")):
+    for bad, key in (
+        ({"air_phase": "binder"}, "air phase"),
+        ({"contact_strain": 0.0}, "contact strain"),
+        ({"compaction_pressure_Pa": "high"}, "compaction pressure 'high'; expected a number"),
+    ):
         with pytest.raises(InputError, match=key):
             physical.BondPhysics.from_config(bad)
+    # a number written as text in a config is read once, as the number
+    assert physical.BondPhysics.from_config({"contact_strain": "1.5e-4"}).contact_strain == 1.5e-4
 
 
 def test_compaction_patches_are_flat_punches_that_stiffen_the_warm_forecast(responses, table):

@@ -46,7 +46,7 @@ import warnings
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy import special, stats
 
 #: random-effect draws of an absolute error's interval
 N_SIMULATIONS = 4000
@@ -92,7 +92,13 @@ INTERVALS = {
     ),
     "loso": (
         "signed: t(n-1) over the held-out specimens; absolute: the expected error of each fold's law against "
-        "a new specimen of the mix, by a parametric bootstrap of the folds from the specimens' levels of scatter"
+        "a new specimen of the mix, by a parametric bootstrap of the folds from the specimens' levels of scatter, "
+        "its percentiles calibrated by a second bootstrap level (prepivoting)"
+    ),
+    "loso_nominal": (
+        "signed: t(n-1) over the held-out specimens; absolute: the expected error of each fold's law against "
+        "a new specimen of the mix, by a parametric bootstrap of the folds from the specimens' levels of scatter "
+        "(the specimen level drawn), at its nominal percentiles"
     ),
     "loso_t": "t(n-1) over the held-out specimens",
 }
@@ -425,6 +431,31 @@ def folded_normal_mean(g, var) -> np.ndarray:
     return np.where(s > 0, out, np.abs(g))
 
 
+#: tables and draws per table of the second bootstrap level that calibrates :func:`loso_abs_interval`
+#: in the scores (None: its nominal percentiles, with the specimen level drawn as MS dof / chi2_dof)
+LOSO_CALIBRATION: tuple[int, int] | None = (300, 250)
+
+
+def _balanced_levels(x: np.ndarray, ti: np.ndarray, n_T: int) -> np.ndarray:
+    """The three levels of :func:`level_variances` (specimen, specimen-isotherm, cell; floored at 0)
+    of balanced specimens ``x`` (..., n, cells) whose cells lie on the isotherms ``ti`` (cells,) of
+    ``n_T``: the mean squares of :func:`nested_components` on every table of the leading axes at
+    once. Returns shape (..., 3)."""
+    n = x.shape[-2]
+    r = x - x.mean(axis=-2, keepdims=True)
+    k = np.bincount(ti, minlength=n_T).astype(float)  # cells per isotherm
+    R = (r @ (ti[:, None] == np.arange(n_T)[None, :]).astype(float)) / k  # (..., n, n_T)
+    Rs = (R * k).sum(-1) / k.sum()
+    ss_u = k.sum() * (Rs**2).sum(-1)
+    ss_v = (k * (R - Rs[..., None]) ** 2).sum((-1, -2))
+    ss_e = ((r - R[..., ti]) ** 2).sum((-1, -2))
+    d_v, d_e = (n - 1) * (n_T - 1), (n - 1) * (k - 1).sum()
+    m_u, m_e = ss_u / (n - 1), ss_e / d_e
+    m_v = ss_v / d_v if d_v > 0 else m_e
+    n_f = k.mean()
+    return np.stack([np.maximum(m_u - m_v, 0.0) / (n_T * n_f), np.maximum(m_v - m_e, 0.0) / n_f, m_e], axis=-1)
+
+
 def loso_abs_interval(
     pred: np.ndarray,
     observed: np.ndarray,
@@ -434,6 +465,7 @@ def loso_abs_interval(
     levels: dict | None,
     level: float = 0.95,
     n_sim: int = N_SIMULATIONS,
+    calibration: tuple[int, int] | None = LOSO_CALIBRATION,
 ) -> tuple[float, float]:
     """Interval of a leave-one-specimen-out absolute error, the mean over the folds of a fold's
     expected error against a new specimen of the mix, mean_c E|pred_c - y_new,c|.
@@ -447,15 +479,27 @@ def loso_abs_interval(
     1993, *An introduction to the bootstrap*, ch. 6): each fold's law is its training specimens'
     mean plus its own departure from it, eps_k,c = pred_k,c - (mean of the training specimens'
     values, ``train_mean``); new specimens x*_1..n are drawn from the table's levels of scatter
-    (``levels``, :func:`level_variances`: a specimen's level, drawn with its own n - 1 degrees of
-    freedom, its level per isotherm, its cells' scatter); each fold then predicts mean_{j != k} x*_j + eps_k, its error
-    against its own held-out x*_k is A*_k and its expectation against a new specimen is
-    T*_k = mean_c E|pred*_k,c - x_new| (a folded normal's mean, :func:`folded_normal_mean`). The
-    ratio R* = mean_k A*_k / mean_k T*_k does not depend on the scale of the scatter, only on
-    its levels' proportions (the specimen level's drawn); the interval is mean_k A_k divided by
-    its 97.5 and 2.5 percentiles. ``pred``, ``observed`` (the held-out
-    specimen's value), ``train_mean``, ``fold``, ``T``: shape (rows,); (nan, nan) without levels
-    or on folds that do not score the same cells."""
+    (``levels``, :func:`level_variances`: a specimen's level, its level per isotherm, its cells'
+    scatter); each fold then predicts mean_{j != k} x*_j + eps_k, its error against its own
+    held-out x*_k is A*_k and its expectation against a new specimen is T*_k = mean_c
+    E|pred*_k,c - x_new| (a folded normal's mean, :func:`folded_normal_mean`). The ratio R* =
+    mean_k A*_k / mean_k T*_k does not depend on the scale of the scatter, only on its levels'
+    proportions; the interval is mean_k A_k divided by two percentiles of R*.
+
+    The specimen level is estimated from n - 1 degrees of freedom (2 with 3 specimens), so the
+    percentiles at the estimated levels do not cover at their nominal rate. With ``calibration``
+    = (B, M) they are calibrated by a second bootstrap level (prepivoting; Beran 1987,
+    Biometrika 74, 457-468; Hall & Martin 1988, Biometrika 75, 661-671): B tables of specimens
+    drawn from the estimated levels give each its ratio R_b against its true expectation and its
+    own levels (the mean squares of :func:`nested_components`, :func:`_balanced_levels`); M draws
+    at those levels give u_b, the fraction of their ratios below R_b; the percentiles used are
+    the (1 - level) / 2 and (1 + level) / 2 quantiles of the u_b instead of the nominal ones.
+    Without it (None) the nominal percentiles of R* at ``levels``, which may then hold a drawn
+    specimen level (shape (n_sim,)).
+
+    ``pred``, ``observed`` (the held-out specimen's value), ``train_mean``, ``fold``, ``T``: shape
+    (rows,); (nan, nan) without levels or on folds that do not score the same cells. Raises
+    ValueError for a drawn level with ``calibration``."""
     if levels is None or not len(pred):
         return np.nan, np.nan
     pred, observed, train_mean = (np.asarray(x, float) for x in (pred, observed, train_mean))
@@ -463,7 +507,6 @@ def loso_abs_interval(
     n = folds.size
     if n < 2 or not np.isfinite(train_mean).all():
         return np.nan, np.nan
-    rng = np.random.default_rng([len(pred), n, 7])
     temps, t_idx = np.unique(np.round(np.asarray(T, float), 6), return_inverse=True)
     sel = [np.flatnonzero(fold == k) for k in folds]
     if len({s.size for s in sel}) != 1:  # the folds score different cells: not a balanced table
@@ -473,27 +516,79 @@ def loso_abs_interval(
         np.array_equal(np.round(np.asarray(T, float)[s], 6), np.round(np.asarray(T, float)[cells], 6)) for s in sel
     ):
         return np.nan, np.nan
-    # a level drawn per simulation (shape (n_sim,)) broadcasts over the folds and cells
+    ti = t_idx[cells]
+    eps = np.stack([pred[s] - train_mean[s] for s in sel])  # (n, cells)
+    estimate = float(np.mean([np.mean(np.abs(pred[s] - observed[s])) for s in sel]))
+    if calibration is None:
+        lo, hi = _loso_nominal(eps, ti, temps.size, levels, level, n_sim, np.random.default_rng([len(pred), n, 7]))
+        return estimate / hi, estimate / lo
+    if any(np.ndim(levels[k]) for k in levels):
+        raise ValueError("loso_abs_interval: a calibrated interval takes the levels at their estimates, not drawn")
+    n_outer, n_inner = calibration
+    rng = np.random.default_rng([len(pred), n, 11])
+
+    def unit(m: int) -> tuple:  # standard normal draws of m tables: level, level per isotherm, cells
+        return (
+            rng.normal(0.0, 1.0, (m, n, 1)),
+            rng.normal(0.0, 1.0, (m, n, temps.size))[:, :, ti],
+            rng.normal(0.0, 1.0, (m, n, cells.size)),
+        )
+
+    s2 = np.array([float(levels[k]) for k in ("specimen", "specimen_temperature", "cell")])
+    drawn, expected, x = _loso_ratio(unit(n_outer), s2, eps)
+    ratio = drawn / expected
+    own = _balanced_levels(x, ti, temps.size)  # (n_outer, 3)
+    inner = tuple(z[None] for z in unit(n_inner))
+    u = np.empty(n_outer)
+    chunk = 16
+    for b in range(0, n_outer, chunk):
+        d_i, e_i, _ = _loso_ratio(inner, own[b : b + chunk, None, :], eps)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u[b : b + chunk] = np.mean(d_i / e_i <= ratio[b : b + chunk, None], axis=1)
+    p_lo, p_hi = np.quantile(u, [(1 - level) / 2, (1 + level) / 2])
+    d_s, e_s, _ = _loso_ratio(unit(n_sim), s2, eps)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo, hi = np.quantile(d_s / e_s, [p_lo, p_hi])
+    return estimate / float(hi), estimate / float(lo)
+
+
+def _loso_ratio(z: tuple, s2: np.ndarray, eps: np.ndarray) -> tuple:
+    """(drawn, expected, x) of :func:`loso_abs_interval`'s simulated folds: standard normal draws
+    ``z`` (three arrays (..., n, 1 | cells)) scaled by the levels ``s2`` (..., 3), specimens x;
+    mean_k A*_k and mean_k T*_k over the last two axes."""
+    n = eps.shape[0]
+    s = np.sqrt(np.maximum(s2, 0.0))
+    x = z[0] * s[..., 0, None, None] + z[1] * s[..., 1, None, None] + z[2] * s[..., 2, None, None]
+    p = (x.sum(-2, keepdims=True) - x) / (n - 1) + eps
+    drawn = np.mean(np.abs(p - x), axis=(-1, -2))
+    sd = np.sqrt(np.maximum(s2, 0.0).sum(-1))[..., None, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z_ = p / sd  # E|p - x_new| of a folded normal, written with erf for speed (folded_normal_mean)
+        folded = sd * np.sqrt(2.0 / np.pi) * np.exp(-0.5 * z_ * z_) + p * special.erf(z_ / np.sqrt(2.0))
+    expected = np.mean(np.where(sd > 0, folded, np.abs(p)), axis=(-1, -2))
+    return drawn, expected, x
+
+
+def _loso_nominal(eps, ti, n_T, levels, level, n_sim, rng) -> tuple[float, float]:
+    """The nominal percentiles of R* (:func:`loso_abs_interval` without calibration); a level of
+    shape (n_sim,) is drawn per simulation."""
+    n = eps.shape[0]
     s_u, s_v, s_e = (
         np.sqrt(np.asarray(levels[k], float)).reshape((-1, 1, 1) if np.ndim(levels[k]) else ())
         for k in ("specimen", "specimen_temperature", "cell")
     )
-    ti = t_idx[cells]
-    # new specimens (n_sim, n, cells): level, level per isotherm, cell scatter
     x = (
         rng.normal(0.0, 1.0, (n_sim, n, 1)) * s_u
-        + (rng.normal(0.0, 1.0, (n_sim, n, temps.size)) * s_v)[:, :, ti]
-        + rng.normal(0.0, 1.0, (n_sim, n, cells.size)) * s_e
+        + (rng.normal(0.0, 1.0, (n_sim, n, n_T)) * s_v)[:, :, ti]
+        + rng.normal(0.0, 1.0, (n_sim, n, ti.size)) * s_e
     )
-    eps = np.stack([pred[s] - train_mean[s] for s in sel])  # (n, cells)
     total = x.sum(axis=1, keepdims=True)
     pred_star = (total - x) / (n - 1) + eps[None, :, :]
     drawn = np.mean(np.abs(pred_star - x), axis=(1, 2))
     expected = np.mean(folded_normal_mean(pred_star, (s_u**2 + s_v**2 + s_e**2)), axis=(1, 2))
-    estimate = float(np.mean([np.mean(np.abs(pred[s] - observed[s])) for s in sel]))
     with np.errstate(divide="ignore", invalid="ignore"):
         lo, hi = np.percentile(drawn / expected, [50 * (1 - level), 50 * (1 + level)])
-    return estimate / float(hi), estimate / float(lo)
+    return float(lo), float(hi)
 
 
 def _training_means(spec: pd.DataFrame, fold: np.ndarray, T: np.ndarray, f: np.ndarray) -> dict:
@@ -522,7 +617,8 @@ def _loso_scores(g: pd.DataFrame, spec: pd.DataFrame | None = None, pop: _Popula
     eP = g["phase_deg_predicted"].to_numpy(float) - g["phase_deg_measured"].to_numpy(float)
     fold = g["fold"].astype(str).to_numpy()
     model_based = spec is not None and pop is not None
-    out = {"n_specimens": int(np.unique(fold).size), "interval": INTERVALS["loso" if model_based else "loso_t"]}
+    kind = ("loso" if LOSO_CALIBRATION else "loso_nominal") if model_based else "loso_t"
+    out = {"n_specimens": int(np.unique(fold).size), "interval": INTERVALS[kind]}
     if model_based:
         assert spec is not None and pop is not None
         T = _round_T(g["cell_temperature_C"] if "cell_temperature_C" in g else g["temperature_C"])
@@ -546,8 +642,10 @@ def _loso_scores(g: pd.DataFrame, spec: pd.DataFrame | None = None, pop: _Popula
         a_lo, a_hi = np.nan, np.nan
         if model_based and pop is not None:
             pred, obs, train_q = reference[q]
-            levels = level_variances(pop.comp, "lnE" if q == "logE" else "phase", N_SIMULATIONS, len(g))
-            a_lo, a_hi = loso_abs_interval(pred, obs, train_q, fold, T, levels)
+            # calibrated: the levels at their estimates; nominal: the specimen level drawn
+            n_draw = 0 if LOSO_CALIBRATION else N_SIMULATIONS
+            levels = level_variances(pop.comp, "lnE" if q == "logE" else "phase", n_draw, len(g))
+            a_lo, a_hi = loso_abs_interval(pred, obs, train_q, fold, T, levels, calibration=LOSO_CALIBRATION)
         if not (np.isfinite(a_lo) and np.isfinite(a_hi)):
             out["interval"] = INTERVALS["loso_t"]
             a_lo, a_hi = t_interval(per["a"])

@@ -357,21 +357,28 @@ class BondPhysics:
 
         if self.air_phase not in AIR_PHASES:
             raise InputError(f"bond physics: air phase {self.air_phase!r}; expected one of {AIR_PHASES}")
-        if self.contact_strain is not None and not 0.0 < float(self.contact_strain) < 0.01:
+        for name in ("contact_strain", "compaction_pressure"):  # the one conversion of the numbers
+            value = getattr(self, name)
+            if value is None:
+                continue
+            try:
+                object.__setattr__(self, name, float(value))
+            except (TypeError, ValueError):
+                raise InputError(f"bond physics: {name.replace('_', ' ')} {value!r}; expected a number") from None
+        if self.contact_strain is not None and not 0.0 < self.contact_strain < 0.01:
             raise InputError(f"bond physics: contact strain {self.contact_strain}; expected in (0, 0.01)")
-        if self.compaction_pressure is not None and not 0.0 < float(self.compaction_pressure) < 1e8:
+        if self.compaction_pressure is not None and not 0.0 < self.compaction_pressure < 1e8:
             raise InputError(f"bond physics: compaction pressure {self.compaction_pressure} Pa; expected in (0, 1e8)")
 
     @classmethod
     def from_config(cls, dem: dict) -> "BondPhysics":
         """The options of the ``forecast.dem`` section (``air_phase``, ``contact_strain``,
         ``bridge_confinement``, ``compaction_pressure_Pa``; absent keys at their defaults)."""
-        strain, pressure = dem.get("contact_strain"), dem.get("compaction_pressure_Pa")
         return cls(
             air_phase=str(dem.get("air_phase") or "mastic"),
-            contact_strain=None if strain is None else float(strain),
+            contact_strain=dem.get("contact_strain"),
             confinement=bool(dem.get("bridge_confinement", False)),
-            compaction_pressure=None if pressure is None else float(pressure),
+            compaction_pressure=dem.get("compaction_pressure_Pa"),
         )
 
     @property
@@ -475,19 +482,19 @@ class PhysicalDem:
                 weights = "mortar" if self.skeleton == "parabolic" else "film"
                 E = e1 * resp.factor(zeta, skeleton=weights)
                 if self.skeleton == "film" and self.bond_physics.touching:
-                    E = self._with_hertz(E, e1, zeta, resp, constants)
+                    E = self._with_touching(E, e1, zeta, resp, constants)
                 logs.append(np.log(E))
             out[idx] = np.mean(logs, axis=0)
         return out
 
-    def _with_hertz(self, E, e1, zeta, resp, constants: dict) -> np.ndarray:
+    def _with_touching(self, E, e1, zeta, resp, constants: dict) -> np.ndarray:
         """E*_sample (Pa, complex (n,)) with the Hertz contacts or the compaction's patches in parallel
         with the films: E = e_1 F(zeta + e_H / e_1) (:func:`hertz_contact`). With the test's strain e_H
         follows |E| and this is the fixed point (a contraction: e_H grows as |E|^(1/3)); with the
         patches alone e_H is fixed and one evaluation is the answer. Raises InputError if the fixed
         point does not converge."""
         Es = plane_strain_stone(constants)
-        strain = float(self.bond_physics.contact_strain or 0.0)
+        strain = self.bond_physics.contact_strain or 0.0
         for _ in range(HERTZ_ITERATIONS):
             eh = hertz_contact(np.abs(E), strain, resp, Es, self.bond_physics.compaction_pressure or 0.0)
             new = e1 * resp.factor(zeta + eh / e1, skeleton="film")
