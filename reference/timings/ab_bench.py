@@ -5,6 +5,7 @@ commits, one after the other on this machine, and writes the CPU and wall time o
     .venv/bin/python reference/timings/ab_bench.py tests --before BASE -o results/bench/ab_tests.json
     .venv/bin/python reference/timings/ab_bench.py run --before BASE -o results/bench/ab_run.json
     .venv/bin/python reference/timings/ab_bench.py prepare --before BASE -o results/bench/ab_prepare.json
+    .venv/bin/python reference/timings/ab_bench.py crossval --before BASE --run-dir . -o results/bench/ab_crossval.json
 
 Cases (``make bench`` runs them on small selections; the options name larger ones):
 
@@ -14,6 +15,9 @@ Cases (``make bench`` runs them on small selections; the options name larger one
 * ``run``: ``snakemake --cores 2`` on ``--configfile`` (default the smoke configuration) and the targets
   ``--targets`` (default :data:`RUN_TARGETS`: the 2PB rows of one sample's measured and extended modes
   and what they need) in a fresh working directory per commit.
+* ``crossval``: ``asphalt-nscd forecast-crossval --jobs 1`` (the forecast's nested leave-mix-out) on the
+  inputs of a finished ``make run`` (``--run-dir``: its run configuration, matched table, binder curves
+  and sample responses); the record holds the largest difference between the two sides' scores.
 * ``prepare``: ``asphalt-nscd prepare-bench`` of one seed on ``--configfile`` (default
   config/paper.yaml) with each commit's code; the record holds each sample's statistics (spheres,
   porosity, coordination number, bonds) beside the times.
@@ -134,18 +138,56 @@ def run_case(case: str, tree: Path, work: Path, log: Path, args) -> dict:
             rec["phases_cpu_s"] = {k: round(v["cpu_s"], 2) for k, v in bench["phases"].items()}
             rec["sample"] = bench["sample"]
         return rec
+    if case == "crossval":
+        run = Path(args.run_dir).resolve()
+        forecast = run / "results" / "forecast"
+        configs = sorted((run / "results" / "config").glob("*.yaml"))
+        responses = sorted((forecast / "responses").glob("*.npz"))
+        if len(configs) != 1 or not responses or not (forecast / "matched.csv").exists():
+            raise SystemExit(f"{run}: expected a finished make run (one results/config/*.yaml, the forecast's inputs)")
+        cmd = [str(Path(sys.executable).parent / "asphalt-nscd"), "forecast-crossval", "--config", str(configs[0])]
+        cmd += ["--matched", str(forecast / "matched.csv"), "--curves", str(forecast / "binder_curves.json")]
+        cmd += ["--responses", *map(str, responses), "-o", str(work / "rows.csv"), "--scores", str(work / "scores.csv")]
+        for option, name in (("constants", "c.json"), ("split", "split.csv"), ("selection", "selection.csv")):
+            cmd += [f"--{option}", str(work / name)]
+        cmd += ["--learned-rows", str(work / "learned_rows.csv"), "--jobs", "1"]
+        rec = timed(cmd, run, env, log)
+        if (work / "scores.csv").exists():
+            rec["_scores"] = (work / "scores.csv").read_text()  # compared, then dropped
+        return rec
     raise SystemExit(f"unknown case {case!r}")
+
+
+def score_difference(before: str, after: str) -> float:
+    """The largest absolute difference between two ``forecast-crossval`` score tables' numbers (their
+    text columns and missing scores must agree); inf where their shapes, columns, text or missing scores differ."""
+    import io
+
+    import numpy as np
+    import pandas as pd
+
+    b, a = (pd.read_csv(io.StringIO(t)) for t in (before, after))
+    if b.shape != a.shape or list(b.columns) != list(a.columns):
+        return float("inf")
+    num = [c for c in b.columns if pd.api.types.is_numeric_dtype(b[c]) and "cpu" not in c and not c.endswith("_s")]
+    if not b.drop(columns=num).astype(str).equals(a.drop(columns=num).astype(str)):
+        return float("inf")
+    x, y = b[num].to_numpy(float), a[num].to_numpy(float)
+    if not np.array_equal(np.isnan(x), np.isnan(y)):  # a score missing on one side only
+        return float("inf")
+    return float(np.max(np.where(np.isnan(x), 0.0, np.abs(x - y)), initial=0.0))
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("case", choices=["tests", "run", "prepare"])
+    ap.add_argument("case", choices=["tests", "run", "prepare", "crossval"])
     ap.add_argument("--before", required=True, help="commit of the 'before' code")
     ap.add_argument("--after", default="worktree", help="commit of the 'after' code, or worktree (default)")
     ap.add_argument("--tests", nargs="+", default=TESTS, help="tests case: test files or node ids")
     ap.add_argument("--configfile", nargs="+", help="run and prepare cases: configuration files")
     ap.add_argument("--targets", nargs="+", default=RUN_TARGETS, help="run case: Snakemake targets")
     ap.add_argument("--seed", type=int, default=1, help="prepare case: the seed")
+    ap.add_argument("--run-dir", default=".", help="crossval case: the directory of a finished make run")
     ap.add_argument("--order", choices=["before-first", "after-first"], default="before-first")
     ap.add_argument("-o", "--output", required=True, help="JSON record")
     args = ap.parse_args(argv)
@@ -167,10 +209,12 @@ def main(argv=None) -> None:
                 rec["log"] = str(log)
                 rec["commit"] = head.stdout.strip() + (" + working tree" if revs[side] == "worktree" else "")
                 record[side] = rec
-                print(f"{side}: {json.dumps(rec)}", file=sys.stderr)
+                print(f"{side}: {json.dumps({k: v for k, v in rec.items() if k != '_scores'})}", file=sys.stderr)
     finally:
         shutil.rmtree(root, ignore_errors=True)
     b, a = record["before"], record["after"]
+    if "_scores" in b and "_scores" in a:
+        record["max_abs_difference_scores"] = score_difference(b.pop("_scores"), a.pop("_scores"))
     record["cpu_ratio_before_over_after"] = round(b["cpu_s"] / a["cpu_s"], 3) if a["cpu_s"] else None
     record["wall_ratio_before_over_after"] = round(b["wall_s"] / a["wall_s"], 3) if a["wall_s"] else None
     Path(args.output).write_text(json.dumps(record, indent=2) + "\n")

@@ -679,7 +679,10 @@ def test_the_calibrations_levels_are_the_tables_mean_squares():
         levels = scores.level_variances(scores.nested_components(spec.set_index(["specimen", "T", "f"])), "lnE")
         want = [levels["specimen"], levels["specimen_temperature"], levels["cell"]]
         np.testing.assert_allclose(got[b], want, rtol=1e-10, atol=1e-15)
-    # the simulated folds' expected error is the folded normal's mean, written with erf for speed
+    # the simulated folds' expected error is the folded normal's mean, which is SciPy's folded normal
+    g, var = rng.normal(0.0, 0.1, 7), rng.uniform(1e-4, 0.02, 7)
+    want_mean = [stats.foldnorm(abs(a) / np.sqrt(v), scale=np.sqrt(v)).mean() for a, v in zip(g, var)]
+    np.testing.assert_allclose(scores.folded_normal_mean(g, var), want_mean, rtol=1e-12)
     z = (rng.normal(size=(5, 3, 1)), rng.normal(size=(5, 3, len(temps)))[:, :, ti], rng.normal(size=(5, 3, T.size)))
     s2 = np.array([0.01, 0.002, 0.0004])
     eps = rng.normal(0.0, 0.05, (3, T.size))
@@ -688,6 +691,16 @@ def test_the_calibrations_levels_are_the_tables_mean_squares():
     np.testing.assert_allclose(drawn, np.mean(np.abs(p - sims), axis=(1, 2)), rtol=1e-12)
     np.testing.assert_allclose(expected, np.mean(scores.folded_normal_mean(p, s2.sum()), axis=(1, 2)), rtol=1e-12)
     assert float(scores.folded_normal_mean(0.0, 1.0)) == pytest.approx(np.sqrt(2 / np.pi))
+    # one cell per isotherm leaves no cell level: refused, and the interval falls back (nan, nan)
+    one = np.arange(len(temps))
+    with pytest.raises(ValueError, match="no isotherm holds two cells"):
+        scores._balanced_levels(x[:, :, :: len(freqs)], one, len(temps))
+    fold = np.repeat(["A", "B", "C"], len(temps))
+    pred = rng.normal(0.0, 0.1, fold.size)
+    got_ci = scores.loso_abs_interval(
+        pred, pred + 0.1, pred * 0.5, fold, np.tile(temps, 3), dict(zip(scores.LEVELS, s2))
+    )
+    assert np.isnan(got_ci).all()
 
 
 def test_the_committed_loso_coverage_is_of_the_shipped_calibration():

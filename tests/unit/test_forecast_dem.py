@@ -43,7 +43,8 @@ def table():
 
 def test_the_response_is_the_direct_harmonic_solve():
     """F(zeta) of the eigen-decomposition equals the sparse complex solve of the uniaxial test with
-    the bond stiffnesses g (1 + zeta s), for zeta across the plane (rel 1e-9)."""
+    the bond stiffnesses g (1 + zeta s), for zeta across the plane (rel 1e-9); its compiled slope
+    dF/dzeta is F's central difference (rel 1e-6)."""
     from asphalt_nscd.harmonic.network import network_from_sample
     from asphalt_nscd.harmonic.solver import HarmonicSystem
     from asphalt_nscd.sample.prepare import CONTACT_TOLERANCE
@@ -59,6 +60,16 @@ def test_the_response_is_the_direct_harmonic_solve():
         k = g * (1.0 + zeta * skel)
         sol = system.solve(k, k * system.t_ratio, 1e-12, amplitude=1.0, inertia="none", axis=2)
         assert r.factor(zeta) == pytest.approx(sol.force[2] / r.side_m, rel=1e-9)
+        # the compiled slope dF/dzeta (the fits' Jacobian): the factor itself, and a central difference
+        f, slope = r.factor_and_slope(np.array([zeta, zeta]))
+        np.testing.assert_allclose(f, r.factor(zeta), rtol=1e-13)
+        h = 1e-5 * max(abs(zeta), 1.0)
+        assert slope[0] == pytest.approx((r.factor(zeta + h) - r.factor(zeta - h)) / (2 * h), rel=1e-6)
+    # the slopes of an array of zetas keep its shape
+    zs = np.array([[0.3 - 0.2j, 2.0], [1e3 - 1e2j, 1e-3j]])
+    f, slope = r.factor_and_slope(zs)
+    assert f.shape == slope.shape == zs.shape
+    np.testing.assert_allclose(f, r.factor(zs), rtol=1e-13)
 
 
 def test_the_forecast_modulus_holds_in_the_time_domain():

@@ -426,10 +426,13 @@ def folded_normal_mean(g, var) -> np.ndarray:
     g = np.asarray(g, float)
     s = np.sqrt(np.maximum(np.asarray(var, float), 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
-        z = g / s
-        out = s * np.sqrt(2.0 / np.pi) * np.exp(-0.5 * z**2) + g * (1.0 - 2.0 * stats.norm.cdf(-z))
+        z = g / s  # 1 - 2 Phi(-z) = erf(z / sqrt 2)
+        out = s * np.sqrt(2.0 / np.pi) * np.exp(-0.5 * z * z) + g * special.erf(z / np.sqrt(2.0))
     return np.where(s > 0, out, np.abs(g))
 
+
+#: the three levels of scatter of :func:`level_variances`, in the order of the (..., 3) arrays of the loso interval
+LEVELS = ("specimen", "specimen_temperature", "cell")
 
 #: tables and draws per table of the second bootstrap level that calibrates :func:`loso_abs_interval`
 #: in the scores (None: its nominal percentiles, with the specimen level drawn as MS dof / chi2_dof)
@@ -440,8 +443,11 @@ def _balanced_levels(x: np.ndarray, ti: np.ndarray, n_T: int) -> np.ndarray:
     """The three levels of :func:`level_variances` (specimen, specimen-isotherm, cell; floored at 0)
     of balanced specimens ``x`` (..., n, cells) whose cells lie on the isotherms ``ti`` (cells,) of
     ``n_T``: the mean squares of :func:`nested_components` on every table of the leading axes at
-    once. Returns shape (..., 3)."""
+    once. Returns shape (..., 3). Raises ValueError without the cell level's degrees of freedom
+    (no isotherm with two cells), where :func:`level_variances` has no levels either."""
     n = x.shape[-2]
+    if np.bincount(ti).max(initial=0) < 2:
+        raise ValueError("_balanced_levels: no isotherm holds two cells, so the cell level has no degrees of freedom")
     r = x - x.mean(axis=-2, keepdims=True)
     k = np.bincount(ti, minlength=n_T).astype(float)  # cells per isotherm
     R = (r @ (ti[:, None] == np.arange(n_T)[None, :]).astype(float)) / k  # (..., n, n_T)
@@ -524,6 +530,8 @@ def loso_abs_interval(
         return estimate / hi, estimate / lo
     if any(np.ndim(levels[k]) for k in levels):
         raise ValueError("loso_abs_interval: a calibrated interval takes the levels at their estimates, not drawn")
+    if np.bincount(ti).max() < 2:  # the folds' cells hold no cell level to calibrate with (_balanced_levels)
+        return np.nan, np.nan
     n_outer, n_inner = calibration
     rng = np.random.default_rng([len(pred), n, 11])
 
@@ -534,7 +542,7 @@ def loso_abs_interval(
             rng.normal(0.0, 1.0, (m, n, cells.size)),
         )
 
-    s2 = np.array([float(levels[k]) for k in ("specimen", "specimen_temperature", "cell")])
+    s2 = np.array([float(levels[k]) for k in LEVELS])
     drawn, expected, x = _loso_ratio(unit(n_outer), s2, eps)
     ratio = drawn / expected
     own = _balanced_levels(x, ti, temps.size)  # (n_outer, 3)
@@ -561,11 +569,7 @@ def _loso_ratio(z: tuple, s2: np.ndarray, eps: np.ndarray) -> tuple:
     x = z[0] * s[..., 0, None, None] + z[1] * s[..., 1, None, None] + z[2] * s[..., 2, None, None]
     p = (x.sum(-2, keepdims=True) - x) / (n - 1) + eps
     drawn = np.mean(np.abs(p - x), axis=(-1, -2))
-    sd = np.sqrt(np.maximum(s2, 0.0).sum(-1))[..., None, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z_ = p / sd  # E|p - x_new| of a folded normal, written with erf for speed (folded_normal_mean)
-        folded = sd * np.sqrt(2.0 / np.pi) * np.exp(-0.5 * z_ * z_) + p * special.erf(z_ / np.sqrt(2.0))
-    expected = np.mean(np.where(sd > 0, folded, np.abs(p)), axis=(-1, -2))
+    expected = np.mean(folded_normal_mean(p, np.maximum(s2, 0.0).sum(-1)[..., None, None]), axis=(-1, -2))
     return drawn, expected, x
 
 
@@ -573,19 +577,13 @@ def _loso_nominal(eps, ti, n_T, levels, level, n_sim, rng) -> tuple[float, float
     """The nominal percentiles of R* (:func:`loso_abs_interval` without calibration); a level of
     shape (n_sim,) is drawn per simulation."""
     n = eps.shape[0]
-    s_u, s_v, s_e = (
-        np.sqrt(np.asarray(levels[k], float)).reshape((-1, 1, 1) if np.ndim(levels[k]) else ())
-        for k in ("specimen", "specimen_temperature", "cell")
+    z = (
+        rng.normal(0.0, 1.0, (n_sim, n, 1)),
+        rng.normal(0.0, 1.0, (n_sim, n, n_T))[:, :, ti],
+        rng.normal(0.0, 1.0, (n_sim, n, ti.size)),
     )
-    x = (
-        rng.normal(0.0, 1.0, (n_sim, n, 1)) * s_u
-        + (rng.normal(0.0, 1.0, (n_sim, n, n_T)) * s_v)[:, :, ti]
-        + rng.normal(0.0, 1.0, (n_sim, n, ti.size)) * s_e
-    )
-    total = x.sum(axis=1, keepdims=True)
-    pred_star = (total - x) / (n - 1) + eps[None, :, :]
-    drawn = np.mean(np.abs(pred_star - x), axis=(1, 2))
-    expected = np.mean(folded_normal_mean(pred_star, (s_u**2 + s_v**2 + s_e**2)), axis=(1, 2))
+    s2 = np.stack(np.broadcast_arrays(*(np.asarray(levels[k], float) for k in LEVELS)), axis=-1)
+    drawn, expected, _ = _loso_ratio(z, s2, eps)
     with np.errstate(divide="ignore", invalid="ignore"):
         lo, hi = np.percentile(drawn / expected, [50 * (1 - level), 50 * (1 + level)])
     return float(lo), float(hi)

@@ -136,12 +136,14 @@ class Response:
         ``skeleton``: ``mortar`` (the skeleton pairs weighted as mortar bridges, g_b; ``dem_extended``)
         or ``film`` (weighted R_eff^2, the squeeze film of a contact: :mod:`.physical`)."""
         p1, lam, alpha, beta = self._pencil(skeleton)
-        z = np.asarray(zeta, complex)[..., None]
-        a = alpha + z * beta
-        d = 1.0 + z * lam
-        f = (self.p0 + z[..., 0] * p1 - (a**2 / d).sum(-1)) / self.side_m
-        slope = (p1 - ((2.0 * beta * a * d - lam * a**2) / d**2).sum(-1)) / self.side_m
-        return f, slope
+        z = np.asarray(zeta, complex)
+        s, ds = _schur_sum_and_slope(
+            np.ascontiguousarray(z.ravel()),
+            np.ascontiguousarray(lam, float),
+            np.ascontiguousarray(alpha, float),
+            np.ascontiguousarray(beta, float),
+        )
+        return (self.p0 + z * p1 - s.reshape(z.shape)) / self.side_m, (p1 - ds.reshape(z.shape)) / self.side_m
 
     def save(self, path) -> None:
         """Write the response (``.npz``, atomic)."""
@@ -194,6 +196,37 @@ def _schur_sum(zeta, lam, alpha, beta):  # pragma: no cover - compiled
             si += (ni * dr - nr * di) * inv
         out[i] = complex(sr, si)
     return out
+
+
+@njit(cache=True)
+def _schur_sum_and_slope(zeta, lam, alpha, beta):  # pragma: no cover - compiled
+    """:func:`_schur_sum` and its derivative with respect to zeta, sum_k q_k (2 beta_k - lam_k q_k) with
+    q_k = (alpha_k + zeta beta_k) / (1 + zeta lam_k): two (m,) complex arrays."""
+    s = np.empty(zeta.size, np.complex128)
+    ds = np.empty(zeta.size, np.complex128)
+    for i in range(zeta.size):
+        zr, zi = zeta[i].real, zeta[i].imag
+        sr = 0.0
+        si = 0.0
+        tr = 0.0
+        ti = 0.0
+        for k in range(lam.size):
+            ar = alpha[k] + zr * beta[k]
+            ai = zi * beta[k]
+            dr = 1.0 + zr * lam[k]
+            di = zi * lam[k]
+            inv = 1.0 / (dr * dr + di * di)
+            qr = (ar * dr + ai * di) * inv  # q = a / d
+            qi = (ai * dr - ar * di) * inv
+            sr += ar * qr - ai * qi  # a q = a^2 / d
+            si += ar * qi + ai * qr
+            wr = 2.0 * beta[k] - lam[k] * qr
+            wi = -lam[k] * qi
+            tr += qr * wr - qi * wi
+            ti += qr * wi + qi * wr
+        s[i] = complex(sr, si)
+        ds[i] = complex(tr, ti)
+    return s, ds
 
 
 def shrink_factor(sample) -> float:
