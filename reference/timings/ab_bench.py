@@ -169,7 +169,7 @@ def score_difference(before: str, after: str) -> float:
     b, a = (pd.read_csv(io.StringIO(t)) for t in (before, after))
     if b.shape != a.shape or list(b.columns) != list(a.columns):
         return float("inf")
-    num = [c for c in b.columns if pd.api.types.is_numeric_dtype(b[c]) and "cpu" not in c and not c.endswith("_s")]
+    num = [c for c in b.columns if pd.api.types.is_numeric_dtype(b[c])]
     if not b.drop(columns=num).astype(str).equals(a.drop(columns=num).astype(str)):
         return float("inf")
     x, y = b[num].to_numpy(float), a[num].to_numpy(float)
