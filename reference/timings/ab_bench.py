@@ -6,6 +6,7 @@ commits, one after the other on this machine, and writes the CPU and wall time o
     .venv/bin/python reference/timings/ab_bench.py run --before BASE -o results/bench/ab_run.json
     .venv/bin/python reference/timings/ab_bench.py prepare --before BASE -o results/bench/ab_prepare.json
     .venv/bin/python reference/timings/ab_bench.py crossval --before BASE --run-dir . -o results/bench/ab_crossval.json
+    .venv/bin/python reference/timings/ab_bench.py response --before BASE --run-dir . -o results/bench/ab_response.json
 
 Cases (``make bench`` runs them on small selections; the options name larger ones):
 
@@ -18,6 +19,11 @@ Cases (``make bench`` runs them on small selections; the options name larger one
 * ``crossval``: ``asphalt-nscd forecast-crossval --jobs 1`` (the forecast's nested leave-mix-out) on the
   inputs of a finished ``make run`` (``--run-dir``: its run configuration, matched table, binder curves
   and sample responses); the record holds the largest difference between the two sides' scores.
+* ``response``: ``asphalt-nscd forecast-response`` (the sample's generalized eigen-decompositions), one
+  process per sample as ``make run`` runs it, on the forecast samples of a finished ``make run``
+  (``--run-dir``; ``--samples``: how many, the smallest, median and largest first, default all); the record
+  holds each side's CPU per sample and the largest relative difference between the two sides' factors F(zeta)
+  (both skeleton weightings, at :data:`ZETAS`).
 * ``prepare``: ``asphalt-nscd prepare-bench`` of one seed on ``--configfile`` (default
   config/paper.yaml) with each commit's code; the record holds each sample's statistics (spheres,
   porosity, coordination number, bonds) beside the times.
@@ -55,6 +61,8 @@ TESTS = [
 ]
 #: targets of the ``run`` case by default (config/smoke.yaml): the sample, the law, the measured and
 #: extended 2PB rows of one sample and their isotherm tables
+#: zetas at which the ``response`` case compares the two sides' factors: the plane's corners and middle
+ZETAS = [1e-6, 1e-3 - 1e-3j, 0.05 + 0.02j, 0.3 - 0.2j, 1.0, 20.0 - 5.0j, 1e3 - 1e2j, 1e6]
 RUN_TARGETS = [
     "results/campaign/measured/table4_measured.csv",
     "results/campaign/extended/table4_extended.csv",
@@ -155,7 +163,69 @@ def run_case(case: str, tree: Path, work: Path, log: Path, args) -> dict:
         if (work / "scores.csv").exists():
             rec["_scores"] = (work / "scores.csv").read_text()  # compared, then dropped
         return rec
+    if case == "response":
+        samples = response_samples(Path(args.run_dir).resolve(), args.samples)
+        recs, per = [], {}
+        for h5 in samples:
+            mix, seed = h5.stem.rsplit("_s", 1)
+            out = work / f"{h5.stem}.npz"
+            cmd = [str(Path(sys.executable).parent / "asphalt-nscd"), "forecast-response", str(h5), "--mix", mix]
+            cmd += ["--seed", seed, "--variant", "", "-o", str(out)]
+            with open(log, "a") as fh:
+                fh.write(f"$ {' '.join(cmd)}\n")
+            recs.append(timed(cmd, work, env, log.with_suffix(f".{h5.stem}.log")))
+            per[h5.stem] = recs[-1]["cpu_s"]
+            if recs[-1]["returncode"]:
+                break
+        rec = {
+            "command": f"asphalt-nscd forecast-response, one process per sample, {len(samples)} samples",
+            "returncode": max(r["returncode"] for r in recs),
+            "wall_s": round(sum(r["wall_s"] for r in recs), 2),
+            "cpu_s": round(sum(r["cpu_s"] for r in recs), 2),
+            "cpu_s_per_sample": per,
+            "_responses": str(work),
+        }
+        return rec
     raise SystemExit(f"unknown case {case!r}")
+
+
+def response_samples(run: Path, count: int | None) -> list[Path]:
+    """The forecast samples of the finished run ``run``, ordered smallest, median, largest, then the rest
+    (by file size); the first ``count`` (all if None). Raises SystemExit if it has none."""
+    samples = sorted(
+        (run / "results" / "forecast" / "samples").glob("*_s*.h5"), key=lambda p: (p.stat().st_size, p.name)
+    )
+    if not samples:
+        raise SystemExit(f"{run}: expected a finished make run (results/forecast/samples/*_s*.h5)")
+    first = list(dict.fromkeys([samples[0], samples[len(samples) // 2], samples[-1]]))
+    ordered = first + [p for p in samples if p not in first]
+    return ordered if count is None else ordered[:count]
+
+
+def factor_difference(before: Path, after: Path) -> float:
+    """The largest relative difference between the factors F(zeta) of the responses of the same names in two
+    directories (both skeleton weightings, at :data:`ZETAS`); inf where a response is missing or not usable on
+    one side only."""
+    import numpy as np
+
+    sys.path.insert(0, str(REPO / "src"))
+    from asphalt_nscd.forecast.dem import Response
+
+    zeta = np.array(ZETAS, complex)
+    names = sorted({p.name for p in before.glob("*.npz")} | {p.name for p in after.glob("*.npz")})
+    worst = 0.0
+    for name in names:
+        if not ((before / name).exists() and (after / name).exists()):
+            return float("inf")
+        b, a = Response.load(before / name), Response.load(after / name)
+        if b.usable != a.usable:
+            return float("inf")
+        if not b.usable:
+            continue
+        for skeleton in ("mortar", "film"):
+            fb, fa = b.factor(zeta, skeleton), a.factor(zeta, skeleton)
+            worst = max(worst, float(np.max(np.abs(fa - fb) / np.abs(fb))))
+    return worst
 
 
 def score_difference(before: str, after: str) -> float:
@@ -180,14 +250,15 @@ def score_difference(before: str, after: str) -> float:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("case", choices=["tests", "run", "prepare", "crossval"])
+    ap.add_argument("case", choices=["tests", "run", "prepare", "crossval", "response"])
     ap.add_argument("--before", required=True, help="commit of the 'before' code")
     ap.add_argument("--after", default="worktree", help="commit of the 'after' code, or worktree (default)")
     ap.add_argument("--tests", nargs="+", default=TESTS, help="tests case: test files or node ids")
     ap.add_argument("--configfile", nargs="+", help="run and prepare cases: configuration files")
     ap.add_argument("--targets", nargs="+", default=RUN_TARGETS, help="run case: Snakemake targets")
     ap.add_argument("--seed", type=int, default=1, help="prepare case: the seed")
-    ap.add_argument("--run-dir", default=".", help="crossval case: the directory of a finished make run")
+    ap.add_argument("--run-dir", default=".", help="crossval and response cases: the directory of a finished make run")
+    ap.add_argument("--samples", type=int, default=None, help="response case: how many samples (default all)")
     ap.add_argument("--order", choices=["before-first", "after-first"], default="before-first")
     ap.add_argument("-o", "--output", required=True, help="JSON record")
     args = ap.parse_args(argv)
@@ -209,12 +280,16 @@ def main(argv=None) -> None:
                 rec["log"] = str(log)
                 rec["commit"] = head.stdout.strip() + (" + working tree" if revs[side] == "worktree" else "")
                 record[side] = rec
-                print(f"{side}: {json.dumps({k: v for k, v in rec.items() if k != '_scores'})}", file=sys.stderr)
+                print(f"{side}: {json.dumps({k: v for k, v in rec.items() if not k.startswith('_')})}", file=sys.stderr)
+        b, a = record["before"], record["after"]
+        if "_scores" in b and "_scores" in a:
+            record["max_abs_difference_scores"] = score_difference(b.pop("_scores"), a.pop("_scores"))
+        if "_responses" in b and "_responses" in a:
+            record["max_rel_difference_factor"] = factor_difference(
+                Path(b.pop("_responses")), Path(a.pop("_responses"))
+            )
     finally:
         shutil.rmtree(root, ignore_errors=True)
-    b, a = record["before"], record["after"]
-    if "_scores" in b and "_scores" in a:
-        record["max_abs_difference_scores"] = score_difference(b.pop("_scores"), a.pop("_scores"))
     record["cpu_ratio_before_over_after"] = round(b["cpu_s"] / a["cpu_s"], 3) if a["cpu_s"] else None
     record["wall_ratio_before_over_after"] = round(b["wall_s"] / a["wall_s"], 3) if a["wall_s"] else None
     Path(args.output).write_text(json.dumps(record, indent=2) + "\n")

@@ -72,6 +72,33 @@ def test_the_response_is_the_direct_harmonic_solve():
     np.testing.assert_allclose(f, r.factor(zs), rtol=1e-13)
 
 
+def test_pencil_projections_are_those_of_the_full_eigendecomposition():
+    """Eigenvalues and projections V^T x of the reduction without back transformation equal SciPy's full
+    generalized ``eigh`` (eigenvalues rel 1e-12, projections up to each eigenvector's sign, 1e-10), and the
+    projections are complete: sum_k alpha_k beta_k = a.A^-1.b and sum_k lam_k alpha_k^2 = a.A^-1 M A^-1.a
+    (rel 1e-10), on a semidefinite M of half rank as the skeleton's."""
+    import scipy.linalg as sl
+
+    rng = np.random.default_rng(11)
+    n = 90
+    x = rng.standard_normal((n, n))
+    A = x @ x.T / n + 0.5 * np.eye(n)
+    y = rng.standard_normal((n, n // 2))
+    M = y @ y.T / n
+    a, b = rng.standard_normal(n), rng.standard_normal(n)
+    lam, (alpha, beta) = dem.pencil_projections(sl.cholesky(A, lower=True), M, [a, b])
+    ref_lam, V = sl.eigh(M, A)
+    np.testing.assert_allclose(lam, ref_lam, rtol=1e-12, atol=1e-12 * ref_lam.max())
+    sign = np.sign(V.T @ a) * np.sign(alpha)
+    big = np.abs(lam) > 1e-8 * lam.max()  # the null space's eigenvectors are any basis of it
+    np.testing.assert_allclose(alpha[big] * sign[big], (V.T @ a)[big], atol=1e-10 * np.abs(alpha).max())
+    np.testing.assert_allclose(beta[big] * sign[big], (V.T @ b)[big], atol=1e-10 * np.abs(beta).max())
+    ainv_a, ainv_b = np.linalg.solve(A, a), np.linalg.solve(A, b)
+    assert alpha @ beta == pytest.approx(a @ ainv_b, rel=1e-10)
+    assert np.sum(lam * alpha**2) == pytest.approx(ainv_a @ M @ ainv_a, rel=1e-10)
+    assert np.count_nonzero(~big) == n - n // 2
+
+
 def test_the_forecast_modulus_holds_in_the_time_domain():
     """The bonds of a forecast (mortar and skeleton, complex) stepped in time by the NSCD core as
     Maxwell elements: within 0.05 % and 0.01 deg of the harmonic solve with inertia at 200 steps per

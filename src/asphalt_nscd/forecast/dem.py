@@ -21,7 +21,7 @@ the fines (:mod:`.mortar`, :func:`.mortar.hs_lower_mortar_modulus`).
 
 With e_1 factored out, K(w) = e_1 (G_m + zeta G_s), zeta = e_2 / e_1, G_m and G_s real: the
 response is a rational function of the one complex number zeta. :func:`sample_response` solves
-G_s,ff v = lambda G_m,ff v once per sample (dense, SciPy ``eigh``); with u_p the head's unit
+G_s,ff v = lambda G_m,ff v once per sample (dense: :func:`pencil_projections`); with u_p the head's unit
 displacement, a = G_m,fp u_p, b = G_s,fp u_p, alpha = V^T a, beta = V^T b,
 
     F(zeta) = u_p.G_m,pp.u_p + zeta u_p.G_s,pp.u_p - sum_k (alpha_k + zeta beta_k)^2 / (1 + zeta lambda_k)
@@ -305,13 +305,14 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
     reff = contact_radius(sample)
     w = reff**2 * skel
     gf = system.blocks(w, w * system.t_ratio)
+    b_f = gf["fp"][:, 2].toarray().ravel()
     try:
-        lam, V = sl.eigh(B, A, check_finite=False)
-        lam_f, V_f = sl.eigh(gf["ff"].toarray(), A, check_finite=False)
+        chol = sl.cholesky(A, lower=True, check_finite=False)
     except np.linalg.LinAlgError:
         raise InputError(f"sample {sample.name}: the mortar network has a free mode (G_m not positive definite)")
+    lam, (alpha0, beta) = pencil_projections(chol, B, [a, b])
+    lam_f, (alpha_f, beta_f) = pencil_projections(chol, gf["ff"].toarray(), [a, b_f])
     r_bond = sample.bonds["r_min"]
-    alpha0 = V.T @ a
     i, j = sample.bonds["i"], sample.bonds["j"]
     branch = sample.radius[i] + np.where(j >= 0, sample.radius[np.maximum(j, 0)], 0.0)  # a wall contact: r_i
     volume = float(sample.attrs["B_m"] * sample.attrs["e_m"] * sample.attrs["h_m"])
@@ -322,15 +323,15 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         p0=float(gm["pp"][2, 2]),
         p1=float(gs["pp"][2, 2]),
         lam=lam,
-        alpha=V.T @ a,
-        beta=V.T @ b,
+        alpha=alpha0,
+        beta=beta,
         n_spheres=int(sample.radius.size),
         n_bonds=int(sample.bonds["i"].size),
         n_skeleton=int(skel.sum()),
         p1_f=float(gf["pp"][2, 2]),
         lam_f=lam_f,
-        alpha_f=V_f.T @ a,
-        beta_f=V_f.T @ gf["fp"][:, 2].toarray().ravel(),
+        alpha_f=alpha_f,
+        beta_f=beta_f,
         chi_bridge=float((gm["pp"][2, 2] - alpha0 @ alpha0) / _head_stiffness(system, r_bond)),
         skeleton_r15=float(np.sum(w * reff**1.5) / np.sum(w)) if np.any(skel) else np.nan,
         skeleton_v_over_l=float(volume / np.sum(branch[skel])) if np.any(skel) else np.nan,
@@ -339,6 +340,42 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         bridge_weight=np.asarray(g, float),
         cpu_s=time.process_time() - t0,
     )
+
+
+def pencil_projections(chol: np.ndarray, M: np.ndarray, vectors) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The generalized eigenvalues of M v = lambda A v, A = L L^T, and the projections V^T x of each x of
+    ``vectors`` on the A-orthonormal eigenvectors V, without forming V.
+
+    ``chol``: (n, n) the lower Cholesky factor L of A (SPD); ``M``: (n, n) symmetric; ``vectors``: (n,)
+    arrays. Returns lam (n,) ascending and one (n,) array per vector. With C = L^-1 M L^-T = U diag(lam) U^T,
+    V = L^-T U and V^T x = U^T (L^-1 x); C is reduced to tridiagonal form T = Q^T C Q (LAPACK ``sytrd``, the
+    blocked Householder reduction), T = W diag(lam) W^T by divide and conquer (``stevd``, the tridiagonal
+    only), and U^T y = W^T (Q^T y) with Q's reflectors applied to the vectors (O(n^2) each): the back
+    transformations of the eigenvectors (the O(n^3) part of a full ``eigh`` past the reduction) are not
+    done. Each eigenvector's sign is LAPACK's choice, as in ``eigh``: the Schur sums use products of two
+    projections only. Raises numpy.linalg.LinAlgError if LAPACK reports a failure (Golub & Van Loan 2013,
+    sections 8.3 and 8.4; Cuppen 1981)."""
+    import scipy.linalg as sl
+    from scipy.linalg import lapack
+
+    n = chol.shape[0]
+    c, info = lapack.dsygst(M, chol, itype=1, lower=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dsygst: info {info}")
+    lwork = int(lapack.dsytrd_lwork(n, lower=1)[0])
+    c, d, e, tau, info = lapack.dsytrd(c, lower=1, lwork=max(lwork, 1), overwrite_a=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dsytrd: info {info}")
+    lam, w, info = lapack.dstevd(d, e, compute_v=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dstevd: info {info}")
+    y = sl.solve_triangular(chol, np.column_stack(vectors), lower=True, check_finite=False)
+    for i in range(n - 1):  # Q^T y = H(n-1) ... H(1) y, H(i) = I - tau_i v v^T, v = (0.., 1, c[i+2:, i])
+        v = c[i + 1 :, i].copy()
+        v[0] = 1.0
+        y[i + 1 :] -= tau[i] * np.outer(v, v @ y[i + 1 :])
+    p = w.T @ y
+    return lam, [p[:, k].copy() for k in range(p.shape[1])]
 
 
 def _head_stiffness(system, k) -> float:
