@@ -271,3 +271,16 @@ def test_a_mix_without_a_usable_sample_is_forecast_as_missing(table, responses):
     assert all(s["state"]["n_rows"] == 30 * 4 for s in states if s["fold"] != MIXES.index("209"))
     s = score(rows)
     assert s[(s["group"] == "all") & s["temperature_C"].isna()].iloc[0]["n_mixes"] == 5
+
+
+def test_a_failed_eigenproblem_is_the_samples_input_error(monkeypatch):
+    """LAPACK's failure in the reduction ends in the project's InputError naming the sample (the command then
+    writes the mix's empty response with a warning), not a traceback."""
+    from asphalt_nscd.io import InputError
+
+    def failing(*args, **kwargs):
+        raise np.linalg.LinAlgError("dstevd: info 3")
+
+    monkeypatch.setattr(dem, "pencil_projections", failing)
+    with pytest.raises(InputError, match="generalized eigenproblem of its network failed.*dstevd: info 3"):
+        dem.sample_response(_sample(3, n=60))

@@ -286,7 +286,8 @@ def bond_moduli(state: dict, e_mortar) -> tuple[np.ndarray, np.ndarray]:
 def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
     """The :class:`Response` of a prepared cube (module docstring).
 
-    Raises InputError if the sample's head carries no bond or the mortar network has a free mode."""
+    Raises InputError if the sample's head carries no bond, the mortar network has a free mode or
+    LAPACK fails on its generalized eigenproblem."""
     import scipy.linalg as sl
 
     from ..harmonic.network import network_from_sample
@@ -310,8 +311,11 @@ def sample_response(sample, mix_id: str = "", seed: int = 0) -> Response:
         chol = sl.cholesky(A, lower=True, check_finite=False)
     except np.linalg.LinAlgError:
         raise InputError(f"sample {sample.name}: the mortar network has a free mode (G_m not positive definite)")
-    lam, (alpha0, beta) = pencil_projections(chol, B, [a, b])
-    lam_f, (alpha_f, beta_f) = pencil_projections(chol, gf["ff"].toarray(), [a, b_f])
+    try:
+        lam, (alpha0, beta) = pencil_projections(chol, B, [a, b])
+        lam_f, (alpha_f, beta_f) = pencil_projections(chol, gf["ff"].toarray(), [a, b_f])
+    except np.linalg.LinAlgError as exc:  # LAPACK's failure, as the full eigh raised it before
+        raise InputError(f"sample {sample.name}: the generalized eigenproblem of its network failed ({exc})")
     r_bond = sample.bonds["r_min"]
     i, j = sample.bonds["i"], sample.bonds["j"]
     branch = sample.radius[i] + np.where(j >= 0, sample.radius[np.maximum(j, 0)], 0.0)  # a wall contact: r_i
