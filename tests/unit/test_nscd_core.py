@@ -1,4 +1,4 @@
-"""Delassus blocks, NLGS convergence reporting, driver force, checkpoint/restart."""
+"""Delassus blocks, NLGS convergence reporting, driver force, checkpoint/restart, the contacts' warm start."""
 
 import numpy as np
 import pytest
@@ -195,3 +195,44 @@ def test_bad_parameters_raise():
         NSCDParameters(dt=1e-4, theta=0.3)
     with pytest.raises(ValueError):
         Plate([0, 0, 0], [0, 0, 1], mode="driven")
+
+
+def test_warm_start_is_the_previous_impulse_in_the_new_frame_inside_the_cone():
+    """The warm start of the contacts (gauss_seidel.warm_impulses): a matched contact takes the previous
+    impulse as a global vector, projected on its new frame and kept in the friction cone; an unmatched one
+    stays zero. Checked bit for bit against the vectorized NumPy form (einsum) it replaced, whose sums the
+    chaotic deposition's trajectory depends on, and against the cone's definition."""
+    import numba
+
+    from asphalt_nscd.nscd import gauss_seidel
+
+    rng = np.random.default_rng(7)
+    m, c, mu = 400, 300, 0.4
+    old_P = rng.normal(size=(m, 3)) + [2.0, 0.0, 0.0]
+    old_F = np.linalg.qr(rng.normal(size=(m, 3, 3)))[0]
+    src = rng.integers(-1, m, size=c)
+    # frames turned a little since the previous step, as between two steps; some turned away entirely
+    new_F = np.linalg.qr(old_F[np.maximum(src, 0)] + 0.1 * rng.normal(size=(c, 3, 3)))[0]
+    new_F[::7] = np.linalg.qr(rng.normal(size=(len(new_F[::7]), 3, 3)))[0]
+    out = np.zeros((c, 3))
+    gauss_seidel.warm_impulses(src, old_P, old_F, new_F, mu, out)
+
+    hit = src >= 0
+    ref = np.zeros((c, 3))
+    g = np.einsum("ac,acd->ad", old_P[src[hit]], old_F[src[hit]])
+    ref[hit] = np.einsum("acd,ad->ac", new_F[hit], g)
+    pn = np.maximum(ref[:, 0], 0.0)
+    pt = np.hypot(ref[:, 1], ref[:, 2])
+    scale = np.where(pt > mu * pn, mu * pn / np.maximum(pt, 1e-300), 1.0)
+    ref = np.column_stack([pn, ref[:, 1] * scale, ref[:, 2] * scale])
+    assert np.allclose(out, ref, rtol=4e-16, atol=0.0)
+    if not numba.config.DISABLE_JIT:  # as Python, math.hypot is CPython's own (correctly rounded), not libm's
+        assert np.array_equal(out, ref)
+    assert np.all(out[~hit] == 0.0)
+    assert np.all(out[:, 0] >= 0.0)
+    assert np.all(np.hypot(out[:, 1], out[:, 2]) <= mu * out[:, 0] * (1 + 1e-12))
+    # inside the cone the impulse is the old one turned into the new frame: its global vector is kept
+    inside = hit & (scale == 1.0) & (pn > 0)
+    assert inside.sum() > 50 and (hit & (scale < 1.0)).sum() > 10
+    back = np.einsum("ac,acd->ad", out[inside], new_F[inside])
+    assert np.allclose(back, np.einsum("ac,acd->ad", old_P[src[inside]], old_F[src[inside]]), rtol=0, atol=1e-12)

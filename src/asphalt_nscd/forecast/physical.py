@@ -326,6 +326,10 @@ HERTZ_ITERATIONS = 60
 HERTZ_TOLERANCE = 1e-9
 
 
+#: step of the forward differences of the bond moduli in the fits' Jacobian, as a fraction of each constant's range
+#: (:meth:`PhysicalDem._log_modulus_jacobian`; the Schur sum's own slope is exact)
+JACOBIAN_STEP = 1e-7
+
 #: (mix, binder, volumes, air phase) -> (MixMortar, film thickness), built once per process
 _MORTARS: dict = {}
 
@@ -467,25 +471,68 @@ class PhysicalDem:
         c.update(dict(zip(self.free, map(float, x))))
         return c
 
+    def _bond_parts(self, cells: list, constants: dict) -> list:
+        """(e_1, zeta) of every response of every cell (:func:`bond_moduli`): a list per cell of
+        (response, e_1, zeta) with complex (m,) arrays, m the cell's rows. No Schur sum: the cheap part."""
+        from .mortar import young
+
+        out = []
+        for _, mortar, film, responses, shapes in cells:
+            (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"])
+            Em = young(K, G)
+            parts = []
+            for resp, shape in zip(responses, shapes):
+                Eb = (Em if shape is None else confined_bridge(K, G, shape)) * (1.0 - mortar.pockets)
+                parts.append((resp, *bond_moduli(constants, Em, Gm, film, resp, self.skeleton, E_bridge=Eb)))
+            out.append(parts)
+        return out
+
+    @property
+    def _weights(self) -> str:
+        return "mortar" if self.skeleton == "parabolic" else "film"
+
     def _log_modulus(self, cells: list, n: int, constants: dict) -> np.ndarray:
         """ln E*_sample (Pa, complex) of every row (NaN where a mix has no usable sample)."""
         out = np.full(n, np.nan + 0j)
-        from .mortar import young
-
-        for idx, mortar, film, responses, shapes in cells:
-            (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"])
-            Em = young(K, G)
+        for (idx, *_), parts in zip(cells, self._bond_parts(cells, constants)):
             logs = []
-            for resp, shape in zip(responses, shapes):
-                Eb = (Em if shape is None else confined_bridge(K, G, shape)) * (1.0 - mortar.pockets)
-                e1, zeta = bond_moduli(constants, Em, Gm, film, resp, self.skeleton, E_bridge=Eb)
-                weights = "mortar" if self.skeleton == "parabolic" else "film"
-                E = e1 * resp.factor(zeta, skeleton=weights)
+            for resp, e1, zeta in parts:
+                E = e1 * resp.factor(zeta, skeleton=self._weights)
                 if self.skeleton == "film" and self.bond_physics.touching:
                     E = self._with_touching(E, e1, zeta, resp, constants)
                 logs.append(np.log(E))
             out[idx] = np.mean(logs, axis=0)
         return out
+
+    def _log_modulus_jacobian(self, cells: list, n: int, x) -> np.ndarray:
+        """d ln E*_sample / d x (complex (n, p), x the free constants in :attr:`free` order) by the chain
+        rule through the Schur sum: ln E = mean over the responses of ln e_1 + ln F(zeta), so
+        d ln E = d e_1 / e_1 + (F'(zeta) / F(zeta)) d zeta, F and F' exact (one pass of
+        :meth:`.dem.Response.factor_and_slope`), d e_1 and d zeta by forward differences of the cheap
+        part (:meth:`_bond_parts`, step :data:`JACOBIAN_STEP` of each constant's range, taken inward
+        at an upper bound). Without the touching contacts only (their fixed point is not differentiated
+        here; :meth:`fit` uses finite differences of the whole model there)."""
+        x = np.asarray(x, float)
+        base = self._bond_parts(cells, self.constants(x))
+        shifted = []
+        for j, name in enumerate(self.free):
+            lo, hi = CONSTANTS[name].low, CONSTANTS[name].high
+            h = JACOBIAN_STEP * (hi - lo)
+            if x[j] + h > hi:
+                h = -h
+            xj = x.copy()
+            xj[j] += h
+            shifted.append((h, self._bond_parts(cells, self.constants(xj))))
+        J = np.full((n, len(self.free)), np.nan + 0j)
+        for c, (idx, *_) in enumerate(cells):
+            acc = np.zeros((len(idx), len(self.free)), complex)
+            for r, (resp, e1, zeta) in enumerate(base[c]):
+                F, dF = resp.factor_and_slope(zeta, skeleton=self._weights)
+                for j, (h, parts) in enumerate(shifted):
+                    _, e1j, zj = parts[c][r]
+                    acc[:, j] += (e1j - e1) / (h * e1) + (dF / F) * (zj - zeta) / h
+            J[idx] = acc / len(base[c])
+        return J
 
     def _with_touching(self, E, e1, zeta, resp, constants: dict) -> np.ndarray:
         """E*_sample (Pa, complex (n,)) with the Hertz contacts or the compaction's patches in parallel
@@ -535,8 +582,17 @@ class PhysicalDem:
             r = self._log_modulus(cells, len(rows), self.constants(x)) - y
             return np.concatenate([r.real, r.imag])
 
+        def jac(x):
+            J = self._log_modulus_jacobian(cells, len(rows), x)
+            return np.concatenate([J.real, J.imag])
+
+        # the Jacobian through the Schur sum's exact slope; finite differences of the whole model where
+        # the touching contacts' fixed point enters (diff_step: relative to x)
+        jacobian = "2-point" if (self.skeleton == "film" and self.bond_physics.touching) else jac
         starts = [lo + f * (hi - lo) for f in (0.5, 0.25, 0.75)[: max(1, self.starts)]]
-        fits = [least_squares(resid, x0, bounds=(lo, hi), x_scale=hi - lo, diff_step=1e-4) for x0 in starts]
+        fits = [
+            least_squares(resid, x0, jac=jacobian, bounds=(lo, hi), x_scale=hi - lo, diff_step=1e-4) for x0 in starts
+        ]
         best = min(fits, key=lambda f: f.cost)
         at = np.isclose(best.x, lo, rtol=0, atol=1e-3 * (hi - lo)) | np.isclose(
             best.x, hi, rtol=0, atol=1e-3 * (hi - lo)

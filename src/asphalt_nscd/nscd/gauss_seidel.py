@@ -109,6 +109,35 @@ def contact_velocities(ci, cj, frame, radius, v, w, vp, out):
         out[a, 0], out[a, 1], out[a, 2] = contact_velocity(a, ci, cj, frame, radius, v, w, vp)
 
 
+@kernel
+def warm_impulses(src, old_impulse, old_frame, frame, friction, out):
+    """Warm start (C,3) into ``out`` (zeroed by the caller): contact a with a previous contact on the
+    same pair (``src[a]`` >= 0, its row in the previous step's arrays) takes that contact's local
+    impulse ``old_impulse`` (M,3) as a global vector (``old_frame`` (M,3,3) rows the local axes)
+    projected on its new frame ``frame`` (C,3,3), then kept inside the friction cone
+    ``|P_t| <= friction P_n`` (P_n >= 0); the others stay zero."""
+    for a in range(len(src)):
+        b = src[a]
+        if b < 0:
+            continue
+        p0, p1, p2 = old_impulse[b, 0], old_impulse[b, 1], old_impulse[b, 2]
+        g0 = p0 * old_frame[b, 0, 0] + p1 * old_frame[b, 1, 0] + p2 * old_frame[b, 2, 0]
+        g1 = p0 * old_frame[b, 0, 1] + p1 * old_frame[b, 1, 1] + p2 * old_frame[b, 2, 1]
+        g2 = p0 * old_frame[b, 0, 2] + p1 * old_frame[b, 1, 2] + p2 * old_frame[b, 2, 2]
+        # summed in the order of NumPy's einsum (first and last term, then the middle): the warm start, and
+        # so the chaotic deposition's trajectory, is bit for bit that of the vectorized form it replaces
+        pn = (frame[a, 0, 0] * g0 + frame[a, 0, 2] * g2) + frame[a, 0, 1] * g1
+        t1 = (frame[a, 1, 0] * g0 + frame[a, 1, 2] * g2) + frame[a, 1, 1] * g1
+        t2 = (frame[a, 2, 0] * g0 + frame[a, 2, 2] * g2) + frame[a, 2, 1] * g1
+        pn = max(pn, 0.0)
+        pt = math.hypot(t1, t2)
+        lim = friction * pn
+        scale = lim / max(pt, 1e-300) if pt > lim else 1.0
+        out[a, 0] = pn
+        out[a, 1] = t1 * scale
+        out[a, 2] = t2 * scale
+
+
 @helper
 def _push_bond(
     b,

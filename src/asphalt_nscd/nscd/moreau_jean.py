@@ -520,20 +520,11 @@ class Simulation:
         new_key = ci * base + np.where(cj >= 0, cj, self.spheres.n - 1 - cj)
         order = np.argsort(old_key)
         sk = old_key[order]
-        pos = np.searchsorted(sk, new_key)
-        pos = np.minimum(pos, len(sk) - 1)
-        hit = sk[pos] == new_key
-        if hit.any():
-            src = order[pos[hit]]
-            g = np.einsum("ac,acd->ad", self.contact_impulse[src], self.contact_frame[src])
-            cP[hit] = np.einsum("acd,ad->ac", cframe[hit], g)
-            # keep the warm start inside the friction cone
-            pn = np.maximum(cP[:, 0], 0.0)
-            pt = np.hypot(cP[:, 1], cP[:, 2])
-            lim = self.params.friction * pn
-            scale = np.where(pt > lim, lim / np.maximum(pt, 1e-300), 1.0)
-            cP[:, 0] = pn
-            cP[:, 1:] *= scale[:, None]
+        pos = np.minimum(np.searchsorted(sk, new_key), len(sk) - 1)
+        src = np.where(sk[pos] == new_key, order[pos], -1)
+        gauss_seidel.warm_impulses(
+            src, self.contact_impulse, self.contact_frame, np.ascontiguousarray(cframe), self.params.friction, cP
+        )
         return cP
 
     def _rot(self) -> bool:
