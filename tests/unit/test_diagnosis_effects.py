@@ -129,7 +129,9 @@ def _outcomes(index: int) -> tuple:
         ok = set(effects) <= detected
         for name in effects:
             e = entries[name]
-            se = e["estimate"][ESTIMATE_KEYS[name] + "_se"]
+            # a planted effect the diagnosis gave no estimate (declared not identifiable from the table, or not
+            # testable) is a miss of that seed, counted against the case's allowance and the rates below
+            se = e["estimate"].get(ESTIMATE_KEYS[name] + "_se", np.nan)
             true = truth["effects"][name][ESTIMATE_KEYS[name]]
             # outside its own model the detector's estimates are biased by the misfit: 50 %
             ok = (
@@ -140,7 +142,13 @@ def _outcomes(index: int) -> tuple:
             )
         extra = sorted(detected - set(effects)) if exact else []
         out.append(
-            (seed, sorted(detected), ok, extra, {n: entries[n]["estimate"].get(ESTIMATE_KEYS[n]) for n in effects})
+            (
+                seed,
+                sorted(detected),
+                ok,
+                extra,
+                {n: entries[n]["estimate"].get(ESTIMATE_KEYS[n], entries[n]["evidence"]) for n in effects},
+            )
         )
     return tuple(out)
 
