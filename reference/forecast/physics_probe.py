@@ -8,12 +8,18 @@ confined layers bonded to their stones.
 ``RUN``: a finished run's folder (``make run``), whose ``results/forecast/`` holds the matched table, the
 binder curves and the responses of the base samples (written by this version of ``forecast-response``:
 the Hertz contacts read their skeleton geometry). For every variant (``air_phase`` of
-``asphalt_nscd.forecast.mortar``; ``contact_strain`` of ``asphalt_nscd.forecast.physical.hertz_contact``,
+``asphalt_nscd.forecast.mortar``, the last two with the air in the binder, every inclusion's fraction over
+the space it shares with the air; ``contact_strain`` of ``asphalt_nscd.forecast.physical.hertz_contact``,
 the test's strain amplitude, AASHTO T 342's 50-150 microstrain; ``compaction_pressure`` of the same function,
 AASHTO T 312's 600 kPa; ``confinement`` of ``asphalt_nscd.forecast.physical.confined_bridge``) it forecasts every mix, binder through
 its curve, and writes per variant and temperature (empty: all) the mean over the mixes of each mix's
 mean absolute 100 ln(E_f / E_m) and phase error, with t(n - 1) 95 % intervals over the mixes, and
-the mean signed errors (bias). Nothing is fitted, so no mix informs its own forecast; but the
+the mean signed errors (bias), and what the forecast misses as a complex modulus: each cell's
+(E*_m - E*_f) / |E*_m| (``asphalt_nscd.forecast.validation.missing_modulus``), its storage and loss
+parts (in phase with the strain and in quadrature) in percent of the measured |E*| (the mix's mean,
+then the mean over the mixes with its t(n - 1) interval) and the phase angle of that mean (an elastic
+part missing reads near 0 deg, a part like the binder near the binder's own phase angle, the mean
+``binder_delta_deg`` over the cells beside it). Nothing is fitted, so no mix informs its own forecast; but the
 variants are compared on the same 35 mixes, so choosing one by this table is a choice made on the
 scored mixes. The row ``chosen in the fold`` makes that choice without the mix it scores: for each
 mix left out, the variant with the least mean |E*| error over the other mixes forecasts it (its
@@ -29,11 +35,10 @@ import numpy as np
 import pandas as pd
 
 from asphalt_nscd.diagnosis.scores import t_interval
-from asphalt_nscd.forecast.models import read_curves, read_responses, routed_tables
+from asphalt_nscd.forecast.models import run_forecast_inputs
 from asphalt_nscd.forecast.physical import BondPhysics, PhysicalDem
-from asphalt_nscd.forecast.validation import binder_ids
+from asphalt_nscd.forecast.validation import missing_modulus
 from asphalt_nscd.io import write_csv
-from asphalt_nscd.lab.matched import read_matched
 
 #: the gyratory compactor's vertical pressure, Pa (AASHTO T 312)
 T312_PA = 6e5
@@ -58,16 +63,14 @@ VARIANTS = (
     ("mortar", None, True, T312_PA),
     ("pockets", None, True, T312_PA),
     ("pockets", 1.5e-4, True, T312_PA),
+    ("binder", None, False, None),
+    ("binder", 1.5e-4, True, T312_PA),
 )
 
 
 def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
     """The table of the module docstring from the run folder ``run``."""
-    f = run / "results" / "forecast"
-    matched = read_matched(f / "matched.csv")
-    table = routed_tables(matched, read_curves(f / "binder_curves.json"), binder_ids(matched), ["curve"])["curve"]
-    table = table.dropna(subset=["E_norm_MPa", "phase_deg"]).reset_index(drop=True)
-    responses = read_responses(sorted((f / "responses").glob("*.npz")))
+    table, responses = run_forecast_inputs(run)
     errors = {}
     for air, strain, confined, pressure in VARIANTS:
         model = PhysicalDem(
@@ -77,7 +80,10 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
             physics=BondPhysics(air, strain, confined, pressure),
         )
         E, P, _ = model.predict(model.fit(table), table)
-        t = table.assign(e=100 * np.log(E / table["E_norm_MPa"]), p=P - table["phase_deg"]).dropna(subset=["e"])
+        missing = missing_modulus(table["E_norm_MPa"], table["phase_deg"], E, P)
+        t = table.assign(
+            e=100 * np.log(E / table["E_norm_MPa"]), p=P - table["phase_deg"], mr=missing.real, mi=missing.imag
+        ).dropna(subset=["e"])
         errors[(air, strain, confined, pressure)] = t
     # the choice inside the fold: each mix forecast by the variant best on the other mixes
     score = pd.DataFrame({k: t.groupby("mix_id")["e"].apply(lambda x: np.mean(np.abs(x))) for k, t in errors.items()})
@@ -96,7 +102,7 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
             per_mix = sel.groupby("mix_id").agg(
                 ae=("e", lambda x: np.mean(np.abs(x))), ap=("p", lambda x: np.mean(np.abs(x))), be=("e", "mean")
             )
-            per_mix["bp"] = sel.groupby("mix_id")["p"].mean()
+            per_mix[["bp", "mr", "mi"]] = sel.groupby("mix_id")[["p", "mr", "mi"]].mean()
             row = {"air_phase": air, "contact_strain": strain, "confinement": confined}
             row |= {"compaction_pressure_Pa": pressure, "temperature_C": T}
             row["n_mixes"] = len(per_mix)
@@ -106,9 +112,13 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
                 ("ap", "abs_phase_deg"),
                 ("be", "bias_logE_pct"),
                 ("bp", "bias_phase_deg"),
+                ("mr", "missing_storage_pct"),
+                ("mi", "missing_loss_pct"),
             ):
                 lo, hi = t_interval(per_mix[col].to_numpy())
                 row |= {name: per_mix[col].mean(), f"{name}_ci_low": lo, f"{name}_ci_high": hi}
+            row["missing_phase_deg"] = float(np.degrees(np.arctan2(per_mix["mi"].mean(), per_mix["mr"].mean())))
+            row["binder_delta_deg"] = float(sel["binder_delta_mix_deg"].mean())
             rows.append(row)
     return pd.DataFrame(rows)
 

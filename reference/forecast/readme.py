@@ -7,7 +7,8 @@ Reads ``<label>_crossval.csv``, ``<label>_per_mix.csv``, ``<label>_costs.csv``, 
 and ``<label>_seed_spread.csv`` for the labels ``default`` and ``reference``, the binder's reading and
 extrapolation tables (``binder_reading.csv`` with ``binder_reading_paired.csv``,
 ``binder_extrapolation_summary.csv``, rendered by ``asphalt_nscd.forecast.binder_report``) and the size
-study's ``size_study_summary.csv``, the candidate physics ``physics_probe.csv`` and the sample variants' cost
+study's ``size_study_summary.csv``, the candidate physics ``physics_probe.csv``, the answer to binder in place
+of air ``volumetric_sensitivity.csv`` and the sample variants' cost
 ``variant_cost.csv``; a table that is missing leaves its section out.
 """
 
@@ -225,7 +226,8 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
         "",
         "`dem_physical` fits nothing on mixes; here it forecasts every mix of the default run's samples with the air "
         "voids in the mastic (the default), added to the mortar at the fine aggregate's scale, or in pockets between "
-        "the stones, the bridges dense and their section reduced by the pockets' share of the matrix "
+        "the stones, the bridges dense and their section reduced by the pockets' share of the matrix, or in the "
+        "binder, every inclusion's fraction then taken over the space it shares with the air "
         "(`forecast.dem.air_phase`), with the skeleton contacts also touching as Hertz contacts of the stones at "
         "the test's strain amplitude (`forecast.dem.contact_strain`, in parallel with their mastic films; none: "
         "the default), their patches kept at the size the compactor's 600 kPa pressed them to (AASHTO T 312; "
@@ -270,6 +272,71 @@ def physics_section(pp: pd.DataFrame | None) -> list[str]:
             f"{pp['contact_strain'].max():g}, is the top of the range AASHTO T 342 allows (50–150 microstrain): "
             "a choice of it is a choice at its bound.",
         ]
+    return L + missing_section(pp)
+
+
+def missing_section(pp: pd.DataFrame) -> list[str]:
+    """What ``dem_physical`` misses as a complex modulus, per temperature, in the default configuration and
+    under the variant chosen in the fold (``physics_probe.py``'s ``missing_*`` columns)."""
+    if "missing_storage_pct" not in pp:  # a table written before the missing modulus was recorded
+        return []
+    L = [
+        "",
+        "### What it misses, as a complex modulus",
+        "",
+        "Each cell's (E\\*_m − E\\*_f) / \\|E\\*_m\\|: the storage modulus missing (in phase with the strain) "
+        "and the loss modulus missing (in quadrature), in percent of the measured \\|E*\\| (the mix's mean, then "
+        "the mean over the mixes, 95 % t interval), and the phase angle of that mean (–: both intervals hold "
+        "zero), beside the binder's mean phase angle at the same cells. A missing elastic part reads near 0°, a "
+        "part that behaves like the binder near the binder's phase angle. The residual is linear, so a mix "
+        "forecast too stiff weighs more than one forecast too soft by the same log ratio.",
+        "",
+        "| dem_physical | temperature (°C) | storage (%) | loss (%) | its phase (°) | binder's phase (°) |",
+        "|---|---|---|---|---|---|",
+    ]
+    default = pp[pp.index < pp.index[pp["temperature_C"].isna()][1]]  # the first variant: the default configuration
+
+    def phase(r) -> str:
+        held = [r[f"missing_{k}_pct_ci_low"] <= 0 <= r[f"missing_{k}_pct_ci_high"] for k in ("storage", "loss")]
+        return "–" if all(held) else f"{r['missing_phase_deg']:.0f}"
+
+    rows = [("default configuration", default), ("chosen in the fold", pp[pp["air_phase"] == "chosen in the fold"])]
+    for label, g in rows:
+        for _, r in g[g["temperature_C"].notna()].sort_values("temperature_C").iterrows():
+            L.append(
+                f"| {label} | {r['temperature_C']:.1f} | "
+                f"{_ci(r['missing_storage_pct'], r['missing_storage_pct_ci_low'], r['missing_storage_pct_ci_high'], 0)} | "
+                f"{_ci(r['missing_loss_pct'], r['missing_loss_pct_ci_low'], r['missing_loss_pct_ci_high'], 0)} | "
+                f"{phase(r)} | {r['binder_delta_deg']:.0f} |"
+            )
+    return L
+
+
+def volumetric_section(vs: pd.DataFrame | None) -> list[str]:
+    """How each forecast answers binder in place of air voids at the same VMA (``volumetric_sensitivity.py``)."""
+    if vs is None:
+        return []
+    temps = sorted(vs["temperature_C"].dropna().unique())
+    L = [
+        "",
+        "### Binder in place of air voids, at the same VMA",
+        "",
+        "At a fixed VMA the aggregate and the discrete model's sample stay the same; moving 1 % of the mix's "
+        "volume from air voids to effective binder changes each forecast by 100 d ln\\|E\\*\\| (percent; the "
+        "mean over the mixes of each mix's mean, 95 % t interval; central difference, nothing refitted: "
+        "`volumetric_sensitivity.py`). Softening: the share of mixes whose forecast softens.",
+        "",
+        "| model | all | " + " | ".join(f"{T:.1f} °C" for T in temps) + " | softening |",
+        "|---|---|" + "---|" * len(temps) + "---|",
+    ]
+    for model, g in vs.groupby("model", sort=False):
+        a = g[g["temperature_C"].isna()].iloc[0]
+        per_T = g[g["temperature_C"].notna()].sort_values("temperature_C")
+        cells = [
+            _ci(r["dlnE_pct_per_pct"], r["dlnE_pct_per_pct_ci_low"], r["dlnE_pct_per_pct_ci_high"])
+            for _, r in [(None, a), *per_T.iterrows()]
+        ]
+        L.append(f"| {model} | " + " | ".join(cells) + f" | {100 * a['share_softening']:.0f} % |")
     return L
 
 
@@ -384,6 +451,7 @@ def render() -> str:
         "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
         "    --summary reference/forecast/size_study_summary.csv",
         "python reference/forecast/physics_probe.py . -o reference/forecast/physics_probe.csv",
+        "python reference/forecast/volumetric_sensitivity.py . -o reference/forecast/volumetric_sensitivity.csv",
         ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_physics.yaml",
         "python reference/forecast/collect.py . --label physics --models dem_physical dem_c1 dem_c2 dem_c3 dem_c4 \\",
         "    dem_p2 dem_p3 dem_selected -o reference/forecast  # with physics_costs.csv from the run's CPU records",
@@ -495,6 +563,7 @@ def render() -> str:
             for _, r in td.iterrows()
         ]
     L += physics_section(_read("physics_probe.csv"))
+    L += volumetric_section(_read("volumetric_sensitivity.csv"))
     L += physics_ladder_section(
         _read("default_crossval.csv"),
         _read("default_per_mix.csv"),

@@ -284,3 +284,25 @@ def test_a_failed_eigenproblem_is_the_samples_input_error(monkeypatch):
     monkeypatch.setattr(dem, "pencil_projections", failing)
     with pytest.raises(InputError, match="generalized eigenproblem of its network failed.*dstevd: info 3"):
         dem.sample_response(_sample(3, n=60))
+
+
+def test_the_missing_modulus_names_the_kind_of_stiffness_missing():
+    """missing_modulus: zero for an exact forecast; a forecast lacking an elastic part misses it at
+    0 deg, one lacking a part like the binder at the binder's phase angle; a forecast too stiff misses a
+    negative storage part; magnitudes in percent of the measured |E*|."""
+    from asphalt_nscd.forecast.validation import missing_modulus
+
+    rng = np.random.default_rng(3)
+    E = rng.uniform(100.0, 3e4, 8)
+    phi = rng.uniform(5.0, 40.0, 8)
+    measured = E * np.exp(1j * np.radians(phi))
+    np.testing.assert_allclose(missing_modulus(E, phi, E, phi), 0.0, atol=1e-12)
+    for part_phase in (0.0, 60.0):  # the forecast lacks a part of 30 % of |E*_m| at part_phase
+        part = 0.3 * E * np.exp(1j * np.radians(part_phase))
+        forecast = measured - part
+        m = missing_modulus(E, phi, np.abs(forecast), np.degrees(np.angle(forecast)))
+        np.testing.assert_allclose(np.abs(m), 30.0, rtol=1e-12)
+        np.testing.assert_allclose(np.degrees(np.angle(m)), part_phase, atol=1e-9)
+    m = missing_modulus(E, phi, 2.0 * E, phi)  # twice as stiff at the same phase angle: all of E*_m too much
+    np.testing.assert_allclose(m, -100.0 * np.exp(1j * np.radians(phi)), atol=1e-9)
+    assert np.all(m.real < 0)

@@ -158,10 +158,10 @@ def test_air_in_the_mortar_is_the_dense_mortar_made_porous():
         E.append(np.abs(mortar.young(*m["mortar"])))
     assert np.all(np.abs(dense) > E[0]) and np.all(E[0] > E[1]) and np.all(E[1] < c.E_stone_Pa)
     with pytest.raises(ValueError, match="air_phase"):
-        mortar.mortar_moduli(G, d, vol, c, "binder")
+        mortar.mortar_moduli(G, d, vol, c, "asphalt")
 
 
-@pytest.mark.parametrize("air_phase", ["mastic", "mortar", "pockets"])
+@pytest.mark.parametrize("air_phase", ["mastic", "mortar", "pockets", "binder"])
 def test_a_grid_of_stones_at_once_is_each_stone_alone(air_phase):
     """mortar_moduli with the stones along a first axis (stone_Pa of shape (m, 1)) gives, row by row,
     the moduli of each stone computed alone (the same operations element by element: equal to 1e-14);
@@ -206,3 +206,23 @@ def test_the_confined_layer_meets_its_limits():
     assert abs(Ew) == pytest.approx(abs(young(3e9, Gw)) * (1 + 2 * 1.5**2), rel=1e-3)
     with pytest.raises(ValueError, match="shape factor"):
         confined_modulus(Kc, Gc, -0.1)
+
+
+def test_air_in_the_binder_is_the_mastic_without_air_and_softens_in_place_of_binder():
+    """air_phase="binder": without air it is the mastic placement exactly (the same stages on the same
+    fractions); every inclusion's fraction is taken over the space it shares with the air, so at a fixed
+    VMA air in place of binder leaves the filler's and the fine aggregate's fractions as they were and
+    softens the mortar at every condition."""
+    G, d = np.geomspace(1e3, 1e9, 12), np.linspace(80, 10, 12)
+    dense = {"binder": 0.11, "filler": 0.05, "air": 0.0, "fine": 0.38}
+    a, b = (mortar.mortar_moduli(G, d, dense, Constituents(), phase) for phase in ("binder", "mastic"))
+    for key in ("mastic", "porous_mastic", "mortar"):
+        np.testing.assert_allclose(a[key][1], b[key][1], rtol=1e-12)
+    swapped = [{"binder": 0.11 - x, "filler": 0.05, "air": 0.04 + x, "fine": 0.38} for x in (0.0, 0.01, 0.02)]
+    E = [np.abs(mortar.young(*mortar.mortar_moduli(G, d, v, Constituents(), "binder")["mortar"])) for v in swapped]
+    assert np.all(E[0] > E[1]) and np.all(E[1] > E[2])
+    fractions = [mortar.mortar_moduli(G, d, v, Constituents(), "binder") for v in swapped]
+    assert (
+        len({round(f["phi_filler"], 12) for f in fractions}) == 1
+        and len({round(f["phi_fine"], 12) for f in fractions}) == 1
+    )

@@ -149,6 +149,8 @@ def test_the_fits_jacobian_is_the_models_derivative(responses, table, step, phys
         ("mortar", 1e-4, False, None),
         ("pockets", None, True, None),
         ("pockets", None, True, 6e5),
+        ("binder", None, False, None),
+        ("binder", 1.5e-4, True, 6e5),
     ],
 )
 def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain, confined, pressure):
@@ -314,22 +316,23 @@ def test_an_unconfigured_sample_variant_is_refused(responses):
         base_only.predict({"chosen": "dem_c2@cut4_x2", "state": {}}, pd.DataFrame())
 
 
-def test_the_tabulated_mortar_with_air_in_the_mortar_is_the_direct_one(table):
-    """MixMortar(air_phase="mortar") at a packing limit and stone modulus on its grids gives the
-    direct mortar_moduli(air_phase="mortar") (the air added after the fine stage at every query), and
-    its voids soften it against the dense mortar."""
+@pytest.mark.parametrize("air_phase", ["mortar", "binder"])
+def test_the_tabulated_porous_mortar_is_the_direct_one(table, air_phase):
+    """MixMortar with the air in the mortar (added after the fine stage at every query) or in the binder
+    (every inclusion's fraction over the space it shares with the air) at a packing limit and stone
+    modulus on its grids gives the direct mortar_moduli, and its voids soften it against the dense mortar."""
     from asphalt_nscd.forecast.mortar import Constituents, mortar_moduli, young
 
     rows = table[table["mix_id"] == "211"]
     v = phase_volumes(rows.iloc[0], 4.0)
     G, d = rows["binder_G_mix_MPa"].to_numpy() * 1e6, rows["binder_delta_mix_deg"].to_numpy()
-    mm = physical.MixMortar(G, d, v, air_phase="mortar")
+    mm = physical.MixMortar(G, d, v, air_phase=air_phase)
     E_stone = float(physical.E_STONE_GRID[2])
     Em, Gm = mm.moduli(0.8, E_stone)
-    direct = mortar_moduli(G, d, v, Constituents(E_stone_Pa=E_stone, fine_packing=0.8), "mortar")
+    direct = mortar_moduli(G, d, v, Constituents(E_stone_Pa=E_stone, fine_packing=0.8), air_phase)
     np.testing.assert_allclose(Em, young(*direct["mortar"]), rtol=2e-3)
     np.testing.assert_allclose(Gm, direct["mastic"][1], rtol=1e-9)
-    dense = physical.MixMortar(G, d, {**v, "air": 0.0}, air_phase="mortar").moduli(0.8, E_stone)[0]
+    dense = physical.MixMortar(G, d, {**v, "air": 0.0}, air_phase=air_phase).moduli(0.8, E_stone)[0]
     assert np.all(np.abs(Em) < np.abs(dense))
 
 
@@ -396,7 +399,7 @@ def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_rang
         "compaction_pressure": 6e5,
     }
     for bad, key in (
-        ({"air_phase": "binder"}, "air phase"),
+        ({"air_phase": "asphalt"}, "air phase"),
         ({"contact_strain": 0.0}, "contact strain"),
         ({"compaction_pressure_Pa": "high"}, "compaction pressure 'high'; expected a number"),
     ):
@@ -518,3 +521,48 @@ def test_the_page_states_the_physics_the_ladder_ran_with(responses, table):
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": pressed}]}))
     assert "stone contacts whose patches pressed by the compaction at 600 kPa" in line and "films only" not in line
     assert physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": {}}]}) == []
+
+
+def test_binder_in_place_of_air_is_each_models_exact_derivative(responses, table):
+    """reference/forecast/volumetric_sensitivity.py: moving volume from air to binder at a fixed VMA gives,
+    for Witczak 1-37A (log-linear in Va and Vbeff / VMA), its analytic derivative 100 ln(10) (-a_Va +
+    a_Vr / VMA) per 1 %; for dem_physical the central difference of the model itself (each mix's ln|E*|
+    at +-0.5 %, nothing refitted, the sample unchanged); every mix and temperature present."""
+    import importlib.util
+
+    from asphalt_nscd.forecast.baselines import PUBLISHED
+
+    path = Path(__file__).resolve().parents[2] / "reference" / "forecast" / "volumetric_sensitivity.py"
+    spec = importlib.util.spec_from_file_location("volumetric_sensitivity", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    rows = table.dropna(subset=["E_norm_MPa", "phase_deg"]).reset_index(drop=True)
+    variant = (("dem_physical", ("mastic", None, False, None)),)
+    got = module.sensitivity(rows, responses, 4.0, dem_variants=variant)
+    assert set(got["model"]) == {"dem_physical", *module.FORMULAS}
+    assert len(got) == len(got["model"].unique()) * (1 + rows["temperature_C"].nunique())
+    c = PUBLISHED["witczak_1_37a"]
+    per_mix = rows.groupby("mix_id").first()
+    exact = 100.0 * np.log(10.0) * (-c["a_Va"] + c["a_Vr"] / (per_mix["Va_pct"] + per_mix["Vbeff_pct"]))
+    w = got[(got["model"] == "witczak_1_37a") & got["temperature_C"].isna()]
+    np.testing.assert_allclose(w["dlnE_pct_per_pct"].item(), exact.mean(), rtol=1e-8)
+    model = physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics())
+    state = model.fit(rows)
+    ln = [
+        np.log(model.predict(state, rows.assign(Vbeff_pct=rows["Vbeff_pct"] + d, Va_pct=rows["Va_pct"] - d))[0])
+        for d in (0.5, -0.5)
+    ]
+    one = rows.assign(s=100.0 * (ln[0] - ln[1])).groupby("mix_id")["s"].mean().mean()
+    d = got[(got["model"] == "dem_physical") & got["temperature_C"].isna()]
+    np.testing.assert_allclose(d["dlnE_pct_per_pct"].item(), one, rtol=1e-10)
+    assert np.isfinite(got["dlnE_pct_per_pct"]).all()
+
+    # with the air in the binder the aggregate's packing does not move: binder in place of air stiffens every cell
+    binder = physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics("binder"))
+    state = binder.fit(rows)
+    E = [
+        binder.predict(state, rows.assign(Vbeff_pct=rows["Vbeff_pct"] + d, Va_pct=rows["Va_pct"] - d))[0]
+        for d in (0.5, -0.5)
+    ]
+    assert np.all(E[0] > E[1])

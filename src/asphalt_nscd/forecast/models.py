@@ -154,3 +154,20 @@ def routed_tables(matched: pd.DataFrame, curves: dict, binder_of_mix: pd.Series,
     from .validation import with_binder_route
 
     return {route: with_binder_route(matched, curves, binder_of_mix, route) for route in routes}
+
+
+def run_forecast_inputs(run) -> tuple[pd.DataFrame, dict]:
+    """A finished run's forecast inputs: its matched table with the binder through its master curve (rows
+    with a measured |E*| and phase angle) and its samples' responses (mix_id -> list of
+    :class:`.dem.Response`), from ``<run>/results/forecast/`` (``matched.csv``, ``binder_curves.json``,
+    ``responses/*.npz``). Raises InputError naming a file that is missing or malformed."""
+    from pathlib import Path
+
+    from ..lab.matched import read_matched
+    from .validation import binder_ids
+
+    f = Path(run) / "results" / "forecast"
+    matched = read_matched(f / "matched.csv")
+    table = routed_tables(matched, read_curves(f / "binder_curves.json"), binder_ids(matched), ["curve"])["curve"]
+    table = table.dropna(subset=["E_norm_MPa", "phase_deg"]).reset_index(drop=True)
+    return table, read_responses(sorted((f / "responses").glob("*.npz")))

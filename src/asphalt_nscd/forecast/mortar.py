@@ -6,7 +6,13 @@ aggregate (0.075 mm to the PSD cut) = mortar, the matrix between the discrete mo
 Where the air voids sit is a choice (``air_phase``): ``mastic`` (the default) homogenizes them
 with the filler; ``mortar`` adds them last, to the mortar of dense mastic and fine aggregate (voids
 of 0.1 mm to a few mm are the size of the fine aggregate, not of the filler); ``pockets`` leaves
-the mortar dense, the voids between the coarse stones (:mod:`asphalt_nscd.forecast.physical`).
+the mortar dense, the voids between the coarse stones (:mod:`asphalt_nscd.forecast.physical`);
+``binder`` puts them first, in the binder, and takes every inclusion's fraction over the whole space
+it shares with the binder and the air (filler in binder + air, fine aggregate in binder + air +
+filler). In the other placements an inclusion's fraction is taken over a matrix that leaves some of
+the air out, so at a fixed VMA less binder and more air pack the filler or the fine aggregate closer
+and stiffen the mortar; in ``binder`` the aggregate's packing is set by the aggregate alone, and air
+in place of binder softens the mortar at every condition.
 Every phase is isotropic and linear viscoelastic; by the elastic-viscoelastic correspondence
 principle (Hashin 1965, J. Appl. Mech. 32, 630-636) an elastic estimate written for complex
 bulk and shear moduli K*, G* gives the composite's complex moduli at one frequency and
@@ -222,7 +228,7 @@ class Constituents:
 
 
 #: where the air voids enter the mortar (module docstring)
-AIR_PHASES = ("mastic", "mortar", "pockets")
+AIR_PHASES = ("mastic", "mortar", "pockets", "binder")
 
 
 def mortar_moduli(
@@ -244,7 +250,10 @@ def mortar_moduli(
     constituents : the physical constants (:class:`Constituents`).
     air_phase : ``mastic`` (air in the mastic, then the fine aggregate) or ``mortar`` (the fine
         aggregate in the dense mastic, then the air in that mortar; ``porous_mastic`` is then the
-        mastic itself) or ``pockets`` (no air in the mortar: ``mortar`` with the air left out).
+        mastic itself) or ``pockets`` (no air in the mortar: ``mortar`` with the air left out) or
+        ``binder`` (air in the binder, then the filler, then the fine aggregate, each inclusion's
+        fraction over the whole space it shares with the air; ``mastic`` and ``porous_mastic`` are
+        then both the porous mastic).
     stone_Pa : the stone's (K_s, G_s) in Pa, arrays broadcasting with the conditions (several
         stones at once: shape (m, 1) against the conditions' (n,) gives (m, n) moduli); default
         ``constituents.stone()``.
@@ -271,6 +280,14 @@ def mortar_moduli(
     phi_f = volumes["filler"] / mastic
     G = np.broadcast_to(G, np.broadcast(G, Ks, Gs).shape)
     Kb = np.full(G.shape, complex(constituents.K_binder_Pa))
+    if air_phase == "binder":
+        phi_a = volumes["air"] / (volumes["binder"] + volumes["air"])
+        b = differential_scheme(Kb, G, [Inclusion(0.0, 0.0, phi_a)], 1.0)
+        phi_f = volumes["filler"] / (mastic + volumes["air"])
+        m = hs_cap(*differential_scheme(*b, [Inclusion(Ks, Gs, phi_f)], constituents.filler_packing), b, Ks, Gs, phi_f)
+        phi_s = volumes["fine"] / (mastic + volumes["air"] + volumes["fine"])
+        r = hs_cap(*differential_scheme(*m, [Inclusion(Ks, Gs, phi_s)], constituents.fine_packing), m, Ks, Gs, phi_s)
+        return {"mastic": m, "porous_mastic": m, "mortar": r, "phi_filler": phi_f, "phi_air": phi_a, "phi_fine": phi_s}
     m = hs_cap(
         *differential_scheme(Kb, G, [Inclusion(Ks, Gs, phi_f)], constituents.filler_packing), (Kb, G), Ks, Gs, phi_f
     )

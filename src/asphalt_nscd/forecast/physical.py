@@ -145,7 +145,8 @@ class MixMortar:
     air_phase : where the air voids enter (:data:`.mortar.AIR_PHASES`): ``mastic`` (the fine aggregate
         then goes into porous mastic) or ``mortar`` (into dense mastic, the air added to the mortar
         at every query, after the fine stage's cap) or ``pockets`` (a dense mortar, the air's share
-        of the matrix, :attr:`pockets`, taken off the bridges' section by :class:`PhysicalDem`).
+        of the matrix, :attr:`pockets`, taken off the bridges' section by :class:`PhysicalDem`) or
+        ``binder`` (the air in the binder, every inclusion's fraction over the space it shares with it).
     """
 
     def __init__(self, G_binder_Pa, delta_deg, volumes: dict, air_phase: str = "mastic"):
@@ -160,7 +161,7 @@ class MixMortar:
         from .mortar import Constituents, Inclusion, differential_scheme, hs_upper, mortar_moduli, shear_bulk
 
         self.air_phase = air_phase
-        air_in_matrix = volumes["air"] if air_phase == "mastic" else 0.0
+        air_in_matrix = volumes["air"] if air_phase in ("mastic", "binder") else 0.0
         self.phi_fine = volumes["fine"] / (volumes["binder"] + volumes["filler"] + air_in_matrix + volumes["fine"])
         #: the air's fraction of the mortar, added at every query (``air_phase="mortar"``; 0 otherwise)
         self.phi_air_mortar = (
@@ -491,29 +492,38 @@ class PhysicalDem:
     def _weights(self) -> str:
         return "mortar" if self.skeleton == "parabolic" else "film"
 
-    def _log_modulus(self, cells: list, n: int, constants: dict) -> np.ndarray:
-        """ln E*_sample (Pa, complex) of every row (NaN where a mix has no usable sample)."""
+    @property
+    def _touches(self) -> bool:
+        """Whether the film skeleton's contacts also touch (Hertz contacts or the compaction's patches: a fixed
+        point in the sample's modulus, which the fits difference as a whole)."""
+        return self.skeleton == "film" and self.bond_physics.touching
+
+    def _log_modulus(self, cells: list, n: int, constants: dict, parts: list | None = None) -> np.ndarray:
+        """ln E*_sample (Pa, complex) of every row (NaN where a mix has no usable sample); ``parts``: the
+        cells' :meth:`_bond_parts` at ``constants`` when already computed."""
         out = np.full(n, np.nan + 0j)
-        for (idx, *_), parts in zip(cells, self._bond_parts(cells, constants)):
+        parts = self._bond_parts(cells, constants) if parts is None else parts
+        for (idx, *_), cell_parts in zip(cells, parts):
             logs = []
-            for resp, e1, zeta in parts:
+            for resp, e1, zeta in cell_parts:
                 E = e1 * resp.factor(zeta, skeleton=self._weights)
-                if self.skeleton == "film" and self.bond_physics.touching:
+                if self._touches:
                     E = self._with_touching(E, e1, zeta, resp, constants)
                 logs.append(np.log(E))
             out[idx] = np.mean(logs, axis=0)
         return out
 
-    def _log_modulus_jacobian(self, cells: list, n: int, x) -> np.ndarray:
+    def _log_modulus_jacobian(self, cells: list, n: int, x, base: list | None = None) -> np.ndarray:
         """d ln E*_sample / d x (complex (n, p), x the free constants in :attr:`free` order) by the chain
         rule through the Schur sum: ln E = mean over the responses of ln e_1 + ln F(zeta), so
         d ln E = d e_1 / e_1 + (F'(zeta) / F(zeta)) d zeta, F and F' exact (one pass of
         :meth:`.dem.Response.factor_and_slope`), d e_1 and d zeta by forward differences of the cheap
         part (:meth:`_bond_parts`, step :data:`JACOBIAN_STEP` of each constant's range, taken inward
         at an upper bound). Without the touching contacts only (their fixed point is not differentiated
-        here; :meth:`fit` uses finite differences of the whole model there)."""
+        here; :meth:`fit` uses finite differences of the whole model there). ``base``: the cells'
+        :meth:`_bond_parts` at ``x`` when already computed (the residuals' call at the same point)."""
         x = np.asarray(x, float)
-        base = self._bond_parts(cells, self.constants(x))
+        base = self._bond_parts(cells, self.constants(x)) if base is None else base
         shifted = []
         for j, name in enumerate(self.free):
             lo, hi = CONSTANTS[name].low, CONSTANTS[name].high
@@ -578,17 +588,22 @@ class PhysicalDem:
         lo = np.array([CONSTANTS[k].low for k in self.free])
         hi = np.array([CONSTANTS[k].high for k in self.free])
 
+        last: dict = {}  # the bond parts of the last residuals' point, which SciPy's Jacobian call then repeats
+
         def resid(x):
-            r = self._log_modulus(cells, len(rows), self.constants(x)) - y
+            c = self.constants(x)
+            last["x"], last["parts"] = np.array(x, float), self._bond_parts(cells, c)
+            r = self._log_modulus(cells, len(rows), c, last["parts"]) - y
             return np.concatenate([r.real, r.imag])
 
         def jac(x):
-            J = self._log_modulus_jacobian(cells, len(rows), x)
+            base = last["parts"] if np.array_equal(last.get("x"), x) else None
+            J = self._log_modulus_jacobian(cells, len(rows), x, base)
             return np.concatenate([J.real, J.imag])
 
         # the Jacobian through the Schur sum's exact slope; finite differences of the whole model where
         # the touching contacts' fixed point enters (diff_step: relative to x)
-        jacobian = "2-point" if (self.skeleton == "film" and self.bond_physics.touching) else jac
+        jacobian = "2-point" if self._touches else jac
         starts = [lo + f * (hi - lo) for f in (0.5, 0.25, 0.75)[: max(1, self.starts)]]
         fits = [
             least_squares(resid, x0, jac=jacobian, bounds=(lo, hi), x_scale=hi - lo, diff_step=1e-4) for x0 in starts

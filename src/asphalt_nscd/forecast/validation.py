@@ -444,6 +444,29 @@ SPLIT_COLUMNS = [
 ]
 
 
+def missing_modulus(E_meas, phase_meas_deg, E_pred, phase_pred_deg) -> np.ndarray:
+    """What a forecast misses as a complex modulus, relative to the measured one.
+
+    m = 100 (E*_meas - E*_pred) / |E*_meas| per cell, E* = |E*| e^{i phi}: its real part is the storage
+    modulus missing (in phase with the strain), its imaginary part the loss modulus missing (in
+    quadrature), both in percent of the measured |E*|. Its phase angle says what kind of stiffness is missing: an
+    elastic part near 0 deg, a part that behaves like the binder near the binder's phase angle. A
+    forecast too stiff gives a negative real part. The residual is linear, so it weighs a mix
+    forecast too stiff more than one forecast too soft by the same log ratio.
+
+    Parameters
+    ----------
+    E_meas, E_pred : (n,) |E*| (any one unit). phase_meas_deg, phase_pred_deg : (n,) degrees.
+
+    Returns
+    -------
+    (n,) complex, percent.
+    """
+    measured = np.asarray(E_meas, float) * np.exp(1j * np.radians(np.asarray(phase_meas_deg, float)))
+    predicted = np.asarray(E_pred, float) * np.exp(1j * np.radians(np.asarray(phase_pred_deg, float)))
+    return 100.0 * (measured - predicted) / np.abs(measured)
+
+
 def error_split(rows: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
     """Each model's held-out |E*| error split by oracle offsets into the mix's level, its
     temperature dependence and the rest.
