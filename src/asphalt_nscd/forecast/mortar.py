@@ -3,20 +3,14 @@
 Phases (volume fractions: :func:`asphalt_nscd.forecast.formulation.phase_volumes`): binder +
 filler (below 0.075 mm) = mastic; mastic + air voids = porous mastic; porous mastic + fine
 aggregate (0.075 mm to the PSD cut) = mortar, the matrix between the discrete model's spheres.
-Where the air voids sit is a choice (``air_phase``): ``mastic`` (the default) homogenizes them
-with the filler; ``mortar`` adds them last, to the mortar of dense mastic and fine aggregate (voids
-of 0.1 mm to a few mm are the size of the fine aggregate, not of the filler); ``pockets`` leaves
-the mortar dense, the voids between the coarse stones (:mod:`asphalt_nscd.forecast.physical`);
-``binder`` puts them first, in the binder, and takes every inclusion's fraction over the whole space
-it shares with the binder and the air (filler in binder + air, fine aggregate in binder + air +
-filler). In the other placements an inclusion's fraction is taken over a matrix that leaves some of
-the air out, so at a fixed VMA less binder and more air pack the filler or the fine aggregate closer
-and stiffen the mortar; in ``binder`` the aggregate's packing is set by the aggregate alone, and air
-in place of binder softens the mortar at every condition.
-Every phase is isotropic and linear viscoelastic; by the elastic-viscoelastic correspondence
-principle (Hashin 1965, J. Appl. Mech. 32, 630-636) an elastic estimate written for complex
-bulk and shear moduli K*, G* gives the composite's complex moduli at one frequency and
-temperature. Stone (filler and fine aggregate): real K_s, G_s from E_s, nu_s. Binder: complex
+Where the air voids sit is a choice (``air_phase``, :data:`AIR_PHASES`): ``mastic`` (the default)
+homogenizes them with the filler; ``mortar`` adds them last, to the mortar of dense mastic and fine
+aggregate (voids of 0.1 mm to a few mm are the size of the fine aggregate, not of the filler);
+``pockets`` leaves the mortar dense, the voids between the coarse stones; ``binder`` puts them in
+the binder, every inclusion's fraction over the space it shares with the air. Every phase is
+isotropic and linear viscoelastic; by the correspondence principle (Hashin 1965, J. Appl. Mech. 32,
+630-636) an elastic estimate written for complex K*, G* gives the composite's complex moduli at one
+frequency and temperature. Stone (filler and fine aggregate): real K_s, G_s from E_s, nu_s. Binder: complex
 G_b* from its master curve, real bulk modulus K_b (glassy binder is compressible; at warm
 temperatures |G_b*| << K_b and the binder is nearly incompressible). Air: K = G = 0.
 
@@ -227,7 +221,11 @@ class Constituents:
         return [k for k, (lo, hi) in self.RANGES.items() if not lo <= getattr(self, k) <= hi]
 
 
-#: where the air voids enter the mortar (module docstring)
+#: where the air voids enter the mortar (module docstring). In ``mastic``, ``mortar`` and ``pockets`` an
+#: inclusion's fraction is taken over a matrix that leaves some of the air out, so at a fixed VMA less binder
+#: and more air pack the filler or the fine aggregate closer and stiffen the mortar; in ``binder`` (filler in
+#: binder + air, fine aggregate in binder + air + filler) the aggregate's packing is set by the aggregate
+#: alone, and air in place of binder softens the mortar at every condition.
 AIR_PHASES = ("mastic", "mortar", "pockets", "binder")
 
 
