@@ -449,10 +449,10 @@ def missing_modulus(E_meas, phase_meas_deg, E_pred, phase_pred_deg) -> np.ndarra
 
     m = 100 (E*_meas - E*_pred) / |E*_meas| per cell, E* = |E*| e^{i phi}: its real part is the storage
     modulus missing (in phase with the strain), its imaginary part the loss modulus missing (in
-    quadrature), both in percent of the measured |E*|. Its phase angle says what kind of stiffness is missing: an
-    elastic part near 0 deg, a part that behaves like the binder near the binder's phase angle. A
-    forecast too stiff gives a negative real part. The residual is linear, so it weighs a mix
-    forecast too stiff more than one forecast too soft by the same log ratio.
+    quadrature), both in percent of the measured |E*|. Its phase angle says what kind of stiffness is
+    missing: an elastic part near 0 deg, a part that behaves like the binder near the binder's phase
+    angle. A forecast too stiff at the measured phase angle gives a negative real part. The residual is
+    linear, so it weighs a mix forecast too stiff more than one forecast too soft by the same log ratio.
 
     Parameters
     ----------
