@@ -29,6 +29,7 @@ choices counted in ``chosen``).
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,7 @@ from asphalt_nscd.diagnosis.scores import t_interval
 from asphalt_nscd.forecast.models import run_forecast_inputs
 from asphalt_nscd.forecast.physical import BondPhysics, PhysicalDem
 from asphalt_nscd.forecast.validation import missing_modulus
-from asphalt_nscd.io import write_csv
+from asphalt_nscd.io import InputError, write_csv
 
 #: the gyratory compactor's vertical pressure, Pa (AASHTO T 312)
 T312_PA = 6e5
@@ -129,7 +130,11 @@ def main(argv=None) -> int:
     ap.add_argument("--cut-mm", type=float, default=4.0, help="the run's forecast.dem.cut_mm (default 4)")
     ap.add_argument("-o", "--output", type=Path, required=True)
     args = ap.parse_args(argv)
-    write_csv(probe(args.run, args.cut_mm), args.output)
+    try:
+        write_csv(probe(args.run, args.cut_mm), args.output)
+    except InputError as err:  # a missing or malformed input of the run: its one-line message
+        print(f"error: {err}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -23,6 +23,7 @@ softens answers the volumetrics with the opposite sign.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +33,7 @@ from asphalt_nscd.diagnosis.scores import t_interval
 from asphalt_nscd.forecast import baselines
 from asphalt_nscd.forecast.models import run_forecast_inputs
 from asphalt_nscd.forecast.physical import BondPhysics, PhysicalDem
-from asphalt_nscd.io import write_csv
+from asphalt_nscd.io import InputError, write_csv
 
 #: the half step of the central difference, % of the mix's volume
 STEP_PCT = 0.5
@@ -103,7 +104,11 @@ def main(argv=None) -> int:
     ap.add_argument("--cut-mm", type=float, default=4.0, help="the run's forecast.dem.cut_mm (default 4)")
     ap.add_argument("-o", "--output", type=Path, required=True)
     args = ap.parse_args(argv)
-    write_csv(sensitivity(*run_forecast_inputs(args.run), args.cut_mm), args.output)
+    try:
+        write_csv(sensitivity(*run_forecast_inputs(args.run), args.cut_mm), args.output)
+    except InputError as err:  # a missing or malformed input of the run: its one-line message
+        print(f"error: {err}", file=sys.stderr)
+        return 1
     return 0
 
 
