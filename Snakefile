@@ -63,12 +63,15 @@ rule all:
 
 
 # Snakemake reports a failed rule as "check log file(s)": print the project's own one-line errors (file, row or
-# key, what was expected) and its warnings (a material card that loses accuracy, a unit or a parameter out of
-# range, phases that look like radians: often the cause of a later failure), from the rule logs of this run.
+# key, what was expected), the exception line of a command that failed unexpectedly, and the warnings (a material
+# card that loses accuracy, a unit or a parameter out of range, phases that look like radians: often the cause of a
+# later failure), from the rule logs of this run.
 onerror:
     for line in plan.console_messages(RUN_START, "warning"):
         print(f"warning: {line}", file=sys.stderr)
     for line in plan.console_messages(RUN_START, "error"):
+        print(line, file=sys.stderr)
+    for line in plan.crash_messages(RUN_START):
         print(line, file=sys.stderr)
 
 

@@ -894,6 +894,30 @@ def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str
     return out
 
 
+def crash_messages(since: float, log_dir: str = "logs") -> list[str]:
+    """The unexpected failures in the rule logs under ``log_dir`` written since ``since`` (epoch
+    seconds): for each log that ends a command in a Python traceback, ``log: failed unexpectedly:
+    <the exception line> (the traceback is in the log)``, in the order of the logs' times. A bad
+    input ends in the project's one-line error instead (:func:`console_messages`); this names the
+    rest, which Snakemake shows only as "check log file(s)"."""
+    root = Path(log_dir)
+    if not root.is_dir():
+        return []
+    logs = sorted(
+        (p for p in root.rglob("*.log") if p.is_file() and p.stat().st_mtime >= since), key=lambda p: p.stat().st_mtime
+    )
+    out = []
+    for path in logs:
+        lines = path.read_text(errors="replace").splitlines()
+        starts = [k for k, line in enumerate(lines) if line.startswith("Traceback (most recent call last):")]
+        if not starts:
+            continue
+        tail = [line for line in lines[starts[-1] + 1 :] if line.strip() and not line[0].isspace()]
+        if tail:
+            out.append(f"{path}: failed unexpectedly: {tail[0]} (the traceback is in the log)")
+    return out
+
+
 # forecast: a mix's |E*| and phase from its binder, gradation and volumetrics (workflow/rules/forecast.smk)
 #: the working area of the forecast chain of make run (forecast.work_dir's default)
 FORECAST = "results/forecast"

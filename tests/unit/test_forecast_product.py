@@ -140,3 +140,37 @@ def test_an_unbounded_interval_survives_the_state_and_is_said(trained, tmp_path)
     level1 = pd.read_csv(dest / "level1_tables.csv", dtype={"mix_id": str})
     assert np.isinf(level1["10 Hz high"]).all() and (level1["10 Hz low"] == 0).all()
     assert "interval is unbounded" in (dest / "211.md").read_text()
+
+
+@pytest.mark.parametrize("form", ["Va_Vbeff", "VMA_VFA"])
+def test_every_volumetric_form_of_a_mix_forecasts_alike(trained, tmp_path, form):
+    """The example's volumetrics given as Va with Vbeff, or as VMA with VFA (no Pb: its column is
+    empty), go through forecast-mix and forecast what the Pb, Gmm, Gmb, Gb, Gsb form forecasts, with
+    every model of the state (none reads Pb), to 1e-9."""
+    import yaml
+
+    out, cfg = trained
+    example = yaml.safe_load(EXAMPLE.read_text())
+    v = read_mix_file(EXAMPLE)[0].volumetrics
+    given = (
+        {"Va": v["Va_pct"], "Vbeff": v["Vbeff_pct"]}
+        if form == "Va_Vbeff"
+        else {"VMA": v["VMA_pct"], "VFA": v["VFA_pct"]}
+    )
+    mix = example["mixes"][0]
+    mix["binder"]["file"] = str(EXAMPLE.parent / mix["binder"]["file"])
+    mix["gradation"] = str(EXAMPLE.parent / mix["gradation"])
+    mix["volumetrics"] = {k: float(x) for k, x in given.items()}
+    path = tmp_path / f"mix_{form}.yaml"
+    path.write_text(yaml.safe_dump(example, sort_keys=False))
+    assert read_mix_file(path)[0].volumetrics["Pb_pct"] is None
+    published = {}
+    for name, mix_file in (("pb", EXAMPLE), (form, path)):
+        dest = tmp_path / name
+        assert main(["forecast-mix", str(mix_file), "--state", str(out / "trained"), *cfg, "-o", str(dest)]) == 0
+        published[name] = pd.read_csv(dest / "forecast.csv", dtype={"mix_id": str})
+    a, b = published["pb"], published[form]
+    m = a.merge(b, on=["mix_id", "temperature_C", "frequency_Hz", "model"], suffixes=("_pb", "_form"))
+    assert len(m) == len(a) == len(b) and len(set(m["model"])) >= 6
+    assert np.max(np.abs(np.log(m["E_norm_MPa_form"] / m["E_norm_MPa_pb"]))) < 1e-9
+    assert np.max(np.abs(m["phase_deg_form"] - m["phase_deg_pb"])) < 1e-9

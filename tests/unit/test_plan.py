@@ -658,7 +658,35 @@ def test_console_messages_of_this_run_once_each_and_both_kinds_printed_on_error(
     ]
     snakefile = (Path(__file__).resolve().parents[2] / "Snakefile").read_text()
     onerror = re.search(r"^onerror:\n((?:    .*\n)+)", snakefile, re.M).group(1)
-    assert '"warning"' in onerror and '"error"' in onerror
+    assert '"warning"' in onerror and '"error"' in onerror and "crash_messages" in onerror
+
+
+def test_a_command_that_failed_unexpectedly_is_named_with_its_exception_line(tmp_path):
+    """A rule log that ends in a Python traceback (the last of chained ones) gives its exception
+    line on the console; a log with the project's one-line error, or an older one, gives none."""
+    import os
+    import time
+
+    old = tmp_path / "old.log"
+    old.write_text("Traceback (most recent call last):\n  File x\nKeyError: 'old'\n")
+    os.utime(old, (time.time() - 100, time.time() - 100))
+    (tmp_path / "forecast").mkdir()
+    crashed = tmp_path / "forecast" / "mix.log"
+    crashed.write_text(
+        "mix 1: packing its sample\n"
+        'Traceback (most recent call last):\n  File "a.py", line 1, in <module>\n    f()\nValueError: first\n\n'
+        "During handling of the above exception, another exception occurred:\n\n"
+        'Traceback (most recent call last):\n  File "b.py", line 216, in extrapolation\n'
+        "    if np.isfinite(first[c]):\n"
+        "TypeError: ufunc 'isfinite' not supported for the input types\n"
+    )
+    (tmp_path / "refused.log").write_text("error: mix.yaml: key 'volumetrics.Va': expected a number\n")
+    start = time.time() - 10
+    assert plan.crash_messages(start, str(tmp_path)) == [
+        f"{crashed}: failed unexpectedly: TypeError: ufunc 'isfinite' not supported for the input types "
+        "(the traceback is in the log)"
+    ]
+    assert plan.crash_messages(start, str(tmp_path / "absent")) == []
 
 
 def test_a_forecast_sample_folder_names_its_variant_and_its_settings(tmp_path):

@@ -86,8 +86,10 @@ class MixInput:
 
     def formulation(self) -> dict:
         """The per-mix columns of a matched table (:data:`asphalt_nscd.lab.matched.FORMULATION`, and
-        ``pg_high_C, pg_low_C`` when known): ``rho34_pct ... Vbeff_pct``."""
-        out = {**self.witczak, **{k: self.volumetrics[k] for k in ("Pb_pct", "Va_pct", "Vbeff_pct")}}
+        ``pg_high_C, pg_low_C`` when known): ``rho34_pct ... Vbeff_pct``, floats; a value the report
+        does not give (Pb from Va with Vbeff, or VMA with VFA) is NaN, as an empty cell of a matched table."""
+        vol = {k: self.volumetrics[k] for k in ("Pb_pct", "Va_pct", "Vbeff_pct")}
+        out = {**self.witczak, **{k: float("nan") if v is None else float(v) for k, v in vol.items()}}
         if self.pg_high_C is not None:
             out.update(pg_high_C=self.pg_high_C, pg_low_C=self.pg_low_C)
         return out
