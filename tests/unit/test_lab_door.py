@@ -60,6 +60,18 @@ CASES = {
     "CRLF line ends": (_csv(TABLE).replace(b"\n", b"\r\n"), None, "same", None),
     "CR-only line ends (old spreadsheet exports)": (_csv(TABLE).replace(b"\n", b"\r"), None, "same", None),
     "trailing blank line": (_csv(TABLE) + b"\n", None, "same", None),
+    "trailing rows of empty cells (a spreadsheet export)": (
+        _csv(TABLE) + (b"," * (TABLE.shape[1] - 1) + b"\n") * 3,
+        None,
+        "same",
+        None,
+    ),
+    "tab-separated, an optional last column left empty": (
+        TABLE.assign(operator="").to_csv(index=False, sep="\t").encode(),
+        None,
+        "same",
+        None,
+    ),
     "rows shuffled": (_csv(TABLE.sample(frac=1.0, random_state=3)), None, "same", None),
     "an extra column": (_csv(TABLE.assign(operator="jd")), None, "same", None),
     "only the 10 Hz rows": (_csv(TABLE[TABLE["frequency_Hz"] == 10.0]), None, "accepted", None),

@@ -232,7 +232,12 @@ def _read_text_table(path: Path, allowed_suffixes: tuple = (".csv",)) -> pd.Data
         text = raw.decode("latin-1")
     # line endings of every origin: CR LF (Windows), LF, and CR alone (old spreadsheet exports)
     text = text.replace("\r\n", "\n").replace("\r", "\n")
-    text = text.rstrip("\n\t ") + "\n"  # trailing blank lines
+    # trailing blank lines, and trailing rows of empty cells (a spreadsheet's export of formatted empty rows); the
+    # last row's own empty cells stay (an optional last column left empty in a tab-separated file)
+    lines = text.split("\n")
+    while lines and not lines[-1].strip(" \t,;"):
+        lines.pop()
+    text = "\n".join(lines) + "\n"
     first = text.splitlines()[0]
     sep = max((",", ";", "\t"), key=first.count)
     header = next(csv.reader([first], delimiter=sep))
