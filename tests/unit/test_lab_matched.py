@@ -85,6 +85,35 @@ def test_empty_cells_are_the_mixes_to_forecast(tmp_path):
     assert set(todo["mix_id"]) == {"193"} and len(todo) == 30 and todo["phase_deg"].isna().all()
 
 
+def test_pb_is_optional_and_checked_where_given(tmp_path, shipped):
+    """No model reads the binder content Pb: a table without its column, or with one mix's cells left
+    empty, reads the same table with Pb NaN there; where given, a Vbeff it cannot fill is refused."""
+    header, *rows = _lines()
+    cells = [ln.split("\t") for ln in rows]
+    k = header.split("\t").index("Pb")
+    no_column = "\n".join("\t".join(c[:k] + c[k + 1 :]) for c in [header.split("\t"), *cells]) + "\n"
+    side = json.loads(json.dumps(SIDECAR))
+    del side["table"]["columns"]["Pb"]
+    emptied = "\n".join(
+        [header] + ["\t".join(c[:k] + [""] + c[k + 1 :]) if c[0] == "211" else "\t".join(c) for c in cells]
+    )
+    for folder, text, sidecar, gone in (
+        ("no_column", no_column, side, set(shipped["mix_id"])),
+        ("emptied", emptied + "\n", None, {"211"}),
+    ):
+        (tmp_path / folder).mkdir()
+        table = read_matched(_write(tmp_path / folder, text, sidecar))
+        nan = table["Pb_pct"].isna()
+        assert set(table.loc[nan, "mix_id"]) == gone and set(table.loc[~nan, "mix_id"]).isdisjoint(gone)
+        pd.testing.assert_frame_equal(table.drop(columns="Pb_pct"), shipped.drop(columns="Pb_pct"))
+    (tmp_path / "short").mkdir()
+    short = "\n".join(
+        [header] + ["\t".join(c[:k] + ["2.0"] + c[k + 1 :]) if c[0] == "211" else "\t".join(c) for c in cells]
+    )
+    with pytest.raises(InputError, match=r"Vbeff .* is more binder than Pb 2 % can fill"):
+        read_matched(_write(tmp_path / "short", short + "\n"))
+
+
 @pytest.mark.parametrize(
     "name,mutate,pattern",
     [

@@ -8,7 +8,8 @@ columns (:data:`COLUMNS`; units and meaning in data/README.md, "Matched binder-m
 binder_eta_Pa_s, binder_frequency_Hz, rho34_pct, rho38_pct, rho4_pct, rho200_pct, Pb_pct, Va_pct,
 Vbeff_pct`` and
 optionally ``pg_high_C, pg_low_C`` (rho34, rho38, rho4: cumulative % retained on the 19, 9.5 and
-4.75 mm sieves; rho200: % passing 0.075 mm; Pb % of mix mass; Va, Vbeff % of mix volume).
+4.75 mm sieves; rho200: % passing 0.075 mm; Pb % of mix mass, optional: no model reads it, so a column
+absent or a cell left empty reads NaN; Va, Vbeff % of mix volume).
 
 A table as published keeps its own headers and units: the ``table`` block of its JSON sidecar
 ``<table stem>.test.json`` declares them as for a lab's table (:mod:`.table_format`), with the
@@ -112,7 +113,7 @@ ALIASES = {
     "pg_high": ["pghighc", "pghigh"],
     "pg_low": ["pglowc", "pglow"],
 }
-NEEDED = ("mix", "modulus", "phase", "binder_modulus", "binder_phase", "rho34", "rho38", "rho4", "rho200", "Pb", "Va")
+NEEDED = ("mix", "modulus", "phase", "binder_modulus", "binder_phase", "rho34", "rho38", "rho4", "rho200", "Va")
 PHASE_UNITS = {"deg": 1.0, "rad": 180.0 / math.pi}
 #: what a row's frequency value means for its binder columns: Hz (the binder at the mix's frequency) or rad/s
 #: (the binder at the angular frequency of that value, i.e. at frequency / (2 pi) Hz)
@@ -366,8 +367,10 @@ def read_matched(path, sidecar=None) -> pd.DataFrame:
     else:
         out["binder_frequency_Hz"] = out["frequency_Hz"] * BINDER_FREQUENCY_UNITS[fmt.binder_frequency_unit]
     for q in ("rho34", "rho38", "rho4", "rho200", "Pb", "Va", "Vbeff", "pg_high", "pg_low"):
-        if q in found:
-            out[QUANTITY_COLUMNS[q]] = _number(path, frame, found[q], f"the {q} of the mix")
+        if q in found:  # Pb may be left empty: no model reads it (its checks apply where it is given)
+            out[QUANTITY_COLUMNS[q]] = _number(path, frame, found[q], f"the {q} of the mix", empty_ok=q == "Pb")
+    if "Pb" not in found:
+        out["Pb_pct"] = np.nan
     labels = {QUANTITY_COLUMNS[q]: f"'{c}'" for q, c in found.items()}
     _check_ranges(path, out, labels, fmt)
     _check_mixes(path, out, labels)
@@ -504,12 +507,17 @@ def _check_ranges(path, out: pd.DataFrame, labels: dict, fmt: MatchedFormat) -> 
         check(col, (v >= 0) & (v <= 100), "a percentage in 0-100")
     for col, (lo, hi) in VOLUMETRIC_RANGES.items():
         v = out[col].to_numpy(float)
-        check(col, (v > lo) & (v < hi), f"a volume or mass percentage of a mix in ({lo:g}, {hi:g}) %")
+        given = (v > lo) & (v < hi)
+        check(
+            col,
+            given | np.isnan(v) if col == "Pb_pct" else given,
+            f"a volume or mass percentage of a mix in ({lo:g}, {hi:g}) %",
+        )
     from .volumetrics import GB_BOUND, GMB_BOUND, binder_volume_bound
 
     Pb, Vbeff = out["Pb_pct"].to_numpy(float), out["Vbeff_pct"].to_numpy(float)
     fill = binder_volume_bound(Pb)
-    bad = np.flatnonzero(Vbeff > fill)
+    bad = np.flatnonzero(Vbeff > fill)  # where Pb is given
     if bad.size:
         i = bad[0]
         raise InputError(
