@@ -871,19 +871,23 @@ def own_table_dir(config: dict) -> str:
 CONSOLE_PATTERNS = {"error": re.compile(r"^error: .*"), "warning": re.compile(r"\basphalt_nscd WARNING: (.*)")}
 
 
+def _run_logs(since: float, log_dir: str) -> list[Path]:
+    """The rule logs under ``log_dir`` written since ``since`` (epoch seconds), in the order of their times."""
+    root = Path(log_dir)
+    if not root.is_dir():
+        return []
+    return sorted(
+        (p for p in root.rglob("*.log") if p.is_file() and p.stat().st_mtime >= since), key=lambda p: p.stat().st_mtime
+    )
+
+
 def console_messages(since: float, kind: str, log_dir: str = "logs") -> list[str]:
     """The project's messages of ``kind`` (``error`` or ``warning``, :data:`CONSOLE_PATTERNS`)
     in the rule logs under ``log_dir`` written since ``since`` (epoch seconds): ``log: line``,
     each once, in the order of the logs' times. Snakemake shows only "check log file(s)" for a
     failed rule; the Snakefile's onerror and onsuccess handlers print these instead."""
-    root = Path(log_dir)
-    if not root.is_dir():
-        return []
-    logs = sorted(
-        (p for p in root.rglob("*.log") if p.is_file() and p.stat().st_mtime >= since), key=lambda p: p.stat().st_mtime
-    )
     out, seen = [], set()
-    for path in logs:
+    for path in _run_logs(since, log_dir):
         for line in path.read_text(errors="replace").splitlines():
             m = CONSOLE_PATTERNS[kind].search(line)
             if m:
@@ -900,14 +904,8 @@ def crash_messages(since: float, log_dir: str = "logs") -> list[str]:
     <the exception line> (the traceback is in the log)``, in the order of the logs' times. A bad
     input ends in the project's one-line error instead (:func:`console_messages`); this names the
     rest, which Snakemake shows only as "check log file(s)"."""
-    root = Path(log_dir)
-    if not root.is_dir():
-        return []
-    logs = sorted(
-        (p for p in root.rglob("*.log") if p.is_file() and p.stat().st_mtime >= since), key=lambda p: p.stat().st_mtime
-    )
     out = []
-    for path in logs:
+    for path in _run_logs(since, log_dir):
         lines = path.read_text(errors="replace").splitlines()
         starts = [k for k, line in enumerate(lines) if line.startswith("Traceback (most recent call last):")]
         if not starts:
