@@ -326,3 +326,37 @@ def test_recalibrate_refuses_a_hirsch_start_or_free_set_that_breaks_pc():
         recalibrate("hirsch", mix, **inputs, E_MPa=E, free=["pc_a"])
     with pytest.raises(ValueError, match=r"pc_c > pc_a\^pc_b"):
         recalibrate("hirsch", mix, **inputs, E_MPa=E, coef0={**PUBLISHED["hirsch"], "pc_c": 3.0})
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_the_batched_jacobian_is_scipys_forward_difference(model):
+    # the fits' Jacobian evaluates its len(free) + 1 coefficient sets in one broadcast call; it must be the
+    # Jacobian SciPy's "2-point" scheme computes one call at a time (same steps), rows of data and of the ridge
+    from scipy.optimize._numdiff import approx_derivative  # SciPy's scheme of least_squares' "2-point"
+
+    mix, inputs, rng = _rows(seed=6)
+    rows, x, E, _ = bl._training_rows(model, mix, inputs, predict(model, mix, **inputs)[0], None)
+    start = dict(PUBLISHED[model])
+    names = list(start)
+    ln_E = np.log(E) + 0.1 * rng.standard_normal(E.size)
+
+    def residuals(c):
+        return bl._ln_modulus_psi(model, c, rows, x)[0] + np.log(bl.PSI_MPA) - ln_E
+
+    ridge = 0.5
+
+    def fun(u):
+        return np.concatenate([residuals(bl._coefficients_at(model, start, names, u)), ridge * u])
+
+    jac = bl._forward_difference_jacobian(model, residuals, start, names, ridge)
+    for u in (np.zeros(len(names)), 0.05 * rng.standard_normal(len(names))):
+        batch = bl._coefficients_batch(model, start, names, np.vstack([u, -u]))
+        assert {k: float(np.ravel(v)[0]) for k, v in batch.items()} == pytest.approx(
+            bl._coefficients_at(model, start, names, u), rel=1e-14
+        )
+        J = jac(u)
+        reference = approx_derivative(fun, u, method="2-point")
+        assert J.shape == reference.shape == (E.size + len(names), len(names))
+        scale = np.abs(reference).max(axis=0)
+        assert np.all(np.abs(J - reference).max(axis=0) <= 1e-7 * scale), np.abs(J - reference).max(axis=0) / scale
+        assert np.array_equal(J[E.size :] != 0, np.eye(len(names), dtype=bool))
