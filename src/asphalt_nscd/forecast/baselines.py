@@ -516,27 +516,15 @@ def _training_rows(model: str, mix: Mix, raw: dict, E_MPa, phase_deg):
 def _coefficients_at(model: str, start: dict, names: list[str], u: np.ndarray) -> dict:
     """Coefficients after moves ``u`` of the free ``names`` from ``start``: relative steps
     c0 + |c0| u, except Hirsch's Ea_psi and pc_a (c0 e^u), pc_b (logistic) and pc_c (pc_a^pc_b
-    plus the starting margin times e^u)."""
-    c, step = dict(start), dict(zip(names, u))
-    for name, v in step.items():
-        if model == "hirsch" and name == "pc_c":
-            continue  # set below, once pc_a and pc_b are
-        if model == "hirsch" and name in ("Ea_psi", "pc_a"):
-            c[name] = start[name] * np.exp(v)
-        elif model == "hirsch" and name == "pc_b":
-            c[name] = float(expit(logit(start[name]) + v))
-        else:
-            c[name] = start[name] + (abs(start[name]) or 1.0) * v
-    if model == "hirsch" and "pc_c" in step:
-        margin = start["pc_c"] - start["pc_a"] ** start["pc_b"]
-        c["pc_c"] = c["pc_a"] ** c["pc_b"] + margin * np.exp(step["pc_c"])
-    return {k: float(v) for k, v in c.items()}
+    plus the starting margin times e^u); :func:`_coefficients_batch` of one row, as floats."""
+    batch = _coefficients_batch(model, start, names, np.asarray(u, dtype=float).reshape(1, -1))
+    return {k: float(np.ravel(v)[0]) for k, v in batch.items()}
 
 
 def _coefficients_batch(model: str, start: dict, names: list[str], U: np.ndarray) -> dict:
-    """:func:`_coefficients_at` for k rows of moves at once: ``U`` of shape (k, len(names)); each
-    free coefficient a column of shape (k, 1) (the others floats), so that the models' equations
-    broadcast to (k, n) over n rows."""
+    """The coefficients after k rows of moves ``U`` (shape (k, len(names))) of the free ``names``
+    from ``start`` (the steps of :func:`_coefficients_at`): each free coefficient a column of shape
+    (k, 1), the others floats, so that the models' equations broadcast to (k, n) over n rows."""
     c: dict = dict(start)
     for j, name in enumerate(names):
         v = U[:, j : j + 1]
