@@ -350,10 +350,12 @@ def test_the_batched_jacobian_is_scipys_forward_difference(model):
 
     jac = bl._forward_difference_jacobian(model, residuals, start, names, ridge)
     for u in (np.zeros(len(names)), 0.05 * rng.standard_normal(len(names))):
+        # each row of a batch is the coefficients of its own move, whatever the other rows hold
         batch = bl._coefficients_batch(model, start, names, np.vstack([u, -u]))
-        assert {k: float(np.ravel(v)[0]) for k, v in batch.items()} == pytest.approx(
-            bl._coefficients_at(model, start, names, u), rel=1e-14
-        )
+        for row, move in enumerate((u, -u)):
+            assert {k: float(np.ravel(np.broadcast_to(v, (2, 1)))[row]) for k, v in batch.items()} == pytest.approx(
+                bl._coefficients_at(model, start, names, move), rel=1e-14
+            )
         J = jac(u)
         reference = approx_derivative(fun, u, method="2-point")
         assert J.shape == reference.shape == (E.size + len(names), len(names))

@@ -529,7 +529,7 @@ def _coefficients_batch(model: str, start: dict, names: list[str], U: np.ndarray
     for j, name in enumerate(names):
         v = U[:, j : j + 1]
         if model == "hirsch" and name == "pc_c":
-            continue
+            continue  # set below, once pc_a and pc_b are
         if model == "hirsch" and name in ("Ea_psi", "pc_a"):
             c[name] = start[name] * np.exp(v)
         elif model == "hirsch" and name == "pc_b":
