@@ -164,3 +164,30 @@ def test_the_schema_refuses_an_unknown_learned_model(tmp_path):
 def test_features_need_their_columns():
     with pytest.raises(InputError, match="binder_G_mix_MPa"):
         learned.features(pd.DataFrame({"temperature_C": [1.0]}))
+
+
+def test_the_configured_grid_is_the_one_tuned_and_the_schema_checks_it(shipped, tmp_path):
+    """``forecast.learned_grid`` reaches the model (its fold's choice lies in that grid, not in the
+    module's); null is the module's GRID; a grid missing a key or with an empty list is refused naming
+    the key."""
+    from asphalt_nscd import config
+    from asphalt_nscd.forecast.models import model_set
+
+    base = config.checked([])["forecast"]
+    assert base["learned_grid"] is None
+    (default,) = [m for m in model_set(base, None) if isinstance(m, learned.GradientBoosting)]
+    assert default.grid == learned.GRID
+    grid = {"learning_rate": [0.05], "max_leaf_nodes": [4], "min_samples_leaf": [7], "max_iter": [30, 60]}
+    (model,) = [m for m in model_set(base | {"learned_grid": grid}, None) if isinstance(m, learned.GradientBoosting)]
+    t, _ = shipped
+    state = model.fit(t[t["mix_id"].isin(list(dict.fromkeys(t["mix_id"]))[:6])])
+    for target in learned.TARGETS:
+        assert state[f"{target}_learning_rate"] == 0.05 and state[f"{target}_max_leaf_nodes"] == 4
+        assert state[f"{target}_min_samples_leaf"] == 7 and state[f"{target}_max_iter"] in (30, 60)
+    smoke = config.checked([str(Path(__file__).resolve().parents[2] / "config" / "smoke.yaml")])["forecast"]
+    assert set(smoke["learned_grid"]) == set(learned.GRID)
+    for bad in ("{learning_rate: [0.1], max_leaf_nodes: [3], min_samples_leaf: [20]}", "{learning_rate: []}"):
+        overlay = tmp_path / "o.yaml"
+        overlay.write_text(f"forecast:\n  learned_grid: {bad}\n")
+        with pytest.raises(InputError, match="learned_grid"):
+            config.checked([str(overlay)])

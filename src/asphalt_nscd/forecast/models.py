@@ -135,7 +135,7 @@ def model_set(forecast_cfg: dict, responses: dict | None) -> list:
     if forecast_cfg.get("learned"):
         from .learned import MODELS as LEARNED
 
-        models += [LEARNED[name]() for name in forecast_cfg["learned"]]
+        models += [LEARNED[name](grid=forecast_cfg.get("learned_grid")) for name in forecast_cfg["learned"]]
     return models
 
 
