@@ -410,7 +410,7 @@ def _crossval(args) -> int:
         learned = [m for m in use if m.model == LEARNED_NAME]
         if i == 0 and learned:  # the same model judged by random rows, tuned by rows: how much better it would look
             judged = by_rows(
-                table, GradientBoosting(grid=cfg.get("learned_grid"), inner="rows"), route, k=min(10, len(table) // 2)
+                table, GradientBoosting(grid=learned[0].grid, inner="rows"), route, k=min(10, len(table) // 2)
             )
             learned_rows = compare(rows[rows["model"] == LEARNED_NAME], judged, cfg["confidence"])
     rows = pd.concat(frames, ignore_index=True)
