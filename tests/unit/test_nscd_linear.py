@@ -340,3 +340,43 @@ def test_ssor_galerkin_start_cuts_iterations_in_a_smooth_motion():
     scale = np.abs(runs["cg"][1]).max()
     np.testing.assert_allclose(runs["cg_ssor"][1], runs["cg"][1], atol=1e-7 * scale)
     assert runs["cg_ssor"][0][10:].mean() < 0.5 * runs["cg"][0][10:].mean()
+
+
+@pytest.mark.kernels
+@pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
+def test_ssor_cg_stops_at_the_accuracy_rounding_allows(kinematics):
+    """cg_ssor asked for a residual at or below what double precision can attain (1e-15,
+    1e-20): it stops far short of its 10,000 iterations (breakdown,
+    or checks that no longer halve the true residual: ssor.STALL_CHECKS), at the direct
+    solution to rounding, and says so (a residual above the tolerance). At a reachable
+    tolerance it meets it, checked once or twice."""
+    from asphalt_nscd.nscd.linear.ssor import _pcg_ssor
+
+    s, plates, bonds = random_bonded_network(n=64)
+    params = NSCDParameters(
+        dt=5e-5, gravity=(0, 0, -9.81), linear_solver="cg_ssor", linear_tolerance=1e-10, bond_kinematics=kinematics
+    )
+    sim = Simulation(s, plates, bonds, params)
+    assert sim.step().solver == "linear"
+    ls = sim._linear
+    A = np.column_stack([_matvec_dense(ls, e) for e in np.eye(ls.ndof)])
+    rhs = np.random.default_rng(5).normal(size=ls.ndof)
+    exact = np.linalg.solve(A, rhs)
+
+    def solve(tol):
+        x = np.zeros(ls.ndof)
+        it, res, checks = _pcg_ssor(
+            ls.op, ls._ssor, rhs, x, tol, 10000, np.zeros((9, ls.ndof)), ls.ssor_omega, np.zeros(ls.ndof), False
+        )
+        np.testing.assert_allclose(np.linalg.norm(rhs - A @ x) / np.linalg.norm(rhs), res, rtol=1e-6, atol=1e-15)
+        return x, it, res, checks
+
+    x, it, res, checks = solve(1e-10)
+    assert res <= 1e-10 and checks <= 2
+    np.testing.assert_allclose(x, exact, atol=1e-8 * np.abs(exact).max())
+    for tol in (1e-15, 1e-20):
+        x, it, res, checks = solve(tol)
+        assert it < 1000, (tol, it, checks)
+        assert res < 1e-12
+        np.testing.assert_allclose(x, exact, atol=1e-10 * np.abs(exact).max())
+    assert res > 1e-20  # at rounding's floor, reported above the tolerance
