@@ -346,10 +346,10 @@ def test_ssor_galerkin_start_cuts_iterations_in_a_smooth_motion():
 @pytest.mark.parametrize("kinematics", ["contact", "barycentre"])
 def test_ssor_cg_stops_at_the_accuracy_rounding_allows(kinematics):
     """cg_ssor asked for a residual at or below what double precision can attain (1e-15,
-    1e-20): it stops far short of its 10,000 iterations (breakdown,
-    or checks that no longer halve the true residual: ssor.STALL_CHECKS), at the direct
-    solution to rounding, and says so (a residual above the tolerance). At a reachable
-    tolerance it meets it, checked once or twice."""
+    1e-20): it stops far short of its 10,000 iterations (breakdown, or checks that no longer
+    halve the true residual: ssor.STALL_CHECKS), at the direct solution to rounding, and says
+    so (a residual above the tolerance). At a reachable tolerance it meets it, checked once or
+    twice."""
     from asphalt_nscd.nscd.linear.ssor import _pcg_ssor
 
     s, plates, bonds = random_bonded_network(n=64)
