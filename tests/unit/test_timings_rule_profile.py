@@ -1,0 +1,94 @@
+"""The per-rule profile of a workflow run (reference/timings/rule_profile.py) on the workflow's own rule files."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+RULES = REPO / "workflow" / "rules"
+CONFIG = ["--config", "results/config/c.yaml"]
+
+# argv of real jobs of the default run: a 2PB job and the time-domain check (both run-2pb), the lofo
+# fold's law and the extended law (both extend-law, the first's rule written under an `if`), a checkpoint's
+# command and a forecast packing (its benchmark path's wildcard spans two path parts)
+RUN_2PB = ["run-2pb", "--sample", "results/samples/s2.h5", "--rig-state", "results/campaign/rig/s2.h5", "--sample-name"]
+RUN_2PB += ["s2", "--mode", "measured", "--parameters", "p.csv", "--temperature", "54", "--frequency", "25", *CONFIG]
+RUN_2PB += ["-o", "results/sim/measured/s2/54C_25Hz.h5", "--row", "results/sim/measured/s2/54C_25Hz.csv"]
+TIME_DOMAIN = ["run-2pb", "--sample", "s1.h5", "--sample-name", "s1", "--mode", "crossval", "--law-json", "law.json"]
+TIME_DOMAIN += ["--temperature", "21.0", "--frequency", "10.0", "--network-factor-json", "s1.json", *CONFIG]
+TIME_DOMAIN += ["--settings-mode", "extended", "--verify", "-o", "td.h5", "--row", "td.csv"]
+FOLD_LAW = ["extend-law", "--measured", "m.csv", *CONFIG, "--calibration", "c.json", "--exclude-frequency", "10.0"]
+FOLD_LAW += ["--temperatures", "21.0", "-o", "fold_law.json"]
+EXTEND_LAW = ["extend-law", "--measured", "m.csv", *CONFIG, "--master-curve", "mc.json", "--corrected-table", "c.csv"]
+EXTEND_LAW += ["--calibration", "c.json", "-o", "law.json", "--cv-curve", "cv.csv", "--card-law", "card.json"]
+EXTEND_LAW += ["--without-flagged", "wf.json"]
+MATCHED = ["matched", "data/binder_mix/mixes_35.tsv", *CONFIG, "-o", "results/forecast/matched.csv"]
+PACK = ["forecast-pack", *CONFIG, "--table", "matched.csv", "--mix", "196", "--seed", "1", "--cut-mm", "4.0"]
+PACK += ["--size-dmax", "2.5", "-o", "results/forecast/samples/196_s1.npz"]
+
+
+@pytest.fixture(scope="module")
+def rule_profile():
+    spec = importlib.util.spec_from_file_location("rule_profile", REPO / "reference" / "timings" / "rule_profile.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_rule_of_the_workflow_is_read_with_its_command(rule_profile):
+    blocks = rule_profile.rule_blocks(RULES)
+    written = sum(
+        text.count("\n    rule ") + text.count("\nrule ") for text in (p.read_text() for p in RULES.glob("*.smk"))
+    )
+    assert {"forecast_table", "crossval_fold_law", "crossval_time_domain", "extend_law", "run_2pb"} <= set(blocks)
+    assert len(blocks) == written + 1  # the one checkpoint
+    commands = rule_profile.rule_commands(RULES)
+    assert commands["forecast_table"][0] == "matched"
+    # a rule's options are its own, not those of the rules written after it under an `if`
+    assert "--exclude-frequency" not in commands["extend_law"][1]
+    assert "--verify" in commands["crossval_time_domain"][1] and "--verify" not in commands["run_2pb"][1]
+
+
+@pytest.mark.parametrize(
+    ("argv", "rule"),
+    [
+        (RUN_2PB, "run_2pb"),
+        (TIME_DOMAIN, "crossval_time_domain"),
+        (FOLD_LAW, "crossval_fold_law"),
+        (EXTEND_LAW, "extend_law"),
+        (MATCHED, "forecast_table"),
+        (PACK, "forecast_pack"),
+    ],
+)
+def test_a_process_is_given_to_the_rule_that_ran_it(rule_profile, argv, rule):
+    assert rule_profile.rule_of(argv, rule_profile.rule_commands(RULES)) == rule
+
+
+def _benchmark(path: Path, seconds: float, cpu: float) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"s\th:m:s\tmax_rss\tcpu_time\n{seconds}\t0:00:01\t100.0\t{cpu}\n")
+
+
+def test_the_profile_sums_each_rules_jobs_and_processes(rule_profile, tmp_path):
+    _benchmark(tmp_path / "benchmarks/sim/measured/s2/54C_25Hz.tsv", 3.0, 2.5)
+    _benchmark(tmp_path / "benchmarks/sim/paper/s1/20C_40Hz.tsv", 2.0, 1.5)
+    _benchmark(tmp_path / "benchmarks/results/forecast/pack_196_s1.tsv", 12.0, 11.0)
+    _benchmark(tmp_path / "benchmarks/diagnosis/crossval_time_domain.tsv", 2.2, 1.9)
+    _benchmark(tmp_path / "benchmarks/unknown/thing.tsv", 1.0, 1.0)
+    records = [(RUN_2PB, 2.0, 0.5), (RUN_2PB, 0.75, 0.1), (TIME_DOMAIN, 1.5, 0.2), (PACK, 10.0, 1.0)]
+    records += [(["no-such-command"], 0.2, 0.0)]
+    lines = [json.dumps({"argv": a, "status": 0, "user_s": u, "system_s": s}) for a, u, s in records]
+    (tmp_path / "benchmarks/process_cpu.jsonl").write_text("\n".join(lines) + "\n")
+
+    table = rule_profile.profile(tmp_path, RULES).set_index("rule")
+    run = table.loc["run_2pb"]
+    assert (run.jobs, run.wall_s, run.cpu_s_benchmark) == (2, 5.0, 4.0)
+    assert (run.processes, run.cpu_s, run.cpu_s_least_process) == (2, 3.35, 0.85)
+    assert run.cpu_s_per_process == pytest.approx(1.68, abs=0.01)  # rounded to 2 decimals
+    assert (table.loc["crossval_time_domain", "jobs"], table.loc["crossval_time_domain", "cpu_s"]) == (1, 1.7)
+    assert (table.loc["forecast_pack", "wall_s"], table.loc["forecast_pack", "cpu_s"]) == (12.0, 11.0)
+    assert table.loc["benchmarks/unknown/thing.tsv", "jobs"] == 1  # matched by no rule: kept under its path
+    assert table.loc["(command no-such-command)", "processes"] == 1
+    assert list(table["cpu_s"].dropna()) == sorted(table["cpu_s"].dropna(), reverse=True)
