@@ -7,6 +7,7 @@ commits, one after the other on this machine, and writes the CPU and wall time o
     .venv/bin/python reference/timings/ab_bench.py prepare --before BASE -o results/bench/ab_prepare.json
     .venv/bin/python reference/timings/ab_bench.py crossval --before BASE --run-dir . -o results/bench/ab_crossval.json
     .venv/bin/python reference/timings/ab_bench.py response --before BASE --run-dir . -o results/bench/ab_response.json
+    .venv/bin/python reference/timings/ab_bench.py diagnose --before BASE -o results/bench/ab_diagnose.json
 
 Cases (``make bench`` runs them on small selections; the options name larger ones):
 
@@ -24,6 +25,10 @@ Cases (``make bench`` runs them on small selections; the options name larger one
   (``--run-dir``; ``--samples``: how many, the smallest, median and largest first, default all); the record
   holds each side's CPU per sample and the largest relative difference between the two sides' factors F(zeta)
   (both skeleton weightings, at :data:`ZETAS`).
+* ``diagnose``: ``asphalt-nscd diagnose-bench --jobs 1`` (the detection bench's master-curve fits) on
+  ``--configfile`` (default config/config.yaml) and a selection of its tables (``--bench-tables``: clean and
+  planted tables per family, default 2 and 1; ``--families``, default :data:`DIAGNOSE_FAMILIES`; the
+  configuration's base seed); the record holds the largest difference between the two sides' rate tables.
 * ``prepare``: ``asphalt-nscd prepare-bench`` of one seed on ``--configfile`` (default
   config/paper.yaml) with each commit's code; the record holds each sample's statistics (spheres,
   porosity, coordination number, bonds) beside the times.
@@ -63,6 +68,8 @@ TESTS = [
 ZETAS = [1e-6, 1e-3 - 1e-3j, 0.05 + 0.02j, 0.3 - 0.2j, 1.0, 20.0 - 5.0j, 1e3 - 1e2j, 1e6]
 #: targets of the ``run`` case by default (config/smoke.yaml): the sample, the law, the measured and
 #: extended 2PB rows of one sample and their isotherm tables
+#: truth families of the ``diagnose`` case by default: the detector's own model and one outside it
+DIAGNOSE_FAMILIES = ["wlf", "gmaxwell"]
 RUN_TARGETS = [
     "results/campaign/measured/table4_measured.csv",
     "results/campaign/extended/table4_extended.csv",
@@ -163,6 +170,17 @@ def run_case(case: str, tree: Path, work: Path, log: Path, args) -> dict:
         if (work / "scores.csv").exists():
             rec["_scores"] = (work / "scores.csv").read_text()  # compared, then dropped
         return rec
+    if case == "diagnose":
+        for name in ("data", "config"):
+            (work / name).symlink_to(tree / name)
+        clean, planted = args.bench_tables
+        cmd = [str(Path(sys.executable).parent / "asphalt-nscd"), "diagnose-bench", "--config", *args.configfile]
+        cmd += ["--clean", str(clean), "--planted", str(planted), "--families", ",".join(args.families)]
+        cmd += ["--jobs", "1", "-o", str(work / "bench.json"), "--table", str(work / "bench.csv")]
+        rec = timed(cmd, work, env, log)
+        if (work / "bench.csv").exists():
+            rec["_scores"] = (work / "bench.csv").read_text()  # compared, then dropped
+        return rec
     if case == "response":
         samples = response_samples(Path(args.run_dir).resolve(), args.samples)
         recs, per = [], {}
@@ -250,7 +268,7 @@ def score_difference(before: str, after: str) -> float:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("case", choices=["tests", "run", "prepare", "crossval", "response"])
+    ap.add_argument("case", choices=["tests", "run", "prepare", "crossval", "response", "diagnose"])
     ap.add_argument("--before", required=True, help="commit of the 'before' code")
     ap.add_argument("--after", default="worktree", help="commit of the 'after' code, or worktree (default)")
     ap.add_argument("--tests", nargs="+", default=TESTS, help="tests case: test files or node ids")
@@ -258,12 +276,16 @@ def main(argv=None) -> None:
     ap.add_argument("--targets", nargs="+", default=RUN_TARGETS, help="run case: Snakemake targets")
     ap.add_argument("--seed", type=int, default=1, help="prepare case: the seed")
     ap.add_argument("--run-dir", default=".", help="crossval and response cases: the directory of a finished make run")
+    ap.add_argument("--bench-tables", type=int, nargs=2, default=[2, 1], metavar=("CLEAN", "PLANTED"))
+    ap.add_argument("--families", nargs="+", default=DIAGNOSE_FAMILIES, help="diagnose case: truth families")
     ap.add_argument("--samples", type=int, default=None, help="response case: how many samples (default all)")
     ap.add_argument("--order", choices=["before-first", "after-first"], default="before-first")
     ap.add_argument("-o", "--output", required=True, help="JSON record")
     args = ap.parse_args(argv)
     if args.configfile is None:
-        args.configfile = ["config/smoke.yaml"] if args.case == "run" else ["config/paper.yaml"]
+        args.configfile = {"run": ["config/smoke.yaml"], "diagnose": ["config/config.yaml"]}.get(
+            args.case, ["config/paper.yaml"]
+        )
     revs = {"before": args.before, "after": args.after}
     order = ["before", "after"] if args.order == "before-first" else ["after", "before"]
     root = Path(tempfile.mkdtemp(prefix="ab_bench_"))

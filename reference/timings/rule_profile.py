@@ -28,6 +28,9 @@ import pandas as pd
 REPO = Path(__file__).resolve().parents[2]
 
 
+#: the columns of a Snakemake benchmark record this profile reads: wall seconds and sampled CPU seconds
+BENCHMARK_COLUMNS = ("s", "cpu_time")
+
 #: a rule's header: ``rule name:`` or ``checkpoint name:``, indented where it sits under an ``if``
 RULE_HEADER = re.compile(r"^[ \t]*(?:rule|checkpoint) (\w+):[ \t]*$", flags=re.M)
 
@@ -43,11 +46,11 @@ def rule_blocks(rules_dir: Path) -> dict[str, str]:
     return out
 
 
-def benchmark_patterns(rules_dir: Path) -> dict[str, re.Pattern]:
+def benchmark_patterns(blocks: dict[str, str]) -> dict[str, re.Pattern]:
     """Rule name -> regular expression of its benchmark path (a wildcard matches one or more path parts:
-    ``{where}`` may be ``results/forecast``)."""
+    ``{where}`` may be ``results/forecast``), from the rules' texts of :func:`rule_blocks`."""
     out = {}
-    for rule, block in rule_blocks(rules_dir).items():
+    for rule, block in blocks.items():
         b = re.search(r"benchmark:\s*\"([^\"]+)\"", block)
         if b:
             parts = re.split(r"(\{[^}]+\})", b.group(1))
@@ -56,10 +59,11 @@ def benchmark_patterns(rules_dir: Path) -> dict[str, re.Pattern]:
     return out
 
 
-def rule_commands(rules_dir: Path) -> dict[str, tuple[str, set[str]]]:
-    """Rule name -> (the asphalt-nscd command its shell runs, the options written in its shell)."""
+def rule_commands(blocks: dict[str, str]) -> dict[str, tuple[str, set[str]]]:
+    """Rule name -> (the asphalt-nscd command its shell runs, the options written in its shell), from the
+    rules' texts of :func:`rule_blocks`."""
     out = {}
-    for rule, block in rule_blocks(rules_dir).items():
+    for rule, block in blocks.items():
         shell = block.split("shell:", 1)[-1]
         c = re.search(r"asphalt-nscd ([a-z0-9-]+)", shell)
         if c:
@@ -78,31 +82,77 @@ def rule_of(argv: list[str], commands: dict[str, tuple[str, set[str]]]) -> str |
     return max(fits)[1] if fits else None
 
 
+def _benchmark_record(tsv: Path) -> pd.DataFrame:
+    """One job's Snakemake benchmark table; ``ValueError`` naming the file if it lacks the columns read."""
+    try:
+        b = pd.read_csv(tsv, sep="\t")
+    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as err:
+        raise ValueError(f"{tsv}: not a Snakemake benchmark table ({err})") from None
+    missing = [c for c in BENCHMARK_COLUMNS if c not in b.columns]
+    if missing:
+        raise ValueError(
+            f"{tsv}: a Snakemake benchmark table needs the columns {', '.join(BENCHMARK_COLUMNS)}; "
+            f"missing {', '.join(missing)} (header: {', '.join(map(str, b.columns))})"
+        )
+    return b
+
+
+def _process_records(log: Path) -> list[tuple[list[str], float]]:
+    """(argv, user + system CPU seconds) of each line of ``process_cpu.jsonl``; ``ValueError`` naming the
+    file, the line and what was expected."""
+    out = []
+    for number, line in enumerate(log.read_text().splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            r = json.loads(line)
+            argv, cpu = r["argv"], float(r["user_s"]) + float(r["system_s"])
+            if not (isinstance(argv, list) and argv and all(isinstance(a, str) for a in argv)):
+                raise TypeError("argv")
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+            raise ValueError(
+                f"{log}, line {number}: expected a JSON object with argv (a non-empty list of strings), "
+                f"user_s and system_s (seconds); {type(err).__name__}: {err}"
+            ) from None
+        out.append((argv, cpu))
+    return out
+
+
 def profile(run: Path, rules_dir: Path) -> pd.DataFrame:
-    """The per-rule table of the run in ``run`` (module docstring), the rules read from ``rules_dir``."""
-    patterns = benchmark_patterns(rules_dir)
-    commands = rule_commands(rules_dir)
+    """The per-rule table of the run in ``run`` (module docstring), the rules read from ``rules_dir``.
+
+    Raises ``ValueError`` naming the folder when it holds no benchmark record, and naming the file (and
+    line) of a record that cannot be read."""
+    folder = run / "benchmarks"
+    tsvs = sorted(folder.rglob("*.tsv")) if folder.is_dir() else []
+    log = folder / "process_cpu.jsonl"
+    if not tsvs and not log.is_file():
+        raise ValueError(
+            f"{folder}: no benchmark records (expected Snakemake's benchmarks/**/*.tsv or "
+            "benchmarks/process_cpu.jsonl of a finished run)"
+        )
+    blocks = rule_blocks(rules_dir)
+    if not blocks:
+        raise ValueError(f"{rules_dir}: no rule in its *.smk files")
+    patterns = benchmark_patterns(blocks)
+    commands = rule_commands(blocks)
     rows = defaultdict(lambda: {"jobs": 0, "wall_s": 0.0, "cpu_s_benchmark": 0.0})
-    for tsv in sorted((run / "benchmarks").rglob("*.tsv")):
+    for tsv in tsvs:
         rel = tsv.relative_to(run).as_posix()
         matches = [r for r, p in patterns.items() if p.match(rel)]
         # the most specific pattern: the longest literal part
         rule = max(matches, key=lambda r: len(patterns[r].pattern.replace(".+", ""))) if matches else rel
-        b = pd.read_csv(tsv, sep="\t")
+        b = _benchmark_record(tsv)
         rows[rule]["jobs"] += len(b)
-        rows[rule]["wall_s"] += float(b["s"].sum())
+        rows[rule]["wall_s"] += float(pd.to_numeric(b["s"], errors="coerce").fillna(0).sum())
         rows[rule]["cpu_s_benchmark"] += float(pd.to_numeric(b["cpu_time"], errors="coerce").fillna(0).sum())
     exact = defaultdict(lambda: [0, 0.0, float("inf")])
-    log = run / "benchmarks" / "process_cpu.jsonl"
-    if log.exists():
-        for line in log.read_text().splitlines():
-            if line.strip():
-                r = json.loads(line)
-                rule = rule_of(r["argv"], commands) or f"(command {r['argv'][0]})"
-                cpu = r["user_s"] + r["system_s"]
-                exact[rule][0] += 1
-                exact[rule][1] += cpu
-                exact[rule][2] = min(exact[rule][2], cpu)
+    if log.is_file():
+        for argv, cpu in _process_records(log):
+            rule = rule_of(argv, commands) or f"(command {argv[0]})"
+            exact[rule][0] += 1
+            exact[rule][1] += cpu
+            exact[rule][2] = min(exact[rule][2], cpu)
     for rule in exact:
         rows[rule]  # a command with no benchmark record still gets its row
     table = pd.DataFrame([{"rule": k, **v} for k, v in rows.items()])
@@ -121,8 +171,14 @@ def main(argv=None) -> None:
     ap.add_argument("--rules", type=Path, default=REPO / "workflow" / "rules", help="the rule files' folder")
     ap.add_argument("-o", "--output", required=True)
     args = ap.parse_args(argv)
-    table = profile(args.run, args.rules)
-    table.to_csv(args.output, index=False)
+    try:
+        table = profile(args.run, args.rules)
+    except ValueError as err:
+        ap.exit(2, f"rule_profile.py: error: {err}\n")
+    out = Path(args.output)
+    tmp = out.with_name(out.name + ".tmp")
+    table.to_csv(tmp, index=False)
+    tmp.replace(out)  # a failed run leaves no half-written table
     print(table.to_string(index=False))
 
 

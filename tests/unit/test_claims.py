@@ -3,11 +3,10 @@
 every number of the pages it lists, dates every claim with the command that made its tables,
 and fails when a table it cites changes."""
 
-import importlib.util
+import reference_scripts
 import json
 import re
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +17,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _claims_module():
-    spec = importlib.util.spec_from_file_location("claims", REPO / "reference" / "claims.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["claims"] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return reference_scripts.load("reference/claims.py")
 
 
 claims = _claims_module()
@@ -133,11 +127,7 @@ def test_pandas_and_numpy_are_what_the_expressions_see():
 
 
 def _forecast_readme_module():
-    spec = importlib.util.spec_from_file_location("forecast_readme", REPO / "reference" / "forecast" / "readme.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return reference_scripts.load("reference/forecast/readme.py", "forecast_readme")
 
 
 def test_the_forecast_page_is_what_its_tables_give_and_follows_a_changed_table(tmp_path, monkeypatch):
@@ -160,10 +150,7 @@ def test_the_binder_frequency_evidence_is_what_the_shipped_table_gives():
     binder columns' rad/s) is recomputed from data/binder_mix/ by its script: a changed table or
     reader changes it. At 10 rad/s the MEPDG relation returns the table's own viscosity within
     a factor 2 at every temperature above 20 degC."""
-    spec = importlib.util.spec_from_file_location("binder_frequency", REPO / "reference/forecast/binder_frequency.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = reference_scripts.load("reference/forecast/binder_frequency.py")
     got = module.evidence(module.read_matched(module.TABLE))
     committed = pd.read_csv(REPO / "reference" / "forecast" / "binder_frequency.csv")
     assert list(got.columns) == list(committed.columns)

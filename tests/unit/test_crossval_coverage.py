@@ -1,6 +1,6 @@
 """The coverage count of the held-out intervals (reference/crossval/summarize.py)."""
 
-import importlib.util
+import reference_scripts
 from pathlib import Path
 
 import numpy as np
@@ -11,10 +11,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _summarize():
-    spec = importlib.util.spec_from_file_location("summarize", ROOT / "reference" / "crossval" / "summarize.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return reference_scripts.load("reference/crossval/summarize.py")
 
 
 def test_the_clopper_pearson_interval_has_its_known_values():

@@ -528,15 +528,11 @@ def test_binder_in_place_of_air_is_each_models_exact_derivative(responses, table
     for Witczak 1-37A (log-linear in Va and Vbeff / VMA), its analytic derivative 100 ln(10) (-a_Va +
     a_Vr / VMA) per 1 %; for dem_physical the central difference of the model itself (each mix's ln|E*|
     at +-0.5 %, nothing refitted, the sample unchanged); every mix and temperature present."""
-    import importlib.util
+    import reference_scripts
 
     from asphalt_nscd.forecast.baselines import PUBLISHED
 
-    path = Path(__file__).resolve().parents[2] / "reference" / "forecast" / "volumetric_sensitivity.py"
-    spec = importlib.util.spec_from_file_location("volumetric_sensitivity", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = reference_scripts.load("reference/forecast/volumetric_sensitivity.py")
     rows = table.dropna(subset=["E_norm_MPa", "phase_deg"]).reset_index(drop=True)
     variant = (("dem_physical", ("mastic", None, False, None)),)
     got = module.sensitivity(rows, responses, 4.0, dem_variants=variant)

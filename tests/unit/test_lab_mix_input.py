@@ -4,7 +4,7 @@ mix file, the mix and the key."""
 
 from __future__ import annotations
 
-import importlib.util
+import reference_scripts
 import json
 import math
 from pathlib import Path
@@ -25,12 +25,7 @@ FHWA = REPO / "data" / "measured" / "tfhrc_ptf_binder_dsr" / "binder_frequency_s
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "lab_forms_example", REPO / "reference" / "forecast" / "lab_forms_example.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return reference_scripts.load("reference/forecast/lab_forms_example.py")
 
 
 @pytest.fixture(scope="module")

@@ -57,6 +57,34 @@ def test_2s2p1d_limits_and_single_parabolic_element():
     assert np.degrees(np.angle(low)) > 85
 
 
+def test_2s2p1d_equals_its_complex_power_definition_everywhere_it_is_defined():
+    """The model computed in real arithmetic is the definition E00 + (E0 - E00) / (1 + delta (i w tau)^-k +
+    (i w tau)^-h + (i w beta tau)^-1), evaluated with complex powers, over 12 decades of w tau and random
+    parameters, rows of parameters broadcast against frequencies as a fit's Jacobian asks; w tau = 0,
+    infinite or not a number gives no value."""
+    rng = np.random.default_rng(20261129)
+    m, n = 40, 60
+    col = lambda a: a[:, None]  # noqa: E731
+    E00, E0 = col(10 ** rng.uniform(-2, 2, m)), col(10 ** rng.uniform(3, 4.7, m))
+    delta, h = col(10 ** rng.uniform(-1.5, 1.5, m)), col(rng.uniform(0.1, 0.99, m))
+    k, beta = h * col(rng.uniform(0.03, 0.97, m)), col(10 ** rng.uniform(-1, 9, m))
+    omega = 2 * np.pi * 10 ** rng.uniform(-2, 2, n)
+    tau = 10 ** rng.uniform(-8, 8, (m, n))
+    for b in (beta, np.inf):
+        got = two_s2p1d_modulus(omega, E00, E0, delta, k, h, b, tau)
+        iwt = 1j * omega * tau
+        want = E00 + (E0 - E00) / (1.0 + delta * iwt ** (-k) + iwt ** (-h) + (1.0 / (iwt * b) if b is beta else 0.0))
+        assert got.shape == (m, n)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+    undefined = two_s2p1d_modulus(
+        np.array([1.0, 1.0, 1.0, 1.0]), 1.0, 10.0, 2.0, 0.2, 0.6, 100.0, np.array([0.0, np.inf, np.nan, 1.0])
+    )
+    assert np.isnan(undefined[:3]).all() and np.isfinite(undefined[3])
+    assert np.ndim(two_s2p1d_modulus(3.0, 1.0, 10.0, 2.0, 0.2, 0.6, 100.0, 0.1)) == 0  # a scalar stays one
+    with pytest.raises(ValueError, match="all finite or all infinite"):
+        two_s2p1d_modulus(omega[:2], 1.0, 10.0, 2.0, 0.2, 0.6, np.array([1.0, np.inf]), 0.1)
+
+
 def test_generalized_kelvin_recovers_exact_law_on_its_grid():
     tau = np.array([1e-3, 1e-1])
     law = GeneralizedBurgers(Em=30e3, eta_m=5e3, Ek=(20e3, 2e3), eta_k=(20e3 * tau[0], 2e3 * tau[1]), E_inf=100.0)

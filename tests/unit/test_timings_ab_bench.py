@@ -1,6 +1,6 @@
 """The before/after benchmark's comparison of two forecast score tables (reference/timings/ab_bench.py)."""
 
-import importlib.util
+import reference_scripts
 import math
 from pathlib import Path
 
@@ -11,10 +11,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def ab_bench():
-    spec = importlib.util.spec_from_file_location("ab_bench", REPO / "reference" / "timings" / "ab_bench.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return reference_scripts.load("reference/timings/ab_bench.py")
 
 
 TABLE = "model,group,abs_logE_pct,abs_phase_deg,bias_logE_pct\ndem,all,36.9,4.3,\nhirsch,all,32.1,3.5,-1.0\n"
@@ -89,3 +86,28 @@ def test_the_response_case_takes_the_smallest_median_and_largest_samples_first(a
     assert [p.name for p in ab_bench.response_samples(tmp_path, 2)] == order[:2]
     with pytest.raises(SystemExit, match="finished make run"):
         ab_bench.response_samples(tmp_path / "nothing", None)
+
+
+def test_the_diagnose_case_runs_the_bench_on_its_selection_and_keeps_its_table(ab_bench, tmp_path, monkeypatch):
+    """The diagnose case runs each side's diagnose-bench on the selection asked for (one worker) in its own
+    folder beside the side's data and config, and keeps the rate table it wrote for the comparison."""
+    seen = []
+
+    def fake_timed(cmd, cwd, env, log):
+        seen.append((cmd, env["PYTHONPATH"].split(":")[0]))
+        Path(cmd[cmd.index("--table") + 1]).write_text("family,detection_rate\nwlf,0.5\n")
+        return {"command": " ".join(cmd), "returncode": 0, "wall_s": 1.0, "cpu_s": 1.0}
+
+    monkeypatch.setattr(ab_bench, "timed", fake_timed)
+    args = ab_bench.argparse.Namespace(configfile=["config/config.yaml"], bench_tables=[3, 2], families=["wlf"])
+    tree, work = tmp_path / "tree", tmp_path / "work"
+    (tree / "data").mkdir(parents=True)
+    (tree / "config").mkdir()
+    rec = ab_bench.run_case("diagnose", tree, work, tmp_path / "log", args)
+    cmd, path = seen[0]
+    assert cmd[1:4] == ["diagnose-bench", "--config", "config/config.yaml"] and path == str(tree / "src")
+    given = dict(zip(cmd, cmd[1:]))
+    assert (given["--clean"], given["--planted"], given["--families"], given["--jobs"]) == ("3", "2", "wlf", "1")
+    assert (work / "config").resolve() == tree / "config" and (work / "data").resolve() == tree / "data"
+    assert rec["_scores"] == "family,detection_rate\nwlf,0.5\n"
+    assert ab_bench.score_difference(rec["_scores"], rec["_scores"]) == 0.0

@@ -1,6 +1,6 @@
 """The per-rule profile of a workflow run (reference/timings/rule_profile.py) on the workflow's own rule files."""
 
-import importlib.util
+import reference_scripts
 import json
 from pathlib import Path
 
@@ -31,10 +31,7 @@ PACK += ["--size-dmax", "2.5", "-o", "results/forecast/samples/196_s1.npz"]
 
 @pytest.fixture(scope="module")
 def rule_profile():
-    spec = importlib.util.spec_from_file_location("rule_profile", REPO / "reference" / "timings" / "rule_profile.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return reference_scripts.load("reference/timings/rule_profile.py")
 
 
 def test_every_rule_of_the_workflow_is_read_with_its_command(rule_profile):
@@ -44,7 +41,7 @@ def test_every_rule_of_the_workflow_is_read_with_its_command(rule_profile):
     )
     assert {"forecast_table", "crossval_fold_law", "crossval_time_domain", "extend_law", "run_2pb"} <= set(blocks)
     assert len(blocks) == written + 1  # the one checkpoint
-    commands = rule_profile.rule_commands(RULES)
+    commands = rule_profile.rule_commands(rule_profile.rule_blocks(RULES))
     assert commands["forecast_table"][0] == "matched"
     # a rule's options are its own, not those of the rules written after it under an `if`
     assert "--exclude-frequency" not in commands["extend_law"][1]
@@ -63,7 +60,7 @@ def test_every_rule_of_the_workflow_is_read_with_its_command(rule_profile):
     ],
 )
 def test_a_process_is_given_to_the_rule_that_ran_it(rule_profile, argv, rule):
-    assert rule_profile.rule_of(argv, rule_profile.rule_commands(RULES)) == rule
+    assert rule_profile.rule_of(argv, rule_profile.rule_commands(rule_profile.rule_blocks(RULES))) == rule
 
 
 def _benchmark(path: Path, seconds: float, cpu: float) -> None:
@@ -92,3 +89,63 @@ def test_the_profile_sums_each_rules_jobs_and_processes(rule_profile, tmp_path):
     assert table.loc["benchmarks/unknown/thing.tsv", "jobs"] == 1  # matched by no rule: kept under its path
     assert table.loc["(command no-such-command)", "processes"] == 1
     assert list(table["cpu_s"].dropna()) == sorted(table["cpu_s"].dropna(), reverse=True)
+
+
+def test_a_run_without_benchmark_records_is_refused_naming_its_folder(rule_profile, tmp_path, capsys):
+    with pytest.raises(ValueError, match=r"benchmarks: no benchmark records"):
+        rule_profile.profile(tmp_path, RULES)
+    out = tmp_path / "profile.csv"
+    with pytest.raises(SystemExit) as stop:
+        rule_profile.main([str(tmp_path), "-o", str(out)])
+    assert stop.value.code == 2 and "no benchmark records" in capsys.readouterr().err
+    assert not out.exists() and not list(tmp_path.glob("*.tmp"))
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("s\th:m:s\tmax_rss\n", r"needs the columns s, cpu_time; missing cpu_time"),  # header only, no cpu_time
+        ("wall\tcpu_time\n2.0\t1.0\n", r"missing s \(header: wall, cpu_time\)"),
+        ("", r"not a Snakemake benchmark table"),
+    ],
+)
+def test_a_benchmark_record_without_its_columns_is_refused_naming_the_file(rule_profile, tmp_path, text, expected):
+    _benchmark(tmp_path / "benchmarks/sim/measured/s2/54C_25Hz.tsv", 3.0, 2.5)
+    bad = tmp_path / "benchmarks/diagnosis/diagnose_bench.tsv"
+    bad.parent.mkdir(parents=True)
+    bad.write_text(text)
+    with pytest.raises(ValueError, match=rf"diagnose_bench\.tsv: .*{expected}"):
+        rule_profile.profile(tmp_path, RULES)
+
+
+def test_a_header_only_benchmark_record_counts_no_job(rule_profile, tmp_path):
+    _benchmark(tmp_path / "benchmarks/sim/measured/s2/54C_25Hz.tsv", 3.0, 2.5)
+    (tmp_path / "benchmarks/diagnosis/diagnose_bench.tsv").parent.mkdir(parents=True)
+    (tmp_path / "benchmarks/diagnosis/diagnose_bench.tsv").write_text("s\th:m:s\tmax_rss\tcpu_time\n")
+    table = rule_profile.profile(tmp_path, RULES).set_index("rule")
+    assert (table.loc["diagnose_bench", "jobs"], table.loc["diagnose_bench", "wall_s"]) == (0, 0.0)
+    assert table.loc["run_2pb", "jobs"] == 1
+
+
+@pytest.mark.parametrize(
+    "line",
+    [
+        '{"argv": ["run-2pb"], "user_s": 1.0}',  # no system_s
+        '{"argv": [], "user_s": 1.0, "system_s": 0.1}',  # no command
+        '{"argv": "run-2pb", "user_s": 1.0, "system_s": 0.1}',  # argv not a list
+        '{"argv": ["run-2pb"], "user_s": "fast", "system_s": 0.1}',
+        "not json",
+    ],
+)
+def test_a_bad_process_record_is_refused_naming_its_line(rule_profile, tmp_path, line):
+    good = json.dumps({"argv": RUN_2PB, "user_s": 1.0, "system_s": 0.1})
+    (tmp_path / "benchmarks").mkdir()
+    (tmp_path / "benchmarks/process_cpu.jsonl").write_text(f"{good}\n\n{line}\n")
+    with pytest.raises(ValueError, match=r"process_cpu\.jsonl, line 3: expected a JSON object with argv"):
+        rule_profile.profile(tmp_path, RULES)
+
+
+def test_a_folder_without_rules_is_refused(rule_profile, tmp_path):
+    _benchmark(tmp_path / "benchmarks/sim/measured/s2/54C_25Hz.tsv", 3.0, 2.5)
+    with pytest.raises(ValueError, match=r"no rule in its \*\.smk files"):
+        rule_profile.profile(tmp_path, tmp_path)

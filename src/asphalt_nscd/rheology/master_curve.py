@@ -268,6 +268,31 @@ def _core_values(x, names, static_modulus) -> dict:
     return out
 
 
+def _core_columns(x, names, static_modulus) -> dict:
+    """:func:`_core_values` of each row of ``x`` (shape (m, p)), as arrays of shape (m,). The powers of ten
+    are taken one scalar at a time, as for one vector (NumPy's array power may differ from its scalar power
+    in the last bit), so row i holds exactly the values of ``_core_values(x[i])``."""
+    col = {n: x[:, i] for i, n in enumerate(names)}
+
+    def pow10(name):
+        return np.array([10**v for v in col[name]], dtype=float)
+
+    h = col["h"]
+    out = {
+        "E00_MPa": pow10("log10_E00_MPa") if static_modulus else np.zeros(len(x)),
+        "E0_MPa": pow10("log10_E0_MPa"),
+        "delta": pow10("log10_delta"),
+        "k": col["k_over_h"] * h,
+        "h": h,
+        "beta": pow10("log10_beta"),
+        "tau_ref_s": pow10("log10_tau_ref_s"),
+    }
+    for key in ("C1", "C2_K", "Ea_kJ_mol"):
+        if key in col:
+            out[key] = col[key]
+    return out
+
+
 def _true_modulus(x, names, shift, T_ref, temperatures, static_modulus, f, T):
     """2S2P1D modulus at ``f`` (Hz, shape (n,)) and ``T`` (degC) of the parameters ``x``, MPa:
     shape (p,) gives (n,); (m, p), with ``T`` of shape (n,) or (m, n), gives (m, n). The
@@ -277,8 +302,7 @@ def _true_modulus(x, names, shift, T_ref, temperatures, static_modulus, f, T):
     if x.ndim == 1:
         c = _core_values(x, names, static_modulus)
     else:
-        cores = [_core_values(row, names, static_modulus) for row in x]
-        c = {key: np.array([core[key] for core in cores], dtype=float)[:, None] for key in cores[0]}
+        c = {key: v[:, None] for key, v in _core_columns(x, names, static_modulus).items()}
     tau = c["tau_ref_s"] * 10.0 ** _log_shift(x, names, shift, T_ref, temperatures, T)
     return two_s2p1d_modulus(2 * np.pi * f, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], tau)
 
