@@ -266,6 +266,14 @@ def score_difference(before: str, after: str) -> float:
     return float(np.max(np.where(np.isnan(x), 0.0, np.abs(x - y)), initial=0.0))
 
 
+def portable(text: str, work: Path) -> str:
+    """``text`` with this machine's folders replaced: the bench's temporary folder by ``$WORK``, this
+    interpreter's scripts folder and the repository by nothing (a committed record names no outside path)."""
+    for folder, name in ((work, "$WORK"), (Path(sys.executable).parent, ""), (REPO, "")):
+        text = text.replace(f"{folder}/", f"{name}/" if name else "").replace(str(folder), name or ".")
+    return text
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("case", choices=["tests", "run", "prepare", "crossval", "response", "diagnose"])
@@ -314,7 +322,7 @@ def main(argv=None) -> None:
         shutil.rmtree(root, ignore_errors=True)
     record["cpu_ratio_before_over_after"] = round(b["cpu_s"] / a["cpu_s"], 3) if a["cpu_s"] else None
     record["wall_ratio_before_over_after"] = round(b["wall_s"] / a["wall_s"], 3) if a["wall_s"] else None
-    Path(args.output).write_text(json.dumps(record, indent=2) + "\n")
+    Path(args.output).write_text(portable(json.dumps(record, indent=2), root) + "\n")
     if b["returncode"] or a["returncode"]:
         raise SystemExit(
             f"a side failed (exit {b['returncode']} before, {a['returncode']} after): {b['log']}, {a['log']}"

@@ -111,3 +111,13 @@ def test_the_diagnose_case_runs_the_bench_on_its_selection_and_keeps_its_table(a
     assert (work / "config").resolve() == tree / "config" and (work / "data").resolve() == tree / "data"
     assert rec["_scores"] == "family,detection_rate\nwlf,0.5\n"
     assert ab_bench.score_difference(rec["_scores"], rec["_scores"]) == 0.0
+
+
+def test_a_record_names_no_folder_of_this_machine(ab_bench, tmp_path):
+    """The written record replaces the bench's temporary folder by $WORK and drops the interpreter's and the
+    repository's folders, so a committed record holds no outside path."""
+    exe = Path(ab_bench.sys.executable).parent
+    text = (
+        f"{exe}/asphalt-nscd x --config {ab_bench.REPO}/config/c.yaml -o {tmp_path}/after/b.csv --run {ab_bench.REPO}"
+    )
+    assert ab_bench.portable(text, tmp_path) == "asphalt-nscd x --config config/c.yaml -o $WORK/after/b.csv --run ."
