@@ -66,10 +66,10 @@ TESTS = [
 ]
 #: zetas at which the ``response`` case compares the two sides' factors: the plane's corners and middle
 ZETAS = [1e-6, 1e-3 - 1e-3j, 0.05 + 0.02j, 0.3 - 0.2j, 1.0, 20.0 - 5.0j, 1e3 - 1e2j, 1e6]
-#: targets of the ``run`` case by default (config/smoke.yaml): the sample, the law, the measured and
-#: extended 2PB rows of one sample and their isotherm tables
 #: truth families of the ``diagnose`` case by default: the detector's own model and one outside it
 DIAGNOSE_FAMILIES = ["wlf", "gmaxwell"]
+#: targets of the ``run`` case by default (config/smoke.yaml): the sample, the law, the measured and
+#: extended 2PB rows of one sample and their isotherm tables
 RUN_TARGETS = [
     "results/campaign/measured/table4_measured.csv",
     "results/campaign/extended/table4_extended.csv",
