@@ -83,9 +83,11 @@ def rule_of(argv: list[str], commands: dict[str, tuple[str, set[str]]]) -> str |
 
 
 def _benchmark_record(tsv: Path) -> pd.DataFrame:
-    """One job's Snakemake benchmark table; ``ValueError`` naming the file if it lacks the columns read."""
+    """One job's Snakemake benchmark table, ``s`` and ``cpu_time`` as numbers (``cpu_time`` ``NA``, which
+    Snakemake writes where it measured none, as 0); ``ValueError`` naming the file if it lacks the columns
+    read, and naming the file, row and column of a value that is not a non-negative number."""
     try:
-        b = pd.read_csv(tsv, sep="\t")
+        b = pd.read_csv(tsv, sep="\t", dtype=str, keep_default_na=False)  # the values as written
     except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as err:
         raise ValueError(f"{tsv}: not a Snakemake benchmark table ({err})") from None
     missing = [c for c in BENCHMARK_COLUMNS if c not in b.columns]
@@ -94,6 +96,16 @@ def _benchmark_record(tsv: Path) -> pd.DataFrame:
             f"{tsv}: a Snakemake benchmark table needs the columns {', '.join(BENCHMARK_COLUMNS)}; "
             f"missing {', '.join(missing)} (header: {', '.join(map(str, b.columns))})"
         )
+    for column in BENCHMARK_COLUMNS:
+        raw = b[column]
+        values = pd.to_numeric(raw, errors="coerce")
+        allowed_na = raw.eq("NA") if column == "cpu_time" else pd.Series(False, index=raw.index)
+        bad = ~((values >= 0) | allowed_na)
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            what = "a number of seconds >= 0" + (" or NA" if column == "cpu_time" else "")
+            raise ValueError(f"{tsv}, row {row + 1}, column {column}: expected {what}, got {raw.iloc[row]!r}")
+        b[column] = values.fillna(0.0)
     return b
 
 
@@ -144,8 +156,8 @@ def profile(run: Path, rules_dir: Path) -> pd.DataFrame:
         rule = max(matches, key=lambda r: len(patterns[r].pattern.replace(".+", ""))) if matches else rel
         b = _benchmark_record(tsv)
         rows[rule]["jobs"] += len(b)
-        rows[rule]["wall_s"] += float(pd.to_numeric(b["s"], errors="coerce").fillna(0).sum())
-        rows[rule]["cpu_s_benchmark"] += float(pd.to_numeric(b["cpu_time"], errors="coerce").fillna(0).sum())
+        rows[rule]["wall_s"] += float(b["s"].sum())
+        rows[rule]["cpu_s_benchmark"] += float(b["cpu_time"].sum())
     exact = defaultdict(lambda: [0, 0.0, float("inf")])
     if log.is_file():
         for argv, cpu in _process_records(log):

@@ -186,3 +186,36 @@ def test_local_block_solve_satisfies_signorini_coulomb():
             assert np.hypot(pt, ps) == pytest.approx(mu * pn, rel=1e-9)
             assert np.dot(ut, P[1:]) / (np.linalg.norm(ut) * np.hypot(pt, ps)) == pytest.approx(-1.0, abs=1e-7)
     assert kinds == {"open", "stick", "slide"}
+
+
+@pytest.mark.kernels
+@pytest.mark.parametrize("solver", ["cg", "cg_ssor"])
+def test_unconverged_columns_send_the_contact_step_to_nlgs(solver):
+    """Where a column of A^-1 (:meth:`LinearBondSolver.response`) does not converge, the
+    steps with a closing contact are redone by NLGS, the others stay on the fast path, and
+    every step gives NLGS's answer."""
+    fast = _sim(2.0, True, solver)
+    ref = _sim(2.0, False)
+    assert fast.step().solver == "linear"
+    ref.step()
+    ls = fast._linear
+    plain = ls.response
+
+    def one_iteration(block):
+        ls._columns.clear()
+        keep, ls.max_iterations = ls.max_iterations, 1
+        try:
+            return plain(block)
+        finally:
+            ls.max_iterations = keep
+
+    ls.response = one_iteration
+    kinds = []
+    for _ in range(40):
+        st_f, st_r = fast.step(), ref.step()
+        kinds.append((st_f.solver, st_r.n_active_contacts > 0))
+        np.testing.assert_allclose(
+            fast.spheres.velocity, ref.spheres.velocity, atol=1e-8 * np.abs(ref.spheres.velocity).max()
+        )
+    assert all(k == ("nlgs" if closed else "linear") for k, closed in kinds)
+    assert sum(closed for _, closed in kinds) >= 10 and fast.linear_unconverged == 0

@@ -380,3 +380,44 @@ def test_ssor_cg_stops_at_the_accuracy_rounding_allows(kinematics):
         assert res < 1e-12
         np.testing.assert_allclose(x, exact, atol=1e-10 * np.abs(exact).max())
     assert res > 1e-20  # at rounding's floor, reported above the tolerance
+
+
+@pytest.mark.kernels
+@pytest.mark.parametrize("solver", ["cg", "cg_ssor"])
+def test_unconverged_linear_solve_sends_the_step_to_nlgs(solver):
+    """A conjugate gradient held to one iteration (below what the tolerance needs) is not the
+    step's solution: the steps go to NLGS, are counted, and give NLGS's answer; the columns of
+    A^-1 refuse the same way and cache nothing."""
+    from asphalt_nscd.nscd.linear import LinearSolveError
+    from asphalt_nscd.nscd.linear.solver import reached
+
+    assert reached(10, 1e-12, 1e-10, 10) and reached(3, 1e-9, 1e-10, 10)  # met, or stopped early
+    assert not reached(10, 1e-9, 1e-10, 10)
+    n_steps = 8
+    sim_g, df_g = _run(False, n_steps=n_steps)
+    s, plates, bonds = random_bonded_network(n=40, law=LAW_15C)
+    params = NSCDParameters(
+        dt=5e-5,
+        friction=0.7,
+        tolerance=1e-11,
+        max_iterations=50000,
+        gravity=(0, 0, 0),
+        linear_solver=solver,
+        linear_tolerance=1e-13,
+        bond_kinematics="contact",
+        bonded_contact="after_break",
+    )
+    sim = Simulation(s, plates, bonds, params)
+    assert sim.step().solver == "linear" and sim.linear_unconverged == 0
+    ls = sim._linear
+    ls.max_iterations = 1
+    kinds = [sim.step().solver for _ in range(n_steps - 1)]
+    assert kinds == ["nlgs"] * (n_steps - 1) and sim.linear_unconverged == n_steps - 1
+    assert not ls.last_converged and ls.last_iterations == 1 and ls.last_residual > ls.tolerance
+    scale = np.abs(sim_g.bonds.force).max()
+    np.testing.assert_allclose(sim.bonds.force, sim_g.bonds.force, atol=1e-8 * scale)
+    with pytest.raises(LinearSolveError, match="block 0, axis 0: relative residual"):
+        ls.response(0)
+    assert 0 not in ls._columns
+    ls.max_iterations = 10000
+    assert ls.response(0).shape == (ls.ndof, 3) and 0 in ls._columns

@@ -128,6 +128,27 @@ def test_a_header_only_benchmark_record_counts_no_job(rule_profile, tmp_path):
 
 
 @pytest.mark.parametrize(
+    ("row", "expected"),
+    [
+        ("n/a\t0:00:01\t100.0\t1.0", r"row 2, column s: expected a number of seconds >= 0, got 'n/a'"),
+        ("\t0:00:01\t100.0\t1.0", r"row 2, column s: expected a number of seconds >= 0, got ''"),
+        ("2.0\t0:00:01\t100.0\tfast", r"row 2, column cpu_time: expected a number of seconds >= 0 or NA, got 'fast'"),
+        ("-1.0\t0:00:01\t100.0\t1.0", r"row 2, column s: expected a number of seconds >= 0, got '-1.0'"),
+    ],
+)
+def test_a_benchmark_value_that_is_no_time_is_refused_naming_its_row(rule_profile, tmp_path, row, expected):
+    """Each record's wall and CPU seconds are numbers; Snakemake's NA (no CPU measured) counts as 0."""
+    bad = tmp_path / "benchmarks/diagnosis/diagnose_bench.tsv"
+    bad.parent.mkdir(parents=True)
+    bad.write_text(f"s\th:m:s\tmax_rss\tcpu_time\n1.0\t0:00:01\t100.0\t1.0\n{row}\n")
+    with pytest.raises(ValueError, match=rf"diagnose_bench\.tsv, {expected}"):
+        rule_profile.profile(tmp_path, RULES)
+    bad.write_text("s\th:m:s\tmax_rss\tcpu_time\n1.0\t0:00:01\t100.0\t1.0\n2.5\t0:00:02\t100.0\tNA\n")
+    table = rule_profile.profile(tmp_path, RULES).set_index("rule")
+    assert (table.loc["diagnose_bench", "wall_s"], table.loc["diagnose_bench", "cpu_s_benchmark"]) == (3.5, 1.0)
+
+
+@pytest.mark.parametrize(
     "line",
     [
         '{"argv": ["run-2pb"], "user_s": 1.0}',  # no system_s

@@ -48,7 +48,7 @@ import numpy as np
 
 from ._jit import helper, kernel
 from .gauss_seidel import contact_velocities
-from .linear import skew
+from .linear import LinearSolveError, skew
 
 
 @helper
@@ -266,7 +266,8 @@ def solve_contacts(
     Returns
     -------
     (C,3) N s local impulses of every candidate (zero for the open ones), or None when the
-    step is to be redone by NLGS (more than ``max_contacts`` closing, no convergence).
+    step is to be redone by NLGS (more than ``max_contacts`` closing, no convergence, or a
+    column of A^-1 whose solve did not converge: :meth:`LinearBondSolver.response`).
     Bond impulses are not updated here (the caller applies linear.bond_impulses).
     """
     nc = len(ci)
@@ -284,7 +285,10 @@ def solve_contacts(
         cols = {}
         for c, (kind, b) in enumerate(keys):
             if kind == "A":
-                cols[c] = solver.response(b)
+                try:
+                    cols[c] = solver.response(b)
+                except LinearSolveError:  # a column of A^-1 not converged: NLGS redoes the step
+                    return None
                 for r, (kind_r, b_r) in enumerate(keys):
                     if kind_r == "A":
                         R[3 * r : 3 * r + 3, 3 * c : 3 * c + 3] = cols[c][3 * b_r : 3 * b_r + 3]

@@ -116,6 +116,9 @@ class Simulation:
         #: the last step ('contact' kinematics; zero with 'barycentre').
         self.plate_torque = np.zeros((self.plates.n, 3))
         self.linear_iterations = 0
+        #: steps whose linear fast path ran to its iteration limit above its tolerance and were
+        #: redone by NLGS (:func:`.linear.solver.reached`; since this object was made, not checkpointed)
+        self.linear_unconverged = 0
         self._v_before: np.ndarray | None = None
         self._vp_before: np.ndarray | None = None
         self._w_before: np.ndarray | None = None
@@ -641,7 +644,9 @@ class Simulation:
         bodies: Bodies,
     ) -> bool:
         """Try the linear solver (:mod:`.linear`); True if its solution is the solution of
-        the step: then end, the bond impulses and the contact impulses hold it. Contacts
+        the step: then end, the bond impulses and the contact impulses hold it. An iterative
+        solve that ran to its iteration limit above its tolerance is not: False, counted in
+        ``linear_unconverged``, its bond impulses NLGS's warm start. Contacts
         that the linear solution closes are solved on their Delassus operator condensed over
         the bonds (:mod:`.condensed`) when there are at most ``fast_path_contacts`` of them;
         otherwise False, with the linear bond impulses left as NLGS's warm start (the
@@ -654,6 +659,10 @@ class Simulation:
         start, previous = self._initial_guess()
         solver.solve(free, bonds, bond_step.c0, bond_step.cg, trial, P_try, start=start, previous=previous)
         self.linear_iterations = solver.last_iterations
+        if not solver.last_converged:  # not the system's solution: NLGS, warm-started from it
+            self.linear_unconverged += 1
+            bond_step.impulse[:] = P_try
+            return False
         # contacts must stay open with zero reaction, or be solved by the condensed problem
         ci, cj, cframe, gap = contacts.i, contacts.j, contacts.frame, contacts.gap
         closed = None

@@ -250,46 +250,33 @@ def _free_shift_index(names: tuple, T_ref: float, temperatures: tuple) -> tuple:
     return tuple(-1 if T_ == T_ref else names.index(f"log10_aT_{T_:g}") for T_ in temperatures)
 
 
+def _pow10(v):
+    """10 ** v of a scalar, or of an array one scalar at a time (NumPy's array power may differ from its
+    scalar power in the last bit, so each element is the value one vector's scalar gets)."""
+    if np.ndim(v) == 0:
+        return 10**v
+    return np.array([10**e for e in v], dtype=float)
+
+
 def _core_values(x, names, static_modulus) -> dict:
-    g = dict(zip(names, x))
+    """The 2S2P1D constants (MPa, s; WLF or Arrhenius constants as fitted) of the parameter vector ``x``
+    (shape (p,), scalars) or of each row of ``x`` (shape (m, p), arrays of shape (m,)); row i holds exactly
+    the values of ``x[i]`` (:func:`_pow10`)."""
+    x = np.asarray(x, dtype=float)
+    g = {n: x.T[i] for i, n in enumerate(names)}  # a scalar of (p,), a column of (m, p)
     h = g["h"]
     out = {
-        "E00_MPa": 10 ** g["log10_E00_MPa"] if static_modulus else 0.0,
-        "E0_MPa": 10 ** g["log10_E0_MPa"],
-        "delta": 10 ** g["log10_delta"],
+        "E00_MPa": _pow10(g["log10_E00_MPa"]) if static_modulus else (0.0 if x.ndim == 1 else np.zeros(len(x))),
+        "E0_MPa": _pow10(g["log10_E0_MPa"]),
+        "delta": _pow10(g["log10_delta"]),
         "k": g["k_over_h"] * h,
         "h": h,
-        "beta": 10 ** g["log10_beta"],
-        "tau_ref_s": 10 ** g["log10_tau_ref_s"],
+        "beta": _pow10(g["log10_beta"]),
+        "tau_ref_s": _pow10(g["log10_tau_ref_s"]),
     }
     for key in ("C1", "C2_K", "Ea_kJ_mol"):
         if key in g:
             out[key] = g[key]
-    return out
-
-
-def _core_columns(x, names, static_modulus) -> dict:
-    """:func:`_core_values` of each row of ``x`` (shape (m, p)), as arrays of shape (m,). The powers of ten
-    are taken one scalar at a time, as for one vector (NumPy's array power may differ from its scalar power
-    in the last bit), so row i holds exactly the values of ``_core_values(x[i])``."""
-    col = {n: x[:, i] for i, n in enumerate(names)}
-
-    def pow10(name):
-        return np.array([10**v for v in col[name]], dtype=float)
-
-    h = col["h"]
-    out = {
-        "E00_MPa": pow10("log10_E00_MPa") if static_modulus else np.zeros(len(x)),
-        "E0_MPa": pow10("log10_E0_MPa"),
-        "delta": pow10("log10_delta"),
-        "k": col["k_over_h"] * h,
-        "h": h,
-        "beta": pow10("log10_beta"),
-        "tau_ref_s": pow10("log10_tau_ref_s"),
-    }
-    for key in ("C1", "C2_K", "Ea_kJ_mol"):
-        if key in col:
-            out[key] = col[key]
     return out
 
 
@@ -299,10 +286,9 @@ def _true_modulus(x, names, shift, T_ref, temperatures, static_modulus, f, T):
     scalars of each row are computed as for one vector, and the formula runs on broadcast
     arrays by the same elementwise operations, so row i is the value for ``x[i]``."""
     x = np.asarray(x, dtype=float)
-    if x.ndim == 1:
-        c = _core_values(x, names, static_modulus)
-    else:
-        c = {key: v[:, None] for key, v in _core_columns(x, names, static_modulus).items()}
+    c = _core_values(x, names, static_modulus)
+    if x.ndim > 1:
+        c = {key: v[:, None] for key, v in c.items()}
     tau = c["tau_ref_s"] * 10.0 ** _log_shift(x, names, shift, T_ref, temperatures, T)
     return two_s2p1d_modulus(2 * np.pi * f, c["E00_MPa"], c["E0_MPa"], c["delta"], c["k"], c["h"], c["beta"], tau)
 

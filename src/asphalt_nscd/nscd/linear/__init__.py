@@ -28,18 +28,21 @@ Solvers, chosen by ``NSCDParameters.linear_solver`` and run by :class:`LinearBon
 * ``direct`` (:mod:`.direct`): symmetric-mode SuperLU factorisation once per (dt, theta,
   intact-bond set), two triangular solves per step, exact to round-off (the reference).
 
-Validity is checked after the solve by the caller (moreau_jean.py): every contact candidate
+Validity is checked after the solve by the caller (moreau_jean.py): an iterative solve that
+ran to its iteration limit above its tolerance is not the step's solution (the step is redone by
+NLGS, warm-started from it, and counted: ``Simulation.linear_unconverged``); every contact candidate
 must satisfy U_n + max(g, 0)/h >= 0 with zero reaction, and no bond may exceed R_crit;
 otherwise the step is redone by NLGS, unless at most ``NSCDParameters.fast_path_contacts``
 contacts close, which are then solved on their Delassus operator condensed over the bonds
-(condensed.py, with the columns of A^-1 of :meth:`LinearBondSolver.response`). Measured
+(condensed.py, with the columns of A^-1 of :meth:`LinearBondSolver.response`; a column whose
+solve does not converge sends the step to NLGS too). Measured
 costs and the variants tried: docs/choices.md.
 """
 
 from .cg import CGOperator
 from .direct import PermutedLU, splu_symmetric
 from .dofs import DofMap, bond_impulses, dof_numbering, skew
-from .solver import LINEAR_SOLVERS, LinearBondSolver
+from .solver import LINEAR_SOLVERS, LinearBondSolver, LinearSolveError
 from .ssor import SSORStructure, ssor_structure
 
 # kernels that the unit tests call as linear.<name> (tests/unit/test_nscd_linear.py,
@@ -50,6 +53,7 @@ from .ssor import _SSOR_KEYS, _lower_solve, _upper_solve  # noqa: E402,F401
 __all__ = [
     "LINEAR_SOLVERS",
     "LinearBondSolver",
+    "LinearSolveError",
     "PermutedLU",
     "splu_symmetric",
     "bond_impulses",

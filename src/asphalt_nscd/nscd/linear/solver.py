@@ -17,6 +17,19 @@ from .ssor import _SSOR_KEYS, SSORStructure, _galerkin_combine, _galerkin_gram, 
 LINEAR_SOLVERS = ("cg", "cg_ssor", "direct")
 
 
+class LinearSolveError(RuntimeError):
+    """An iterative solve of :class:`LinearBondSolver` ran to its ``max_iterations`` with its
+    relative residual above its tolerance: its solution is not the system's."""
+
+
+def reached(iterations: int, residual: float, tolerance: float, max_iterations: int) -> bool:
+    """Whether an iterative solve gave the system's solution: its relative residual met the
+    tolerance, or it stopped before ``max_iterations`` (``cg_ssor`` stops early at the floor
+    rounding allows, its residual then reported above a tolerance below that floor:
+    :func:`.ssor._pcg_ssor`). A solve that ran to ``max_iterations`` above its tolerance did not."""
+    return residual <= tolerance or iterations < max_iterations
+
+
 class LinearBondSolver:
     """The linear system of the bonded network for one (dt, theta, intact-bond set).
 
@@ -68,6 +81,8 @@ class LinearBondSolver:
         self.max_iterations = max_iterations
         self.last_iterations = 0
         self.last_residual = 0.0
+        #: whether the last :meth:`solve` gave the system's solution (:func:`reached`; always with 'direct')
+        self.last_converged = True
         self.rot = rotation is not None
         self._columns = {}  # unknown block -> (ndof, 3) columns of A^-1 (:meth:`response`)
         nb = len(bi)
@@ -190,6 +205,9 @@ class LinearBondSolver:
             _gather(sol, self.dofs, start or free)
             it, res = self._run_cg(rhs, sol, self._work)
             self.last_iterations, self.last_residual = it, res
+        self.last_converged = self.method == "direct" or reached(
+            self.last_iterations, self.last_residual, self.tolerance, self.max_iterations
+        )
         _scatter(sol, self.dofs, out)
         bond_impulses(bonds, c0, cg, out, impulse, self.rot)
 
@@ -221,6 +239,8 @@ class LinearBondSolver:
         Raises
         ------
         IndexError if ``block`` is not an unknown block (0 <= block < ndof / 3).
+        LinearSolveError if a column's iterative solve ran to ``max_iterations`` above its
+            tolerance (:func:`reached`; nothing cached).
         """
         col = self._columns.get(block)
         if col is not None:
@@ -236,7 +256,7 @@ class LinearBondSolver:
                 continue
             x = col[:, d].copy()
             if self.method == "cg_ssor":
-                _pcg_ssor(
+                it, res, _ = _pcg_ssor(
                     self.op,
                     self._ssor,
                     rhs,
@@ -249,7 +269,12 @@ class LinearBondSolver:
                     False,
                 )
             else:
-                self._run_cg(rhs, x, np.zeros((4, self.ndof)))
+                it, res = self._run_cg(rhs, x, np.zeros((4, self.ndof)))
+            if not reached(it, res, self.tolerance, self.max_iterations):
+                raise LinearSolveError(
+                    f"response of block {block}, axis {d}: relative residual {res:.3g} above the tolerance "
+                    f"{self.tolerance:.3g} after {it} iterations ({self.method})"
+                )
             col[:, d] = x
         self._columns[block] = col
         return col
