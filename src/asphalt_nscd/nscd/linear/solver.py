@@ -81,8 +81,6 @@ class LinearBondSolver:
         self.max_iterations = max_iterations
         self.last_iterations = 0
         self.last_residual = 0.0
-        #: whether the last :meth:`solve` gave the system's solution (:func:`reached`; always with 'direct')
-        self.last_converged = True
         self.rot = rotation is not None
         self._columns = {}  # unknown block -> (ndof, 3) columns of A^-1 (:meth:`response`)
         nb = len(bi)
@@ -205,11 +203,14 @@ class LinearBondSolver:
             _gather(sol, self.dofs, start or free)
             it, res = self._run_cg(rhs, sol, self._work)
             self.last_iterations, self.last_residual = it, res
-        self.last_converged = self.method == "direct" or reached(
-            self.last_iterations, self.last_residual, self.tolerance, self.max_iterations
-        )
         _scatter(sol, self.dofs, out)
         bond_impulses(bonds, c0, cg, out, impulse, self.rot)
+
+    @property
+    def last_converged(self) -> bool:
+        """Whether the last :meth:`solve` gave the system's solution (:func:`reached` of its iterations and
+        residual; always with 'direct', which reports none)."""
+        return reached(self.last_iterations, self.last_residual, self.tolerance, self.max_iterations)
 
     def _run_cg(self, rhs, x, work):
         """:func:`_pcg` on this operator, or :func:`_pcg_threaded` with threads > 1."""
