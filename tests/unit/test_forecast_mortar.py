@@ -226,3 +226,28 @@ def test_air_in_the_binder_is_the_mastic_without_air_and_softens_in_place_of_bin
         len({round(f["phi_filler"], 12) for f in fractions}) == 1
         and len({round(f["phi_fine"], 12) for f in fractions}) == 1
     )
+
+
+def test_the_fine_skeleton_is_waltons_smooth_packing():
+    """granular_skeleton against Walton's (1987) own form, K = (1/6) [3 phi^2 C^2 P / (pi^4 B^2)]^(1/3) with
+    B = (1/4 pi) (1/mu + 1/(mu + lambda)), and G = 3 K / 5 for smooth spheres; the pressure's cube root and the
+    coordination's two thirds; none at zero pressure; real; refused outside its ranges."""
+    from asphalt_nscd.forecast.mortar import granular_skeleton
+
+    E, nu, phi, P, C = 55e9, 0.2, 0.7, 6e5, 6.0
+    mu = E / (2 * (1 + nu))
+    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    B = (1 / mu + 1 / (mu + lam)) / (4 * np.pi)
+    K_walton = (3 * phi**2 * C**2 * P / (np.pi**4 * B**2)) ** (1 / 3) / 6
+    K, G = granular_skeleton(E, nu, phi, P, C)
+    np.testing.assert_allclose(K, K_walton, rtol=1e-12)
+    np.testing.assert_allclose(G, 0.6 * K, rtol=1e-15)
+    assert 1e8 < K < 1e9  # a sand packing under hundreds of kPa: hundreds of MPa
+    np.testing.assert_allclose(granular_skeleton(E, nu, phi, 8 * P, C)[0], 2 * K, rtol=1e-12)
+    np.testing.assert_allclose(granular_skeleton(E, nu, phi, P, 8 * C)[0], 4 * K, rtol=1e-12)
+    assert granular_skeleton(E, nu, phi, 0.0)[0] == 0.0
+    Ks, _ = granular_skeleton(np.array([30e9, 90e9]), nu, np.array([0.5, 0.7]), P)
+    assert Ks.shape == (2,) and np.isrealobj(Ks) and Ks[1] > Ks[0]
+    for bad in ({"pressure_Pa": -1.0}, {"phi": 1.2}):
+        with pytest.raises(ValueError, match="granular_skeleton"):
+            granular_skeleton(**{"E_stone_Pa": E, "nu_stone": nu, "phi": phi, "pressure_Pa": P, **bad})

@@ -142,26 +142,29 @@ def test_the_fits_jacobian_is_the_models_derivative(responses, table, step, phys
 
 
 @pytest.mark.parametrize(
-    "air_phase, strain, confined, pressure",
+    "air_phase, strain, confined, pressure, fine",
     [
-        ("mastic", None, False, None),
-        ("mortar", None, False, None),
-        ("mortar", 1e-4, False, None),
-        ("pockets", None, True, None),
-        ("pockets", None, True, 6e5),
-        ("binder", None, False, None),
-        ("binder", 1.5e-4, True, 6e5),
+        ("mastic", None, False, None, None),
+        ("mortar", None, False, None, None),
+        ("mortar", 1e-4, False, None, None),
+        ("pockets", None, True, None, None),
+        ("pockets", None, True, 6e5, None),
+        ("binder", None, False, None, None),
+        ("binder", 1.5e-4, True, 6e5, None),
+        ("mastic", None, False, None, 6e5),
+        ("pockets", None, True, 6e5, 6e5),
     ],
 )
-def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain, confined, pressure):
+def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain, confined, pressure, fine):
     """At the same sample, binder and effective binder, more air voids (a larger VMA) soften every
     condition's forecast (the mortar's voids or the bridges' section, and a thicker film), wherever the
-    voids enter, with the Hertz contacts, with confined bridges and with the compaction's patches too."""
+    voids enter, with the Hertz contacts, with confined bridges, with the compaction's patches and with
+    the fine aggregate's own skeleton too."""
     model = physical.PhysicalDem(
         "dem_physical",
         responses,
         4.0,
-        physics=physical.BondPhysics(air_phase, strain, confined, pressure),
+        physics=physical.BondPhysics(air_phase, strain, confined, pressure, fine),
     )
     state = model.fit(table)
     rows = table[table["mix_id"] == "209"]
@@ -387,9 +390,15 @@ def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_rang
 
     assert physical.BondPhysics.from_config({}) == physical.BondPhysics("mastic", None, False, None)
     options = physical.BondPhysics.from_config(
-        {"air_phase": "pockets", "contact_strain": 1e-4, "bridge_confinement": True, "compaction_pressure_Pa": 6e5}
+        {
+            "air_phase": "pockets",
+            "contact_strain": 1e-4,
+            "bridge_confinement": True,
+            "compaction_pressure_Pa": 6e5,
+            "fine_skeleton_pressure_Pa": 6e4,
+        }
     )
-    assert options == physical.BondPhysics("pockets", 1e-4, True, 6e5) and options.touching
+    assert options == physical.BondPhysics("pockets", 1e-4, True, 6e5, 6e4) and options.touching
     assert physical.BondPhysics(compaction_pressure=6e5).touching and not physical.BondPhysics().touching
     model = physical.PhysicalDem("dem_physical", {}, 4.0, physics=options)
     assert model.physics() == {
@@ -397,11 +406,14 @@ def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_rang
         "contact_strain": 1e-4,
         "confinement": True,
         "compaction_pressure": 6e5,
+        "fine_skeleton_pressure": 6e4,
     }
     for bad, key in (
         ({"air_phase": "asphalt"}, "air phase"),
         ({"contact_strain": 0.0}, "contact strain"),
         ({"compaction_pressure_Pa": "high"}, "compaction pressure 'high'; expected a number"),
+        ({"fine_skeleton_pressure_Pa": 0.0}, "fine skeleton pressure 0.0 Pa; expected in"),
+        ({"fine_skeleton_pressure_Pa": 2e8}, "fine skeleton pressure"),
     ):
         with pytest.raises(InputError, match=key):
             physical.BondPhysics.from_config(bad)
@@ -453,6 +465,53 @@ def test_compaction_patches_are_flat_punches_that_stiffen_the_warm_forecast(resp
     for bad in (0.0, -1.0, 2e8):
         with pytest.raises(InputError, match="compaction pressure"):
             physical.BondPhysics(compaction_pressure=bad)
+
+
+def test_the_fine_skeleton_adds_to_the_mortar_and_stiffens_the_warm_forecast_elastically(responses, table):
+    """With the fine aggregate's skeleton (mortar.granular_skeleton at the mix's fine fraction of its mortar)
+    the mortar's K and G are the suspension's plus the skeleton's, exactly; the forecast stiffens at every
+    cell, most where the binder is softest, and its warm phase falls (an elastic skeleton); a higher
+    pressure stiffens further; the fits' Jacobian through the Schur sum still matches finite differences."""
+    from asphalt_nscd.forecast.mortar import Constituents, granular_skeleton, young
+
+    rows = table[table["mix_id"] == "211"].reset_index(drop=True)
+    T = rows["temperature_C"].to_numpy()
+    plain = physical.PhysicalDem("dem_physical", responses, 4.0)
+    grains = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e5)
+    )
+    c = plain.constants(())
+    cells = plain._cells(rows)
+    mortar = cells[0][1]
+    (K, G), _ = mortar.bulk_shear(c["fine_packing"], c["E_stone_Pa"])
+    Kg, Gg = granular_skeleton(c["E_stone_Pa"], Constituents().nu_stone, mortar.phi_fine, 6e5)
+    assert Kg > 0 and 0.6 * Kg == Gg
+    ((_, e1_plain, _),) = plain._bond_parts(cells, c)[0]
+    ((_, e1_grains, _),) = grains._bond_parts(grains._cells(rows), c)[0]
+    Es = physical.plane_strain_stone(c)
+    chi = responses["211"][0].chi_bridge
+    np.testing.assert_allclose(1 / e1_grains - chi / Es, 1 / young(K + Kg, G + Gg), rtol=1e-10)
+    np.testing.assert_allclose(1 / e1_plain - chi / Es, 1 / young(K, G), rtol=1e-10)
+    E0, P0, _ = plain.predict(plain.fit(table), rows)
+    E1, P1, _ = grains.predict(grains.fit(table), rows)
+    gain = np.log(E1 / E0)
+    assert np.all(gain > 0) and gain[T > 50].mean() > 3 * gain[T < 0].mean()
+    assert np.all(P1[T > 50] < P0[T > 50])
+    harder = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e6)
+    )
+    assert np.all(harder.predict(harder.fit(table), rows)[0] > E1)
+    step = physical.PhysicalDem(
+        "dem_c1", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e5), free=("E_stone_Pa",)
+    )
+    x = np.array([60e9])
+    J = step._log_modulus_jacobian(cells, len(rows), x)[:, 0]
+    h = 1e3
+    fd = (
+        step._log_modulus(cells, len(rows), step.constants(x + h))
+        - step._log_modulus(cells, len(rows), step.constants(x - h))
+    ) / (2 * h)
+    np.testing.assert_allclose(J, fd, rtol=1e-4, atol=1e-18)
 
 
 def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(responses, table):
@@ -520,6 +579,12 @@ def test_the_page_states_the_physics_the_ladder_ran_with(responses, table):
     ).fit(table)
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": pressed}]}))
     assert "stone contacts whose patches pressed by the compaction at 600 kPa" in line and "films only" not in line
+    assert "fine aggregate without a skeleton of its own" in line
+    grains = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e4)
+    ).fit(table)
+    line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": grains}]}))
+    assert "fine aggregate a skeleton of its own pressed at 60 kPa" in line
     assert physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": {}}]}) == []
 
 

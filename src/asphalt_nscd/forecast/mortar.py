@@ -378,3 +378,29 @@ def confined_modulus(K, G, shape) -> np.ndarray:
     # 1 - 2 I1 / (x I0), even in x (either root serves); its series x^2/8 - x^4/96 where x is small
     lateral = np.where(small, x**2 / 8.0 - x**4 / 96.0, 1.0 - 2.0 * ive(1, xs) / (xs * ive(0, xs)))
     return young(K, G) + K * lateral
+
+
+#: coordination number of the fine aggregate's contact network: the isostatic value 2d of frictionless spheres
+#: at jamming in three dimensions (O'Hern, Silbert, Liu & Nagel 2003, Phys. Rev. E 68, 011306)
+FINE_COORDINATION = 6.0
+
+
+def granular_skeleton(E_stone_Pa, nu_stone: float, phi, pressure_Pa: float, coordination: float = FINE_COORDINATION):
+    """(K, G) (Pa, real, the broadcast shape of ``E_stone_Pa`` and ``phi``) of a random packing of equal
+    elastic spheres whose contacts were pressed by a hydrostatic ``pressure_Pa`` and kept their patches:
+    the effective medium of smooth (frictionless) Hertz contacts (Walton 1987, J. Mech. Phys. Solids
+    35, 213-226; as in Mavko, Mukerji & Dvorkin 2009, The Rock Physics Handbook, 2nd ed., section 5.4):
+
+        K = [C^2 phi^2 mu_s^2 P / (18 pi^2 (1 - nu_s)^2)]^(1/3),   G = 3 K / 5
+
+    with C the ``coordination`` number, phi the spheres' volume fraction (the solid fraction), mu_s =
+    E_s / (2 (1 + nu_s)). A contact's tangent stiffness 2 a E* at the patch radius a of its load is the
+    stiffness a patch held at that radius keeps under a smaller load (the flat punch; Sneddon 1965):
+    so the medium is the skeleton of the fine aggregate pressed at compaction, whatever the temperature.
+    Independent of the spheres' size. Raises ValueError for a negative pressure or phi outside [0, 1]."""
+    phi = np.asarray(phi, float)
+    if pressure_Pa < 0 or np.any((phi < 0) | (phi > 1)):
+        raise ValueError(f"granular_skeleton: pressure {pressure_Pa} Pa >= 0 and phi {phi} in [0, 1] expected")
+    mu = np.asarray(E_stone_Pa, float) / (2.0 * (1.0 + nu_stone))
+    K = np.cbrt(coordination**2 * phi**2 * mu**2 * pressure_Pa / (18.0 * np.pi**2 * (1.0 - nu_stone) ** 2))
+    return K, 0.6 * K

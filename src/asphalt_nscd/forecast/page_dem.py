@@ -125,7 +125,13 @@ def physics_line(constants: dict) -> list[str]:
                 f"Physics options of this run: air voids in the {st['air_phase']} (`forecast.dem.air_phase`), "
                 f"skeleton contacts {', '.join(contacts) or 'through their films only (`contact_strain`)'}, "
                 f"mortar bridges {'confined by their stones' if st.get('confinement') else 'free'} "
-                "(`bridge_confinement`).",
+                "(`bridge_confinement`), the mortar's fine aggregate "
+                + (
+                    f"a skeleton of its own pressed at {st['fine_skeleton_pressure'] / 1e3:g} kPa"
+                    if st.get("fine_skeleton_pressure")
+                    else "without a skeleton of its own"
+                )
+                + " (`fine_skeleton_pressure_Pa`).",
                 "",
             ]
     return []

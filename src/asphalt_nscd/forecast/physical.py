@@ -15,8 +15,8 @@ binder, the constituents and the mix's volumetrics:
 
   with chi the bonds' g_b-weighted mean of g_b / a_b (the series term taken uniform over the
   bonds, so that the response stays a function of one modulus per class: :class:`.dem.Response`).
-  Options: ``confinement`` (bridges as layers bonded to their stones, :func:`confined_bridge`) and
-  the air in ``pockets`` (dense bridges, the pockets' share of the matrix off their section).
+  Options: ``confinement`` (:func:`confined_bridge`), the air in ``pockets`` (dense bridges, the pockets'
+  share of the matrix off their section), the fine aggregate's pressed skeleton (:func:`.mortar.granular_skeleton`).
 * **Skeleton contact** (pairs in contact in the packing): two stones separated by a mastic film of
   the mix's average film thickness h (:func:`.formulation.film_thickness_m`, times
   ``film_factor``). The film squeezed between spheres of effective radius R (Reynolds'
@@ -348,6 +348,9 @@ class BondPhysics:
     compaction_pressure : the compactor's pressure (Pa, in (0, 1e8)) that pressed the skeleton
         contacts' patches (:func:`hertz_contact`, the film skeleton only; with ``contact_strain``
         the larger of the two stresses); None: no compaction patch.
+    fine_skeleton_pressure : the pressure (Pa, in (0, 1e8)) that pressed the contacts of the mortar's fine
+        aggregate: their skeleton (:func:`.mortar.granular_skeleton` at the mortar's fine fraction) is
+        added to the mortar's bulk and shear moduli (the two share the strain: a Voigt sum); None: none.
 
     Raises InputError for an option outside its range.
     """
@@ -356,13 +359,14 @@ class BondPhysics:
     contact_strain: float | None = None
     confinement: bool = False
     compaction_pressure: float | None = None
+    fine_skeleton_pressure: float | None = None
 
     def __post_init__(self):
         from .mortar import AIR_PHASES
 
         if self.air_phase not in AIR_PHASES:
             raise InputError(f"bond physics: air phase {self.air_phase!r}; expected one of {AIR_PHASES}")
-        for name in ("contact_strain", "compaction_pressure"):  # the one conversion of the numbers
+        for name in ("contact_strain", "compaction_pressure", "fine_skeleton_pressure"):  # the one conversion
             value = getattr(self, name)
             if value is None:
                 continue
@@ -374,16 +378,22 @@ class BondPhysics:
             raise InputError(f"bond physics: contact strain {self.contact_strain}; expected in (0, 0.01)")
         if self.compaction_pressure is not None and not 0.0 < self.compaction_pressure < 1e8:
             raise InputError(f"bond physics: compaction pressure {self.compaction_pressure} Pa; expected in (0, 1e8)")
+        if self.fine_skeleton_pressure is not None and not 0.0 < self.fine_skeleton_pressure < 1e8:
+            raise InputError(
+                f"bond physics: fine skeleton pressure {self.fine_skeleton_pressure} Pa; expected in (0, 1e8)"
+            )
 
     @classmethod
     def from_config(cls, dem: dict) -> "BondPhysics":
         """The options of the ``forecast.dem`` section (``air_phase``, ``contact_strain``,
-        ``bridge_confinement``, ``compaction_pressure_Pa``; absent keys at their defaults)."""
+        ``bridge_confinement``, ``compaction_pressure_Pa``, ``fine_skeleton_pressure_Pa``; absent keys at their
+        defaults)."""
         return cls(
             air_phase=str(dem.get("air_phase") or "mastic"),
             contact_strain=dem.get("contact_strain"),
             confinement=bool(dem.get("bridge_confinement", False)),
             compaction_pressure=dem.get("compaction_pressure_Pa"),
+            fine_skeleton_pressure=dem.get("fine_skeleton_pressure_Pa"),
         )
 
     @property
@@ -475,11 +485,15 @@ class PhysicalDem:
     def _bond_parts(self, cells: list, constants: dict) -> list:
         """(e_1, zeta) of every response of every cell (:func:`bond_moduli`): a list per cell of
         (response, e_1, zeta) with complex (m,) arrays, m the cell's rows. No Schur sum: the cheap part."""
-        from .mortar import young
+        from .mortar import Constituents, granular_skeleton, young
 
         out = []
+        pressure = self.bond_physics.fine_skeleton_pressure
         for _, mortar, film, responses, shapes in cells:
             (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"])
+            if pressure is not None:  # the fine aggregate's own skeleton beside the mortar's suspension estimate
+                Kg, Gg = granular_skeleton(constants["E_stone_Pa"], Constituents().nu_stone, mortar.phi_fine, pressure)
+                K, G = K + Kg, G + Gg
             Em = young(K, G)
             parts = []
             for resp, shape in zip(responses, shapes):
