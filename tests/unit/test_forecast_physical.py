@@ -469,9 +469,10 @@ def test_compaction_patches_are_flat_punches_that_stiffen_the_warm_forecast(resp
 
 def test_the_fine_skeleton_adds_to_the_mortar_and_stiffens_the_warm_forecast_elastically(responses, table):
     """With the fine aggregate's skeleton (mortar.granular_skeleton at the mix's fine fraction of its mortar)
-    the mortar's K and G are the suspension's plus the skeleton's, exactly; the forecast stiffens at every
-    cell, most where the binder is softest, and its warm phase falls (an elastic skeleton); a higher
-    pressure stiffens further; the fits' Jacobian through the Schur sum still matches finite differences."""
+    the mortar's K and G are the suspension's plus the skeleton's, exactly, where that sum is below the
+    Hashin-Shtrikman upper bound, and the bound (the sum's phase kept) where it is not: never above it; the
+    forecast stiffens at every cell, most where the binder is softest, and its warm phase falls (an elastic
+    skeleton); a higher pressure stiffens further; the fits' Jacobian still matches finite differences."""
     from asphalt_nscd.forecast.mortar import Constituents, granular_skeleton, young
 
     rows = table[table["mix_id"] == "211"].reset_index(drop=True)
@@ -486,11 +487,23 @@ def test_the_fine_skeleton_adds_to_the_mortar_and_stiffens_the_warm_forecast_ela
     (K, G), _ = mortar.bulk_shear(c["fine_packing"], c["E_stone_Pa"])
     Kg, Gg = granular_skeleton(c["E_stone_Pa"], Constituents().nu_stone, mortar.phi_fine, 6e5)
     assert Kg > 0 and 0.6 * Kg == Gg
+    w = physical._stone_weights(float(np.log(c["E_stone_Pa"])))
+    cK, cG = np.exp(np.tensordot(w, mortar._cap_nodes, axes=1))  # the mortar's Hashin-Shtrikman upper bounds
+    (Kc, Gc), _ = mortar.bulk_shear(c["fine_packing"], c["E_stone_Pa"], (Kg, Gg))
+    for got, plain_sum, cap in ((Kc, K + Kg, cK), (Gc, G + Gg, cG)):
+        np.testing.assert_allclose(
+            got, np.where(np.abs(plain_sum) > cap, plain_sum * cap / np.abs(plain_sum), plain_sum)
+        )
+        assert np.all(np.abs(got) <= cap * (1 + 1e-12))
+    # a skeleton that would push the mortar past the bound (a packing of 60 contacts a grain at 100 MPa) meets the cap
+    strong = granular_skeleton(c["E_stone_Pa"], 0.2, 0.7, 1e8, coordination=60.0)
+    (Kh, _), _ = mortar.bulk_shear(c["fine_packing"], c["E_stone_Pa"], strong)
+    assert np.all(np.abs(Kh) <= cK * (1 + 1e-12)) and np.any(np.isclose(np.abs(Kh), cK, rtol=1e-12))
     ((_, e1_plain, _),) = plain._bond_parts(cells, c)[0]
     ((_, e1_grains, _),) = grains._bond_parts(grains._cells(rows), c)[0]
     Es = physical.plane_strain_stone(c)
     chi = responses["211"][0].chi_bridge
-    np.testing.assert_allclose(1 / e1_grains - chi / Es, 1 / young(K + Kg, G + Gg), rtol=1e-10)
+    np.testing.assert_allclose(1 / e1_grains - chi / Es, 1 / young(Kc, Gc), rtol=1e-10)
     np.testing.assert_allclose(1 / e1_plain - chi / Es, 1 / young(K, G), rtol=1e-10)
     E0, P0, _ = plain.predict(plain.fit(table), rows)
     E1, P1, _ = grains.predict(grains.fit(table), rows)

@@ -198,13 +198,19 @@ class MixMortar:
         (K, G), Gm = self.bulk_shear(fine_packing, E_stone_Pa)
         return young(K, G), Gm
 
-    def bulk_shear(self, fine_packing: float, E_stone_Pa: float) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
-        """((K*, G*) of the mortar, G*_mastic): complex (n,) Pa, as :meth:`moduli`."""
+    def bulk_shear(
+        self, fine_packing: float, E_stone_Pa: float, skeleton: tuple[float, float] | None = None
+    ) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+        """((K*, G*) of the mortar, G*_mastic): complex (n,) Pa, as :meth:`moduli`. ``skeleton``: (K, G) (Pa,
+        real) of the fine aggregate's own skeleton (:func:`.mortar.granular_skeleton`), added to the fine stage's
+        moduli before their cap at the Hashin-Shtrikman upper bound (the sum is capped like the estimate)."""
         p = max(float(fine_packing), self.packing_floor)
         s = float(-p * np.log1p(-self.phi_fine / p))
         x = np.log(E_stone_Pa)
         w = _stone_weights(float(x))  # the cubic spline in ln E_s as weights of the grid's values
         lnK, lnG = np.tensordot(w, self._along_s(min(s, self._s[-1])), axes=1)
+        if skeleton is not None:
+            lnK, lnG = np.log(np.exp(lnK) + skeleton[0]), np.log(np.exp(lnG) + skeleton[1])
         cK, cG = np.tensordot(w, self._cap_nodes, axes=1)
         lnK = np.where(lnK.real > cK, cK + 1j * lnK.imag, lnK)
         lnG = np.where(lnG.real > cG, cG + 1j * lnG.imag, lnG)
@@ -350,7 +356,8 @@ class BondPhysics:
         the larger of the two stresses); None: no compaction patch.
     fine_skeleton_pressure : the pressure (Pa, in (0, 1e8)) that pressed the contacts of the mortar's fine
         aggregate: their skeleton (:func:`.mortar.granular_skeleton` at the mortar's fine fraction) is
-        added to the mortar's bulk and shear moduli (the two share the strain: a Voigt sum); None: none.
+        added to the mortar's bulk and shear moduli (the two share the strain: a Voigt sum), the sum
+        capped at the Hashin-Shtrikman upper bound (:meth:`MixMortar.bulk_shear`); None: none.
 
     Raises InputError for an option outside its range.
     """
@@ -490,10 +497,12 @@ class PhysicalDem:
         out = []
         pressure = self.bond_physics.fine_skeleton_pressure
         for _, mortar, film, responses, shapes in cells:
-            (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"])
-            if pressure is not None:  # the fine aggregate's own skeleton beside the mortar's suspension estimate
-                Kg, Gg = granular_skeleton(constants["E_stone_Pa"], Constituents().nu_stone, mortar.phi_fine, pressure)
-                K, G = K + Kg, G + Gg
+            skeleton = (  # the fine aggregate's own skeleton beside the mortar's suspension estimate
+                None
+                if pressure is None
+                else granular_skeleton(constants["E_stone_Pa"], Constituents().nu_stone, mortar.phi_fine, pressure)
+            )
+            (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"], skeleton)
             Em = young(K, G)
             parts = []
             for resp, shape in zip(responses, shapes):
