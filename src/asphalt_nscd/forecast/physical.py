@@ -383,12 +383,10 @@ class BondPhysics:
                 raise InputError(f"bond physics: {name.replace('_', ' ')} {value!r}; expected a number") from None
         if self.contact_strain is not None and not 0.0 < self.contact_strain < 0.01:
             raise InputError(f"bond physics: contact strain {self.contact_strain}; expected in (0, 0.01)")
-        if self.compaction_pressure is not None and not 0.0 < self.compaction_pressure < 1e8:
-            raise InputError(f"bond physics: compaction pressure {self.compaction_pressure} Pa; expected in (0, 1e8)")
-        if self.fine_skeleton_pressure is not None and not 0.0 < self.fine_skeleton_pressure < 1e8:
-            raise InputError(
-                f"bond physics: fine skeleton pressure {self.fine_skeleton_pressure} Pa; expected in (0, 1e8)"
-            )
+        for name in ("compaction_pressure", "fine_skeleton_pressure"):  # the pressures' one range
+            value = getattr(self, name)
+            if value is not None and not 0.0 < value < 1e8:
+                raise InputError(f"bond physics: {name.replace('_', ' ')} {value} Pa; expected in (0, 1e8)")
 
     @classmethod
     def from_config(cls, dem: dict) -> "BondPhysics":
