@@ -2,7 +2,7 @@
 air voids enter the mortar, whether the skeleton contacts also touch as Hertz contacts of the stones,
 whether their patches keep the size the compactor pressed them to, whether the mortar bridges are
 confined layers bonded to their stones, and whether the mortar's fine aggregate has a pressed skeleton
-of its own.
+of its own, beside the mortar or as the direct contacts of a contact network.
 
     python reference/forecast/physics_probe.py RUN -o reference/forecast/physics_probe.csv
 
@@ -15,7 +15,10 @@ the test's strain amplitude, AASHTO T 342's 50-150 microstrain; ``compaction_pre
 AASHTO T 312's 600 kPa; ``confinement`` of ``asphalt_nscd.forecast.physical.confined_bridge``; ``fine_skeleton_pressure``
 of ``asphalt_nscd.forecast.mortar.granular_skeleton``, the pressure that pressed the contacts of the mortar's fine
 aggregate, at most the compactor's 600 kPa, and a tenth and a hundredth of it: a grid laid out after a first look
-at these mixes' forecasts at 600 kPa) it forecasts every mix, binder through
+at these mixes' forecasts at 600 kPa; ``fine_neighbours`` of ``asphalt_nscd.forecast.mortar.contact_network``, the
+neighbours each fine particle shares a mortar bridge with, 6 of them direct contacts, at 8, 12 and 18 with the
+skeleton at 600 kPa: a grid laid out after an exploratory look at these mixes' forecasts with 8 to 24 neighbours at
+600 and 60 kPa) it forecasts every mix, binder through
 its curve, and writes per variant and temperature (empty: all) the mean over the mixes of each mix's
 mean absolute 100 ln(E_f / E_m) and phase error, with t(n - 1) 95 % intervals over the mixes, and
 the mean signed errors (bias), and what the forecast misses as a complex modulus: each cell's
@@ -47,33 +50,36 @@ from asphalt_nscd.io import InputError, write_csv
 
 #: the gyratory compactor's vertical pressure, Pa (AASHTO T 312)
 T312_PA = 6e5
-#: (air_phase, contact_strain, confinement, compaction_pressure, fine_skeleton_pressure) of each variant; the first
-#: is the default configuration's dem_physical
+#: (air_phase, contact_strain, confinement, compaction_pressure, fine_skeleton_pressure, fine_neighbours) of each
+#: variant; the first is the default configuration's dem_physical
 VARIANTS = (
-    ("mastic", None, False, None, None),
-    ("mortar", None, False, None, None),
-    ("mastic", 1e-4, False, None, None),
-    ("mortar", 5e-5, False, None, None),
-    ("mortar", 1e-4, False, None, None),
-    ("mortar", 1.5e-4, False, None, None),
-    ("pockets", None, False, None, None),
-    ("mastic", None, True, None, None),
-    ("mortar", None, True, None, None),
-    ("pockets", None, True, None, None),
-    ("mortar", 1e-4, True, None, None),
-    ("pockets", 1e-4, True, None, None),
-    ("pockets", 1.5e-4, True, None, None),
-    ("mastic", None, False, T312_PA, None),
-    ("pockets", None, False, T312_PA, None),
-    ("mortar", None, True, T312_PA, None),
-    ("pockets", None, True, T312_PA, None),
-    ("pockets", 1.5e-4, True, T312_PA, None),
-    ("binder", None, False, None, None),
-    ("binder", 1.5e-4, True, T312_PA, None),
-    ("mastic", None, False, None, T312_PA),
-    ("pockets", None, True, T312_PA, T312_PA),
-    ("pockets", None, True, T312_PA, T312_PA / 10),
-    ("pockets", None, True, T312_PA, T312_PA / 100),
+    ("mastic", None, False, None, None, None),
+    ("mortar", None, False, None, None, None),
+    ("mastic", 1e-4, False, None, None, None),
+    ("mortar", 5e-5, False, None, None, None),
+    ("mortar", 1e-4, False, None, None, None),
+    ("mortar", 1.5e-4, False, None, None, None),
+    ("pockets", None, False, None, None, None),
+    ("mastic", None, True, None, None, None),
+    ("mortar", None, True, None, None, None),
+    ("pockets", None, True, None, None, None),
+    ("mortar", 1e-4, True, None, None, None),
+    ("pockets", 1e-4, True, None, None, None),
+    ("pockets", 1.5e-4, True, None, None, None),
+    ("mastic", None, False, T312_PA, None, None),
+    ("pockets", None, False, T312_PA, None, None),
+    ("mortar", None, True, T312_PA, None, None),
+    ("pockets", None, True, T312_PA, None, None),
+    ("pockets", 1.5e-4, True, T312_PA, None, None),
+    ("binder", None, False, None, None, None),
+    ("binder", 1.5e-4, True, T312_PA, None, None),
+    ("mastic", None, False, None, T312_PA, None),
+    ("pockets", None, True, T312_PA, T312_PA, None),
+    ("pockets", None, True, T312_PA, T312_PA / 10, None),
+    ("pockets", None, True, T312_PA, T312_PA / 100, None),
+    ("pockets", None, True, T312_PA, T312_PA, 8.0),
+    ("pockets", None, True, T312_PA, T312_PA, 12.0),
+    ("pockets", None, True, T312_PA, T312_PA, 18.0),
 )
 
 
@@ -81,19 +87,19 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
     """The table of the module docstring from the run folder ``run``."""
     table, responses = run_forecast_inputs(run)
     errors = {}
-    for air, strain, confined, pressure, fine in VARIANTS:
+    for variant in VARIANTS:
         model = PhysicalDem(
             "dem_physical",
             responses,
             cut_mm,
-            physics=BondPhysics(air, strain, confined, pressure, fine),
+            physics=BondPhysics(*variant),
         )
         E, P, _ = model.predict(model.fit(table), table)
         missing = missing_modulus(table["E_norm_MPa"], table["phase_deg"], E, P)
         t = table.assign(
             e=100 * np.log(E / table["E_norm_MPa"]), p=P - table["phase_deg"], mr=missing.real, mi=missing.imag
         ).dropna(subset=["e"])
-        errors[(air, strain, confined, pressure, fine)] = t
+        errors[variant] = t
     # the choice inside the fold: each mix forecast by the variant best on the other mixes
     keys = list(errors)  # the variants by position: a column label of None would be read back as NaN
     score = pd.DataFrame(
@@ -104,14 +110,14 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
     counts = pd.Series(
         [
             f"{a} {s if s is not None else 'none'}{' confined' if c else ''}{f' compacted {p / 1e3:g} kPa' if p else ''}"
-            f"{f' fine skeleton {f / 1e3:g} kPa' if f else ''}"
-            for a, s, c, p, f in chosen.values()
+            f"{f' fine skeleton {f / 1e3:g} kPa' if f else ''}{f' network of {z:g}' if z else ''}"
+            for a, s, c, p, f, z in chosen.values()
         ]
     ).value_counts()
     rows = []
-    for (air, strain, confined, pressure, fine), t in [
+    for (air, strain, confined, pressure, fine, neighbours), t in [
         *errors.items(),
-        (("chosen in the fold", None, None, None, None), pick),
+        (("chosen in the fold", None, None, None, None, None), pick),
     ]:
         for T in [np.nan, *sorted(t["temperature_C"].unique())]:
             sel = t if np.isnan(T) else t[t["temperature_C"] == T]
@@ -120,7 +126,8 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
             )
             per_mix[["bp", "mr", "mi"]] = sel.groupby("mix_id")[["p", "mr", "mi"]].mean()
             row = {"air_phase": air, "contact_strain": strain, "confinement": confined}
-            row |= {"compaction_pressure_Pa": pressure, "fine_skeleton_pressure_Pa": fine, "temperature_C": T}
+            row |= {"compaction_pressure_Pa": pressure, "fine_skeleton_pressure_Pa": fine}
+            row |= {"fine_contact_neighbours": neighbours, "temperature_C": T}
             row["n_mixes"] = len(per_mix)
             row["chosen"] = "; ".join(f"{k}: {v}" for k, v in counts.items()) if air == "chosen in the fold" else ""
             for col, name in (

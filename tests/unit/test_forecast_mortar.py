@@ -251,3 +251,31 @@ def test_the_fine_skeleton_is_waltons_smooth_packing():
     for bad in ({"pressure_Pa": -1.0}, {"phi": 1.2}):
         with pytest.raises(ValueError, match="granular_skeleton"):
             granular_skeleton(**{"E_stone_Pa": E, "nu_stone": nu, "phi": phi, "pressure_Pa": P, **bad})
+
+
+def test_the_contact_network_meets_its_limits_and_is_the_geometric_mean_at_twelve_neighbours():
+    """mortar.contact_network: the effective-medium equation holds at its root (complex moduli too); equal
+    kinds give that kind; real a > b > 0 give b < M < a, falling as the neighbours (films) grow; at 12
+    neighbours (p = 1/2, c = 1) the equation reads 2 a b - 2 M^2 = 0, the geometric mean sqrt(a b) exactly
+    (Lichtenecker); as b -> 0 the direct contacts sit at their threshold, M ~ sqrt(a b / c), half b's phase;
+    z <= 2d refused."""
+    from asphalt_nscd.forecast.mortar import contact_network
+
+    a, b = np.array([4e9, 4e9 + 1e8j, 1e9]), np.array([1e7 + 3e7j, 2e8 + 1e8j, 1e9])
+    for z in (7.0, 8.0, 12.0, 18.0, 49.0):
+        M = contact_network(a, b, z)
+        p, c = 6.0 / z, z / 6.0 - 1.0
+        residual = p * (a - M) / (a + c * M) + (1 - p) * (b - M) / (b + c * M)
+        assert np.max(np.abs(residual)) < 1e-12 and np.all(M.real > 0) and np.all(M.imag >= 0)
+        np.testing.assert_allclose(M[2], 1e9, rtol=1e-12)  # equal kinds
+    np.testing.assert_allclose(contact_network(a, b, 12.0), np.sqrt(a * b), rtol=1e-12)
+    real = [contact_network(4e9, 1e7, z).real for z in (7.0, 8.0, 12.0, 18.0, 49.0)]
+    assert all(1e7 < m < 4e9 for m in real) and np.all(np.diff(real) < 0)
+    tiny = 1e-6 * np.exp(1j * np.radians(60.0))
+    for z in (8.0, 18.0):
+        M = contact_network(1.0, tiny, z)
+        np.testing.assert_allclose(M, np.sqrt(tiny / (z / 6.0 - 1.0)), rtol=2e-3)
+        assert np.degrees(np.angle(M)) == pytest.approx(30.0, abs=0.1)
+    for z in (6.0, 3.0):
+        with pytest.raises(ValueError, match="contact_network"):
+            contact_network(a, b, z)

@@ -153,18 +153,19 @@ def test_the_fits_jacobian_is_the_models_derivative(responses, table, step, phys
         ("binder", 1.5e-4, True, 6e5, None),
         ("mastic", None, False, None, 6e5),
         ("pockets", None, True, 6e5, 6e5),
+        ("pockets", None, True, 6e5, (6e5, 12.0)),
     ],
 )
 def test_more_air_voids_make_the_forecast_softer(responses, table, air_phase, strain, confined, pressure, fine):
     """At the same sample, binder and effective binder, more air voids (a larger VMA) soften every
     condition's forecast (the mortar's voids or the bridges' section, and a thicker film), wherever the
     voids enter, with the Hertz contacts, with confined bridges, with the compaction's patches and with
-    the fine aggregate's own skeleton too."""
+    the fine aggregate's own skeleton too, beside the mortar or as its contact network."""
     model = physical.PhysicalDem(
         "dem_physical",
         responses,
         4.0,
-        physics=physical.BondPhysics(air_phase, strain, confined, pressure, fine),
+        physics=physical.BondPhysics(air_phase, strain, confined, pressure, *np.atleast_1d(fine)),
     )
     state = model.fit(table)
     rows = table[table["mix_id"] == "209"]
@@ -396,9 +397,10 @@ def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_rang
             "bridge_confinement": True,
             "compaction_pressure_Pa": 6e5,
             "fine_skeleton_pressure_Pa": 6e4,
+            "fine_contact_neighbours": 12,
         }
     )
-    assert options == physical.BondPhysics("pockets", 1e-4, True, 6e5, 6e4) and options.touching
+    assert options == physical.BondPhysics("pockets", 1e-4, True, 6e5, 6e4, 12.0) and options.touching
     assert physical.BondPhysics(compaction_pressure=6e5).touching and not physical.BondPhysics().touching
     model = physical.PhysicalDem("dem_physical", {}, 4.0, physics=options)
     assert model.physics() == {
@@ -407,6 +409,7 @@ def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_rang
         "confinement": True,
         "compaction_pressure": 6e5,
         "fine_skeleton_pressure": 6e4,
+        "fine_neighbours": 12.0,
     }
     for bad, key in (
         ({"air_phase": "asphalt"}, "air phase"),
@@ -414,6 +417,10 @@ def test_bond_physics_reads_its_config_keys_and_refuses_what_is_outside_its_rang
         ({"compaction_pressure_Pa": "high"}, "compaction pressure 'high'; expected a number"),
         ({"fine_skeleton_pressure_Pa": 0.0}, "fine skeleton pressure 0.0 Pa; expected in"),
         ({"fine_skeleton_pressure_Pa": 2e8}, "fine skeleton pressure"),
+        ({"fine_contact_neighbours": 12}, "fine neighbours need a fine skeleton pressure"),
+        ({"fine_skeleton_pressure_Pa": 6e5, "fine_contact_neighbours": 6}, "fine neighbours 6.0; expected in"),
+        ({"fine_skeleton_pressure_Pa": 6e5, "fine_contact_neighbours": 50}, "fine neighbours 50.0; expected in"),
+        ({"fine_skeleton_pressure_Pa": 6e5, "fine_contact_neighbours": "many"}, "fine neighbours 'many'; expected a"),
     ):
         with pytest.raises(InputError, match=key):
             physical.BondPhysics.from_config(bad)
@@ -514,17 +521,65 @@ def test_the_fine_skeleton_adds_to_the_mortar_and_stiffens_the_warm_forecast_ela
         "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e6)
     )
     assert np.all(harder.predict(harder.fit(table), rows)[0] > E1)
-    step = physical.PhysicalDem(
-        "dem_c1", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e5), free=("E_stone_Pa",)
-    )
+    _stone_jacobian_matches_differences(responses, physical.BondPhysics(fine_skeleton_pressure=6e5), cells, len(rows))
+
+
+def _stone_jacobian_matches_differences(responses, physics, cells, n: int) -> None:
+    """The fits' Jacobian in the stone's modulus (``dem_c1`` under ``physics``, at 60 GPa) against central
+    differences of the model's ln E*, on ``cells`` of ``n`` rows."""
+    step = physical.PhysicalDem("dem_c1", responses, 4.0, physics=physics, free=("E_stone_Pa",))
     x = np.array([60e9])
-    J = step._log_modulus_jacobian(cells, len(rows), x)[:, 0]
+    J = step._log_modulus_jacobian(cells, n, x)[:, 0]
     h = 1e3
-    fd = (
-        step._log_modulus(cells, len(rows), step.constants(x + h))
-        - step._log_modulus(cells, len(rows), step.constants(x - h))
-    ) / (2 * h)
+    fd = (step._log_modulus(cells, n, step.constants(x + h)) - step._log_modulus(cells, n, step.constants(x - h))) / (
+        2 * h
+    )
     np.testing.assert_allclose(J, fd, rtol=1e-4, atol=1e-18)
+
+
+def test_the_fine_contact_network_lies_between_the_films_and_the_sum_and_keeps_a_viscous_warm_part(responses, table):
+    """With fine_neighbours the mortar's K and G are the contact network of the skeleton beside the films (direct)
+    and the films alone (mortar.contact_network), then capped: between the mortar without a skeleton and the
+    Voigt sum, at every cell; the forecast with it is stiffer than without a skeleton everywhere, and warm its
+    phase is above the summed skeleton's (half the films' phase is kept, not an elastic floor); more
+    neighbours (more films per direct contact) soften it; the fits' Jacobian matches finite differences."""
+    from asphalt_nscd.forecast.mortar import Constituents, contact_network, granular_skeleton
+
+    rows = table[table["mix_id"] == "211"].reset_index(drop=True)
+    T = rows["temperature_C"].to_numpy()
+    options = {"air_phase": "pockets", "confinement": True, "compaction_pressure": 6e5}
+    plain = physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics(**options))
+    summed, network, wider = (
+        physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics(**options, **extra))
+        for extra in (
+            {"fine_skeleton_pressure": 6e5},
+            {"fine_skeleton_pressure": 6e5, "fine_neighbours": 9},
+            {"fine_skeleton_pressure": 6e5, "fine_neighbours": 18},
+        )
+    )
+    c = plain.constants(())
+    cells = plain._cells(rows)
+    mortar = cells[0][1]
+    skeleton = granular_skeleton(c["E_stone_Pa"], Constituents().nu_stone, mortar.phi_fine, 6e5)
+    (K, G), _ = mortar.bulk_shear(c["fine_packing"], c["E_stone_Pa"])
+    (Ks, Gs), _ = mortar.bulk_shear(c["fine_packing"], c["E_stone_Pa"], skeleton)
+    (Kn, Gn), _ = mortar.bulk_shear(c["fine_packing"], c["E_stone_Pa"], skeleton, 9.0)
+    w = physical._stone_weights(float(np.log(c["E_stone_Pa"])))
+    cK, cG = np.exp(np.tensordot(w, mortar._cap_nodes, axes=1))
+    for got, films, direct, cap, summed_modulus in ((Kn, K, skeleton[0], cK, Ks), (Gn, G, skeleton[1], cG, Gs)):
+        free = contact_network(films + direct, films, 9.0)
+        np.testing.assert_allclose(got, np.where(np.abs(free) > cap, free * cap / np.abs(free), free), rtol=1e-10)
+        assert np.all(np.abs(films) < np.abs(got)) and np.all(np.abs(got) <= np.abs(summed_modulus) * (1 + 1e-12))
+    E0, P0, _ = plain.predict(plain.fit(table), rows)
+    Es_, Ps, _ = summed.predict(summed.fit(table), rows)
+    state = network.fit(table)
+    assert state["fine_neighbours"] == 9.0
+    En, Pn, _ = network.predict(state, rows)
+    assert np.all(En > E0) and np.all(En <= Es_ * (1 + 1e-9))
+    assert np.all(Pn[T > 50] > Ps[T > 50] + 1.0)
+    assert np.all(wider.predict(wider.fit(table), rows)[0] < En)
+    physics = physical.BondPhysics(fine_skeleton_pressure=6e5, fine_neighbours=9)
+    _stone_jacobian_matches_differences(responses, physics, cells, len(rows))
 
 
 def test_confined_bridges_are_the_bonds_mean_and_stiffen_the_warm_forecast(responses, table):
@@ -597,7 +652,12 @@ def test_the_page_states_the_physics_the_ladder_ran_with(responses, table):
         "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e4)
     ).fit(table)
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": grains}]}))
-    assert "fine aggregate a skeleton of its own pressed at 60 kPa" in line
+    assert "fine aggregate a skeleton of its own pressed at 60 kPa beside the mortar" in line
+    network = physical.PhysicalDem(
+        "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e5, fine_neighbours=12)
+    ).fit(table)
+    line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": network}]}))
+    assert "pressed at 600 kPa, the direct contacts of a network of 12 neighbours" in line
     assert physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": {}}]}) == []
 
 

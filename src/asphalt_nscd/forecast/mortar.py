@@ -404,3 +404,33 @@ def granular_skeleton(E_stone_Pa, nu_stone: float, phi, pressure_Pa: float, coor
     mu = np.asarray(E_stone_Pa, float) / (2.0 * (1.0 + nu_stone))
     K = np.cbrt(coordination**2 * phi**2 * mu**2 * pressure_Pa / (18.0 * np.pi**2 * (1.0 - nu_stone) ** 2))
     return K, 0.6 * K
+
+
+def contact_network(direct, film, neighbours: float, dimension: int = 3):
+    """The modulus (Pa, complex, the broadcast shape of ``direct`` and ``film``) of a random contact network of
+    the fine aggregate whose particles each share a mortar bridge with ``neighbours`` others, of which the 2d
+    (``dimension`` d) of the jammed packing's isostatic skeleton (O'Hern, Silbert, Liu & Nagel 2003, Phys. Rev. E
+    68, 011306) are direct contacts of modulus ``direct`` and the rest films of modulus ``film``.
+
+    The effective medium of a central-force network of two bond kinds, a fraction p of kind a and 1 - p of kind b
+    (Feng, Thorpe & Garboczi 1985, Phys. Rev. B 31, 276-280; the scalar form of Kirkpatrick 1973, Rev. Mod. Phys.
+    45, 574-588), solves
+
+        p (a - M) / (a + c M) + (1 - p) (b - M) / (b + c M) = 0,   c = z / (2 d) - 1,
+
+    a quadratic in M whose root with a positive real part is taken. Its rigidity threshold (b = 0: M = a (p - p*)
+    / (1 - p*)) is p* = 2d / z; an isostatic skeleton has p = 2d / z = p*: the direct contacts sit at the threshold,
+    so the network's modulus is neither the direct contacts' nor the films' but in between, M ~ sqrt(a b / c) as
+    b -> 0 (Lichtenecker's logarithmic mixing): warm, where the films soften, the network keeps half the binder's
+    phase angle. Limits (tested): a = b gives a; p -> 1 gives a; real a > b > 0 give b < M < a.
+
+    direct, film : Pa, real or complex, of one broadcast shape (by the correspondence principle). neighbours :
+    z > 2d. Raises ValueError for z <= 2d (the direct contacts would be all the contacts or more)."""
+    if not neighbours > 2 * dimension:
+        raise ValueError(f"contact_network: {neighbours} neighbours; expected more than 2d = {2 * dimension}")
+    a, b = np.asarray(direct, complex), np.asarray(film, complex)
+    p, c = 2.0 * dimension / neighbours, neighbours / (2.0 * dimension) - 1.0
+    B = p * (a * c - b) + (1.0 - p) * (b * c - a)
+    root = np.sqrt(B * B + 4.0 * a * b * c)
+    M = (B + root) / (2.0 * c)
+    return np.where(M.real > 0, M, (B - root) / (2.0 * c))

@@ -128,6 +128,12 @@ def physics_line(constants: dict) -> list[str]:
                 "(`bridge_confinement`), the mortar's fine aggregate "
                 + (
                     f"a skeleton of its own pressed at {st['fine_skeleton_pressure'] / 1e3:g} kPa"
+                    + (
+                        f", the direct contacts of a network of {st['fine_neighbours']:g} neighbours"
+                        " (`fine_contact_neighbours`)"
+                        if st.get("fine_neighbours")
+                        else " beside the mortar"
+                    )
                     if st.get("fine_skeleton_pressure")
                     else "without a skeleton of its own"
                 )

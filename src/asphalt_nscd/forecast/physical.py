@@ -16,7 +16,8 @@ binder, the constituents and the mix's volumetrics:
   with chi the bonds' g_b-weighted mean of g_b / a_b (the series term taken uniform over the
   bonds, so that the response stays a function of one modulus per class: :class:`.dem.Response`).
   Options: ``confinement`` (:func:`confined_bridge`), the air in ``pockets`` (dense bridges, the pockets'
-  share of the matrix off their section), the fine aggregate's pressed skeleton (:func:`.mortar.granular_skeleton`).
+  share of the matrix off their section), the fine aggregate's pressed skeleton (:func:`.mortar.granular_skeleton`),
+  beside the films or as the direct contacts of a contact network (:func:`.mortar.contact_network`).
 * **Skeleton contact** (pairs in contact in the packing): two stones separated by a mastic film of
   the mix's average film thickness h (:func:`.formulation.film_thickness_m`, times
   ``film_factor``). The film squeezed between spheres of effective radius R (Reynolds'
@@ -199,18 +200,32 @@ class MixMortar:
         return young(K, G), Gm
 
     def bulk_shear(
-        self, fine_packing: float, E_stone_Pa: float, skeleton: tuple[float, float] | None = None
+        self,
+        fine_packing: float,
+        E_stone_Pa: float,
+        skeleton: tuple[float, float] | None = None,
+        neighbours: float | None = None,
     ) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
         """((K*, G*) of the mortar, G*_mastic): complex (n,) Pa, as :meth:`moduli`. ``skeleton``: (K, G) (Pa,
         real) of the fine aggregate's own skeleton (:func:`.mortar.granular_skeleton`), added to the fine stage's
-        moduli before their cap at the Hashin-Shtrikman upper bound (the sum is capped like the estimate)."""
+        moduli before their cap at the Hashin-Shtrikman upper bound (the sum is capped like the estimate).
+        ``neighbours``: with a skeleton, the fine aggregate as a contact network (:func:`.mortar.contact_network`)
+        of direct contacts (the skeleton beside the films) and films (the fine stage's estimate) instead of the
+        sum of the two; None: the sum."""
         p = max(float(fine_packing), self.packing_floor)
         s = float(-p * np.log1p(-self.phi_fine / p))
         x = np.log(E_stone_Pa)
         w = _stone_weights(float(x))  # the cubic spline in ln E_s as weights of the grid's values
         lnK, lnG = np.tensordot(w, self._along_s(min(s, self._s[-1])), axes=1)
         if skeleton is not None:
-            lnK, lnG = np.log(np.exp(lnK) + skeleton[0]), np.log(np.exp(lnG) + skeleton[1])
+            from .mortar import contact_network
+
+            K, G = np.exp(lnK), np.exp(lnG)
+            if neighbours is None:
+                lnK, lnG = np.log(K + skeleton[0]), np.log(G + skeleton[1])
+            else:
+                lnK = np.log(contact_network(K + skeleton[0], K, neighbours))
+                lnG = np.log(contact_network(G + skeleton[1], G, neighbours))
         cK, cG = np.tensordot(w, self._cap_nodes, axes=1)
         lnK = np.where(lnK.real > cK, cK + 1j * lnK.imag, lnK)
         lnG = np.where(lnG.real > cG, cG + 1j * lnG.imag, lnG)
@@ -358,8 +373,11 @@ class BondPhysics:
         aggregate: their skeleton (:func:`.mortar.granular_skeleton` at the mortar's fine fraction) is
         added to the mortar's bulk and shear moduli (the two share the strain: a Voigt sum), the sum
         capped at the Hashin-Shtrikman upper bound (:meth:`MixMortar.bulk_shear`); None: none.
+    fine_neighbours : with a fine skeleton, the number of neighbours z (in (6, 50)) each fine particle shares a
+        mortar bridge with, 6 of them direct contacts (the isostatic skeleton): the mortar is the effective
+        medium of that contact network (:func:`.mortar.contact_network`) instead of the Voigt sum; None: the sum.
 
-    Raises InputError for an option outside its range.
+    Raises InputError for an option outside its range, or ``fine_neighbours`` without a fine skeleton.
     """
 
     air_phase: str = "mastic"
@@ -367,13 +385,14 @@ class BondPhysics:
     confinement: bool = False
     compaction_pressure: float | None = None
     fine_skeleton_pressure: float | None = None
+    fine_neighbours: float | None = None
 
     def __post_init__(self):
         from .mortar import AIR_PHASES
 
         if self.air_phase not in AIR_PHASES:
             raise InputError(f"bond physics: air phase {self.air_phase!r}; expected one of {AIR_PHASES}")
-        for name in ("contact_strain", "compaction_pressure", "fine_skeleton_pressure"):  # the one conversion
+        for name in ("contact_strain", "compaction_pressure", "fine_skeleton_pressure", "fine_neighbours"):
             value = getattr(self, name)
             if value is None:
                 continue
@@ -387,18 +406,24 @@ class BondPhysics:
             value = getattr(self, name)
             if value is not None and not 0.0 < value < 1e8:
                 raise InputError(f"bond physics: {name.replace('_', ' ')} {value} Pa; expected in (0, 1e8)")
+        if self.fine_neighbours is not None:
+            if self.fine_skeleton_pressure is None:
+                raise InputError("bond physics: fine neighbours need a fine skeleton pressure (the direct contacts)")
+            if not 6.0 < self.fine_neighbours < 50.0:
+                raise InputError(f"bond physics: fine neighbours {self.fine_neighbours}; expected in (6, 50)")
 
     @classmethod
     def from_config(cls, dem: dict) -> "BondPhysics":
         """The options of the ``forecast.dem`` section (``air_phase``, ``contact_strain``,
-        ``bridge_confinement``, ``compaction_pressure_Pa``, ``fine_skeleton_pressure_Pa``; absent keys at their
-        defaults)."""
+        ``bridge_confinement``, ``compaction_pressure_Pa``, ``fine_skeleton_pressure_Pa``,
+        ``fine_contact_neighbours``; absent keys at their defaults)."""
         return cls(
             air_phase=str(dem.get("air_phase") or "mastic"),
             contact_strain=dem.get("contact_strain"),
             confinement=bool(dem.get("bridge_confinement", False)),
             compaction_pressure=dem.get("compaction_pressure_Pa"),
             fine_skeleton_pressure=dem.get("fine_skeleton_pressure_Pa"),
+            fine_neighbours=dem.get("fine_contact_neighbours"),
         )
 
     @property
@@ -500,7 +525,9 @@ class PhysicalDem:
                 if pressure is None
                 else granular_skeleton(constants["E_stone_Pa"], Constituents().nu_stone, mortar.phi_fine, pressure)
             )
-            (K, G), Gm = mortar.bulk_shear(constants["fine_packing"], constants["E_stone_Pa"], skeleton)
+            (K, G), Gm = mortar.bulk_shear(
+                constants["fine_packing"], constants["E_stone_Pa"], skeleton, self.bond_physics.fine_neighbours
+            )
             Em = young(K, G)
             parts = []
             for resp, shape in zip(responses, shapes):
