@@ -420,7 +420,8 @@ def physics_ladder_section(scores, per_mix, p_scores, p_per_mix, costs, p_costs)
         "## The ladder under the candidate physics",
         "",
         "Every step of the ladder in the default run and in a kept run of the same samples with the air voids in "
-        "pockets, confined bridges and the skeleton contacts' patches pressed by the compactor's 600 kPa "
+        "pockets, confined bridges, the skeleton contacts' patches pressed by the compactor's 600 kPa and the "
+        "mortar's fine aggregate as a contact network of 12 neighbours, its direct contacts pressed at 600 kPa too "
         "(`config/forecast_physics.yaml`, "
         "`physics_*`), each held out by mix with its constants fitted in every fold (difference: paired over the "
         "mixes, physics run minus default run, negative is better):",
@@ -439,11 +440,16 @@ def physics_ladder_section(scores, per_mix, p_scores, p_per_mix, costs, p_costs)
         e = pm[(pm["binder_route"] == ROUTE) & pm["temperature_C"].isna() & (pm["label"] == name)]
         return e.set_index("mix_id")
 
+    from asphalt_nscd.diagnosis.scores import t_interval
+
+    verdict: dict[str, list[str]] = {"gain": [], "stay": [], "lose": []}
     for name in [*STEP_NAMES, "dem_selected"]:
         a, b = overall(scores, name), overall(p_scores, name)
         if a is None or b is None:
             continue
         ea, eb = errors(per_mix, name), errors(p_per_mix, name)
+        lo, hi = t_interval((eb["e"] - ea["e"]).dropna().to_numpy(float))
+        verdict["gain" if hi < 0 else "lose" if lo > 0 else "stay"].append(f"`{name}`")
         L.append(
             f"| {name} | {_ci(a['abs_logE_pct'], a['abs_logE_ci_low'], a['abs_logE_ci_high'])} | "
             f"{_ci(b['abs_logE_pct'], b['abs_logE_ci_low'], b['abs_logE_ci_high'])} | "
@@ -461,12 +467,15 @@ def physics_ladder_section(scores, per_mix, p_scores, p_per_mix, costs, p_costs)
             "machine): every evaluation of every fit computes the confined bridges' modulus, a mean over each "
             "sample's bond shapes.",
         ]
+    said = {
+        "gain": "gain in \\|E*\\| (the difference's interval below zero)",
+        "stay": "stay where they were (its interval holds zero)",
+        "lose": "lose (its interval above zero)",
+    }
+    parts = [f"{', '.join(v)} {said[k]}" for k, v in verdict.items() if v]
     L += [
         "",
-        "Read: the film skeleton's steps gain from the candidate physics wherever the difference's interval lies "
-        "below zero; the parabolic steps take their skeleton's stiffness and exponent from the training mixes and "
-        "the physics leaves them where they were, and `dem_selected` does not improve. The default configuration "
-        "keeps the options off.",
+        f"Read: under the candidate physics {'; '.join(parts)}. The default configuration keeps the options off.",
     ]
     return L
 

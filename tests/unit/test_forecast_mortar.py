@@ -271,6 +271,8 @@ def test_the_contact_network_meets_its_limits_and_is_the_geometric_mean_at_twelv
     np.testing.assert_allclose(contact_network(a, b, 12.0), np.sqrt(a * b), rtol=1e-12)
     real = [contact_network(4e9, 1e7, z).real for z in (7.0, 8.0, 12.0, 18.0, 49.0)]
     assert all(1e7 < m < 4e9 for m in real) and np.all(np.diff(real) < 0)
+    # z -> 2d: every neighbour a direct contact (p -> 1), the network the direct contacts'
+    np.testing.assert_allclose(contact_network(4e9, 1e7, 6.0 + 1e-6), 4e9, rtol=1e-3)
     tiny = 1e-6 * np.exp(1j * np.radians(60.0))
     for z in (8.0, 18.0):
         M = contact_network(1.0, tiny, z)
