@@ -4,7 +4,8 @@ whether their patches keep the size the compactor pressed them to, whether the m
 confined layers bonded to their stones, and whether the mortar's fine aggregate has a pressed skeleton
 of its own, beside the mortar or as the direct contacts of a contact network.
 
-    python reference/forecast/physics_probe.py RUN -o reference/forecast/physics_probe.csv
+    python reference/forecast/physics_probe.py RUN -o reference/forecast/physics_probe.csv \
+        --per-mix reference/forecast/physics_probe_per_mix.csv
 
 ``RUN``: a finished run's folder (``make run``), whose ``results/forecast/`` holds the matched table, the
 binder curves and the responses of the base samples (written by this version of ``forecast-response``:
@@ -83,8 +84,16 @@ VARIANTS = (
 )
 
 
-def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
-    """The table of the module docstring from the run folder ``run``."""
+def choice_in_fold(score: pd.DataFrame) -> dict:
+    """Per mix (``score``'s index), the column of ``score`` (one per variant: each mix's mean abs error) whose
+    mean over the other mixes is least: the mix's own score never enters its choice."""
+    return {m: score.drop(index=m).mean().idxmin() for m in score.index}
+
+
+def probe(run: Path, cut_mm: float = 4.0) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The table of the module docstring from the run folder ``run``, and the choice inside the fold per mix:
+    ``mix_id``, ``chosen`` (its variant), the mix's mean abs 100 ln(E_f / E_m) (``abs_logE_pct``) and phase
+    error (``abs_phase_deg``), for pairing with the other models' per-mix errors."""
     table, responses = run_forecast_inputs(run)
     errors = {}
     for variant in VARIANTS:
@@ -105,15 +114,20 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
     score = pd.DataFrame(
         {i: errors[k].groupby("mix_id")["e"].apply(lambda x: np.mean(np.abs(x))) for i, k in enumerate(keys)}
     )
-    chosen = {m: keys[score.drop(index=m).mean().idxmin()] for m in score.index}
+    chosen = {m: keys[i] for m, i in choice_in_fold(score).items()}
     pick = pd.concat([errors[k][errors[k]["mix_id"] == m] for m, k in chosen.items()])
-    counts = pd.Series(
-        [
-            f"{a} {s if s is not None else 'none'}{' confined' if c else ''}{f' compacted {p / 1e3:g} kPa' if p else ''}"
-            f"{f' fine skeleton {f / 1e3:g} kPa' if f else ''}{f' network of {z:g}' if z else ''}"
-            for a, s, c, p, f, z in chosen.values()
-        ]
-    ).value_counts()
+    names = {
+        m: f"{a} {s if s is not None else 'none'}{' confined' if c else ''}{f' compacted {p / 1e3:g} kPa' if p else ''}"
+        f"{f' fine skeleton {f / 1e3:g} kPa' if f else ''}{f' network of {z:g}' if z else ''}"
+        for m, (a, s, c, p, f, z) in chosen.items()
+    }
+    counts = pd.Series(list(names.values())).value_counts()
+    per_mix_chosen = (
+        pick.groupby("mix_id")
+        .agg(abs_logE_pct=("e", lambda x: np.mean(np.abs(x))), abs_phase_deg=("p", lambda x: np.mean(np.abs(x))))
+        .reset_index()
+    )
+    per_mix_chosen.insert(1, "chosen", per_mix_chosen["mix_id"].map(names))
     rows = []
     for (air, strain, confined, pressure, fine, neighbours), t in [
         *errors.items(),
@@ -143,7 +157,7 @@ def probe(run: Path, cut_mm: float = 4.0) -> pd.DataFrame:
             row["missing_phase_deg"] = float(np.degrees(np.arctan2(per_mix["mi"].mean(), per_mix["mr"].mean())))
             row["binder_delta_deg"] = float(sel["binder_delta_mix_deg"].mean())
             rows.append(row)
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows), per_mix_chosen
 
 
 def main(argv=None) -> int:
@@ -151,9 +165,13 @@ def main(argv=None) -> int:
     ap.add_argument("run", type=Path, help="a finished run's folder")
     ap.add_argument("--cut-mm", type=float, default=4.0, help="the run's forecast.dem.cut_mm (default 4)")
     ap.add_argument("-o", "--output", type=Path, required=True)
+    ap.add_argument("--per-mix", type=Path, help="also write the choice inside the fold per mix (probe's second table)")
     args = ap.parse_args(argv)
     try:
-        write_csv(probe(args.run, args.cut_mm), args.output)
+        table, per_mix = probe(args.run, args.cut_mm)
+        write_csv(table, args.output)
+        if args.per_mix:
+            write_csv(per_mix, args.per_mix)
     except InputError as err:  # a missing or malformed input of the run: its one-line message
         print(f"error: {err}", file=sys.stderr)
         return 1

@@ -342,6 +342,40 @@ def _fine_skeleton_reading(pp: pd.DataFrame) -> list[str]:
     ]
 
 
+#: the models the probe's choice inside the fold is paired with (the default run's held-out rows)
+PAIRED_WITH = ("witczak_1_40d_published", "hirsch_recalibrated", "dem_selected", "gradient_boosting_learned")
+
+
+def paired_choice_section(choice: pd.DataFrame | None, per_mix: pd.DataFrame | None) -> list[str]:
+    """The probe's choice inside the fold (``physics_probe_per_mix.csv``) against the default run's held-out
+    models, paired over the mixes both forecast: each mix's mean abs error, the choice's minus the model's, with
+    its t(n - 1) 95 % interval (negative: the choice does better)."""
+    if choice is None or per_mix is None:
+        return []
+    pm = per_mix[(per_mix["binder_route"] == ROUTE) & per_mix["temperature_C"].isna()]
+    L = [
+        "",
+        "### The choice inside the fold against the default run's models, paired",
+        "",
+        "Each mix's mean abs error under the probe's choice inside the fold minus the same mix's under each model "
+        "of the default run (held out by mix; 95 % t intervals over the mixes both forecast; negative: the choice "
+        "does better). The choice's grid was laid out after a look at these mixes (above).",
+        "",
+        "| model | mixes | \\|E*\\| choice − model (points) | phase choice − model (°) |",
+        "|---|---|---|---|",
+    ]
+    c = choice.set_index("mix_id")
+    for label in PAIRED_WITH:
+        m = pm[pm["label"] == label].set_index("mix_id")
+        both = c.index.intersection(m.index)
+        if len(both) < 2:
+            continue
+        de = c.loc[both, "abs_logE_pct"] - m.loc[both, "e"]
+        dp = c.loc[both, "abs_phase_deg"] - m.loc[both, "p"]
+        L.append(f"| {label} | {len(both)} | {_mean_ci(de)} | {_mean_ci(dp)} |")
+    return L
+
+
 def missing_section(pp: pd.DataFrame) -> list[str]:
     """What ``dem_physical`` misses as a complex modulus, per temperature, in the default configuration and
     under the variant chosen in the fold (``physics_probe.py``'s ``missing_*`` columns)."""
@@ -526,7 +560,8 @@ def render() -> str:
         "python reference/forecast/collect.py . --label reference -o reference/forecast  # 3.0 diameters, two seeds",
         "python reference/forecast/size_study.py SAMPLES -o reference/forecast/size_study.csv \\",
         "    --summary reference/forecast/size_study_summary.csv",
-        "python reference/forecast/physics_probe.py . -o reference/forecast/physics_probe.csv",
+        "python reference/forecast/physics_probe.py . -o reference/forecast/physics_probe.csv \\",
+        "    --per-mix reference/forecast/physics_probe_per_mix.csv",
         "python reference/forecast/volumetric_sensitivity.py . -o reference/forecast/volumetric_sensitivity.csv",
         ".venv/bin/snakemake forecast_publish --cores 2 --configfile config/config.yaml config/forecast_physics.yaml",
         "python reference/forecast/collect.py . --label physics --models dem_physical dem_c1 dem_c2 dem_c3 dem_c4 \\",
@@ -639,6 +674,7 @@ def render() -> str:
             for _, r in td.iterrows()
         ]
     L += physics_section(_read("physics_probe.csv"))
+    L += paired_choice_section(_read("physics_probe_per_mix.csv"), _read("default_per_mix.csv"))
     L += volumetric_section(_read("volumetric_sensitivity.csv"))
     L += physics_ladder_section(
         _read("default_crossval.csv"),

@@ -156,3 +156,28 @@ def test_the_binder_frequency_evidence_is_what_the_shipped_table_gives():
     assert list(got.columns) == list(committed.columns)
     np.testing.assert_allclose(got.to_numpy(float), committed.to_numpy(float), rtol=1e-5)
     assert (got["median_log10_ratio"].abs() < np.log10(2.0)).all()
+
+
+def test_the_probes_choice_is_paired_with_each_model_over_the_mixes_both_forecast():
+    """readme.paired_choice_section: per model, the mean over the shared mixes of the choice's minus the model's
+    mean abs errors with its t(n - 1) interval; a mix one side lacks is left out; a model with fewer than two
+    shared mixes gets no row."""
+    from asphalt_nscd.diagnosis.scores import t_interval
+
+    readme = _forecast_readme_module()
+    choice = pd.DataFrame(
+        {"mix_id": ["1", "2", "3", "4"], "chosen": "v", "abs_logE_pct": [30.0, 40.0, 20.0, 50.0], "abs_phase_deg": 5.0}
+    )
+    rows = []
+    for label, e in (("witczak_1_40d_published", [35.0, 30.0, 28.0]), ("hirsch_recalibrated", [10.0])):
+        for mix, v in zip(["1", "2", "3"], e):
+            rows.append(
+                {"label": label, "binder_route": "curve", "mix_id": mix, "e": v, "p": 4.0, "temperature_C": None}
+            )
+    per_mix = pd.DataFrame(rows)
+    lines = readme.paired_choice_section(choice, per_mix)
+    d = np.array([30.0 - 35.0, 40.0 - 30.0, 20.0 - 28.0])
+    lo, hi = t_interval(d)
+    assert f"| witczak_1_40d_published | 3 | {d.mean():.1f} [{lo:.1f}, {hi:.1f}] | 1.0 [1.0, 1.0] |" in lines
+    assert not any("hirsch_recalibrated" in line for line in lines)
+    assert readme.paired_choice_section(None, per_mix) == []

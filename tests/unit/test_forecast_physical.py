@@ -700,3 +700,43 @@ def test_binder_in_place_of_air_is_each_models_exact_derivative(responses, table
         for d in (0.5, -0.5)
     ]
     assert np.all(E[0] > E[1])
+
+
+def test_the_physics_probe_chooses_each_mix_variant_on_the_other_mixes_only(responses, table, monkeypatch):
+    """reference/forecast/physics_probe.py on three variants: each variant's rows are dem_physical's own forecasts
+    under its options; the choice inside the fold forecasts each mix by the variant whose mean abs |E*| error over
+    the other mixes is least (recomputed here from the variants' per-mix errors), never by its own score; its
+    per-mix table and its row agree; the contact network's neighbours are a column of the table."""
+    import reference_scripts
+
+    module = reference_scripts.load("reference/forecast/physics_probe.py")
+    rows = table.dropna(subset=["E_norm_MPa", "phase_deg"]).reset_index(drop=True)
+    monkeypatch.setattr(module, "run_forecast_inputs", lambda run: (rows, responses))
+    variants = (
+        ("mastic", None, False, None, None, None),
+        ("pockets", None, True, 6e5, None, None),
+        ("pockets", None, True, 6e5, 6e5, 12.0),
+    )
+    monkeypatch.setattr(module, "VARIANTS", variants)
+    got, per_mix = module.probe(Path("unused"))
+    overall = got[got["temperature_C"].isna()]
+    assert len(overall) == len(variants) + 1 and overall["fine_contact_neighbours"].iloc[-2] == 12.0
+    errors = []
+    for v in variants:
+        model = physical.PhysicalDem("dem_physical", responses, 4.0, physics=physical.BondPhysics(*v))
+        E, _, _ = model.predict(model.fit(rows), rows)
+        e = rows.assign(e=np.abs(100 * np.log(E / rows["E_norm_MPa"]))).groupby("mix_id")["e"].mean()
+        errors.append(e)
+    score = pd.concat(errors, axis=1, keys=range(len(variants)))
+    for i, v in enumerate(variants):
+        assert overall["abs_logE_pct"].iloc[i] == pytest.approx(score[i].mean(), rel=1e-12)
+    expected = {m: int(np.argmin([score.drop(index=m)[i].mean() for i in range(len(variants))])) for m in score.index}
+    got_mix = per_mix.set_index("mix_id")
+    for m, i in expected.items():
+        assert got_mix.loc[m, "abs_logE_pct"] == pytest.approx(score.loc[m, i], rel=1e-12)
+    assert overall["abs_logE_pct"].iloc[-1] == pytest.approx(got_mix["abs_logE_pct"].mean(), rel=1e-12)
+    assert overall["air_phase"].iloc[-1] == "chosen in the fold" and set(got_mix.index) == set(score.index)
+    # a mix whose own score would flip the choice: the least mean over all mixes is variant 1, over the others
+    # of mix "c" variant 0
+    planted = pd.DataFrame({0: [10.0, 10.0, 100.0], 1: [30.0, 30.0, 20.0]}, index=["a", "b", "c"])
+    assert module.choice_in_fold(planted) == {"a": 1, "b": 1, "c": 0}
