@@ -652,12 +652,15 @@ def test_the_page_states_the_physics_the_ladder_ran_with(responses, table):
         "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e4)
     ).fit(table)
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": grains}]}))
-    assert "fine aggregate a skeleton of its own pressed at 60 kPa beside the mortar" in line
+    assert (
+        "fine aggregate a skeleton of its own pressed at 60 kPa (`fine_skeleton_pressure_Pa`) beside the mortar."
+        in line
+    )
     network = physical.PhysicalDem(
         "dem_physical", responses, 4.0, physics=physical.BondPhysics(fine_skeleton_pressure=6e5, fine_neighbours=12)
     ).fit(table)
     line = " ".join(physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": network}]}))
-    assert "pressed at 600 kPa, the direct contacts of a network of 12 neighbours" in line
+    assert "pressed at 600 kPa (`fine_skeleton_pressure_Pa`), the direct contacts of a network of 12 neighbours" in line
     assert physics_line({"fits": [{"model": "dem_physical", "binder_route": "curve", "state": {}}]}) == []
 
 

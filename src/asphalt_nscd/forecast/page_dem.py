@@ -127,17 +127,17 @@ def physics_line(constants: dict) -> list[str]:
                 f"mortar bridges {'confined by their stones' if st.get('confinement') else 'free'} "
                 "(`bridge_confinement`), the mortar's fine aggregate "
                 + (
-                    f"a skeleton of its own pressed at {st['fine_skeleton_pressure'] / 1e3:g} kPa"
+                    f"a skeleton of its own pressed at {st['fine_skeleton_pressure'] / 1e3:g} kPa "
+                    "(`fine_skeleton_pressure_Pa`)"
                     + (
                         f", the direct contacts of a network of {st['fine_neighbours']:g} neighbours"
-                        " (`fine_contact_neighbours`)"
+                        " (`fine_contact_neighbours`)."
                         if st.get("fine_neighbours")
-                        else " beside the mortar"
+                        else " beside the mortar."
                     )
                     if st.get("fine_skeleton_pressure")
-                    else "without a skeleton of its own"
-                )
-                + " (`fine_skeleton_pressure_Pa`).",
+                    else "without a skeleton of its own (`fine_skeleton_pressure_Pa`)."
+                ),
                 "",
             ]
     return []
