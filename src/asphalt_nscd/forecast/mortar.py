@@ -406,11 +406,11 @@ def granular_skeleton(E_stone_Pa, nu_stone: float, phi, pressure_Pa: float, coor
     return K, 0.6 * K
 
 
-def contact_network(direct, film, neighbours: float, dimension: int = 3):
+def contact_network(direct, film, neighbours: float):
     """The modulus (Pa, complex, the broadcast shape of ``direct`` and ``film``) of a random contact network of
-    the fine aggregate whose particles each share a mortar bridge with ``neighbours`` others, of which the 2d
-    (``dimension`` d) of the jammed packing's isostatic skeleton (O'Hern, Silbert, Liu & Nagel 2003, Phys. Rev. E
-    68, 011306) are direct contacts of modulus ``direct`` and the rest films of modulus ``film``.
+    the fine aggregate whose particles each share a mortar bridge with ``neighbours`` others, of which the 2d =
+    :data:`FINE_COORDINATION` of the jammed packing's isostatic skeleton (d = 3; O'Hern, Silbert, Liu & Nagel
+    2003, Phys. Rev. E 68, 011306) are direct contacts of modulus ``direct`` and the rest films of modulus ``film``.
 
     The effective medium of a central-force network of two bond kinds, a fraction p of kind a and 1 - p of kind b
     (Feng, Thorpe & Garboczi 1985, Phys. Rev. B 31, 276-280; the scalar form of Kirkpatrick 1973, Rev. Mod. Phys.
@@ -426,10 +426,10 @@ def contact_network(direct, film, neighbours: float, dimension: int = 3):
 
     direct, film : Pa, real or complex, of one broadcast shape (by the correspondence principle). neighbours :
     z > 2d. Raises ValueError for z <= 2d (the direct contacts would be all the contacts or more)."""
-    if not neighbours > 2 * dimension:
-        raise ValueError(f"contact_network: {neighbours} neighbours; expected more than 2d = {2 * dimension}")
+    if not neighbours > FINE_COORDINATION:
+        raise ValueError(f"contact_network: {neighbours} neighbours; expected more than 2d = {FINE_COORDINATION:g}")
     a, b = np.asarray(direct, complex), np.asarray(film, complex)
-    p, c = 2.0 * dimension / neighbours, neighbours / (2.0 * dimension) - 1.0
+    p, c = FINE_COORDINATION / neighbours, neighbours / FINE_COORDINATION - 1.0
     B = p * (a * c - b) + (1.0 - p) * (b * c - a)
     root = np.sqrt(B * B + 4.0 * a * b * c)
     M = (B + root) / (2.0 * c)

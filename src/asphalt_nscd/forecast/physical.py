@@ -388,7 +388,7 @@ class BondPhysics:
     fine_neighbours: float | None = None
 
     def __post_init__(self):
-        from .mortar import AIR_PHASES
+        from .mortar import AIR_PHASES, FINE_COORDINATION
 
         if self.air_phase not in AIR_PHASES:
             raise InputError(f"bond physics: air phase {self.air_phase!r}; expected one of {AIR_PHASES}")
@@ -409,8 +409,12 @@ class BondPhysics:
         if self.fine_neighbours is not None:
             if self.fine_skeleton_pressure is None:
                 raise InputError("bond physics: fine neighbours need a fine skeleton pressure (the direct contacts)")
-            if not 6.0 < self.fine_neighbours < 50.0:
-                raise InputError(f"bond physics: fine neighbours {self.fine_neighbours}; expected in (6, 50)")
+            if (
+                not FINE_COORDINATION < self.fine_neighbours < 50.0
+            ):  # more than the isostatic skeleton's direct contacts
+                raise InputError(
+                    f"bond physics: fine neighbours {self.fine_neighbours}; expected in ({FINE_COORDINATION:g}, 50)"
+                )
 
     @classmethod
     def from_config(cls, dem: dict) -> "BondPhysics":
